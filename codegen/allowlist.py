@@ -1,0 +1,97 @@
+"""What splitvk forwards: core Vulkan 1.0-1.3 and these extensions, nothing else.
+
+The layer hides every other device extension from the application (GFXReconstruct does the
+same), because a command the agent cannot replay would silently desynchronise the two sides.
+Adding an extension here is a promise that its commands and structures are forwarded.
+"""
+import re
+
+CORE_VERSIONS = r"VK_VERSION_1_[0-3]"
+
+# Instance extensions: window-system integration and debugging. They carry no rendering state
+# the agent needs, apart from the surface, which the agent replaces with offscreen images.
+INSTANCE_EXTENSIONS = [
+    "VK_KHR_surface",
+    "VK_KHR_xcb_surface",
+    "VK_KHR_xlib_surface",
+    "VK_KHR_wayland_surface",
+    "VK_KHR_get_physical_device_properties2",
+    "VK_KHR_get_surface_capabilities2",
+    "VK_KHR_surface_protected_capabilities",
+    "VK_KHR_external_memory_capabilities",
+    "VK_KHR_external_semaphore_capabilities",
+    "VK_KHR_external_fence_capabilities",
+    "VK_KHR_device_group_creation",
+    "VK_KHR_portability_enumeration",
+    "VK_EXT_swapchain_colorspace",
+    "VK_EXT_debug_utils",
+    "VK_EXT_debug_report",
+]
+
+# Device extensions: the swapchain, and extensions promoted to core 1.1-1.3 that apps still
+# enable by their KHR/EXT names, plus dynamic state the split rewrite itself relies on.
+DEVICE_EXTENSIONS = [
+    "VK_KHR_swapchain",
+    "VK_KHR_incremental_present",
+    "VK_KHR_multiview",
+    "VK_KHR_maintenance1",
+    "VK_KHR_maintenance2",
+    "VK_KHR_maintenance3",
+    "VK_KHR_maintenance4",
+    "VK_KHR_bind_memory2",
+    "VK_KHR_get_memory_requirements2",
+    "VK_KHR_dedicated_allocation",
+    "VK_KHR_descriptor_update_template",
+    "VK_KHR_push_descriptor",
+    "VK_KHR_create_renderpass2",
+    "VK_KHR_depth_stencil_resolve",
+    "VK_KHR_dynamic_rendering",
+    "VK_KHR_synchronization2",
+    "VK_KHR_timeline_semaphore",
+    "VK_KHR_copy_commands2",
+    "VK_KHR_draw_indirect_count",
+    "VK_KHR_shader_draw_parameters",
+    "VK_KHR_sampler_mirror_clamp_to_edge",
+    "VK_KHR_sampler_ycbcr_conversion",
+    "VK_KHR_image_format_list",
+    "VK_KHR_imageless_framebuffer",
+    "VK_KHR_separate_depth_stencil_layouts",
+    "VK_KHR_uniform_buffer_standard_layout",
+    "VK_KHR_shader_float16_int8",
+    "VK_KHR_16bit_storage",
+    "VK_KHR_8bit_storage",
+    "VK_KHR_storage_buffer_storage_class",
+    "VK_KHR_relaxed_block_layout",
+    "VK_KHR_driver_properties",
+    "VK_KHR_format_feature_flags2",
+    "VK_KHR_shader_non_semantic_info",
+    "VK_KHR_shader_terminate_invocation",
+    "VK_KHR_zero_initialize_workgroup_memory",
+    "VK_EXT_descriptor_indexing",
+    "VK_EXT_host_query_reset",
+    "VK_EXT_scalar_block_layout",
+    "VK_EXT_separate_stencil_usage",
+    "VK_EXT_sampler_filter_minmax",
+    "VK_EXT_extended_dynamic_state",
+    "VK_EXT_extended_dynamic_state2",
+    "VK_EXT_index_type_uint8",
+    "VK_EXT_vertex_attribute_divisor",
+    "VK_EXT_shader_demote_to_helper_invocation",
+    "VK_EXT_subgroup_size_control",
+    "VK_EXT_inline_uniform_block",
+    "VK_EXT_pipeline_creation_feedback",
+    "VK_EXT_private_data",
+    "VK_EXT_texel_buffer_alignment",
+    "VK_EXT_image_robustness",
+    "VK_EXT_robustness2",
+    "VK_EXT_4444_formats",
+    "VK_EXT_depth_clip_enable",
+    "VK_EXT_custom_border_color",
+    "VK_EXT_line_rasterization",
+    "VK_EXT_tooling_info",
+]
+
+
+def extension_regex() -> str:
+    names = sorted(INSTANCE_EXTENSIONS + DEVICE_EXTENSIONS)
+    return "^(" + "|".join(re.escape(n) for n in names) + ")$"

@@ -1,0 +1,50 @@
+#!/usr/bin/env python3
+"""splitvk's code generator: reads vk.xml through Khronos' reg.py and writes C++ into the build tree.
+
+Usage: generate.py --registry /usr/share/vulkan/registry --out DIR TARGET...
+Targets: dispatch (instance/device dispatch tables), layer (layer entry points and lookup).
+Later targets (the wire codec) consume the same model from vkregistry.py.
+"""
+import argparse
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+import emit_dispatch  # noqa: E402
+import emit_layer  # noqa: E402
+import vkregistry  # noqa: E402
+
+EMITTERS = {
+    "dispatch": emit_dispatch.emit,
+    "layer": emit_layer.emit,
+}
+
+
+def write_if_changed(path: str, text: str) -> None:
+    """Keep timestamps of unchanged outputs so a re-run does not rebuild the layer."""
+    if os.path.exists(path) and open(path, encoding="utf-8").read() == text:
+        return
+    tmp = path + ".tmp"
+    with open(tmp, "w", encoding="utf-8", newline="\n") as f:
+        f.write(text)
+    os.replace(tmp, path)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--registry", required=True, help="directory holding vk.xml and reg.py")
+    parser.add_argument("--out", required=True, help="output directory (in the build tree)")
+    parser.add_argument("targets", nargs="+", choices=sorted(EMITTERS))
+    args = parser.parse_args()
+
+    model = vkregistry.load(args.registry)
+    os.makedirs(args.out, exist_ok=True)
+    for target in args.targets:
+        for filename, text in EMITTERS[target](model).items():
+            write_if_changed(os.path.join(args.out, filename), text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

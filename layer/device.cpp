@@ -1,0 +1,90 @@
+// VkDevice: the device chain and per-device state.
+
+#include "device.h"
+
+#include "instance.h"
+#include "layer_entry_points.h"
+#include "log.h"
+#include "object_map.h"
+
+#include <vulkan/vk_layer.h>
+
+namespace splitvk {
+namespace {
+
+ObjectMap<DispatchKey, DeviceState> g_devices;
+
+VkLayerDeviceCreateInfo *find_layer_link(const VkDeviceCreateInfo *create_info) {
+    // As for instances: the loader owns the chain info and expects each layer to advance it.
+    auto *next = static_cast<const VkBaseInStructure *>(create_info->pNext);
+    for (; next; next = next->pNext) {
+        if (next->sType != VK_STRUCTURE_TYPE_LOADER_DEVICE_CREATE_INFO) continue;
+        auto *link = reinterpret_cast<VkLayerDeviceCreateInfo *>(const_cast<VkBaseInStructure *>(next));
+        if (link->function == VK_LAYER_LINK_INFO) return link;
+    }
+    return nullptr;
+}
+
+const DeviceDispatchTable &device_table(DispatchKey key) {
+    DeviceState *state = g_devices.find(key);
+    if (!state) {
+        SPLITVK_ERROR("internal: device-level call on a handle this layer never saw");
+        std::abort();
+    }
+    return state->dispatch;
+}
+
+} // namespace
+
+DeviceState *find_device(DispatchKey key) {
+    return g_devices.find(key);
+}
+
+const DeviceDispatchTable &device_dispatch(VkDevice device) {
+    return device_table(dispatch_key(device));
+}
+const DeviceDispatchTable &device_dispatch(VkQueue queue) {
+    return device_table(dispatch_key(queue));
+}
+const DeviceDispatchTable &device_dispatch(VkCommandBuffer command_buffer) {
+    return device_table(dispatch_key(command_buffer));
+}
+
+namespace entry {
+
+VKAPI_ATTR VkResult VKAPI_CALL CreateDevice(VkPhysicalDevice physicalDevice,
+                                            const VkDeviceCreateInfo *pCreateInfo,
+                                            const VkAllocationCallbacks *pAllocator, VkDevice *pDevice) {
+    InstanceState *instance = find_instance(dispatch_key(physicalDevice));
+    VkLayerDeviceCreateInfo *link = find_layer_link(pCreateInfo);
+    if (!instance || !link || !link->u.pLayerInfo) return VK_ERROR_INITIALIZATION_FAILED;
+
+    const PFN_vkGetInstanceProcAddr next_gipa = link->u.pLayerInfo->pfnNextGetInstanceProcAddr;
+    const PFN_vkGetDeviceProcAddr next_gdpa = link->u.pLayerInfo->pfnNextGetDeviceProcAddr;
+    const auto next_create =
+        reinterpret_cast<PFN_vkCreateDevice>(next_gipa(instance->handle, "vkCreateDevice"));
+    if (!next_create) return VK_ERROR_INITIALIZATION_FAILED;
+
+    link->u.pLayerInfo = link->u.pLayerInfo->pNext;
+    const VkResult result = next_create(physicalDevice, pCreateInfo, pAllocator, pDevice);
+    if (result != VK_SUCCESS) return result;
+
+    auto state = std::make_unique<DeviceState>();
+    state->handle = *pDevice;
+    state->physical_device = physicalDevice;
+    state->instance = instance;
+    state->next_get_device_proc_addr = next_gdpa;
+    load_device_dispatch_table(state->dispatch, *pDevice, next_gdpa);
+    g_devices.insert(dispatch_key(*pDevice), std::move(state));
+    SPLITVK_DEBUG("device created");
+    return VK_SUCCESS;
+}
+
+VKAPI_ATTR void VKAPI_CALL DestroyDevice(VkDevice device, const VkAllocationCallbacks *pAllocator) {
+    if (device == VK_NULL_HANDLE) return;
+    const auto state = g_devices.remove(dispatch_key(device));
+    if (state) state->dispatch.DestroyDevice(device, pAllocator);
+}
+
+} // namespace entry
+} // namespace splitvk

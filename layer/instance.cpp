@@ -1,0 +1,108 @@
+// VkInstance: the instance chain, per-instance state and the layer's own extension lists.
+
+#include "instance.h"
+
+#include "layer_entry_points.h"
+#include "layer_settings.h"
+#include "log.h"
+#include "object_map.h"
+
+#include <vulkan/vk_layer.h>
+
+#include <cstring>
+
+namespace splitvk {
+namespace {
+
+ObjectMap<DispatchKey, InstanceState> g_instances;
+
+VkLayerInstanceCreateInfo *find_layer_link(const VkInstanceCreateInfo *create_info) {
+    // The loader's chain info is const in the create-info but owned by the loader, which expects
+    // each layer to advance it (as every layer does); hence the const_cast.
+    auto *next = static_cast<const VkBaseInStructure *>(create_info->pNext);
+    for (; next; next = next->pNext) {
+        if (next->sType != VK_STRUCTURE_TYPE_LOADER_INSTANCE_CREATE_INFO) continue;
+        auto *link = reinterpret_cast<VkLayerInstanceCreateInfo *>(const_cast<VkBaseInStructure *>(next));
+        if (link->function == VK_LAYER_LINK_INFO) return link;
+    }
+    return nullptr;
+}
+
+InstanceState &instance_state(DispatchKey key) {
+    InstanceState *state = g_instances.find(key);
+    if (!state) {
+        SPLITVK_ERROR("internal: instance-level call on a handle this layer never saw");
+        std::abort();
+    }
+    return *state;
+}
+
+} // namespace
+
+InstanceState *find_instance(DispatchKey key) {
+    return g_instances.find(key);
+}
+
+const InstanceDispatchTable &instance_dispatch(VkInstance instance) {
+    return instance_state(dispatch_key(instance)).dispatch;
+}
+
+const InstanceDispatchTable &instance_dispatch(VkPhysicalDevice physical_device) {
+    // The loader gives physical devices their instance's dispatch pointer.
+    return instance_state(dispatch_key(physical_device)).dispatch;
+}
+
+namespace entry {
+
+VKAPI_ATTR VkResult VKAPI_CALL CreateInstance(const VkInstanceCreateInfo *pCreateInfo,
+                                              const VkAllocationCallbacks *pAllocator,
+                                              VkInstance *pInstance) {
+    VkLayerInstanceCreateInfo *link = find_layer_link(pCreateInfo);
+    if (!link || !link->u.pLayerInfo) return VK_ERROR_INITIALIZATION_FAILED;
+
+    const PFN_vkGetInstanceProcAddr next_gipa = link->u.pLayerInfo->pfnNextGetInstanceProcAddr;
+    const auto next_create =
+        reinterpret_cast<PFN_vkCreateInstance>(next_gipa(VK_NULL_HANDLE, "vkCreateInstance"));
+    if (!next_create) return VK_ERROR_INITIALIZATION_FAILED;
+
+    link->u.pLayerInfo = link->u.pLayerInfo->pNext;
+    const VkResult result = next_create(pCreateInfo, pAllocator, pInstance);
+    if (result != VK_SUCCESS) return result;
+
+    auto state = std::make_unique<InstanceState>();
+    state->handle = *pInstance;
+    state->next_get_instance_proc_addr = next_gipa;
+    load_instance_dispatch_table(state->dispatch, *pInstance, next_gipa);
+    if (const VkApplicationInfo *app = pCreateInfo->pApplicationInfo) {
+        if (app->pApplicationName) state->application_name = app->pApplicationName;
+        state->api_version = app->apiVersion;
+    }
+
+    layer_settings();
+    SPLITVK_INFO("%s active in '%s'", kLayerName,
+                 state->application_name.empty() ? "(unnamed application)" : state->application_name.c_str());
+    g_instances.insert(dispatch_key(*pInstance), std::move(state));
+    return VK_SUCCESS;
+}
+
+VKAPI_ATTR void VKAPI_CALL DestroyInstance(VkInstance instance, const VkAllocationCallbacks *pAllocator) {
+    if (instance == VK_NULL_HANDLE) return;
+    const auto state = g_instances.remove(dispatch_key(instance));
+    if (state) state->dispatch.DestroyInstance(instance, pAllocator);
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL EnumerateDeviceExtensionProperties(VkPhysicalDevice physicalDevice,
+                                                                  const char *pLayerName,
+                                                                  uint32_t *pPropertyCount,
+                                                                  VkExtensionProperties *pProperties) {
+    // splitvk adds no extensions of its own.
+    if (pLayerName && std::strcmp(pLayerName, kLayerName) == 0) {
+        *pPropertyCount = 0;
+        return VK_SUCCESS;
+    }
+    return instance_dispatch(physicalDevice)
+        .EnumerateDeviceExtensionProperties(physicalDevice, pLayerName, pPropertyCount, pProperties);
+}
+
+} // namespace entry
+} // namespace splitvk

@@ -1,0 +1,84 @@
+// The loader interface: version negotiation and the layer's vkGet*ProcAddr.
+
+#include "device.h"
+#include "instance.h"
+#include "layer_entry_points.h"
+#include "layer_settings.h"
+
+#include <vulkan/vk_layer.h>
+
+#include <cstring>
+
+namespace splitvk {
+namespace {
+
+// Returns our entry point only where the next layer has the command too: an extension the
+// driver lacks, or one the application did not enable, must stay NULL for the application.
+PFN_vkVoidFunction intercept_if_available(const EntryPoint *entry, PFN_vkVoidFunction next) {
+    return next ? entry->function : nullptr;
+}
+
+} // namespace
+
+namespace entry {
+
+VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetDeviceProcAddr(VkDevice device, const char *pName) {
+    if (!pName) return nullptr;
+    if (std::strcmp(pName, "vkGetDeviceProcAddr") == 0) {
+        return reinterpret_cast<PFN_vkVoidFunction>(GetDeviceProcAddr);
+    }
+    if (device == VK_NULL_HANDLE) return nullptr;
+    DeviceState *state = find_device(dispatch_key(device));
+    if (!state) return nullptr;
+    const PFN_vkVoidFunction next = state->next_get_device_proc_addr(device, pName);
+    const EntryPoint *entry = find_entry_point(pName);
+    if (entry && entry->level == EntryLevel::Device) return intercept_if_available(entry, next);
+    return next;
+}
+
+VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetInstanceProcAddr(VkInstance instance, const char *pName) {
+    if (!pName) return nullptr;
+    if (std::strcmp(pName, "vkGetInstanceProcAddr") == 0) {
+        return reinterpret_cast<PFN_vkVoidFunction>(GetInstanceProcAddr);
+    }
+    if (std::strcmp(pName, "vkGetDeviceProcAddr") == 0) {
+        return reinterpret_cast<PFN_vkVoidFunction>(GetDeviceProcAddr);
+    }
+    const EntryPoint *entry = find_entry_point(pName);
+    if (entry && entry->level == EntryLevel::Global) return entry->function;
+    if (instance == VK_NULL_HANDLE) return nullptr;
+    InstanceState *state = find_instance(dispatch_key(instance));
+    if (!state) return nullptr;
+    const PFN_vkVoidFunction next = state->next_get_instance_proc_addr(instance, pName);
+    return entry ? intercept_if_available(entry, next) : next;
+}
+
+} // namespace entry
+} // namespace splitvk
+
+// The library's only exported symbol (see layer.map). Interface version 2 hands the loader our
+// vkGet*ProcAddr through the negotiation struct, so they are not exported: a loader that fails
+// to negotiate then finds no fallback and leaves the layer out, which is how SPLITVK_DISABLE=1
+// takes effect even when VK_INSTANCE_LAYERS names the layer. Not exporting them also means no
+// call inside this library can bind to the loader's own vkGetInstanceProcAddr.
+extern "C" {
+
+[[gnu::visibility("default")]] VKAPI_ATTR VkResult VKAPI_CALL
+vkNegotiateLoaderLayerInterfaceVersion(VkNegotiateLayerInterface *pVersionStruct) {
+    if (!pVersionStruct || pVersionStruct->sType != LAYER_NEGOTIATE_INTERFACE_STRUCT) {
+        return VK_ERROR_INITIALIZATION_FAILED;
+    }
+    // SPLITVK_DISABLE=1 wins over every way of enabling the layer. The loader checks it for the
+    // implicit manifest; for VK_INSTANCE_LAYERS it does not, so the layer declines here.
+    if (splitvk::disabled_by_environment()) return VK_ERROR_INITIALIZATION_FAILED;
+    // Interface version 2: the loader takes our vkGet*ProcAddr from this struct and answers the
+    // global enumeration commands from the manifest.
+    if (pVersionStruct->loaderLayerInterfaceVersion < 2) return VK_ERROR_INITIALIZATION_FAILED;
+    pVersionStruct->loaderLayerInterfaceVersion = 2;
+    pVersionStruct->pfnGetInstanceProcAddr = splitvk::entry::GetInstanceProcAddr;
+    pVersionStruct->pfnGetDeviceProcAddr = splitvk::entry::GetDeviceProcAddr;
+    pVersionStruct->pfnGetPhysicalDeviceProcAddr = nullptr;
+    return VK_SUCCESS;
+}
+
+} // extern "C"

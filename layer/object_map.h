@@ -1,0 +1,47 @@
+#pragma once
+
+// Per-object state looked up by handle (the Mesa overlay / vkBasalt pattern).
+//
+// Lookups take a shared lock only for the hash lookup itself; the returned pointer stays valid
+// after the lock is released because Vulkan's external-synchronisation rules forbid using an
+// object while another thread destroys it. Each map has its own lock, so no hook holds a global
+// lock around a call into the driver.
+
+#include <memory>
+#include <mutex>
+#include <shared_mutex>
+#include <unordered_map>
+
+namespace splitvk {
+
+template <typename Key, typename State>
+class ObjectMap {
+public:
+    State *insert(Key key, std::unique_ptr<State> state) {
+        std::unique_lock lock(mutex_);
+        auto &slot = map_[key];
+        slot = std::move(state);
+        return slot.get();
+    }
+
+    State *find(Key key) const {
+        std::shared_lock lock(mutex_);
+        const auto it = map_.find(key);
+        return it == map_.end() ? nullptr : it->second.get();
+    }
+
+    std::unique_ptr<State> remove(Key key) {
+        std::unique_lock lock(mutex_);
+        const auto it = map_.find(key);
+        if (it == map_.end()) return nullptr;
+        auto state = std::move(it->second);
+        map_.erase(it);
+        return state;
+    }
+
+private:
+    mutable std::shared_mutex mutex_;
+    std::unordered_map<Key, std::unique_ptr<State>> map_;
+};
+
+} // namespace splitvk

@@ -1,0 +1,391 @@
+#include "settings.h"
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <optional>
+#include <sstream>
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+extern char **environ;
+
+namespace splitvk {
+namespace {
+
+constexpr std::string_view kEnvPrefix = "SPLITVK_";
+constexpr std::string_view kFilePrefix = "splitvk_split_render.";
+constexpr const char *kSettingsFileName = "vk_layer_settings.txt";
+
+// Environment variables that belong to the loader's manifest, not to the settings table.
+constexpr std::string_view kManifestVariables[] = {"SPLITVK_ENABLE", "SPLITVK_DISABLE"};
+
+const SettingInfo kSettings[] = {
+    {"SERVER", "HOST:PORT, [IPV6]:PORT or HOST (port 1-65535)", "127.0.0.1:7447",
+     "address of the splitvk-agent to share frames with"},
+    {"SCALE", "a number in [0.1, 1]", "0.6",
+     "sampling rate of the periphery the client renders (0.6: 1440x648 of 2400x1080)"},
+    {"FOVEA", "WxH in pixels (512x360) or as fractions of the eye (0.43x0.33)", "512x360 of a 1200x1080 eye",
+     "size of the fovea the agent renders in each eye"},
+    {"EYES", "auto, 1 or 2", "auto", "eyes side by side in the swapchain image; auto reads the viewports"},
+    {"CODEC", "x264, zstd or raw", "x264", "lossless codec for the fovea tiles"},
+    {"STATS", "a file path in an existing directory", "(none)", "write per-frame statistics as CSV"},
+    {"LOG_LEVEL", "off, error, warn, info or debug", "warn", "what splitvk writes to stderr"},
+    {"TOKEN", "a non-empty string without whitespace", "(none)", "shared secret the agent requires"},
+    {"TOKEN_FILE", "a readable file holding the token", "(none)", "file holding the shared secret"},
+};
+
+struct Source {
+    std::string label; // "SPLITVK_SCALE" or "splitvk_split_render.scale (file:3)"
+    std::string value;
+};
+
+std::string_view trim(std::string_view s) {
+    while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front())))
+        s.remove_prefix(1);
+    while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back())))
+        s.remove_suffix(1);
+    return s;
+}
+
+std::string lower(std::string_view s) {
+    std::string out(s);
+    std::transform(out.begin(), out.end(), out.begin(), [](unsigned char c) { return std::tolower(c); });
+    return out;
+}
+
+std::optional<double> parse_double(std::string_view s) {
+    double value = 0;
+    auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), value);
+    if (ec != std::errc() || end != s.data() + s.size() || !std::isfinite(value)) return std::nullopt;
+    return value;
+}
+
+std::optional<uint32_t> parse_uint(std::string_view s) {
+    uint32_t value = 0;
+    auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), value);
+    if (ec != std::errc() || end != s.data() + s.size() || s.empty()) return std::nullopt;
+    return value;
+}
+
+bool parse_server(std::string_view value, ServerAddress &out) {
+    std::string_view host = value;
+    std::string_view port;
+    if (value.starts_with('[')) {
+        const auto close = value.find(']');
+        if (close == std::string_view::npos || close == 1) return false;
+        host = value.substr(1, close - 1);
+        const auto rest = value.substr(close + 1);
+        if (!rest.empty()) {
+            if (rest.front() != ':') return false;
+            port = rest.substr(1);
+            if (port.empty()) return false;
+        }
+    } else if (const auto colon = value.rfind(':'); colon != std::string_view::npos) {
+        // A bare IPv6 address has several colons and must be bracketed to carry a port.
+        if (value.find(':') != colon) return false;
+        host = value.substr(0, colon);
+        port = value.substr(colon + 1);
+        if (port.empty()) return false;
+    }
+    if (host.empty()) return false;
+    for (char c : host) {
+        if (std::isspace(static_cast<unsigned char>(c)) || c == '/' || c == '[' || c == ']') return false;
+    }
+    ServerAddress parsed;
+    parsed.host = std::string(host);
+    if (!port.empty()) {
+        const auto number = parse_uint(port);
+        if (!number || *number == 0 || *number > 65535) return false;
+        parsed.port = static_cast<uint16_t>(*number);
+    }
+    out = parsed;
+    return true;
+}
+
+bool parse_fovea(std::string_view value, FoveaSize &out) {
+    const auto x = value.find_first_of("xX");
+    if (x == std::string_view::npos) return false;
+    const auto w = value.substr(0, x);
+    const auto h = value.substr(x + 1);
+    const bool w_fraction = w.find('.') != std::string_view::npos;
+    const bool h_fraction = h.find('.') != std::string_view::npos;
+    if (w_fraction != h_fraction) return false;
+    FoveaSize parsed;
+    parsed.fractional = w_fraction;
+    if (w_fraction) {
+        const auto fw = parse_double(w);
+        const auto fh = parse_double(h);
+        if (!fw || !fh || *fw <= 0 || *fw > 1 || *fh <= 0 || *fh > 1) return false;
+        parsed.width = *fw;
+        parsed.height = *fh;
+    } else {
+        const auto pw = parse_uint(w);
+        const auto ph = parse_uint(h);
+        if (!pw || !ph || *pw == 0 || *ph == 0 || *pw > 16384 || *ph > 16384) return false;
+        parsed.width = *pw;
+        parsed.height = *ph;
+    }
+    out = parsed;
+    return true;
+}
+
+std::optional<std::string> read_token_file(const std::string &path) {
+    std::ifstream file(path);
+    if (!file) return std::nullopt;
+    std::string token;
+    std::getline(file, token);
+    token = std::string(trim(token));
+    if (token.empty()) return std::nullopt;
+    return token;
+}
+
+bool directory_exists(const std::string &path) {
+    struct stat st {};
+    return ::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
+}
+
+// Applies one setting; false means the value is not acceptable for it.
+bool apply(std::string_view name, std::string_view raw, Settings &s) {
+    const std::string_view value = trim(raw);
+    const std::string v = lower(value);
+    if (name == "SERVER") return parse_server(value, s.server);
+    if (name == "SCALE") {
+        const auto scale = parse_double(value);
+        if (!scale || *scale < 0.1 || *scale > 1.0) return false;
+        s.scale = *scale;
+        return true;
+    }
+    if (name == "FOVEA") return parse_fovea(value, s.fovea);
+    if (name == "EYES") {
+        if (v == "auto")
+            s.eyes = EyeMode::Auto;
+        else if (v == "1")
+            s.eyes = EyeMode::One;
+        else if (v == "2")
+            s.eyes = EyeMode::Two;
+        else
+            return false;
+        return true;
+    }
+    if (name == "CODEC") {
+        if (v == "x264")
+            s.codec = TileCodec::X264;
+        else if (v == "zstd")
+            s.codec = TileCodec::Zstd;
+        else if (v == "raw")
+            s.codec = TileCodec::Raw;
+        else
+            return false;
+        return true;
+    }
+    if (name == "STATS") {
+        if (value.empty()) return false;
+        const std::string path(value);
+        const auto slash = path.rfind('/');
+        const std::string dir = slash == std::string::npos ? "." : (slash == 0 ? "/" : path.substr(0, slash));
+        if (!directory_exists(dir) || path.back() == '/') return false;
+        s.stats_path = path;
+        return true;
+    }
+    if (name == "LOG_LEVEL") {
+        if (v == "off")
+            s.log_level = LogLevel::Off;
+        else if (v == "error")
+            s.log_level = LogLevel::Error;
+        else if (v == "warn" || v == "warning")
+            s.log_level = LogLevel::Warn;
+        else if (v == "info")
+            s.log_level = LogLevel::Info;
+        else if (v == "debug")
+            s.log_level = LogLevel::Debug;
+        else
+            return false;
+        return true;
+    }
+    if (name == "TOKEN") {
+        if (value.empty() || std::any_of(value.begin(), value.end(),
+                                         [](unsigned char c) { return std::isspace(c) || !std::isprint(c); }))
+            return false;
+        s.token = std::string(value);
+        return true;
+    }
+    if (name == "TOKEN_FILE") {
+        const auto token = read_token_file(std::string(value));
+        if (!token) return false;
+        s.token_file = std::string(value);
+        s.token = *token;
+        return true;
+    }
+    return false;
+}
+
+const SettingInfo *find_setting(std::string_view name) {
+    for (const auto &info : kSettings) {
+        if (name == info.name) return &info;
+    }
+    return nullptr;
+}
+
+std::string known_names(std::string_view prefix, bool lowercase) {
+    std::string names;
+    for (const auto &info : kSettings) {
+        if (!names.empty()) names += ", ";
+        names += prefix;
+        names += lowercase ? lower(info.name) : info.name;
+    }
+    return names;
+}
+
+std::string settings_file_path(const Environment &env, const std::string &working_directory) {
+    for (const auto &[key, value] : env) {
+        if (key != "VK_LAYER_SETTINGS_PATH" || value.empty()) continue;
+        return directory_exists(value) ? value + "/" + kSettingsFileName : value;
+    }
+    return working_directory + "/" + kSettingsFileName;
+}
+
+} // namespace
+
+std::pair<uint32_t, uint32_t> FoveaSize::pixels_for_eye(uint32_t eye_width, uint32_t eye_height) const {
+    double w = fractional ? width * eye_width : width;
+    double h = fractional ? height * eye_height : height;
+    const auto clamp = [](double v, uint32_t limit) {
+        return static_cast<uint32_t>(std::clamp(std::lround(v), 1L, static_cast<long>(std::max(limit, 1u))));
+    };
+    return {clamp(w, eye_width), clamp(h, eye_height)};
+}
+
+std::span<const SettingInfo> setting_table() {
+    return kSettings;
+}
+
+LoadedSettings load_settings(const Environment &environment, const std::string &working_directory) {
+    LoadedSettings result;
+
+    // name -> where its value came from; the file first so the environment overrides it.
+    std::vector<std::pair<const SettingInfo *, Source>> chosen;
+    const auto choose = [&](const SettingInfo *info, Source source) {
+        for (auto &[existing, src] : chosen) {
+            if (existing == info) {
+                src = std::move(source);
+                return;
+            }
+        }
+        chosen.emplace_back(info, std::move(source));
+    };
+
+    const std::string file_path = settings_file_path(environment, working_directory);
+    if (std::ifstream file(file_path); file) {
+        result.file_path = file_path;
+        std::string line;
+        for (int line_number = 1; std::getline(file, line); ++line_number) {
+            const std::string_view text = trim(line);
+            if (text.empty() || text.front() == '#') continue;
+            const auto eq = text.find('=');
+            if (eq == std::string_view::npos) continue;
+            const std::string key(trim(text.substr(0, eq)));
+            if (!key.starts_with(kFilePrefix)) continue; // another layer's setting
+            std::string name = key.substr(kFilePrefix.size());
+            std::transform(name.begin(), name.end(), name.begin(),
+                           [](unsigned char c) { return std::toupper(c); });
+            const std::string label = key + " (" + file_path + ":" + std::to_string(line_number) + ")";
+            if (const auto *info = find_setting(name)) {
+                choose(info, Source{label, std::string(trim(text.substr(eq + 1)))});
+            } else {
+                result.warnings.push_back("unknown setting " + label +
+                                          " ignored; known settings: " + known_names(kFilePrefix, true));
+            }
+        }
+    }
+
+    for (const auto &[key, value] : environment) {
+        if (!key.starts_with(kEnvPrefix)) continue;
+        if (std::find(std::begin(kManifestVariables), std::end(kManifestVariables), key) !=
+            std::end(kManifestVariables))
+            continue;
+        if (const auto *info = find_setting(std::string_view(key).substr(kEnvPrefix.size()))) {
+            choose(info, Source{key, value});
+        } else {
+            result.warnings.push_back("unknown setting " + key +
+                                      " ignored; known settings: " + known_names(kEnvPrefix, false));
+        }
+    }
+
+    for (const auto &[info, source] : chosen) {
+        if (!apply(info->name, source.value, result.settings)) {
+            result.errors.push_back(source.label + "='" + source.value + "' is invalid: expected " +
+                                    info->accepted);
+        }
+    }
+
+    const bool has_token = std::any_of(chosen.begin(), chosen.end(), [](const auto &c) {
+        return std::string_view(c.first->name) == "TOKEN";
+    });
+    const bool has_token_file = std::any_of(chosen.begin(), chosen.end(), [](const auto &c) {
+        return std::string_view(c.first->name) == "TOKEN_FILE";
+    });
+    if (has_token && has_token_file) {
+        result.errors.push_back(
+            "SPLITVK_TOKEN and SPLITVK_TOKEN_FILE are both set: expected only one of them");
+    }
+    return result;
+}
+
+LoadedSettings load_process_settings() {
+    Environment environment;
+    for (char **entry = environ; entry && *entry; ++entry) {
+        const std::string_view text(*entry);
+        const auto eq = text.find('=');
+        if (eq == std::string_view::npos) continue;
+        environment.emplace_back(std::string(text.substr(0, eq)), std::string(text.substr(eq + 1)));
+    }
+    char cwd[4096];
+    const std::string working_directory = ::getcwd(cwd, sizeof(cwd)) ? cwd : ".";
+    return load_settings(environment, working_directory);
+}
+
+const char *to_string(EyeMode mode) {
+    switch (mode) {
+    case EyeMode::Auto:
+        return "auto";
+    case EyeMode::One:
+        return "1";
+    case EyeMode::Two:
+        return "2";
+    }
+    return "?";
+}
+
+const char *to_string(TileCodec codec) {
+    switch (codec) {
+    case TileCodec::X264:
+        return "x264";
+    case TileCodec::Zstd:
+        return "zstd";
+    case TileCodec::Raw:
+        return "raw";
+    }
+    return "?";
+}
+
+const char *to_string(LogLevel level) {
+    switch (level) {
+    case LogLevel::Off:
+        return "off";
+    case LogLevel::Error:
+        return "error";
+    case LogLevel::Warn:
+        return "warn";
+    case LogLevel::Info:
+        return "info";
+    case LogLevel::Debug:
+        return "debug";
+    }
+    return "?";
+}
+
+} // namespace splitvk

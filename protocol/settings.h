@@ -1,0 +1,82 @@
+#pragma once
+
+// splitvk's settings (DESIGN §6): environment variables SPLITVK_<NAME>, and keys
+// `splitvk_split_render.<name>` in a Khronos-style vk_layer_settings.txt found through
+// VK_LAYER_SETTINGS_PATH (a file or a directory holding one) or the working directory.
+// The environment wins. Parsing is table-driven so the docs, the tests and the parser
+// cannot disagree about names and accepted values.
+
+#include "log.h"
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace splitvk {
+
+enum class EyeMode { Auto, One, Two };
+enum class TileCodec { X264, Zstd, Raw };
+
+struct ServerAddress {
+    std::string host = "127.0.0.1";
+    uint16_t port = 7447;
+};
+
+// The fovea of one eye: either absolute pixels, or fractions of the eye's extent. The default,
+// 512x360 of a 1200x1080 eye, is the paper's, kept as fractions so other eye sizes scale alike.
+struct FoveaSize {
+    bool fractional = true;
+    double width = 512.0 / 1200.0;
+    double height = 360.0 / 1080.0;
+
+    // The fovea's size in pixels for an eye of eye_width x eye_height, clamped to the eye.
+    std::pair<uint32_t, uint32_t> pixels_for_eye(uint32_t eye_width, uint32_t eye_height) const;
+};
+
+struct Settings {
+    ServerAddress server;
+    double scale = 0.6;
+    FoveaSize fovea;
+    EyeMode eyes = EyeMode::Auto;
+    TileCodec codec = TileCodec::X264;
+    std::string stats_path; // empty: no per-frame statistics
+    LogLevel log_level = LogLevel::Warn;
+    std::string token; // SPLITVK_TOKEN, or the contents of SPLITVK_TOKEN_FILE
+    std::string token_file;
+};
+
+// One row of the settings table: what the docs list and the parser accepts.
+struct SettingInfo {
+    const char *name;     // "SCALE": SPLITVK_SCALE / splitvk_split_render.scale
+    const char *accepted; // human-readable accepted values, quoted in errors
+    const char *default_value;
+    const char *description;
+};
+
+std::span<const SettingInfo> setting_table();
+
+using Environment = std::vector<std::pair<std::string, std::string>>;
+
+struct LoadedSettings {
+    Settings settings;
+    std::vector<std::string> errors;   // one line each: a bad value, naming the setting and what it accepts
+    std::vector<std::string> warnings; // one line each: unknown keys, unreadable files
+    std::string file_path;             // the settings file read, empty if none
+
+    bool valid() const { return errors.empty(); }
+};
+
+// Parses settings from an environment snapshot and the settings file it points to. A bad value
+// leaves that setting at its default and adds an error; parsing always completes.
+LoadedSettings load_settings(const Environment &environment, const std::string &working_directory);
+
+// The same, from this process's environment and working directory.
+LoadedSettings load_process_settings();
+
+const char *to_string(EyeMode mode);
+const char *to_string(TileCodec codec);
+const char *to_string(LogLevel level);
+
+} // namespace splitvk
