@@ -1,0 +1,70 @@
+# Shared by scripts/test, scripts/demo and scripts/bench: Debian packages, configure, build.
+# Sourced, not executed.
+
+SPLITVK_ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+
+# Everything splitvk builds, tests and demos with; all Debian 12 packages (DESIGN §1).
+SPLITVK_PACKAGES=(
+  cmake make g++ pkg-config python3
+  libvulkan-dev vulkan-validationlayers mesa-vulkan-drivers vulkan-tools
+  glslang-tools spirv-tools
+  libx264-dev libavcodec-dev libavutil-dev libasio-dev libglm-dev libzstd-dev libgtest-dev
+  libxcb1-dev libx11-dev xvfb xauth ffmpeg
+)
+
+log() { printf '==> %s\n' "$*"; }
+die() { printf 'error: %s\n' "$*" >&2; exit 1; }
+
+# Installs whatever of SPLITVK_PACKAGES is missing, or explains how to when not root.
+ensure_packages() {
+  local missing=() pkg
+  for pkg in "${SPLITVK_PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || missing+=("$pkg")
+  done
+  [ ${#missing[@]} -eq 0 ] && return 0
+  if [ "$(id -u)" -ne 0 ]; then
+    if command -v sudo >/dev/null && sudo -n true 2>/dev/null; then
+      log "installing ${missing[*]} (sudo)"
+      sudo apt-get update -qq && sudo DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" ||
+        die "apt-get could not install: ${missing[*]}"
+      return 0
+    fi
+    die "missing Debian packages: ${missing[*]}; run this script as root, or first: sudo apt-get install ${missing[*]}"
+  fi
+  log "installing ${missing[*]}"
+  apt-get update -qq || die "apt-get update failed"
+  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null ||
+    die "apt-get could not install: ${missing[*]}"
+}
+
+# configure_and_build BUILD_DIR [cmake args...]
+configure_and_build() {
+  local dir=$1; shift
+  log "configuring $dir"
+  cmake -S "$SPLITVK_ROOT" -B "$dir" -DCMAKE_BUILD_TYPE=Release "$@" >"$dir.configure.log" 2>&1 ||
+    { cat "$dir.configure.log"; die "cmake configure failed"; }
+  log "building $dir"
+  cmake --build "$dir" -j"$(nproc)" || die "build failed"
+}
+
+# Starts a private Xvfb unless a display is already there; sets DISPLAY and SPLITVK_XVFB_PID.
+ensure_display() {
+  [ -n "${DISPLAY:-}" ] && return 0
+  local fifo
+  fifo=$(mktemp -u) && mkfifo "$fifo"
+  Xvfb -displayfd 3 -screen 0 2560x1440x24 -nolisten tcp 3>"$fifo" >/dev/null 2>&1 &
+  SPLITVK_XVFB_PID=$!
+  local number
+  read -r -t 20 number <"$fifo" || die "Xvfb did not start"
+  rm -f "$fifo"
+  export DISPLAY=":$number"
+  trap 'kill "$SPLITVK_XVFB_PID" 2>/dev/null' EXIT
+  log "started Xvfb on $DISPLAY"
+}
+
+# The environment that puts the build tree's layer into an application (explicit enable).
+layer_env() {
+  local build=$1
+  printf '%s\n' "VK_ADD_LAYER_PATH=$build/manifest/explicit_layer.d" \
+    "VK_INSTANCE_LAYERS=VK_LAYER_SPLITVK_split_render"
+}

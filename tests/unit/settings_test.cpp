@@ -1,0 +1,229 @@
+#include "settings.h"
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+namespace splitvk {
+namespace {
+
+namespace fs = std::filesystem;
+
+class SettingsTest : public ::testing::Test {
+protected:
+    void SetUp() override {
+        dir_ = fs::temp_directory_path() / ("splitvk-settings-" + std::to_string(::getpid()) + "-" +
+                                            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+        fs::create_directories(dir_);
+    }
+    void TearDown() override { fs::remove_all(dir_); }
+
+    LoadedSettings load(Environment env) { return load_settings(env, dir_.string()); }
+
+    std::string write_file(const std::string &name, const std::string &text) {
+        const auto path = dir_ / name;
+        std::ofstream(path) << text;
+        return path.string();
+    }
+
+    fs::path dir_;
+};
+
+TEST_F(SettingsTest, DefaultsAreThePapersConfiguration) {
+    const auto loaded = load({});
+    ASSERT_TRUE(loaded.valid());
+    EXPECT_TRUE(loaded.warnings.empty());
+    const Settings &s = loaded.settings;
+    EXPECT_EQ(s.server.host, "127.0.0.1");
+    EXPECT_EQ(s.server.port, 7447);
+    EXPECT_DOUBLE_EQ(s.scale, 0.6);
+    EXPECT_EQ(s.eyes, EyeMode::Auto);
+    EXPECT_EQ(s.codec, TileCodec::X264);
+    EXPECT_EQ(s.log_level, LogLevel::Warn);
+    EXPECT_TRUE(s.stats_path.empty());
+    EXPECT_TRUE(s.token.empty());
+    // 512x360 for a 1200x1080 eye, the same fractions elsewhere.
+    EXPECT_EQ(s.fovea.pixels_for_eye(1200, 1080), std::make_pair(512u, 360u));
+    EXPECT_EQ(s.fovea.pixels_for_eye(600, 540), std::make_pair(256u, 180u));
+}
+
+TEST_F(SettingsTest, ValidEnvironmentValues) {
+    const std::string token_file = write_file("token", "  s3cret\n");
+    const auto loaded = load({{"SPLITVK_SERVER", "gpu-box:9000"},
+                              {"SPLITVK_SCALE", "0.5"},
+                              {"SPLITVK_FOVEA", "640x480"},
+                              {"SPLITVK_EYES", "2"},
+                              {"SPLITVK_CODEC", "zstd"},
+                              {"SPLITVK_STATS", (dir_ / "stats.csv").string()},
+                              {"SPLITVK_LOG_LEVEL", "DEBUG"},
+                              {"SPLITVK_TOKEN_FILE", token_file}});
+    ASSERT_TRUE(loaded.valid()) << loaded.errors.front();
+    const Settings &s = loaded.settings;
+    EXPECT_EQ(s.server.host, "gpu-box");
+    EXPECT_EQ(s.server.port, 9000);
+    EXPECT_DOUBLE_EQ(s.scale, 0.5);
+    EXPECT_FALSE(s.fovea.fractional);
+    EXPECT_EQ(s.fovea.pixels_for_eye(1200, 1080), std::make_pair(640u, 480u));
+    EXPECT_EQ(s.fovea.pixels_for_eye(320, 240), std::make_pair(320u, 240u)) << "clamped to the eye";
+    EXPECT_EQ(s.eyes, EyeMode::Two);
+    EXPECT_EQ(s.codec, TileCodec::Zstd);
+    EXPECT_EQ(s.log_level, LogLevel::Debug);
+    EXPECT_EQ(s.token, "s3cret");
+}
+
+TEST_F(SettingsTest, ServerForms) {
+    struct Case {
+        const char *value;
+        const char *host;
+        uint16_t port;
+    };
+    for (const Case &c : {Case{"10.0.0.2", "10.0.0.2", 7447}, Case{"[::1]:8000", "::1", 8000},
+                          Case{"[fe80::1]", "fe80::1", 7447}, Case{"localhost:1", "localhost", 1},
+                          Case{"host:65535", "host", 65535}}) {
+        const auto loaded = load({{"SPLITVK_SERVER", c.value}});
+        ASSERT_TRUE(loaded.valid()) << c.value;
+        EXPECT_EQ(loaded.settings.server.host, c.host) << c.value;
+        EXPECT_EQ(loaded.settings.server.port, c.port) << c.value;
+    }
+}
+
+TEST_F(SettingsTest, FractionalFovea) {
+    const auto loaded = load({{"SPLITVK_FOVEA", "0.5x0.25"}});
+    ASSERT_TRUE(loaded.valid());
+    EXPECT_TRUE(loaded.settings.fovea.fractional);
+    EXPECT_EQ(loaded.settings.fovea.pixels_for_eye(1000, 800), std::make_pair(500u, 200u));
+}
+
+// Every setting with values it must refuse. Each refusal is one line that names the setting and
+// what it accepts, and leaves the default in place.
+TEST_F(SettingsTest, InvalidValuesAreOneLineErrorsNamingTheSetting) {
+    const std::vector<std::pair<std::string, std::vector<std::string>>> table = {
+        {"SERVER", {"", ":7447", "host:", "host:0", "host:65536", "host:port", "::1:80", "[::1", "a b:1"}},
+        {"SCALE", {"", "0", "0.05", "1.5", "2", "-0.6", "abc", "0.6x", "nan", "inf"}},
+        {"FOVEA",
+         {"", "512", "512x", "x360", "0x360", "512x0", "0.5x360", "1.5x0.5", "-1x-1", "axb", "99999x1"}},
+        {"EYES", {"", "0", "3", "both", "two"}},
+        {"CODEC", {"", "h264", "x265", "lz4"}},
+        {"STATS", {"", "/nonexistent-dir/stats.csv", "/tmp/"}},
+        {"LOG_LEVEL", {"", "verbose", "5", "trace"}},
+        {"TOKEN", {"", "two words", "tab\there"}},
+        {"TOKEN_FILE", {"", "/nonexistent/token", "/"}},
+    };
+    ASSERT_EQ(table.size(), setting_table().size()) << "every setting in the table has invalid cases";
+    for (const auto &[name, values] : table) {
+        const SettingInfo *info = nullptr;
+        for (const auto &row : setting_table()) {
+            if (name == row.name) info = &row;
+        }
+        ASSERT_NE(info, nullptr) << name;
+        for (const auto &value : values) {
+            const std::string variable = "SPLITVK_" + name;
+            const auto loaded = load({{variable, value}});
+            ASSERT_EQ(loaded.errors.size(), 1u) << variable << "=" << value;
+            const std::string &error = loaded.errors.front();
+            EXPECT_EQ(error.find('\n'), std::string::npos) << error;
+            EXPECT_NE(error.find(variable), std::string::npos) << error;
+            EXPECT_NE(error.find(info->accepted), std::string::npos) << error;
+            // The refused value leaves the default in place.
+            const Settings defaults;
+            EXPECT_DOUBLE_EQ(loaded.settings.scale, defaults.scale);
+            EXPECT_EQ(loaded.settings.server.port, defaults.server.port);
+            EXPECT_EQ(loaded.settings.eyes, defaults.eyes);
+        }
+    }
+}
+
+TEST_F(SettingsTest, TokenAndTokenFileTogetherAreRefused) {
+    const std::string token_file = write_file("token", "abc");
+    const auto loaded = load({{"SPLITVK_TOKEN", "abc"}, {"SPLITVK_TOKEN_FILE", token_file}});
+    ASSERT_EQ(loaded.errors.size(), 1u);
+    EXPECT_NE(loaded.errors.front().find("SPLITVK_TOKEN_FILE"), std::string::npos);
+}
+
+TEST_F(SettingsTest, UnknownVariablesWarnButManifestVariablesAreKnown) {
+    const auto loaded = load({{"SPLITVK_SCLAE", "0.5"}, {"SPLITVK_ENABLE", "1"}, {"SPLITVK_DISABLE", "0"}});
+    EXPECT_TRUE(loaded.valid());
+    ASSERT_EQ(loaded.warnings.size(), 1u);
+    EXPECT_NE(loaded.warnings.front().find("SPLITVK_SCLAE"), std::string::npos);
+    EXPECT_NE(loaded.warnings.front().find("SPLITVK_SCALE"), std::string::npos) << "lists the known names";
+}
+
+TEST_F(SettingsTest, SettingsFileInWorkingDirectory) {
+    write_file("vk_layer_settings.txt",
+               "# splitvk\n"
+               "khronos_validation.enables = VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT\n"
+               "splitvk_split_render.scale = 0.75\n"
+               "  splitvk_split_render.eyes=1  \n"
+               "splitvk_split_render.codec = raw\n");
+    const auto loaded = load({});
+    ASSERT_TRUE(loaded.valid());
+    EXPECT_EQ(loaded.file_path, (dir_ / "vk_layer_settings.txt").string());
+    EXPECT_DOUBLE_EQ(loaded.settings.scale, 0.75);
+    EXPECT_EQ(loaded.settings.eyes, EyeMode::One);
+    EXPECT_EQ(loaded.settings.codec, TileCodec::Raw);
+    EXPECT_TRUE(loaded.warnings.empty()) << "other layers' keys are not ours to judge";
+}
+
+TEST_F(SettingsTest, SettingsPathMayNameAFileOrADirectory) {
+    const auto sub = dir_ / "conf";
+    fs::create_directories(sub);
+    std::ofstream(sub / "vk_layer_settings.txt") << "splitvk_split_render.scale = 0.8\n";
+    std::ofstream(dir_ / "custom.txt") << "splitvk_split_render.scale = 0.9\n";
+
+    EXPECT_DOUBLE_EQ(load({{"VK_LAYER_SETTINGS_PATH", sub.string()}}).settings.scale, 0.8);
+    EXPECT_DOUBLE_EQ(load({{"VK_LAYER_SETTINGS_PATH", (dir_ / "custom.txt").string()}}).settings.scale, 0.9);
+}
+
+TEST_F(SettingsTest, EnvironmentWinsOverTheFile) {
+    write_file("vk_layer_settings.txt", "splitvk_split_render.scale = 0.75\nsplitvk_split_render.eyes = 3\n");
+    const auto loaded = load({{"SPLITVK_SCALE", "0.5"}, {"SPLITVK_EYES", "2"}});
+    EXPECT_TRUE(loaded.valid()) << "the environment's valid EYES replaces the file's invalid one";
+    EXPECT_DOUBLE_EQ(loaded.settings.scale, 0.5);
+    EXPECT_EQ(loaded.settings.eyes, EyeMode::Two);
+}
+
+TEST_F(SettingsTest, FileErrorsNameTheKeyAndLine) {
+    write_file("vk_layer_settings.txt",
+               "\nsplitvk_split_render.codec = mpeg2\nsplitvk_split_render.sclae = 1\n");
+    const auto loaded = load({});
+    ASSERT_EQ(loaded.errors.size(), 1u);
+    EXPECT_NE(loaded.errors.front().find("splitvk_split_render.codec"), std::string::npos);
+    EXPECT_NE(loaded.errors.front().find("vk_layer_settings.txt:2"), std::string::npos);
+    ASSERT_EQ(loaded.warnings.size(), 1u);
+    EXPECT_NE(loaded.warnings.front().find("splitvk_split_render.sclae"), std::string::npos);
+}
+
+} // namespace
+} // namespace splitvk
+
+namespace splitvk {
+namespace {
+
+std::string read_text(const std::string &path) {
+    std::ifstream file(path);
+    std::stringstream text;
+    text << file.rdbuf();
+    return text.str();
+}
+
+// The settings table in docs/ and the list in the README are the user's reference: a setting
+// the parser knows but the docs do not is a setting nobody can find.
+TEST(SettingsDocs, EverySettingIsDocumented) {
+    const std::string reference = read_text(SPLITVK_SOURCE_DIR "/docs/settings.md");
+    const std::string readme = read_text(SPLITVK_SOURCE_DIR "/README.md");
+    ASSERT_FALSE(reference.empty());
+    ASSERT_FALSE(readme.empty());
+    for (const SettingInfo &info : setting_table()) {
+        const std::string variable = std::string("`SPLITVK_") + info.name + "`";
+        EXPECT_NE(reference.find(variable), std::string::npos) << variable << " missing from docs/settings.md";
+        EXPECT_NE(reference.find(info.accepted), std::string::npos)
+            << "docs/settings.md does not state what " << variable << " accepts: " << info.accepted;
+        EXPECT_NE(readme.find(variable), std::string::npos) << variable << " missing from README.md";
+    }
+}
+
+} // namespace
+} // namespace splitvk
