@@ -1,0 +1,127 @@
+#pragma once
+
+// The versioned handshake (DESIGN §3). The client's first message is Hello; the server answers
+// Welcome or Reject (and then closes). Nothing else may be sent before Hello / Welcome.
+//
+// Version policy: protocol_version is (major << 16) | minor. The major must match exactly: a
+// different major may lay out any message differently, so the server rejects it with
+// RejectReason::VersionMismatch. Minors of one major are compatible: features added in a minor
+// are used only when both sides advertise their capability bit, and a decoder ignores fields a
+// newer minor appended at the end of Hello / Welcome. Welcome carries the server's own version.
+//
+// Frozen across every version, so that a mismatch can always be reported: the first 8 bytes of
+// Hello (magic, protocol_version) and the whole Reject layout (u32 reason, string message).
+
+#include "result.h"
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+namespace splitvk::protocol {
+
+inline constexpr uint16_t kProtocolMajor = 1;
+inline constexpr uint16_t kProtocolMinor = 0;
+
+constexpr uint32_t make_protocol_version(uint16_t major, uint16_t minor) {
+    return (static_cast<uint32_t>(major) << 16) | minor;
+}
+constexpr uint16_t protocol_major(uint32_t version) {
+    return static_cast<uint16_t>(version >> 16);
+}
+constexpr uint16_t protocol_minor(uint32_t version) {
+    return static_cast<uint16_t>(version & 0xFFFF);
+}
+inline constexpr uint32_t kProtocolVersion = make_protocol_version(kProtocolMajor, kProtocolMinor);
+
+// "SPVK", the first four bytes of every Hello payload.
+inline constexpr uint8_t kHelloMagic[4] = {'S', 'P', 'V', 'K'};
+
+// Capability bits. Welcome carries the intersection of the client's and the server's; a feature
+// is used only if its bit is in it. Bits not listed are reserved and must be ignored.
+namespace capability {
+inline constexpr uint64_t kZstdPayloads = 1ull << 0; // compressed payloads (kFlagCompressed) accepted
+} // namespace capability
+inline constexpr uint64_t kSupportedCapabilities = capability::kZstdPayloads;
+
+// Field caps, enforced by the decoders (and by the encoders, which clamp text to them).
+inline constexpr uint32_t kMaxTokenBytes = 256;
+inline constexpr uint32_t kMaxNameBytes = 256; // VK_MAX_PHYSICAL_DEVICE_NAME_SIZE
+inline constexpr uint32_t kMaxReasonBytes = 512;
+
+struct Hello {
+    uint32_t protocol_version = kProtocolVersion;
+    uint64_t capabilities = kSupportedCapabilities;
+    std::vector<uint8_t> token; // the session secret (DESIGN §6 TOKEN); empty: none
+    std::string client_name;    // the application, for the server's logs
+    std::string client_gpu_name;
+};
+
+struct Welcome {
+    uint32_t protocol_version = kProtocolVersion;
+    uint64_t capabilities = 0; // intersection of both sides' capabilities
+    uint64_t session_id = 0;
+    std::string server_gpu_name;
+};
+
+enum class RejectReason : uint32_t {
+    Unspecified = 0, // also what an unknown reason from a newer peer decodes to
+    VersionMismatch = 1,
+    BadToken = 2,
+    ServerFull = 3,
+    Malformed = 4,
+    NotAuthorised = 5,
+};
+const char *to_string(RejectReason reason);
+
+struct Reject {
+    RejectReason reason = RejectReason::Unspecified;
+    std::string message; // one line
+};
+
+// Goodbye: an orderly end of the session, with a one-line reason, before closing.
+struct Goodbye {
+    std::string message;
+};
+
+// Encoders clamp text fields to their caps and replace control characters (which would break
+// one-line logs) with '?'. The token is written as given: a token over kMaxTokenBytes makes the
+// peer reject the Hello as malformed.
+std::vector<uint8_t> encode_hello(const Hello &hello);
+std::vector<uint8_t> encode_welcome(const Welcome &welcome);
+std::vector<uint8_t> encode_reject(const Reject &reject);
+std::vector<uint8_t> encode_goodbye(const Goodbye &goodbye);
+
+// Decoders never trust the input: a one-line error on anything malformed (bad magic, truncation,
+// over-cap lengths, control characters in text, trailing bytes from a peer of the same or an
+// older minor). decode_hello stops after the version when the major differs and returns a Hello
+// holding only protocol_version, so the server can reject it as a version mismatch rather than as
+// malformed.
+Result<Hello> decode_hello(std::span<const uint8_t> payload);
+Result<Welcome> decode_welcome(std::span<const uint8_t> payload);
+Result<Reject> decode_reject(std::span<const uint8_t> payload);
+Result<Goodbye> decode_goodbye(std::span<const uint8_t> payload);
+
+// Compares secrets in time that depends only on the lengths, never on where they differ: every
+// byte position up to the longer length is compared, with no early exit.
+bool constant_time_equal(std::span<const uint8_t> a, std::span<const uint8_t> b);
+bool constant_time_equal(std::string_view a, std::string_view b);
+
+// The server's decision on a Hello.
+struct ServerHandshakeConfig {
+    std::vector<uint8_t> token; // required token; empty: any token (or none) is accepted
+    uint64_t capabilities = kSupportedCapabilities;
+    std::string server_gpu_name;
+    uint64_t session_id = 0;
+    bool full = false; // the server takes no more sessions
+};
+std::variant<Welcome, Reject> evaluate_hello(const Hello &hello, const ServerHandshakeConfig &config);
+
+// The client's check of a Welcome against its Hello: the major matches and the capabilities are a
+// subset of what it offered. Empty when fine, else one line.
+std::string check_welcome(const Hello &sent, const Welcome &welcome);
+
+} // namespace splitvk::protocol
