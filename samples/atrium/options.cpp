@@ -1,0 +1,105 @@
+#include "options.h"
+
+#include <charconv>
+#include <stdexcept>
+#include <string_view>
+
+namespace atrium {
+
+namespace {
+
+template <typename T>
+T parse_number(std::string_view option, std::string_view text, T min, T max) {
+    T value{};
+    const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+    if (text.empty() || ec != std::errc() || ptr != text.data() + text.size() || value < min || value > max)
+        throw std::invalid_argument(std::string(option) + ": expected an integer in [" + std::to_string(min) +
+                                    ", " + std::to_string(max) + "], got '" + std::string(text) + "'");
+    return value;
+}
+
+} // namespace
+
+const char *usage() {
+    return R"(usage: splitvk-atrium [options]
+
+Renders a deterministic walk through a procedural atrium (columns, arches, drapes; about 300k
+triangles and 49 procedurally generated textures), the stand-in for the Sponza workload of the
+split-rendering paper: side-by-side stereo, both eyes in one render pass straight into the
+swapchain image. Frame N is a function of N only, so every run shows the same pictures.
+
+options:
+  --width W, --height H  window size, both eyes together (default 2400x1080: 1200x1080 per eye)
+  --eyes 1|2             mono, or side-by-side stereo with eye 0 on the left half (default 2)
+  --frames N             number of frames to render, numbered 0..N-1 (default 300)
+  --present-mode MODE    fifo, mailbox or immediate (default mailbox: not throttled to the
+                         display, no tearing); unsupported modes fall back to fifo with a note
+  --srgb                 use a B8G8R8A8_SRGB swapchain instead of B8G8R8A8_UNORM (same picture)
+  --screenshot N PATH    write frame N (0-based) as a PNG, read back from its swapchain image
+                         before it is presented
+  --hold                 after the last frame (N-1), keep it on screen, print 'holding frame N-1'
+                         and wait for SIGTERM or SIGINT, then exit 0
+  --model PATH.obj       draw a Wavefront OBJ model instead (y up; positions, normals, texture
+                         coordinates, polygons, usemtl). Material libraries and image files are
+                         not read: each material gets a procedural texture chosen by its name.
+                         The camera walk is fitted to the model's bounds.
+  --help                 show this text
+
+On start it prints 'atrium: T triangles, 49 textures, WxH per eye'. When the last frame has been
+presented it prints 'frame-time: median M ms, IQR Q ms, N frames' (CPU time between successive
+presents; frame 0 counts from the start of the render loop).
+)";
+}
+
+Options parse_options(int argc, char **argv) {
+    Options o;
+    for (int i = 1; i < argc; ++i) {
+        const std::string_view arg = argv[i];
+        const auto value = [&]() -> std::string_view {
+            if (i + 1 >= argc) throw std::invalid_argument(std::string(arg) + " needs a value");
+            return argv[++i];
+        };
+        if (arg == "--help" || arg == "-h") {
+            o.help = true;
+        } else if (arg == "--width") {
+            o.width = parse_number<uint32_t>(arg, value(), 16, 16384);
+        } else if (arg == "--height") {
+            o.height = parse_number<uint32_t>(arg, value(), 16, 16384);
+        } else if (arg == "--eyes") {
+            o.eyes = parse_number<uint32_t>(arg, value(), 1, 2);
+        } else if (arg == "--frames") {
+            o.frames = parse_number<uint64_t>(arg, value(), 1, uint64_t(1) << 40);
+        } else if (arg == "--present-mode") {
+            const std::string_view mode = value();
+            if (mode == "fifo")
+                o.present_mode = VK_PRESENT_MODE_FIFO_KHR;
+            else if (mode == "mailbox")
+                o.present_mode = VK_PRESENT_MODE_MAILBOX_KHR;
+            else if (mode == "immediate")
+                o.present_mode = VK_PRESENT_MODE_IMMEDIATE_KHR;
+            else
+                throw std::invalid_argument("--present-mode: expected fifo, mailbox or immediate, got '" +
+                                            std::string(mode) + "'");
+        } else if (arg == "--srgb") {
+            o.srgb = true;
+        } else if (arg == "--screenshot") {
+            o.screenshot_frame = parse_number<uint64_t>(arg, value(), 0, uint64_t(1) << 40);
+            o.screenshot_path = value();
+            if (o.screenshot_path.empty()) throw std::invalid_argument("--screenshot: empty path");
+        } else if (arg == "--hold") {
+            o.hold = true;
+        } else if (arg == "--model") {
+            o.model_path = value();
+            if (o.model_path.empty()) throw std::invalid_argument("--model: empty path");
+        } else {
+            throw std::invalid_argument("unknown option '" + std::string(arg) + "' (see --help)");
+        }
+    }
+    if (o.screenshot_frame && *o.screenshot_frame >= o.frames)
+        throw std::invalid_argument("--screenshot " + std::to_string(*o.screenshot_frame) +
+                                    ": only frames 0.." + std::to_string(o.frames - 1) + " are rendered");
+    if (o.width < o.eyes) throw std::invalid_argument("--width must be at least --eyes");
+    return o;
+}
+
+} // namespace atrium

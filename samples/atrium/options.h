@@ -1,0 +1,31 @@
+// Command line of splitvk-atrium.
+#pragma once
+
+#include <vulkan/vulkan.h>
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+namespace atrium {
+
+struct Options {
+    uint32_t width = 2400;
+    uint32_t height = 1080;
+    uint32_t eyes = 2;
+    uint64_t frames = 300;
+    VkPresentModeKHR present_mode = VK_PRESENT_MODE_MAILBOX_KHR;
+    bool srgb = false;
+    bool hold = false;
+    std::optional<uint64_t> screenshot_frame;
+    std::string screenshot_path;
+    std::string model_path;
+    bool help = false;
+};
+
+// Throws std::invalid_argument with a one-line message on unknown or malformed options.
+Options parse_options(int argc, char **argv);
+
+const char *usage();
+
+} // namespace atrium

@@ -1,0 +1,88 @@
+// Instance, device and swapchain for one xcb window.
+#pragma once
+
+#include "vk_util.h"
+
+#include <vector>
+
+namespace atrium {
+
+class XcbWindow;
+
+class VkContext {
+public:
+    // Throws Error when there is no Vulkan driver or no device that can present to the window.
+    explicit VkContext(const XcbWindow &window);
+    ~VkContext();
+    VkContext(const VkContext &) = delete;
+    VkContext &operator=(const VkContext &) = delete;
+
+    VkInstance instance() const { return instance_; }
+    VkPhysicalDevice physical_device() const { return physical_device_; }
+    VkDevice device() const { return device_; }
+    VkQueue queue() const { return queue_; }
+    uint32_t queue_family() const { return queue_family_; }
+    VkSurfaceKHR surface() const { return surface_; }
+    const VkPhysicalDeviceProperties &properties() const { return properties_; }
+
+    // Resources with dedicated allocations. Host-visible buffers are mapped for their lifetime.
+    Buffer create_buffer(VkDeviceSize size, VkBufferUsageFlags usage, VkMemoryPropertyFlags properties);
+    void destroy(Buffer &buffer);
+    Image create_image(const VkImageCreateInfo &info, VkImageAspectFlags aspect);
+    void destroy(Image &image);
+
+private:
+    uint32_t memory_type(uint32_t type_bits, VkMemoryPropertyFlags properties) const;
+
+    VkInstance instance_ = VK_NULL_HANDLE;
+    VkSurfaceKHR surface_ = VK_NULL_HANDLE;
+    VkPhysicalDevice physical_device_ = VK_NULL_HANDLE;
+    VkPhysicalDeviceProperties properties_{};
+    VkPhysicalDeviceMemoryProperties memory_properties_{};
+    VkDevice device_ = VK_NULL_HANDLE;
+    uint32_t queue_family_ = 0;
+    VkQueue queue_ = VK_NULL_HANDLE;
+};
+
+struct SwapchainRequest {
+    VkFormat format = VK_FORMAT_B8G8R8A8_UNORM;
+    VkPresentModeKHR present_mode = VK_PRESENT_MODE_MAILBOX_KHR;
+    bool transfer_src = false; // for reading images back (screenshots)
+};
+
+class Swapchain {
+public:
+    // Falls back to FIFO, with a note on stderr, if the requested present mode is unsupported.
+    Swapchain(VkContext &context, const SwapchainRequest &request);
+    ~Swapchain();
+    Swapchain(const Swapchain &) = delete;
+    Swapchain &operator=(const Swapchain &) = delete;
+
+    // Replaces the swapchain after VK_ERROR_OUT_OF_DATE_KHR / VK_SUBOPTIMAL_KHR. The caller makes
+    // sure that the device is idle.
+    void recreate();
+
+    VkSwapchainKHR handle() const { return swapchain_; }
+    VkFormat format() const { return format_; }
+    VkExtent2D extent() const { return extent_; }
+    VkPresentModeKHR present_mode() const { return present_mode_; }
+    const std::vector<VkImage> &images() const { return images_; }
+    const std::vector<VkImageView> &views() const { return views_; }
+
+private:
+    void create(VkSwapchainKHR old);
+    void destroy_views();
+
+    VkContext &context_;
+    SwapchainRequest request_;
+    VkSwapchainKHR swapchain_ = VK_NULL_HANDLE;
+    VkFormat format_ = VK_FORMAT_UNDEFINED;
+    VkExtent2D extent_{};
+    VkPresentModeKHR present_mode_ = VK_PRESENT_MODE_FIFO_KHR;
+    std::vector<VkImage> images_;
+    std::vector<VkImageView> views_;
+};
+
+const char *present_mode_name(VkPresentModeKHR mode);
+
+} // namespace atrium
