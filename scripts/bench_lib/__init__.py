@@ -1,0 +1,1 @@
+"""Helpers and subcommands for scripts/bench."""

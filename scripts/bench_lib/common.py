@@ -1,0 +1,172 @@
+"""Shared by every bench subcommand: the build tree, a private Xvfb, clean environments, running
+splitvk-atrium and reading its `frame-time:` line."""
+import contextlib
+import os
+import re
+import shutil
+import signal
+import statistics
+import subprocess
+import sys
+import time
+
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+LAYER_NAME = "VK_LAYER_SPLITVK_split_render"
+LAVAPIPE_ICD = "/usr/share/vulkan/icd.d/lvp_icd.x86_64.json"
+
+# `frame-time: median 12.34 ms, IQR 1.23 ms, 300 frames`
+FRAME_TIME_RE = re.compile(
+    r"^frame-time: median ([0-9.]+) ms, IQR ([0-9.]+) ms, ([0-9]+) frames\s*$", re.MULTILINE)
+
+
+class BenchError(Exception):
+    """Something failed to run."""
+
+
+class MissingBuild(Exception):
+    """No usable build tree."""
+
+
+class Build:
+    def __init__(self, path):
+        self.path = os.path.abspath(path)
+        self.atrium = os.path.join(self.path, "bin", "splitvk-atrium")
+        self.layer = os.path.join(self.path, "lib", "libVkLayer_splitvk.so")
+        self.explicit_manifest_dir = os.path.join(self.path, "manifest", "explicit_layer.d")
+
+    def check(self):
+        missing = [p for p in (self.atrium, self.layer, self.explicit_manifest_dir) if not os.path.exists(p)]
+        if missing:
+            raise MissingBuild(
+                f"no splitvk build in {self.path} (missing {', '.join(missing)}); "
+                "run scripts/test or scripts/demo first, or pass --build DIR")
+
+
+def add_build_argument(parser):
+    parser.add_argument("--build", default=os.path.join(REPO, "build"), metavar="DIR",
+                        help="build tree to measure (default: %(default)s)")
+
+
+def add_driver_argument(parser):
+    parser.add_argument("--icd", default=LAVAPIPE_ICD, metavar="JSON|system",
+                        help="Vulkan driver manifest to pin through VK_DRIVER_FILES, or 'system' for the "
+                             "loader's own choice (default: lavapipe, %(default)s)")
+
+
+def clean_env(icd):
+    """The parent environment minus anything Vulkan- or splitvk-related that could change what is
+    measured; the driver pinned unless icd == 'system'."""
+    env = {}
+    for k, v in os.environ.items():
+        if k in ("VK_INSTANCE_LAYERS", "VK_DEVICE_LAYERS", "VK_ADD_LAYER_PATH", "VK_ICD_FILENAMES",
+                 "VK_DRIVER_FILES", "VK_ADD_DRIVER_FILES"):
+            continue
+        if k.startswith(("VK_LAYER_", "VK_LOADER_", "SPLITVK_")):
+            continue
+        env[k] = v
+    if icd != "system":
+        env["VK_DRIVER_FILES"] = icd
+    return env
+
+
+def layer_env(env, build):
+    env = dict(env)
+    env["VK_INSTANCE_LAYERS"] = LAYER_NAME
+    env["VK_ADD_LAYER_PATH"] = build.explicit_manifest_dir
+    return env
+
+
+@contextlib.contextmanager
+def display():
+    """Yields the DISPLAY to use: the caller's, or a private Xvfb started with -displayfd (which
+    picks a free display number) and stopped afterwards."""
+    if os.environ.get("DISPLAY"):
+        yield os.environ["DISPLAY"]
+        return
+    if not shutil.which("Xvfb"):
+        raise BenchError("DISPLAY is unset and Xvfb is not installed (apt-get install xvfb)")
+    read_fd, write_fd = os.pipe()
+    proc = subprocess.Popen(
+        ["Xvfb", "-displayfd", str(write_fd), "-screen", "0", "2560x1440x24", "-nolisten", "tcp", "-noreset"],
+        pass_fds=(write_fd,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    os.close(write_fd)
+    try:
+        number = b""
+        deadline = time.monotonic() + 20
+        import select
+        while not number.endswith(b"\n") and time.monotonic() < deadline:
+            ready, _, _ = select.select([read_fd], [], [], max(0.0, deadline - time.monotonic()))
+            if not ready:
+                break
+            chunk = os.read(read_fd, 64)
+            if not chunk:
+                break
+            number += chunk
+        if not number.strip():
+            raise BenchError("Xvfb did not start")
+        name = ":" + number.decode().strip()
+        print(f"bench: started Xvfb on {name}", file=sys.stderr)
+        yield name
+    finally:
+        os.close(read_fd)
+        proc.terminate()
+        try:
+            proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
+class Run:
+    def __init__(self, returncode, stdout, stderr, wall_s):
+        self.returncode = returncode
+        self.stdout = stdout
+        self.stderr = stderr
+        self.wall_s = wall_s
+
+    def frame_time(self):
+        """(median_ms, iqr_ms, frames) from the app's `frame-time:` line."""
+        m = FRAME_TIME_RE.search(self.stdout)
+        if not m:
+            raise BenchError("no 'frame-time: median X ms, IQR Y ms, N frames' line in the output:\n"
+                             + tail(self.stdout + self.stderr))
+        return float(m.group(1)), float(m.group(2)), int(m.group(3))
+
+
+def tail(text, lines=20):
+    return "\n".join(text.splitlines()[-lines:])
+
+
+def run(argv, env, timeout_s):
+    """Runs argv to completion in its own process group; kills the group on timeout."""
+    start = time.monotonic()
+    proc = subprocess.Popen(argv, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            stdin=subprocess.DEVNULL, start_new_session=True, text=True)
+    try:
+        out, err = proc.communicate(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        out, err = proc.communicate()
+        raise BenchError(f"{os.path.basename(argv[0])} ran past {timeout_s} s and was killed:\n" + tail(err))
+    except BaseException:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+        raise
+    r = Run(proc.returncode, out, err, time.monotonic() - start)
+    if r.returncode != 0:
+        raise BenchError(f"{' '.join(argv)} exited with {r.returncode}:\n" + tail(out + err))
+    return r
+
+
+def layer_active_line(app_name):
+    return f"[splitvk] info: {LAYER_NAME} active in '{app_name}'"
+
+
+def quartiles(values):
+    """(q1, median, q3) of a non-empty list."""
+    values = sorted(values)
+    if len(values) == 1:
+        return values[0], values[0], values[0]
+    q = statistics.quantiles(values, n=4, method="inclusive")
+    return q[0], statistics.median(values), q[2]

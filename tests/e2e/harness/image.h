@@ -1,0 +1,48 @@
+// Screen images as the X server holds them (ffmpeg's bgr0: B, G, R, padding per pixel), exact
+// comparison, and failure artefacts (PNGs of both images and of their difference).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace splitvk::e2e {
+
+struct Image {
+    uint32_t width = 0;
+    uint32_t height = 0;
+    std::vector<uint8_t> bgr0; // width * height * 4 bytes, rows packed
+
+    size_t stride() const { return size_t{width} * 4; }
+    const uint8_t *pixel(uint32_t x, uint32_t y) const {
+        return bgr0.data() + size_t{y} * stride() + size_t{x} * 4;
+    }
+    uint8_t *pixel(uint32_t x, uint32_t y) { return bgr0.data() + size_t{y} * stride() + size_t{x} * 4; }
+};
+
+struct CompareResult {
+    bool same_size = false;
+    uint64_t pixels = 0;
+    uint64_t mismatched_pixels = 0; // pixels whose B, G or R differ
+    uint32_t first_x = 0, first_y = 0;
+    bool equal() const { return same_size && mismatched_pixels == 0; }
+    std::string summary() const;
+};
+
+// Bit-exact comparison of the colour bytes. The fourth byte of each pixel is X server padding (a
+// depth-24 visual has no alpha), invisible on screen, and is ignored.
+CompareResult compare_exact(const Image &a, const Image &b);
+
+// Number of distinct colours, to tell a rendered picture from a blank or nearly blank window.
+size_t distinct_colours(const Image &img);
+
+// PNG of an image (opaque). False with *error on failure.
+bool save_png(const std::filesystem::path &path, const Image &img, std::string *error);
+
+// On a mismatch: <dir>/<stem>.expected.png, <stem>.actual.png and <stem>.diff.png (matching pixels
+// dimmed to a quarter, mismatching ones magenta). Returns a message naming the files.
+std::string save_mismatch_artefacts(const std::filesystem::path &dir, const std::string &stem,
+                                    const Image &expected, const Image &actual);
+
+} // namespace splitvk::e2e

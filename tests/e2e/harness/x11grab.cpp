@@ -1,0 +1,65 @@
+#include "x11grab.h"
+
+#include "vk_env.h"
+
+#include <chrono>
+#include <fstream>
+#include <thread>
+
+namespace splitvk::e2e {
+
+bool grab_screen(const std::string &display, int x, int y, uint32_t w, uint32_t h,
+                 const std::filesystem::path &raw_path, Image *out, std::string *error) {
+    ProcessSpec spec;
+    // -draw_mouse 0: x11grab paints the X pointer into the picture by default (Xvfb parks it in
+    // the middle of the screen, inside a 2400x1080 window); it is not the application's output.
+    spec.argv = {"ffmpeg",      "-nostdin",
+                 "-loglevel",   "error",
+                 "-f",          "x11grab",
+                 "-draw_mouse", "0",
+                 "-video_size", std::to_string(w) + "x" + std::to_string(h),
+                 "-i",          display + "+" + std::to_string(x) + "," + std::to_string(y),
+                 "-frames:v",   "1",
+                 "-f",          "rawvideo",
+                 "-pix_fmt",    "bgr0",
+                 "-y",          raw_path.string()};
+    spec.env = clean_env();
+    spec.out_dir = raw_path.parent_path();
+    spec.name = raw_path.filename().string() + ".ffmpeg";
+    auto r = run_process(spec, std::chrono::seconds(30));
+    if (!r.ok()) {
+        *error = "ffmpeg x11grab failed: " + r.describe() + "\n" + r.err();
+        return false;
+    }
+    std::string data = read_file(raw_path);
+    const size_t expected = size_t{w} * h * 4;
+    if (data.size() != expected) {
+        *error = "grab " + raw_path.string() + " has " + std::to_string(data.size()) + " bytes, expected " +
+                 std::to_string(expected);
+        return false;
+    }
+    out->width = w;
+    out->height = h;
+    out->bgr0.assign(data.begin(), data.end());
+    return true;
+}
+
+bool grab_stable(const std::string &display, int x, int y, uint32_t w, uint32_t h,
+                 const std::filesystem::path &raw_path, Image *out, std::string *error, int attempts) {
+    Image previous;
+    if (!grab_screen(display, x, y, w, h, raw_path, &previous, error)) return false;
+    for (int i = 1; i < attempts; ++i) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        Image next;
+        if (!grab_screen(display, x, y, w, h, raw_path, &next, error)) return false;
+        if (next.bgr0 == previous.bgr0) {
+            *out = std::move(next);
+            return true;
+        }
+        previous = std::move(next);
+    }
+    *error = "the screen kept changing over " + std::to_string(attempts) + " grabs of " + raw_path.string();
+    return false;
+}
+
+} // namespace splitvk::e2e

@@ -1,0 +1,179 @@
+// splitvk-e2e-probe: the smallest Vulkan program the end-to-end tests need, headless (no window,
+// no X server). It creates an instance (with the application name the tests look for in the
+// layer's log), a device and a queue, records two vkCmdFillBuffer into one buffer and submits them.
+//
+//   splitvk-e2e-probe [--app-name NAME] [--sync-hazard]
+//
+// With --sync-hazard the barrier between the two fills is left out: a write-after-write hazard that
+// only synchronization validation reports. The validation tests use it to prove that
+// synchronization validation is really on (a negative control), so a clean run means something.
+#include <vulkan/vulkan.h>
+
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+namespace {
+
+#define CHECK(call)                                                                                          \
+    do {                                                                                                     \
+        VkResult r_ = (call);                                                                                \
+        if (r_ != VK_SUCCESS) {                                                                              \
+            std::fprintf(stderr, "splitvk-e2e-probe: %s failed: %d\n", #call, r_);                           \
+            return 1;                                                                                        \
+        }                                                                                                    \
+    } while (0)
+
+int run(const std::string &app_name, bool sync_hazard) {
+    VkApplicationInfo app{};
+    app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
+    app.pApplicationName = app_name.c_str();
+    app.applicationVersion = 1;
+    app.pEngineName = "splitvk-e2e";
+    app.apiVersion = VK_API_VERSION_1_1;
+    VkInstanceCreateInfo ici{};
+    ici.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
+    ici.pApplicationInfo = &app;
+    VkInstance instance = VK_NULL_HANDLE;
+    CHECK(vkCreateInstance(&ici, nullptr, &instance));
+
+    uint32_t count = 0;
+    CHECK(vkEnumeratePhysicalDevices(instance, &count, nullptr));
+    if (count == 0) {
+        std::fprintf(stderr, "splitvk-e2e-probe: no physical device\n");
+        return 1;
+    }
+    std::vector<VkPhysicalDevice> gpus(count);
+    CHECK(vkEnumeratePhysicalDevices(instance, &count, gpus.data()));
+    VkPhysicalDevice gpu = gpus[0];
+
+    uint32_t qcount = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(gpu, &qcount, nullptr);
+    std::vector<VkQueueFamilyProperties> families(qcount);
+    vkGetPhysicalDeviceQueueFamilyProperties(gpu, &qcount, families.data());
+    uint32_t family = UINT32_MAX;
+    for (uint32_t i = 0; i < qcount; ++i)
+        if (families[i].queueFlags & (VK_QUEUE_GRAPHICS_BIT | VK_QUEUE_COMPUTE_BIT | VK_QUEUE_TRANSFER_BIT)) {
+            family = i;
+            break;
+        }
+    if (family == UINT32_MAX) {
+        std::fprintf(stderr, "splitvk-e2e-probe: no usable queue family\n");
+        return 1;
+    }
+
+    float priority = 1.0f;
+    VkDeviceQueueCreateInfo qci{};
+    qci.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO;
+    qci.queueFamilyIndex = family;
+    qci.queueCount = 1;
+    qci.pQueuePriorities = &priority;
+    VkDeviceCreateInfo dci{};
+    dci.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+    dci.queueCreateInfoCount = 1;
+    dci.pQueueCreateInfos = &qci;
+    VkDevice device = VK_NULL_HANDLE;
+    CHECK(vkCreateDevice(gpu, &dci, nullptr, &device));
+    VkQueue queue = VK_NULL_HANDLE;
+    vkGetDeviceQueue(device, family, 0, &queue);
+
+    const VkDeviceSize size = 64 * 1024;
+    VkBufferCreateInfo bci{};
+    bci.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+    bci.size = size;
+    bci.usage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    bci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+    VkBuffer buffer = VK_NULL_HANDLE;
+    CHECK(vkCreateBuffer(device, &bci, nullptr, &buffer));
+    VkMemoryRequirements req{};
+    vkGetBufferMemoryRequirements(device, buffer, &req);
+    VkPhysicalDeviceMemoryProperties mem{};
+    vkGetPhysicalDeviceMemoryProperties(gpu, &mem);
+    uint32_t type = UINT32_MAX;
+    for (uint32_t i = 0; i < mem.memoryTypeCount; ++i)
+        if (req.memoryTypeBits & (1u << i)) {
+            type = i;
+            break;
+        }
+    VkMemoryAllocateInfo mai{};
+    mai.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    mai.allocationSize = req.size;
+    mai.memoryTypeIndex = type;
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    CHECK(vkAllocateMemory(device, &mai, nullptr, &memory));
+    CHECK(vkBindBufferMemory(device, buffer, memory, 0));
+
+    VkCommandPoolCreateInfo pci{};
+    pci.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    pci.queueFamilyIndex = family;
+    VkCommandPool pool = VK_NULL_HANDLE;
+    CHECK(vkCreateCommandPool(device, &pci, nullptr, &pool));
+    VkCommandBufferAllocateInfo cai{};
+    cai.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    cai.commandPool = pool;
+    cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    cai.commandBufferCount = 1;
+    VkCommandBuffer cmd = VK_NULL_HANDLE;
+    CHECK(vkAllocateCommandBuffers(device, &cai, &cmd));
+
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    CHECK(vkBeginCommandBuffer(cmd, &begin));
+    vkCmdFillBuffer(cmd, buffer, 0, size, 0x11111111u);
+    if (!sync_hazard) {
+        VkBufferMemoryBarrier barrier{};
+        barrier.sType = VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER;
+        barrier.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+        barrier.dstAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+        barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+        barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+        barrier.buffer = buffer;
+        barrier.offset = 0;
+        barrier.size = VK_WHOLE_SIZE;
+        vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
+                             nullptr, 1, &barrier, 0, nullptr);
+    }
+    vkCmdFillBuffer(cmd, buffer, 0, size, 0x22222222u);
+    CHECK(vkEndCommandBuffer(cmd));
+
+    VkFenceCreateInfo fci{};
+    fci.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+    VkFence fence = VK_NULL_HANDLE;
+    CHECK(vkCreateFence(device, &fci, nullptr, &fence));
+    VkSubmitInfo si{};
+    si.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    si.commandBufferCount = 1;
+    si.pCommandBuffers = &cmd;
+    CHECK(vkQueueSubmit(queue, 1, &si, fence));
+    CHECK(vkWaitForFences(device, 1, &fence, VK_TRUE, UINT64_MAX));
+
+    vkDestroyFence(device, fence, nullptr);
+    vkFreeCommandBuffers(device, pool, 1, &cmd);
+    vkDestroyCommandPool(device, pool, nullptr);
+    vkDestroyBuffer(device, buffer, nullptr);
+    vkFreeMemory(device, memory, nullptr);
+    vkDestroyDevice(device, nullptr);
+    vkDestroyInstance(instance, nullptr);
+    std::printf("probe ok\n");
+    return 0;
+}
+
+} // namespace
+
+int main(int argc, char **argv) {
+    std::string app_name = "splitvk-e2e-probe";
+    bool sync_hazard = false;
+    for (int i = 1; i < argc; ++i) {
+        if (std::strcmp(argv[i], "--app-name") == 0 && i + 1 < argc) {
+            app_name = argv[++i];
+        } else if (std::strcmp(argv[i], "--sync-hazard") == 0) {
+            sync_hazard = true;
+        } else {
+            std::fprintf(stderr, "usage: splitvk-e2e-probe [--app-name NAME] [--sync-hazard]\n");
+            return 2;
+        }
+    }
+    return run(app_name, sync_hazard);
+}
