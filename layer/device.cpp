@@ -2,6 +2,7 @@
 
 #include "device.h"
 
+#include "chain_info.h"
 #include "instance.h"
 #include "layer_entry_points.h"
 #include "log.h"
@@ -13,17 +14,6 @@ namespace splitvk {
 namespace {
 
 ObjectMap<DispatchKey, DeviceState> g_devices;
-
-VkLayerDeviceCreateInfo *find_layer_link(const VkDeviceCreateInfo *create_info) {
-    // As for instances: the loader owns the chain info and expects each layer to advance it.
-    auto *next = static_cast<const VkBaseInStructure *>(create_info->pNext);
-    for (; next; next = next->pNext) {
-        if (next->sType != VK_STRUCTURE_TYPE_LOADER_DEVICE_CREATE_INFO) continue;
-        auto *link = reinterpret_cast<VkLayerDeviceCreateInfo *>(const_cast<VkBaseInStructure *>(next));
-        if (link->function == VK_LAYER_LINK_INFO) return link;
-    }
-    return nullptr;
-}
 
 const DeviceDispatchTable &device_table(DispatchKey key) {
     DeviceState *state = g_devices.find(key);
@@ -56,7 +46,8 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateDevice(VkPhysicalDevice physicalDevice,
                                             const VkDeviceCreateInfo *pCreateInfo,
                                             const VkAllocationCallbacks *pAllocator, VkDevice *pDevice) {
     InstanceState *instance = find_instance(dispatch_key(physicalDevice));
-    VkLayerDeviceCreateInfo *link = find_layer_link(pCreateInfo);
+    auto *link = find_layer_link<VkLayerDeviceCreateInfo>(pCreateInfo->pNext,
+                                                          VK_STRUCTURE_TYPE_LOADER_DEVICE_CREATE_INFO);
     if (!instance || !link || !link->u.pLayerInfo) return VK_ERROR_INITIALIZATION_FAILED;
 
     const PFN_vkGetInstanceProcAddr next_gipa = link->u.pLayerInfo->pfnNextGetInstanceProcAddr;

@@ -2,6 +2,7 @@
 
 #include "instance.h"
 
+#include "chain_info.h"
 #include "layer_entry_points.h"
 #include "layer_settings.h"
 #include "log.h"
@@ -15,18 +16,6 @@ namespace splitvk {
 namespace {
 
 ObjectMap<DispatchKey, InstanceState> g_instances;
-
-VkLayerInstanceCreateInfo *find_layer_link(const VkInstanceCreateInfo *create_info) {
-    // The loader's chain info is const in the create-info but owned by the loader, which expects
-    // each layer to advance it (as every layer does); hence the const_cast.
-    auto *next = static_cast<const VkBaseInStructure *>(create_info->pNext);
-    for (; next; next = next->pNext) {
-        if (next->sType != VK_STRUCTURE_TYPE_LOADER_INSTANCE_CREATE_INFO) continue;
-        auto *link = reinterpret_cast<VkLayerInstanceCreateInfo *>(const_cast<VkBaseInStructure *>(next));
-        if (link->function == VK_LAYER_LINK_INFO) return link;
-    }
-    return nullptr;
-}
 
 InstanceState &instance_state(DispatchKey key) {
     InstanceState *state = g_instances.find(key);
@@ -57,7 +46,8 @@ namespace entry {
 VKAPI_ATTR VkResult VKAPI_CALL CreateInstance(const VkInstanceCreateInfo *pCreateInfo,
                                               const VkAllocationCallbacks *pAllocator,
                                               VkInstance *pInstance) {
-    VkLayerInstanceCreateInfo *link = find_layer_link(pCreateInfo);
+    auto *link = find_layer_link<VkLayerInstanceCreateInfo>(pCreateInfo->pNext,
+                                                            VK_STRUCTURE_TYPE_LOADER_INSTANCE_CREATE_INFO);
     if (!link || !link->u.pLayerInfo) return VK_ERROR_INITIALIZATION_FAILED;
 
     const PFN_vkGetInstanceProcAddr next_gipa = link->u.pLayerInfo->pfnNextGetInstanceProcAddr;
