@@ -32,9 +32,11 @@ ensure_packages() {
     die "missing Debian packages: ${missing[*]}; run this script as root, or first: sudo apt-get install ${missing[*]}"
   fi
   log "installing ${missing[*]}"
-  apt-get update -qq || die "apt-get update failed"
-  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null ||
-    die "apt-get could not install: ${missing[*]}"
+  local apt_log
+  apt_log=$(mktemp)
+  { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
+      "${missing[@]}"; } >"$apt_log" 2>&1 || { cat "$apt_log"; rm -f "$apt_log"; die "apt-get could not install: ${missing[*]}"; }
+  rm -f "$apt_log"
 }
 
 # configure_and_build BUILD_DIR [cmake args...]
