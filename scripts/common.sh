@@ -43,8 +43,9 @@ ensure_packages() {
 configure_and_build() {
   local dir=$1; shift
   log "configuring $dir"
-  cmake -S "$SPLITVK_ROOT" -B "$dir" -DCMAKE_BUILD_TYPE=Release "$@" >"$dir.configure.log" 2>&1 ||
-    { cat "$dir.configure.log"; die "cmake configure failed"; }
+  mkdir -p "$dir"
+  cmake -S "$SPLITVK_ROOT" -B "$dir" -DCMAKE_BUILD_TYPE=Release "$@" >"$dir/configure.log" 2>&1 ||
+    { cat "$dir/configure.log"; die "cmake configure failed"; }
   log "building $dir"
   cmake --build "$dir" -j"$(nproc)" || die "build failed"
 }
