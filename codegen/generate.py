@@ -2,8 +2,9 @@
 """splitvk's code generator: reads vk.xml through Khronos' reg.py and writes C++ into the build tree.
 
 Usage: generate.py --registry /usr/share/vulkan/registry --out DIR TARGET...
-Targets: dispatch (instance/device dispatch tables), layer (layer entry points and lookup).
-Later targets (the wire codec) consume the same model from vkregistry.py.
+Targets: dispatch (instance/device dispatch tables), layer (layer entry points and lookup),
+codec (the Vulkan wire codec: encoders, decoders, dispatch, smoke test). All consume the same
+model from vkregistry.py.
 """
 import argparse
 import os
@@ -11,6 +12,7 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
+import emit_codec  # noqa: E402
 import emit_dispatch  # noqa: E402
 import emit_layer  # noqa: E402
 import vkregistry  # noqa: E402
@@ -18,6 +20,7 @@ import vkregistry  # noqa: E402
 EMITTERS = {
     "dispatch": emit_dispatch.emit,
     "layer": emit_layer.emit,
+    "codec": emit_codec.emit,
 }
 
 

@@ -8,6 +8,7 @@ allow-list in allowlist.py.
 from __future__ import annotations
 
 import os
+import re
 import sys
 import xml.etree.ElementTree as etree
 from dataclasses import dataclass, field
@@ -32,6 +33,32 @@ class Param:
     is_const: bool
     length: str | None  # the `len` attribute: how many elements a pointer addresses
     optional: bool
+    # What the wire codec needs beyond that (members of structures use the same class):
+    pointer_depth: int = 0            # number of '*' in the declaration
+    altlen: str | None = None         # `altlen`: a C expression for `len` when that is LaTeX
+    optional_levels: list[bool] = field(default_factory=list)  # `optional` per indirection level
+    noautovalidity: bool = False      # validity depends on other state (often: may be ignored)
+    array_dims: list[str] = field(default_factory=list)  # fixed-size array bounds, e.g. ["4"]
+    values: str | None = None         # `values` (the sType a structure must carry)
+    selector: str | None = None       # union members: the member selecting the active member
+    selection: str | None = None      # union members: the selector value choosing this one
+
+    @property
+    def lengths(self) -> list[str]:
+        """The `len` attribute split per indirection level ("count,null-terminated")."""
+        return self.length.split(",") if self.length else []
+
+
+@dataclass
+class Struct:
+    name: str                 # "VkBufferCreateInfo"
+    category: str             # "struct" or "union"
+    members: list[Param]
+    extends: list[str]        # `structextends`: structures whose pNext chain may hold this one
+    returned_only: bool       # `returnedonly`: filled by the implementation, never an input
+    stype: str | None         # the VK_STRUCTURE_TYPE_* value its sType member must carry
+    protect: str | None
+    origin: str
 
 
 @dataclass
@@ -64,6 +91,20 @@ class ApiModel:
     handle_types: dict[str, bool] = field(default_factory=dict)  # handle name -> dispatchable
     instance_extensions: list[str] = field(default_factory=list)
     device_extensions: list[str] = field(default_factory=list)
+    # For the wire codec: every selected structure and union, and what each type name is.
+    structs: dict[str, Struct] = field(default_factory=dict)
+    type_category: dict[str, str] = field(default_factory=dict)  # "enum", "bitmask", "handle", ...
+    type_alias: dict[str, str] = field(default_factory=dict)     # alias -> the type it names
+    bit_width: dict[str, int] = field(default_factory=dict)      # enums and bitmasks: 32 or 64
+    basetype_of: dict[str, str] = field(default_factory=dict)    # "VkDeviceSize" -> "uint64_t"
+    handle_object_type: dict[str, str] = field(default_factory=dict)  # "VkBuffer" -> "VK_OBJECT_TYPE_BUFFER"
+    negative_enums: set[str] = field(default_factory=set)        # enums with negative values (VkResult)
+
+    def resolve(self, type_name: str) -> str:
+        """The canonical name of a type (following aliases)."""
+        while type_name in self.type_alias:
+            type_name = self.type_alias[type_name]
+        return type_name
 
     def by_level(self, *levels: str) -> list[Command]:
         return [c for c in self.commands if c.level in levels]
@@ -86,13 +127,35 @@ def _command_level(name: str, params: list[Param]) -> str:
 
 
 def _parse_param(elem) -> Param:
-    decl = " ".join("".join(elem.itertext()).split())
+    text = "".join(t for t in _itertext_without_comments(elem))
+    decl = " ".join(text.split())
     type_name = elem.find("type").text
     name = elem.find("name").text
-    tail = "".join(elem.itertext()).split(name)[0]
+    tail = text.split(name)[0]
+    after = text.split(name, 1)[1] if name in text else ""
+    dims = []
+    for dim in re.findall(r"\[([^\]]*)\]", after):
+        dims.append(dim.strip())
+    optional_levels = [v.strip() == "true" for v in elem.get("optional", "").split(",") if v.strip()]
     return Param(type=type_name, name=name, decl=decl, is_pointer="*" in tail or "[" in decl,
                  is_const=decl.startswith("const"), length=elem.get("len"),
-                 optional=elem.get("optional", "false").startswith("true"))
+                 optional=elem.get("optional", "false").startswith("true"),
+                 pointer_depth=tail.count("*"), altlen=elem.get("altlen"),
+                 optional_levels=optional_levels,
+                 noautovalidity=elem.get("noautovalidity") == "true",
+                 array_dims=dims, values=elem.get("values"), selector=elem.get("selector"),
+                 selection=elem.get("selection"))
+
+
+def _itertext_without_comments(elem):
+    """The text of an element, leaving out <comment> children (vk.xml puts prose there)."""
+    if elem.text:
+        yield elem.text
+    for child in elem:
+        if child.tag != "comment":
+            yield from _itertext_without_comments(child)
+        if child.tail:
+            yield child.tail
 
 
 def load(registry_dir: str) -> ApiModel:
@@ -130,9 +193,44 @@ def load(registry_dir: str) -> ApiModel:
 
         def genType(self, typeinfo, name, alias):
             super().genType(typeinfo, name, alias)
-            if typeinfo.elem.get("category") == "handle" and not alias:
-                kind = typeinfo.elem.find("type")
+            elem = typeinfo.elem
+            category = elem.get("category")
+            if alias:
+                self.model.type_alias[name] = alias
+                return
+            if category:
+                self.model.type_category[name] = category
+            if category == "handle":
+                kind = elem.find("type")
                 self.model.handle_types[name] = kind is not None and kind.text == "VK_DEFINE_HANDLE"
+                if elem.get("objtypeenum"):
+                    self.model.handle_object_type[name] = elem.get("objtypeenum")
+            elif category == "bitmask":
+                base = elem.find("type")
+                self.model.bit_width[name] = 64 if base is not None and base.text == "VkFlags64" else 32
+            elif category == "basetype":
+                base = elem.find("type")
+                if base is not None:
+                    self.model.basetype_of[name] = base.text
+            elif category in ("struct", "union"):
+                members = [_parse_param(m) for m in elem.findall("member")]
+                stype = next((m.values for m in members if m.name == "sType" and m.values), None)
+                extends = [e for e in (elem.get("structextends") or "").split(",") if e]
+                self.model.structs[name] = Struct(
+                    name=name, category=category, members=members, extends=extends,
+                    returned_only=elem.get("returnedonly") == "true", stype=stype,
+                    protect=self.featureExtraProtect, origin=self.featureName)
+
+        def genGroup(self, groupinfo, groupName, alias):
+            super().genGroup(groupinfo, groupName, alias)
+            if alias:
+                self.model.type_alias[groupName] = alias
+                return
+            self.model.type_category[groupName] = "enum"
+            self.model.bit_width[groupName] = int(groupinfo.elem.get("bitwidth") or 32)
+            for enum in groupinfo.elem.findall("enum"):
+                if (enum.get("value") or "").startswith("-") or enum.get("dir") == "-":
+                    self.model.negative_enums.add(groupName)
 
         def genCmd(self, cmdinfo, name, alias):
             super().genCmd(cmdinfo, name, alias)
@@ -165,4 +263,8 @@ def load(registry_dir: str) -> ApiModel:
     if missing:
         raise SystemExit(f"allow-listed extensions not in vk.xml: {', '.join(sorted(missing))}")
     collector.model.commands.sort(key=lambda c: c.name)
-    return collector.model
+    model = collector.model
+    # A structure may name parents outside the selection in `structextends`: keep the selected ones.
+    for struct in model.structs.values():
+        struct.extends = [p for p in struct.extends if model.resolve(p) in model.structs]
+    return model
