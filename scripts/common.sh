@@ -39,15 +39,22 @@ ensure_packages() {
   rm -f "$apt_log"
 }
 
-# configure_and_build BUILD_DIR [cmake args...]
-configure_and_build() {
+# configure BUILD_DIR [cmake args...]
+configure() {
   local dir=$1; shift
   log "configuring $dir"
   mkdir -p "$dir"
   cmake -S "$SPLITVK_ROOT" -B "$dir" -DCMAKE_BUILD_TYPE=Release "$@" >"$dir/configure.log" 2>&1 ||
     { cat "$dir/configure.log"; die "cmake configure failed"; }
-  log "building $dir"
-  cmake --build "$dir" -j"$(nproc)" || die "build failed"
+}
+
+# build BUILD_DIR [targets...]: everything when no target is named.
+build() {
+  local dir=$1; shift
+  local targets=()
+  for t in "$@"; do targets+=(--target "$t"); done
+  log "building $dir${*:+ ($*)}"
+  cmake --build "$dir" -j"$(nproc)" "${targets[@]}" || die "build failed"
 }
 
 # Starts a private Xvfb unless a display is already there; sets DISPLAY and SPLITVK_XVFB_PID.
