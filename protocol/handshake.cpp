@@ -71,6 +71,7 @@ std::vector<uint8_t> encode_hello(const Hello &hello) {
     w.blob(hello.token);
     w.string(clean_text(hello.client_name, kMaxNameBytes));
     w.string(clean_text(hello.client_gpu_name, kMaxNameBytes));
+    w.u64(hello.codec_fingerprint);
     return w.take();
 }
 
@@ -90,6 +91,7 @@ Result<Hello> decode_hello(std::span<const uint8_t> payload) {
     hello.token.assign(token.begin(), token.end());
     hello.client_name = read_text(r, kMaxNameBytes, "client_name");
     hello.client_gpu_name = read_text(r, kMaxNameBytes, "client_gpu_name");
+    hello.codec_fingerprint = r.u64("codec_fingerprint");
     if (!finish(r, hello.protocol_version, "Hello")) return Error{"malformed Hello: " + r.error()};
     return hello;
 }
@@ -183,6 +185,10 @@ std::variant<Welcome, Reject> evaluate_hello(const Hello &hello, const ServerHan
             return Reject{RejectReason::NotAuthorised, "this server requires a token (SPLITVK_TOKEN)"};
         if (!constant_time_equal(hello.token, config.token))
             return Reject{RejectReason::BadToken, "the token does not match the server's"};
+    }
+    if (config.codec_fingerprint != 0 && hello.codec_fingerprint != config.codec_fingerprint) {
+        return Reject{RejectReason::VersionMismatch,
+                      "client and server were built from different Vulkan codecs (vk.xml or allow-list differ)"};
     }
     if (config.full) return Reject{RejectReason::ServerFull, "the server takes no more sessions"};
     Welcome welcome;

@@ -44,8 +44,9 @@ inline constexpr uint8_t kHelloMagic[4] = {'S', 'P', 'V', 'K'};
 // is used only if its bit is in it. Bits not listed are reserved and must be ignored.
 namespace capability {
 inline constexpr uint64_t kZstdPayloads = 1ull << 0; // compressed payloads (kFlagCompressed) accepted
+inline constexpr uint64_t kVerifyFrames = 1ull << 1; // the server returns whole presented frames (SPLITVK_VERIFY)
 } // namespace capability
-inline constexpr uint64_t kSupportedCapabilities = capability::kZstdPayloads;
+inline constexpr uint64_t kSupportedCapabilities = capability::kZstdPayloads | capability::kVerifyFrames;
 
 // Field caps, enforced by the decoders (and by the encoders, which clamp text to them).
 inline constexpr uint32_t kMaxTokenBytes = 256;
@@ -58,6 +59,9 @@ struct Hello {
     std::vector<uint8_t> token; // the session secret (DESIGN §6 TOKEN); empty: none
     std::string client_name;    // the application, for the server's logs
     std::string client_gpu_name;
+    // kCodecFingerprint of the client's generated codec: both sides must be built from the same
+    // vk.xml and allow-list, or their command encodings differ.
+    uint64_t codec_fingerprint = 0;
 };
 
 struct Welcome {
@@ -117,6 +121,7 @@ struct ServerHandshakeConfig {
     std::string server_gpu_name;
     uint64_t session_id = 0;
     bool full = false; // the server takes no more sessions
+    uint64_t codec_fingerprint = 0; // the server's kCodecFingerprint; 0: not checked
 };
 std::variant<Welcome, Reject> evaluate_hello(const Hello &hello, const ServerHandshakeConfig &config);
 

@@ -45,6 +45,12 @@ const char *message_type_name(uint16_t type) {
         return "FramePresent";
     case MessageType::Tiles:
         return "Tiles";
+    case MessageType::SwapchainImages:
+        return "SwapchainImages";
+    case MessageType::SwapchainDestroyed:
+        return "SwapchainDestroyed";
+    case MessageType::VerifyFrame:
+        return "VerifyFrame";
     default:
         break;
     }
@@ -60,7 +66,7 @@ bool is_defined_type(uint16_t type) {
     case MessageClass::Control:
         return type >= to_wire(MessageType::Hello) && type <= to_wire(MessageType::Pong);
     case MessageClass::Metadata:
-        return type >= to_wire(MessageType::MemoryData) && type <= to_wire(MessageType::Tiles);
+        return type >= to_wire(MessageType::MemoryData) && type <= to_wire(MessageType::VerifyFrame);
     }
     return false;
 }

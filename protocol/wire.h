@@ -53,6 +53,7 @@ enum class MessageType : uint16_t {
 
     // 0x0100-0x0FFF: forwarded Vulkan commands, assigned by the generated codec (codegen/).
     VulkanFirst = 0x0100,
+    Commands = 0x0100, // a sequence of codec-encoded commands (vk_codec.h), replayed in order
     VulkanLast = 0x0FFF,
 
     // 0x1000-0xFFFF: metadata that is not a Vulkan call.
@@ -60,6 +61,9 @@ enum class MessageType : uint16_t {
     FrameBegin = 0x1001,   // acquire: a frame starts on a swapchain image
     FramePresent = 0x1002, // present: the server renders and returns this frame's fovea
     Tiles = 0x1003,        // encoded fovea tiles of one frame (server -> client)
+    SwapchainImages = 0x1004,   // a swapchain's images, which the server makes offscreen images
+    SwapchainDestroyed = 0x1005, // the client destroyed a swapchain
+    VerifyFrame = 0x1006,       // a whole presented frame read back by the server (SPLITVK_VERIFY)
 };
 
 enum class MessageClass { Invalid, Control, Vulkan, Metadata };

@@ -18,6 +18,7 @@ Hello sample_hello() {
     hello.token = bytes_of("s3cret-token");
     hello.client_name = "vkcube";
     hello.client_gpu_name = "llvmpipe (LLVM 15.0.6, 256 bits)";
+    hello.codec_fingerprint = 0x0123456789abcdefull;
     return hello;
 }
 
@@ -37,6 +38,7 @@ TEST(ProtocolHandshake, HelloRoundTripAndLayout) {
     EXPECT_EQ(back->token, hello.token);
     EXPECT_EQ(back->client_name, "vkcube");
     EXPECT_EQ(back->client_gpu_name, hello.client_gpu_name);
+    EXPECT_EQ(back->codec_fingerprint, hello.codec_fingerprint);
 }
 
 TEST(ProtocolHandshake, WelcomeRejectGoodbyeRoundTrip) {
@@ -213,6 +215,16 @@ TEST(ProtocolHandshake, ServerFull) {
     ServerHandshakeConfig config;
     config.full = true;
     EXPECT_EQ(std::get<Reject>(evaluate_hello(sample_hello(), config)).reason, RejectReason::ServerFull);
+}
+
+TEST(ProtocolHandshake, CodecFingerprintMustMatch) {
+    ServerHandshakeConfig config;
+    config.codec_fingerprint = sample_hello().codec_fingerprint;
+    EXPECT_TRUE(std::holds_alternative<Welcome>(evaluate_hello(sample_hello(), config)));
+    config.codec_fingerprint ^= 1;
+    const auto verdict = evaluate_hello(sample_hello(), config);
+    ASSERT_TRUE(std::holds_alternative<Reject>(verdict));
+    EXPECT_EQ(std::get<Reject>(verdict).reason, RejectReason::VersionMismatch);
 }
 
 TEST(ProtocolHandshake, CapabilitiesAreTheIntersection) {

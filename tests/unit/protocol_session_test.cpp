@@ -1,0 +1,84 @@
+#include "session.h"
+
+#include <gtest/gtest.h>
+
+namespace splitvk::protocol {
+namespace {
+
+// Every cut of a valid message is refused with a one-line error, and so is a trailing byte.
+template <typename Decode>
+void expect_truncations_refused(const std::vector<uint8_t> &bytes, Decode decode) {
+    for (size_t cut = 0; cut < bytes.size(); ++cut) {
+        const auto result = decode(std::span<const uint8_t>(bytes.data(), cut));
+        ASSERT_FALSE(result.ok()) << "accepted a message cut at " << cut << " of " << bytes.size();
+        EXPECT_EQ(result.error().find('\n'), std::string::npos);
+    }
+    auto longer = bytes;
+    longer.push_back(0);
+    EXPECT_FALSE(decode(longer).ok()) << "accepted trailing bytes";
+    EXPECT_TRUE(decode(bytes).ok());
+}
+
+TEST(ProtocolSession, MemoryDataRoundTrip) {
+    const MemoryData m{1, 0xabc000, 4096, {1, 2, 3, 4, 5}};
+    const auto bytes = encode(m);
+    const auto back = decode_memory_data(bytes, 1 << 20);
+    ASSERT_TRUE(back.ok()) << back.error();
+    EXPECT_EQ(back->memory_id, m.memory_id);
+    EXPECT_EQ(back->offset, m.offset);
+    EXPECT_EQ(back->bytes, m.bytes);
+    EXPECT_FALSE(decode_memory_data(bytes, 4).ok()) << "the byte cap is enforced";
+    expect_truncations_refused(bytes, [](auto p) { return decode_memory_data(p, 1 << 20); });
+}
+
+TEST(ProtocolSession, SwapchainImagesRoundTripAndLimits) {
+    SwapchainImages m{7, 0x55, 2400, 1080, 44, 0x10, 1, {0x100, 0x200, 0x300}};
+    const auto bytes = encode(m);
+    const auto back = decode_swapchain_images(bytes);
+    ASSERT_TRUE(back.ok()) << back.error();
+    EXPECT_EQ(back->image_ids, m.image_ids);
+    EXPECT_EQ(back->width, 2400u);
+    EXPECT_EQ(back->format, 44u);
+    expect_truncations_refused(bytes, decode_swapchain_images);
+
+    m.image_ids.assign(kMaxSwapchainImages + 1, 1);
+    EXPECT_FALSE(decode_swapchain_images(encode(m)).ok());
+    m.image_ids = {1};
+    m.width = 0;
+    EXPECT_FALSE(decode_swapchain_images(encode(m)).ok());
+}
+
+TEST(ProtocolSession, FrameMarksRoundTrip) {
+    const FrameBegin begin{41, 0x55, 2};
+    const auto b = decode_frame_begin(encode(begin));
+    ASSERT_TRUE(b.ok());
+    EXPECT_EQ(b->frame, 41u);
+    EXPECT_EQ(b->image_index, 2u);
+    expect_truncations_refused(encode(begin), decode_frame_begin);
+
+    const FramePresent present{41, 0x99, kPresentVerify, {{0x55, 2}, {0x66, 0}}};
+    const auto p = decode_frame_present(encode(present));
+    ASSERT_TRUE(p.ok());
+    EXPECT_EQ(p->flags, kPresentVerify);
+    ASSERT_EQ(p->images.size(), 2u);
+    EXPECT_EQ(p->images[1].swapchain_id, 0x66u);
+    expect_truncations_refused(encode(present), decode_frame_present);
+
+    EXPECT_FALSE(decode_frame_present(encode(FramePresent{1, 1, 0, {}})).ok()) << "a present shows something";
+    const auto d = decode_swapchain_destroyed(encode(SwapchainDestroyed{3, 4}));
+    ASSERT_TRUE(d.ok());
+    EXPECT_EQ(d->swapchain_id, 4u);
+}
+
+TEST(ProtocolSession, VerifyFrameChecksPixelCount) {
+    VerifyFrame m{5, 0x55, 1, 3, 2, 44, std::vector<uint8_t>(3 * 2 * 4, 7)};
+    const auto back = decode_verify_frame(encode(m), 1 << 20);
+    ASSERT_TRUE(back.ok()) << back.error();
+    EXPECT_EQ(back->pixels, m.pixels);
+    expect_truncations_refused(encode(m), [](auto p) { return decode_verify_frame(p, 1 << 20); });
+    m.pixels.pop_back();
+    EXPECT_FALSE(decode_verify_frame(encode(m), 1 << 20).ok());
+}
+
+} // namespace
+} // namespace splitvk::protocol
