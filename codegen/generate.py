@@ -15,12 +15,14 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import emit_codec  # noqa: E402
 import emit_dispatch  # noqa: E402
 import emit_layer  # noqa: E402
+import emit_replay  # noqa: E402
 import vkregistry  # noqa: E402
 
 EMITTERS = {
     "dispatch": emit_dispatch.emit,
     "layer": emit_layer.emit,
     "codec": emit_codec.emit,
+    "replay": emit_replay.emit,
 }
 
 

@@ -17,7 +17,8 @@ std::optional<uint32_t> parse_index(const std::string &text) {
 } // namespace
 
 const char *agent_usage() {
-    return "usage: splitvk-agent [--listen ADDR:PORT] [--device N] [--token-file FILE]\n"
+    return "usage: splitvk-agent [--listen ADDR:PORT] [--device N] [--token-file FILE] [--validate]\n"
+           "                     [--max-sessions N]\n"
            "       splitvk-agent --list-devices\n"
            "\n"
            "The splitvk server agent: replays the command stream of applications running the\n"
@@ -27,6 +28,9 @@ const char *agent_usage() {
            "                      a non-loopback address requires --token-file\n"
            "  --device N          index of the GPU to render on, as --list-devices prints it (default 0)\n"
            "  --token-file FILE   file holding the shared token clients must present\n"
+           "  --validate          enable VK_LAYER_KHRONOS_validation (synchronization validation too) in\n"
+           "                      every session and log its messages as errors\n"
+           "  --max-sessions N    sessions served at once (default 16); more are rejected as server full\n"
            "  --list-devices      print the GPUs this agent can use and exit\n"
            "  --help              print this help and exit\n";
 }
@@ -76,6 +80,17 @@ ParsedOptions parse_agent_options(const std::vector<std::string> &arguments) {
             const auto v = value("a file");
             if (!v) return parsed;
             o.token_file = *v;
+        } else if (arg == "--validate") {
+            o.validate = true;
+        } else if (arg == "--max-sessions") {
+            const auto v = value("a number of sessions");
+            if (!v) return parsed;
+            const auto count = parse_index(*v);
+            if (!count || *count == 0 || *count > 1024) {
+                parsed.error = "--max-sessions '" + *v + "' is invalid: expected 1-1024";
+                return parsed;
+            }
+            o.max_sessions = *count;
         } else {
             parsed.error = "unknown option '" + arg + "' (see --help)";
             return parsed;

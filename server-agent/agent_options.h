@@ -14,6 +14,8 @@ struct AgentOptions {
     uint16_t listen_port = 7447;
     uint32_t device_index = 0;
     std::string token_file;
+    bool validate = false;      // VK_LAYER_KHRONOS_validation in every session, messages logged
+    uint32_t max_sessions = 16; // sessions served at once; more are rejected as ServerFull
     bool list_devices = false;
     bool help = false;
 };

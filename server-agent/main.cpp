@@ -2,6 +2,7 @@
 
 #include "agent_options.h"
 #include "devices.h"
+#include "listener.h"
 #include "log.h"
 
 #include <vulkan/vulkan.h>
@@ -50,10 +51,5 @@ int main(int argc, char **argv) {
                       gpus.empty() ? error.c_str() : "no such GPU (see --list-devices)");
         return 2;
     }
-    // Serving sessions needs the wire protocol and replay of the command-stream replication
-    // work, which this build does not have yet; say so rather than accept connections.
-    SPLITVK_ERROR("serving sessions on %s:%u is not in this build yet (command-stream replication); "
-                  "the layer runs applications unsplit until then",
-                  options.listen_host.c_str(), options.listen_port);
-    return 3;
+    return splitvk::agent::run_listener(options, gpus[options.device_index].name);
 }

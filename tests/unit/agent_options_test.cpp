@@ -23,6 +23,19 @@ TEST(AgentOptions, ParsesEveryOption) {
     EXPECT_EQ(parsed.options.token_file, "/etc/splitvk/token");
 }
 
+TEST(AgentOptions, ValidateAndMaxSessions) {
+    const auto defaults = parse_agent_options({});
+    EXPECT_FALSE(defaults.options.validate);
+    EXPECT_EQ(defaults.options.max_sessions, 16u);
+    const auto parsed = parse_agent_options({"--validate", "--max-sessions", "3"});
+    ASSERT_TRUE(parsed.error.empty()) << parsed.error;
+    EXPECT_TRUE(parsed.options.validate);
+    EXPECT_EQ(parsed.options.max_sessions, 3u);
+    EXPECT_NE(parse_agent_options({"--max-sessions", "0"}).error.find("--max-sessions"), std::string::npos);
+    EXPECT_NE(parse_agent_options({"--max-sessions"}).error.find("--max-sessions"), std::string::npos);
+    EXPECT_NE(std::string(agent_usage()).find("--validate"), std::string::npos);
+}
+
 TEST(AgentOptions, NonLoopbackNeedsAToken) {
     EXPECT_NE(parse_agent_options({"--listen", "0.0.0.0:7447"}).error.find("--token-file"),
               std::string::npos);

@@ -1,0 +1,228 @@
+#include "agent_session.h"
+
+#include "log.h"
+#include "replayer.h"
+#include "session.h"
+#include "vk_codec.h"
+
+#include <chrono>
+
+namespace splitvk::agent {
+
+using namespace std::chrono_literals;
+using protocol::MessageType;
+using protocol::to_wire;
+
+namespace {
+
+constexpr auto kHandshakeTimeout = 10s;
+constexpr uint32_t kMaxPayload = protocol::kDefaultMaxPayload;
+
+// The types a client may send; anything else (the rest of the Vulkan range included) is a
+// protocol error that ends the session.
+bool client_type(uint16_t type) {
+    switch (static_cast<MessageType>(type)) {
+    case MessageType::Hello:
+    case MessageType::Goodbye:
+    case MessageType::Ping:
+    case MessageType::Pong:
+    case MessageType::Commands:
+    case MessageType::MemoryData:
+    case MessageType::FrameBegin:
+    case MessageType::FramePresent:
+    case MessageType::SwapchainImages:
+    case MessageType::SwapchainDestroyed:
+        return true;
+    default:
+        return false;
+    }
+}
+
+class Session {
+public:
+    Session(std::unique_ptr<protocol::Connection> connection, const SessionConfig &config)
+        : connection_(std::move(connection)), config_(config), replayer_(config.session_id) {}
+
+    int run();
+
+private:
+    int fail(const std::string &what, int status);
+    // Handles one message; false with `error` set ends the session.
+    bool handle(protocol::Message &message, bool *done, std::string *error);
+
+    std::unique_ptr<protocol::Connection> connection_;
+    SessionConfig config_;
+    Replayer replayer_;
+    uint64_t messages_ = 0;
+    uint64_t frames_ = 0;
+};
+
+int Session::fail(const std::string &what, int status) {
+    SPLITVK_ERROR("session %llu: %s; closing", static_cast<unsigned long long>(config_.session_id),
+                  what.c_str());
+    if (connection_->is_open()) {
+        protocol::Goodbye bye{what};
+        connection_->send(MessageType::Goodbye, protocol::encode_goodbye(bye));
+        connection_->flush(1000ms);
+    }
+    connection_->close("session error");
+    return status;
+}
+
+int Session::run() {
+    connection_->start([](const std::string &) {});
+    protocol::ServerHandshakeConfig handshake;
+    handshake.token = config_.token;
+    handshake.server_gpu_name = config_.gpu_name;
+    handshake.session_id = config_.session_id;
+    handshake.full = config_.full;
+    handshake.codec_fingerprint = codec::kCodecFingerprint;
+    auto hs = protocol::server_handshake(*connection_, handshake, kHandshakeTimeout);
+    if (!hs) {
+        SPLITVK_ERROR("session %llu: handshake failed: %s; closing",
+                      static_cast<unsigned long long>(config_.session_id), hs.error().c_str());
+        connection_->close("handshake failed");
+        return kSessionHandshake;
+    }
+    if (!(hs->welcome.capabilities & protocol::capability::kZstdPayloads)) {
+        protocol::CompressionPolicy off;
+        off.enabled = false;
+        connection_->set_compression(off);
+    }
+    SPLITVK_INFO("session %llu: %s (%s) from %s", static_cast<unsigned long long>(config_.session_id),
+                 hs->hello.client_name.c_str(), hs->hello.client_gpu_name.c_str(),
+                 connection_->peer_address().c_str());
+    std::string error;
+    if (!replayer_.init(config_.device_index, config_.validate, &error)) return fail(error, kSessionSetup);
+
+    for (;;) {
+        auto message = connection_->receive(500ms);
+        if (!message) {
+            if (connection_->is_open()) continue;
+            const std::string reason = connection_->close_reason();
+            if (reason == "peer closed the connection") break;
+            return fail(reason, kSessionError);
+        }
+        ++messages_;
+        bool done = false;
+        if (!handle(*message, &done, &error)) return fail(error, kSessionError);
+        if (done) break;
+    }
+    connection_->close("session over");
+    const auto validation = replayer_.context().validation_messages();
+    SPLITVK_INFO(
+        "session %llu: closed after %llu messages, %llu commands, %llu submits, %llu frames; %llu validation "
+        "messages",
+        static_cast<unsigned long long>(config_.session_id), static_cast<unsigned long long>(messages_),
+        static_cast<unsigned long long>(replayer_.commands_replayed()),
+        static_cast<unsigned long long>(replayer_.submits()), static_cast<unsigned long long>(frames_),
+        static_cast<unsigned long long>(validation));
+    return validation ? kSessionValidation : kSessionClosed;
+}
+
+bool Session::handle(protocol::Message &message, bool *done, std::string *error) {
+    switch (static_cast<MessageType>(message.type)) {
+    case MessageType::Commands:
+        return replayer_.replay(message.payload, error);
+    case MessageType::MemoryData: {
+        auto m = protocol::decode_memory_data(message.payload, kMaxPayload);
+        if (!m) {
+            *error = "MemoryData: " + m.error();
+            return false;
+        }
+        return replayer_.memory_data(*m, error);
+    }
+    case MessageType::SwapchainImages: {
+        auto m = protocol::decode_swapchain_images(message.payload);
+        if (!m) {
+            *error = "SwapchainImages: " + m.error();
+            return false;
+        }
+        return replayer_.swapchain_images(*m, error);
+    }
+    case MessageType::SwapchainDestroyed: {
+        auto m = protocol::decode_swapchain_destroyed(message.payload);
+        if (!m) {
+            *error = "SwapchainDestroyed: " + m.error();
+            return false;
+        }
+        return replayer_.swapchain_destroyed(*m, error);
+    }
+    case MessageType::FrameBegin: {
+        auto m = protocol::decode_frame_begin(message.payload);
+        if (!m) {
+            *error = "FrameBegin: " + m.error();
+            return false;
+        }
+        return true; // a frame mark; the fovea work of issue 4 starts here
+    }
+    case MessageType::FramePresent: {
+        auto m = protocol::decode_frame_present(message.payload);
+        if (!m) {
+            *error = "FramePresent: " + m.error();
+            return false;
+        }
+        std::vector<protocol::VerifyFrame> frames;
+        if (!replayer_.frame_present(*m, frames, error)) return false;
+        ++frames_;
+        for (auto &frame : frames) {
+            const auto r =
+                connection_->send_owned(MessageType::VerifyFrame, protocol::encode(frame), 10000ms);
+            if (r != protocol::SendResult::Queued) {
+                *error = std::string("sending VerifyFrame: ") + protocol::to_string(r);
+                return false;
+            }
+        }
+        return true;
+    }
+    case MessageType::Ping:
+        connection_->send(MessageType::Pong, message.payload);
+        return true;
+    case MessageType::Pong:
+        return true;
+    case MessageType::Goodbye:
+        *done = true;
+        return true;
+    default:
+        *error = std::string("unexpected ") + protocol::message_type_name(message.type) +
+                 " message from the client";
+        return false;
+    }
+}
+
+} // namespace
+
+const char *session_exit_name(int status) {
+    switch (status) {
+    case kSessionClosed:
+        return "closed by the client";
+    case kSessionError:
+        return "error";
+    case kSessionHandshake:
+        return "handshake failed";
+    case kSessionSetup:
+        return "Vulkan setup failed";
+    case kSessionValidation:
+        return "closed, with validation messages";
+    default:
+        return "unknown exit status";
+    }
+}
+
+int run_session(protocol::UniqueFd socket, const SessionConfig &config) {
+    protocol::ConnectionOptions options;
+    options.name = "session " + std::to_string(config.session_id);
+    options.max_payload = kMaxPayload;
+    options.unknown_types = protocol::UnknownTypePolicy::Reject;
+    options.is_known_type = client_type;
+    auto connection = protocol::Connection::adopt(std::move(socket), options);
+    if (!connection) {
+        SPLITVK_ERROR("session %llu: %s", static_cast<unsigned long long>(config.session_id),
+                      connection.error().c_str());
+        return kSessionError;
+    }
+    Session session(std::move(connection.value()), config);
+    return session.run();
+}
+
+} // namespace splitvk::agent

@@ -1,0 +1,38 @@
+#pragma once
+
+// One session, served in its own process (DESIGN §8: one worker process per context is the real
+// defence): adopt the accepted socket, handshake, then replay the client's messages in order until
+// the client leaves or something fails. Any decode or replay error ends the session with one log
+// line naming what failed.
+
+#include "transport.h"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace splitvk::agent {
+
+struct SessionConfig {
+    uint64_t session_id = 0;
+    uint32_t device_index = 0;
+    bool validate = false;
+    bool full = false; // over --max-sessions: reject the Hello as ServerFull
+    std::vector<uint8_t> token;
+    std::string gpu_name;
+};
+
+// Exit statuses of a session process (the listener logs them).
+enum SessionExit : int {
+    kSessionClosed = 0,     // the client closed or said goodbye
+    kSessionError = 1,      // malformed input, a decode or replay error
+    kSessionHandshake = 2,  // no valid Hello (bad token, version, a command first, timeout)
+    kSessionSetup = 3,      // the agent's own Vulkan setup failed
+    kSessionValidation = 4, // closed normally, but --validate reported messages
+};
+const char *session_exit_name(int status);
+
+// Serves one connection; returns the process exit status.
+int run_session(protocol::UniqueFd socket, const SessionConfig &config);
+
+} // namespace splitvk::agent

@@ -1,0 +1,17 @@
+#pragma once
+
+// The agent's listener: accepts connections and serves each in a forked child process, so a crash
+// in one session never takes down the listener or another session. The parent stays
+// single-threaded (the Acceptor is plain POSIX: nothing to inherit across fork), reaps its children,
+// logs one line per session start and end, and stops cleanly on SIGTERM / SIGINT.
+
+#include "agent_options.h"
+
+#include <string>
+
+namespace splitvk::agent {
+
+// Serves until SIGTERM or SIGINT; returns the process exit status.
+int run_listener(const AgentOptions &options, const std::string &gpu_name);
+
+} // namespace splitvk::agent

@@ -1,0 +1,86 @@
+#pragma once
+
+// Memory rebind (DESIGN §3, GFXReconstruct's "rebind"): the agent never trusts the client's memory
+// type indices, offsets or alignments. vkAllocateMemory only records a client memory object; each
+// bound buffer or image gets its own allocation on the agent's GPU, and MemoryData for a range of a
+// client memory object is routed to every resource bound in that range. Bytes that arrive before a
+// resource is bound are kept in a sparse, zero-initialised shadow and applied at bind time.
+//
+// Buffers get host-visible coherent memory and receive MemoryData directly. Optimal-tiling images
+// get device-local memory and receive contents only through GPU copies, as applications do.
+// Linear images get host-visible memory and receive MemoryData 1:1 at the same offsets: exact when
+// the client's driver lays the image out as the agent's does (same driver); across drivers the
+// rows would have to be re-pitched from the client's VkSubresourceLayout, which the protocol does
+// not carry yet.
+
+#include "vulkan_context.h"
+
+#include <vulkan/vulkan.h>
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <span>
+#include <string>
+#include <unordered_map>
+#include <unordered_set>
+
+namespace splitvk::agent {
+
+class MemoryRebind {
+public:
+    explicit MemoryRebind(VulkanContext &context) : context_(context) {}
+    ~MemoryRebind();
+    MemoryRebind(const MemoryRebind &) = delete;
+    MemoryRebind &operator=(const MemoryRebind &) = delete;
+
+    // A client memory object (nothing is allocated on the GPU).
+    bool allocate(uint64_t memory_id, VkDeviceSize size, std::string *error);
+    void free(uint64_t memory_id);
+    bool has_memory(uint64_t memory_id) const { return memories_.count(memory_id) != 0; }
+
+    // What the agent needs to know of resources before they are bound.
+    void buffer_created(VkBuffer buffer, const VkBufferCreateInfo &info);
+    void image_created(VkImage image, const VkImageCreateInfo &info);
+    // Frees the resource's own allocation (after the resource itself was destroyed).
+    void buffer_destroyed(VkBuffer buffer);
+    void image_destroyed(VkImage image);
+
+    // vkBind*Memory*: allocates the resource's own memory and binds it; applies the shadow.
+    bool bind_buffer(VkBuffer buffer, uint64_t memory_id, VkDeviceSize offset, std::string *error);
+    bool bind_image(VkImage image, uint64_t memory_id, VkDeviceSize offset, std::string *error);
+
+    // MemoryData: into the shadow and into every host-visible resource bound in the range.
+    bool write(uint64_t memory_id, VkDeviceSize offset, std::span<const uint8_t> bytes, std::string *error);
+
+    size_t bound_resources() const { return resources_.size(); }
+
+private:
+    static constexpr VkDeviceSize kPageSize = 64 * 1024;
+    struct ClientMemory {
+        VkDeviceSize size = 0;
+        std::map<VkDeviceSize, std::unique_ptr<uint8_t[]>> pages; // page index -> kPageSize bytes
+        std::unordered_set<uint64_t> bound;                       // resources bound to it
+    };
+    struct Resource {
+        bool is_image = false;
+        VkDeviceSize client_size = 0; // bytes of client memory the resource covers (buffers)
+        VkImageTiling tiling = VK_IMAGE_TILING_OPTIMAL;
+        uint64_t memory_id = 0; // 0 while unbound
+        VkDeviceSize client_offset = 0;
+        VkDeviceMemory memory = VK_NULL_HANDLE;
+        uint8_t *mapped = nullptr; // host-visible buffers: written directly
+        VkDeviceSize mapped_size = 0;
+    };
+
+    bool bind(uint64_t handle, uint64_t memory_id, VkDeviceSize offset, const VkMemoryRequirements &req,
+              std::string *error);
+    void copy_shadow(const ClientMemory &memory, Resource &resource);
+    void release(Resource &resource);
+
+    VulkanContext &context_;
+    std::unordered_map<uint64_t, ClientMemory> memories_;
+    std::unordered_map<uint64_t, Resource> resources_; // by the agent's handle value
+};
+
+} // namespace splitvk::agent

@@ -1,0 +1,366 @@
+#include "replayer.h"
+
+#include "log.h"
+
+#include <cstdio>
+#include <cstring>
+#include <string_view>
+
+namespace splitvk::agent {
+
+using codec::VkCommandId;
+
+namespace {
+
+std::string hex(uint64_t v) {
+    char text[24];
+    std::snprintf(text, sizeof(text), "0x%llx", static_cast<unsigned long long>(v));
+    return text;
+}
+
+} // namespace
+
+Replayer::Replayer(uint64_t session_id) : session_id_(session_id) {
+    table = &table_;
+}
+
+Replayer::~Replayer() {
+    if (context_.device) vkDeviceWaitIdle(context_.device);
+}
+
+bool Replayer::init(uint32_t device_index, bool validate, std::string *error) {
+    return context_.create_instance(device_index, validate, session_id_, error);
+}
+
+bool Replayer::failed(const char *command, VkResult result, const std::string &detail) {
+    if (!error_.empty()) return false; // the first error is the one reported
+    error_ = command;
+    if (result != VK_SUCCESS) error_ += std::string(": ") + vk_result_name(result);
+    if (!detail.empty()) error_ += ": " + detail;
+    return false;
+}
+
+bool Replayer::unhandled(VkCommandId id) {
+    return failed(codec::command_name(id), VK_SUCCESS,
+                  "not replayed by the agent (the layer must not send it)");
+}
+
+void Replayer::quiesce() {
+    if (!gpu_busy_ || !context_.queue) return;
+    vkQueueWaitIdle(context_.queue);
+    gpu_busy_ = false;
+}
+
+bool Replayer::needs_quiesce(VkCommandId id) const {
+    const std::string_view name = codec::command_name(id);
+    for (std::string_view safe :
+         {"vkCmd", "vkCreate", "vkAllocate", "vkGet", "vkQueueSubmit", "vkEndCommandBuffer", "vkBind"})
+        if (name.substr(0, safe.size()) == safe) return false;
+    return true;
+}
+
+// vkCreateDevice names the client's VkPhysicalDevice, which the stream never created: register
+// that id for the agent's GPU before the command is decoded (encoded layout: u16 command id, then
+// the u64 physicalDevice id).
+bool Replayer::peek_create_device(std::span<const uint8_t> payload, size_t offset, std::string *error) {
+    if (payload.size() - offset < 10) return true; // the decoder reports the truncation
+    const uint64_t id = protocol::load_le64(payload.data() + offset + 2);
+    if (id == 0) return true; // the decoder reports the null handle
+    const auto *entry = table_.find(id);
+    if (entry && entry->type == VK_OBJECT_TYPE_PHYSICAL_DEVICE) return true;
+    return table_.insert(id, VK_OBJECT_TYPE_PHYSICAL_DEVICE, context_.physical_device, 0, error);
+}
+
+bool Replayer::replay(std::span<const uint8_t> payload, std::string *error) {
+    error->clear();
+    codec::Decoder d(payload, table_, arena_);
+    bool ok = true;
+    while (ok && d.ok() && !d.at_end()) {
+        const size_t offset = d.offset();
+        if (payload.size() - offset >= 2) {
+            const auto id = static_cast<VkCommandId>(protocol::load_le16(payload.data() + offset));
+            if (id == VkCommandId::vkCreateDevice && !peek_create_device(payload, offset, error)) {
+                *error = "vkCreateDevice: " + *error;
+                ok = false;
+                break;
+            }
+            if (codec::is_command_id(static_cast<uint16_t>(id)) && needs_quiesce(id)) quiesce();
+        }
+        ok = codec::dispatch_decoded(d, *this);
+        if (ok) ++commands_;
+    }
+    if (ok && d.ok()) {
+        arena_.reset();
+        return true;
+    }
+    if (!d.ok())
+        *error = d.error();
+    else if (error->empty())
+        *error = error_.empty() ? std::string("replay refused a command") : error_;
+    arena_.reset();
+    return false;
+}
+
+// --- instance, device, queues ---------------------------------------------------------------
+
+bool Replayer::vkCreateInstance(const codec::Decoded_vkCreateInstance &c) {
+    // The client's instance is informative; its id stands for the agent's own.
+    if (c.pInstance && c.pInstance_count) c.pInstance[0] = context_.instance;
+    std::string error;
+    if (!codec::apply_handle_changes(table_, c, &error)) return failed("vkCreateInstance", VK_SUCCESS, error);
+    return true;
+}
+
+bool Replayer::vkDestroyInstance(const codec::Decoded_vkDestroyInstance &) {
+    return true; // the session's instance lives as long as the session
+}
+
+bool Replayer::vkCreateDevice(const codec::Decoded_vkCreateDevice &c) {
+    if (context_.device) return failed("vkCreateDevice", VK_SUCCESS, "a session replays one device");
+    std::string error;
+    const VkResult r = context_.create_device(*c.pCreateInfo, &error);
+    if (r != VK_SUCCESS) return failed("vkCreateDevice", VK_SUCCESS, error);
+    vk.load(vkGetDeviceProcAddr, context_.device);
+    if (c.pDevice && c.pDevice_count) c.pDevice[0] = context_.device;
+    if (!codec::apply_handle_changes(table_, c, &error)) return failed("vkCreateDevice", VK_SUCCESS, error);
+    SPLITVK_INFO("session %llu: device created on %s (Vulkan %u.%u%s)",
+                 static_cast<unsigned long long>(session_id_), context_.gpu_name.c_str(),
+                 VK_API_VERSION_MAJOR(context_.api_version), VK_API_VERSION_MINOR(context_.api_version),
+                 context_.swapchain_extension ? ", VK_KHR_swapchain"
+                                              : ", no VK_KHR_swapchain: PRESENT_SRC_KHR is invalid");
+    return true;
+}
+
+bool Replayer::vkDestroyDevice(const codec::Decoded_vkDestroyDevice &) {
+    // The session ends with the process, which frees the device and what the client left alive.
+    quiesce();
+    return true;
+}
+
+bool Replayer::vkGetDeviceQueue(const codec::Decoded_vkGetDeviceQueue &c) {
+    // Every client queue is the agent's one graphics queue: submits run in order on it.
+    if (c.pQueue && c.pQueue_count) c.pQueue[0] = context_.queue;
+    std::string error;
+    if (!codec::apply_handle_changes(table_, c, &error)) return failed("vkGetDeviceQueue", VK_SUCCESS, error);
+    return true;
+}
+
+bool Replayer::vkGetDeviceQueue2(const codec::Decoded_vkGetDeviceQueue2 &c) {
+    if (c.pQueue && c.pQueue_count) c.pQueue[0] = context_.queue;
+    std::string error;
+    if (!codec::apply_handle_changes(table_, c, &error))
+        return failed("vkGetDeviceQueue2", VK_SUCCESS, error);
+    return true;
+}
+
+// --- submits: in order on one queue; the client's semaphores and fences are its own ------------
+
+bool Replayer::vkQueueSubmit(const codec::Decoded_vkQueueSubmit &c) {
+    std::vector<VkSubmitInfo> submits(c.pSubmits, c.pSubmits + c.submitCount);
+    for (auto &s : submits) {
+        s.pNext = nullptr;
+        s.waitSemaphoreCount = 0;
+        s.pWaitSemaphores = nullptr;
+        s.pWaitDstStageMask = nullptr;
+        s.signalSemaphoreCount = 0;
+        s.pSignalSemaphores = nullptr;
+    }
+    const VkResult r = ::vkQueueSubmit(context_.queue, static_cast<uint32_t>(submits.size()), submits.data(),
+                                       VK_NULL_HANDLE);
+    if (r != VK_SUCCESS) return failed("vkQueueSubmit", r);
+    gpu_busy_ = true;
+    ++submits_;
+    return true;
+}
+
+bool Replayer::vkQueueSubmit2(const codec::Decoded_vkQueueSubmit2 &c) {
+    if (!vk.QueueSubmit2) return missing("vkQueueSubmit2");
+    std::vector<VkSubmitInfo2> submits(c.pSubmits, c.pSubmits + c.submitCount);
+    for (auto &s : submits) {
+        s.pNext = nullptr;
+        s.waitSemaphoreInfoCount = 0;
+        s.pWaitSemaphoreInfos = nullptr;
+        s.signalSemaphoreInfoCount = 0;
+        s.pSignalSemaphoreInfos = nullptr;
+    }
+    const VkResult r = vk.QueueSubmit2(context_.queue, static_cast<uint32_t>(submits.size()), submits.data(),
+                                       VK_NULL_HANDLE);
+    if (r != VK_SUCCESS) return failed("vkQueueSubmit2", r);
+    gpu_busy_ = true;
+    ++submits_;
+    return true;
+}
+
+// --- memory: rebind -------------------------------------------------------------------------
+
+bool Replayer::vkAllocateMemory(const codec::Decoded_vkAllocateMemory &c) {
+    if (!c.pMemory || !c.pMemory_ids || c.pMemory_count == 0) return true;
+    const uint64_t id = c.pMemory_ids[0];
+    std::string error;
+    if (id == 0) return true;
+    if (!memory_.allocate(id, c.pAllocateInfo->allocationSize, &error))
+        return failed("vkAllocateMemory", VK_SUCCESS, error);
+    // The table's handle for a client memory object is its id: nothing is allocated on the GPU
+    // until a resource is bound, and no forwarded command passes a VkDeviceMemory to the driver.
+    c.pMemory[0] = codec::to_handle<VkDeviceMemory>(id);
+    if (!codec::apply_handle_changes(table_, c, &error)) return failed("vkAllocateMemory", VK_SUCCESS, error);
+    return true;
+}
+
+bool Replayer::vkFreeMemory(const codec::Decoded_vkFreeMemory &c) {
+    memory_.free(c.memory_id);
+    std::string error;
+    if (!codec::apply_handle_changes(table_, c, &error)) return failed("vkFreeMemory", VK_SUCCESS, error);
+    return true;
+}
+
+// Mapping is the client's business: what the host writes arrives as MemoryData.
+bool Replayer::vkMapMemory(const codec::Decoded_vkMapMemory &) {
+    return true;
+}
+bool Replayer::vkUnmapMemory(const codec::Decoded_vkUnmapMemory &) {
+    return true;
+}
+bool Replayer::vkFlushMappedMemoryRanges(const codec::Decoded_vkFlushMappedMemoryRanges &) {
+    return true;
+}
+bool Replayer::vkInvalidateMappedMemoryRanges(const codec::Decoded_vkInvalidateMappedMemoryRanges &) {
+    return true;
+}
+bool Replayer::vkResetFences(const codec::Decoded_vkResetFences &) {
+    return true; // fences are answered by the client's driver
+}
+
+bool Replayer::vkBindBufferMemory(const codec::Decoded_vkBindBufferMemory &c) {
+    std::string error;
+    if (!memory_.bind_buffer(c.buffer, c.memory_id, c.memoryOffset, &error))
+        return failed("vkBindBufferMemory", VK_SUCCESS, "buffer " + hex(c.buffer_id) + ": " + error);
+    return true;
+}
+
+bool Replayer::vkBindBufferMemory2(const codec::Decoded_vkBindBufferMemory2 &c) {
+    for (uint32_t i = 0; i < c.bindInfoCount; ++i) {
+        const auto &info = c.pBindInfos[i];
+        std::string error;
+        if (!memory_.bind_buffer(info.buffer, codec::handle_value(info.memory), info.memoryOffset, &error))
+            return failed("vkBindBufferMemory2", VK_SUCCESS,
+                          "pBindInfos[" + std::to_string(i) + "]: " + error);
+    }
+    return true;
+}
+
+bool Replayer::vkBindImageMemory(const codec::Decoded_vkBindImageMemory &c) {
+    std::string error;
+    if (!memory_.bind_image(c.image, c.memory_id, c.memoryOffset, &error))
+        return failed("vkBindImageMemory", VK_SUCCESS, "image " + hex(c.image_id) + ": " + error);
+    return true;
+}
+
+bool Replayer::vkBindImageMemory2(const codec::Decoded_vkBindImageMemory2 &c) {
+    for (uint32_t i = 0; i < c.bindInfoCount; ++i) {
+        const auto &info = c.pBindInfos[i];
+        std::string error;
+        if (!memory_.bind_image(info.image, codec::handle_value(info.memory), info.memoryOffset, &error))
+            return failed("vkBindImageMemory2", VK_SUCCESS,
+                          "pBindInfos[" + std::to_string(i) + "]: " + error);
+    }
+    return true;
+}
+
+bool Replayer::vkCreateBuffer(const codec::Decoded_vkCreateBuffer &c) {
+    if (!ReplayVisitorBase::vkCreateBuffer(c)) return false;
+    memory_.buffer_created(c.pBuffer[0], *c.pCreateInfo);
+    return true;
+}
+
+bool Replayer::vkDestroyBuffer(const codec::Decoded_vkDestroyBuffer &c) {
+    if (!ReplayVisitorBase::vkDestroyBuffer(c)) return false;
+    memory_.buffer_destroyed(c.buffer);
+    return true;
+}
+
+bool Replayer::vkCreateImage(const codec::Decoded_vkCreateImage &c) {
+    if (!ReplayVisitorBase::vkCreateImage(c)) return false;
+    memory_.image_created(c.pImage[0], *c.pCreateInfo);
+    return true;
+}
+
+bool Replayer::vkDestroyImage(const codec::Decoded_vkDestroyImage &c) {
+    if (!ReplayVisitorBase::vkDestroyImage(c)) return false;
+    memory_.image_destroyed(c.image);
+    return true;
+}
+
+// --- pipelines: the client's pipeline cache is not used ---------------------------------------
+
+bool Replayer::vkCreateGraphicsPipelines(const codec::Decoded_vkCreateGraphicsPipelines &c) {
+    auto copy = c;
+    copy.pipelineCache = VK_NULL_HANDLE;
+    return ReplayVisitorBase::vkCreateGraphicsPipelines(copy);
+}
+
+bool Replayer::vkCreateComputePipelines(const codec::Decoded_vkCreateComputePipelines &c) {
+    auto copy = c;
+    copy.pipelineCache = VK_NULL_HANDLE;
+    return ReplayVisitorBase::vkCreateComputePipelines(copy);
+}
+
+// --- metadata -------------------------------------------------------------------------------
+
+bool Replayer::memory_data(const protocol::MemoryData &message, std::string *error) {
+    const auto *entry = table_.find(message.memory_id);
+    if (!entry || entry->type != VK_OBJECT_TYPE_DEVICE_MEMORY) {
+        *error = "MemoryData: unknown VkDeviceMemory id " + hex(message.memory_id);
+        return false;
+    }
+    quiesce(); // the bytes may land in a buffer the GPU is still reading
+    if (!memory_.write(message.memory_id, message.offset, message.bytes, error)) {
+        *error = "MemoryData: memory " + hex(message.memory_id) + ": " + *error;
+        return false;
+    }
+    return true;
+}
+
+bool Replayer::swapchain_images(const protocol::SwapchainImages &message, std::string *error) {
+    if (!swapchains_.create(message, error)) {
+        *error = "SwapchainImages: swapchain " + hex(message.swapchain_id) + ": " + *error;
+        return false;
+    }
+    return true;
+}
+
+bool Replayer::swapchain_destroyed(const protocol::SwapchainDestroyed &message, std::string *error) {
+    quiesce();
+    if (!swapchains_.destroy(message.swapchain_id, error)) {
+        *error = "SwapchainDestroyed: swapchain " + hex(message.swapchain_id) + ": " + *error;
+        return false;
+    }
+    return true;
+}
+
+bool Replayer::frame_present(const protocol::FramePresent &message,
+                             std::vector<protocol::VerifyFrame> &verify, std::string *error) {
+    if (!(message.flags & protocol::kPresentVerify)) return true;
+    quiesce(); // the frame's submits complete before the images are read
+    for (const auto &presented : message.images) {
+        protocol::VerifyFrame frame;
+        frame.frame = message.frame;
+        bool unsupported = false;
+        if (!swapchains_.read_back(presented.swapchain_id, presented.image_index, {}, frame, &unsupported,
+                                   error)) {
+            *error = "FramePresent " + std::to_string(message.frame) + ": " + *error;
+            return false;
+        }
+        if (unsupported) {
+            if (!unsupported_format_logged_)
+                SPLITVK_WARN("session %llu: verification reads back only 8-bit BGRA/RGBA swapchains; skipped",
+                             static_cast<unsigned long long>(session_id_));
+            unsupported_format_logged_ = true;
+            continue;
+        }
+        verify.push_back(std::move(frame));
+    }
+    return true;
+}
+
+} // namespace splitvk::agent

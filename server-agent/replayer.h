@@ -1,0 +1,94 @@
+#pragma once
+
+// A session's replay of the client's command stream on the agent's own GPU (DESIGN §2-3).
+// The generated ReplayVisitorBase (codegen/emit_replay.py) replays forwarded commands as they are;
+// this class overrides what has real semantics: the device and its queue, submits (in order on one
+// queue, without the client's semaphores and fences), memory (memory_rebind.h), pipelines (no
+// pipeline cache), and the metadata messages (memory data, swapchains, frame marks).
+
+#include "memory_rebind.h"
+#include "session.h"
+#include "swapchain_images.h"
+#include "vk_codec.h"
+#include "vk_replay.h"
+#include "vulkan_context.h"
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace splitvk::agent {
+
+class Replayer final : public ReplayVisitorBase {
+public:
+    explicit Replayer(uint64_t session_id);
+    ~Replayer() override;
+
+    // The session's instance on GPU `device_index`; false with one line in `error`.
+    bool init(uint32_t device_index, bool validate, std::string *error);
+    const VulkanContext &context() const { return context_; }
+
+    // Replays one Commands payload. False with one line in `error` ("vkCmdDraw: unknown
+    // VkCommandBuffer id 0x777 at offset 2"); the session then ends.
+    bool replay(std::span<const uint8_t> payload, std::string *error);
+    bool memory_data(const protocol::MemoryData &message, std::string *error);
+    bool swapchain_images(const protocol::SwapchainImages &message, std::string *error);
+    bool swapchain_destroyed(const protocol::SwapchainDestroyed &message, std::string *error);
+    // FramePresent: with kPresentVerify, waits for the frame's work and reads each image back.
+    bool frame_present(const protocol::FramePresent &message, std::vector<protocol::VerifyFrame> &verify,
+                       std::string *error);
+
+    uint64_t commands_replayed() const { return commands_; }
+    uint64_t submits() const { return submits_; }
+
+    bool failed(const char *command, VkResult result, const std::string &detail = {}) override;
+    bool unhandled(codec::VkCommandId id) override;
+
+    bool vkCreateInstance(const codec::Decoded_vkCreateInstance &c) override;
+    bool vkDestroyInstance(const codec::Decoded_vkDestroyInstance &c) override;
+    bool vkCreateDevice(const codec::Decoded_vkCreateDevice &c) override;
+    bool vkDestroyDevice(const codec::Decoded_vkDestroyDevice &c) override;
+    bool vkGetDeviceQueue(const codec::Decoded_vkGetDeviceQueue &c) override;
+    bool vkGetDeviceQueue2(const codec::Decoded_vkGetDeviceQueue2 &c) override;
+    bool vkQueueSubmit(const codec::Decoded_vkQueueSubmit &c) override;
+    bool vkQueueSubmit2(const codec::Decoded_vkQueueSubmit2 &c) override;
+    bool vkAllocateMemory(const codec::Decoded_vkAllocateMemory &c) override;
+    bool vkFreeMemory(const codec::Decoded_vkFreeMemory &c) override;
+    bool vkMapMemory(const codec::Decoded_vkMapMemory &c) override;
+    bool vkUnmapMemory(const codec::Decoded_vkUnmapMemory &c) override;
+    bool vkFlushMappedMemoryRanges(const codec::Decoded_vkFlushMappedMemoryRanges &c) override;
+    bool vkInvalidateMappedMemoryRanges(const codec::Decoded_vkInvalidateMappedMemoryRanges &c) override;
+    bool vkResetFences(const codec::Decoded_vkResetFences &c) override;
+    bool vkBindBufferMemory(const codec::Decoded_vkBindBufferMemory &c) override;
+    bool vkBindBufferMemory2(const codec::Decoded_vkBindBufferMemory2 &c) override;
+    bool vkBindImageMemory(const codec::Decoded_vkBindImageMemory &c) override;
+    bool vkBindImageMemory2(const codec::Decoded_vkBindImageMemory2 &c) override;
+    bool vkCreateBuffer(const codec::Decoded_vkCreateBuffer &c) override;
+    bool vkDestroyBuffer(const codec::Decoded_vkDestroyBuffer &c) override;
+    bool vkCreateImage(const codec::Decoded_vkCreateImage &c) override;
+    bool vkDestroyImage(const codec::Decoded_vkDestroyImage &c) override;
+    bool vkCreateGraphicsPipelines(const codec::Decoded_vkCreateGraphicsPipelines &c) override;
+    bool vkCreateComputePipelines(const codec::Decoded_vkCreateComputePipelines &c) override;
+
+private:
+    // Waits for the GPU when work is in flight: the client destroys, frees, re-records and
+    // rewrites memory after waiting on its own fences, which the agent does not replay.
+    void quiesce();
+    bool needs_quiesce(codec::VkCommandId id) const;
+    bool peek_create_device(std::span<const uint8_t> payload, size_t offset, std::string *error);
+
+    uint64_t session_id_;
+    VulkanContext context_;
+    codec::HandleTable table_;
+    codec::Arena arena_;
+    MemoryRebind memory_{context_};
+    SwapchainImages swapchains_{context_, table_};
+    std::string error_;
+    bool gpu_busy_ = false;
+    bool unsupported_format_logged_ = false;
+    uint64_t commands_ = 0;
+    uint64_t submits_ = 0;
+};
+
+} // namespace splitvk::agent

@@ -1,0 +1,283 @@
+#include "swapchain_images.h"
+
+#include <cstring>
+
+namespace splitvk::agent {
+
+namespace {
+
+bool four_byte_format(uint32_t format) {
+    switch (static_cast<VkFormat>(format)) {
+    case VK_FORMAT_B8G8R8A8_UNORM:
+    case VK_FORMAT_B8G8R8A8_SRGB:
+    case VK_FORMAT_R8G8B8A8_UNORM:
+    case VK_FORMAT_R8G8B8A8_SRGB:
+        return true;
+    default:
+        return false;
+    }
+}
+
+} // namespace
+
+SwapchainImages::~SwapchainImages() {
+    if (!context_.device) return;
+    vkDeviceWaitIdle(context_.device);
+    for (auto &[id, swapchain] : swapchains_)
+        release(swapchain);
+    if (staging_mapped_) vkUnmapMemory(context_.device, staging_memory_);
+    if (staging_) vkDestroyBuffer(context_.device, staging_, nullptr);
+    if (staging_memory_) vkFreeMemory(context_.device, staging_memory_, nullptr);
+    if (fence_) vkDestroyFence(context_.device, fence_, nullptr);
+    if (pool_) vkDestroyCommandPool(context_.device, pool_, nullptr);
+}
+
+void SwapchainImages::release(Swapchain &swapchain) {
+    for (VkImage image : swapchain.images)
+        vkDestroyImage(context_.device, image, nullptr);
+    for (VkDeviceMemory memory : swapchain.memory)
+        vkFreeMemory(context_.device, memory, nullptr);
+    for (uint64_t id : swapchain.info.image_ids)
+        table_.remove(id);
+    swapchain.images.clear();
+    swapchain.memory.clear();
+}
+
+bool SwapchainImages::create(const protocol::SwapchainImages &message, std::string *error) {
+    if (!context_.device) {
+        *error = "SwapchainImages before vkCreateDevice";
+        return false;
+    }
+    if (swapchains_.count(message.swapchain_id)) {
+        *error = "swapchain id already has images";
+        return false;
+    }
+    if (message.width == 0 || message.height == 0 || message.array_layers == 0) {
+        *error = "empty swapchain extent";
+        return false;
+    }
+    Swapchain swapchain;
+    swapchain.info = message;
+    swapchain.info.image_ids.clear();
+    VkImageCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
+    info.imageType = VK_IMAGE_TYPE_2D;
+    info.format = static_cast<VkFormat>(message.format);
+    info.extent = {message.width, message.height, 1};
+    info.mipLevels = 1;
+    info.arrayLayers = message.array_layers;
+    info.samples = VK_SAMPLE_COUNT_1_BIT;
+    info.tiling = VK_IMAGE_TILING_OPTIMAL;
+    info.usage = message.usage | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+    info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+    info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    for (uint64_t id : message.image_ids) {
+        VkImage image = VK_NULL_HANDLE;
+        VkResult r = vkCreateImage(context_.device, &info, nullptr, &image);
+        if (r != VK_SUCCESS) {
+            *error = std::string("vkCreateImage for a swapchain image failed: ") + vk_result_name(r);
+            release(swapchain);
+            return false;
+        }
+        swapchain.images.push_back(image);
+        VkMemoryRequirements req{};
+        vkGetImageMemoryRequirements(context_.device, image, &req);
+        VkMemoryAllocateInfo alloc{};
+        alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+        alloc.allocationSize = req.size;
+        const int32_t type =
+            context_.find_memory_type(req.memoryTypeBits, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+        alloc.memoryTypeIndex = static_cast<uint32_t>(type < 0 ? 0 : type);
+        VkDeviceMemory memory = VK_NULL_HANDLE;
+        r = vkAllocateMemory(context_.device, &alloc, nullptr, &memory);
+        if (r == VK_SUCCESS) {
+            swapchain.memory.push_back(memory);
+            r = vkBindImageMemory(context_.device, image, memory, 0);
+        }
+        if (r != VK_SUCCESS) {
+            *error = std::string("memory for a swapchain image: ") + vk_result_name(r);
+            release(swapchain);
+            return false;
+        }
+        if (!table_.insert(id, VK_OBJECT_TYPE_IMAGE, image, 0, error)) {
+            release(swapchain);
+            return false;
+        }
+        swapchain.info.image_ids.push_back(id);
+    }
+    swapchains_.emplace(message.swapchain_id, std::move(swapchain));
+    return true;
+}
+
+bool SwapchainImages::destroy(uint64_t swapchain_id, std::string *error) {
+    auto it = swapchains_.find(swapchain_id);
+    if (it == swapchains_.end()) {
+        *error = "unknown swapchain id";
+        return false;
+    }
+    vkDeviceWaitIdle(context_.device);
+    release(it->second);
+    swapchains_.erase(it);
+    return true;
+}
+
+bool SwapchainImages::ensure_readback(VkDeviceSize bytes, std::string *error) {
+    VkResult r = VK_SUCCESS;
+    if (!pool_) {
+        VkCommandPoolCreateInfo pool{};
+        pool.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+        pool.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+        pool.queueFamilyIndex = context_.queue_family;
+        r = vkCreateCommandPool(context_.device, &pool, nullptr, &pool_);
+        if (r == VK_SUCCESS) {
+            VkCommandBufferAllocateInfo cb{};
+            cb.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+            cb.commandPool = pool_;
+            cb.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+            cb.commandBufferCount = 1;
+            r = vkAllocateCommandBuffers(context_.device, &cb, &command_buffer_);
+        }
+        if (r == VK_SUCCESS) {
+            VkFenceCreateInfo fence{};
+            fence.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+            r = vkCreateFence(context_.device, &fence, nullptr, &fence_);
+        }
+        if (r != VK_SUCCESS) {
+            *error = std::string("readback setup: ") + vk_result_name(r);
+            return false;
+        }
+    }
+    if (staging_size_ >= bytes) return true;
+    if (staging_mapped_) vkUnmapMemory(context_.device, staging_memory_);
+    if (staging_) vkDestroyBuffer(context_.device, staging_, nullptr);
+    if (staging_memory_) vkFreeMemory(context_.device, staging_memory_, nullptr);
+    staging_ = VK_NULL_HANDLE;
+    staging_memory_ = VK_NULL_HANDLE;
+    staging_mapped_ = nullptr;
+    staging_size_ = 0;
+    VkBufferCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+    info.size = bytes;
+    info.usage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    r = vkCreateBuffer(context_.device, &info, nullptr, &staging_);
+    if (r != VK_SUCCESS) {
+        *error = std::string("readback buffer: ") + vk_result_name(r);
+        return false;
+    }
+    VkMemoryRequirements req{};
+    vkGetBufferMemoryRequirements(context_.device, staging_, &req);
+    const int32_t type =
+        context_.find_memory_type(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT,
+                                  VK_MEMORY_PROPERTY_HOST_COHERENT_BIT | VK_MEMORY_PROPERTY_HOST_CACHED_BIT);
+    if (type < 0) {
+        *error = "no host-visible memory for readback";
+        return false;
+    }
+    VkMemoryAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    alloc.allocationSize = req.size;
+    alloc.memoryTypeIndex = static_cast<uint32_t>(type);
+    r = vkAllocateMemory(context_.device, &alloc, nullptr, &staging_memory_);
+    if (r == VK_SUCCESS) r = vkBindBufferMemory(context_.device, staging_, staging_memory_, 0);
+    if (r == VK_SUCCESS)
+        r = vkMapMemory(context_.device, staging_memory_, 0, VK_WHOLE_SIZE, 0, &staging_mapped_);
+    if (r != VK_SUCCESS) {
+        *error = std::string("readback memory: ") + vk_result_name(r);
+        return false;
+    }
+    staging_size_ = bytes;
+    return true;
+}
+
+bool SwapchainImages::read_back(uint64_t swapchain_id, uint32_t image_index, Rect rect,
+                                protocol::VerifyFrame &out, bool *unsupported, std::string *error) {
+    *unsupported = false;
+    auto it = swapchains_.find(swapchain_id);
+    if (it == swapchains_.end()) {
+        *error = "present of unknown swapchain id";
+        return false;
+    }
+    const Swapchain &swapchain = it->second;
+    if (image_index >= swapchain.images.size()) {
+        *error = "present of image index " + std::to_string(image_index) + " of a swapchain with " +
+                 std::to_string(swapchain.images.size()) + " images";
+        return false;
+    }
+    if (!four_byte_format(swapchain.info.format)) {
+        *unsupported = true;
+        return true;
+    }
+    if (rect.width == 0) rect = {0, 0, swapchain.info.width, swapchain.info.height};
+    if (rect.x + rect.width > swapchain.info.width || rect.y + rect.height > swapchain.info.height) {
+        *error = "readback rectangle outside the image";
+        return false;
+    }
+    const VkDeviceSize bytes = VkDeviceSize{rect.width} * rect.height * 4;
+    if (!ensure_readback(bytes, error)) return false;
+
+    VkImage image = swapchain.images[image_index];
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    vkBeginCommandBuffer(command_buffer_, &begin);
+    VkImageMemoryBarrier barrier{};
+    barrier.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+    barrier.srcAccessMask = VK_ACCESS_MEMORY_WRITE_BIT;
+    barrier.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+    barrier.oldLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR; // where the app left it for present
+    barrier.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    barrier.image = image;
+    barrier.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    vkCmdPipelineBarrier(command_buffer_, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                         0, 0, nullptr, 0, nullptr, 1, &barrier);
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageOffset = {static_cast<int32_t>(rect.x), static_cast<int32_t>(rect.y), 0};
+    region.imageExtent = {rect.width, rect.height, 1};
+    vkCmdCopyImageToBuffer(command_buffer_, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, staging_, 1,
+                           &region);
+    barrier.srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+    barrier.dstAccessMask = 0;
+    barrier.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    barrier.newLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+    VkBufferMemoryBarrier host{};
+    host.sType = VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER;
+    host.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    host.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    host.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    host.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    host.buffer = staging_;
+    host.size = VK_WHOLE_SIZE;
+    vkCmdPipelineBarrier(command_buffer_, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                         VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT | VK_PIPELINE_STAGE_HOST_BIT, 0, 0, nullptr, 1,
+                         &host, 1, &barrier);
+    vkEndCommandBuffer(command_buffer_);
+    VkSubmitInfo submit{};
+    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    submit.commandBufferCount = 1;
+    submit.pCommandBuffers = &command_buffer_;
+    VkResult r = vkQueueSubmit(context_.queue, 1, &submit, fence_);
+    if (r == VK_SUCCESS) r = vkWaitForFences(context_.device, 1, &fence_, VK_TRUE, UINT64_MAX);
+    vkResetFences(context_.device, 1, &fence_);
+    if (r != VK_SUCCESS) {
+        *error = std::string("readback submit: ") + vk_result_name(r);
+        return false;
+    }
+    VkMappedMemoryRange range{};
+    range.sType = VK_STRUCTURE_TYPE_MAPPED_MEMORY_RANGE;
+    range.memory = staging_memory_;
+    range.size = VK_WHOLE_SIZE;
+    vkInvalidateMappedMemoryRanges(context_.device, 1, &range);
+    out.swapchain_id = swapchain_id;
+    out.image_index = image_index;
+    out.width = rect.width;
+    out.height = rect.height;
+    out.format = swapchain.info.format;
+    out.pixels.resize(static_cast<size_t>(bytes));
+    std::memcpy(out.pixels.data(), staging_mapped_, out.pixels.size());
+    return true;
+}
+
+} // namespace splitvk::agent

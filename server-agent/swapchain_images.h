@@ -1,0 +1,62 @@
+#pragma once
+
+// Swapchains on the agent (DESIGN §3): there is no surface, so a swapchain's images become
+// offscreen images of the same format, extent, layers and usage (plus TRANSFER_SRC for readback),
+// registered under the client's image ids. Presented images are read back for verification
+// (SPLITVK_VERIFY=full) here; the fovea readback of issue 4 reuses read_back() with a rectangle.
+
+#include "session.h"
+#include "vk_codec.h"
+#include "vulkan_context.h"
+
+#include <vulkan/vulkan.h>
+
+#include <cstdint>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+namespace splitvk::agent {
+
+class SwapchainImages {
+public:
+    SwapchainImages(VulkanContext &context, codec::HandleTable &table) : context_(context), table_(table) {}
+    ~SwapchainImages();
+    SwapchainImages(const SwapchainImages &) = delete;
+    SwapchainImages &operator=(const SwapchainImages &) = delete;
+
+    bool create(const protocol::SwapchainImages &message, std::string *error);
+    bool destroy(uint64_t swapchain_id, std::string *error);
+
+    // A rectangle of a presented image (left in VK_IMAGE_LAYOUT_PRESENT_SRC_KHR by the app), read
+    // back tightly packed, 4 bytes per pixel. The caller has made the frame's submits complete.
+    // Returns false with `error` on failure; sets *unsupported (and reads nothing) for formats
+    // other than 8-bit BGRA/RGBA.
+    struct Rect {
+        uint32_t x = 0, y = 0, width = 0, height = 0; // width 0: the whole image
+    };
+    bool read_back(uint64_t swapchain_id, uint32_t image_index, Rect rect, protocol::VerifyFrame &out,
+                   bool *unsupported, std::string *error);
+
+private:
+    struct Swapchain {
+        protocol::SwapchainImages info;
+        std::vector<VkImage> images;
+        std::vector<VkDeviceMemory> memory;
+    };
+    void release(Swapchain &swapchain);
+    bool ensure_readback(VkDeviceSize bytes, std::string *error);
+
+    VulkanContext &context_;
+    codec::HandleTable &table_;
+    std::unordered_map<uint64_t, Swapchain> swapchains_;
+    VkCommandPool pool_ = VK_NULL_HANDLE;
+    VkCommandBuffer command_buffer_ = VK_NULL_HANDLE;
+    VkFence fence_ = VK_NULL_HANDLE;
+    VkBuffer staging_ = VK_NULL_HANDLE;
+    VkDeviceMemory staging_memory_ = VK_NULL_HANDLE;
+    VkDeviceSize staging_size_ = 0;
+    void *staging_mapped_ = nullptr;
+};
+
+} // namespace splitvk::agent

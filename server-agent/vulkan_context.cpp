@@ -1,0 +1,342 @@
+#include "vulkan_context.h"
+
+#include "log.h"
+
+#include <algorithm>
+#include <cstring>
+#include <memory>
+#include <string_view>
+#include <vector>
+
+namespace splitvk::agent {
+
+namespace {
+
+constexpr const char *kValidationLayer = "VK_LAYER_KHRONOS_validation";
+
+bool has_extension(const std::vector<VkExtensionProperties> &list, std::string_view name) {
+    return std::any_of(list.begin(), list.end(),
+                       [&](const VkExtensionProperties &e) { return name == e.extensionName; });
+}
+
+std::vector<VkExtensionProperties> instance_extensions(const char *layer) {
+    uint32_t count = 0;
+    if (vkEnumerateInstanceExtensionProperties(layer, &count, nullptr) != VK_SUCCESS) return {};
+    std::vector<VkExtensionProperties> list(count);
+    if (vkEnumerateInstanceExtensionProperties(layer, &count, list.data()) < 0) return {};
+    list.resize(count);
+    return list;
+}
+
+// Feature structures made of VkBool32 members only (after sType and pNext), which the agent
+// mirrors member by member: what the client enabled and this GPU supports.
+struct FeatureStruct {
+    VkStructureType stype;
+    size_t size;
+    uint32_t min_api; // device API version the structure needs
+};
+constexpr FeatureStruct kFeatureStructs[] = {
+    {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2, sizeof(VkPhysicalDeviceFeatures2), VK_API_VERSION_1_1},
+    {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_1_FEATURES, sizeof(VkPhysicalDeviceVulkan11Features),
+     VK_API_VERSION_1_2},
+    {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES, sizeof(VkPhysicalDeviceVulkan12Features),
+     VK_API_VERSION_1_2},
+    {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES, sizeof(VkPhysicalDeviceVulkan13Features),
+     VK_API_VERSION_1_3},
+    {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MULTIVIEW_FEATURES, sizeof(VkPhysicalDeviceMultiviewFeatures),
+     VK_API_VERSION_1_1},
+    {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DYNAMIC_RENDERING_FEATURES,
+     sizeof(VkPhysicalDeviceDynamicRenderingFeatures), VK_API_VERSION_1_3},
+    {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SYNCHRONIZATION_2_FEATURES,
+     sizeof(VkPhysicalDeviceSynchronization2Features), VK_API_VERSION_1_3},
+    {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_TIMELINE_SEMAPHORE_FEATURES,
+     sizeof(VkPhysicalDeviceTimelineSemaphoreFeatures), VK_API_VERSION_1_2},
+};
+constexpr size_t kBoolsOffset = sizeof(VkBaseOutStructure);
+
+void and_bools(void *enabled, const void *supported, size_t size) {
+    auto *e = static_cast<uint8_t *>(enabled) + kBoolsOffset;
+    const auto *s = static_cast<const uint8_t *>(supported) + kBoolsOffset;
+    for (size_t i = 0; i + sizeof(VkBool32) <= size - kBoolsOffset; i += sizeof(VkBool32)) {
+        VkBool32 a, b;
+        std::memcpy(&a, e + i, sizeof(a));
+        std::memcpy(&b, s + i, sizeof(b));
+        a = (a && b) ? VK_TRUE : VK_FALSE;
+        std::memcpy(e + i, &a, sizeof(a));
+    }
+}
+
+} // namespace
+
+const char *vk_result_name(VkResult result) {
+    switch (result) {
+    case VK_SUCCESS:
+        return "VK_SUCCESS";
+    case VK_ERROR_OUT_OF_HOST_MEMORY:
+        return "VK_ERROR_OUT_OF_HOST_MEMORY";
+    case VK_ERROR_OUT_OF_DEVICE_MEMORY:
+        return "VK_ERROR_OUT_OF_DEVICE_MEMORY";
+    case VK_ERROR_INITIALIZATION_FAILED:
+        return "VK_ERROR_INITIALIZATION_FAILED";
+    case VK_ERROR_DEVICE_LOST:
+        return "VK_ERROR_DEVICE_LOST";
+    case VK_ERROR_MEMORY_MAP_FAILED:
+        return "VK_ERROR_MEMORY_MAP_FAILED";
+    case VK_ERROR_LAYER_NOT_PRESENT:
+        return "VK_ERROR_LAYER_NOT_PRESENT";
+    case VK_ERROR_EXTENSION_NOT_PRESENT:
+        return "VK_ERROR_EXTENSION_NOT_PRESENT";
+    case VK_ERROR_FEATURE_NOT_PRESENT:
+        return "VK_ERROR_FEATURE_NOT_PRESENT";
+    case VK_ERROR_INCOMPATIBLE_DRIVER:
+        return "VK_ERROR_INCOMPATIBLE_DRIVER";
+    case VK_ERROR_TOO_MANY_OBJECTS:
+        return "VK_ERROR_TOO_MANY_OBJECTS";
+    case VK_ERROR_FORMAT_NOT_SUPPORTED:
+        return "VK_ERROR_FORMAT_NOT_SUPPORTED";
+    case VK_ERROR_OUT_OF_POOL_MEMORY:
+        return "VK_ERROR_OUT_OF_POOL_MEMORY";
+    case VK_ERROR_INVALID_SHADER_NV:
+        return "VK_ERROR_INVALID_SHADER_NV";
+    default:
+        return "VkResult error";
+    }
+}
+
+VulkanContext::~VulkanContext() {
+    // The device is not destroyed here: a session ends by exiting its process, which frees
+    // everything; destroying a device that still owns the client's objects would only make the
+    // validation layer report them as leaks.
+    if (device) vkDeviceWaitIdle(device);
+}
+
+VKAPI_ATTR VkBool32 VKAPI_CALL VulkanContext::on_message(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
+                                                         VkDebugUtilsMessageTypeFlagsEXT,
+                                                         const VkDebugUtilsMessengerCallbackDataEXT *data,
+                                                         void *user) {
+    auto *self = static_cast<VulkanContext *>(user);
+    if (severity < VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT) return VK_FALSE;
+    ++self->validation_messages_;
+    SPLITVK_ERROR("session %llu: validation: %s", static_cast<unsigned long long>(self->session_id_),
+                  data && data->pMessage ? data->pMessage : "(no message)");
+    return VK_FALSE;
+}
+
+bool VulkanContext::create_instance(uint32_t device_index, bool validate, uint64_t session_id,
+                                    std::string *error) {
+    session_id_ = session_id;
+    uint32_t loader_version = VK_API_VERSION_1_0;
+    vkEnumerateInstanceVersion(&loader_version);
+    api_version = std::min<uint32_t>(loader_version, VK_API_VERSION_1_3);
+
+    const auto available = instance_extensions(nullptr);
+    std::vector<const char *> extensions;
+    std::vector<const char *> layers;
+    if (has_extension(available, VK_KHR_SURFACE_EXTENSION_NAME)) {
+        extensions.push_back(VK_KHR_SURFACE_EXTENSION_NAME); // VK_KHR_swapchain depends on it
+        surface_extension_ = true;
+    }
+    VkValidationFeatureEnableEXT enables[] = {VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT};
+    VkValidationFeaturesEXT features{};
+    features.sType = VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT;
+    features.enabledValidationFeatureCount = 1;
+    features.pEnabledValidationFeatures = enables;
+    VkDebugUtilsMessengerCreateInfoEXT messenger_info{};
+    messenger_info.sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT;
+    messenger_info.messageSeverity =
+        VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
+    messenger_info.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT |
+                                 VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
+                                 VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
+    messenger_info.pfnUserCallback = &VulkanContext::on_message;
+    messenger_info.pUserData = this;
+    const void *chain = nullptr;
+    if (validate) {
+        uint32_t count = 0;
+        vkEnumerateInstanceLayerProperties(&count, nullptr);
+        std::vector<VkLayerProperties> list(count);
+        vkEnumerateInstanceLayerProperties(&count, list.data());
+        const bool found = std::any_of(list.begin(), list.begin() + count, [](const VkLayerProperties &l) {
+            return std::string_view(l.layerName) == kValidationLayer;
+        });
+        if (!found) {
+            *error =
+                "--validate: VK_LAYER_KHRONOS_validation is not installed (Debian: vulkan-validationlayers)";
+            return false;
+        }
+        layers.push_back(kValidationLayer);
+        const auto layer_extensions = instance_extensions(kValidationLayer);
+        extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+        if (has_extension(layer_extensions, VK_EXT_VALIDATION_FEATURES_EXTENSION_NAME))
+            extensions.push_back(VK_EXT_VALIDATION_FEATURES_EXTENSION_NAME);
+        features.pNext = &messenger_info; // messages from vkCreateInstance itself too
+        chain = &features;
+    }
+
+    VkApplicationInfo app{};
+
+    app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
+    app.pApplicationName = "splitvk-agent";
+    app.pEngineName = "splitvk";
+    app.apiVersion = api_version;
+    VkInstanceCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
+    info.pNext = chain;
+    info.pApplicationInfo = &app;
+    info.enabledLayerCount = static_cast<uint32_t>(layers.size());
+    info.ppEnabledLayerNames = layers.data();
+    info.enabledExtensionCount = static_cast<uint32_t>(extensions.size());
+    info.ppEnabledExtensionNames = extensions.data();
+    VkResult r = vkCreateInstance(&info, nullptr, &instance);
+    if (r != VK_SUCCESS) {
+        *error = std::string("vkCreateInstance failed: ") + vk_result_name(r);
+        return false;
+    }
+    if (validate) {
+        auto create = reinterpret_cast<PFN_vkCreateDebugUtilsMessengerEXT>(
+            vkGetInstanceProcAddr(instance, "vkCreateDebugUtilsMessengerEXT"));
+        if (create) create(instance, &messenger_info, nullptr, &messenger_);
+    }
+
+    uint32_t count = 0;
+    vkEnumeratePhysicalDevices(instance, &count, nullptr);
+    std::vector<VkPhysicalDevice> gpus(count);
+    vkEnumeratePhysicalDevices(instance, &count, gpus.data());
+    if (device_index >= count) {
+        *error = "GPU " + std::to_string(device_index) + " is gone (" + std::to_string(count) + " GPUs)";
+        return false;
+    }
+    physical_device = gpus[device_index];
+    VkPhysicalDeviceProperties props{};
+    vkGetPhysicalDeviceProperties(physical_device, &props);
+    gpu_name = props.deviceName;
+    api_version = std::min(api_version, props.apiVersion);
+    vkGetPhysicalDeviceMemoryProperties(physical_device, &memory_properties);
+
+    uint32_t families = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(physical_device, &families, nullptr);
+    std::vector<VkQueueFamilyProperties> family_props(families);
+    vkGetPhysicalDeviceQueueFamilyProperties(physical_device, &families, family_props.data());
+    for (uint32_t i = 0; i < families; ++i) {
+        if (family_props[i].queueFlags & VK_QUEUE_GRAPHICS_BIT) {
+            queue_family = i;
+            return true;
+        }
+    }
+    *error = gpu_name + " has no graphics queue";
+    return false;
+}
+
+VkResult VulkanContext::create_device(const VkDeviceCreateInfo &client_info, std::string *error) {
+    // Extensions: the client's that this GPU has, plus VK_KHR_swapchain (PRESENT_SRC_KHR layouts).
+    uint32_t count = 0;
+    vkEnumerateDeviceExtensionProperties(physical_device, nullptr, &count, nullptr);
+    std::vector<VkExtensionProperties> available(count);
+    vkEnumerateDeviceExtensionProperties(physical_device, nullptr, &count, available.data());
+    std::vector<const char *> extensions;
+    std::vector<std::string> dropped;
+    for (uint32_t i = 0; i < client_info.enabledExtensionCount; ++i) {
+        const char *name =
+            client_info.ppEnabledExtensionNames ? client_info.ppEnabledExtensionNames[i] : nullptr;
+        if (!name) continue;
+        const std::string_view n(name);
+        const bool needs_surface = n == VK_KHR_SWAPCHAIN_EXTENSION_NAME;
+        if (has_extension(available, n) && (!needs_surface || surface_extension_))
+            extensions.push_back(name);
+        else
+            dropped.emplace_back(name);
+    }
+    const bool has_swapchain = std::any_of(extensions.begin(), extensions.end(), [](const char *e) {
+        return std::string_view(e) == VK_KHR_SWAPCHAIN_EXTENSION_NAME;
+    });
+    if (!has_swapchain && surface_extension_ && has_extension(available, VK_KHR_SWAPCHAIN_EXTENSION_NAME))
+        extensions.push_back(VK_KHR_SWAPCHAIN_EXTENSION_NAME);
+    for (const auto &d : dropped)
+        SPLITVK_INFO("session %llu: device extension %s is not available on %s; dropped",
+                     static_cast<unsigned long long>(session_id_), d.c_str(), gpu_name.c_str());
+
+    // Features: every known features structure of the client's chain, ANDed with what this GPU has.
+    std::vector<std::unique_ptr<uint8_t[]>> storage;
+    VkBaseOutStructure *head = nullptr;
+    VkBaseOutStructure **tail = &head;
+    bool features2 = false;
+    for (auto *s = static_cast<const VkBaseInStructure *>(client_info.pNext); s; s = s->pNext) {
+        const FeatureStruct *known = nullptr;
+        for (const auto &f : kFeatureStructs)
+            if (f.stype == s->sType) known = &f;
+        if (!known || known->min_api > api_version) continue;
+        auto enabled = std::make_unique<uint8_t[]>(known->size);
+        auto supported = std::make_unique<uint8_t[]>(known->size);
+        std::memcpy(enabled.get(), s, known->size);
+        std::memset(supported.get(), 0, known->size);
+        reinterpret_cast<VkBaseOutStructure *>(supported.get())->sType = s->sType;
+        if (s->sType == VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2) {
+            vkGetPhysicalDeviceFeatures(
+                physical_device, &reinterpret_cast<VkPhysicalDeviceFeatures2 *>(supported.get())->features);
+            features2 = true;
+        } else {
+            VkPhysicalDeviceFeatures2 query{};
+            query.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+            query.pNext = supported.get();
+            vkGetPhysicalDeviceFeatures2(physical_device, &query);
+        }
+        and_bools(enabled.get(), supported.get(), known->size);
+        auto *node = reinterpret_cast<VkBaseOutStructure *>(enabled.get());
+        node->pNext = nullptr;
+        *tail = node;
+        tail = &node->pNext;
+        storage.push_back(std::move(enabled));
+        storage.push_back(std::move(supported));
+    }
+    VkPhysicalDeviceFeatures features{};
+    if (client_info.pEnabledFeatures && !features2) {
+        VkPhysicalDeviceFeatures supported{};
+        vkGetPhysicalDeviceFeatures(physical_device, &supported);
+        features = *client_info.pEnabledFeatures;
+        auto *e = reinterpret_cast<VkBool32 *>(&features);
+        const auto *s = reinterpret_cast<const VkBool32 *>(&supported);
+        for (size_t i = 0; i < sizeof(features) / sizeof(VkBool32); ++i)
+            e[i] = (e[i] && s[i]) ? VK_TRUE : VK_FALSE;
+    }
+
+    const float priority = 1.0f;
+    VkDeviceQueueCreateInfo queue_info{};
+    queue_info.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO;
+    queue_info.queueFamilyIndex = queue_family;
+    queue_info.queueCount = 1;
+    queue_info.pQueuePriorities = &priority;
+    VkDeviceCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+    info.pNext = head;
+    info.queueCreateInfoCount = 1;
+    info.pQueueCreateInfos = &queue_info;
+    info.enabledExtensionCount = static_cast<uint32_t>(extensions.size());
+    info.ppEnabledExtensionNames = extensions.data();
+    info.pEnabledFeatures = (client_info.pEnabledFeatures && !features2) ? &features : nullptr;
+    const VkResult r = vkCreateDevice(physical_device, &info, nullptr, &device);
+    if (r != VK_SUCCESS) {
+        *error = std::string("vkCreateDevice on ") + gpu_name + " failed: " + vk_result_name(r);
+        device = VK_NULL_HANDLE;
+        return r;
+    }
+    vkGetDeviceQueue(device, queue_family, 0, &queue);
+    swapchain_extension = std::any_of(extensions.begin(), extensions.end(), [](const char *e) {
+        return std::string_view(e) == VK_KHR_SWAPCHAIN_EXTENSION_NAME;
+    });
+    return VK_SUCCESS;
+}
+
+int32_t VulkanContext::find_memory_type(uint32_t type_bits, VkMemoryPropertyFlags required,
+                                        VkMemoryPropertyFlags preferred) const {
+    int32_t fallback = -1;
+    for (uint32_t i = 0; i < memory_properties.memoryTypeCount; ++i) {
+        if (!(type_bits & (1u << i))) continue;
+        const auto flags = memory_properties.memoryTypes[i].propertyFlags;
+        if ((flags & required) != required) continue;
+        if ((flags & preferred) == preferred) return static_cast<int32_t>(i);
+        if (fallback < 0) fallback = static_cast<int32_t>(i);
+    }
+    return fallback;
+}
+
+} // namespace splitvk::agent

@@ -1,0 +1,59 @@
+#pragma once
+
+// A session's own Vulkan instance and GPU (DESIGN §2-3): the agent never uses the client's
+// instance, physical device or queue families. With --validate the instance enables
+// VK_LAYER_KHRONOS_validation (synchronization validation on) and routes every message to the log.
+
+#include <vulkan/vulkan.h>
+
+#include <cstdint>
+#include <string>
+
+namespace splitvk::agent {
+
+class VulkanContext {
+public:
+    VulkanContext() = default;
+    ~VulkanContext();
+    VulkanContext(const VulkanContext &) = delete;
+    VulkanContext &operator=(const VulkanContext &) = delete;
+
+    // Creates the instance and picks GPU `device_index`. False with one line in `error`.
+    bool create_instance(uint32_t device_index, bool validate, uint64_t session_id, std::string *error);
+
+    // Creates the device for the client's VkDeviceCreateInfo: its features and extensions that this
+    // GPU supports (VK_KHR_swapchain kept when available so PRESENT_SRC_KHR layouts are legal), one
+    // graphics queue.
+    VkResult create_device(const VkDeviceCreateInfo &client_info, std::string *error);
+
+    VkInstance instance = VK_NULL_HANDLE;
+    VkPhysicalDevice physical_device = VK_NULL_HANDLE;
+    VkDevice device = VK_NULL_HANDLE;
+    VkQueue queue = VK_NULL_HANDLE;
+    uint32_t queue_family = 0;
+    uint32_t api_version = VK_API_VERSION_1_0;
+    std::string gpu_name;
+    bool swapchain_extension = false; // VK_KHR_swapchain enabled: PRESENT_SRC_KHR is a legal layout
+    VkPhysicalDeviceMemoryProperties memory_properties{};
+
+    // Validation messages seen (errors and warnings).
+    uint64_t validation_messages() const { return validation_messages_; }
+
+    // A memory type among `type_bits` with all of `required`, preferring `preferred` too; -1 if none.
+    int32_t find_memory_type(uint32_t type_bits, VkMemoryPropertyFlags required,
+                             VkMemoryPropertyFlags preferred = 0) const;
+
+private:
+    static VKAPI_ATTR VkBool32 VKAPI_CALL on_message(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
+                                                     VkDebugUtilsMessageTypeFlagsEXT types,
+                                                     const VkDebugUtilsMessengerCallbackDataEXT *data,
+                                                     void *user);
+    VkDebugUtilsMessengerEXT messenger_ = VK_NULL_HANDLE;
+    uint64_t validation_messages_ = 0;
+    uint64_t session_id_ = 0;
+    bool surface_extension_ = false;
+};
+
+const char *vk_result_name(VkResult result);
+
+} // namespace splitvk::agent

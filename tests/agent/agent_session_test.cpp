@@ -1,0 +1,664 @@
+// splitvk-agent end to end (issue 3): the real agent binary listens on 127.0.0.1 (only), and this
+// test is its client, speaking the protocol library and the generated codec. Every test reads the
+// agent's log, which is part of the contract: one line per session end with its reason.
+
+#include "codec.h"
+#include "handshake.h"
+#include "session.h"
+#include "transport.h"
+#include "vk_codec.h"
+#include "wire.h"
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+namespace {
+
+using namespace std::chrono_literals;
+using namespace splitvk;
+using protocol::MessageType;
+
+template <class H>
+H id(uint64_t v) {
+    return codec::to_handle<H>(v);
+}
+
+// Client ids of the good stream.
+constexpr uint64_t kPhysicalDevice = 0x1000, kDevice = 0x2000, kQueue = 0x3000, kBuffer = 0x4000,
+                   kMemory = 0x5000, kPool = 0x6000, kCommandBuffer = 0x7000, kSwapchain = 0x8000,
+                   kImage = 0x9000;
+constexpr uint32_t kWidth = 4, kHeight = 8; // the swapchain image: 32 pixels, 128 bytes
+
+uint16_t free_loopback_port() {
+    const int fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    addr.sin_port = 0;
+    if (bind(fd, reinterpret_cast<sockaddr *>(&addr), sizeof(addr)) != 0) return 0;
+    socklen_t len = sizeof(addr);
+    getsockname(fd, reinterpret_cast<sockaddr *>(&addr), &len);
+    close(fd);
+    return ntohs(addr.sin_port);
+}
+
+std::string read_file(const std::string &path) {
+    std::ifstream in(path);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+// The agent binary, started with the given options on a free loopback port.
+class Agent {
+public:
+    explicit Agent(std::vector<std::string> extra = {}) {
+        port_ = free_loopback_port();
+        char dir[] = "/tmp/splitvk-agent-test-XXXXXX";
+        dir_ = mkdtemp(dir);
+        log_ = dir_ + "/agent.log";
+        std::vector<std::string> args = {SPLITVK_AGENT_BINARY, "--listen",
+                                         "127.0.0.1:" + std::to_string(port_)};
+        for (auto &e : extra) {
+            if (e == "TOKEN_FILE") {
+                e = dir_ + "/token";
+                std::ofstream(e) << "right-token\n";
+            }
+            args.push_back(e);
+        }
+        pid_ = fork();
+        if (pid_ == 0) {
+            std::FILE *f = std::freopen(log_.c_str(), "w", stderr);
+            (void)f;
+            std::vector<char *> argv;
+            for (auto &a : args)
+                argv.push_back(a.data());
+            argv.push_back(nullptr);
+            execv(argv[0], argv.data());
+            _exit(127);
+        }
+        started_ = wait_for_log("listening on", 1, 20s);
+    }
+    ~Agent() {
+        stop();
+        std::remove((dir_ + "/token").c_str());
+        std::remove(log_.c_str());
+        rmdir(dir_.c_str());
+    }
+
+    // SIGTERM; returns the wait status.
+    int stop() {
+        int status = -1;
+        if (pid_ > 0) {
+            kill(pid_, SIGTERM);
+            waitpid(pid_, &status, 0);
+            pid_ = -1;
+        }
+        return status;
+    }
+    bool started() const { return started_; }
+    uint16_t port() const { return port_; }
+    pid_t pid() const { return pid_; }
+    std::string log() const { return read_file(log_); }
+
+    // Waits until `text` occurs at least `count` times in the log.
+    bool wait_for_log(const std::string &text, size_t count = 1,
+                      std::chrono::milliseconds timeout = 60s) const {
+        const auto deadline = std::chrono::steady_clock::now() + timeout;
+        while (std::chrono::steady_clock::now() < deadline) {
+            if (occurrences(text) >= count) return true;
+            std::this_thread::sleep_for(20ms);
+        }
+        return false;
+    }
+    size_t occurrences(const std::string &text) const {
+        const std::string l = log();
+        size_t n = 0;
+        for (size_t at = l.find(text); at != std::string::npos; at = l.find(text, at + 1))
+            ++n;
+        return n;
+    }
+    // The line for session `n`'s end.
+    bool wait_for_end(uint64_t n, const std::string &reason) const {
+        return wait_for_log("session " + std::to_string(n) + " (pid", 2) &&
+               wait_for_log("ended: " + reason, 1) && log_has_end(n, reason);
+    }
+    bool log_has_end(uint64_t n, const std::string &reason) const {
+        const std::string l = log();
+        const std::string prefix = "session " + std::to_string(n) + " (pid ";
+        for (size_t at = l.find(prefix); at != std::string::npos; at = l.find(prefix, at + 1)) {
+            const size_t eol = l.find('\n', at);
+            const std::string line = l.substr(at, eol - at);
+            if (line.find("ended: " + reason) != std::string::npos) return true;
+        }
+        return false;
+    }
+
+    long rss_kib() const {
+        std::ifstream in("/proc/" + std::to_string(pid_) + "/status");
+        std::string line;
+        while (std::getline(in, line))
+            if (line.rfind("VmRSS:", 0) == 0) return std::atol(line.c_str() + 6);
+        return -1;
+    }
+
+private:
+    pid_t pid_ = -1;
+    uint16_t port_ = 0;
+    std::string dir_;
+    std::string log_;
+    bool started_ = false;
+};
+
+// A client session through the protocol library.
+struct Client {
+    std::unique_ptr<protocol::Connection> connection;
+    std::string error;
+
+    bool connect(const Agent &agent, const std::string &token = {}) {
+        auto c = protocol::Connection::connect("127.0.0.1", agent.port(), 5s);
+        if (!c) {
+            error = c.error();
+            return false;
+        }
+        connection = std::move(c.value());
+        connection->start([](const std::string &) {});
+        protocol::Hello hello;
+        hello.client_name = "agent_session_test";
+        hello.client_gpu_name = "fake";
+        hello.codec_fingerprint = codec::kCodecFingerprint;
+        hello.token.assign(token.begin(), token.end());
+        auto welcome = protocol::client_handshake(*connection, hello, 10s);
+        if (!welcome) {
+            error = welcome.error();
+            return false;
+        }
+        return true;
+    }
+    bool send(MessageType type, std::vector<uint8_t> payload) {
+        return connection->send_owned(type, std::move(payload), 5000ms) == protocol::SendResult::Queued;
+    }
+    bool commands(codec::Encoder &e) { return send(MessageType::Commands, e.take()); }
+    void bye() {
+        send(MessageType::Goodbye, protocol::encode_goodbye({"test done"}));
+        connection->flush(2000ms);
+        connection->close();
+    }
+};
+
+// vkCreateDevice (the first command), vkGetDeviceQueue, a buffer with memory bound.
+void encode_setup(codec::Encoder &e) {
+    const float priority = 1.0f;
+    VkDeviceQueueCreateInfo queue{};
+    queue.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO;
+    queue.queueCount = 1;
+    queue.pQueuePriorities = &priority;
+    VkDeviceCreateInfo device{};
+    device.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+    device.queueCreateInfoCount = 1;
+    device.pQueueCreateInfos = &queue;
+    VkDevice dev = id<VkDevice>(kDevice);
+    codec::encode_vkCreateDevice(e, id<VkPhysicalDevice>(kPhysicalDevice), &device, nullptr, &dev);
+    VkQueue q = id<VkQueue>(kQueue);
+    codec::encode_vkGetDeviceQueue(e, dev, 0, 0, &q);
+    VkBufferCreateInfo buffer{};
+    buffer.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+    buffer.size = 128;
+    buffer.usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    VkBuffer b = id<VkBuffer>(kBuffer);
+    codec::encode_vkCreateBuffer(e, dev, &buffer, nullptr, &b);
+    VkMemoryAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    alloc.allocationSize = 4096; // the client's size and type index mean nothing to the agent
+    alloc.memoryTypeIndex = 7;
+    VkDeviceMemory m = id<VkDeviceMemory>(kMemory);
+    codec::encode_vkAllocateMemory(e, dev, &alloc, nullptr, &m);
+}
+
+std::vector<uint8_t> pattern(size_t n, uint8_t seed) {
+    std::vector<uint8_t> v(n);
+    for (size_t i = 0; i < n; ++i)
+        v[i] = static_cast<uint8_t>(seed + i * 7);
+    return v;
+}
+
+protocol::MemoryData memory_data(uint64_t offset, std::vector<uint8_t> bytes) {
+    protocol::MemoryData m;
+    m.device_id = kDevice;
+    m.memory_id = kMemory;
+    m.offset = offset;
+    m.bytes = std::move(bytes);
+    return m;
+}
+
+// The good stream: memory data before and after the bind (at client offset 256), a command
+// buffer that fills half the buffer and copies the whole buffer into a swapchain image, a
+// submit, and a verified present. Returns the pixels the agent sent back.
+bool run_good_stream(Client &client, std::vector<uint8_t> *pixels, std::string *why) {
+    codec::Encoder e;
+    encode_setup(e);
+    if (!client.commands(e)) return *why = "send setup", false;
+    // Before the bind: lands in the shadow; after: routed to the buffer directly.
+    if (!client.send(MessageType::MemoryData, protocol::encode(memory_data(256, pattern(32, 1)))))
+        return *why = "send", false;
+    VkDevice dev = id<VkDevice>(kDevice);
+    codec::encode_vkBindBufferMemory(e, dev, id<VkBuffer>(kBuffer), id<VkDeviceMemory>(kMemory), 256);
+    if (!client.commands(e)) return *why = "send bind", false;
+    if (!client.send(MessageType::MemoryData, protocol::encode(memory_data(256 + 32, pattern(32, 101)))))
+        return *why = "send", false;
+
+    protocol::SwapchainImages sc;
+    sc.device_id = kDevice;
+    sc.swapchain_id = kSwapchain;
+    sc.width = kWidth;
+    sc.height = kHeight;
+    sc.format = VK_FORMAT_R8G8B8A8_UNORM;
+    sc.usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+    sc.image_ids = {kImage};
+    if (!client.send(MessageType::SwapchainImages, protocol::encode(sc))) return *why = "send", false;
+
+    VkCommandPoolCreateInfo pool{};
+    pool.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    VkCommandPool p = id<VkCommandPool>(kPool);
+    codec::encode_vkCreateCommandPool(e, dev, &pool, nullptr, &p);
+    VkCommandBufferAllocateInfo cba{};
+    cba.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    cba.commandPool = p;
+    cba.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    cba.commandBufferCount = 1;
+    VkCommandBuffer cb = id<VkCommandBuffer>(kCommandBuffer);
+    codec::encode_vkAllocateCommandBuffers(e, dev, &cba, &cb);
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    codec::encode_vkBeginCommandBuffer(e, cb, &begin, VK_COMMAND_BUFFER_LEVEL_PRIMARY);
+    codec::encode_vkCmdFillBuffer(e, cb, id<VkBuffer>(kBuffer), 64, 64, 0xdeadbeefu);
+    VkBufferMemoryBarrier bb{};
+    bb.sType = VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER;
+    bb.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    bb.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+    bb.srcQueueFamilyIndex = bb.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    bb.buffer = id<VkBuffer>(kBuffer);
+    bb.size = VK_WHOLE_SIZE;
+    VkImageMemoryBarrier ib{};
+    ib.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+    ib.dstAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    ib.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    ib.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+    ib.srcQueueFamilyIndex = ib.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    ib.image = id<VkImage>(kImage);
+    ib.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    codec::encode_vkCmdPipelineBarrier(e, cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                                       0, 0, nullptr, 1, &bb, 1, &ib);
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageExtent = {kWidth, kHeight, 1};
+    codec::encode_vkCmdCopyBufferToImage(e, cb, id<VkBuffer>(kBuffer), id<VkImage>(kImage),
+                                         VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+    ib.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    ib.dstAccessMask = 0;
+    ib.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+    ib.newLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+    codec::encode_vkCmdPipelineBarrier(e, cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                                       VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, 0, 0, nullptr, 0, nullptr, 1,
+                                       &ib);
+    codec::encode_vkEndCommandBuffer(e, cb);
+    VkSubmitInfo submit{};
+    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    submit.commandBufferCount = 1;
+    submit.pCommandBuffers = &cb;
+    codec::encode_vkQueueSubmit(e, id<VkQueue>(kQueue), 1, &submit, VK_NULL_HANDLE);
+    if (!client.commands(e)) return *why = "send commands", false;
+
+    protocol::FramePresent present;
+    present.frame = 0;
+    present.queue_id = kQueue;
+    present.flags = protocol::kPresentVerify;
+    present.images = {{kSwapchain, 0}};
+    if (!client.send(MessageType::FramePresent, protocol::encode(present)))
+        return *why = "send present", false;
+
+    auto reply = client.connection->receive(60s);
+    if (!reply) return *why = "no VerifyFrame: " + client.connection->close_reason(), false;
+    if (reply->type != protocol::to_wire(MessageType::VerifyFrame))
+        return *why = std::string("got ") + protocol::message_type_name(reply->type), false;
+    auto frame = protocol::decode_verify_frame(reply->payload, 1u << 20);
+    if (!frame) return *why = frame.error(), false;
+    if (frame->width != kWidth || frame->height != kHeight || frame->swapchain_id != kSwapchain)
+        return *why = "VerifyFrame header", false;
+    *pixels = frame->pixels;
+
+    // Tear down what the stream created, the way an application does.
+    codec::encode_vkFreeCommandBuffers(e, dev, p, 1, &cb);
+    codec::encode_vkDestroyCommandPool(e, dev, p, nullptr);
+    codec::encode_vkDestroyBuffer(e, dev, id<VkBuffer>(kBuffer), nullptr);
+    codec::encode_vkFreeMemory(e, dev, id<VkDeviceMemory>(kMemory), nullptr);
+    if (!client.commands(e)) return *why = "send teardown", false;
+    protocol::SwapchainDestroyed destroyed{kDevice, kSwapchain};
+    if (!client.send(MessageType::SwapchainDestroyed, protocol::encode(destroyed)))
+        return *why = "send", false;
+    return true;
+}
+
+std::vector<uint8_t> expected_pixels() {
+    std::vector<uint8_t> v = pattern(32, 1);
+    const auto b = pattern(32, 101);
+    v.insert(v.end(), b.begin(), b.end());
+    for (int i = 0; i < 16; ++i) {
+        const uint32_t word = 0xdeadbeefu;
+        for (int k = 0; k < 4; ++k)
+            v.push_back(static_cast<uint8_t>(word >> (8 * k)));
+    }
+    return v;
+}
+
+// A session that runs the good stream and ends cleanly.
+void expect_good_session(Agent &agent, uint64_t session) {
+    Client client;
+    ASSERT_TRUE(client.connect(agent)) << client.error;
+    std::vector<uint8_t> pixels;
+    std::string why;
+    ASSERT_TRUE(run_good_stream(client, &pixels, &why)) << why << "\n" << agent.log();
+    EXPECT_EQ(pixels, expected_pixels());
+    client.bye();
+    EXPECT_TRUE(agent.wait_for_end(session, "closed by the client")) << agent.log();
+}
+
+// --- raw sockets for what the library refuses to send -------------------------------------------
+
+int raw_connect(const Agent &agent) {
+    const int fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    addr.sin_port = htons(agent.port());
+    if (connect(fd, reinterpret_cast<sockaddr *>(&addr), sizeof(addr)) != 0) {
+        close(fd);
+        return -1;
+    }
+    return fd;
+}
+
+bool write_all(int fd, const std::vector<uint8_t> &bytes) {
+    size_t done = 0;
+    while (done < bytes.size()) {
+        const ssize_t n = write(fd, bytes.data() + done, bytes.size() - done);
+        if (n <= 0) return false;
+        done += static_cast<size_t>(n);
+    }
+    return true;
+}
+
+// Handshake by hand: Hello as frame 1, then read the Welcome frame.
+bool raw_handshake(int fd) {
+    protocol::Hello hello;
+    hello.capabilities = 0; // no compression: frames stay readable
+    hello.codec_fingerprint = codec::kCodecFingerprint;
+    if (!write_all(fd, protocol::encode_frame(protocol::to_wire(MessageType::Hello), 1,
+                                              protocol::encode_hello(hello))))
+        return false;
+    uint8_t header[protocol::kHeaderSize];
+    if (recv(fd, header, sizeof(header), MSG_WAITALL) != static_cast<ssize_t>(sizeof(header))) return false;
+    const auto h =
+        protocol::decode_header(std::span<const uint8_t, protocol::kHeaderSize>(header, sizeof(header)));
+    std::vector<uint8_t> payload(h.payload_length);
+    if (!payload.empty() &&
+        recv(fd, payload.data(), payload.size(), MSG_WAITALL) != static_cast<ssize_t>(payload.size()))
+        return false;
+    return h.type == protocol::to_wire(MessageType::Welcome);
+}
+
+class AgentTest : public ::testing::Test {
+protected:
+    void SetUp() override { ASSERT_TRUE(agent_.started()) << agent_.log(); }
+    // After a malformed session: its end is logged with the reason, and a new session still works.
+    void expect_error_then_recovery(uint64_t session, const std::string &log_fragment,
+                                    const std::string &reason = "error") {
+        EXPECT_TRUE(agent_.wait_for_end(session, reason)) << agent_.log();
+        EXPECT_TRUE(agent_.wait_for_log(log_fragment)) << "missing '" << log_fragment << "' in\n"
+                                                       << agent_.log();
+        expect_good_session(agent_, session + 1);
+    }
+    Agent agent_;
+};
+
+TEST_F(AgentTest, GoodStreamReplaysAndVerifies) {
+    expect_good_session(agent_, 1);
+    EXPECT_TRUE(agent_.wait_for_log("session 1: device created on")) << agent_.log();
+    EXPECT_NE(agent_.log().find(", VK_KHR_swapchain)"), std::string::npos) << agent_.log();
+    EXPECT_TRUE(agent_.wait_for_log("session 1: closed after")) << agent_.log();
+    // Two sessions one after the other each get their own device.
+    expect_good_session(agent_, 2);
+}
+
+TEST_F(AgentTest, TruncatedMessageEndsOnlyThatSession) {
+    const int fd = raw_connect(agent_);
+    ASSERT_GE(fd, 0);
+    ASSERT_TRUE(raw_handshake(fd));
+    auto frame =
+        protocol::encode_frame(protocol::to_wire(MessageType::Commands), 2, std::vector<uint8_t>(100, 0));
+    frame.resize(protocol::kHeaderSize + 10);
+    ASSERT_TRUE(write_all(fd, frame));
+    shutdown(fd, SHUT_WR);
+    expect_error_then_recovery(1, "session 1: peer closed the connection in the middle of a message");
+    close(fd);
+}
+
+TEST_F(AgentTest, LengthBeyondLimitEndsOnlyThatSession) {
+    const int fd = raw_connect(agent_);
+    ASSERT_GE(fd, 0);
+    ASSERT_TRUE(raw_handshake(fd));
+    protocol::MessageHeader h;
+    h.payload_length = 0xFFFFFFF0u;
+    h.type = protocol::to_wire(MessageType::Commands);
+    h.sequence = 2;
+    const auto bytes = protocol::encode_header(h);
+    ASSERT_TRUE(write_all(fd, std::vector<uint8_t>(bytes.begin(), bytes.end())));
+    expect_error_then_recovery(1, "session 1: protocol error");
+    close(fd);
+}
+
+TEST_F(AgentTest, UnknownTypeEndsOnlyThatSession) {
+    Client client;
+    ASSERT_TRUE(client.connect(agent_)) << client.error;
+    ASSERT_TRUE(client.connection->send(static_cast<uint16_t>(0x0200), std::vector<uint8_t>{1, 2, 3}) ==
+                protocol::SendResult::Queued);
+    expect_error_then_recovery(1, "unknown message type");
+}
+
+TEST_F(AgentTest, UnknownIdEndsOnlyThatSession) {
+    Client client;
+    ASSERT_TRUE(client.connect(agent_)) << client.error;
+    codec::Encoder e;
+    encode_setup(e);
+    codec::encode_vkCmdFillBuffer(e, id<VkCommandBuffer>(0x777), id<VkBuffer>(kBuffer), 0, 4, 0);
+    ASSERT_TRUE(client.commands(e));
+    expect_error_then_recovery(1, "session 1: vkCmdFillBuffer: unknown VkCommandBuffer id 0x777");
+}
+
+TEST_F(AgentTest, WrongObjectTypeEndsOnlyThatSession) {
+    Client client;
+    ASSERT_TRUE(client.connect(agent_)) << client.error;
+    codec::Encoder e;
+    encode_setup(e);
+    // The buffer's id where a command buffer belongs.
+    codec::encode_vkCmdFillBuffer(e, id<VkCommandBuffer>(kBuffer), id<VkBuffer>(kBuffer), 0, 4, 0);
+    ASSERT_TRUE(client.commands(e));
+    expect_error_then_recovery(1, "session 1: vkCmdFillBuffer:");
+    EXPECT_NE(agent_.log().find("VkBuffer"), std::string::npos) << agent_.log();
+}
+
+TEST_F(AgentTest, CommandBeforeHandshakeIsRefused) {
+    const int fd = raw_connect(agent_);
+    ASSERT_GE(fd, 0);
+    codec::Encoder e;
+    encode_setup(e);
+    ASSERT_TRUE(write_all(fd, protocol::encode_frame(protocol::to_wire(MessageType::Commands), 1, e.take())));
+    expect_error_then_recovery(1, "session 1: handshake failed", "handshake failed");
+    close(fd);
+}
+
+TEST_F(AgentTest, ReplayErrorOfTheDriverEndsOnlyThatSession) {
+    Client client;
+    ASSERT_TRUE(client.connect(agent_)) << client.error;
+    codec::Encoder e;
+    encode_setup(e);
+    // Memory data beyond the client's allocation.
+    ASSERT_TRUE(client.commands(e));
+    ASSERT_TRUE(client.send(MessageType::MemoryData, protocol::encode(memory_data(4090, pattern(16, 0)))));
+    expect_error_then_recovery(1, "session 1: MemoryData: memory 0x5000: 16 bytes at offset 4090 exceed");
+}
+
+// Garbage after a valid command (a valid command id first, then random argument bytes): every
+// session ends with a logged error, none crashes, and the listener serves the next one.
+TEST_F(AgentTest, RandomCommandBytesNeverCrashASession) {
+    uint64_t state = 0x9e3779b97f4a7c15ull;
+    const auto next = [&state] {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        return state;
+    };
+    constexpr uint64_t kSessions = 24;
+    for (uint64_t s = 1; s <= kSessions; ++s) {
+        Client client;
+        ASSERT_TRUE(client.connect(agent_)) << client.error;
+        codec::Encoder e;
+        encode_setup(e);
+        std::vector<uint8_t> payload = e.take();
+        const uint16_t command =
+            static_cast<uint16_t>(codec::kFirstCommandId + next() % codec::kCommandCount);
+        payload.push_back(static_cast<uint8_t>(command));
+        payload.push_back(static_cast<uint8_t>(command >> 8));
+        const size_t n = 1 + next() % 64;
+        for (size_t i = 0; i < n; ++i)
+            payload.push_back(static_cast<uint8_t>(next()));
+        ASSERT_TRUE(client.send(MessageType::Commands, std::move(payload)));
+        client.bye();
+        ASSERT_TRUE(agent_.wait_for_log("session " + std::to_string(s) + " (pid", 2)) << agent_.log();
+        ASSERT_TRUE(agent_.wait_for_log("ended: ", s)) << agent_.log();
+    }
+    EXPECT_EQ(agent_.occurrences("killed by signal"), 0u) << agent_.log();
+    EXPECT_GE(agent_.occurrences("ended: error"), kSessions / 2) << agent_.log();
+    expect_good_session(agent_, kSessions + 1);
+    if (std::getenv("SPLITVK_TEST_SHOW_LOG")) std::fputs(agent_.log().c_str(), stdout);
+}
+
+TEST_F(AgentTest, ResidentMemoryComesBackAfterTwentySessions) {
+    expect_good_session(agent_, 1); // warm up the listener
+    const long before = agent_.rss_kib();
+    ASSERT_GT(before, 0);
+    for (uint64_t s = 2; s < 22; ++s) {
+        Client client;
+        ASSERT_TRUE(client.connect(agent_)) << client.error;
+        codec::Encoder e;
+        encode_setup(e);
+        ASSERT_TRUE(client.commands(e));
+        client.bye();
+        ASSERT_TRUE(agent_.wait_for_end(s, "closed by the client")) << agent_.log();
+    }
+    const long after = agent_.rss_kib();
+    EXPECT_LE(after, before + 256) << "listener VmRSS " << before << " KiB -> " << after << " KiB";
+    // Every session was reaped: no zombies left.
+    const std::string children = read_file("/proc/" + std::to_string(agent_.pid()) + "/task/" +
+                                           std::to_string(agent_.pid()) + "/children");
+    EXPECT_TRUE(children.find_first_not_of(' ') == std::string::npos) << "children: " << children;
+}
+
+TEST(AgentListener, MaxSessionsRejectsTheExtraClient) {
+    Agent agent({"--max-sessions", "1"});
+    ASSERT_TRUE(agent.started()) << agent.log();
+    Client first;
+    ASSERT_TRUE(first.connect(agent)) << first.error;
+    Client second;
+    EXPECT_FALSE(second.connect(agent));
+    EXPECT_NE(second.error.find("full"), std::string::npos) << second.error;
+    EXPECT_TRUE(agent.wait_for_end(2, "handshake failed")) << agent.log();
+    first.bye();
+    EXPECT_TRUE(agent.wait_for_end(1, "closed by the client")) << agent.log();
+    expect_good_session(agent, 3); // room again
+}
+
+TEST(AgentListener, SigtermStopsCleanlyWithASessionOpen) {
+    Agent agent;
+    ASSERT_TRUE(agent.started()) << agent.log();
+    Client client;
+    ASSERT_TRUE(client.connect(agent)) << client.error;
+    ASSERT_TRUE(agent.wait_for_log("session 1: agent_session_test")) << agent.log();
+    const int status = agent.stop();
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "wait status " << status;
+    EXPECT_TRUE(agent.log_has_end(1, "killed by signal 15")) << agent.log();
+    EXPECT_NE(agent.log().find("info: stopped"), std::string::npos) << agent.log();
+}
+
+TEST(AgentListener, ACrashedSessionLeavesTheListenerServing) {
+    Agent agent;
+    ASSERT_TRUE(agent.started()) << agent.log();
+    Client victim;
+    ASSERT_TRUE(victim.connect(agent)) << victim.error;
+    Client bystander;
+    ASSERT_TRUE(bystander.connect(agent)) << bystander.error;
+    ASSERT_TRUE(agent.wait_for_log("session 2: agent_session_test")) << agent.log();
+    const std::string l = agent.log();
+    const size_t at = l.find("session 1 (pid ");
+    ASSERT_NE(at, std::string::npos) << l;
+    const pid_t pid = static_cast<pid_t>(std::atol(l.c_str() + at + std::strlen("session 1 (pid ")));
+    ASSERT_GT(pid, 0);
+    // SIGABRT stands for a crash (an assertion); unlike SIGSEGV, sanitizer builds do not catch it.
+    ASSERT_EQ(kill(pid, SIGABRT), 0);
+    EXPECT_TRUE(agent.wait_for_end(1, "killed by signal 6")) << agent.log();
+    // The other session goes on, and new ones are served.
+    std::vector<uint8_t> pixels;
+    std::string why;
+    ASSERT_TRUE(run_good_stream(bystander, &pixels, &why)) << why << "\n" << agent.log();
+    EXPECT_EQ(pixels, expected_pixels());
+    bystander.bye();
+    EXPECT_TRUE(agent.wait_for_end(2, "closed by the client")) << agent.log();
+    expect_good_session(agent, 3);
+}
+
+TEST(AgentToken, BadTokenIsRejectedAndTheRightOneWorks) {
+    Agent agent({"--token-file", "TOKEN_FILE"});
+    ASSERT_TRUE(agent.started()) << agent.log();
+    Client bad;
+    EXPECT_FALSE(bad.connect(agent, "wrong-token"));
+    EXPECT_NE(bad.error.find("bad token"), std::string::npos) << bad.error;
+    EXPECT_TRUE(agent.wait_for_end(1, "handshake failed")) << agent.log();
+    Client good;
+    ASSERT_TRUE(good.connect(agent, "right-token")) << good.error;
+    std::vector<uint8_t> pixels;
+    std::string why;
+    ASSERT_TRUE(run_good_stream(good, &pixels, &why)) << why << "\n" << agent.log();
+    EXPECT_EQ(pixels, expected_pixels());
+    good.bye();
+    EXPECT_TRUE(agent.wait_for_end(2, "closed by the client")) << agent.log();
+}
+
+TEST(AgentValidate, GoodStreamHasNoValidationMessages) {
+    if (!std::ifstream("/usr/share/vulkan/explicit_layer.d/VkLayer_khronos_validation.json"))
+        GTEST_SKIP() << "vulkan-validationlayers is not installed";
+    Agent agent({"--validate"});
+    ASSERT_TRUE(agent.started()) << agent.log();
+    EXPECT_NE(agent.log().find("validation on"), std::string::npos);
+    expect_good_session(agent, 1);
+    EXPECT_TRUE(agent.wait_for_log("session 1: closed after")) << agent.log();
+    EXPECT_NE(agent.log().find("; 0 validation messages"), std::string::npos) << agent.log();
+    EXPECT_EQ(agent.log().find("validation: "), std::string::npos) << agent.log();
+    if (std::getenv("SPLITVK_TEST_SHOW_LOG")) std::fputs(agent.log().c_str(), stdout);
+}
+
+} // namespace
