@@ -4,6 +4,8 @@ Every forwarded command gets an entry point in namespace splitvk::entry. Those l
 layer_overrides.MANUAL_COMMANDS are declared here and defined by hand in layer/; the rest are
 generated as calls through the dispatch table of the object they are called on.
 """
+from allowlist import DEVICE_EXTENSIONS
+from codec_policy import FORWARD, POLICY
 from cpp import HEADER, guarded
 from layer_overrides import LOADER_ANSWERED, MANUAL_COMMANDS
 
@@ -22,6 +24,71 @@ def _dispatch_expr(c):
     return f"instance_dispatch({handle})"
 
 
+def _canonical(c, by_name):
+    """The command an alias names (KHR names of promoted commands encode under the core name)."""
+    while c.alias:
+        c = by_name[c.alias]
+    return c
+
+
+def _created_handle(c, handle_types):
+    """The single handle a vkCreate* command returns through its last parameter, or None."""
+    if not c.name.startswith("vkCreate") or not c.params:
+        return None
+    last = c.params[-1]
+    if last.length or last.is_const or not last.is_pointer or last.type not in handle_types:
+        return None
+    return last.name
+
+
+def _destroyed_handle(c):
+    if (c.name.startswith("vkDestroy") or c.name == "vkFreeMemory") and len(c.params) >= 2:
+        return c.params[1].name
+    return None
+
+
+def _forward_body(c, by_name, handle_types):
+    """Entry point body of a forwarded command: the down-call, then (with a live session) its encoding.
+
+    Command-buffer commands go into the command buffer's own stream (command_buffer.cpp); other
+    device-level commands into the device's global stream (session.cpp), in call order.
+    """
+    canon = _canonical(c, by_name)
+    handle = c.params[0]
+    ret = c.return_type
+    call = f"dev.dispatch.{c.short_name}({c.arguments})"
+    encode = f"encode_{canon.name}(e, {c.arguments});"
+    lines = [f"    DeviceState &dev = device_state({handle.name});"]
+    if ret == "void":
+        lines.append(f"    {call};")
+        ok = ""
+    else:
+        lines.append(f"    const {ret} result = {call};")
+        ok = " && result >= 0" if ret == "VkResult" else ""
+    if handle.type == "VkCommandBuffer":
+        lines += [f"    if (capturing(dev){ok}) [[unlikely]] {{",
+                  f"        if (codec::Encoder *enc = command_buffer_encoder({handle.name})) {{",
+                  "            codec::Encoder &e = *enc;",
+                  f"            {encode}",
+                  "        }",
+                  "    }"]
+    else:
+        created = _created_handle(c, handle_types)
+        destroyed = _destroyed_handle(c)
+        if created:
+            live = f"LiveChange::Created, codec::handle_value(*{created})"
+        elif destroyed:
+            live = f"LiveChange::Destroyed, codec::handle_value({destroyed})"
+        else:
+            live = "LiveChange::Unchanged, 0"
+        lines += [f"    if (capturing(dev){ok}) [[unlikely]] {{",
+                  f"        record_global(dev, {live}, [&](codec::Encoder &e) {{ {encode} }});",
+                  "    }"]
+    if ret != "void":
+        lines.append("    return result;")
+    return lines
+
+
 def emit(model):
     commands = [c for c in model.commands if c.name not in LOADER_ANSWERED]
     missing = MANUAL_COMMANDS - {c.name for c in commands}
@@ -36,6 +103,9 @@ def emit(model):
               "    PFN_vkVoidFunction function;",
               "    EntryLevel level;",
               "};", "",
+              "// True if splitvk forwards the device extension `name` (codegen/allowlist.py); the layer",
+              "// hides every other device extension from the application.",
+              "bool device_extension_forwarded(const char *name);", "",
               "// The layer's entry point for `name`, or nullptr when splitvk does not forward it.",
               "const EntryPoint *find_entry_point(const char *name);", "",
               "namespace entry {", ""]
@@ -44,16 +114,20 @@ def emit(model):
             f"VKAPI_ATTR {c.return_type} VKAPI_CALL {c.short_name}({c.signature});"])
     header += ["", "} // namespace entry", "} // namespace splitvk", ""]
 
+    by_name = {c.name: c for c in model.commands}
     source = [HEADER.format(script="emit_layer.py"), '#include "layer_entry_points.h"', "",
-              '#include "dispatch.h"', "", "#include <algorithm>", "#include <cstring>", "#include <iterator>", "",
+              '#include "capture.h"', '#include "dispatch.h"', '#include "vk_codec.h"', "", "#include <algorithm>", "#include <cstring>", "#include <iterator>", "",
               "namespace splitvk {", "namespace entry {", ""]
     for c in commands:
         if c.name in MANUAL_COMMANDS:
             continue
+        if c.level == "device" and POLICY.get(_canonical(c, by_name).name) == FORWARD:
+            body = _forward_body(c, by_name, model.handle_types)
+        else:
+            body = [f"    return {_dispatch_expr(c)}.{c.short_name}({c.arguments});"]
         source += guarded(c.protect, [
             f"VKAPI_ATTR {c.return_type} VKAPI_CALL {c.short_name}({c.signature}) {{",
-            f"    return {_dispatch_expr(c)}.{c.short_name}({c.arguments});",
-            "}", ""])
+            *body, "}", ""])
     source += ["} // namespace entry", "",
                "namespace {", "",
                "// Sorted by name (strcmp order) for binary search.",
@@ -62,7 +136,17 @@ def emit(model):
         source += guarded(c.protect, [
             f"    {{\"{c.name}\", reinterpret_cast<PFN_vkVoidFunction>(entry::{c.short_name}), "
             f"{_LEVEL_ENUM[c.level]}}},"])
-    source += ["};", "", "} // namespace", "",
+    source += ["};", ""]
+    source += ["const char *const kForwardedDeviceExtensions[] = {"]
+    source += [f"    \"{e}\"," for e in sorted(DEVICE_EXTENSIONS, key=str.encode)]
+    source += ["};", ""]
+    source += ["} // namespace", "",
+               "bool device_extension_forwarded(const char *name) {",
+               "    const auto *end = std::end(kForwardedDeviceExtensions);",
+               "    const auto *it = std::lower_bound(std::begin(kForwardedDeviceExtensions), end, name,",
+               "                                      [](const char *e, const char *n) { return std::strcmp(e, n) < 0; });",
+               "    return it != end && std::strcmp(*it, name) == 0;",
+               "}", "",
                "const EntryPoint *find_entry_point(const char *name) {",
                "    const auto *end = std::end(kEntryPoints);",
                "    const auto *it = std::lower_bound(std::begin(kEntryPoints), end, name,",

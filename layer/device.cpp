@@ -7,6 +7,8 @@
 #include "layer_entry_points.h"
 #include "log.h"
 #include "object_map.h"
+#include "session.h"
+#include "vk_codec.h"
 
 #include <vulkan/vk_layer.h>
 
@@ -24,7 +26,35 @@ const DeviceDispatchTable &device_table(DispatchKey key) {
     return state->dispatch;
 }
 
+DeviceState &device_state_by_key(DispatchKey key) {
+    DeviceState *state = g_devices.find(key);
+    if (!state) {
+        SPLITVK_ERROR("internal: device-level call on a handle this layer never saw");
+        std::abort();
+    }
+    return *state;
+}
+
 } // namespace
+
+void forget_command_buffers(DeviceState &device); // command_buffer.cpp
+void forget_memory(DeviceState &device);          // memory.cpp
+
+void forget_device_objects(DeviceState &device) {
+    if (!device.session) return;
+    forget_command_buffers(device);
+    forget_memory(device);
+}
+
+DeviceState &device_state(VkDevice device) {
+    return device_state_by_key(dispatch_key(device));
+}
+DeviceState &device_state(VkQueue queue) {
+    return device_state_by_key(dispatch_key(queue));
+}
+DeviceState &device_state(VkCommandBuffer command_buffer) {
+    return device_state_by_key(dispatch_key(command_buffer));
+}
 
 DeviceState *find_device(DispatchKey key) {
     return g_devices.find(key);
@@ -66,6 +96,14 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateDevice(VkPhysicalDevice physicalDevice,
     state->instance = instance;
     state->next_get_device_proc_addr = next_gdpa;
     load_device_dispatch_table(state->dispatch, *pDevice, next_gdpa);
+    for (auto *next = static_cast<const VkBaseInStructure *>(pCreateInfo->pNext); next; next = next->pNext) {
+        if (next->sType != VK_STRUCTURE_TYPE_LOADER_DEVICE_CREATE_INFO) continue;
+        const auto *info = reinterpret_cast<const VkLayerDeviceCreateInfo *>(next);
+        if (info->function == VK_LOADER_DATA_CALLBACK)
+            state->set_loader_data = info->u.pfnSetDeviceLoaderData;
+    }
+    instance->dispatch.GetPhysicalDeviceMemoryProperties(physicalDevice, &state->memory_properties);
+    state->session = Session::open(*state, pCreateInfo, instance->application_name);
     g_devices.insert(dispatch_key(*pDevice), std::move(state));
     SPLITVK_DEBUG("device created");
     return VK_SUCCESS;
@@ -74,7 +112,16 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateDevice(VkPhysicalDevice physicalDevice,
 VKAPI_ATTR void VKAPI_CALL DestroyDevice(VkDevice device, const VkAllocationCallbacks *pAllocator) {
     if (device == VK_NULL_HANDLE) return;
     const auto state = g_devices.remove(dispatch_key(device));
-    if (state) state->dispatch.DestroyDevice(device, pAllocator);
+    if (!state) return;
+    forget_device_objects(*state);
+    if (state->session) {
+        if (state->session->live())
+            state->session->record(LiveChange::Unchanged, 0,
+                                   [&](codec::Encoder &e) { encode_vkDestroyDevice(e, device, nullptr); });
+        state->session->close();
+        report_verify_summary(*state);
+    }
+    state->dispatch.DestroyDevice(device, pAllocator);
 }
 
 } // namespace entry

@@ -2,9 +2,14 @@
 
 #include "dispatch.h"
 
+#include <vulkan/vk_layer.h>
+
+#include <memory>
+
 namespace splitvk {
 
 struct InstanceState;
+class Session;
 
 struct DeviceState {
     VkDevice handle = VK_NULL_HANDLE;
@@ -12,9 +17,27 @@ struct DeviceState {
     InstanceState *instance = nullptr;
     DeviceDispatchTable dispatch;
     PFN_vkGetDeviceProcAddr next_get_device_proc_addr = nullptr;
+    VkPhysicalDeviceMemoryProperties memory_properties{};
+    // The replication session (session.h); null when no agent answered at vkCreateDevice. Set
+    // before the device is published and kept until vkDestroyDevice, so reading it needs no lock.
+    std::unique_ptr<Session> session;
+    // The loader's vkSetDeviceLoaderData, for dispatchable objects the layer creates itself.
+    PFN_vkSetDeviceLoaderData set_loader_data = nullptr;
 };
 
 // nullptr when the handle was not created through this layer.
 DeviceState *find_device(DispatchKey key);
+
+// The state of the device a handle belongs to (aborts, like device_dispatch, on an unknown handle).
+DeviceState &device_state(VkDevice device);
+DeviceState &device_state(VkQueue queue);
+DeviceState &device_state(VkCommandBuffer command_buffer);
+
+// vkDestroyDevice: drops the per-object state (command buffers, memory, swapchains) of a device.
+void forget_device_objects(DeviceState &device);
+// The queue family a queue was got from (queue.cpp); UINT32_MAX if unknown.
+uint32_t queue_family_of(VkQueue queue);
+// SPLITVK_VERIFY=full: the one summary line at vkDestroyDevice (present.cpp).
+void report_verify_summary(DeviceState &device);
 
 } // namespace splitvk

@@ -10,7 +10,9 @@
 
 #include <vulkan/vk_layer.h>
 
+#include <algorithm>
 #include <cstring>
+#include <vector>
 
 namespace splitvk {
 namespace {
@@ -90,8 +92,38 @@ VKAPI_ATTR VkResult VKAPI_CALL EnumerateDeviceExtensionProperties(VkPhysicalDevi
         *pPropertyCount = 0;
         return VK_SUCCESS;
     }
-    return instance_dispatch(physicalDevice)
-        .EnumerateDeviceExtensionProperties(physicalDevice, pLayerName, pPropertyCount, pProperties);
+    const auto &next = instance_dispatch(physicalDevice);
+    if (pLayerName)
+        return next.EnumerateDeviceExtensionProperties(physicalDevice, pLayerName, pPropertyCount,
+                                                       pProperties);
+
+    // The driver's extensions, less those splitvk cannot forward (codegen/allowlist.py). Always
+    // hidden, with or without an agent, so that an application behaves the same either way and a
+    // session can start later (the reliability issue) without the app already using something
+    // the agent cannot replay.
+    std::vector<VkExtensionProperties> all;
+    VkResult result;
+    do {
+        uint32_t count = 0;
+        result = next.EnumerateDeviceExtensionProperties(physicalDevice, nullptr, &count, nullptr);
+        if (result != VK_SUCCESS) return result;
+        all.resize(count);
+        result = next.EnumerateDeviceExtensionProperties(physicalDevice, nullptr, &count, all.data());
+        all.resize(count);
+    } while (result == VK_INCOMPLETE);
+    if (result != VK_SUCCESS) return result;
+    std::erase_if(
+        all, [](const VkExtensionProperties &e) { return !device_extension_forwarded(e.extensionName); });
+
+    const auto available = static_cast<uint32_t>(all.size());
+    if (!pProperties) {
+        *pPropertyCount = available;
+        return VK_SUCCESS;
+    }
+    const uint32_t written = std::min(*pPropertyCount, available);
+    std::copy_n(all.begin(), written, pProperties);
+    *pPropertyCount = written;
+    return written < available ? VK_INCOMPLETE : VK_SUCCESS;
 }
 
 } // namespace entry

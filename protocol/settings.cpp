@@ -36,6 +36,8 @@ const SettingInfo kSettings[] = {
     {"LOG_LEVEL", "off, error, warn, info or debug", "warn", "what splitvk writes to stderr"},
     {"TOKEN", "a non-empty string without whitespace", "(none)", "shared secret the agent requires"},
     {"TOKEN_FILE", "a readable file holding the token", "(none)", "file holding the shared secret"},
+    {"VERIFY", "off or full", "off",
+     "full: the agent returns every presented frame and the layer compares it pixel by pixel"},
 };
 
 struct Source {
@@ -202,6 +204,15 @@ bool apply(std::string_view name, std::string_view raw, Settings &s) {
             s.log_level = LogLevel::Info;
         else if (v == "debug")
             s.log_level = LogLevel::Debug;
+        else
+            return false;
+        return true;
+    }
+    if (name == "VERIFY") {
+        if (v == "off")
+            s.verify = false;
+        else if (v == "full")
+            s.verify = true;
         else
             return false;
         return true;

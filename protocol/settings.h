@@ -45,6 +45,7 @@ struct Settings {
     LogLevel log_level = LogLevel::Warn;
     std::string token; // SPLITVK_TOKEN, or the contents of SPLITVK_TOKEN_FILE
     std::string token_file;
+    bool verify = false; // SPLITVK_VERIFY=full: compare every presented frame with the agent's
 };
 
 // One row of the settings table: what the docs list and the parser accepts.

@@ -111,6 +111,7 @@ TEST_F(SettingsTest, InvalidValuesAreOneLineErrorsNamingTheSetting) {
         {"LOG_LEVEL", {"", "verbose", "5", "trace"}},
         {"TOKEN", {"", "two words", "tab\there"}},
         {"TOKEN_FILE", {"", "/nonexistent/token", "/"}},
+        {"VERIFY", {"", "on", "1", "partial"}},
     };
     ASSERT_EQ(table.size(), setting_table().size()) << "every setting in the table has invalid cases";
     for (const auto &[name, values] : table) {

@@ -1,0 +1,207 @@
+// VkCommandBuffer: per-command-buffer streams (DESIGN §3). A command buffer's commands are encoded
+// into its own stream while it is recorded (vkBeginCommandBuffer resets it) and sent as one
+// Commands message at vkEndCommandBuffer; a resubmit sends nothing again. The last recorded
+// stream stays here as the command buffer's part of the live-state log.
+//
+// State exists only for command buffers allocated while the device has a session, so a device
+// that runs unsplit never allocates any. Each command buffer is externally synchronised by the
+// application (one recording thread at a time); the maps have their own lock, held only for the
+// lookup.
+
+#include "capture.h"
+#include "layer_entry_points.h"
+
+#include <mutex>
+#include <shared_mutex>
+#include <unordered_map>
+#include <unordered_set>
+
+namespace splitvk {
+namespace {
+
+struct CommandBufferState {
+    DeviceState *device = nullptr;
+    VkCommandPool pool = VK_NULL_HANDLE;
+    VkCommandBufferLevel level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    bool recording = false;
+    codec::Encoder encoder;
+    std::vector<uint8_t> last_stream; // live-state log: the stream last sent for it
+};
+
+std::shared_mutex g_mutex;
+std::unordered_map<VkCommandBuffer, std::unique_ptr<CommandBufferState>> g_command_buffers;
+std::unordered_map<VkCommandPool, std::unordered_set<VkCommandBuffer>> g_pools;
+
+CommandBufferState *find_state(VkCommandBuffer command_buffer) {
+    std::shared_lock lock(g_mutex);
+    const auto it = g_command_buffers.find(command_buffer);
+    return it == g_command_buffers.end() ? nullptr : it->second.get();
+}
+
+void discard_stream(CommandBufferState &state) {
+    state.recording = false;
+    (void)state.encoder.take();
+}
+
+// Under g_mutex (exclusive).
+void erase_locked(VkCommandBuffer command_buffer) {
+    const auto it = g_command_buffers.find(command_buffer);
+    if (it == g_command_buffers.end()) return;
+    const auto pool = g_pools.find(it->second->pool);
+    if (pool != g_pools.end()) {
+        pool->second.erase(command_buffer);
+        if (pool->second.empty()) g_pools.erase(pool);
+    }
+    g_command_buffers.erase(it);
+}
+
+} // namespace
+
+codec::Encoder *command_buffer_encoder(VkCommandBuffer command_buffer) {
+    CommandBufferState *state = find_state(command_buffer);
+    return state && state->recording ? &state->encoder : nullptr;
+}
+
+void forget_command_buffers(DeviceState &device) {
+    std::unique_lock lock(g_mutex);
+    for (auto it = g_command_buffers.begin(); it != g_command_buffers.end();) {
+        if (it->second->device == &device) {
+            g_pools.erase(it->second->pool);
+            it = g_command_buffers.erase(it);
+        } else {
+            ++it;
+        }
+    }
+}
+
+namespace entry {
+
+VKAPI_ATTR VkResult VKAPI_CALL AllocateCommandBuffers(VkDevice device,
+                                                      const VkCommandBufferAllocateInfo *pAllocateInfo,
+                                                      VkCommandBuffer *pCommandBuffers) {
+    DeviceState &dev = device_state(device);
+    const VkResult result = dev.dispatch.AllocateCommandBuffers(device, pAllocateInfo, pCommandBuffers);
+    if (result != VK_SUCCESS || !capturing(dev)) return result;
+    {
+        std::unique_lock lock(g_mutex);
+        for (uint32_t i = 0; i < pAllocateInfo->commandBufferCount; ++i) {
+            auto state = std::make_unique<CommandBufferState>();
+            state->device = &dev;
+            state->pool = pAllocateInfo->commandPool;
+            state->level = pAllocateInfo->level;
+            state->encoder.set_hooks(dev.session->hooks());
+            g_command_buffers[pCommandBuffers[i]] = std::move(state);
+            g_pools[pAllocateInfo->commandPool].insert(pCommandBuffers[i]);
+        }
+    }
+    record_global(dev, LiveChange::Unchanged, 0, [&](codec::Encoder &e) {
+        encode_vkAllocateCommandBuffers(e, device, pAllocateInfo, pCommandBuffers);
+    });
+    return result;
+}
+
+VKAPI_ATTR void VKAPI_CALL FreeCommandBuffers(VkDevice device, VkCommandPool commandPool,
+                                              uint32_t commandBufferCount,
+                                              const VkCommandBuffer *pCommandBuffers) {
+    DeviceState &dev = device_state(device);
+    dev.dispatch.FreeCommandBuffers(device, commandPool, commandBufferCount, pCommandBuffers);
+    if (!dev.session) return;
+    {
+        std::unique_lock lock(g_mutex);
+        for (uint32_t i = 0; i < commandBufferCount; ++i)
+            if (pCommandBuffers[i]) erase_locked(pCommandBuffers[i]);
+    }
+    if (capturing(dev))
+        record_global(dev, LiveChange::Unchanged, 0, [&](codec::Encoder &e) {
+            encode_vkFreeCommandBuffers(e, device, commandPool, commandBufferCount, pCommandBuffers);
+        });
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL BeginCommandBuffer(VkCommandBuffer commandBuffer,
+                                                  const VkCommandBufferBeginInfo *pBeginInfo) {
+    DeviceState &dev = device_state(commandBuffer);
+    const VkResult result = dev.dispatch.BeginCommandBuffer(commandBuffer, pBeginInfo);
+    if (!dev.session) return result;
+    CommandBufferState *state = find_state(commandBuffer);
+    if (!state) return result;
+    discard_stream(*state);
+    if (result == VK_SUCCESS && capturing(dev)) {
+        encode_vkBeginCommandBuffer(state->encoder, commandBuffer, pBeginInfo, state->level);
+        state->recording = true;
+    }
+    return result;
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL EndCommandBuffer(VkCommandBuffer commandBuffer) {
+    DeviceState &dev = device_state(commandBuffer);
+    const VkResult result = dev.dispatch.EndCommandBuffer(commandBuffer);
+    if (!dev.session) return result;
+    CommandBufferState *state = find_state(commandBuffer);
+    if (!state || !state->recording) return result;
+    state->recording = false;
+    if (result != VK_SUCCESS || !capturing(dev)) {
+        discard_stream(*state);
+        return result;
+    }
+    encode_vkEndCommandBuffer(state->encoder, commandBuffer);
+    state->last_stream = state->encoder.take();
+    dev.session->send_commands(state->last_stream);
+    return result;
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL ResetCommandBuffer(VkCommandBuffer commandBuffer,
+                                                  VkCommandBufferResetFlags flags) {
+    DeviceState &dev = device_state(commandBuffer);
+    const VkResult result = dev.dispatch.ResetCommandBuffer(commandBuffer, flags);
+    if (!dev.session) return result;
+    if (CommandBufferState *state = find_state(commandBuffer)) {
+        discard_stream(*state);
+        state->last_stream.clear();
+    }
+    // Not sent: the agent's vkBeginCommandBuffer resets implicitly, as the client's did.
+    return result;
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL ResetCommandPool(VkDevice device, VkCommandPool commandPool,
+                                                VkCommandPoolResetFlags flags) {
+    DeviceState &dev = device_state(device);
+    const VkResult result = dev.dispatch.ResetCommandPool(device, commandPool, flags);
+    if (!dev.session) return result;
+    {
+        std::unique_lock lock(g_mutex);
+        const auto pool = g_pools.find(commandPool);
+        if (pool != g_pools.end())
+            for (VkCommandBuffer cb : pool->second) {
+                auto &state = *g_command_buffers.at(cb);
+                discard_stream(state);
+                state.last_stream.clear();
+            }
+    }
+    if (result == VK_SUCCESS && capturing(dev))
+        record_global(dev, LiveChange::Unchanged, 0,
+                      [&](codec::Encoder &e) { encode_vkResetCommandPool(e, device, commandPool, flags); });
+    return result;
+}
+
+VKAPI_ATTR void VKAPI_CALL DestroyCommandPool(VkDevice device, VkCommandPool commandPool,
+                                              const VkAllocationCallbacks *pAllocator) {
+    DeviceState &dev = device_state(device);
+    dev.dispatch.DestroyCommandPool(device, commandPool, pAllocator);
+    if (!dev.session) return;
+    {
+        std::unique_lock lock(g_mutex);
+        const auto pool = g_pools.find(commandPool);
+        if (pool != g_pools.end()) {
+            for (VkCommandBuffer cb : pool->second)
+                g_command_buffers.erase(cb);
+            g_pools.erase(pool);
+        }
+    }
+    if (capturing(dev))
+        record_global(dev, LiveChange::Destroyed, codec::handle_value(commandPool), [&](codec::Encoder &e) {
+            encode_vkDestroyCommandPool(e, device, commandPool, nullptr);
+        });
+}
+
+} // namespace entry
+} // namespace splitvk

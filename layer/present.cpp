@@ -1,0 +1,345 @@
+// Acquire and present: frame marks (DESIGN §2), and SPLITVK_VERIFY=full.
+//
+// vkAcquireNextImageKHR/2KHR -> FrameBegin{frame, swapchain, image}; vkQueuePresentKHR ->
+// FramePresent{frame, queue, flags, images}, frames counted from 0 per device in present order.
+//
+// Verification. At present the layer reads the presented image back with a copy of its own,
+// submitted on the present queue: it waits on the application's wait semaphores and signals a
+// semaphore of the layer's, which the present then waits on instead. Each swapchain image has
+// its own command buffer, readback buffer, fence and semaphore (the Mesa overlay's scheme, minus
+// its bug of reusing one slot per submit index, which lets a frame overwrite a copy still in
+// flight). The layer then waits (bounded) for its copy and for the agent's VerifyFrame of the
+// same frame, compares the two pixel by pixel, logs mismatching frames at info level, and
+// vkDestroyDevice logs `[splitvk] verify: F frames, M mismatching pixels` once. A frame the agent
+// does not return in time counts as all of its pixels mismatching.
+
+#include "capture.h"
+#include "layer_entry_points.h"
+#include "log.h"
+#include "session.h"
+#include "swapchain.h"
+
+#include <chrono>
+#include <cstring>
+#include <map>
+#include <mutex>
+#include <utility>
+#include <vector>
+
+namespace splitvk {
+namespace {
+
+using namespace std::chrono_literals;
+constexpr auto kVerifyWait = 5000ms;             // per frame, verification only
+constexpr uint64_t kFenceWaitNs = 5'000'000'000; // the layer's own copy
+
+bool verifiable_format(VkFormat format) {
+    switch (format) {
+    case VK_FORMAT_B8G8R8A8_UNORM:
+    case VK_FORMAT_B8G8R8A8_SRGB:
+    case VK_FORMAT_R8G8B8A8_UNORM:
+    case VK_FORMAT_R8G8B8A8_SRGB:
+        return true;
+    default:
+        return false;
+    }
+}
+
+struct Readback {
+    VkCommandPool pool = VK_NULL_HANDLE;
+    VkCommandBuffer command_buffer = VK_NULL_HANDLE;
+    VkBuffer buffer = VK_NULL_HANDLE;
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    void *mapped = nullptr;
+    bool coherent = true;
+    VkFence fence = VK_NULL_HANDLE;
+    VkSemaphore semaphore = VK_NULL_HANDLE;
+    bool in_flight = false;
+};
+
+std::mutex g_mutex;
+std::map<std::pair<VkSwapchainKHR, uint32_t>, Readback> g_readbacks;
+
+void destroy(DeviceState &dev, Readback &r) {
+    const VkDevice d = dev.handle;
+    if (r.in_flight) dev.dispatch.WaitForFences(d, 1, &r.fence, VK_TRUE, kFenceWaitNs);
+    if (r.semaphore) dev.dispatch.DestroySemaphore(d, r.semaphore, nullptr);
+    if (r.fence) dev.dispatch.DestroyFence(d, r.fence, nullptr);
+    if (r.buffer) dev.dispatch.DestroyBuffer(d, r.buffer, nullptr);
+    if (r.memory) dev.dispatch.FreeMemory(d, r.memory, nullptr);
+    if (r.pool) dev.dispatch.DestroyCommandPool(d, r.pool, nullptr);
+    r = Readback{};
+}
+
+bool create(DeviceState &dev, const SwapchainState &sc, uint32_t family, Readback &r) {
+    const VkDevice d = dev.handle;
+    const auto &k = dev.dispatch;
+    VkCommandPoolCreateInfo pool_info{};
+    pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+    pool_info.queueFamilyIndex = family;
+    if (k.CreateCommandPool(d, &pool_info, nullptr, &r.pool) != VK_SUCCESS) return false;
+    VkCommandBufferAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    alloc.commandPool = r.pool;
+    alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    alloc.commandBufferCount = 1;
+    if (k.AllocateCommandBuffers(d, &alloc, &r.command_buffer) != VK_SUCCESS) return false;
+    // A dispatchable object the layer made: it needs the loader's dispatch pointer.
+    if (dev.set_loader_data)
+        dev.set_loader_data(d, r.command_buffer);
+    else
+        *reinterpret_cast<void **>(r.command_buffer) = *reinterpret_cast<void **>(d);
+
+    VkBufferCreateInfo buffer_info{};
+    buffer_info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+    buffer_info.size = VkDeviceSize{sc.extent.width} * sc.extent.height * 4;
+    buffer_info.usage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    if (k.CreateBuffer(d, &buffer_info, nullptr, &r.buffer) != VK_SUCCESS) return false;
+    VkMemoryRequirements req{};
+    k.GetBufferMemoryRequirements(d, r.buffer, &req);
+    uint32_t type = UINT32_MAX;
+    for (int pass = 0; pass < 2 && type == UINT32_MAX; ++pass) {
+        const VkMemoryPropertyFlags want =
+            pass == 0 ? VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT
+                      : VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT;
+        for (uint32_t i = 0; i < dev.memory_properties.memoryTypeCount; ++i)
+            if ((req.memoryTypeBits & (1u << i)) &&
+                (dev.memory_properties.memoryTypes[i].propertyFlags & want) == want) {
+                type = i;
+                r.coherent = pass == 0;
+                break;
+            }
+    }
+    if (type == UINT32_MAX) return false;
+    VkMemoryAllocateInfo mem_info{};
+    mem_info.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    mem_info.allocationSize = req.size;
+    mem_info.memoryTypeIndex = type;
+    if (k.AllocateMemory(d, &mem_info, nullptr, &r.memory) != VK_SUCCESS) return false;
+    if (k.BindBufferMemory(d, r.buffer, r.memory, 0) != VK_SUCCESS) return false;
+    if (k.MapMemory(d, r.memory, 0, VK_WHOLE_SIZE, 0, &r.mapped) != VK_SUCCESS) return false;
+    VkFenceCreateInfo fence_info{};
+    fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+    if (k.CreateFence(d, &fence_info, nullptr, &r.fence) != VK_SUCCESS) return false;
+    VkSemaphoreCreateInfo sem_info{};
+    sem_info.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
+    return k.CreateSemaphore(d, &sem_info, nullptr, &r.semaphore) == VK_SUCCESS;
+}
+
+void record_copy(DeviceState &dev, const SwapchainState &sc, VkImage image, Readback &r) {
+    const auto &k = dev.dispatch;
+    k.ResetCommandBuffer(r.command_buffer, 0);
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    k.BeginCommandBuffer(r.command_buffer, &begin);
+    VkImageMemoryBarrier barrier{};
+    barrier.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+    barrier.srcAccessMask = 0;
+    barrier.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+    barrier.oldLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+    barrier.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    barrier.image = image;
+    barrier.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    k.CmdPipelineBarrier(r.command_buffer, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                         0, 0, nullptr, 0, nullptr, 1, &barrier);
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageExtent = {sc.extent.width, sc.extent.height, 1};
+    k.CmdCopyImageToBuffer(r.command_buffer, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, r.buffer, 1,
+                           &region);
+    barrier.srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+    barrier.dstAccessMask = 0;
+    barrier.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    barrier.newLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+    k.CmdPipelineBarrier(r.command_buffer, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                         VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, 0, 0, nullptr, 0, nullptr, 1, &barrier);
+    k.EndCommandBuffer(r.command_buffer);
+}
+
+struct PendingVerify {
+    uint64_t frame = 0;
+    const SwapchainState *swapchain = nullptr;
+    uint32_t image_index = 0;
+    Readback *readback = nullptr;
+};
+
+// The agent's VerifyFrame for `frame`, waiting at most kVerifyWait.
+std::optional<protocol::VerifyFrame> wait_verify_frame(Session &session, uint64_t frame) {
+    const auto deadline = std::chrono::steady_clock::now() + kVerifyWait;
+    while (session.live()) {
+        const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+            deadline - std::chrono::steady_clock::now());
+        if (left.count() <= 0) break;
+        auto message = session.receive(left);
+        if (!message) continue;
+        if (message->type != protocol::to_wire(protocol::MessageType::VerifyFrame)) continue;
+        auto decoded = protocol::decode_verify_frame(message->payload, UINT32_MAX);
+        if (!decoded) {
+            SPLITVK_INFO("verify: bad VerifyFrame from the agent: %s", decoded.error().c_str());
+            continue;
+        }
+        if (decoded->frame < frame) continue;
+        if (decoded->frame == frame) return std::move(decoded.value());
+        break;
+    }
+    return std::nullopt;
+}
+
+void compare(DeviceState &dev, const PendingVerify &p) {
+    Session &session = *dev.session;
+    Readback &r = *p.readback;
+    const uint64_t pixels = uint64_t{p.swapchain->extent.width} * p.swapchain->extent.height;
+    const bool copied =
+        dev.dispatch.WaitForFences(dev.handle, 1, &r.fence, VK_TRUE, kFenceWaitNs) == VK_SUCCESS;
+    r.in_flight = !copied;
+    if (copied && !r.coherent) {
+        VkMappedMemoryRange range{};
+        range.sType = VK_STRUCTURE_TYPE_MAPPED_MEMORY_RANGE;
+        range.memory = r.memory;
+        range.size = VK_WHOLE_SIZE;
+        dev.dispatch.InvalidateMappedMemoryRanges(dev.handle, 1, &range);
+    }
+    const auto theirs = wait_verify_frame(session, p.frame);
+    uint64_t mismatches = pixels;
+    if (!copied) {
+        SPLITVK_INFO("verify: frame %llu: the layer's readback did not finish", (unsigned long long)p.frame);
+    } else if (!theirs) {
+        SPLITVK_INFO("verify: frame %llu: no frame from the agent", (unsigned long long)p.frame);
+    } else if (theirs->width != p.swapchain->extent.width || theirs->height != p.swapchain->extent.height ||
+               theirs->pixels.size() != pixels * 4) {
+        SPLITVK_INFO("verify: frame %llu: the agent's frame is %ux%u, the client's %ux%u",
+                     (unsigned long long)p.frame, theirs->width, theirs->height, p.swapchain->extent.width,
+                     p.swapchain->extent.height);
+    } else {
+        mismatches = 0;
+        const auto *mine = static_cast<const uint8_t *>(r.mapped);
+        const uint8_t *other = theirs->pixels.data();
+        for (uint64_t i = 0; i < pixels; ++i)
+            if (std::memcmp(mine + i * 4, other + i * 4, 4) != 0) ++mismatches;
+        if (mismatches)
+            SPLITVK_INFO("verify: frame %llu: %llu of %llu pixels differ", (unsigned long long)p.frame,
+                         (unsigned long long)mismatches, (unsigned long long)pixels);
+    }
+    session.verified_frames.fetch_add(1);
+    session.mismatching_pixels.fetch_add(mismatches);
+}
+
+} // namespace
+
+void release_present_resources(DeviceState &device, VkSwapchainKHR swapchain) {
+    std::lock_guard lock(g_mutex);
+    for (auto it = g_readbacks.begin(); it != g_readbacks.end();) {
+        if (it->first.first == swapchain) {
+            destroy(device, it->second);
+            it = g_readbacks.erase(it);
+        } else {
+            ++it;
+        }
+    }
+}
+
+void report_verify_summary(DeviceState &device) {
+    if (!device.session || !device.session->verify()) return;
+    SPLITVK_WARN("verify: %llu frames, %llu mismatching pixels",
+                 static_cast<unsigned long long>(device.session->verified_frames.load()),
+                 static_cast<unsigned long long>(device.session->mismatching_pixels.load()));
+}
+
+namespace entry {
+
+VKAPI_ATTR VkResult VKAPI_CALL AcquireNextImageKHR(VkDevice device, VkSwapchainKHR swapchain,
+                                                   uint64_t timeout, VkSemaphore semaphore, VkFence fence,
+                                                   uint32_t *pImageIndex) {
+    DeviceState &dev = device_state(device);
+    const VkResult result =
+        dev.dispatch.AcquireNextImageKHR(device, swapchain, timeout, semaphore, fence, pImageIndex);
+    if ((result == VK_SUCCESS || result == VK_SUBOPTIMAL_KHR) && capturing(dev)) {
+        protocol::FrameBegin message{dev.session->current_frame(), codec::handle_value(swapchain),
+                                     *pImageIndex};
+        dev.session->send_metadata(protocol::MessageType::FrameBegin, protocol::encode(message));
+    }
+    return result;
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL AcquireNextImage2KHR(VkDevice device,
+                                                    const VkAcquireNextImageInfoKHR *pAcquireInfo,
+                                                    uint32_t *pImageIndex) {
+    DeviceState &dev = device_state(device);
+    const VkResult result = dev.dispatch.AcquireNextImage2KHR(device, pAcquireInfo, pImageIndex);
+    if ((result == VK_SUCCESS || result == VK_SUBOPTIMAL_KHR) && capturing(dev)) {
+        protocol::FrameBegin message{dev.session->current_frame(),
+                                     codec::handle_value(pAcquireInfo->swapchain), *pImageIndex};
+        dev.session->send_metadata(protocol::MessageType::FrameBegin, protocol::encode(message));
+    }
+    return result;
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInfoKHR *pPresentInfo) {
+    DeviceState &dev = device_state(queue);
+    if (!capturing(dev)) return dev.dispatch.QueuePresentKHR(queue, pPresentInfo);
+
+    Session &session = *dev.session;
+    const uint64_t frame = session.take_frame();
+    protocol::FramePresent message;
+    message.frame = frame;
+    message.queue_id = codec::handle_value(queue);
+    for (uint32_t i = 0; i < pPresentInfo->swapchainCount && i < protocol::kMaxPresentedImages; ++i)
+        message.images.push_back(
+            {codec::handle_value(pPresentInfo->pSwapchains[i]), pPresentInfo->pImageIndices[i]});
+
+    // Verification reads back the first swapchain's image.
+    std::optional<PendingVerify> pending;
+    VkPresentInfoKHR present = *pPresentInfo;
+    std::unique_lock lock(g_mutex, std::defer_lock);
+    if (session.verify() && pPresentInfo->swapchainCount > 0) {
+        const SwapchainState *sc = find_swapchain(pPresentInfo->pSwapchains[0]);
+        const uint32_t index = pPresentInfo->pImageIndices[0];
+        const uint32_t family = queue_family_of(queue);
+        if (sc && sc->transfer_src && verifiable_format(sc->format) && index < sc->images.size() &&
+            family != UINT32_MAX) {
+            lock.lock();
+            Readback &r = g_readbacks[{sc->handle, index}];
+            bool ready = r.pool != VK_NULL_HANDLE;
+            if (!ready) {
+                ready = create(dev, *sc, family, r);
+                if (!ready) destroy(dev, r);
+            }
+            if (ready && r.in_flight)
+                ready =
+                    dev.dispatch.WaitForFences(dev.handle, 1, &r.fence, VK_TRUE, kFenceWaitNs) == VK_SUCCESS;
+            if (ready) {
+                dev.dispatch.ResetFences(dev.handle, 1, &r.fence);
+                record_copy(dev, *sc, sc->images[index], r);
+                std::vector<VkPipelineStageFlags> stages(pPresentInfo->waitSemaphoreCount,
+                                                         VK_PIPELINE_STAGE_ALL_COMMANDS_BIT);
+                VkSubmitInfo submit{};
+                submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+                submit.waitSemaphoreCount = pPresentInfo->waitSemaphoreCount;
+                submit.pWaitSemaphores = pPresentInfo->pWaitSemaphores;
+                submit.pWaitDstStageMask = stages.data();
+                submit.commandBufferCount = 1;
+                submit.pCommandBuffers = &r.command_buffer;
+                submit.signalSemaphoreCount = 1;
+                submit.pSignalSemaphores = &r.semaphore;
+                if (dev.dispatch.QueueSubmit(queue, 1, &submit, r.fence) == VK_SUCCESS) {
+                    r.in_flight = true;
+                    present.waitSemaphoreCount = 1;
+                    present.pWaitSemaphores = &r.semaphore;
+                    message.flags |= protocol::kPresentVerify;
+                    pending = PendingVerify{frame, sc, index, &r};
+                }
+            }
+        }
+    }
+    session.send_metadata(protocol::MessageType::FramePresent, protocol::encode(message));
+    const VkResult result = dev.dispatch.QueuePresentKHR(queue, &present);
+    if (pending) compare(dev, *pending);
+    return result;
+}
+
+} // namespace entry
+} // namespace splitvk

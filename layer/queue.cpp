@@ -1,0 +1,118 @@
+// VkQueue submits (DESIGN §2): dirty mapped memory first, then the submit itself.
+//
+// The agent executes every submit in order on one queue, so the wait and signal semaphores of
+// the client's submits mean nothing there (and acquire/present, which signal and consume them
+// on the client, are frame marks on the agent): the layer sends each submit with its
+// semaphores and pNext removed, keeping the command buffers and the fence.
+
+#include "capture.h"
+#include "layer_entry_points.h"
+#include "object_map.h"
+
+#include <vector>
+
+namespace splitvk {
+
+void sync_mapped_memory(DeviceState &device); // memory.cpp
+
+namespace {
+
+void capture_submit(DeviceState &dev, VkQueue queue, uint32_t submitCount, const VkSubmitInfo *pSubmits,
+                    VkFence fence) {
+    sync_mapped_memory(dev);
+    std::vector<VkSubmitInfo> submits(pSubmits, pSubmits + submitCount);
+    for (VkSubmitInfo &s : submits) {
+        s.pNext = nullptr;
+        s.waitSemaphoreCount = 0;
+        s.pWaitSemaphores = nullptr;
+        s.pWaitDstStageMask = nullptr;
+        s.signalSemaphoreCount = 0;
+        s.pSignalSemaphores = nullptr;
+    }
+    dev.session->send_encoded(
+        [&](codec::Encoder &e) { encode_vkQueueSubmit(e, queue, submitCount, submits.data(), fence); });
+}
+
+void capture_submit2(DeviceState &dev, VkQueue queue, uint32_t submitCount, const VkSubmitInfo2 *pSubmits,
+                     VkFence fence) {
+    sync_mapped_memory(dev);
+    std::vector<VkSubmitInfo2> submits(pSubmits, pSubmits + submitCount);
+    for (VkSubmitInfo2 &s : submits) {
+        s.pNext = nullptr;
+        s.waitSemaphoreInfoCount = 0;
+        s.pWaitSemaphoreInfos = nullptr;
+        s.signalSemaphoreInfoCount = 0;
+        s.pSignalSemaphoreInfos = nullptr;
+    }
+    dev.session->send_encoded(
+        [&](codec::Encoder &e) { encode_vkQueueSubmit2(e, queue, submitCount, submits.data(), fence); });
+}
+
+struct QueueInfo {
+    uint32_t family = UINT32_MAX;
+};
+ObjectMap<VkQueue, QueueInfo> g_queues;
+
+void note_queue(DeviceState &dev, VkQueue queue, uint32_t family) {
+    if (!dev.session || queue == VK_NULL_HANDLE) return;
+    auto info = std::make_unique<QueueInfo>();
+    info->family = family;
+    g_queues.insert(queue, std::move(info));
+}
+
+} // namespace
+
+uint32_t queue_family_of(VkQueue queue) {
+    const QueueInfo *info = g_queues.find(queue);
+    return info ? info->family : UINT32_MAX;
+}
+
+namespace entry {
+
+VKAPI_ATTR void VKAPI_CALL GetDeviceQueue(VkDevice device, uint32_t queueFamilyIndex, uint32_t queueIndex,
+                                          VkQueue *pQueue) {
+    DeviceState &dev = device_state(device);
+    dev.dispatch.GetDeviceQueue(device, queueFamilyIndex, queueIndex, pQueue);
+    note_queue(dev, *pQueue, queueFamilyIndex);
+    if (capturing(dev))
+        record_global(dev, LiveChange::Unchanged, 0, [&](codec::Encoder &e) {
+            encode_vkGetDeviceQueue(e, device, queueFamilyIndex, queueIndex, pQueue);
+        });
+}
+
+VKAPI_ATTR void VKAPI_CALL GetDeviceQueue2(VkDevice device, const VkDeviceQueueInfo2 *pQueueInfo,
+                                           VkQueue *pQueue) {
+    DeviceState &dev = device_state(device);
+    dev.dispatch.GetDeviceQueue2(device, pQueueInfo, pQueue);
+    note_queue(dev, *pQueue, pQueueInfo->queueFamilyIndex);
+    if (capturing(dev))
+        record_global(dev, LiveChange::Unchanged, 0,
+                      [&](codec::Encoder &e) { encode_vkGetDeviceQueue2(e, device, pQueueInfo, pQueue); });
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit(VkQueue queue, uint32_t submitCount, const VkSubmitInfo *pSubmits,
+                                           VkFence fence) {
+    DeviceState &dev = device_state(queue);
+    if (capturing(dev)) [[unlikely]]
+        capture_submit(dev, queue, submitCount, pSubmits, fence);
+    return dev.dispatch.QueueSubmit(queue, submitCount, pSubmits, fence);
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit2(VkQueue queue, uint32_t submitCount,
+                                            const VkSubmitInfo2 *pSubmits, VkFence fence) {
+    DeviceState &dev = device_state(queue);
+    if (capturing(dev)) [[unlikely]]
+        capture_submit2(dev, queue, submitCount, pSubmits, fence);
+    return dev.dispatch.QueueSubmit2(queue, submitCount, pSubmits, fence);
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit2KHR(VkQueue queue, uint32_t submitCount,
+                                               const VkSubmitInfo2 *pSubmits, VkFence fence) {
+    DeviceState &dev = device_state(queue);
+    if (capturing(dev)) [[unlikely]]
+        capture_submit2(dev, queue, submitCount, pSubmits, fence);
+    return dev.dispatch.QueueSubmit2KHR(queue, submitCount, pSubmits, fence);
+}
+
+} // namespace entry
+} // namespace splitvk
