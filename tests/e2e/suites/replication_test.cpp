@@ -69,13 +69,13 @@ protected:
         ASSERT_TRUE(built(atrium_path()));
     }
 
-    // Starts the agent on a free loopback port; skips the test when it cannot replay yet.
+    // Starts the agent on a free loopback port, with the validation layer in its sessions.
     void start_agent() {
-        if (!std::filesystem::exists(agent_path())) GTEST_SKIP() << "splitvk-agent is not built";
+        ASSERT_TRUE(built(agent_path()));
         port_ = free_loopback_port();
         ASSERT_NE(port_, 0);
         ProcessSpec spec;
-        spec.argv = {agent_path().string(), "--listen", "127.0.0.1:" + std::to_string(port_)};
+        spec.argv = {agent_path().string(), "--listen", "127.0.0.1:" + std::to_string(port_), "--validate"};
         spec.env = env();
         spec.env["SPLITVK_LOG_LEVEL"] = "info";
         spec.out_dir = out_;
@@ -92,19 +92,20 @@ protected:
         FAIL() << "splitvk-agent did not start listening:\n" << tail(read_file(log));
     }
 
+    // The client runs with the Khronos validation layer (synchronization validation on) below
+    // splitvk, so what splitvk adds to the app's stream (verify read-backs, its own semaphores) is
+    // validated too.
     Env split_env() {
         Env e = env();
-        use_explicit_layers(e, {kLayerName});
+        use_explicit_layers(e, {kLayerName, kValidationLayerName});
+        validation_log_ = configure_validation(e, out_);
         e["SPLITVK_SERVER"] = "127.0.0.1:" + std::to_string(port_);
         e["SPLITVK_VERIFY"] = "full";
         return e;
     }
 
     void expect_verified(const ProcessResult &r, uint64_t frames) {
-        const std::string agent_log = read_file(out_ / "splitvk-agent.stderr");
-        // The one reason to skip: an agent that takes the session but cannot replay it yet.
-        if (agent_log.find("not implemented") != std::string::npos)
-            GTEST_SKIP() << "splitvk-agent's session replay is not ready:\n" << tail(agent_log);
+        std::string agent_log = read_file(out_ / "splitvk-agent.stderr");
         ASSERT_TRUE(r.ok()) << r.describe() << "\n" << tail(r.err()) << "\nagent:\n" << tail(agent_log);
         EXPECT_TRUE(grep(r.err(), "running unsplit").empty()) << tail(r.err()) << "\nagent:\n"
                                                               << tail(agent_log);
@@ -114,17 +115,31 @@ protected:
                              << tail(agent_log);
         EXPECT_EQ(s.frames, frames) << tail(r.err());
         EXPECT_EQ(s.mismatches, 0u) << tail(r.err(), 40) << "\nagent:\n" << tail(agent_log);
+
+        // Validation on both sides: the client's log is empty, and the agent's session, which
+        // ends when the app disconnects, reports no validation message.
+        ASSERT_TRUE(std::filesystem::exists(validation_log_)) << "client-side validation was not loaded";
+        EXPECT_TRUE(read_file(validation_log_).empty()) << "client-side validation reported:\n"
+                                                        << first_message(read_file(validation_log_));
+        const auto deadline = Clock::now() + 20s;
+        while (agent_log.find("closed after") == std::string::npos && Clock::now() < deadline) {
+            std::this_thread::sleep_for(50ms);
+            agent_log = read_file(out_ / "splitvk-agent.stderr");
+        }
+        EXPECT_NE(agent_log.find("; 0 validation"), std::string::npos)
+            << "the agent's session did not end cleanly under validation:\n"
+            << tail(agent_log);
     }
 
     uint16_t port_ = 0;
     std::unique_ptr<Process> agent_;
+    std::filesystem::path validation_log_;
 };
 
 constexpr int kFrames = 12;
 
 TEST_F(Replication, AtriumStereoVerifies) {
-    start_agent();
-    if (IsSkipped() || HasFatalFailure()) return;
+    ASSERT_NO_FATAL_FAILURE(start_agent());
     auto r = run_app({atrium_path().string(), "--width", "600", "--height", "270", "--eyes", "2", "--frames",
                       std::to_string(kFrames)},
                      split_env(), out_, "atrium-stereo", 180s);
@@ -132,8 +147,7 @@ TEST_F(Replication, AtriumStereoVerifies) {
 }
 
 TEST_F(Replication, AtriumMonoVerifies) {
-    start_agent();
-    if (IsSkipped() || HasFatalFailure()) return;
+    ASSERT_NO_FATAL_FAILURE(start_agent());
     auto r = run_app({atrium_path().string(), "--width", "600", "--height", "270", "--eyes", "1", "--frames",
                       std::to_string(kFrames)},
                      split_env(), out_, "atrium-mono", 180s);
@@ -143,10 +157,9 @@ TEST_F(Replication, AtriumMonoVerifies) {
 class ReplicationCube : public Replication, public ::testing::WithParamInterface<const char *> {};
 
 TEST_P(ReplicationCube, Verifies) {
-    start_agent();
-    if (IsSkipped() || HasFatalFailure()) return;
+    ASSERT_NO_FATAL_FAILURE(start_agent());
     const std::string program = GetParam();
-    if (!find_program(program, env())) GTEST_SKIP() << program << " is not installed";
+    ASSERT_TRUE(find_program(program, env())) << program << " is not installed (vulkan-tools)";
     auto r = run_app({program, "--c", std::to_string(kFrames)}, split_env(), out_, program, 180s);
     expect_verified(r, kFrames);
 }
