@@ -244,9 +244,9 @@ void release_present_resources(DeviceState &device, VkSwapchainKHR swapchain) {
 
 void report_verify_summary(DeviceState &device) {
     if (!device.session || !device.session->verify()) return;
-    SPLITVK_WARN("verify: %llu frames, %llu mismatching pixels",
-                 static_cast<unsigned long long>(device.session->verified_frames.load()),
-                 static_cast<unsigned long long>(device.session->mismatching_pixels.load()));
+    splitvk::log_result("verify: %llu frames, %llu mismatching pixels",
+                        static_cast<unsigned long long>(device.session->verified_frames.load()),
+                        static_cast<unsigned long long>(device.session->mismatching_pixels.load()));
 }
 
 namespace entry {

@@ -49,13 +49,11 @@ void set_log_prefix(std::string_view prefix) {
     g_prefix = prefix;
 }
 
-void log(LogLevel level, const char *format, ...) {
-    if (!log_enabled(level)) return;
+namespace {
+
+void write_line(const char *level_word, const char *format, va_list args) {
     char message[1024];
-    va_list args;
-    va_start(args, format);
     std::vsnprintf(message, sizeof(message), format, args);
-    va_end(args);
 
     std::string line;
     {
@@ -63,12 +61,32 @@ void log(LogLevel level, const char *format, ...) {
         line = g_prefix;
     }
     line += ' ';
-    line += level_name(level);
-    line += ": ";
+    if (level_word) {
+        line += level_word;
+        line += ": ";
+    }
     line += message;
     line += '\n';
     // A single write() keeps lines from different threads (and the app's own output) whole.
     [[maybe_unused]] ssize_t written = ::write(STDERR_FILENO, line.data(), line.size());
+}
+
+} // namespace
+
+void log(LogLevel level, const char *format, ...) {
+    if (!log_enabled(level)) return;
+    va_list args;
+    va_start(args, format);
+    write_line(level_name(level), format, args);
+    va_end(args);
+}
+
+void log_result(const char *format, ...) {
+    if (log_level() == LogLevel::Off) return;
+    va_list args;
+    va_start(args, format);
+    write_line(nullptr, format, args);
+    va_end(args);
 }
 
 } // namespace splitvk

@@ -46,7 +46,7 @@ struct VerifySummary {
 
 VerifySummary verify_summary(const std::string &err) {
     VerifySummary s;
-    const std::regex line(R"(\[splitvk\] (?:warning: )?verify: (\d+) frames, (\d+) mismatching pixels)");
+    const std::regex line(R"(^\[splitvk\] verify: (\d+) frames, (\d+) mismatching pixels$)");
     int count = 0;
     for (const auto &l : split_lines(err)) {
         std::smatch m;
