@@ -17,6 +17,7 @@
 #include "layer_entry_points.h"
 #include "log.h"
 #include "session.h"
+#include "submit_rules.h"
 #include "swapchain.h"
 
 #include <chrono>
@@ -32,18 +33,6 @@ namespace {
 using namespace std::chrono_literals;
 constexpr auto kVerifyWait = 5000ms;             // per frame, verification only
 constexpr uint64_t kFenceWaitNs = 5'000'000'000; // the layer's own copy
-
-bool verifiable_format(VkFormat format) {
-    switch (format) {
-    case VK_FORMAT_B8G8R8A8_UNORM:
-    case VK_FORMAT_B8G8R8A8_SRGB:
-    case VK_FORMAT_R8G8B8A8_UNORM:
-    case VK_FORMAT_R8G8B8A8_SRGB:
-        return true;
-    default:
-        return false;
-    }
-}
 
 struct Readback {
     VkCommandPool pool = VK_NULL_HANDLE;
@@ -299,7 +288,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         const SwapchainState *sc = find_swapchain(pPresentInfo->pSwapchains[0]);
         const uint32_t index = pPresentInfo->pImageIndices[0];
         const uint32_t family = queue_family_of(queue);
-        if (sc && sc->transfer_src && verifiable_format(sc->format) && index < sc->images.size() &&
+        if (sc && sc->transfer_src && codec::is_verifiable_format(sc->format) && index < sc->images.size() &&
             family != UINT32_MAX) {
             lock.lock();
             Readback &r = g_readbacks[{sc->handle, index}];

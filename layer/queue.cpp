@@ -8,6 +8,7 @@
 #include "capture.h"
 #include "layer_entry_points.h"
 #include "object_map.h"
+#include "submit_rules.h"
 
 #include <vector>
 
@@ -20,15 +21,7 @@ namespace {
 void capture_submit(DeviceState &dev, VkQueue queue, uint32_t submitCount, const VkSubmitInfo *pSubmits,
                     VkFence fence) {
     sync_mapped_memory(dev);
-    std::vector<VkSubmitInfo> submits(pSubmits, pSubmits + submitCount);
-    for (VkSubmitInfo &s : submits) {
-        s.pNext = nullptr;
-        s.waitSemaphoreCount = 0;
-        s.pWaitSemaphores = nullptr;
-        s.pWaitDstStageMask = nullptr;
-        s.signalSemaphoreCount = 0;
-        s.pSignalSemaphores = nullptr;
-    }
+    const auto submits = codec::without_synchronization(pSubmits, submitCount);
     dev.session->send_encoded(
         [&](codec::Encoder &e) { encode_vkQueueSubmit(e, queue, submitCount, submits.data(), fence); });
 }
@@ -36,14 +29,7 @@ void capture_submit(DeviceState &dev, VkQueue queue, uint32_t submitCount, const
 void capture_submit2(DeviceState &dev, VkQueue queue, uint32_t submitCount, const VkSubmitInfo2 *pSubmits,
                      VkFence fence) {
     sync_mapped_memory(dev);
-    std::vector<VkSubmitInfo2> submits(pSubmits, pSubmits + submitCount);
-    for (VkSubmitInfo2 &s : submits) {
-        s.pNext = nullptr;
-        s.waitSemaphoreInfoCount = 0;
-        s.pWaitSemaphoreInfos = nullptr;
-        s.signalSemaphoreInfoCount = 0;
-        s.pSignalSemaphoreInfos = nullptr;
-    }
+    const auto submits = codec::without_synchronization(pSubmits, submitCount);
     dev.session->send_encoded(
         [&](codec::Encoder &e) { encode_vkQueueSubmit2(e, queue, submitCount, submits.data(), fence); });
 }

@@ -1,6 +1,7 @@
 #include "replayer.h"
 
 #include "log.h"
+#include "submit_rules.h"
 
 #include <cstdio>
 #include <cstring>
@@ -156,15 +157,7 @@ bool Replayer::vkGetDeviceQueue2(const codec::Decoded_vkGetDeviceQueue2 &c) {
 // --- submits: in order on one queue; the client's semaphores and fences are its own ------------
 
 bool Replayer::vkQueueSubmit(const codec::Decoded_vkQueueSubmit &c) {
-    std::vector<VkSubmitInfo> submits(c.pSubmits, c.pSubmits + c.submitCount);
-    for (auto &s : submits) {
-        s.pNext = nullptr;
-        s.waitSemaphoreCount = 0;
-        s.pWaitSemaphores = nullptr;
-        s.pWaitDstStageMask = nullptr;
-        s.signalSemaphoreCount = 0;
-        s.pSignalSemaphores = nullptr;
-    }
+    const auto submits = codec::without_synchronization(c.pSubmits, c.submitCount);
     const VkResult r = ::vkQueueSubmit(context_.queue, static_cast<uint32_t>(submits.size()), submits.data(),
                                        VK_NULL_HANDLE);
     if (r != VK_SUCCESS) return failed("vkQueueSubmit", r);
@@ -175,14 +168,7 @@ bool Replayer::vkQueueSubmit(const codec::Decoded_vkQueueSubmit &c) {
 
 bool Replayer::vkQueueSubmit2(const codec::Decoded_vkQueueSubmit2 &c) {
     if (!vk.QueueSubmit2) return missing("vkQueueSubmit2");
-    std::vector<VkSubmitInfo2> submits(c.pSubmits, c.pSubmits + c.submitCount);
-    for (auto &s : submits) {
-        s.pNext = nullptr;
-        s.waitSemaphoreInfoCount = 0;
-        s.pWaitSemaphoreInfos = nullptr;
-        s.signalSemaphoreInfoCount = 0;
-        s.pSignalSemaphoreInfos = nullptr;
-    }
+    const auto submits = codec::without_synchronization(c.pSubmits, c.submitCount);
     const VkResult r = vk.QueueSubmit2(context_.queue, static_cast<uint32_t>(submits.size()), submits.data(),
                                        VK_NULL_HANDLE);
     if (r != VK_SUCCESS) return failed("vkQueueSubmit2", r);

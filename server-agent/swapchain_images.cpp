@@ -1,24 +1,10 @@
 #include "swapchain_images.h"
 
+#include "submit_rules.h"
+
 #include <cstring>
 
 namespace splitvk::agent {
-
-namespace {
-
-bool four_byte_format(uint32_t format) {
-    switch (static_cast<VkFormat>(format)) {
-    case VK_FORMAT_B8G8R8A8_UNORM:
-    case VK_FORMAT_B8G8R8A8_SRGB:
-    case VK_FORMAT_R8G8B8A8_UNORM:
-    case VK_FORMAT_R8G8B8A8_SRGB:
-        return true;
-    default:
-        return false;
-    }
-}
-
-} // namespace
 
 SwapchainImages::~SwapchainImages() {
     if (!context_.device) return;
@@ -203,7 +189,7 @@ bool SwapchainImages::read_back(uint64_t swapchain_id, uint32_t image_index, Rec
                  std::to_string(swapchain.images.size()) + " images";
         return false;
     }
-    if (!four_byte_format(swapchain.info.format)) {
+    if (!codec::is_verifiable_format(static_cast<VkFormat>(swapchain.info.format))) {
         *unsupported = true;
         return true;
     }
