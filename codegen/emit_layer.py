@@ -47,6 +47,33 @@ def _destroyed_handle(c):
     return None
 
 
+# Destroyed objects that objects created later may name (layer/session.h: "retired").
+_RETIRED = {"vkDestroyShaderModule", "vkDestroyRenderPass", "vkDestroyPipelineLayout",
+            "vkDestroyPipelineCache"}
+
+
+def _logged_call(c):
+    """Live-state log keys of a call that is one entry held by several ids (session.h), as lines
+    that define `holders` and `killers`; None for the other calls."""
+    if c.name in ("vkCreateGraphicsPipelines", "vkCreateComputePipelines"):
+        return ["        std::vector<uint64_t> holders;",
+                "        for (uint32_t i = 0; i < createInfoCount; ++i) "
+                "holders.push_back(codec::handle_value(pPipelines[i]));",
+                "        const std::span<const uint64_t> killers;"]
+    if c.name in ("vkBindBufferMemory", "vkBindImageMemory"):
+        resource = "buffer" if "Buffer" in c.name else "image"
+        return [f"        const uint64_t holders[] = {{codec::handle_value({resource})}};",
+                "        const uint64_t killers[] = {codec::handle_value(memory)};"]
+    if c.name in ("vkBindBufferMemory2", "vkBindImageMemory2"):
+        resource = "buffer" if "Buffer" in c.name else "image"
+        return ["        std::vector<uint64_t> holders, killers;",
+                "        for (uint32_t i = 0; i < bindInfoCount; ++i) {",
+                f"            holders.push_back(codec::handle_value(pBindInfos[i].{resource}));",
+                "            killers.push_back(codec::handle_value(pBindInfos[i].memory));",
+                "        }"]
+    return None
+
+
 def _forward_body(c, by_name, handle_types):
     """Entry point body of a forwarded command: the down-call, then (with a live session) its encoding.
 
@@ -75,15 +102,24 @@ def _forward_body(c, by_name, handle_types):
     else:
         created = _created_handle(c, handle_types)
         destroyed = _destroyed_handle(c)
-        if created:
-            live = f"LiveChange::Created, codec::handle_value(*{created})"
-        elif destroyed:
-            live = f"LiveChange::Destroyed, codec::handle_value({destroyed})"
+        logged = _logged_call(canon)
+        lines.append(f"    if (capturing(dev){ok}) [[unlikely]] {{")
+        if logged:
+            lines += logged
+            lines.append(f"        record_logged(dev, holders, killers, [&](codec::Encoder &e) {{ {encode} }});")
         else:
-            live = "LiveChange::Unchanged, 0"
-        lines += [f"    if (capturing(dev){ok}) [[unlikely]] {{",
-                  f"        record_global(dev, {live}, [&](codec::Encoder &e) {{ {encode} }});",
-                  "    }"]
+            if created:
+                live = f"LiveChange::Created, codec::handle_value(*{created})"
+            elif destroyed:
+                kind = "Retired" if canon.name in _RETIRED else "Destroyed"
+                live = f"LiveChange::{kind}, codec::handle_value({destroyed})"
+            else:
+                live = "LiveChange::Unchanged, 0"
+            lines.append(f"        record_global(dev, {live}, [&](codec::Encoder &e) {{ {encode} }});")
+        if canon.name == "vkUpdateDescriptorSets":
+            lines.append("        note_descriptor_updates(descriptorWriteCount, pDescriptorWrites, "
+                         "descriptorCopyCount, pDescriptorCopies);")
+        lines.append("    }")
     if ret != "void":
         lines.append("    return result;")
     return lines
@@ -116,7 +152,7 @@ def emit(model):
 
     by_name = {c.name: c for c in model.commands}
     source = [HEADER.format(script="emit_layer.py"), '#include "layer_entry_points.h"', "",
-              '#include "capture.h"', '#include "dispatch.h"', '#include "vk_codec.h"', "", "#include <algorithm>", "#include <cstring>", "#include <iterator>", "",
+              '#include "capture.h"', '#include "dispatch.h"', '#include "vk_codec.h"', "", "#include <algorithm>", "#include <cstring>", "#include <iterator>", "#include <span>", "#include <vector>", "",
               "namespace splitvk {", "namespace entry {", ""]
     for c in commands:
         if c.name in MANUAL_COMMANDS:

@@ -6,6 +6,10 @@
 #include "device.h"
 #include "session.h"
 
+#include <span>
+#include <unordered_set>
+#include <vector>
+
 namespace splitvk {
 
 inline bool capturing(const DeviceState &device) {
@@ -17,6 +21,28 @@ template <class F>
 inline void record_global(DeviceState &device, LiveChange change, uint64_t id, F &&encode) {
     device.session->record(change, id, std::forward<F>(encode));
 }
+
+// A call that is one live-state log entry held by several ids (session.h: batches, binds).
+template <class F>
+inline void record_logged(DeviceState &device, std::span<const uint64_t> holders,
+                          std::span<const uint64_t> killers, F &&encode) {
+    device.session->record_logged(holders, killers, std::forward<F>(encode));
+}
+
+// vkUpdateDescriptorSets: the descriptor contents part of the live-state log (descriptor_set.cpp).
+void note_descriptor_updates(uint32_t write_count, const VkWriteDescriptorSet *writes, uint32_t copy_count,
+                             const VkCopyDescriptorSet *copies);
+
+// vkUpdateDescriptorSetWithTemplate: the same, through a template's layout.
+void note_descriptor_template_update(VkDescriptorSet set, const codec::DescriptorTemplateLayout &layout,
+                                     const void *data);
+
+// Snapshot parts (session.h: build_live_snapshot), naming only ids in `live`: one
+// vkUpdateDescriptorSets per set with contents, and the last stream of each command buffer.
+void snapshot_descriptor_contents(DeviceState &device, const std::unordered_set<uint64_t> &live,
+                                  codec::Encoder &out, size_t *set_count);
+void snapshot_command_buffers(DeviceState &device, const std::unordered_set<uint64_t> &live,
+                              std::vector<std::vector<uint8_t>> &streams);
 
 // The stream a command buffer is being recorded into; nullptr when it is not captured
 // (allocated before the session, or not between begin and end).

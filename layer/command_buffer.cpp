@@ -74,6 +74,14 @@ void forget_command_buffers(DeviceState &device) {
     }
 }
 
+void snapshot_command_buffers(DeviceState &device, const std::unordered_set<uint64_t> &live,
+                              std::vector<std::vector<uint8_t>> &streams) {
+    std::shared_lock lock(g_mutex);
+    for (const auto &[cb, state] : g_command_buffers)
+        if (state->device == &device && !state->last_stream.empty() && live.count(codec::handle_value(cb)))
+            streams.push_back(state->last_stream);
+}
+
 namespace entry {
 
 VKAPI_ATTR VkResult VKAPI_CALL AllocateCommandBuffers(VkDevice device,
@@ -94,7 +102,10 @@ VKAPI_ATTR VkResult VKAPI_CALL AllocateCommandBuffers(VkDevice device,
             g_pools[pAllocateInfo->commandPool].insert(pCommandBuffers[i]);
         }
     }
-    record_global(dev, LiveChange::Unchanged, 0, [&](codec::Encoder &e) {
+    std::vector<uint64_t> ids;
+    for (uint32_t i = 0; i < pAllocateInfo->commandBufferCount; ++i)
+        ids.push_back(codec::handle_value(pCommandBuffers[i]));
+    record_logged(dev, ids, {}, [&](codec::Encoder &e) {
         encode_vkAllocateCommandBuffers(e, device, pAllocateInfo, pCommandBuffers);
     });
     return result;
@@ -106,11 +117,16 @@ VKAPI_ATTR void VKAPI_CALL FreeCommandBuffers(VkDevice device, VkCommandPool com
     DeviceState &dev = device_state(device);
     dev.dispatch.FreeCommandBuffers(device, commandPool, commandBufferCount, pCommandBuffers);
     if (!dev.session) return;
+    std::vector<uint64_t> ids;
     {
         std::unique_lock lock(g_mutex);
         for (uint32_t i = 0; i < commandBufferCount; ++i)
-            if (pCommandBuffers[i]) erase_locked(pCommandBuffers[i]);
+            if (pCommandBuffers[i]) {
+                erase_locked(pCommandBuffers[i]);
+                ids.push_back(codec::handle_value(pCommandBuffers[i]));
+            }
     }
+    dev.session->forget(ids);
     if (capturing(dev))
         record_global(dev, LiveChange::Unchanged, 0, [&](codec::Encoder &e) {
             encode_vkFreeCommandBuffers(e, device, commandPool, commandBufferCount, pCommandBuffers);
@@ -188,15 +204,19 @@ VKAPI_ATTR void VKAPI_CALL DestroyCommandPool(VkDevice device, VkCommandPool com
     DeviceState &dev = device_state(device);
     dev.dispatch.DestroyCommandPool(device, commandPool, pAllocator);
     if (!dev.session) return;
+    std::vector<uint64_t> ids;
     {
         std::unique_lock lock(g_mutex);
         const auto pool = g_pools.find(commandPool);
         if (pool != g_pools.end()) {
-            for (VkCommandBuffer cb : pool->second)
+            for (VkCommandBuffer cb : pool->second) {
                 g_command_buffers.erase(cb);
+                ids.push_back(codec::handle_value(cb));
+            }
             g_pools.erase(pool);
         }
     }
+    dev.session->forget(ids);
     if (capturing(dev))
         record_global(dev, LiveChange::Destroyed, codec::handle_value(commandPool), [&](codec::Encoder &e) {
             encode_vkDestroyCommandPool(e, device, commandPool, nullptr);

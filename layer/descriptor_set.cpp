@@ -3,12 +3,20 @@
 // the encoder must not send it (EncodeHooks::has_immutable_samplers). Kept only while a session
 // exists: layouts by handle, sets by handle with their layout (shared, since a layout may be
 // destroyed while sets allocated from it live on) and their pool.
+//
+// Each set also keeps its part of the live-state log (session.h): the latest descriptor per
+// (binding, array element), from vkUpdateDescriptorSets writes (split per element, rolling over
+// into the next binding as the specification says), copies (the source's content at copy time)
+// and template updates (descriptor_template.cpp). snapshot_descriptor_contents() re-encodes them.
 
 #include "capture.h"
 #include "layer_entry_points.h"
 
+#include <cstring>
+#include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <shared_mutex>
 #include <unordered_map>
 #include <unordered_set>
@@ -18,11 +26,22 @@ namespace {
 
 struct LayoutInfo {
     std::unordered_set<uint32_t> immutable_sampler_bindings;
+    std::map<uint32_t, uint32_t> counts; // binding -> descriptorCount
+};
+
+// One descriptor's content (inline uniform blocks: one write's bytes, keyed by its offset).
+struct Descriptor {
+    VkDescriptorType type = VK_DESCRIPTOR_TYPE_SAMPLER;
+    VkDescriptorImageInfo image{};
+    VkDescriptorBufferInfo buffer{};
+    VkBufferView texel_view = VK_NULL_HANDLE;
+    std::vector<uint8_t> inline_bytes;
 };
 
 struct SetInfo {
     std::shared_ptr<const LayoutInfo> layout;
     VkDescriptorPool pool = VK_NULL_HANDLE;
+    std::map<std::pair<uint32_t, uint32_t>, Descriptor> contents; // (binding, element)
 };
 
 std::shared_mutex g_mutex;
@@ -30,12 +49,69 @@ std::unordered_map<VkDescriptorSetLayout, std::shared_ptr<const LayoutInfo>> g_l
 std::unordered_map<VkDescriptorSet, SetInfo> g_sets;
 std::unordered_map<VkDescriptorPool, std::unordered_set<VkDescriptorSet>> g_pool_sets;
 
-void forget_pool_sets_locked(VkDescriptorPool pool) {
+// Returns the ids of the sets forgotten (they let go of their live-state log entries).
+std::vector<uint64_t> forget_pool_sets_locked(VkDescriptorPool pool) {
+    std::vector<uint64_t> ids;
     const auto it = g_pool_sets.find(pool);
-    if (it == g_pool_sets.end()) return;
-    for (VkDescriptorSet set : it->second)
+    if (it == g_pool_sets.end()) return ids;
+    for (VkDescriptorSet set : it->second) {
         g_sets.erase(set);
+        ids.push_back(codec::handle_value(set));
+    }
     g_pool_sets.erase(it);
+    return ids;
+}
+
+bool is_image_type(VkDescriptorType type) {
+    return type == VK_DESCRIPTOR_TYPE_SAMPLER || type == VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER ||
+           type == VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE || type == VK_DESCRIPTOR_TYPE_STORAGE_IMAGE ||
+           type == VK_DESCRIPTOR_TYPE_INPUT_ATTACHMENT;
+}
+
+bool is_buffer_type(VkDescriptorType type) {
+    return type == VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER || type == VK_DESCRIPTOR_TYPE_STORAGE_BUFFER ||
+           type == VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER_DYNAMIC ||
+           type == VK_DESCRIPTOR_TYPE_STORAGE_BUFFER_DYNAMIC;
+}
+
+bool is_texel_type(VkDescriptorType type) {
+    return type == VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER || type == VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER;
+}
+
+// The (binding, element) `index` descriptors after (binding, element), rolling over into the next
+// bindings of the layout (consecutive binding updates); without a layout, within the binding.
+std::pair<uint32_t, uint32_t> advance(const LayoutInfo *layout, uint32_t binding, uint32_t element) {
+    if (!layout) return {binding, element};
+    auto it = layout->counts.find(binding);
+    while (it != layout->counts.end() && element >= it->second) {
+        element -= it->second;
+        ++it;
+        while (it != layout->counts.end() && it->second == 0)
+            ++it;
+        if (it == layout->counts.end()) break;
+        binding = it->first;
+    }
+    return {binding, element};
+}
+
+// Stores `count` descriptors of `type` from (binding, element); `at(i)` fills the i-th. Under g_mutex.
+template <class F>
+void store_locked(SetInfo &set, uint32_t binding, uint32_t element, uint32_t count, VkDescriptorType type,
+                  F &&at) {
+    for (uint32_t i = 0; i < count; ++i) {
+        Descriptor d;
+        d.type = type;
+        at(i, d);
+        set.contents[advance(set.layout.get(), binding, element + i)] = std::move(d);
+    }
+}
+
+void store_inline_locked(SetInfo &set, uint32_t binding, uint32_t offset, uint32_t size, const void *data) {
+    Descriptor d;
+    d.type = VK_DESCRIPTOR_TYPE_INLINE_UNIFORM_BLOCK;
+    const auto *bytes = static_cast<const uint8_t *>(data);
+    d.inline_bytes.assign(bytes, bytes + size);
+    set.contents[{binding, offset}] = std::move(d);
 }
 
 } // namespace
@@ -45,6 +121,144 @@ bool set_binding_has_immutable_samplers(VkDescriptorSet set, uint32_t binding) {
     const auto it = g_sets.find(set);
     return it != g_sets.end() && it->second.layout &&
            it->second.layout->immutable_sampler_bindings.count(binding);
+}
+
+void note_descriptor_updates(uint32_t write_count, const VkWriteDescriptorSet *writes, uint32_t copy_count,
+                             const VkCopyDescriptorSet *copies) {
+    std::unique_lock lock(g_mutex);
+    for (uint32_t w = 0; w < write_count; ++w) {
+        const VkWriteDescriptorSet &write = writes[w];
+        const auto set = g_sets.find(write.dstSet);
+        if (set == g_sets.end()) continue;
+        const VkDescriptorType type = write.descriptorType;
+        if (is_image_type(type) && write.pImageInfo) {
+            store_locked(set->second, write.dstBinding, write.dstArrayElement, write.descriptorCount, type,
+                         [&](uint32_t i, Descriptor &d) { d.image = write.pImageInfo[i]; });
+        } else if (is_buffer_type(type) && write.pBufferInfo) {
+            store_locked(set->second, write.dstBinding, write.dstArrayElement, write.descriptorCount, type,
+                         [&](uint32_t i, Descriptor &d) { d.buffer = write.pBufferInfo[i]; });
+        } else if (is_texel_type(type) && write.pTexelBufferView) {
+            store_locked(set->second, write.dstBinding, write.dstArrayElement, write.descriptorCount, type,
+                         [&](uint32_t i, Descriptor &d) { d.texel_view = write.pTexelBufferView[i]; });
+        } else if (type == VK_DESCRIPTOR_TYPE_INLINE_UNIFORM_BLOCK) {
+            for (auto *next = static_cast<const VkBaseInStructure *>(write.pNext); next; next = next->pNext)
+                if (next->sType == VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET_INLINE_UNIFORM_BLOCK) {
+                    const auto *block =
+                        reinterpret_cast<const VkWriteDescriptorSetInlineUniformBlock *>(next);
+                    store_inline_locked(set->second, write.dstBinding, write.dstArrayElement, block->dataSize,
+                                        block->pData);
+                }
+        }
+    }
+    for (uint32_t c = 0; c < copy_count; ++c) {
+        const VkCopyDescriptorSet &copy = copies[c];
+        const auto src = g_sets.find(copy.srcSet);
+        const auto dst = g_sets.find(copy.dstSet);
+        if (src == g_sets.end() || dst == g_sets.end()) continue;
+        // Resolved now: later writes to the source do not change the destination.
+        std::vector<std::pair<std::pair<uint32_t, uint32_t>, std::optional<Descriptor>>> moved;
+        for (uint32_t i = 0; i < copy.descriptorCount; ++i) {
+            const auto from = src->second.contents.find(
+                advance(src->second.layout.get(), copy.srcBinding, copy.srcArrayElement + i));
+            std::optional<Descriptor> content;
+            if (from != src->second.contents.end()) content = from->second;
+            moved.emplace_back(advance(dst->second.layout.get(), copy.dstBinding, copy.dstArrayElement + i),
+                               std::move(content));
+        }
+        for (auto &[key, content] : moved) {
+            if (content)
+                dst->second.contents[key] = std::move(*content);
+            else
+                dst->second.contents.erase(key);
+        }
+    }
+}
+
+void note_descriptor_template_update(VkDescriptorSet set, const codec::DescriptorTemplateLayout &layout,
+                                     const void *data) {
+    std::unique_lock lock(g_mutex);
+    const auto it = g_sets.find(set);
+    if (it == g_sets.end() || !data) return;
+    const auto *base = static_cast<const uint8_t *>(data);
+    for (const VkDescriptorUpdateTemplateEntry &entry : layout.entries) {
+        const uint8_t *at = base + entry.offset;
+        const VkDescriptorType type = entry.descriptorType;
+        const auto read = [&](uint32_t i, auto &out) {
+            std::memcpy(&out, at + size_t{i} * entry.stride, sizeof(out));
+        };
+        if (is_image_type(type))
+            store_locked(it->second, entry.dstBinding, entry.dstArrayElement, entry.descriptorCount, type,
+                         [&](uint32_t i, Descriptor &d) { read(i, d.image); });
+        else if (is_buffer_type(type))
+            store_locked(it->second, entry.dstBinding, entry.dstArrayElement, entry.descriptorCount, type,
+                         [&](uint32_t i, Descriptor &d) { read(i, d.buffer); });
+        else if (is_texel_type(type))
+            store_locked(it->second, entry.dstBinding, entry.dstArrayElement, entry.descriptorCount, type,
+                         [&](uint32_t i, Descriptor &d) { read(i, d.texel_view); });
+        else if (type == VK_DESCRIPTOR_TYPE_INLINE_UNIFORM_BLOCK)
+            store_inline_locked(it->second, entry.dstBinding, entry.dstArrayElement, entry.descriptorCount,
+                                at);
+    }
+}
+
+void snapshot_descriptor_contents(DeviceState &device, const std::unordered_set<uint64_t> &live,
+                                  codec::Encoder &out, size_t *set_count) {
+    // Copied out first: encoding asks has_immutable_samplers(), which takes g_mutex.
+    std::vector<std::pair<VkDescriptorSet, SetInfo>> sets;
+    {
+        std::shared_lock lock(g_mutex);
+        for (const auto &[set, info] : g_sets)
+            if (!info.contents.empty() && live.count(codec::handle_value(set))) sets.emplace_back(set, info);
+    }
+    const auto named = [&live](auto handle) {
+        return handle == VK_NULL_HANDLE || live.count(codec::handle_value(handle));
+    };
+    size_t count = 0;
+    for (const auto &[set, info] : sets) {
+        std::vector<VkWriteDescriptorSet> writes;
+        std::vector<VkWriteDescriptorSetInlineUniformBlock> blocks;
+        writes.reserve(info.contents.size());
+        blocks.reserve(info.contents.size());
+        for (const auto &[key, d] : info.contents) {
+            VkWriteDescriptorSet w{};
+            w.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+            w.dstSet = set;
+            w.dstBinding = key.first;
+            w.dstArrayElement = key.second;
+            w.descriptorCount = 1;
+            w.descriptorType = d.type;
+            const bool immutable = info.layout && info.layout->immutable_sampler_bindings.count(key.first);
+            if (is_image_type(d.type)) {
+                // A descriptor naming a destroyed object cannot be replayed (nor used by the app).
+                const bool has_sampler = d.type == VK_DESCRIPTOR_TYPE_SAMPLER ||
+                                         d.type == VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+                const bool has_view = d.type != VK_DESCRIPTOR_TYPE_SAMPLER;
+                if ((has_view && !named(d.image.imageView)) ||
+                    (has_sampler && !immutable && !named(d.image.sampler)))
+                    continue;
+                w.pImageInfo = &d.image;
+            } else if (is_buffer_type(d.type)) {
+                if (!named(d.buffer.buffer)) continue;
+                w.pBufferInfo = &d.buffer;
+            } else if (is_texel_type(d.type)) {
+                if (!named(d.texel_view)) continue;
+                w.pTexelBufferView = &d.texel_view;
+            } else if (d.type == VK_DESCRIPTOR_TYPE_INLINE_UNIFORM_BLOCK) {
+                blocks.push_back({VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET_INLINE_UNIFORM_BLOCK, nullptr,
+                                  static_cast<uint32_t>(d.inline_bytes.size()), d.inline_bytes.data()});
+                w.pNext = &blocks.back();
+                w.descriptorCount = static_cast<uint32_t>(d.inline_bytes.size());
+            } else {
+                continue;
+            }
+            writes.push_back(w);
+        }
+        if (writes.empty()) continue;
+        encode_vkUpdateDescriptorSets(out, device.handle, static_cast<uint32_t>(writes.size()), writes.data(),
+                                      0, nullptr);
+        ++count;
+    }
+    if (set_count) *set_count = count;
 }
 
 namespace entry {
@@ -60,6 +274,7 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateDescriptorSetLayout(VkDevice device,
     auto info = std::make_shared<LayoutInfo>();
     for (uint32_t i = 0; i < pCreateInfo->bindingCount; ++i) {
         const VkDescriptorSetLayoutBinding &b = pCreateInfo->pBindings[i];
+        info->counts[b.binding] = b.descriptorCount;
         if ((b.descriptorType == VK_DESCRIPTOR_TYPE_SAMPLER ||
              b.descriptorType == VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER) &&
             b.pImmutableSamplers && b.descriptorCount > 0)
@@ -86,7 +301,7 @@ VKAPI_ATTR void VKAPI_CALL DestroyDescriptorSetLayout(VkDevice device,
         g_layouts.erase(descriptorSetLayout);
     }
     if (capturing(dev))
-        record_global(dev, LiveChange::Destroyed, codec::handle_value(descriptorSetLayout),
+        record_global(dev, LiveChange::Retired, codec::handle_value(descriptorSetLayout),
                       [&](codec::Encoder &e) {
                           encode_vkDestroyDescriptorSetLayout(e, device, descriptorSetLayout, pAllocator);
                       });
@@ -102,12 +317,15 @@ VKAPI_ATTR VkResult VKAPI_CALL AllocateDescriptorSets(VkDevice device,
         std::unique_lock lock(g_mutex);
         for (uint32_t i = 0; i < pAllocateInfo->descriptorSetCount; ++i) {
             const auto layout = g_layouts.find(pAllocateInfo->pSetLayouts[i]);
-            g_sets[pDescriptorSets[i]] = {layout == g_layouts.end() ? nullptr : layout->second,
-                                          pAllocateInfo->descriptorPool};
+            g_sets[pDescriptorSets[i]] = {
+                layout == g_layouts.end() ? nullptr : layout->second, pAllocateInfo->descriptorPool, {}};
             g_pool_sets[pAllocateInfo->descriptorPool].insert(pDescriptorSets[i]);
         }
     }
-    record_global(dev, LiveChange::Unchanged, 0, [&](codec::Encoder &e) {
+    std::vector<uint64_t> ids;
+    for (uint32_t i = 0; i < pAllocateInfo->descriptorSetCount; ++i)
+        ids.push_back(codec::handle_value(pDescriptorSets[i]));
+    record_logged(dev, ids, {}, [&](codec::Encoder &e) {
         encode_vkAllocateDescriptorSets(e, device, pAllocateInfo, pDescriptorSets);
     });
     return result;
@@ -120,14 +338,17 @@ VKAPI_ATTR VkResult VKAPI_CALL FreeDescriptorSets(VkDevice device, VkDescriptorP
     const VkResult result =
         dev.dispatch.FreeDescriptorSets(device, descriptorPool, descriptorSetCount, pDescriptorSets);
     if (!dev.session) return result;
+    std::vector<uint64_t> ids;
     {
         std::unique_lock lock(g_mutex);
         const auto pool = g_pool_sets.find(descriptorPool);
         for (uint32_t i = 0; i < descriptorSetCount; ++i) {
             g_sets.erase(pDescriptorSets[i]);
             if (pool != g_pool_sets.end()) pool->second.erase(pDescriptorSets[i]);
+            ids.push_back(codec::handle_value(pDescriptorSets[i]));
         }
     }
+    if (result == VK_SUCCESS) dev.session->forget(ids);
     if (result == VK_SUCCESS && capturing(dev))
         record_global(dev, LiveChange::Unchanged, 0, [&](codec::Encoder &e) {
             encode_vkFreeDescriptorSets(e, device, descriptorPool, descriptorSetCount, pDescriptorSets);
@@ -140,10 +361,12 @@ VKAPI_ATTR VkResult VKAPI_CALL ResetDescriptorPool(VkDevice device, VkDescriptor
     DeviceState &dev = device_state(device);
     const VkResult result = dev.dispatch.ResetDescriptorPool(device, descriptorPool, flags);
     if (!dev.session) return result;
+    std::vector<uint64_t> ids;
     {
         std::unique_lock lock(g_mutex);
-        forget_pool_sets_locked(descriptorPool);
+        ids = forget_pool_sets_locked(descriptorPool);
     }
+    if (result == VK_SUCCESS) dev.session->forget(ids);
     if (result == VK_SUCCESS && capturing(dev))
         record_global(dev, LiveChange::Unchanged, 0, [&](codec::Encoder &e) {
             encode_vkResetDescriptorPool(e, device, descriptorPool, flags);
@@ -156,10 +379,12 @@ VKAPI_ATTR void VKAPI_CALL DestroyDescriptorPool(VkDevice device, VkDescriptorPo
     DeviceState &dev = device_state(device);
     dev.dispatch.DestroyDescriptorPool(device, descriptorPool, pAllocator);
     if (!dev.session || descriptorPool == VK_NULL_HANDLE) return;
+    std::vector<uint64_t> ids;
     {
         std::unique_lock lock(g_mutex);
-        forget_pool_sets_locked(descriptorPool);
+        ids = forget_pool_sets_locked(descriptorPool);
     }
+    dev.session->forget(ids);
     if (capturing(dev))
         record_global(dev, LiveChange::Destroyed, codec::handle_value(descriptorPool),
                       [&](codec::Encoder &e) {

@@ -51,6 +51,7 @@ void update_with_template(PFN_vkUpdateDescriptorSetWithTemplate next, VkDevice d
     record_global(dev, LiveChange::Unchanged, 0, [&](codec::Encoder &e) {
         encode_vkUpdateDescriptorSetWithTemplate(e, device, set, descriptorUpdateTemplate, pData, *layout);
     });
+    note_descriptor_template_update(set, *layout, pData);
 }
 
 } // namespace

@@ -113,6 +113,7 @@ VKAPI_ATTR void VKAPI_CALL DestroyDevice(VkDevice device, const VkAllocationCall
     if (device == VK_NULL_HANDLE) return;
     const auto state = g_devices.remove(dispatch_key(device));
     if (!state) return;
+    log_live_state(*state, "at vkDestroyDevice");
     forget_device_objects(*state);
     if (state->session) {
         if (state->session->live())

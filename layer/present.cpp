@@ -273,6 +273,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
 
     Session &session = *dev.session;
     const uint64_t frame = session.take_frame();
+    if (frame == 1) log_live_state(dev, "at frame 1"); // SPLITVK_LOG_LEVEL=debug
     protocol::FramePresent message;
     message.frame = frame;
     message.queue_id = codec::handle_value(queue);

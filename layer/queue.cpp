@@ -61,7 +61,7 @@ VKAPI_ATTR void VKAPI_CALL GetDeviceQueue(VkDevice device, uint32_t queueFamilyI
     dev.dispatch.GetDeviceQueue(device, queueFamilyIndex, queueIndex, pQueue);
     note_queue(dev, *pQueue, queueFamilyIndex);
     if (capturing(dev))
-        record_global(dev, LiveChange::Unchanged, 0, [&](codec::Encoder &e) {
+        record_global(dev, LiveChange::Created, codec::handle_value(*pQueue), [&](codec::Encoder &e) {
             encode_vkGetDeviceQueue(e, device, queueFamilyIndex, queueIndex, pQueue);
         });
 }
@@ -72,7 +72,7 @@ VKAPI_ATTR void VKAPI_CALL GetDeviceQueue2(VkDevice device, const VkDeviceQueueI
     dev.dispatch.GetDeviceQueue2(device, pQueueInfo, pQueue);
     note_queue(dev, *pQueue, pQueueInfo->queueFamilyIndex);
     if (capturing(dev))
-        record_global(dev, LiveChange::Unchanged, 0,
+        record_global(dev, LiveChange::Created, codec::handle_value(*pQueue),
                       [&](codec::Encoder &e) { encode_vkGetDeviceQueue2(e, device, pQueueInfo, pQueue); });
 }
 

@@ -7,6 +7,7 @@
 #include "layer_settings.h"
 #include "log.h"
 
+#include <algorithm>
 #include <chrono>
 
 namespace splitvk {
@@ -106,7 +107,7 @@ std::unique_ptr<Session> Session::open(const DeviceState &device, const VkDevice
     // The first message: the device itself, which the agent mirrors and registers the
     // physical device and device ids from.
     VkDevice handle = device.handle;
-    session->record(LiveChange::Unchanged, 0, [&](codec::Encoder &e) {
+    session->record(LiveChange::Created, session->device_id_, [&](codec::Encoder &e) {
         encode_vkCreateDevice(e, device.physical_device, create_info, nullptr, &handle);
     });
     session->flush();
@@ -125,17 +126,169 @@ void Session::fail(const std::string &reason) {
 }
 
 void Session::note_live_change(LiveChange change, uint64_t id, size_t start) {
-    if (change == LiveChange::Created && id != 0) {
-        const auto bytes = encoder_.data().subspan(start);
-        live_objects_[id].assign(bytes.begin(), bytes.end());
-    } else if (change == LiveChange::Destroyed && id != 0) {
-        live_objects_.erase(id);
+    if (id == 0 || change == LiveChange::Unchanged) return;
+    const auto bytes = encoder_.data().subspan(start);
+    if (change == LiveChange::Created) {
+        const uint64_t ids[] = {id};
+        add_entry_locked(std::vector<uint8_t>(bytes.begin(), bytes.end()), ids, {});
+    } else {
+        forget_locked(id, bytes, change == LiveChange::Retired);
     }
+}
+
+uint64_t Session::add_entry_locked(std::vector<uint8_t> &&bytes, std::span<const uint64_t> holders,
+                                   std::span<const uint64_t> killers) {
+    // A creation naming a handle value seen before (vkGetDeviceQueue returns the same queue; a
+    // driver reuses the value of a retired object) names the new object from now on. Binds (the
+    // entries with killers) only add to what their resources hold.
+    for (uint64_t id : holders) {
+        if (id == 0 || !killers.empty()) continue;
+        const auto held = held_by_.find(id);
+        if (held != held_by_.end() && !held->second.empty()) forget_locked(id, {}, false);
+        // The retired object with this value is destroyed, on replay, just before this creation:
+        // what was created in between still names it.
+        const auto retired = retired_.find(id);
+        if (retired != retired_.end()) {
+            log_[retired->second].destroy_seq = next_seq_++;
+            retired_.erase(retired);
+        }
+    }
+    const uint64_t seq = next_seq_++;
+    LogEntry &entry = log_[seq];
+    entry.bytes = std::move(bytes);
+    for (uint64_t id : holders)
+        if (id != 0) {
+            entry.holders.push_back(id);
+            held_by_[id].push_back(seq);
+        }
+    for (uint64_t id : killers)
+        if (id != 0) {
+            entry.killers.push_back(id);
+            killed_by_[id].insert(seq);
+        }
+    if (entry.holders.empty()) {
+        erase_entry_locked(seq);
+        return 0;
+    }
+    return seq;
+}
+
+void Session::send_metadata_logged(protocol::MessageType type, std::vector<uint8_t> &&payload,
+                                   uint64_t holder) {
+    std::lock_guard lock(mutex_);
+    if (!live()) return;
+    const uint64_t ids[] = {holder};
+    const uint64_t seq = add_entry_locked(std::vector<uint8_t>(payload), ids, {});
+    if (seq != 0) log_[seq].type = type;
+    flush_locked();
+    send_locked(type, std::move(payload));
+}
+
+void Session::erase_entry_locked(uint64_t seq) {
+    const auto it = log_.find(seq);
+    if (it == log_.end()) return;
+    for (uint64_t id : it->second.holders)
+        if (const auto found = held_by_.find(id); found != held_by_.end()) {
+            std::erase(found->second, seq);
+            if (found->second.empty()) held_by_.erase(found);
+        }
+    // A set: many resources may be bound to one allocation.
+    for (uint64_t id : it->second.killers)
+        if (const auto found = killed_by_.find(id); found != killed_by_.end()) {
+            found->second.erase(seq);
+            if (found->second.empty()) killed_by_.erase(found);
+        }
+    if (it->second.retired_id != 0) {
+        const auto retired = retired_.find(it->second.retired_id);
+        if (retired != retired_.end() && retired->second == seq) retired_.erase(retired);
+    }
+    log_.erase(it);
+}
+
+void Session::forget_locked(uint64_t id, std::span<const uint8_t> retire_bytes, bool retire) {
+    if (const auto killed = killed_by_.find(id); killed != killed_by_.end()) {
+        const std::vector<uint64_t> seqs(killed->second.begin(), killed->second.end());
+        for (uint64_t seq : seqs)
+            erase_entry_locked(seq);
+    }
+    const auto held = held_by_.find(id);
+    if (held == held_by_.end()) return;
+    const std::vector<uint64_t> seqs = std::move(held->second);
+    held_by_.erase(held);
+    for (uint64_t seq : seqs) {
+        const auto it = log_.find(seq);
+        if (it == log_.end()) continue;
+        std::erase(it->second.holders, id);
+        if (!it->second.holders.empty()) continue;
+        // Only a single-handle creation retires (the entry `id` alone held).
+        if (retire && it->second.killers.empty() && seq == seqs.front()) {
+            it->second.retired_id = id;
+            it->second.destroy.assign(retire_bytes.begin(), retire_bytes.end());
+            retired_[id] = seq;
+        } else {
+            erase_entry_locked(seq);
+        }
+    }
+    if (retire) prune_retired_locked();
+}
+
+void Session::prune_retired_locked() {
+    // A retired object can only be named by entries created after it (and, when its value was
+    // reused, before its destroy): it goes once no live entry is in that range.
+    std::vector<uint64_t> live;
+    for (const auto &[seq, entry] : log_)
+        if (entry.retired_id == 0) live.push_back(seq); // ascending
+    std::vector<uint64_t> stale;
+    for (const auto &[seq, entry] : log_) {
+        if (entry.retired_id == 0) continue;
+        const auto after = std::upper_bound(live.begin(), live.end(), seq);
+        if (after == live.end() || (entry.destroy_seq != 0 && *after > entry.destroy_seq))
+            stale.push_back(seq);
+    }
+    for (uint64_t seq : stale)
+        erase_entry_locked(seq);
+}
+
+void Session::forget(std::span<const uint64_t> ids) {
+    std::lock_guard lock(mutex_);
+    for (uint64_t id : ids)
+        if (id != 0) forget_locked(id, {}, false);
+}
+
+std::vector<LiveMessage> Session::object_log(size_t *entries, std::unordered_set<uint64_t> *live_ids) {
+    std::lock_guard lock(mutex_);
+    prune_retired_locked();
+    std::vector<LiveMessage> out;
+    const auto append = [&out](protocol::MessageType type, const std::vector<uint8_t> &bytes) {
+        if (bytes.empty()) return;
+        if (type != protocol::MessageType::Commands || out.empty() ||
+            out.back().type != protocol::MessageType::Commands)
+            out.push_back({type, {}});
+        out.back().payload.insert(out.back().payload.end(), bytes.begin(), bytes.end());
+    };
+    // Creations in order, with the destroys of retired objects whose value a later creation
+    // reuses just before that creation; the other retired objects' destroys at the end.
+    std::map<uint64_t, std::pair<protocol::MessageType, const std::vector<uint8_t> *>> order;
+    for (const auto &[seq, entry] : log_) {
+        order[seq] = {entry.type, &entry.bytes};
+        if (entry.retired_id != 0 && entry.destroy_seq != 0)
+            order[entry.destroy_seq] = {protocol::MessageType::Commands, &entry.destroy};
+    }
+    for (const auto &[seq, emit] : order)
+        append(emit.first, *emit.second);
+    for (const auto &[seq, entry] : log_)
+        if (entry.retired_id != 0 && entry.destroy_seq == 0)
+            append(protocol::MessageType::Commands, entry.destroy);
+    if (entries) *entries = log_.size();
+    if (live_ids)
+        for (const auto &[id, seqs] : held_by_)
+            live_ids->insert(id);
+    return out;
 }
 
 size_t Session::live_object_count() {
     std::lock_guard lock(mutex_);
-    return live_objects_.size();
+    return log_.size();
 }
 
 void Session::send_locked(protocol::MessageType type, std::vector<uint8_t> &&payload) {
@@ -194,6 +347,128 @@ void Session::close() {
                  static_cast<unsigned long long>(stats.payload_bytes_sent),
                  static_cast<unsigned long long>(stats.wire_bytes_sent));
     connection_->close("the application destroyed the device");
+}
+
+} // namespace splitvk
+
+namespace splitvk {
+
+void snapshot_descriptor_contents(DeviceState &device, const std::unordered_set<uint64_t> &live,
+                                  codec::Encoder &out, size_t *set_count); // descriptor_set.cpp
+void snapshot_command_buffers(DeviceState &device, const std::unordered_set<uint64_t> &live,
+                              std::vector<std::vector<uint8_t>> &streams); // command_buffer.cpp
+
+LiveSnapshot build_live_snapshot(DeviceState &device) {
+    LiveSnapshot snapshot;
+    if (!device.session) return snapshot;
+    std::unordered_set<uint64_t> live;
+    snapshot.messages = device.session->object_log(&snapshot.objects, &live);
+
+    codec::Encoder descriptors;
+    descriptors.set_hooks(device.session->hooks());
+    snapshot_descriptor_contents(device, live, descriptors, &snapshot.descriptor_sets);
+    if (descriptors.size() != 0)
+        snapshot.messages.push_back({protocol::MessageType::Commands, descriptors.take()});
+
+    std::vector<std::vector<uint8_t>> streams;
+    snapshot_command_buffers(device, live, streams);
+    snapshot.command_buffers = streams.size();
+    for (auto &stream : streams)
+        snapshot.messages.push_back({protocol::MessageType::Commands, std::move(stream)});
+    for (const LiveMessage &message : snapshot.messages)
+        snapshot.bytes += message.payload.size();
+    return snapshot;
+}
+
+namespace {
+
+// Replays a snapshot's handle changes the way a fresh agent's HandleTable would, without a GPU:
+// every command decodes (so every id it names resolves) in the order given.
+class HandleReplay : public codec::CommandVisitor {
+public:
+    explicit HandleReplay(codec::HandleTable &table) : table_(table) {}
+    std::string error;
+
+    bool unhandled(codec::VkCommandId) override { return true; }
+#define SPLITVK_APPLY(name)                                                                                  \
+    bool name(const codec::Decoded_##name &cmd) override {                                                   \
+        return codec::apply_handle_changes(table_, cmd, &error);                                             \
+    }
+    SPLITVK_APPLY(vkAllocateCommandBuffers)
+    SPLITVK_APPLY(vkAllocateDescriptorSets)
+    SPLITVK_APPLY(vkAllocateMemory)
+    SPLITVK_APPLY(vkCreateBuffer)
+    SPLITVK_APPLY(vkCreateBufferView)
+    SPLITVK_APPLY(vkCreateCommandPool)
+    SPLITVK_APPLY(vkCreateComputePipelines)
+    SPLITVK_APPLY(vkCreateDescriptorPool)
+    SPLITVK_APPLY(vkCreateDescriptorSetLayout)
+    SPLITVK_APPLY(vkCreateDescriptorUpdateTemplate)
+    SPLITVK_APPLY(vkCreateDevice)
+    SPLITVK_APPLY(vkCreateEvent)
+    SPLITVK_APPLY(vkCreateFence)
+    SPLITVK_APPLY(vkCreateFramebuffer)
+    SPLITVK_APPLY(vkCreateGraphicsPipelines)
+    SPLITVK_APPLY(vkCreateImage)
+    SPLITVK_APPLY(vkCreateImageView)
+    SPLITVK_APPLY(vkCreatePipelineCache)
+    SPLITVK_APPLY(vkCreatePipelineLayout)
+    SPLITVK_APPLY(vkCreateQueryPool)
+    SPLITVK_APPLY(vkCreateRenderPass)
+    SPLITVK_APPLY(vkCreateRenderPass2)
+    SPLITVK_APPLY(vkCreateSampler)
+    SPLITVK_APPLY(vkCreateSamplerYcbcrConversion)
+    SPLITVK_APPLY(vkCreateSemaphore)
+    SPLITVK_APPLY(vkCreateShaderModule)
+    SPLITVK_APPLY(vkDestroyDescriptorSetLayout)
+    SPLITVK_APPLY(vkDestroyPipelineCache)
+    SPLITVK_APPLY(vkDestroyPipelineLayout)
+    SPLITVK_APPLY(vkDestroyRenderPass)
+    SPLITVK_APPLY(vkDestroyShaderModule)
+    SPLITVK_APPLY(vkGetDeviceQueue)
+    SPLITVK_APPLY(vkGetDeviceQueue2)
+#undef SPLITVK_APPLY
+
+private:
+    codec::HandleTable &table_;
+};
+
+// Empty when the snapshot replays with every id resolved; else the first error.
+std::string check_replay(const LiveSnapshot &snapshot, uint64_t physical_device_id, uint64_t device_id) {
+    codec::HandleTable table;
+    HandleReplay replay(table);
+    // The agent picks its own physical device for the client's (what vkCreateDevice names).
+    table.insert(physical_device_id, VK_OBJECT_TYPE_PHYSICAL_DEVICE, physical_device_id);
+    for (const LiveMessage &message : snapshot.messages) {
+        if (message.type == protocol::MessageType::SwapchainImages) {
+            auto images = protocol::decode_swapchain_images(message.payload);
+            if (!images) return "SwapchainImages: " + images.error();
+            for (uint64_t id : images->image_ids)
+                if (!table.insert(id, VK_OBJECT_TYPE_IMAGE, id, 0, &replay.error)) return replay.error;
+            continue;
+        }
+        codec::Arena arena;
+        codec::Decoder decoder(message.payload, table, arena);
+        while (!decoder.at_end()) {
+            if (!codec::dispatch_decoded(decoder, replay))
+                return decoder.ok() ? replay.error : decoder.error();
+        }
+    }
+    if (!table.find(device_id)) return "the device is not in the snapshot";
+    return {};
+}
+
+} // namespace
+
+void log_live_state(DeviceState &device, const char *when) {
+    if (!device.session || !log_enabled(LogLevel::Debug)) return;
+    const LiveSnapshot snapshot = build_live_snapshot(device);
+    const std::string error =
+        check_replay(snapshot, codec::handle_value(device.physical_device), device.session->device_id());
+    SPLITVK_DEBUG(
+        "live-state log %s: %zu objects, %zu descriptor sets, %zu command buffers, %zu bytes, replay %s%s",
+        when, snapshot.objects, snapshot.descriptor_sets, snapshot.command_buffers, snapshot.bytes,
+        error.empty() ? "ok" : "FAILED: ", error.c_str());
 }
 
 } // namespace splitvk

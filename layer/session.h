@@ -14,11 +14,29 @@
 // batch. Since encoding and enqueueing happen under the same lock, the agent sees messages in the
 // order the calls returned, across threads.
 //
-// Live-state log (DESIGN §3, replayed by the reliability issue): the encoded creation of every
-// live object created by a single-handle vkCreate* (keyed by the client's id, dropped at its
-// vkDestroy*/vkFree*), the last recorded stream of each command buffer (command_buffer.cpp), and
-// the latest encoded update of each descriptor set written through a template. Bounded by the
-// live objects themselves: nothing is kept for destroyed ones.
+// Live-state log (DESIGN §3, replayed by the reliability issue): what is needed to rebuild the
+// device's current state on a fresh agent, bounded by the live objects themselves.
+//  - Objects: the encoded call that created each live object, one entry per call with a sequence
+//    number (creation order). A single-handle vkCreate*, vkAllocateMemory and vkGetDeviceQueue*
+//    are held by their one id; batches (vkAllocateCommandBuffers, vkAllocateDescriptorSets,
+//    vkCreate*Pipelines) by each of their ids, and dropped when the last of them is destroyed or
+//    freed (pool destroy/reset frees the pool's children). vkBind*Memory* entries are held by
+//    their resources and die with the memory they bind. Objects that later creations may name
+//    (shader modules, render passes, pipeline and set layouts, pipeline caches) are "retired" at
+//    destroy: kept while anything created after them lives, their destroy replayed after the
+//    live objects (or, when a new object reuses the handle value, just before its creation).
+//    A live swapchain is its SwapchainImages message (held by the swapchain).
+//  - Descriptor contents (descriptor_set.cpp): per set, the latest descriptor per (binding, array
+//    element), from vkUpdateDescriptorSets writes, copies (resolved at copy time) and template
+//    updates, re-encoded as one vkUpdateDescriptorSets per set in the snapshot; descriptors that
+//    name a destroyed object are left out.
+//  - Command buffers (command_buffer.cpp): the last recorded stream of each.
+// build_live_snapshot() turns it into messages in that order. Out of scope: memory contents.
+// Host-visible memory is shadowed only while mapped (memory.cpp); device-local buffers and
+// images are read back on the client by the reliability issue when it sends a snapshot.
+// Not covered: an object destroyed while a live one created later still names it, other than
+// the retired kinds above (an image view under a live framebuffer), and command buffer streams
+// naming objects destroyed since they were recorded (the app cannot submit those either).
 
 #include "../protocol/session.h" // the metadata messages (same file name as this one)
 #include "transport.h"
@@ -26,18 +44,39 @@
 
 #include <atomic>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <span>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 namespace splitvk {
 
 struct DeviceState;
 
-enum class LiveChange { Unchanged, Created, Destroyed };
+// Created: a new log entry held by `id`. Destroyed: `id` lets go of its entries. Retired: as
+// Destroyed, but an entry created by `id` is kept while later entries live, with this call's
+// bytes replayed as its destroy (see the live-state log above).
+enum class LiveChange { Unchanged, Created, Destroyed, Retired };
+
+// One message of a snapshot: Commands, or the SwapchainImages metadata of a live swapchain.
+struct LiveMessage {
+    protocol::MessageType type = protocol::MessageType::Commands;
+    std::vector<uint8_t> payload;
+};
+
+// A snapshot of the live-state log: the messages to replay in order (objects in creation order,
+// descriptor contents, then one Commands message per command buffer stream).
+struct LiveSnapshot {
+    std::vector<LiveMessage> messages;
+    size_t objects = 0;         // log entries (creation calls, binds, retired objects)
+    size_t descriptor_sets = 0; // sets with contents
+    size_t command_buffers = 0; // recorded streams
+    size_t bytes = 0;
+};
 
 // What the codec reports while encoding: an extension structure it cannot forward is logged
 // once per structure type (DESIGN §3: "logs once when an app uses something it cannot forward").
@@ -76,6 +115,30 @@ public:
         note_live_change(change, id, start);
         if (encoder_.size() >= kBatchLimit) flush_locked();
     }
+
+    // As record(), for a call that makes one log entry held by every id in `holders` (dropped
+    // when the last of them is forgotten) and dropped at once when any of `killers` is.
+    template <class F>
+    void record_logged(std::span<const uint64_t> holders, std::span<const uint64_t> killers, F &&encode) {
+        std::lock_guard lock(mutex_);
+        if (!live()) return;
+        const size_t start = encoder_.size();
+        encode(encoder_);
+        const auto bytes = encoder_.data().subspan(start);
+        add_entry_locked(std::vector<uint8_t>(bytes.begin(), bytes.end()), holders, killers);
+        if (encoder_.size() >= kBatchLimit) flush_locked();
+    }
+
+    // Objects gone without a call of their own (freed command buffers and descriptor sets, a
+    // pool's children at its destroy or reset): they let go of their log entries.
+    void forget(std::span<const uint64_t> ids);
+
+    // The object part of the live-state log, in creation order (one payload), and the ids that
+    // are live in it (what descriptor contents and streams may name).
+    std::vector<LiveMessage> object_log(size_t *entries, std::unordered_set<uint64_t> *live_ids);
+
+    // send_metadata() for a message that is also a log entry held by `holder` (SwapchainImages).
+    void send_metadata_logged(protocol::MessageType type, std::vector<uint8_t> &&payload, uint64_t holder);
 
     // Sends the pending global batch, then `payload` as one Commands message.
     void send_commands(std::span<const uint8_t> payload);
@@ -116,7 +179,7 @@ public:
     std::atomic<uint64_t> verified_frames{0};
     std::atomic<uint64_t> mismatching_pixels{0};
 
-    // Live-state log of command buffers' streams (command_buffer.cpp keeps the bytes).
+    // Entries in the object part of the live-state log.
     size_t live_object_count();
 
     // Stops capturing after a failure, with one line.
@@ -130,6 +193,21 @@ private:
     void send_locked(protocol::MessageType type, std::vector<uint8_t> &&payload);
     void note_live_change(LiveChange change, uint64_t id, size_t start);
 
+    struct LogEntry {
+        protocol::MessageType type = protocol::MessageType::Commands;
+        std::vector<uint8_t> bytes;
+        std::vector<uint64_t> holders; // ids still holding it
+        std::vector<uint64_t> killers;
+        uint64_t retired_id = 0;      // non-zero: destroyed, kept for later entries
+        std::vector<uint8_t> destroy; // retired: the encoded destroy
+        uint64_t destroy_seq = 0;     // retired: where the destroy replays (0: after all entries)
+    };
+    uint64_t add_entry_locked(std::vector<uint8_t> &&bytes, std::span<const uint64_t> holders,
+                              std::span<const uint64_t> killers);
+    void forget_locked(uint64_t id, std::span<const uint8_t> retire_bytes, bool retire);
+    void erase_entry_locked(uint64_t seq);
+    void prune_retired_locked();
+
     std::mutex mutex_;
     std::atomic<bool> live_{false};
     std::atomic<bool> failure_logged_{false};
@@ -140,7 +218,20 @@ private:
     std::unique_ptr<protocol::Connection> connection_;
     CaptureHooks hooks_;
     codec::Encoder encoder_;
-    std::unordered_map<uint64_t, std::vector<uint8_t>> live_objects_;
+    // The object log (see the top of this file): entries by sequence number (creation order).
+    std::map<uint64_t, LogEntry> log_;
+    std::unordered_map<uint64_t, std::vector<uint64_t>> held_by_;          // id -> entries it holds
+    std::unordered_map<uint64_t, std::unordered_set<uint64_t>> killed_by_; // id -> entries dying with it
+    std::unordered_map<uint64_t, uint64_t> retired_;                       // retired id -> its entry
+    uint64_t next_seq_ = 1;
 };
+
+// The live-state log of `device` as Commands payloads in replay order (session.h). Empty without
+// a session.
+LiveSnapshot build_live_snapshot(DeviceState &device);
+
+// SPLITVK_LOG_LEVEL=debug: one line with the snapshot's size, after checking that it decodes in
+// order with every id resolved (codec HandleTable, as a fresh agent would).
+void log_live_state(DeviceState &device, const char *when);
 
 } // namespace splitvk

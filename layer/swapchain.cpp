@@ -71,7 +71,8 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateSwapchainKHR(VkDevice device,
     for (VkImage image : state->images)
         message.image_ids.push_back(codec::handle_value(image));
     g_swapchains.insert(*pSwapchain, std::move(state));
-    dev.session->send_metadata(protocol::MessageType::SwapchainImages, protocol::encode(message));
+    dev.session->send_metadata_logged(protocol::MessageType::SwapchainImages, protocol::encode(message),
+                                      message.swapchain_id);
     return result;
 }
 
@@ -80,9 +81,14 @@ VKAPI_ATTR void VKAPI_CALL DestroySwapchainKHR(VkDevice device, VkSwapchainKHR s
     DeviceState &dev = device_state(device);
     if (dev.session && swapchain != VK_NULL_HANDLE) {
         release_present_resources(dev, swapchain);
-        if (g_swapchains.remove(swapchain) && capturing(dev)) {
-            protocol::SwapchainDestroyed message{dev.session->device_id(), codec::handle_value(swapchain)};
-            dev.session->send_metadata(protocol::MessageType::SwapchainDestroyed, protocol::encode(message));
+        if (g_swapchains.remove(swapchain)) {
+            const uint64_t id = codec::handle_value(swapchain);
+            dev.session->forget(std::span(&id, 1)); // its SwapchainImages leaves the live-state log
+            if (capturing(dev)) {
+                protocol::SwapchainDestroyed message{dev.session->device_id(), id};
+                dev.session->send_metadata(protocol::MessageType::SwapchainDestroyed,
+                                           protocol::encode(message));
+            }
         }
     }
     dev.dispatch.DestroySwapchainKHR(device, swapchain, pAllocator);
