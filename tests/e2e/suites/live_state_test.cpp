@@ -4,35 +4,17 @@
 // fresh agent would (every id a command names must already be live), and logs one line:
 //   live-state log at frame 1: N objects, D descriptor sets, C command buffers, B bytes, replay ok
 // A real splitvk-agent on a free loopback port keeps the session live.
+#include "agent.h"
 #include "e2e_test.h"
 
 #include <regex>
 #include <thread>
 
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <unistd.h>
 
 namespace splitvk::e2e {
 namespace {
 
 using namespace std::chrono_literals;
-
-uint16_t free_loopback_port() {
-    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-    if (fd < 0) return 0;
-    sockaddr_in addr{};
-    addr.sin_family = AF_INET;
-    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    socklen_t len = sizeof(addr);
-    uint16_t port = 0;
-    if (::bind(fd, reinterpret_cast<sockaddr *>(&addr), sizeof(addr)) == 0 &&
-        ::getsockname(fd, reinterpret_cast<sockaddr *>(&addr), &len) == 0)
-        port = ntohs(addr.sin_port);
-    ::close(fd);
-    return port;
-}
 
 struct LiveStateLine {
     bool found = false;
@@ -69,26 +51,9 @@ protected:
     void SetUp() override {
         XTest::SetUp();
         ASSERT_TRUE(built(explicit_layer_dir()));
-        const auto agent = bin_dir() / "splitvk-agent";
-        ASSERT_TRUE(built(agent));
-        port_ = free_loopback_port();
-        ASSERT_NE(port_, 0);
-        ProcessSpec spec;
-        spec.argv = {agent.string(), "--listen", "127.0.0.1:" + std::to_string(port_)};
-        spec.env = env();
-        spec.env["SPLITVK_LOG_LEVEL"] = "info";
-        spec.out_dir = out_;
-        spec.name = "splitvk-agent";
-        agent_ = std::make_unique<Process>(spec);
-        ASSERT_TRUE(agent_->start()) << agent_->error();
-        const auto deadline = Clock::now() + 30s;
-        const auto log = out_ / "splitvk-agent.stderr";
-        while (Clock::now() < deadline) {
-            if (read_file(log).find("listening on") != std::string::npos) return;
-            if (!agent_->running()) break;
-            std::this_thread::sleep_for(50ms);
-        }
-        FAIL() << "splitvk-agent did not start listening:\n" << tail(read_file(log));
+        ASSERT_TRUE(built(agent_path()));
+        ASSERT_TRUE(agent_.start(env(), out_)) << agent_.error();
+        port_ = agent_.port();
     }
 
     Env debug_env() {
@@ -118,7 +83,7 @@ protected:
     }
 
     uint16_t port_ = 0;
-    std::unique_ptr<Process> agent_;
+    Agent agent_;
 };
 
 TEST_F(ReplicationLiveState, AtriumSnapshotIsCompleteAndOrdered) {

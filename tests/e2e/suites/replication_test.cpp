@@ -3,40 +3,16 @@
 // Also: with no agent the application runs unsplit, says so once, and exits 0.
 //
 // Loopback only: the agent listens on 127.0.0.1 and a port picked free for each test.
+#include "agent.h"
 #include "e2e_test.h"
 
 #include <regex>
 #include <thread>
 
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <unistd.h>
-
 namespace splitvk::e2e {
 namespace {
 
 using namespace std::chrono_literals;
-
-std::filesystem::path agent_path() {
-    return bin_dir() / "splitvk-agent";
-}
-
-// A port nobody listens on right now (bound, read back, released).
-uint16_t free_loopback_port() {
-    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-    if (fd < 0) return 0;
-    sockaddr_in addr{};
-    addr.sin_family = AF_INET;
-    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    socklen_t len = sizeof(addr);
-    uint16_t port = 0;
-    if (::bind(fd, reinterpret_cast<sockaddr *>(&addr), sizeof(addr)) == 0 &&
-        ::getsockname(fd, reinterpret_cast<sockaddr *>(&addr), &len) == 0)
-        port = ntohs(addr.sin_port);
-    ::close(fd);
-    return port;
-}
 
 struct VerifySummary {
     bool found = false;
@@ -69,27 +45,11 @@ protected:
         ASSERT_TRUE(built(atrium_path()));
     }
 
-    // Starts the agent on a free loopback port, with the validation layer in its sessions.
+    // The agent, with the validation layer in its sessions.
     void start_agent() {
         ASSERT_TRUE(built(agent_path()));
-        port_ = free_loopback_port();
-        ASSERT_NE(port_, 0);
-        ProcessSpec spec;
-        spec.argv = {agent_path().string(), "--listen", "127.0.0.1:" + std::to_string(port_), "--validate"};
-        spec.env = env();
-        spec.env["SPLITVK_LOG_LEVEL"] = "info";
-        spec.out_dir = out_;
-        spec.name = "splitvk-agent";
-        agent_ = std::make_unique<Process>(spec);
-        ASSERT_TRUE(agent_->start()) << agent_->error();
-        const auto deadline = Clock::now() + 30s;
-        const auto log = out_ / "splitvk-agent.stderr";
-        while (Clock::now() < deadline) {
-            if (read_file(log).find("listening on") != std::string::npos) return;
-            if (!agent_->running()) break;
-            std::this_thread::sleep_for(50ms);
-        }
-        FAIL() << "splitvk-agent did not start listening:\n" << tail(read_file(log));
+        ASSERT_TRUE(agent_.start(env(), out_, {"--validate"})) << agent_.error();
+        port_ = agent_.port();
     }
 
     // The client runs with the Khronos validation layer (synchronization validation on) below
@@ -132,7 +92,7 @@ protected:
     }
 
     uint16_t port_ = 0;
-    std::unique_ptr<Process> agent_;
+    Agent agent_;
     std::filesystem::path validation_log_;
 };
 

@@ -1,0 +1,68 @@
+#include "agent.h"
+
+#include <chrono>
+#include <thread>
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+namespace splitvk::e2e {
+
+using namespace std::chrono_literals;
+
+std::filesystem::path agent_path() {
+    return bin_dir() / "splitvk-agent";
+}
+
+uint16_t free_loopback_port() {
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    if (fd < 0) return 0;
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t len = sizeof(addr);
+    uint16_t port = 0;
+    if (::bind(fd, reinterpret_cast<sockaddr *>(&addr), sizeof(addr)) == 0 &&
+        ::getsockname(fd, reinterpret_cast<sockaddr *>(&addr), &len) == 0)
+        port = ntohs(addr.sin_port);
+    ::close(fd);
+    return port;
+}
+
+bool Agent::start(const Env &env, const std::filesystem::path &out_dir,
+                  const std::vector<std::string> &extra_args) {
+    port_ = free_loopback_port();
+    if (port_ == 0) {
+        error_ = "no free loopback port";
+        return false;
+    }
+    ProcessSpec spec;
+    spec.argv = {agent_path().string(), "--listen", address()};
+    spec.argv.insert(spec.argv.end(), extra_args.begin(), extra_args.end());
+    spec.env = env;
+    spec.env["SPLITVK_LOG_LEVEL"] = "info";
+    spec.out_dir = out_dir;
+    spec.name = "splitvk-agent";
+    log_path_ = out_dir / "splitvk-agent.stderr";
+    process_ = std::make_unique<Process>(spec);
+    if (!process_->start()) {
+        error_ = process_->error();
+        return false;
+    }
+    const auto deadline = std::chrono::steady_clock::now() + 30s;
+    while (std::chrono::steady_clock::now() < deadline) {
+        if (log().find("listening on") != std::string::npos) return true;
+        if (!process_->running()) break;
+        std::this_thread::sleep_for(50ms);
+    }
+    error_ = "splitvk-agent did not start listening:\n" + log();
+    return false;
+}
+
+std::string Agent::log() const {
+    return read_file(log_path_);
+}
+
+} // namespace splitvk::e2e

@@ -1,0 +1,39 @@
+// A real splitvk-agent for the length of a test, on a loopback port nobody else uses.
+#pragma once
+
+#include "process.h"
+#include "vk_env.h"
+
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace splitvk::e2e {
+
+std::filesystem::path agent_path(); // <build>/bin/splitvk-agent
+
+// A port nobody listens on right now (bound on 127.0.0.1, read back, released).
+uint16_t free_loopback_port();
+
+class Agent {
+public:
+    // Starts `splitvk-agent --listen 127.0.0.1:<free port> <extra_args>` with SPLITVK_LOG_LEVEL=info,
+    // its output in out_dir/splitvk-agent.{stdout,stderr}, and waits until it listens. On failure
+    // returns false and error() says why (with the agent's last words).
+    bool start(const Env &env, const std::filesystem::path &out_dir,
+               const std::vector<std::string> &extra_args = {});
+
+    uint16_t port() const { return port_; }
+    std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
+    std::string log() const; // what it wrote on stderr so far
+    const std::string &error() const { return error_; }
+
+private:
+    std::unique_ptr<Process> process_;
+    std::filesystem::path log_path_;
+    uint16_t port_ = 0;
+    std::string error_;
+};
+
+} // namespace splitvk::e2e
