@@ -56,9 +56,7 @@ def _logged_call(c):
     """Live-state log keys of a call that is one entry held by several ids (session.h), as lines
     that define `holders` and `killers`; None for the other calls."""
     if c.name in ("vkCreateGraphicsPipelines", "vkCreateComputePipelines"):
-        return ["        std::vector<uint64_t> holders;",
-                "        for (uint32_t i = 0; i < createInfoCount; ++i) "
-                "holders.push_back(codec::handle_value(pPipelines[i]));",
+        return ["        const std::vector<uint64_t> holders = handle_ids(pPipelines, createInfoCount);",
                 "        const std::span<const uint64_t> killers;"]
     if c.name in ("vkBindBufferMemory", "vkBindImageMemory"):
         resource = "buffer" if "Buffer" in c.name else "image"

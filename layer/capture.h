@@ -22,6 +22,15 @@ inline void record_global(DeviceState &device, LiveChange change, uint64_t id, F
     device.session->record(change, id, std::forward<F>(encode));
 }
 
+// The client ids of the handles a batch call created (vkAllocateCommandBuffers, pipelines, ...).
+template <class Handle>
+inline std::vector<uint64_t> handle_ids(const Handle *handles, uint32_t count) {
+    std::vector<uint64_t> ids(count);
+    for (uint32_t i = 0; i < count; ++i)
+        ids[i] = codec::handle_value(handles[i]);
+    return ids;
+}
+
 // A call that is one live-state log entry held by several ids (session.h: batches, binds).
 template <class F>
 inline void record_logged(DeviceState &device, std::span<const uint64_t> holders,

@@ -102,12 +102,10 @@ VKAPI_ATTR VkResult VKAPI_CALL AllocateCommandBuffers(VkDevice device,
             g_pools[pAllocateInfo->commandPool].insert(pCommandBuffers[i]);
         }
     }
-    std::vector<uint64_t> ids;
-    for (uint32_t i = 0; i < pAllocateInfo->commandBufferCount; ++i)
-        ids.push_back(codec::handle_value(pCommandBuffers[i]));
-    record_logged(dev, ids, {}, [&](codec::Encoder &e) {
-        encode_vkAllocateCommandBuffers(e, device, pAllocateInfo, pCommandBuffers);
-    });
+    record_logged(dev, handle_ids(pCommandBuffers, pAllocateInfo->commandBufferCount), {},
+                  [&](codec::Encoder &e) {
+                      encode_vkAllocateCommandBuffers(e, device, pAllocateInfo, pCommandBuffers);
+                  });
     return result;
 }
 

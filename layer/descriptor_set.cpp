@@ -322,12 +322,10 @@ VKAPI_ATTR VkResult VKAPI_CALL AllocateDescriptorSets(VkDevice device,
             g_pool_sets[pAllocateInfo->descriptorPool].insert(pDescriptorSets[i]);
         }
     }
-    std::vector<uint64_t> ids;
-    for (uint32_t i = 0; i < pAllocateInfo->descriptorSetCount; ++i)
-        ids.push_back(codec::handle_value(pDescriptorSets[i]));
-    record_logged(dev, ids, {}, [&](codec::Encoder &e) {
-        encode_vkAllocateDescriptorSets(e, device, pAllocateInfo, pDescriptorSets);
-    });
+    record_logged(dev, handle_ids(pDescriptorSets, pAllocateInfo->descriptorSetCount), {},
+                  [&](codec::Encoder &e) {
+                      encode_vkAllocateDescriptorSets(e, device, pAllocateInfo, pDescriptorSets);
+                  });
     return result;
 }
 
