@@ -44,9 +44,12 @@ inline constexpr uint8_t kHelloMagic[4] = {'S', 'P', 'V', 'K'};
 // is used only if its bit is in it. Bits not listed are reserved and must be ignored.
 namespace capability {
 inline constexpr uint64_t kZstdPayloads = 1ull << 0; // compressed payloads (kFlagCompressed) accepted
-inline constexpr uint64_t kVerifyFrames = 1ull << 1; // the server returns whole presented frames (SPLITVK_VERIFY)
+inline constexpr uint64_t kVerifyFrames = 1ull
+                                          << 1; // the server returns whole presented frames (SPLITVK_VERIFY)
+inline constexpr uint64_t kFoveaTiles = 1ull << 2; // the split: SplitConfig, fovea shading, Tiles (issue 4)
 } // namespace capability
-inline constexpr uint64_t kSupportedCapabilities = capability::kZstdPayloads | capability::kVerifyFrames;
+inline constexpr uint64_t kSupportedCapabilities =
+    capability::kZstdPayloads | capability::kVerifyFrames | capability::kFoveaTiles;
 
 // Field caps, enforced by the decoders (and by the encoders, which clamp text to them).
 inline constexpr uint32_t kMaxTokenBytes = 256;
@@ -120,7 +123,7 @@ struct ServerHandshakeConfig {
     uint64_t capabilities = kSupportedCapabilities;
     std::string server_gpu_name;
     uint64_t session_id = 0;
-    bool full = false; // the server takes no more sessions
+    bool full = false;              // the server takes no more sessions
     uint64_t codec_fingerprint = 0; // the server's kCodecFingerprint; 0: not checked
 };
 std::variant<Welcome, Reject> evaluate_hello(const Hello &hello, const ServerHandshakeConfig &config);

@@ -164,4 +164,102 @@ Result<VerifyFrame> decode_verify_frame(std::span<const uint8_t> payload, uint32
     return finish(r, std::move(m), "VerifyFrame");
 }
 
+std::vector<uint8_t> encode(const SplitConfig &m) {
+    WireWriter w(32);
+    w.u32(static_cast<uint32_t>(m.eyes));
+    w.u32(m.fovea.fractional ? 1 : 0);
+    w.f64(m.fovea.width);
+    w.f64(m.fovea.height);
+    w.u32(static_cast<uint32_t>(m.codec));
+    return w.take();
+}
+
+Result<SplitConfig> decode_split_config(std::span<const uint8_t> payload) {
+    WireReader r(payload);
+    SplitConfig m;
+    const uint32_t eyes = r.u32("eyes");
+    const uint32_t fractional = r.u32("fovea kind");
+    m.fovea.width = r.f64("fovea width");
+    m.fovea.height = r.f64("fovea height");
+    const uint32_t codec = r.u32("codec");
+    if (r.ok() && eyes > static_cast<uint32_t>(EyeMode::Two))
+        r.fail("eyes " + std::to_string(eyes) + " unknown");
+    if (r.ok() && codec > static_cast<uint32_t>(TileCodec::Raw))
+        r.fail("codec " + std::to_string(codec) + " unknown");
+    if (r.ok() && fractional > 1) r.fail("fovea kind " + std::to_string(fractional) + " unknown");
+    m.fovea.fractional = fractional == 1;
+    // Written as !(in range) so that NaN fails too.
+    const double limit = m.fovea.fractional ? 1.0 : double{kMaxVerifyExtent};
+    if (r.ok() &&
+        !(m.fovea.width > 0 && m.fovea.width <= limit && m.fovea.height > 0 && m.fovea.height <= limit))
+        r.fail("fovea size out of range");
+    m.eyes = static_cast<EyeMode>(eyes);
+    m.codec = static_cast<TileCodec>(codec);
+    return finish(r, m, "SplitConfig");
+}
+
+std::vector<uint8_t> encode(const Tiles &m) {
+    size_t size = 64;
+    for (const auto &t : m.tiles)
+        size += 32 + t.data.size();
+    WireWriter w(size);
+    w.u64(m.frame);
+    w.u64(m.swapchain_id);
+    w.u32(m.image_index);
+    w.u32(m.format);
+    w.u32(m.timings.draw_us);
+    w.u32(m.timings.readback_us);
+    w.u32(m.timings.encode_us);
+    w.u32(m.timings.present_to_send_us);
+    w.u32(static_cast<uint32_t>(m.tiles.size()));
+    for (const auto &t : m.tiles) {
+        w.u32(t.x);
+        w.u32(t.y);
+        w.u32(t.width);
+        w.u32(t.height);
+        w.u32(static_cast<uint32_t>(t.codec));
+        w.u32(t.flags);
+        w.blob(t.data);
+    }
+    return w.take();
+}
+
+Result<Tiles> decode_tiles(std::span<const uint8_t> payload, uint32_t max_bytes) {
+    WireReader r(payload);
+    Tiles m;
+    m.frame = r.u64("frame");
+    m.swapchain_id = r.u64("swapchain_id");
+    m.image_index = r.u32("image_index");
+    m.format = r.u32("format");
+    m.timings.draw_us = r.u32("draw_us");
+    m.timings.readback_us = r.u32("readback_us");
+    m.timings.encode_us = r.u32("encode_us");
+    m.timings.present_to_send_us = r.u32("present_to_send_us");
+    const uint32_t count = r.u32("tile count");
+    if (r.ok() && count > kMaxTilesPerFrame)
+        r.fail("tile count " + std::to_string(count) + " over " + std::to_string(kMaxTilesPerFrame));
+    for (uint32_t i = 0; r.ok() && i < count; ++i) {
+        EncodedTile t;
+        t.x = r.u32("x");
+        t.y = r.u32("y");
+        t.width = r.u32("width");
+        t.height = r.u32("height");
+        const uint32_t codec = r.u32("codec");
+        t.flags = r.u32("flags");
+        const auto data = r.blob(max_bytes, "tile data");
+        if (!r.ok()) break;
+        if (t.width == 0 || t.height == 0 || t.x >= kMaxVerifyExtent || t.y >= kMaxVerifyExtent ||
+            t.width > kMaxVerifyExtent - t.x || t.height > kMaxVerifyExtent - t.y)
+            r.fail("tile " + std::to_string(i) + " rectangle out of range");
+        else if (codec > static_cast<uint32_t>(TileCodec::Raw))
+            r.fail("tile " + std::to_string(i) + " codec " + std::to_string(codec) + " unknown");
+        else if (t.flags & ~kTileKeyframe)
+            r.fail("tile " + std::to_string(i) + " has unknown flags");
+        t.codec = static_cast<TileCodec>(codec);
+        t.data.assign(data.begin(), data.end());
+        m.tiles.push_back(std::move(t));
+    }
+    return finish(r, std::move(m), "Tiles");
+}
+
 } // namespace splitvk::protocol

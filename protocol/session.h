@@ -10,8 +10,12 @@
 //   client -> server  FrameBegin        vkAcquireNextImageKHR returned an image
 //   client -> server  FramePresent      vkQueuePresentKHR: the frame's commands are all submitted
 //   server -> client  VerifyFrame       a presented image read back whole (SPLITVK_VERIFY=full)
+//   client -> server  SplitConfig       the split settings the agent must agree on (eyes, fovea,
+//                                       codec); sent once, before the first command
+//   server -> client  Tiles             the encoded fovea tiles of one presented frame (issue 4)
 
 #include "result.h"
+#include "settings.h"
 
 #include <cstdint>
 #include <span>
@@ -23,6 +27,7 @@ namespace splitvk::protocol {
 inline constexpr uint32_t kMaxSwapchainImages = 16;
 inline constexpr uint32_t kMaxPresentedImages = 8;
 inline constexpr uint32_t kMaxVerifyExtent = 16384;
+inline constexpr uint32_t kMaxTilesPerFrame = 8;
 
 struct MemoryData {
     uint64_t device_id = 0;
@@ -79,12 +84,50 @@ struct VerifyFrame {
     std::vector<uint8_t> pixels;
 };
 
+// The settings both sides need to draw the same fovea rects from the same commands.
+struct SplitConfig {
+    EyeMode eyes = EyeMode::Auto;
+    FoveaSize fovea;
+    TileCodec codec = TileCodec::X264;
+};
+
+inline constexpr uint32_t kTileKeyframe = 1u << 0; // decodable alone (an IDR for x264)
+
+// One eye's fovea, encoded by `codec` (tile_codec.h) as one frame of that eye's stream.
+struct EncodedTile {
+    uint32_t x = 0, y = 0, width = 0, height = 0; // in the full-resolution image
+    TileCodec codec = TileCodec::X264;
+    uint32_t flags = 0; // kTileKeyframe
+    std::vector<uint8_t> data;
+};
+
+// What the agent spent on a frame, in microseconds, for the client's statistics.
+struct AgentTimings {
+    uint32_t draw_us = 0;            // first replayed submit of the frame to its GPU work done
+    uint32_t readback_us = 0;        // the fovea copies to host memory
+    uint32_t encode_us = 0;          // the slowest eye's encode (eyes encode in parallel)
+    uint32_t present_to_send_us = 0; // FramePresent received to Tiles queued
+};
+
+// The fovea tiles of one presented frame: every fovea a split pass drew into the image, in the
+// order both sides compute (split_geometry.h); none when no split pass drew into it.
+struct Tiles {
+    uint64_t frame = 0;
+    uint64_t swapchain_id = 0;
+    uint32_t image_index = 0;
+    uint32_t format = 0; // VkFormat of the image the pixels come from
+    AgentTimings timings;
+    std::vector<EncodedTile> tiles;
+};
+
 std::vector<uint8_t> encode(const MemoryData &m);
 std::vector<uint8_t> encode(const SwapchainImages &m);
 std::vector<uint8_t> encode(const SwapchainDestroyed &m);
 std::vector<uint8_t> encode(const FrameBegin &m);
 std::vector<uint8_t> encode(const FramePresent &m);
 std::vector<uint8_t> encode(const VerifyFrame &m);
+std::vector<uint8_t> encode(const SplitConfig &m);
+std::vector<uint8_t> encode(const Tiles &m);
 
 // Decoders check every length against the bytes present and the caps above, and reject trailing
 // bytes; errors are one line. `max_bytes` caps MemoryData and VerifyFrame payloads.
@@ -94,5 +137,8 @@ Result<SwapchainDestroyed> decode_swapchain_destroyed(std::span<const uint8_t> p
 Result<FrameBegin> decode_frame_begin(std::span<const uint8_t> payload);
 Result<FramePresent> decode_frame_present(std::span<const uint8_t> payload);
 Result<VerifyFrame> decode_verify_frame(std::span<const uint8_t> payload, uint32_t max_bytes);
+Result<SplitConfig> decode_split_config(std::span<const uint8_t> payload);
+// `max_bytes` caps each tile's data.
+Result<Tiles> decode_tiles(std::span<const uint8_t> payload, uint32_t max_bytes);
 
 } // namespace splitvk::protocol

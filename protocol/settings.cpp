@@ -32,6 +32,8 @@ const SettingInfo kSettings[] = {
      "size of the fovea the agent renders in each eye"},
     {"EYES", "auto, 1 or 2", "auto", "eyes side by side in the swapchain image; auto reads the viewports"},
     {"CODEC", "x264, zstd or raw", "x264", "lossless codec for the fovea tiles"},
+    {"TILE_WAIT", "milliseconds, 1 to 60000", "250",
+     "longest a present waits for its frame's tiles; later, the centre comes from the periphery"},
     {"STATS", "a file path in an existing directory", "(none)", "write per-frame statistics as CSV"},
     {"LOG_LEVEL", "off, error, warn, info or debug", "warn", "what splitvk writes to stderr"},
     {"TOKEN", "a non-empty string without whitespace", "(none)", "shared secret the agent requires"},
@@ -182,6 +184,12 @@ bool apply(std::string_view name, std::string_view raw, Settings &s) {
             s.codec = TileCodec::Raw;
         else
             return false;
+        return true;
+    }
+    if (name == "TILE_WAIT") {
+        const auto ms = parse_uint(value);
+        if (!ms || *ms == 0 || *ms > 60000) return false;
+        s.tile_wait_ms = *ms;
         return true;
     }
     if (name == "STATS") {

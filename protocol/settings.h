@@ -41,6 +41,9 @@ struct Settings {
     FoveaSize fovea;
     EyeMode eyes = EyeMode::Auto;
     TileCodec codec = TileCodec::X264;
+    // Lockstep bound: a present waits at most this long for its own frame's tiles. Generous for a
+    // LAN (a frame is ~10-20 ms), short enough that a stalled agent costs seconds, not a hang.
+    uint32_t tile_wait_ms = 250;
     std::string stats_path; // empty: no per-frame statistics
     LogLevel log_level = LogLevel::Warn;
     std::string token; // SPLITVK_TOKEN, or the contents of SPLITVK_TOKEN_FILE

@@ -49,6 +49,8 @@ const char *message_type_name(uint16_t type) {
         return "SwapchainImages";
     case MessageType::SwapchainDestroyed:
         return "SwapchainDestroyed";
+    case MessageType::SplitConfig:
+        return "SplitConfig";
     case MessageType::VerifyFrame:
         return "VerifyFrame";
     default:
@@ -66,7 +68,7 @@ bool is_defined_type(uint16_t type) {
     case MessageClass::Control:
         return type >= to_wire(MessageType::Hello) && type <= to_wire(MessageType::Pong);
     case MessageClass::Metadata:
-        return type >= to_wire(MessageType::MemoryData) && type <= to_wire(MessageType::VerifyFrame);
+        return type >= to_wire(MessageType::MemoryData) && type <= to_wire(MessageType::SplitConfig);
     }
     return false;
 }

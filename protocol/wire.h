@@ -57,13 +57,14 @@ enum class MessageType : uint16_t {
     VulkanLast = 0x0FFF,
 
     // 0x1000-0xFFFF: metadata that is not a Vulkan call.
-    MemoryData = 0x1000,   // contents of a range of device memory (client -> server)
-    FrameBegin = 0x1001,   // acquire: a frame starts on a swapchain image
-    FramePresent = 0x1002, // present: the server renders and returns this frame's fovea
-    Tiles = 0x1003,        // encoded fovea tiles of one frame (server -> client)
-    SwapchainImages = 0x1004,   // a swapchain's images, which the server makes offscreen images
+    MemoryData = 0x1000,         // contents of a range of device memory (client -> server)
+    FrameBegin = 0x1001,         // acquire: a frame starts on a swapchain image
+    FramePresent = 0x1002,       // present: the server renders and returns this frame's fovea
+    Tiles = 0x1003,              // encoded fovea tiles of one frame (server -> client)
+    SwapchainImages = 0x1004,    // a swapchain's images, which the server makes offscreen images
     SwapchainDestroyed = 0x1005, // the client destroyed a swapchain
-    VerifyFrame = 0x1006,       // a whole presented frame read back by the server (SPLITVK_VERIFY)
+    VerifyFrame = 0x1006,        // a whole presented frame read back by the server (SPLITVK_VERIFY)
+    SplitConfig = 0x1007,        // the client's split settings: eyes, fovea, codec (client -> server)
 };
 
 enum class MessageClass { Invalid, Control, Vulkan, Metadata };

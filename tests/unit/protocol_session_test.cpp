@@ -1,5 +1,7 @@
 #include "session.h"
 
+#include <cmath>
+
 #include <gtest/gtest.h>
 
 namespace splitvk::protocol {
@@ -78,6 +80,64 @@ TEST(ProtocolSession, VerifyFrameChecksPixelCount) {
     expect_truncations_refused(encode(m), [](auto p) { return decode_verify_frame(p, 1 << 20); });
     m.pixels.pop_back();
     EXPECT_FALSE(decode_verify_frame(encode(m), 1 << 20).ok());
+}
+
+TEST(ProtocolSession, SplitConfigRoundTripAndRanges) {
+    SplitConfig m;
+    m.eyes = EyeMode::Two;
+    m.fovea = FoveaSize{false, 512, 360};
+    m.codec = TileCodec::Zstd;
+    const auto bytes = encode(m);
+    const auto back = decode_split_config(bytes);
+    ASSERT_TRUE(back.ok()) << back.error();
+    EXPECT_EQ(back->eyes, EyeMode::Two);
+    EXPECT_FALSE(back->fovea.fractional);
+    EXPECT_EQ(back->fovea.width, 512.0);
+    EXPECT_EQ(back->codec, TileCodec::Zstd);
+    expect_truncations_refused(bytes, decode_split_config);
+
+    m.fovea = FoveaSize{true, 1.5, 0.3};
+    EXPECT_FALSE(decode_split_config(encode(m)).ok()) << "a fraction over 1";
+    m.fovea = FoveaSize{true, std::nan(""), 0.3};
+    EXPECT_FALSE(decode_split_config(encode(m)).ok()) << "NaN";
+    auto bad = encode(SplitConfig{});
+    bad[0] = 9; // eyes
+    EXPECT_FALSE(decode_split_config(bad).ok());
+}
+
+TEST(ProtocolSession, TilesRoundTripAndLimits) {
+    Tiles m;
+    m.frame = 42;
+    m.swapchain_id = 0x77;
+    m.image_index = 2;
+    m.format = 44;
+    m.timings = {1000, 200, 3000, 4500};
+    m.tiles.push_back({344, 360, 512, 360, TileCodec::X264, kTileKeyframe, {1, 2, 3}});
+    m.tiles.push_back({1544, 360, 512, 360, TileCodec::X264, 0, {4, 5}});
+    const auto bytes = encode(m);
+    const auto back = decode_tiles(bytes, 1 << 20);
+    ASSERT_TRUE(back.ok()) << back.error();
+    EXPECT_EQ(back->frame, 42u);
+    EXPECT_EQ(back->timings.encode_us, 3000u);
+    ASSERT_EQ(back->tiles.size(), 2u);
+    EXPECT_EQ(back->tiles[1].x, 1544u);
+    EXPECT_EQ(back->tiles[0].flags, kTileKeyframe);
+    EXPECT_EQ(back->tiles[1].data, (std::vector<uint8_t>{4, 5}));
+    expect_truncations_refused(bytes, [](auto p) { return decode_tiles(p, 1 << 20); });
+    EXPECT_FALSE(decode_tiles(bytes, 2).ok()) << "the per-tile byte cap is enforced";
+
+    auto wide = m;
+    wide.tiles[0].x = kMaxVerifyExtent - 10; // x + width overflows the largest image
+    EXPECT_FALSE(decode_tiles(encode(wide), 1 << 20).ok());
+    auto flagged = m;
+    flagged.tiles[0].flags = 0x80;
+    EXPECT_FALSE(decode_tiles(encode(flagged), 1 << 20).ok());
+    auto many = m;
+    many.tiles.assign(kMaxTilesPerFrame + 1, m.tiles[0]);
+    EXPECT_FALSE(decode_tiles(encode(many), 1 << 20).ok());
+    auto empty = m;
+    empty.tiles.clear();
+    EXPECT_TRUE(decode_tiles(encode(empty), 1 << 20).ok()) << "a frame without split passes has no tiles";
 }
 
 } // namespace

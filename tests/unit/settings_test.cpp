@@ -57,6 +57,7 @@ TEST_F(SettingsTest, ValidEnvironmentValues) {
                               {"SPLITVK_FOVEA", "640x480"},
                               {"SPLITVK_EYES", "2"},
                               {"SPLITVK_CODEC", "zstd"},
+                              {"SPLITVK_TILE_WAIT", "40"},
                               {"SPLITVK_STATS", (dir_ / "stats.csv").string()},
                               {"SPLITVK_LOG_LEVEL", "DEBUG"},
                               {"SPLITVK_TOKEN_FILE", token_file}});
@@ -70,6 +71,7 @@ TEST_F(SettingsTest, ValidEnvironmentValues) {
     EXPECT_EQ(s.fovea.pixels_for_eye(320, 240), std::make_pair(320u, 240u)) << "clamped to the eye";
     EXPECT_EQ(s.eyes, EyeMode::Two);
     EXPECT_EQ(s.codec, TileCodec::Zstd);
+    EXPECT_EQ(s.tile_wait_ms, 40u);
     EXPECT_EQ(s.log_level, LogLevel::Debug);
     EXPECT_EQ(s.token, "s3cret");
 }
@@ -107,6 +109,7 @@ TEST_F(SettingsTest, InvalidValuesAreOneLineErrorsNamingTheSetting) {
          {"", "512", "512x", "x360", "0x360", "512x0", "0.5x360", "1.5x0.5", "-1x-1", "axb", "99999x1"}},
         {"EYES", {"", "0", "3", "both", "two"}},
         {"CODEC", {"", "h264", "x265", "lz4"}},
+        {"TILE_WAIT", {"", "0", "-5", "60001", "1.5", "soon"}},
         {"STATS", {"", "/nonexistent-dir/stats.csv", "/tmp/"}},
         {"LOG_LEVEL", {"", "verbose", "5", "trace"}},
         {"TOKEN", {"", "two words", "tab\there"}},
@@ -219,7 +222,8 @@ TEST(SettingsDocs, EverySettingIsDocumented) {
     ASSERT_FALSE(readme.empty());
     for (const SettingInfo &info : setting_table()) {
         const std::string variable = std::string("`SPLITVK_") + info.name + "`";
-        EXPECT_NE(reference.find(variable), std::string::npos) << variable << " missing from docs/settings.md";
+        EXPECT_NE(reference.find(variable), std::string::npos)
+            << variable << " missing from docs/settings.md";
         EXPECT_NE(reference.find(info.accepted), std::string::npos)
             << "docs/settings.md does not state what " << variable << " accepts: " << info.accepted;
         EXPECT_NE(readme.find(variable), std::string::npos) << variable << " missing from README.md";
