@@ -13,8 +13,9 @@
 //  - Zstd: zstd level 1 on the byte-wise difference from the stream's previous tile.
 //  - Raw: the pixels as they are.
 //
-// Every encoded tile starts with the same 8-byte header (format version, codec, keyframe and alpha
-// flags, width, height), so validation and the keyframe rule are the same for every codec.
+// Every encoded tile starts with the same 12-byte header (format version, codec, keyframe and alpha
+// flags, width, height, a checksum of the pixels), so validation, the keyframe rule and the check
+// that decoding gave back exactly the encoder's input are the same for every codec.
 //
 // One encoder and one decoder per eye stream; frames of a stream have a fixed size (a new size
 // takes a new encoder and decoder). Encoders and decoders of different streams may run on
@@ -33,7 +34,7 @@
 namespace splitvk::tiles {
 
 // Size of the header every encoded tile starts with.
-inline constexpr size_t kTileHeaderSize = 8;
+inline constexpr size_t kTileHeaderSize = 12;
 
 class TileEncoder {
 public:
