@@ -390,5 +390,19 @@ TEST(X264Tiles, LargerPictureIsRefused) {
     EXPECT_FALSE(error.empty());
 }
 
+// The other way round: a smaller picture relabelled as a larger tile decodes, but to the wrong size.
+TEST(X264Tiles, SmallerPictureIsRefused) {
+    Stream small = open_stream(TileCodec::X264, 32, 32);
+    ASSERT_TRUE(small.encoder);
+    auto encoded = encode_ok(*small.encoder, synthetic_tile(32, 32, 0, AlphaKind::Opaque));
+    encoded[4] = 48;
+    std::string error;
+    auto decoder = make_tile_decoder(TileCodec::X264, 48, 32, &error);
+    ASSERT_TRUE(decoder) << error;
+    Pixels decoded(48 * 32 * 4);
+    EXPECT_FALSE(decoder->decode(encoded, decoded.data(), &error));
+    EXPECT_NE(error.find("decoded 32x32"), std::string::npos) << error;
+}
+
 } // namespace
 } // namespace splitvk::tiles
