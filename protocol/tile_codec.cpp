@@ -1,6 +1,7 @@
 #include "tile_codec.h"
 
 #include <algorithm>
+#include <climits>
 #include <cstdarg>
 #include <cstdio>
 #include <cstring>
@@ -431,6 +432,9 @@ private:
         if (h264_size == 0 || h264_size > body.size())
             return fail(error, "x264 tile: H.264 size " + std::to_string(h264_size) + " but " +
                                    std::to_string(body.size()) + " bytes follow");
+        // libavcodec packets are int-sized, padding included.
+        if (h264_size > static_cast<uint32_t>(INT_MAX - AV_INPUT_BUFFER_PADDING_SIZE))
+            return fail(error, "x264 tile: H.264 size " + std::to_string(h264_size) + " is too large");
         const std::span<const uint8_t> h264 = body.first(h264_size);
         const std::span<const uint8_t> alpha_frame = body.subspan(h264_size);
         if (has_alpha) {

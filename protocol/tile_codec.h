@@ -42,7 +42,8 @@ public:
 
     // Encodes the next frame of this stream from width*height*4 bytes at `pixels` into `out`
     // (replacing its contents). *keyframe tells whether the tile can be decoded alone. False with
-    // one line in *error when the codec fails; the next frame is then a keyframe.
+    // one line in *error when the codec fails (`out` is then not a tile); the next frame is then a
+    // keyframe.
     virtual bool encode(const uint8_t *pixels, std::vector<uint8_t> &out, bool *keyframe,
                         std::string *error) = 0;
 
