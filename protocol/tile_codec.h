@@ -1,0 +1,73 @@
+#pragma once
+
+// Lossless codecs for the fovea tiles the agent streams back to the layer (DESIGN §5).
+//
+// A tile is width*height pixels, 4 bytes per pixel, rows tightly packed, in the swapchain image's
+// byte order (B,G,R,A or R,G,B,A). The codecs never interpret channel order; they guarantee that
+// decode(encode(x)) == x byte for byte, all 4 bytes including alpha.
+//
+// Codecs (splitvk::TileCodec):
+//  - X264: lossless H.264 (x264, High 4:4:4 Predictive, RGB coded as GBR planes, CQP qp 0),
+//    decoded with FFmpeg's h264 decoder. Alpha travels beside it: nothing when every alpha byte is
+//    255, else the alpha plane zstd-compressed (intra only).
+//  - Zstd: zstd level 1 on the byte-wise difference from the stream's previous tile.
+//  - Raw: the pixels as they are.
+//
+// Every encoded tile starts with the same 12-byte header (format version, codec, keyframe and alpha
+// flags, width, height, a checksum of the pixels), so validation, the keyframe rule and the check
+// that decoding gave back exactly the encoder's input are the same for every codec.
+//
+// One encoder and one decoder per eye stream; frames of a stream have a fixed size (a new size
+// takes a new encoder and decoder). Encoders and decoders of different streams may run on
+// different threads at once; one object is used by one thread at a time. The X264 encoder and
+// decoder each run 2 slice threads of their own.
+
+#include "settings.h"
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace splitvk::tiles {
+
+// Size of the header every encoded tile starts with.
+inline constexpr size_t kTileHeaderSize = 12;
+
+class TileEncoder {
+public:
+    virtual ~TileEncoder();
+
+    // Encodes the next frame of this stream from width*height*4 bytes at `pixels` into `out`
+    // (replacing its contents). *keyframe tells whether the tile can be decoded alone. False with
+    // one line in *error when the codec fails (`out` is then not a tile); the next frame is then a
+    // keyframe.
+    virtual bool encode(const uint8_t *pixels, std::vector<uint8_t> &out, bool *keyframe,
+                        std::string *error) = 0;
+
+    // The next encode produces a keyframe (an IDR for x264): after a (re)connect, or when the
+    // decoder reported a failure.
+    virtual void force_keyframe() = 0;
+};
+
+class TileDecoder {
+public:
+    virtual ~TileDecoder();
+
+    // Decodes one encoded tile into `pixels` (width*height*4 bytes). Malformed input of any kind
+    // returns false with one line in *error: never a crash, an over-read or an unbounded
+    // allocation. On failure `pixels` is left untouched.
+    // A non-keyframe before the first keyframe is an error, and so is a non-keyframe after a
+    // failed decode: the stream's reference is lost until the encoder sends a keyframe.
+    virtual bool decode(std::span<const uint8_t> data, uint8_t *pixels, std::string *error) = 0;
+};
+
+// Null with *error when the codec cannot be set up for this size (width and height 1..16384).
+std::unique_ptr<TileEncoder> make_tile_encoder(TileCodec codec, uint32_t width, uint32_t height,
+                                               std::string *error);
+std::unique_ptr<TileDecoder> make_tile_decoder(TileCodec codec, uint32_t width, uint32_t height,
+                                               std::string *error);
+
+} // namespace splitvk::tiles

@@ -1,0 +1,408 @@
+// The tile codecs on synthetic tiles: round trips (opaque, with alpha, noise, odd sizes), the
+// keyframe rules, and malformed input of every kind (truncation at every byte, random bit flips,
+// wrong sizes, trailing bytes, the wrong codec). Malformed input must fail with one line, never
+// crash or over-read (the sanitize build runs this under ASan+UBSan). Real rendered tiles are in
+// the e2e suite tile_codec_test.
+#include "tile_codec.h"
+
+#include <cstdint>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+namespace splitvk::tiles {
+namespace {
+
+using Pixels = std::vector<uint8_t>;
+
+enum class AlphaKind { Opaque, Gradient, Noise };
+
+// A smooth pattern that moves with `frame`, with a little noise, so differences between frames are
+// neither zero nor everything. Byte 0..2 differ so a swapped plane cannot go unnoticed.
+Pixels synthetic_tile(uint32_t width, uint32_t height, int frame, AlphaKind alpha, uint32_t seed = 1) {
+    std::mt19937 noise(seed * 1000u + static_cast<uint32_t>(frame));
+    Pixels pixels(size_t{width} * height * 4);
+    for (uint32_t y = 0; y < height; ++y) {
+        for (uint32_t x = 0; x < width; ++x) {
+            uint8_t *p = &pixels[(size_t{y} * width + x) * 4];
+            const uint32_t jitter = noise() & 3u;
+            p[0] = static_cast<uint8_t>(x * 3 + static_cast<uint32_t>(frame) * 2 + jitter);
+            p[1] = static_cast<uint8_t>(y * 5 + 40);
+            p[2] = static_cast<uint8_t>((x ^ y) + static_cast<uint32_t>(frame) * 7);
+            switch (alpha) {
+            case AlphaKind::Opaque:
+                p[3] = 255;
+                break;
+            case AlphaKind::Gradient:
+                p[3] = static_cast<uint8_t>(x + y);
+                break;
+            case AlphaKind::Noise:
+                p[3] = static_cast<uint8_t>(noise());
+                break;
+            }
+        }
+    }
+    return pixels;
+}
+
+Pixels noise_tile(uint32_t width, uint32_t height, uint32_t seed) {
+    std::mt19937 noise(seed);
+    Pixels pixels(size_t{width} * height * 4);
+    for (auto &byte : pixels)
+        byte = static_cast<uint8_t>(noise());
+    return pixels;
+}
+
+// The first index at which two tiles differ, for failure messages.
+std::string first_difference(const Pixels &expected, const Pixels &actual) {
+    if (expected.size() != actual.size()) return "sizes differ";
+    for (size_t i = 0; i < expected.size(); ++i)
+        if (expected[i] != actual[i])
+            return "byte " + std::to_string(i) + " (pixel " + std::to_string(i / 4) + ", byte " +
+                   std::to_string(i % 4) + "): expected " + std::to_string(expected[i]) + ", got " +
+                   std::to_string(actual[i]);
+    return "equal";
+}
+
+struct Stream {
+    std::unique_ptr<TileEncoder> encoder;
+    std::unique_ptr<TileDecoder> decoder;
+};
+
+Stream open_stream(TileCodec codec, uint32_t width, uint32_t height) {
+    Stream stream;
+    std::string error;
+    stream.encoder = make_tile_encoder(codec, width, height, &error);
+    EXPECT_NE(stream.encoder, nullptr) << error;
+    stream.decoder = make_tile_decoder(codec, width, height, &error);
+    EXPECT_NE(stream.decoder, nullptr) << error;
+    return stream;
+}
+
+std::vector<uint8_t> encode_ok(TileEncoder &encoder, const Pixels &pixels, bool *keyframe = nullptr) {
+    std::vector<uint8_t> encoded;
+    bool is_keyframe = false;
+    std::string error;
+    EXPECT_TRUE(encoder.encode(pixels.data(), encoded, &is_keyframe, &error)) << error;
+    if (keyframe) *keyframe = is_keyframe;
+    return encoded;
+}
+
+class TileCodecTest : public ::testing::TestWithParam<TileCodec> {
+protected:
+    TileCodec codec() const { return GetParam(); }
+    bool has_inter_frames() const { return codec() != TileCodec::Raw; }
+
+    // Encodes and decodes `frames` tiles of one stream, expecting every one back byte for byte.
+    void round_trip(uint32_t width, uint32_t height, int frames, AlphaKind alpha) {
+        Stream stream = open_stream(codec(), width, height);
+        ASSERT_TRUE(stream.encoder && stream.decoder);
+        Pixels decoded(size_t{width} * height * 4);
+        for (int frame = 0; frame < frames; ++frame) {
+            const Pixels tile = synthetic_tile(width, height, frame, alpha);
+            bool keyframe = false;
+            const auto encoded = encode_ok(*stream.encoder, tile, &keyframe);
+            EXPECT_EQ(keyframe, frame == 0 || !has_inter_frames()) << "frame " << frame;
+            std::string error;
+            ASSERT_TRUE(stream.decoder->decode(encoded, decoded.data(), &error))
+                << "frame " << frame << ": " << error;
+            ASSERT_EQ(decoded, tile) << "frame " << frame << ": " << first_difference(tile, decoded);
+        }
+    }
+};
+
+TEST_P(TileCodecTest, OpaqueTilesRoundTrip) {
+    round_trip(64, 48, 5, AlphaKind::Opaque);
+}
+
+TEST_P(TileCodecTest, AlphaGradientRoundTrips) {
+    round_trip(64, 48, 4, AlphaKind::Gradient);
+}
+
+TEST_P(TileCodecTest, AlphaNoiseRoundTrips) {
+    round_trip(64, 48, 3, AlphaKind::Noise);
+}
+
+// Sizes that are not whole macroblocks, and tiles smaller than one.
+TEST_P(TileCodecTest, OddSizesRoundTrip) {
+    round_trip(37, 21, 3, AlphaKind::Gradient);
+    round_trip(16, 16, 2, AlphaKind::Opaque);
+    round_trip(5, 3, 2, AlphaKind::Opaque);
+}
+
+// Incompressible content must still come back exactly (lossless is not "lossless when it fits").
+TEST_P(TileCodecTest, NoiseRoundTrips) {
+    Stream stream = open_stream(codec(), 64, 48);
+    ASSERT_TRUE(stream.encoder && stream.decoder);
+    Pixels decoded(64 * 48 * 4);
+    for (uint32_t frame = 0; frame < 3; ++frame) {
+        const Pixels tile = noise_tile(64, 48, frame + 7);
+        const auto encoded = encode_ok(*stream.encoder, tile);
+        std::string error;
+        ASSERT_TRUE(stream.decoder->decode(encoded, decoded.data(), &error)) << error;
+        ASSERT_EQ(decoded, tile) << "frame " << frame << ": " << first_difference(tile, decoded);
+    }
+}
+
+// After force_keyframe the next tile decodes alone, in a fresh decoder.
+TEST_P(TileCodecTest, ForcedKeyframeDecodesAlone) {
+    Stream stream = open_stream(codec(), 64, 48);
+    ASSERT_TRUE(stream.encoder && stream.decoder);
+    for (int frame = 0; frame < 3; ++frame)
+        encode_ok(*stream.encoder, synthetic_tile(64, 48, frame, AlphaKind::Opaque));
+    stream.encoder->force_keyframe();
+    const Pixels tile = synthetic_tile(64, 48, 3, AlphaKind::Gradient);
+    bool keyframe = false;
+    const auto encoded = encode_ok(*stream.encoder, tile, &keyframe);
+    EXPECT_TRUE(keyframe);
+    Pixels decoded(tile.size());
+    std::string error;
+    ASSERT_TRUE(stream.decoder->decode(encoded, decoded.data(), &error)) << error;
+    EXPECT_EQ(decoded, tile) << first_difference(tile, decoded);
+
+    // And only that one: the tile after it is a non-keyframe again.
+    encode_ok(*stream.encoder, synthetic_tile(64, 48, 4, AlphaKind::Opaque), &keyframe);
+    EXPECT_EQ(keyframe, !has_inter_frames());
+}
+
+TEST_P(TileCodecTest, NonKeyframeFirstIsAnError) {
+    if (!has_inter_frames()) GTEST_SKIP() << "every raw tile is a keyframe";
+    Stream stream = open_stream(codec(), 64, 48);
+    ASSERT_TRUE(stream.encoder && stream.decoder);
+    encode_ok(*stream.encoder, synthetic_tile(64, 48, 0, AlphaKind::Opaque));
+    bool keyframe = true;
+    const auto second = encode_ok(*stream.encoder, synthetic_tile(64, 48, 1, AlphaKind::Opaque), &keyframe);
+    ASSERT_FALSE(keyframe);
+    Pixels decoded(64 * 48 * 4, 0xab);
+    const Pixels untouched = decoded;
+    std::string error;
+    EXPECT_FALSE(stream.decoder->decode(second, decoded.data(), &error));
+    EXPECT_NE(error.find("keyframe"), std::string::npos) << error;
+    EXPECT_EQ(decoded, untouched) << "a failed decode wrote pixels";
+}
+
+// A failed decode loses the stream's reference: non-keyframes are refused until a keyframe.
+TEST_P(TileCodecTest, FailureRequiresAKeyframe) {
+    if (!has_inter_frames()) GTEST_SKIP() << "every raw tile is a keyframe";
+    Stream stream = open_stream(codec(), 64, 48);
+    ASSERT_TRUE(stream.encoder && stream.decoder);
+    Pixels decoded(64 * 48 * 4);
+    std::string error;
+    ASSERT_TRUE(stream.decoder->decode(
+        encode_ok(*stream.encoder, synthetic_tile(64, 48, 0, AlphaKind::Opaque)), decoded.data(), &error))
+        << error;
+    auto lost = encode_ok(*stream.encoder, synthetic_tile(64, 48, 1, AlphaKind::Opaque));
+    ASSERT_FALSE(lost.empty());
+    lost.pop_back(); // truncated: this tile never arrives whole
+    EXPECT_FALSE(stream.decoder->decode(lost, decoded.data(), &error));
+    EXPECT_FALSE(stream.decoder->decode(
+        encode_ok(*stream.encoder, synthetic_tile(64, 48, 2, AlphaKind::Opaque)), decoded.data(), &error));
+    stream.encoder->force_keyframe();
+    const Pixels tile = synthetic_tile(64, 48, 3, AlphaKind::Opaque);
+    ASSERT_TRUE(stream.decoder->decode(encode_ok(*stream.encoder, tile), decoded.data(), &error)) << error;
+    EXPECT_EQ(decoded, tile) << first_difference(tile, decoded);
+    const Pixels next = synthetic_tile(64, 48, 4, AlphaKind::Opaque);
+    ASSERT_TRUE(stream.decoder->decode(encode_ok(*stream.encoder, next), decoded.data(), &error)) << error;
+    EXPECT_EQ(decoded, next) << first_difference(next, decoded);
+}
+
+// Every proper prefix of a tile (keyframe and non-keyframe, with an alpha plane) is refused.
+TEST_P(TileCodecTest, EveryTruncationIsRefused) {
+    Stream stream = open_stream(codec(), 40, 24);
+    ASSERT_TRUE(stream.encoder && stream.decoder);
+    const Pixels first = synthetic_tile(40, 24, 0, AlphaKind::Gradient);
+    const auto keyframe = encode_ok(*stream.encoder, first);
+    const auto next = encode_ok(*stream.encoder, synthetic_tile(40, 24, 1, AlphaKind::Gradient));
+    Pixels decoded(40 * 24 * 4);
+    std::string error;
+    for (const auto *encoded : {&keyframe, &next}) {
+        for (size_t size = 0; size < encoded->size(); ++size) {
+            // Restore the reference each time, so the non-keyframe's truncations reach its body.
+            ASSERT_TRUE(stream.decoder->decode(keyframe, decoded.data(), &error)) << error;
+            error.clear();
+            EXPECT_FALSE(stream.decoder->decode(std::span(encoded->data(), size), decoded.data(), &error))
+                << "a " << size << "-byte prefix of " << encoded->size() << " bytes was accepted";
+            EXPECT_FALSE(error.empty());
+            EXPECT_EQ(error.find('\n'), std::string::npos) << error;
+        }
+    }
+}
+
+TEST_P(TileCodecTest, TrailingBytesAreRefused) {
+    Stream stream = open_stream(codec(), 40, 24);
+    ASSERT_TRUE(stream.encoder && stream.decoder);
+    for (AlphaKind alpha : {AlphaKind::Opaque, AlphaKind::Gradient}) {
+        stream.encoder->force_keyframe();
+        auto encoded = encode_ok(*stream.encoder, synthetic_tile(40, 24, 0, alpha));
+        encoded.push_back(0);
+        Pixels decoded(40 * 24 * 4);
+        std::string error;
+        EXPECT_FALSE(stream.decoder->decode(encoded, decoded.data(), &error));
+        EXPECT_FALSE(error.empty());
+    }
+}
+
+TEST_P(TileCodecTest, WrongSizeIsRefused) {
+    Stream small = open_stream(codec(), 32, 32);
+    std::string error;
+    auto decoder = make_tile_decoder(codec(), 48, 32, &error);
+    ASSERT_TRUE(small.encoder && decoder) << error;
+    const auto encoded = encode_ok(*small.encoder, synthetic_tile(32, 32, 0, AlphaKind::Opaque));
+    Pixels decoded(48 * 32 * 4);
+    EXPECT_FALSE(decoder->decode(encoded, decoded.data(), &error));
+    EXPECT_NE(error.find("32x32"), std::string::npos) << error;
+}
+
+// A tile of another codec is refused, whatever its body.
+TEST_P(TileCodecTest, OtherCodecsTilesAreRefused) {
+    std::string error;
+    auto decoder = make_tile_decoder(codec(), 32, 32, &error);
+    ASSERT_TRUE(decoder) << error;
+    Pixels decoded(32 * 32 * 4);
+    for (TileCodec other : {TileCodec::X264, TileCodec::Zstd, TileCodec::Raw}) {
+        if (other == codec()) continue;
+        auto encoder = make_tile_encoder(other, 32, 32, &error);
+        ASSERT_TRUE(encoder) << error;
+        const auto encoded = encode_ok(*encoder, synthetic_tile(32, 32, 0, AlphaKind::Opaque));
+        EXPECT_FALSE(decoder->decode(encoded, decoded.data(), &error)) << to_string(other);
+        EXPECT_NE(error.find("codec"), std::string::npos) << error;
+    }
+}
+
+// Random bit flips anywhere (header, lengths, checksum, H.264 or zstd data): the decoder refuses
+// the tile or, for a flip in a bit it ignores, decodes the original; never other pixels, never a
+// crash or an over-read. A good keyframe before each attempt keeps it on a reference.
+TEST_P(TileCodecTest, BitFlipsAreRefusedOrHarmless) {
+    Stream stream = open_stream(codec(), 48, 32);
+    ASSERT_TRUE(stream.encoder && stream.decoder);
+    const Pixels first = synthetic_tile(48, 32, 0, AlphaKind::Gradient);
+    const Pixels second = synthetic_tile(48, 32, 1, AlphaKind::Gradient);
+    const auto keyframe = encode_ok(*stream.encoder, first);
+    const auto next = encode_ok(*stream.encoder, second);
+    std::mt19937 random(42);
+    Pixels decoded(48 * 32 * 4);
+    std::string error;
+    int refused = 0;
+    constexpr int kAttempts = 400;
+    for (int attempt = 0; attempt < kAttempts; ++attempt) {
+        ASSERT_TRUE(stream.decoder->decode(keyframe, decoded.data(), &error)) << error;
+        auto damaged = (attempt % 2 == 0) ? keyframe : next;
+        const int flips = 1 + static_cast<int>(random() % 4);
+        for (int i = 0; i < flips; ++i) {
+            const size_t bit = random() % (damaged.size() * 8);
+            damaged[bit / 8] ^= static_cast<uint8_t>(1u << (bit % 8));
+        }
+        error.clear();
+        if (!stream.decoder->decode(damaged, decoded.data(), &error)) {
+            ++refused;
+            EXPECT_FALSE(error.empty());
+            EXPECT_EQ(error.find('\n'), std::string::npos) << error;
+        } else {
+            // Accepted damage (a bit the decoder ignores) must still give back the original tile.
+            const Pixels &original = (attempt % 2 == 0) ? first : second;
+            EXPECT_EQ(decoded, original) << "attempt " << attempt << ": damaged tile decoded to other pixels";
+        }
+    }
+    std::printf("  %s: %d of %d damaged tiles refused\n", to_string(codec()), refused, kAttempts);
+}
+
+INSTANTIATE_TEST_SUITE_P(Codecs, TileCodecTest,
+                         ::testing::Values(TileCodec::X264, TileCodec::Zstd, TileCodec::Raw),
+                         [](const ::testing::TestParamInfo<TileCodec> &p) {
+                             return std::string(to_string(p.param));
+                         });
+
+TEST(TileCodecFactory, RefusesEmptyAndHugeTiles) {
+    std::string error;
+    EXPECT_EQ(make_tile_encoder(TileCodec::X264, 0, 16, &error), nullptr);
+    EXPECT_NE(error.find("0x16"), std::string::npos) << error;
+    EXPECT_EQ(make_tile_decoder(TileCodec::Zstd, 16, 20000, &error), nullptr);
+    EXPECT_NE(error.find("16x20000"), std::string::npos) << error;
+}
+
+// The alpha plane is carried only when some alpha byte is not 255: opaque x264 tiles are the
+// H.264 access unit alone.
+TEST(X264Tiles, OpaqueTilesCarryNoAlphaPlane) {
+    Stream stream = open_stream(TileCodec::X264, 64, 48);
+    ASSERT_TRUE(stream.encoder);
+    const auto h264_end = [](const std::vector<uint8_t> &tile) {
+        const uint8_t *size = &tile[kTileHeaderSize];
+        return kTileHeaderSize + 4 + (size[0] | size[1] << 8 | size[2] << 16 | size_t{size[3]} << 24);
+    };
+    const auto opaque = encode_ok(*stream.encoder, synthetic_tile(64, 48, 0, AlphaKind::Opaque));
+    ASSERT_GT(opaque.size(), kTileHeaderSize + 4);
+    EXPECT_EQ(opaque[2] & 2, 0) << "alpha-plane flag set on an opaque tile";
+    EXPECT_EQ(opaque.size(), h264_end(opaque));
+    const auto translucent = encode_ok(*stream.encoder, synthetic_tile(64, 48, 1, AlphaKind::Gradient));
+    ASSERT_GT(translucent.size(), kTileHeaderSize + 4);
+    EXPECT_NE(translucent[2] & 2, 0) << "alpha-plane flag missing";
+    EXPECT_GT(translucent.size(), h264_end(translucent));
+}
+
+// The header's checksum covers the pixels: a raw tile with one pixel byte changed is well formed in
+// every other way and must still be refused.
+TEST(RawTiles, ChangedPixelFailsTheChecksum) {
+    Stream stream = open_stream(TileCodec::Raw, 16, 8);
+    ASSERT_TRUE(stream.encoder && stream.decoder);
+    auto encoded = encode_ok(*stream.encoder, synthetic_tile(16, 8, 0, AlphaKind::Opaque));
+    encoded[kTileHeaderSize + 100] ^= 0x10;
+    Pixels decoded(16 * 8 * 4);
+    std::string error;
+    EXPECT_FALSE(stream.decoder->decode(encoded, decoded.data(), &error));
+    EXPECT_NE(error.find("checksum"), std::string::npos) << error;
+}
+
+// Each byte of a pixel comes back in its own place: distinct constant values per byte, so a swap
+// of any two of x264's G/B/R planes would show.
+TEST(X264Tiles, ByteOrderIsKept) {
+    Stream stream = open_stream(TileCodec::X264, 32, 16);
+    ASSERT_TRUE(stream.encoder && stream.decoder);
+    Pixels tile(32 * 16 * 4);
+    for (size_t i = 0; i < tile.size(); i += 4) {
+        tile[i + 0] = 10;
+        tile[i + 1] = 120;
+        tile[i + 2] = 230;
+        tile[i + 3] = 255;
+    }
+    Pixels decoded(tile.size());
+    std::string error;
+    ASSERT_TRUE(stream.decoder->decode(encode_ok(*stream.encoder, tile), decoded.data(), &error)) << error;
+    EXPECT_EQ(decoded, tile) << first_difference(tile, decoded);
+}
+
+// An H.264 stream of a larger picture, relabelled as a small tile, is refused (the decoder's
+// picture-size bound and the decoded-size check), not decoded into a 64x64 buffer.
+TEST(X264Tiles, LargerPictureIsRefused) {
+    Stream large = open_stream(TileCodec::X264, 1024, 512);
+    ASSERT_TRUE(large.encoder);
+    auto encoded = encode_ok(*large.encoder, synthetic_tile(1024, 512, 0, AlphaKind::Opaque));
+    encoded[4] = 64;
+    encoded[5] = 0;
+    encoded[6] = 64;
+    encoded[7] = 0;
+    std::string error;
+    auto decoder = make_tile_decoder(TileCodec::X264, 64, 64, &error);
+    ASSERT_TRUE(decoder) << error;
+    Pixels decoded(64 * 64 * 4);
+    EXPECT_FALSE(decoder->decode(encoded, decoded.data(), &error));
+    EXPECT_FALSE(error.empty());
+}
+
+// The other way round: a smaller picture relabelled as a larger tile decodes, but to the wrong size.
+TEST(X264Tiles, SmallerPictureIsRefused) {
+    Stream small = open_stream(TileCodec::X264, 32, 32);
+    ASSERT_TRUE(small.encoder);
+    auto encoded = encode_ok(*small.encoder, synthetic_tile(32, 32, 0, AlphaKind::Opaque));
+    encoded[4] = 48;
+    std::string error;
+    auto decoder = make_tile_decoder(TileCodec::X264, 48, 32, &error);
+    ASSERT_TRUE(decoder) << error;
+    Pixels decoded(48 * 32 * 4);
+    EXPECT_FALSE(decoder->decode(encoded, decoded.data(), &error));
+    EXPECT_NE(error.find("decoded 32x32"), std::string::npos) << error;
+}
+
+} // namespace
+} // namespace splitvk::tiles
