@@ -1,10 +1,12 @@
 #include "agent_session.h"
 
+#include "corpus_recorder.h"
 #include "log.h"
 #include "replayer.h"
 #include "session.h"
 #include "vk_codec.h"
 
+#include <algorithm>
 #include <chrono>
 
 namespace splitvk::agent {
@@ -16,7 +18,6 @@ using protocol::to_wire;
 namespace {
 
 constexpr auto kHandshakeTimeout = 10s;
-constexpr uint32_t kMaxPayload = protocol::kDefaultMaxPayload;
 
 // The types a client may send; anything else (the rest of the Vulkan range included) is a
 // protocol error that ends the session.
@@ -41,7 +42,10 @@ bool client_type(uint16_t type) {
 class Session {
 public:
     Session(std::unique_ptr<protocol::Connection> connection, const SessionConfig &config)
-        : connection_(std::move(connection)), config_(config), replayer_(config.session_id) {}
+        : connection_(std::move(connection)), config_(config), replayer_(config.session_id) {
+        if (!config.record_corpus.empty())
+            recorder_ = std::make_unique<CorpusRecorder>(config.record_corpus, config.session_id);
+    }
 
     int run();
 
@@ -53,6 +57,7 @@ private:
     std::unique_ptr<protocol::Connection> connection_;
     SessionConfig config_;
     Replayer replayer_;
+    std::unique_ptr<CorpusRecorder> recorder_;
     uint64_t messages_ = 0;
     uint64_t frames_ = 0;
 };
@@ -84,6 +89,7 @@ int Session::run() {
         connection_->close("handshake failed");
         return kSessionHandshake;
     }
+    if (recorder_) recorder_->hello(hs->hello);
     if (!(hs->welcome.capabilities & protocol::capability::kZstdPayloads)) {
         protocol::CompressionPolicy off;
         off.enabled = false;
@@ -104,6 +110,7 @@ int Session::run() {
             return fail(reason, kSessionError);
         }
         ++messages_;
+        if (recorder_) recorder_->message(message->type, message->payload);
         bool done = false;
         if (!handle(*message, &done, &error)) return fail(error, kSessionError);
         if (done) break;
@@ -125,7 +132,7 @@ bool Session::handle(protocol::Message &message, bool *done, std::string *error)
     case MessageType::Commands:
         return replayer_.replay(message.payload, error);
     case MessageType::MemoryData: {
-        auto m = protocol::decode_memory_data(message.payload, kMaxPayload);
+        auto m = protocol::decode_memory_data(message.payload, config_.max_message_bytes);
         if (!m) {
             *error = "MemoryData: " + m.error();
             return false;
@@ -210,9 +217,15 @@ const char *session_exit_name(int status) {
 }
 
 int run_session(protocol::UniqueFd socket, const SessionConfig &config) {
+    // Before the session's replayer (and the MemoryRebind it owns) exists.
+    set_process_memory_limits({config.max_host_memory, config.max_gpu_memory});
     protocol::ConnectionOptions options;
     options.name = "session " + std::to_string(config.session_id);
-    options.max_payload = kMaxPayload;
+    // What the client may send is capped by --max-message-bytes; what the agent sends back (a
+    // whole frame for SPLITVK_VERIFY) by the protocol's own cap, which the layer receives with.
+    options.max_payload = std::max(protocol::kDefaultMaxPayload, config.max_message_bytes);
+    options.max_receive_payload = config.max_message_bytes;
+    options.max_receive_payload_name = "--max-message-bytes";
     options.unknown_types = protocol::UnknownTypePolicy::Reject;
     options.is_known_type = client_type;
     auto connection = protocol::Connection::adopt(std::move(socket), options);
