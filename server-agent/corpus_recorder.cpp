@@ -3,16 +3,11 @@
 #include "log.h"
 
 #include <cstdio>
-#include <fstream>
 
 namespace splitvk::agent {
 
 CorpusRecorder::CorpusRecorder(std::string dir, uint64_t session_id)
     : prefix_(std::move(dir) + "/s" + std::to_string(session_id)) {}
-
-CorpusRecorder::~CorpusRecorder() {
-    if (!commands_.empty()) write("commands", commands_);
-}
 
 bool CorpusRecorder::write(const std::string &name, std::span<const uint8_t> bytes) {
     if (failed_) return false;
@@ -45,11 +40,18 @@ void CorpusRecorder::message(uint16_t type, std::span<const uint8_t> payload) {
         write(name, protocol::encode_frame(type, 1, payload));
     }
     ++messages_;
-    if (type == protocol::to_wire(protocol::MessageType::Commands) &&
-        commands_.size() + protocol::kHeaderSize + payload.size() <= kMaxStreamBytes) {
-        const auto frame = protocol::encode_frame(type, ++commands_sequence_, payload);
-        commands_.insert(commands_.end(), frame.begin(), frame.end());
+    if (failed_ || type == protocol::to_wire(protocol::MessageType::MemoryData) ||
+        stream_bytes_ + protocol::kHeaderSize + payload.size() > kMaxStreamBytes)
+        return;
+    if (!stream_.is_open()) stream_.open(prefix_ + "-stream", std::ios::binary | std::ios::trunc);
+    const auto frame = protocol::encode_frame(type, ++stream_sequence_, payload);
+    stream_.write(reinterpret_cast<const char *>(frame.data()), static_cast<std::streamsize>(frame.size()));
+    stream_.flush();
+    if (!stream_) {
+        SPLITVK_WARN("--record-corpus: cannot write %s-stream; recording stops", prefix_.c_str());
+        failed_ = true;
     }
+    stream_bytes_ += frame.size();
 }
 
 } // namespace splitvk::agent

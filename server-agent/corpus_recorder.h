@@ -6,8 +6,9 @@
 //
 //   s<session>-hello             the client's Hello, its token left out
 //   s<session>-<n>-<type>        message n alone (the first kMaxMessages, each up to kMaxFileBytes)
-//   s<session>-commands          the session's Commands messages in order, up to kMaxStreamBytes:
-//                                the objects they create resolve in later commands, as in a session
+//   s<session>-stream            the session's messages in order but for MemoryData (bulk bytes), up
+//                                to kMaxStreamBytes: the objects created (by commands, and swapchain
+//                                images) resolve in later commands, as in a session
 //
 // Never on by default: the files hold the application's data in the clear.
 
@@ -15,9 +16,9 @@
 #include "wire.h"
 
 #include <cstdint>
+#include <fstream>
 #include <span>
 #include <string>
-#include <vector>
 
 namespace splitvk::agent {
 
@@ -29,7 +30,6 @@ public:
 
     // Recording stops (with one warning) at the first file that cannot be written.
     CorpusRecorder(std::string dir, uint64_t session_id);
-    ~CorpusRecorder();
     CorpusRecorder(const CorpusRecorder &) = delete;
     CorpusRecorder &operator=(const CorpusRecorder &) = delete;
 
@@ -42,8 +42,10 @@ private:
     std::string prefix_; // DIR/s<session>
     bool failed_ = false;
     uint32_t messages_ = 0;
-    std::vector<uint8_t> commands_;
-    uint64_t commands_sequence_ = 0;
+    // Appended as messages arrive, so a session killed by SIGTERM still leaves its stream.
+    std::ofstream stream_;
+    size_t stream_bytes_ = 0;
+    uint64_t stream_sequence_ = 0;
 };
 
 } // namespace splitvk::agent

@@ -7,6 +7,8 @@
 #include "wire.h"
 
 #include <algorithm>
+#include <cstdio>
+#include <cstdlib>
 #include <span>
 #include <string>
 #include <variant>
@@ -67,6 +69,13 @@ private:
     codec::HandleTable &table_;
 };
 
+// SPLITVK_FUZZ_VERBOSE=1: one line per message that fails to decode, to see how far a seed gets
+// (a recorded stream should decode to its end). Off while fuzzing: it would be most of the time.
+bool verbose() {
+    static const bool on = std::getenv("SPLITVK_FUZZ_VERBOSE") != nullptr;
+    return on;
+}
+
 // Small enough that a decompression bomb costs milliseconds per input, large enough for recorded
 // Commands and MemoryData payloads; the checks against the cap are the same at any value.
 constexpr uint32_t kFuzzMaxPayload = 8u << 20;
@@ -74,11 +83,21 @@ constexpr uint32_t kFuzzMaxPayload = 8u << 20;
 void decode_commands(std::span<const uint8_t> payload, codec::HandleTable &table, codec::Arena &arena) {
     codec::Decoder d(payload, table, arena);
     TouchVisitor visitor(table);
-    // As Replayer::replay: until the payload ends or the first error.
+    // As Replayer::replay: until the payload ends or the first error, and like it, the physical
+    // device vkCreateDevice names (the client's enumeration is not forwarded) is registered first.
     while (d.ok() && !d.at_end()) {
+        const size_t offset = d.offset();
+        if (payload.size() - offset >= 10 && protocol::load_le16(payload.data() + offset) ==
+                                                 static_cast<uint16_t>(codec::VkCommandId::vkCreateDevice)) {
+            const uint64_t id = protocol::load_le64(payload.data() + offset + 2);
+            const auto *entry = table.find(id);
+            if (id != 0 && !(entry && entry->type == VK_OBJECT_TYPE_PHYSICAL_DEVICE) &&
+                !table.insert(id, VK_OBJECT_TYPE_PHYSICAL_DEVICE, uint64_t{0}))
+                break;
+        }
         if (!codec::dispatch_decoded(d, visitor)) break;
     }
-    if (!d.ok()) touch_bytes({reinterpret_cast<const uint8_t *>(d.error().data()), d.error().size()});
+    if (!d.ok() && verbose()) std::fprintf(stderr, "Commands: %s\n", d.error().c_str());
     arena.reset();
 }
 
@@ -114,7 +133,7 @@ void decode_control(const protocol::Message &m) {
     }
 }
 
-void decode_metadata(const protocol::Message &m) {
+void decode_metadata(const protocol::Message &m, codec::HandleTable &table) {
     using protocol::MessageType;
     const std::span<const uint8_t> p = m.payload;
     switch (static_cast<MessageType>(m.type)) {
@@ -135,9 +154,11 @@ void decode_metadata(const protocol::Message &m) {
                 touch_bytes(tile.data);
         break;
     case MessageType::SwapchainImages:
-        if (auto d = protocol::decode_swapchain_images(p))
+        if (auto d = protocol::decode_swapchain_images(p)) {
+            // As the agent's SwapchainImages does: the images become objects later commands name.
             for (const uint64_t id : d->image_ids)
-                touch(id);
+                if (!table.insert(id, VK_OBJECT_TYPE_IMAGE, uint64_t{0})) break;
+        }
         break;
     case MessageType::SwapchainDestroyed:
         if (auto d = protocol::decode_swapchain_destroyed(p)) touch(d->swapchain_id);
@@ -164,7 +185,8 @@ void agent_messages(const uint8_t *data, size_t size) {
     protocol::FrameDecoder frames(policy);
 
     std::vector<protocol::Message> messages;
-    frames.feed({data, size}, messages);
+    if (!frames.feed({data, size}, messages) && verbose())
+        std::fprintf(stderr, "framing: %s\n", frames.error().c_str());
 
     codec::HandleTable table;
     codec::Arena arena;
@@ -177,7 +199,7 @@ void agent_messages(const uint8_t *data, size_t size) {
             decode_commands(m.payload, table, arena);
             break;
         case protocol::MessageClass::Metadata:
-            decode_metadata(m);
+            decode_metadata(m, table);
             break;
         case protocol::MessageClass::Invalid:
             break;
