@@ -6,6 +6,10 @@
 #include "vk_codec.h"
 #include "wire.h"
 
+extern "C" {
+#include <libavutil/log.h>
+}
+
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -208,6 +212,13 @@ void agent_messages(const uint8_t *data, size_t size) {
 }
 
 void tile_decoder(const uint8_t *data, size_t size) {
+    // FFmpeg reports every broken packet on stderr; while fuzzing that is most inputs, and the
+    // writes would cost more than the decoding.
+    static const bool quiet = [] {
+        if (!verbose()) av_log_set_level(AV_LOG_QUIET);
+        return true;
+    }();
+    (void)quiet;
     if (size < 2) return;
     static constexpr TileCodec kCodecs[] = {TileCodec::X264, TileCodec::Zstd, TileCodec::Raw};
     const TileCodec codec = kCodecs[data[0] % 3];
