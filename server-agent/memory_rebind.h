@@ -30,7 +30,8 @@ namespace splitvk::agent {
 // Per-session caps (splitvk-agent --max-host-memory, --max-gpu-memory; docs/security.md). Going
 // over one is an error like any other: the session ends with one line naming the cap.
 struct MemoryLimits {
-    // Client data kept in host memory: the shadows of MemoryData not yet bound to a resource.
+    // Client data kept in host memory: the shadow pages of every client memory object, which
+    // hold whatever MemoryData wrote there (bound or not) until the memory is freed.
     uint64_t host_bytes = UINT64_MAX;
     // Device memory, counted twice over and capped on each count: the vkAllocateMemory sizes the
     // client asked for, and the agent's own allocations for the resources bound to them (which a
