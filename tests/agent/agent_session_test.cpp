@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -784,6 +785,44 @@ TEST(AgentToken, NonLoopbackWithoutTokenIsRefused) {
         << log;
     EXPECT_EQ(std::count(log.begin(), log.end(), '\n'), 1) << log;
     EXPECT_EQ(log.find("listening on"), std::string::npos) << log;
+}
+
+// --record-corpus: the seeds scripts/fuzz records. Every file is a stream that starts at
+// sequence 1, the Hello without its token, the stream of the session in order.
+TEST(AgentRecordCorpus, WritesSeedsWithoutTheToken) {
+    char dir[] = "/tmp/splitvk-agent-corpus-XXXXXX";
+    ASSERT_NE(mkdtemp(dir), nullptr);
+    {
+        Agent agent({"--token-file", "TOKEN_FILE", "--record-corpus", dir});
+        ASSERT_TRUE(agent.started()) << agent.log();
+        EXPECT_NE(agent.log().find("--record-corpus"), std::string::npos) << agent.log();
+        Client client;
+        ASSERT_TRUE(client.connect(agent, "right-token")) << client.error;
+        std::vector<uint8_t> pixels;
+        std::string why;
+        ASSERT_TRUE(run_good_stream(client, &pixels, &why)) << why << "\n" << agent.log();
+        client.bye();
+        EXPECT_TRUE(agent.wait_for_end(1, "closed by the client")) << agent.log();
+    }
+    const std::string prefix = std::string(dir) + "/s1-";
+    const std::string hello = read_file(prefix + "hello");
+    ASSERT_GE(hello.size(), protocol::kHeaderSize);
+    EXPECT_EQ(hello.find("right-token"), std::string::npos);
+    const std::string stream = read_file(prefix + "stream");
+    ASSERT_GE(stream.size(), protocol::kHeaderSize);
+    const auto first = protocol::decode_header(std::span<const uint8_t, protocol::kHeaderSize>(
+        reinterpret_cast<const uint8_t *>(stream.data()), protocol::kHeaderSize));
+    EXPECT_EQ(first.sequence, 1u);
+    EXPECT_EQ(first.type, protocol::to_wire(MessageType::Commands));
+    EXPECT_FALSE(read_file(prefix + "0000-Vulkan_command").empty());
+    // A whole recorded stream frames cleanly.
+    protocol::FrameDecoder frames;
+    std::vector<protocol::Message> messages;
+    EXPECT_TRUE(frames.feed({reinterpret_cast<const uint8_t *>(stream.data()), stream.size()}, messages))
+        << frames.error();
+    EXPECT_GE(messages.size(), 3u);
+    EXPECT_TRUE(frames.at_message_boundary());
+    std::filesystem::remove_all(dir);
 }
 
 } // namespace
