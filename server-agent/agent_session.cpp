@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <unordered_map>
 
 namespace splitvk::agent {
 
@@ -51,6 +52,9 @@ public:
 
 private:
     int fail(const std::string &what, int status);
+    // --max-gpu-memory for the offscreen images that stand for swapchain images, which the
+    // replayer allocates outside MemoryRebind: their own count, capped like the others.
+    bool swapchain_memory(const protocol::SwapchainImages &m, std::string *error);
     // Handles one message; false with `error` set ends the session.
     bool handle(protocol::Message &message, bool *done, std::string *error);
 
@@ -58,6 +62,8 @@ private:
     SessionConfig config_;
     Replayer replayer_;
     std::unique_ptr<CorpusRecorder> recorder_;
+    std::unordered_map<uint64_t, uint64_t> swapchain_bytes_; // by swapchain id
+    uint64_t swapchain_total_ = 0;
     uint64_t messages_ = 0;
     uint64_t frames_ = 0;
 };
@@ -72,6 +78,24 @@ int Session::fail(const std::string &what, int status) {
     }
     connection_->close("session error");
     return status;
+}
+
+bool Session::swapchain_memory(const protocol::SwapchainImages &m, std::string *error) {
+    // 8 bytes per pixel: the widest format a surface presents (R16G16B16A16_SFLOAT); the decoder
+    // bounds every factor, so the product cannot overflow.
+    const uint64_t bytes = uint64_t{m.width} * m.height * 8 * m.array_layers * m.image_ids.size();
+    uint64_t &slot = swapchain_bytes_[m.swapchain_id];
+    const uint64_t total = swapchain_total_ - slot + bytes;
+    if (total > config_.max_gpu_memory) {
+        *error = "SwapchainImages: " + std::to_string(bytes) +
+                 " bytes of offscreen images would take the session's swapchain images to " +
+                 std::to_string(total) + " bytes, over --max-gpu-memory (" +
+                 std::to_string(config_.max_gpu_memory) + " bytes)";
+        return false;
+    }
+    swapchain_total_ = total;
+    slot = bytes;
+    return true;
 }
 
 int Session::run() {
@@ -145,6 +169,7 @@ bool Session::handle(protocol::Message &message, bool *done, std::string *error)
             *error = "SwapchainImages: " + m.error();
             return false;
         }
+        if (!swapchain_memory(*m, error)) return false;
         return replayer_.swapchain_images(*m, error);
     }
     case MessageType::SwapchainDestroyed: {
@@ -152,6 +177,10 @@ bool Session::handle(protocol::Message &message, bool *done, std::string *error)
         if (!m) {
             *error = "SwapchainDestroyed: " + m.error();
             return false;
+        }
+        if (auto it = swapchain_bytes_.find(m->swapchain_id); it != swapchain_bytes_.end()) {
+            swapchain_total_ -= it->second;
+            swapchain_bytes_.erase(it);
         }
         return replayer_.swapchain_destroyed(*m, error);
     }

@@ -745,6 +745,25 @@ TEST(AgentLimits, ResourcesBoundOverMaxGpuMemoryEndOnlyThatSession) {
     });
 }
 
+TEST(AgentLimits, SwapchainImagesOverMaxGpuMemoryEndOnlyThatSession) {
+    // The offscreen images that stand for a swapchain's are device memory too.
+    Agent agent({"--max-gpu-memory", "1M"});
+    expect_cap_ends_only_that_session(agent, "over --max-gpu-memory (1048576 bytes)", [](Client &c) {
+        codec::Encoder e;
+        encode_setup(e);
+        c.commands(e);
+        protocol::SwapchainImages sc;
+        sc.device_id = kDevice;
+        sc.swapchain_id = kSwapchain;
+        sc.width = 1024;
+        sc.height = 1024;
+        sc.format = VK_FORMAT_B8G8R8A8_UNORM;
+        sc.usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT;
+        sc.image_ids = {kImage, kImage + 1, kImage + 2};
+        c.send(MessageType::SwapchainImages, protocol::encode(sc));
+    });
+}
+
 TEST(AgentLimits, ShadowsOverMaxHostMemoryEndOnlyThatSession) {
     Agent agent({"--max-host-memory", "1M"});
     expect_cap_ends_only_that_session(agent, "over --max-host-memory (1048576 bytes)", [](Client &c) {
