@@ -4,24 +4,37 @@
 // scale into the top-left of a swapchain image is upsampled to the whole image, then the fovea
 // tiles the agent rendered are written over it byte for byte, and the image is presented.
 //
-// One Compositor per swapchain, used from vkQueuePresentKHR:
+// One Compositor per swapchain, used from vkQueuePresentKHR (when capturing(dev)):
 //
-//   const SwapchainState *sc = find_swapchain(present->pSwapchains[i]);
+//   VkPresentInfoKHR present = *pPresentInfo;
+//   const SwapchainState *sc = find_swapchain(pPresentInfo->pSwapchains[0]);
 //   Compositor *c = sc ? compositor_for(dev, *sc, queue_family_of(queue)) : nullptr;
 //   VkSemaphore signal = VK_NULL_HANDLE;
-//   if (c && c->composite(queue, index, waits, periphery, tiles, &signal) == VK_SUCCESS)
-//       ... present waits on `signal` instead of `waits` ...
-//   else
-//       ... present as the application asked (its semaphores untouched) ...
+//   if (c && c->composite(queue, pPresentInfo->pImageIndices[0],
+//                         {pPresentInfo->pWaitSemaphores, pPresentInfo->waitSemaphoreCount},
+//                         periphery /* the scaled render area the split used */, tiles, &signal) ==
+//                         VK_SUCCESS) {
+//       present.waitSemaphoreCount = 1;   // the app's semaphores are consumed by the compositor
+//       present.pWaitSemaphores = &signal;
+//   }   // otherwise present as the application asked: its semaphores are untouched
+//   dev.dispatch.QueuePresentKHR(queue, &present);
+//
+// - Anything else that must see the composited image before present (SPLITVK_VERIFY's readback)
+//   waits on `signal` and the present then waits on its semaphore instead.
+// - Several swapchains in one present: composite each; give the application's semaphores to
+//   the first only (a binary semaphore is waited once; later submits on the queue are in the
+//   second scope of that wait) and let the present wait on every `signal`.
+// - nullptr from compositor_for: the swapchain is not composable (the split must not have
+//   split it) or the compositor could not be made (logged once): present unchanged.
 //
 // composite() submits one command buffer on the present queue that waits on the application's
 // present semaphores (and so consumes them, as the present would have), and signals a semaphore
 // of the compositor's that the present must wait on instead. Every swapchain image has its own
 // slot (command buffer, fence, semaphore, periphery copy, tile staging buffer), so a frame never
 // overwrites resources a previous frame's submit still reads (the Mesa overlay's bug of one slot
-// per submit index). A slot's previous submit is waited for before reuse, for at most
-// kSlotWait; if it has not finished by then composite() gives up for this frame rather than
-// hang the application.
+// per submit index). A slot's previous submit is waited for before reuse, for at most one
+// second (kSlotWaitNs); if it has not finished by then, composite() gives up for this frame
+// rather than hang the application.
 
 #include "device.h"
 
@@ -74,7 +87,8 @@ public:
     // SHARED_PRESENT_KHR for shared present modes). On VK_SUCCESS, *signal is the compositor's
     // semaphore that the present must wait on instead of `waits` (it stays the compositor's:
     // do not destroy it). On any other result nothing was submitted, `waits` are untouched and
-    // *signal is unchanged: present as the application asked.
+    // *signal is unchanged: present as the application asked. VK_NOT_READY: nothing to do (no
+    // upsample, no tile); VK_TIMEOUT: this image's previous composition had not finished.
     VkResult composite(VkQueue queue, uint32_t image_index, std::span<const VkSemaphore> waits,
                        VkExtent2D periphery, std::span<const FoveaTile> tiles, VkSemaphore *signal);
 

@@ -41,9 +41,13 @@ vec4 catmull_rom(vec2 p) {
     // Near the edge a clamped tap repeats the edge texel, which is what clamp-to-edge of the
     // periphery would read there (p12 between two centres clamps onto the last centre, whose
     // bilinear neighbour past the edge then gets weight 0).
-    return (tap(vec2(p0.x, p0.y)) * w0.x + tap(vec2(p12.x, p0.y)) * w12.x + tap(vec2(p3.x, p0.y)) * w3.x) * w0.y +
-           (tap(vec2(p0.x, p12.y)) * w0.x + tap(vec2(p12.x, p12.y)) * w12.x + tap(vec2(p3.x, p12.y)) * w3.x) * w12.y +
-           (tap(vec2(p0.x, p3.y)) * w0.x + tap(vec2(p12.x, p3.y)) * w12.x + tap(vec2(p3.x, p3.y)) * w3.x) * w3.y;
+    const vec4 row0 = tap(vec2(p0.x, p0.y)) * w0.x + tap(vec2(p12.x, p0.y)) * w12.x +
+                      tap(vec2(p3.x, p0.y)) * w3.x;
+    const vec4 row1 = tap(vec2(p0.x, p12.y)) * w0.x + tap(vec2(p12.x, p12.y)) * w12.x +
+                      tap(vec2(p3.x, p12.y)) * w3.x;
+    const vec4 row2 = tap(vec2(p0.x, p3.y)) * w0.x + tap(vec2(p12.x, p3.y)) * w12.x +
+                      tap(vec2(p3.x, p3.y)) * w3.x;
+    return row0 * w0.y + row1 * w12.y + row2 * w3.y;
 }
 
 void main() {
