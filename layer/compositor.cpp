@@ -27,10 +27,6 @@
 namespace splitvk {
 namespace {
 
-// The periphery filter (shaders/upsample.frag, specialisation constant FILTER). Bilinear until
-// someone measures SSIM against native; UpsampleFilter::CatmullRom is the sharper alternative.
-constexpr UpsampleFilter kUpsampleFilter = UpsampleFilter::Bilinear;
-
 constexpr uint64_t kSlotWaitNs = 1'000'000'000;    // a slot's previous submit, before reuse
 constexpr uint64_t kDestroyWaitNs = 5'000'000'000; // at destroy, per slot
 constexpr VkDeviceSize kStagingGranule = 256 * 1024;
@@ -153,12 +149,15 @@ bool Compositor::supports(DeviceState &device, VkFormat format, std::string *why
     return true;
 }
 
-Compositor::Compositor(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family)
+Compositor::Compositor(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family,
+                       UpsampleFilter filter)
     : device_(device), swapchain_(swapchain.handle), extent_(swapchain.extent), format_(swapchain.format),
-      present_layout_(swapchain.present_layout), images_(swapchain.images), queue_family_(queue_family) {}
+      present_layout_(swapchain.present_layout), images_(swapchain.images), queue_family_(queue_family),
+      filter_(filter) {}
 
 std::unique_ptr<Compositor> Compositor::create(DeviceState &device, const SwapchainState &swapchain,
-                                               uint32_t queue_family, std::string *error) {
+                                               uint32_t queue_family, std::string *error,
+                                               UpsampleFilter filter) {
     if (!swapchain.composable) {
         *error = "the swapchain was created without the usage composition needs";
         return nullptr;
@@ -174,7 +173,7 @@ std::unique_ptr<Compositor> Compositor::create(DeviceState &device, const Swapch
         return nullptr;
     }
     if (!supports(device, swapchain.format, error)) return nullptr;
-    std::unique_ptr<Compositor> c(new Compositor(device, swapchain, queue_family));
+    std::unique_ptr<Compositor> c(new Compositor(device, swapchain, queue_family, filter));
     if (!c->init(error)) return nullptr;
     return c;
 }
@@ -289,7 +288,7 @@ bool Compositor::init(std::string *error) {
     module_info.pCode = shaders::upsample_frag;
     const bool have_frag = k.CreateShaderModule(d, &module_info, nullptr, &frag) == VK_SUCCESS;
 
-    const int32_t filter = static_cast<int32_t>(kUpsampleFilter);
+    const int32_t filter = static_cast<int32_t>(filter_);
     VkSpecializationMapEntry entry{0, 0, sizeof(filter)};
     VkSpecializationInfo specialization{1, &entry, sizeof(filter), &filter};
     VkPipelineShaderStageCreateInfo stages[2]{};

@@ -59,6 +59,9 @@ struct FoveaTile {
 
 // The periphery filter, a specialisation constant of shaders/upsample.frag.
 enum class UpsampleFilter : int { Bilinear = 0, CatmullRom = 1 };
+// What compositor_for() uses. Bilinear until someone measures SSIM against native; switch here
+// (or pass a filter to Compositor::create) to try Catmull-Rom.
+inline constexpr UpsampleFilter kDefaultUpsampleFilter = UpsampleFilter::Bilinear;
 
 class Compositor {
 public:
@@ -75,7 +78,8 @@ public:
     // on first use. nullptr and *error when the device cannot (queue_family without graphics,
     // unsupported format, out of memory).
     static std::unique_ptr<Compositor> create(DeviceState &device, const SwapchainState &swapchain,
-                                              uint32_t queue_family, std::string *error);
+                                              uint32_t queue_family, std::string *error,
+                                              UpsampleFilter filter = kDefaultUpsampleFilter);
     ~Compositor(); // waits (bounded) for its submits, then frees everything
     Compositor(const Compositor &) = delete;
     Compositor &operator=(const Compositor &) = delete;
@@ -96,7 +100,8 @@ public:
 
 private:
     struct Slot;
-    Compositor(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family);
+    Compositor(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family,
+               UpsampleFilter filter);
     bool init(std::string *error);
     bool init_slot(Slot &slot, uint32_t image_index, std::string *error);
     bool ensure_periphery_image(Slot &slot, VkExtent2D periphery, std::string *error);
@@ -111,6 +116,7 @@ private:
     VkImageLayout present_layout_ = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
     std::vector<VkImage> images_;
     uint32_t queue_family_ = 0;
+    UpsampleFilter filter_ = kDefaultUpsampleFilter;
 
     VkCommandPool pool_ = VK_NULL_HANDLE;
     VkSampler sampler_ = VK_NULL_HANDLE;

@@ -5,7 +5,7 @@
 // and clamped to the centres of the periphery's outer texels, so no filter tap ever reaches past
 // the periphery into the stale rest of the image (clamp-to-edge of the region, not of the image).
 //
-// FILTER (specialisation constant 0, compositor.cpp: kUpsampleFilter):
+// FILTER (specialisation constant 0; compositor.h: kDefaultUpsampleFilter):
 //   0 bilinear: one hardware-filtered tap.
 //   1 Catmull-Rom bicubic: 9 hardware-filtered taps that stand for its 16 (the inner 2x2 pairs
 //     of weights share a sign, so each pair becomes one bilinear tap at the weighted offset).
