@@ -3,6 +3,7 @@
 #include "device.h"
 
 #include "chain_info.h"
+#include "compositor.h"
 #include "instance.h"
 #include "layer_entry_points.h"
 #include "log.h"
@@ -42,6 +43,7 @@ void forget_memory(DeviceState &device);          // memory.cpp
 
 void forget_device_objects(DeviceState &device) {
     if (!device.session) return;
+    release_compositors(device); // of swapchains the application left alive
     forget_command_buffers(device);
     forget_memory(device);
 }
