@@ -38,10 +38,10 @@ VkViewport scale_viewport(const VkViewport &viewport, double scale) {
 VkRect2D scale_rect(const VkRect2D &rect, double scale, VkExtent2D scaled) {
     const int64_t x0 = std::clamp<int64_t>(floor_scaled(rect.offset.x, scale), 0, scaled.width);
     const int64_t y0 = std::clamp<int64_t>(floor_scaled(rect.offset.y, scale), 0, scaled.height);
-    const int64_t x1 = std::clamp<int64_t>(ceil_scaled(int64_t{rect.offset.x} + rect.extent.width, scale), x0,
-                                           scaled.width);
-    const int64_t y1 = std::clamp<int64_t>(ceil_scaled(int64_t{rect.offset.y} + rect.extent.height, scale), y0,
-                                           scaled.height);
+    const int64_t x1 =
+        std::clamp<int64_t>(ceil_scaled(int64_t{rect.offset.x} + rect.extent.width, scale), x0, scaled.width);
+    const int64_t y1 = std::clamp<int64_t>(ceil_scaled(int64_t{rect.offset.y} + rect.extent.height, scale),
+                                           y0, scaled.height);
     return {{static_cast<int32_t>(x0), static_cast<int32_t>(y0)},
             {static_cast<uint32_t>(x1 - x0), static_cast<uint32_t>(y1 - y0)}};
 }
@@ -49,7 +49,8 @@ VkRect2D scale_rect(const VkRect2D &rect, double scale, VkExtent2D scaled) {
 VkRect2D intersect(const VkRect2D &a, const VkRect2D &b) {
     const int64_t ax1 = int64_t{a.offset.x} + a.extent.width, ay1 = int64_t{a.offset.y} + a.extent.height;
     const int64_t bx1 = int64_t{b.offset.x} + b.extent.width, by1 = int64_t{b.offset.y} + b.extent.height;
-    const int64_t x0 = std::max<int64_t>(a.offset.x, b.offset.x), y0 = std::max<int64_t>(a.offset.y, b.offset.y);
+    const int64_t x0 = std::max<int64_t>(a.offset.x, b.offset.x),
+                  y0 = std::max<int64_t>(a.offset.y, b.offset.y);
     const int64_t x1 = std::min(ax1, bx1), y1 = std::min(ay1, by1);
     if (x1 <= x0 || y1 <= y0) {
         // A scissor offset must be non-negative; a zero extent anywhere draws nothing.

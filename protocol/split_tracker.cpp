@@ -8,7 +8,8 @@ namespace splitvk::split {
 
 void merge_drawn(std::vector<DrawnImage> &into, const std::vector<DrawnImage> &from) {
     for (const DrawnImage &d : from) {
-        auto it = std::find_if(into.begin(), into.end(), [&](const DrawnImage &x) { return x.image == d.image; });
+        auto it =
+            std::find_if(into.begin(), into.end(), [&](const DrawnImage &x) { return x.image == d.image; });
         if (it == into.end()) {
             into.push_back(d);
             continue;
@@ -39,14 +40,16 @@ size_t CommandTracker::scissor_count() const {
 
 void CommandTracker::note_foveae(EyeMode mode, const FoveaSize &fovea) {
     if (!in_split_) return;
-    auto it = std::find_if(drawn_.begin(), drawn_.end(), [&](const DrawnImage &x) { return x.image == image_; });
+    auto it =
+        std::find_if(drawn_.begin(), drawn_.end(), [&](const DrawnImage &x) { return x.image == image_; });
     if (it == drawn_.end()) {
         drawn_.push_back({image_, extent_, {}});
         it = drawn_.end() - 1;
     }
     it->extent = extent_;
     for (size_t i = 0; i < viewport_count(); ++i)
-        if (const VkViewport *v = viewport(i)) add_fovea(it->foveae, fovea_for_viewport(*v, extent_, mode, fovea));
+        if (const VkViewport *v = viewport(i))
+            add_fovea(it->foveae, fovea_for_viewport(*v, extent_, mode, fovea));
 }
 
 namespace {
@@ -71,13 +74,13 @@ std::shared_ptr<StaticViewportState> static_viewport_state(const VkGraphicsPipel
     const VkPipelineViewportStateCreateInfo *vs = info.pViewportState;
     if (!vs) return nullptr;
     auto state = std::make_shared<StaticViewportState>();
-    if (!has_state(dynamic, VK_DYNAMIC_STATE_VIEWPORT) && !has_state(dynamic, VK_DYNAMIC_STATE_VIEWPORT_WITH_COUNT) &&
-        vs->pViewports && vs->viewportCount) {
+    if (!has_state(dynamic, VK_DYNAMIC_STATE_VIEWPORT) &&
+        !has_state(dynamic, VK_DYNAMIC_STATE_VIEWPORT_WITH_COUNT) && vs->pViewports && vs->viewportCount) {
         state->has_viewports = true;
         state->viewports.assign(vs->pViewports, vs->pViewports + vs->viewportCount);
     }
-    if (!has_state(dynamic, VK_DYNAMIC_STATE_SCISSOR) && !has_state(dynamic, VK_DYNAMIC_STATE_SCISSOR_WITH_COUNT) &&
-        vs->pScissors && vs->scissorCount) {
+    if (!has_state(dynamic, VK_DYNAMIC_STATE_SCISSOR) &&
+        !has_state(dynamic, VK_DYNAMIC_STATE_SCISSOR_WITH_COUNT) && vs->pScissors && vs->scissorCount) {
         state->has_scissors = true;
         state->scissors.assign(vs->pScissors, vs->pScissors + vs->scissorCount);
     }

@@ -84,13 +84,13 @@ TEST(SplitGeometry, EyeAssignment) {
 TEST(SplitGeometry, DefaultFoveaIsThePapers) {
     const FoveaSize fovea; // 512x360 of a 1200x1080 eye
     const VkExtent2D image{2400, 1080};
-    EXPECT_RECT(fovea_for_viewport({0.f, 0.f, 1200.f, 1080.f, 0.f, 1.f}, image, EyeMode::Auto, fovea), 344, 360,
-                512u, 360u);
-    EXPECT_RECT(fovea_for_viewport({1200.f, 0.f, 1200.f, 1080.f, 0.f, 1.f}, image, EyeMode::Auto, fovea), 1544,
+    EXPECT_RECT(fovea_for_viewport({0.f, 0.f, 1200.f, 1080.f, 0.f, 1.f}, image, EyeMode::Auto, fovea), 344,
                 360, 512u, 360u);
+    EXPECT_RECT(fovea_for_viewport({1200.f, 0.f, 1200.f, 1080.f, 0.f, 1.f}, image, EyeMode::Auto, fovea),
+                1544, 360, 512u, 360u);
     // One eye of the whole image: the same fractions of 2400x1080.
-    EXPECT_RECT(fovea_for_viewport({0.f, 0.f, 2400.f, 1080.f, 0.f, 1.f}, image, EyeMode::Auto, fovea), 688, 360,
-                1024u, 360u);
+    EXPECT_RECT(fovea_for_viewport({0.f, 0.f, 2400.f, 1080.f, 0.f, 1.f}, image, EyeMode::Auto, fovea), 688,
+                360, 1024u, 360u);
     FoveaSize pixels;
     pixels.fractional = false;
     pixels.width = 5000;
