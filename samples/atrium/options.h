@@ -16,6 +16,7 @@ struct Options {
     uint64_t frames = 300;
     VkPresentModeKHR present_mode = VK_PRESENT_MODE_MAILBOX_KHR;
     bool srgb = false;
+    bool static_viewports = false;
     bool hold = false;
     std::optional<uint64_t> screenshot_frame;
     std::string screenshot_path;

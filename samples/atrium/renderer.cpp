@@ -94,6 +94,8 @@ Renderer::~Renderer() {
     destroy_targets();
     context_.destroy(readback_);
     vkDestroyPipeline(device_, pipeline_, nullptr);
+    for (VkPipeline eye_pipeline : eye_pipelines_)
+        vkDestroyPipeline(device_, eye_pipeline, nullptr);
     vkDestroyPipelineLayout(device_, pipeline_layout_, nullptr);
     vkDestroyRenderPass(device_, present_pass_, nullptr);
     vkDestroyRenderPass(device_, readback_pass_, nullptr);
@@ -469,7 +471,23 @@ void Renderer::create_pipeline(bool double_sided) {
     info.layout = pipeline_layout_;
     info.renderPass = present_pass_;
     info.subpass = 0;
-    const VkResult result = vkCreateGraphicsPipelines(device_, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline_);
+    VkResult result = vkCreateGraphicsPipelines(device_, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline_);
+    // Static state exercises the layer's other path: it must make these dynamic to scale them.
+    const VkExtent2D extent = swapchain_.extent();
+    for (uint32_t eye = 0; options_.static_viewports && result == VK_SUCCESS && eye < options_.eyes; ++eye) {
+        const uint32_t x = eye == 0 ? 0 : extent.width / options_.eyes;
+        const uint32_t width = eye + 1 == options_.eyes ? extent.width - x : extent.width / options_.eyes;
+        const VkViewport eye_viewport{float(x), 0.0f, float(width), float(extent.height), 0.0f, 1.0f};
+        const VkRect2D eye_scissor{{int32_t(x), 0}, {width, extent.height}};
+        VkPipelineViewportStateCreateInfo fixed = viewport;
+        fixed.pViewports = &eye_viewport;
+        fixed.pScissors = &eye_scissor;
+        VkGraphicsPipelineCreateInfo eye_info = info;
+        eye_info.pViewportState = &fixed;
+        eye_info.pDynamicState = nullptr;
+        result =
+            vkCreateGraphicsPipelines(device_, VK_NULL_HANDLE, 1, &eye_info, nullptr, &eye_pipelines_[eye]);
+    }
     vkDestroyShaderModule(device_, vert, nullptr);
     vkDestroyShaderModule(device_, frag, nullptr);
     ATRIUM_VK_CHECK(result);
@@ -594,8 +612,12 @@ void Renderer::record(FrameSlot &slot, uint32_t image, bool readback) {
         const uint32_t width = eye + 1 == options_.eyes ? extent.width - x : extent.width / options_.eyes;
         const VkViewport viewport{float(x), 0.0f, float(width), float(extent.height), 0.0f, 1.0f};
         const VkRect2D scissor{{int32_t(x), 0}, {width, extent.height}};
-        vkCmdSetViewport(cmd, 0, 1, &viewport);
-        vkCmdSetScissor(cmd, 0, 1, &scissor);
+        if (options_.static_viewports) {
+            vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, eye_pipelines_[eye]);
+        } else {
+            vkCmdSetViewport(cmd, 0, 1, &viewport);
+            vkCmdSetScissor(cmd, 0, 1, &scissor);
+        }
         uint32_t bound_texture = UINT32_MAX;
         for (const DrawRange &draw : scene_.draws) {
             const Material &material = scene_.materials[draw.material];

@@ -32,6 +32,7 @@ struct FrameUniforms {
 struct RendererOptions {
     uint32_t eyes = 2;
     std::optional<uint64_t> screenshot_frame; // read this frame's swapchain image back
+    bool static_viewports = false;            // per-eye pipelines with static viewport/scissor
 };
 
 class Renderer {
@@ -93,6 +94,7 @@ private:
     std::vector<VkDescriptorSet> texture_sets_;
     VkPipelineLayout pipeline_layout_ = VK_NULL_HANDLE;
     VkPipeline pipeline_ = VK_NULL_HANDLE;
+    VkPipeline eye_pipelines_[2] = {};            // --static-viewports: eye i's viewport and scissor baked in
     VkRenderPass present_pass_ = VK_NULL_HANDLE;  // ends in PRESENT_SRC_KHR
     VkRenderPass readback_pass_ = VK_NULL_HANDLE; // ends in TRANSFER_SRC_OPTIMAL, for the screenshot
 
