@@ -89,8 +89,15 @@ split::CommandTracker *split_pass(DeviceState &dev, VkCommandBuffer cb, const Vk
     return tracker;
 }
 
+std::atomic<bool> g_first_split_logged{false};
+
 void enter_split(DeviceState &dev, VkCommandBuffer cb, split::CommandTracker &tracker, VkImage image,
                  VkExtent2D extent) {
+    if (!g_first_split_logged.exchange(true)) {
+        const VkExtent2D periphery = split::scaled_extent(extent, split_settings().scale);
+        SPLITVK_INFO("split: passes into %ux%u swapchain images render their periphery at %ux%u",
+                     extent.width, extent.height, periphery.width, periphery.height);
+    }
     tracker.begin_split(codec::handle_value(image), extent);
     emit_viewports(dev, cb, tracker);
     emit_scissors(dev, cb, tracker);
