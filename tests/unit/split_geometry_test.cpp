@@ -1,7 +1,8 @@
-// The split's shared geometry (protocol/split_geometry.h): the layer scales with it and the agent
+// The split's shared geometry and tracker (protocol/split_*.h): the layer scales with them and the agent
 // places foveae with it, so these numbers are what both sides agree on.
 
 #include "split_geometry.h"
+#include "split_tracker.h"
 
 #include <gtest/gtest.h>
 
@@ -108,6 +109,109 @@ TEST(SplitGeometry, FoveaSetIsSortedAndUnique) {
     EXPECT_RECT(foveae[0], 344, 10, 512u, 360u);
     EXPECT_RECT(foveae[1], 344, 360, 512u, 360u);
     EXPECT_RECT(foveae[2], 1544, 360, 512u, 360u);
+}
+
+} // namespace
+} // namespace splitvk::split
+
+// The per-command-buffer tracker (protocol/split_tracker.h): both sides feed it the app's calls,
+// so which viewports were in effect inside split passes, and thus the foveae, must follow the
+// Vulkan state rules exactly.
+namespace splitvk::split {
+namespace {
+
+const VkViewport kLeft{0.f, 0.f, 1200.f, 1080.f, 0.f, 1.f};
+const VkViewport kRight{1200.f, 0.f, 1200.f, 1080.f, 0.f, 1.f};
+const VkExtent2D kImage{2400, 1080};
+
+TEST(SplitTracker, ViewportsSetBeforeThePassCountOnlyInsideIt) {
+    CommandTracker t;
+    t.set_viewports(0, 1, &kLeft, false);
+    t.note_foveae(EyeMode::Auto, FoveaSize{}); // outside a split pass: nothing
+    EXPECT_TRUE(t.drawn().empty());
+    t.begin_split(7, kImage);
+    t.note_foveae(EyeMode::Auto, FoveaSize{}); // the persisting left viewport
+    t.set_viewports(0, 1, &kRight, false);
+    t.note_foveae(EyeMode::Auto, FoveaSize{});
+    t.end_split();
+    ASSERT_EQ(t.drawn().size(), 1u);
+    EXPECT_EQ(t.drawn()[0].image, 7u);
+    ASSERT_EQ(t.drawn()[0].foveae.size(), 2u);
+    EXPECT_RECT(t.drawn()[0].foveae[0], 344, 360, 512u, 360u);
+    EXPECT_RECT(t.drawn()[0].foveae[1], 1544, 360, 512u, 360u);
+}
+
+TEST(SplitTracker, StaticPipelineStateWinsWhileBound) {
+    auto state = std::make_shared<StaticViewportState>();
+    state->has_viewports = true;
+    state->viewports = {kRight};
+    CommandTracker t;
+    t.set_viewports(0, 1, &kLeft, false);
+    t.bind_pipeline(state);
+    ASSERT_NE(t.viewport(0), nullptr);
+    EXPECT_FLOAT_EQ(t.viewport(0)->x, 1200.f);
+    EXPECT_FALSE(t.static_scissors());
+    t.bind_pipeline(nullptr); // the app's dynamic value applies again
+    EXPECT_FLOAT_EQ(t.viewport(0)->x, 0.f);
+}
+
+TEST(SplitTracker, UnsetIndicesAreNotViewports) {
+    CommandTracker t;
+    t.set_viewports(1, 1, &kRight, false);
+    EXPECT_EQ(t.viewport(0), nullptr);
+    ASSERT_NE(t.viewport(1), nullptr);
+    const VkViewport both[] = {kLeft, kRight};
+    t.set_viewports(0, 2, both, true);
+    EXPECT_TRUE(t.dynamic_viewports().with_count);
+    t.set_viewports(0, 1, &kRight, true); // with count: the count is state too
+    EXPECT_EQ(t.viewport(1), nullptr);
+}
+
+TEST(SplitTracker, MergeUnionsFoveaePerImage) {
+    std::vector<DrawnImage> all;
+    merge_drawn(all, {{1, kImage, {{{1544, 360}, {512, 360}}}}});
+    merge_drawn(all, {{1, kImage, {{{344, 360}, {512, 360}}}}, {2, kImage, {{{344, 360}, {512, 360}}}}});
+    ASSERT_EQ(all.size(), 2u);
+    ASSERT_EQ(all[0].foveae.size(), 2u);
+    EXPECT_EQ(all[0].foveae[0].offset.x, 344);
+    EXPECT_EQ(all[1].foveae.size(), 1u);
+}
+
+TEST(SplitTracker, StaticStateFromCreateInfo) {
+    const VkRect2D scissor{{0, 0}, {100, 100}};
+    VkPipelineViewportStateCreateInfo vs{};
+    vs.sType = VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO;
+    vs.viewportCount = vs.scissorCount = 1;
+    vs.pViewports = &kLeft;
+    vs.pScissors = &scissor;
+    const VkDynamicState scissor_only[] = {VK_DYNAMIC_STATE_SCISSOR};
+    VkPipelineDynamicStateCreateInfo dynamic{};
+    dynamic.sType = VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO;
+    dynamic.dynamicStateCount = 1;
+    dynamic.pDynamicStates = scissor_only;
+    VkGraphicsPipelineCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO;
+    info.pViewportState = &vs;
+    info.pDynamicState = &dynamic;
+    const auto state = static_viewport_state(info);
+    ASSERT_NE(state, nullptr);
+    EXPECT_TRUE(state->has_viewports);
+    EXPECT_FALSE(state->has_scissors);
+
+    DynamicStateStorage storage;
+    VkGraphicsPipelineCreateInfo out{};
+    add_dynamic_states(info, true, false, storage, out);
+    ASSERT_EQ(out.pDynamicState->dynamicStateCount, 2u);
+    EXPECT_EQ(out.pDynamicState->pDynamicStates[0], VK_DYNAMIC_STATE_SCISSOR);
+    EXPECT_EQ(out.pDynamicState->pDynamicStates[1], VK_DYNAMIC_STATE_VIEWPORT);
+    EXPECT_EQ(info.pDynamicState, &dynamic); // the app's create info is untouched
+
+    // Statically discarded rasterization: pViewportState is ignored, so nothing is static.
+    VkPipelineRasterizationStateCreateInfo raster{};
+    raster.sType = VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO;
+    raster.rasterizerDiscardEnable = VK_TRUE;
+    info.pRasterizationState = &raster;
+    EXPECT_EQ(static_viewport_state(info), nullptr);
 }
 
 } // namespace
