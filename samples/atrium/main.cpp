@@ -80,7 +80,8 @@ int run(const Options &options) {
         const unsigned threads = std::clamp(std::thread::hardware_concurrency(), 1u, 8u);
         const std::vector<Texture> textures = generate_textures(texture_size, threads);
         renderer.emplace(context, swapchain, scene, textures, camera,
-                         RendererOptions{options.eyes, options.screenshot_frame, options.static_viewports});
+                         RendererOptions{options.eyes, options.screenshot_frame, options.static_viewports,
+                                         options.clear_depth_per_eye});
     }
     const VkExtent2D extent = swapchain.extent();
     std::printf("atrium: %s triangles, %u textures, %ux%u per eye\n",

@@ -17,6 +17,7 @@ struct Options {
     VkPresentModeKHR present_mode = VK_PRESENT_MODE_MAILBOX_KHR;
     bool srgb = false;
     bool static_viewports = false;
+    bool clear_depth_per_eye = false;
     bool hold = false;
     std::optional<uint64_t> screenshot_frame;
     std::string screenshot_path;

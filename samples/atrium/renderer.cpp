@@ -618,6 +618,13 @@ void Renderer::record(FrameSlot &slot, uint32_t image, bool readback) {
             vkCmdSetViewport(cmd, 0, 1, &viewport);
             vkCmdSetScissor(cmd, 0, 1, &scissor);
         }
+        if (options_.clear_depth_per_eye) {
+            VkClearAttachment clear{};
+            clear.aspectMask = VK_IMAGE_ASPECT_DEPTH_BIT;
+            clear.clearValue.depthStencil = {1.0f, 0};
+            const VkClearRect rect{scissor, 0, 1};
+            vkCmdClearAttachments(cmd, 1, &clear, 1, &rect);
+        }
         uint32_t bound_texture = UINT32_MAX;
         for (const DrawRange &draw : scene_.draws) {
             const Material &material = scene_.materials[draw.material];

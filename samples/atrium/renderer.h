@@ -33,6 +33,7 @@ struct RendererOptions {
     uint32_t eyes = 2;
     std::optional<uint64_t> screenshot_frame; // read this frame's swapchain image back
     bool static_viewports = false;            // per-eye pipelines with static viewport/scissor
+    bool clear_depth_per_eye = false;         // vkCmdClearAttachments on each eye's depth
 };
 
 class Renderer {
