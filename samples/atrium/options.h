@@ -18,6 +18,7 @@ struct Options {
     bool srgb = false;
     bool static_viewports = false;
     bool clear_depth_per_eye = false;
+    bool dynamic_rendering = false;
     bool hold = false;
     std::optional<uint64_t> screenshot_frame;
     std::string screenshot_path;

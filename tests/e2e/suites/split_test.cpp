@@ -2,7 +2,8 @@
 // into the scaled periphery and the agent shades only the foveae, with VK_LAYER_KHRONOS_validation
 // (synchronization validation on) below splitvk on the client and --validate on the agent; neither
 // may report anything. Covers dynamic viewport/scissor state (atrium stereo and mono, vkcube) and
-// static-state pipelines (atrium --static-viewports) and clear rects (--clear-depth-per-eye). No
+// static-state pipelines (atrium --static-viewports), clear rects (--clear-depth-per-eye) and
+// dynamic rendering (--dynamic-rendering). No
 // SPLITVK_VERIFY: it turns the split off.
 #include "agent.h"
 #include "e2e_test.h"
@@ -78,7 +79,8 @@ INSTANTIATE_TEST_SUITE_P(
     Atrium, SplitAtrium,
     ::testing::Values(AtriumVariant{{"--eyes", "2"}, "Stereo"}, AtriumVariant{{"--eyes", "1"}, "Mono"},
                       AtriumVariant{{"--eyes", "2", "--static-viewports"}, "StereoStatic"},
-                      AtriumVariant{{"--eyes", "2", "--clear-depth-per-eye"}, "StereoClears"}),
+                      AtriumVariant{{"--eyes", "2", "--clear-depth-per-eye"}, "StereoClears"},
+                      AtriumVariant{{"--eyes", "2", "--dynamic-rendering"}, "StereoDynamicRendering"}),
     [](const ::testing::TestParamInfo<AtriumVariant> &p) { return std::string(p.param.name); });
 
 TEST_F(Split, VkcubeCleanOnBothSides) {
