@@ -20,6 +20,17 @@ void merge_drawn(std::vector<DrawnImage> &into, const std::vector<DrawnImage> &f
     }
 }
 
+void CommandTracker::bind_pipeline(std::shared_ptr<const StaticViewportState> state) {
+    pipeline_ = std::move(state);
+    if (!pipeline_) return;
+    if (pipeline_->has_viewports)
+        viewports_.assign(0, static_cast<uint32_t>(pipeline_->viewports.size()), pipeline_->viewports.data(),
+                          false);
+    if (pipeline_->has_scissors)
+        scissors_.assign(0, static_cast<uint32_t>(pipeline_->scissors.size()), pipeline_->scissors.data(),
+                         false);
+}
+
 const VkViewport *CommandTracker::viewport(size_t i) const {
     if (static_viewports()) return i < pipeline_->viewports.size() ? &pipeline_->viewports[i] : nullptr;
     return viewports_.valid(i) ? &viewports_.values[i] : nullptr;

@@ -77,7 +77,10 @@ public:
         scissors_.assign(first, count, r, with_count);
     }
     // A graphics pipeline bind; null when the pipeline has no static viewport/scissor state.
-    void bind_pipeline(std::shared_ptr<const StaticViewportState> state) { pipeline_ = std::move(state); }
+    // Binding a pipeline with static state writes that state into the command buffer's (Vulkan's
+    // "pipeline state that is not dynamic is applied to the command buffer state"), so a
+    // dynamic-state pipeline bound next without a vkCmdSet* sees the static values.
+    void bind_pipeline(std::shared_ptr<const StaticViewportState> state);
     const StaticViewportState *pipeline() const { return pipeline_.get(); }
     bool static_viewports() const { return pipeline_ && pipeline_->has_viewports; }
     bool static_scissors() const { return pipeline_ && pipeline_->has_scissors; }

@@ -151,7 +151,14 @@ TEST(SplitTracker, StaticPipelineStateWinsWhileBound) {
     ASSERT_NE(t.viewport(0), nullptr);
     EXPECT_FLOAT_EQ(t.viewport(0)->x, 1200.f);
     EXPECT_FALSE(t.static_scissors());
-    t.bind_pipeline(nullptr); // the app's dynamic value applies again
+    // The static value was applied to the command buffer state: a dynamic pipeline sees it...
+    t.bind_pipeline(nullptr);
+    EXPECT_FLOAT_EQ(t.viewport(0)->x, 1200.f);
+    // ...unless the app sets its own, even while the static pipeline is bound.
+    t.bind_pipeline(state);
+    t.set_viewports(0, 1, &kLeft, false);
+    EXPECT_FLOAT_EQ(t.viewport(0)->x, 1200.f);
+    t.bind_pipeline(nullptr);
     EXPECT_FLOAT_EQ(t.viewport(0)->x, 0.f);
 }
 
