@@ -56,6 +56,37 @@ MANUAL_COMMANDS = {
     "vkAcquireNextImageKHR",
     "vkAcquireNextImage2KHR",
     "vkQueuePresentKHR",
+    # The split rewrite (layer/split.h): these capture the app's original call and pass a
+    # rewritten one down. render_pass.cpp: which passes draw into swapchain images (views,
+    # framebuffers, swapchain images), their scaled render area and clear rects, and the
+    # viewport/scissor state re-emitted at their begin and end.
+    "vkGetSwapchainImagesKHR",
+    "vkCreateImageView",
+    "vkDestroyImageView",
+    "vkCreateFramebuffer",
+    "vkDestroyFramebuffer",
+    "vkCmdBeginRenderPass",
+    "vkCmdBeginRenderPass2",
+    "vkCmdBeginRenderPass2KHR",
+    "vkCmdEndRenderPass",
+    "vkCmdEndRenderPass2",
+    "vkCmdEndRenderPass2KHR",
+    "vkCmdBeginRendering",
+    "vkCmdBeginRenderingKHR",
+    "vkCmdEndRendering",
+    "vkCmdEndRenderingKHR",
+    "vkCmdClearAttachments",
+    # pipeline.cpp: static viewport/scissor state made dynamic down the chain, set at bind.
+    "vkCreateGraphicsPipelines",
+    "vkDestroyPipeline",
+    "vkCmdBindPipeline",
+    # viewport.cpp: the app's dynamic viewports/scissors, kept unscaled, passed down scaled in a split pass.
+    "vkCmdSetViewport",
+    "vkCmdSetViewportWithCount",
+    "vkCmdSetViewportWithCountEXT",
+    "vkCmdSetScissor",
+    "vkCmdSetScissorWithCount",
+    "vkCmdSetScissorWithCountEXT",
 }
 
 # Global commands are answered by the loader from the manifest for interface version 2 layers;

@@ -94,6 +94,8 @@ int Session::run() {
                  connection_->peer_address().c_str());
     std::string error;
     if (!replayer_.init(config_.device_index, config_.validate, &error)) return fail(error, kSessionSetup);
+    // A verifying client does not split (layer/split.h): shade whole frames so that they compare.
+    replayer_.fovea().set_enabled(!(hs->hello.capabilities & protocol::capability::kVerifyFrames));
 
     for (;;) {
         auto message = connection_->receive(500ms);

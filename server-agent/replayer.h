@@ -6,6 +6,7 @@
 // queue, without the client's semaphores and fences), memory (memory_rebind.h), pipelines (no
 // pipeline cache), and the metadata messages (memory data, swapchains, frame marks).
 
+#include "fovea_shading.h"
 #include "memory_rebind.h"
 #include "session.h"
 #include "swapchain_images.h"
@@ -39,6 +40,9 @@ public:
     bool frame_present(const protocol::FramePresent &message, std::vector<protocol::VerifyFrame> &verify,
                        std::string *error);
 
+    // Split passes shaded in the foveae only (fovea_shading.h).
+    FoveaShading &fovea() { return fovea_; }
+
     uint64_t commands_replayed() const { return commands_; }
     uint64_t submits() const { return submits_; }
 
@@ -71,6 +75,25 @@ public:
     bool vkCreateGraphicsPipelines(const codec::Decoded_vkCreateGraphicsPipelines &c) override;
     bool vkCreateComputePipelines(const codec::Decoded_vkCreateComputePipelines &c) override;
 
+    // The split (fovea_shading.h): what makes a split pass, and the scissors narrowed inside one.
+    bool vkCreateImageView(const codec::Decoded_vkCreateImageView &c) override;
+    bool vkDestroyImageView(const codec::Decoded_vkDestroyImageView &c) override;
+    bool vkCreateFramebuffer(const codec::Decoded_vkCreateFramebuffer &c) override;
+    bool vkDestroyFramebuffer(const codec::Decoded_vkDestroyFramebuffer &c) override;
+    bool vkDestroyPipeline(const codec::Decoded_vkDestroyPipeline &c) override;
+    bool vkBeginCommandBuffer(const codec::Decoded_vkBeginCommandBuffer &c) override;
+    bool vkCmdBindPipeline(const codec::Decoded_vkCmdBindPipeline &c) override;
+    bool vkCmdSetViewport(const codec::Decoded_vkCmdSetViewport &c) override;
+    bool vkCmdSetViewportWithCount(const codec::Decoded_vkCmdSetViewportWithCount &c) override;
+    bool vkCmdSetScissor(const codec::Decoded_vkCmdSetScissor &c) override;
+    bool vkCmdSetScissorWithCount(const codec::Decoded_vkCmdSetScissorWithCount &c) override;
+    bool vkCmdBeginRenderPass(const codec::Decoded_vkCmdBeginRenderPass &c) override;
+    bool vkCmdBeginRenderPass2(const codec::Decoded_vkCmdBeginRenderPass2 &c) override;
+    bool vkCmdBeginRendering(const codec::Decoded_vkCmdBeginRendering &c) override;
+    bool vkCmdEndRenderPass(const codec::Decoded_vkCmdEndRenderPass &c) override;
+    bool vkCmdEndRenderPass2(const codec::Decoded_vkCmdEndRenderPass2 &c) override;
+    bool vkCmdEndRendering(const codec::Decoded_vkCmdEndRendering &c) override;
+
 private:
     // Waits for the GPU when work is in flight: the client destroys, frees, re-records and
     // rewrites memory after waiting on its own fences, which the agent does not replay.
@@ -84,6 +107,7 @@ private:
     codec::Arena arena_;
     MemoryRebind memory_{context_};
     SwapchainImages swapchains_{context_, table_};
+    FoveaShading fovea_{vk, swapchains_};
     std::string error_;
     bool gpu_busy_ = false;
     bool unsupported_format_logged_ = false;

@@ -266,4 +266,15 @@ bool SwapchainImages::read_back(uint64_t swapchain_id, uint32_t image_index, Rec
     return true;
 }
 
+bool SwapchainImages::find_image(VkImage image, uint64_t *image_id, VkExtent2D *extent) const {
+    for (const auto &[id, swapchain] : swapchains_)
+        for (size_t i = 0; i < swapchain.images.size(); ++i)
+            if (swapchain.images[i] == image && i < swapchain.info.image_ids.size()) {
+                *image_id = swapchain.info.image_ids[i];
+                *extent = {swapchain.info.width, swapchain.info.height};
+                return true;
+            }
+    return false;
+}
+
 } // namespace splitvk::agent

@@ -28,6 +28,10 @@ public:
     bool create(const protocol::SwapchainImages &message, std::string *error);
     bool destroy(uint64_t swapchain_id, std::string *error);
 
+    // Whether `image` (the agent's handle) is a swapchain image; if so its client id and extent
+    // (fovea_shading.h: split passes are the ones drawing into these).
+    bool find_image(VkImage image, uint64_t *image_id, VkExtent2D *extent) const;
+
     // A rectangle of a presented image (left in VK_IMAGE_LAYOUT_PRESENT_SRC_KHR by the app), read
     // back tightly packed, 4 bytes per pixel. The caller has made the frame's submits complete.
     // Returns false with `error` on failure; sets *unsupported (and reads nothing) for formats

@@ -70,7 +70,7 @@ int run(const Options &options) {
     install_signal_handlers();
 
     XcbWindow window(options.width, options.height, "splitvk-atrium");
-    VkContext context(window);
+    VkContext context(window, options.dynamic_rendering);
     const Scene scene = options.model_path.empty() ? build_atrium() : load_obj(options.model_path);
     Swapchain swapchain(context, {options.srgb ? VK_FORMAT_B8G8R8A8_SRGB : VK_FORMAT_B8G8R8A8_UNORM,
                                   options.present_mode, options.screenshot_frame.has_value()});
@@ -80,7 +80,8 @@ int run(const Options &options) {
         const unsigned threads = std::clamp(std::thread::hardware_concurrency(), 1u, 8u);
         const std::vector<Texture> textures = generate_textures(texture_size, threads);
         renderer.emplace(context, swapchain, scene, textures, camera,
-                         RendererOptions{options.eyes, options.screenshot_frame});
+                         RendererOptions{options.eyes, options.screenshot_frame, options.static_viewports,
+                                         options.clear_depth_per_eye, options.dynamic_rendering});
     }
     const VkExtent2D extent = swapchain.extent();
     std::printf("atrium: %s triangles, %u textures, %ux%u per eye\n",

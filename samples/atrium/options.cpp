@@ -35,6 +35,11 @@ options:
   --present-mode MODE    fifo, mailbox or immediate (default mailbox: not throttled to the
                          display, no tearing); unsupported modes fall back to fifo with a note
   --srgb                 use a B8G8R8A8_SRGB swapchain instead of B8G8R8A8_UNORM (same picture)
+  --static-viewports     one pipeline per eye with static viewport and scissor (for the startup
+                         extent) instead of dynamic state (same picture)
+  --clear-depth-per-eye  clear each eye's depth with vkCmdClearAttachments before drawing it
+                         (same picture)
+  --dynamic-rendering    draw with VK_KHR_dynamic_rendering instead of a render pass (same picture)
   --screenshot N PATH    write frame N (0-based) as a PNG, read back from its swapchain image
                          before it is presented
   --hold                 after the last frame (N-1), keep it on screen, print 'holding frame N-1'
@@ -82,6 +87,12 @@ Options parse_options(int argc, char **argv) {
                                             std::string(mode) + "'");
         } else if (arg == "--srgb") {
             o.srgb = true;
+        } else if (arg == "--static-viewports") {
+            o.static_viewports = true;
+        } else if (arg == "--clear-depth-per-eye") {
+            o.clear_depth_per_eye = true;
+        } else if (arg == "--dynamic-rendering") {
+            o.dynamic_rendering = true;
         } else if (arg == "--screenshot") {
             o.screenshot_frame = parse_number<uint64_t>(arg, value(), 0, uint64_t(1) << 40);
             o.screenshot_path = value();

@@ -16,6 +16,9 @@ struct Options {
     uint64_t frames = 300;
     VkPresentModeKHR present_mode = VK_PRESENT_MODE_MAILBOX_KHR;
     bool srgb = false;
+    bool static_viewports = false;
+    bool clear_depth_per_eye = false;
+    bool dynamic_rendering = false;
     bool hold = false;
     std::optional<uint64_t> screenshot_frame;
     std::string screenshot_path;
