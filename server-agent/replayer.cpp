@@ -23,6 +23,8 @@ std::string hex(uint64_t v) {
 
 Replayer::Replayer(uint64_t session_id) : session_id_(session_id) {
     table = &table_;
+    // Whole frames until the client's SplitConfig says it splits (a verifying client never does).
+    fovea_.set_enabled(false);
 }
 
 Replayer::~Replayer() {
@@ -163,6 +165,7 @@ bool Replayer::vkQueueSubmit(const codec::Decoded_vkQueueSubmit &c) {
     if (r != VK_SUCCESS) return failed("vkQueueSubmit", r);
     for (const VkSubmitInfo &s : submits)
         fovea_.submitted(s.commandBufferCount, s.pCommandBuffers);
+    note_frame_submit();
     gpu_busy_ = true;
     ++submits_;
     return true;
@@ -177,6 +180,7 @@ bool Replayer::vkQueueSubmit2(const codec::Decoded_vkQueueSubmit2 &c) {
     for (const VkSubmitInfo2 &s : submits)
         for (uint32_t i = 0; i < s.commandBufferInfoCount; ++i)
             fovea_.submitted(1, &s.pCommandBufferInfos[i].commandBuffer);
+    note_frame_submit();
     gpu_busy_ = true;
     ++submits_;
     return true;
@@ -332,8 +336,55 @@ bool Replayer::swapchain_destroyed(const protocol::SwapchainDestroyed &message, 
     return true;
 }
 
+bool Replayer::split_config(const protocol::SplitConfig &message, std::string *error) {
+    if (!tile_sender_) {
+        *error = "SplitConfig: this session cannot send tiles";
+        return false;
+    }
+    if (!tiles_) tiles_ = std::make_unique<TileStreamer>(context_, tile_sender_);
+    fovea_.configure(message.eyes, message.fovea);
+    fovea_.set_enabled(true);
+    tiles_->set_codec(message.codec);
+    return true;
+}
+
+void Replayer::note_frame_submit() {
+    if (frame_first_submit_ == std::chrono::steady_clock::time_point{})
+        frame_first_submit_ = std::chrono::steady_clock::now();
+}
+
 bool Replayer::frame_present(const protocol::FramePresent &message,
                              std::vector<protocol::VerifyFrame> &verify, std::string *error) {
+    const auto received = std::chrono::steady_clock::now();
+    if (tiles_) {
+        // The client composites the first swapchain of a present (layer/present.cpp); the fovea
+        // record of every presented image is taken so that none carries over to a later frame.
+        for (size_t i = 0; i < message.images.size(); ++i) {
+            const auto &presented = message.images[i];
+            SwapchainImages::Presented image;
+            if (!swapchains_.presented(presented.swapchain_id, presented.image_index, &image, error)) {
+                *error = "FramePresent " + std::to_string(message.frame) + ": " + *error;
+                return false;
+            }
+            auto foveae = fovea_.take_drawn_foveae(image.image_id);
+            if (i > 0) continue;
+            TileStreamer::Frame frame;
+            frame.frame = message.frame;
+            frame.swapchain_id = presented.swapchain_id;
+            frame.image_index = presented.image_index;
+            frame.image = image.image;
+            frame.format = image.format;
+            frame.foveae = std::move(foveae);
+            frame.first_submit = frame_first_submit_;
+            frame.present = received;
+            if (!tiles_->present(std::move(frame), error)) {
+                *error = "FramePresent " + std::to_string(message.frame) + ": " + *error;
+                return false;
+            }
+        }
+        gpu_busy_ = true; // the fovea copy is in flight
+    }
+    frame_first_submit_ = {};
     if (!(message.flags & protocol::kPresentVerify)) return true;
     quiesce(); // the frame's submits complete before the images are read
     for (const auto &presented : message.images) {

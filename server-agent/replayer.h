@@ -10,11 +10,14 @@
 #include "memory_rebind.h"
 #include "session.h"
 #include "swapchain_images.h"
+#include "tile_streamer.h"
 #include "vk_codec.h"
 #include "vk_replay.h"
 #include "vulkan_context.h"
 
+#include <chrono>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -36,9 +39,14 @@ public:
     bool memory_data(const protocol::MemoryData &message, std::string *error);
     bool swapchain_images(const protocol::SwapchainImages &message, std::string *error);
     bool swapchain_destroyed(const protocol::SwapchainDestroyed &message, std::string *error);
-    // FramePresent: with kPresentVerify, waits for the frame's work and reads each image back.
+    // FramePresent: hands the first presented image's fovea to the tile streamer (when tiles are
+    // enabled); with kPresentVerify, also waits for the frame's work and reads each image back.
     bool frame_present(const protocol::FramePresent &message, std::vector<protocol::VerifyFrame> &verify,
                        std::string *error);
+    // Where Tiles messages go. Tiles start with SplitConfig: the client sends it only when it
+    // splits, and until then the agent neither restricts shading to the fovea nor sends tiles.
+    void set_tile_sender(TileStreamer::Send send) { tile_sender_ = std::move(send); }
+    bool split_config(const protocol::SplitConfig &message, std::string *error);
 
     // Split passes shaded in the foveae only (fovea_shading.h).
     FoveaShading &fovea() { return fovea_; }
@@ -99,6 +107,7 @@ private:
     // rewrites memory after waiting on its own fences, which the agent does not replay.
     void quiesce();
     bool needs_quiesce(codec::VkCommandId id) const;
+    void note_frame_submit();
     bool peek_create_device(std::span<const uint8_t> payload, size_t offset, std::string *error);
 
     uint64_t session_id_;
@@ -108,6 +117,9 @@ private:
     MemoryRebind memory_{context_};
     SwapchainImages swapchains_{context_, table_};
     FoveaShading fovea_{vk, swapchains_};
+    TileStreamer::Send tile_sender_;
+    std::unique_ptr<TileStreamer> tiles_; // declared after context_: its worker stops before the device goes
+    std::chrono::steady_clock::time_point frame_first_submit_{};
     std::string error_;
     bool gpu_busy_ = false;
     bool unsupported_format_logged_ = false;

@@ -95,6 +95,24 @@ bool SwapchainImages::create(const protocol::SwapchainImages &message, std::stri
     return true;
 }
 
+bool SwapchainImages::presented(uint64_t swapchain_id, uint32_t image_index, Presented *out,
+                                std::string *error) const {
+    const auto it = swapchains_.find(swapchain_id);
+    if (it == swapchains_.end()) {
+        *error = "present of unknown swapchain id";
+        return false;
+    }
+    const Swapchain &swapchain = it->second;
+    if (image_index >= swapchain.images.size()) {
+        *error = "present of image index " + std::to_string(image_index) + " of a swapchain with " +
+                 std::to_string(swapchain.images.size()) + " images";
+        return false;
+    }
+    *out = {swapchain.images[image_index], swapchain.info.image_ids[image_index],
+            static_cast<VkFormat>(swapchain.info.format)};
+    return true;
+}
+
 bool SwapchainImages::destroy(uint64_t swapchain_id, std::string *error) {
     auto it = swapchains_.find(swapchain_id);
     if (it == swapchains_.end()) {

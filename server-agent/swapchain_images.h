@@ -42,6 +42,15 @@ public:
     bool read_back(uint64_t swapchain_id, uint32_t image_index, Rect rect, protocol::VerifyFrame &out,
                    bool *unsupported, std::string *error);
 
+    // A presented image: the agent's VkImage, the client's id for it and its format. False with
+    // one line in `error` for an unknown swapchain or index.
+    struct Presented {
+        VkImage image = VK_NULL_HANDLE;
+        uint64_t image_id = 0;
+        VkFormat format = VK_FORMAT_UNDEFINED;
+    };
+    bool presented(uint64_t swapchain_id, uint32_t image_index, Presented *out, std::string *error) const;
+
 private:
     struct Swapchain {
         protocol::SwapchainImages info;
