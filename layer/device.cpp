@@ -123,6 +123,7 @@ VKAPI_ATTR void VKAPI_CALL DestroyDevice(VkDevice device, const VkAllocationCall
                                    [&](codec::Encoder &e) { encode_vkDestroyDevice(e, device, nullptr); });
         state->session->close();
         report_verify_summary(*state);
+        report_split_summary(*state);
     }
     state->dispatch.DestroyDevice(device, pAllocator);
 }

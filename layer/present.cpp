@@ -14,9 +14,12 @@
 // does not return in time counts as all of its pixels mismatching.
 
 #include "capture.h"
+#include "compositor.h"
 #include "layer_entry_points.h"
 #include "log.h"
 #include "session.h"
+#include "split.h"
+#include "stats.h"
 #include "submit_rules.h"
 #include "swapchain.h"
 
@@ -163,10 +166,9 @@ std::optional<protocol::VerifyFrame> wait_verify_frame(Session &session, uint64_
         const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
             deadline - std::chrono::steady_clock::now());
         if (left.count() <= 0) break;
-        auto message = session.receive(left);
-        if (!message) continue;
-        if (message->type != protocol::to_wire(protocol::MessageType::VerifyFrame)) continue;
-        auto decoded = protocol::decode_verify_frame(message->payload, UINT32_MAX);
+        auto payload = session.receive_verify_frame(left);
+        if (!payload) continue;
+        auto decoded = protocol::decode_verify_frame(*payload, UINT32_MAX);
         if (!decoded) {
             SPLITVK_INFO("verify: bad VerifyFrame from the agent: %s", decoded.error().c_str());
             continue;
@@ -217,6 +219,79 @@ void compare(DeviceState &dev, const PendingVerify &p) {
     session.mismatching_pixels.fetch_add(mismatches);
 }
 
+// Split mode: the frame's own tiles, waiting at most SPLITVK_TILE_WAIT. They must cover exactly
+// the foveae the frame's split passes drew; anything else counts as late.
+std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, const SplitFrame &split) {
+    if (!session.live() || !session.tiles()) return nullptr; // no agent: the periphery alone
+    const auto deadline =
+        std::chrono::steady_clock::now() + std::chrono::milliseconds(session.settings().tile_wait_ms);
+    auto tiles = session.tiles()->take(frame, deadline);
+    bool match = tiles && tiles->tiles.size() == split.foveae.size();
+    for (size_t i = 0; match && i < split.foveae.size(); ++i) {
+        const VkRect2D &want = split.foveae[i];
+        const VkRect2D &got = tiles->tiles[i].rect;
+        match = want.offset.x == got.offset.x && want.offset.y == got.offset.y &&
+                want.extent.width == got.extent.width && want.extent.height == got.extent.height;
+    }
+    if (match) return tiles;
+    const uint64_t late = session.late_frames.fetch_add(1);
+    // One line for the first late frame, then one per hundred: a stalled agent must not flood.
+    if (late % 100 == 0)
+        SPLITVK_WARN("frame %llu: %s within %u ms; its centre is the periphery's (%llu such frames)",
+                     static_cast<unsigned long long>(frame),
+                     tiles ? "the agent's tiles do not match the frame's foveae" : "no tiles from the agent",
+                     session.settings().tile_wait_ms, static_cast<unsigned long long>(late + 1));
+    return nullptr;
+}
+
+double ms_between(std::chrono::steady_clock::time_point from, std::chrono::steady_clock::time_point to) {
+    return std::max(0.0, std::chrono::duration<double, std::milli>(to - from).count());
+}
+
+// Split mode, at present: waits for the frame's tiles and composites them over the upsampled
+// periphery on `queue`. Returns the semaphore the present must wait on instead of the app's, or
+// VK_NULL_HANDLE when nothing was composited (the present then goes ahead as the app asked).
+VkSemaphore composite_split_frame(DeviceState &dev, VkQueue queue, const VkPresentInfoKHR &present,
+                                  const SwapchainState &swapchain, const SplitFrame &split, uint64_t frame,
+                                  std::chrono::steady_clock::time_point sent) {
+    using Clock = std::chrono::steady_clock;
+    Session &session = *dev.session;
+    FrameRecord record;
+    record.frame = frame;
+    record.frame_ms = session.frame_interval_ms();
+
+    const auto wait_start = Clock::now();
+    const auto tiles = frame_tiles(session, frame, split); // keeps the pixels alive through composite()
+    const auto waited = Clock::now();
+    record.tile_wait_ms = ms_between(wait_start, waited);
+    std::vector<FoveaTile> foveae;
+    if (tiles) {
+        for (const DecodedTile &tile : tiles->tiles) {
+            foveae.push_back({tile.rect, tile.pixels.data()});
+            record.raw_bytes += uint64_t{tile.rect.extent.width} * tile.rect.extent.height * 4;
+        }
+        record.tile_bytes = tiles->bytes;
+        record.decode_ms = std::chrono::duration<double, std::milli>(tiles->decode).count();
+        record.agent_draw_ms = tiles->agent.draw_us / 1000.0;
+        record.agent_readback_ms = tiles->agent.readback_us / 1000.0;
+        record.agent_encode_ms = tiles->agent.encode_us / 1000.0;
+        record.network_ms =
+            std::max(0.0, ms_between(sent, tiles->received) - tiles->agent.present_to_send_us / 1000.0);
+    }
+    record.late = !tiles;
+
+    VkSemaphore composited = VK_NULL_HANDLE;
+    Compositor *compositor = compositor_for(dev, swapchain, queue_family_of(queue));
+    if (compositor && compositor->composite(queue, present.pImageIndices[0],
+                                            {present.pWaitSemaphores, present.waitSemaphoreCount},
+                                            split.periphery, foveae, &composited) != VK_SUCCESS)
+        composited = VK_NULL_HANDLE;
+    record.merge_ms = ms_between(waited, Clock::now());
+    if (composited) session.composited_frames.fetch_add(1);
+    session.stats().record(record);
+    return composited;
+}
+
 } // namespace
 
 void release_present_resources(DeviceState &device, VkSwapchainKHR swapchain) {
@@ -229,6 +304,12 @@ void release_present_resources(DeviceState &device, VkSwapchainKHR swapchain) {
             ++it;
         }
     }
+}
+
+void report_split_summary(DeviceState &device) {
+    if (!device.session || !device.session->splitting()) return;
+    const std::string line = device.session->stats().summary();
+    if (!line.empty()) splitvk::log_result("%s", line.c_str());
 }
 
 void report_verify_summary(DeviceState &device) {
@@ -269,7 +350,10 @@ VKAPI_ATTR VkResult VKAPI_CALL AcquireNextImage2KHR(VkDevice device,
 
 VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInfoKHR *pPresentInfo) {
     DeviceState &dev = device_state(queue);
-    if (!capturing(dev)) return dev.dispatch.QueuePresentKHR(queue, pPresentInfo);
+    // A split device composites every frame, also once the agent has gone: its command buffers
+    // draw the split passes scaled whether or not tiles come.
+    if (!dev.session || (!capturing(dev) && !dev.session->splitting()))
+        return dev.dispatch.QueuePresentKHR(queue, pPresentInfo);
 
     Session &session = *dev.session;
     const uint64_t frame = session.take_frame();
@@ -284,6 +368,15 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
     // Verification reads back the first swapchain's image.
     std::optional<PendingVerify> pending;
     VkPresentInfoKHR present = *pPresentInfo;
+    // Split mode composites the first swapchain's image (its split passes drew it scaled).
+    const SwapchainState *split_swapchain = nullptr;
+    SplitFrame split;
+    if (session.splitting() && pPresentInfo->swapchainCount > 0) {
+        split_swapchain = find_swapchain(pPresentInfo->pSwapchains[0]);
+        const uint32_t index = pPresentInfo->pImageIndices[0];
+        if (split_swapchain && index < split_swapchain->images.size())
+            split = take_split_frame(dev, split_swapchain->images[index]);
+    }
     std::unique_lock lock(g_mutex, std::defer_lock);
     if (session.verify() && pPresentInfo->swapchainCount > 0) {
         const SwapchainState *sc = find_swapchain(pPresentInfo->pSwapchains[0]);
@@ -326,6 +419,16 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         }
     }
     session.send_metadata(protocol::MessageType::FramePresent, protocol::encode(message));
+
+    VkSemaphore composited = VK_NULL_HANDLE;
+    if (split.split) {
+        composited = composite_split_frame(dev, queue, present, *split_swapchain, split, frame,
+                                           std::chrono::steady_clock::now());
+        if (composited) {
+            present.waitSemaphoreCount = 1;
+            present.pWaitSemaphores = &composited;
+        }
+    }
     const VkResult result = dev.dispatch.QueuePresentKHR(queue, &present);
     if (pending) compare(dev, *pending);
     return result;

@@ -85,6 +85,10 @@ std::unique_ptr<Session> Session::open(const DeviceState &device, const VkDevice
     hello.codec_fingerprint = codec::kCodecFingerprint;
     hello.capabilities = protocol::capability::kZstdPayloads;
     if (settings.verify) hello.capabilities |= protocol::capability::kVerifyFrames;
+    // SPLITVK_VERIFY compares whole frames with the agent's replay, which only an unsplit frame
+    // can match: verification and the split exclude each other.
+    else
+        hello.capabilities |= protocol::capability::kFoveaTiles;
     auto welcome = protocol::client_handshake(*session->connection_, hello, kHandshakeTimeout);
     if (!welcome) {
         SPLITVK_WARN("no splitvk-agent at %s (%s); running unsplit", address.c_str(),
@@ -97,12 +101,23 @@ std::unique_ptr<Session> Session::open(const DeviceState &device, const VkDevice
         session->connection_->set_compression(policy);
     }
     session->verify_ = settings.verify && (welcome->capabilities & protocol::capability::kVerifyFrames);
+    session->splitting_ = (welcome->capabilities & protocol::capability::kFoveaTiles) != 0;
+    session->settings_ = settings;
     if (settings.verify && !session->verify_)
         SPLITVK_WARN("splitvk-agent at %s cannot verify frames; SPLITVK_VERIFY ignored", address.c_str());
     session->failure_logged_.store(false);
     session->live_.store(true);
     SPLITVK_INFO("replicating to splitvk-agent at %s (%s, session %llu)", address.c_str(),
                  welcome->server_gpu_name.c_str(), static_cast<unsigned long long>(welcome->session_id));
+
+    if (session->splitting_) {
+        session->stats_ = std::make_unique<FrameStats>(settings.stats_path);
+        session->tiles_ = std::make_unique<TileStream>(
+            [raw](const std::string &error) { raw->fail("undecodable tiles from the agent: " + error); });
+        protocol::SplitConfig config{settings.eyes, settings.fovea, settings.codec};
+        session->send_metadata(protocol::MessageType::SplitConfig, protocol::encode(config));
+    }
+    session->receiver_ = std::thread([raw] { raw->run_receiver(); });
 
     // The first message: the device itself, which the agent mirrors and registers the
     // physical device and device ids from.
@@ -115,14 +130,65 @@ std::unique_ptr<Session> Session::open(const DeviceState &device, const VkDevice
 }
 
 Session::~Session() {
+    stop_receiver_.store(true);
+    if (receiver_.joinable()) receiver_.join();
+    if (tiles_) tiles_->stop();
     if (connection_) connection_->close();
+}
+
+double Session::frame_interval_ms() {
+    const auto now = std::chrono::steady_clock::now();
+    const double ms = last_present_ == std::chrono::steady_clock::time_point{}
+                          ? 0.0
+                          : std::chrono::duration<double, std::milli>(now - last_present_).count();
+    last_present_ = now;
+    return ms;
+}
+
+void Session::run_receiver() {
+    using protocol::MessageType;
+    while (!stop_receiver_.load()) {
+        auto message = connection_->receive(100ms);
+        if (!message) {
+            if (!connection_->is_open()) break; // on_closed has reported it
+            continue;
+        }
+        switch (static_cast<MessageType>(message->type)) {
+        case MessageType::Tiles:
+            if (tiles_) {
+                std::string error;
+                if (!tiles_->accept(std::move(message->payload), &error)) {
+                    fail("malformed Tiles from the agent: " + error);
+                    return;
+                }
+            }
+            break;
+        case MessageType::VerifyFrame: {
+            std::lock_guard lock(verify_mutex_);
+            verify_frames_.push_back(std::move(message->payload));
+            if (verify_frames_.size() > 16) verify_frames_.pop_front(); // nobody is comparing them
+            verify_ready_.notify_all();
+            break;
+        }
+        case MessageType::Goodbye: {
+            const auto bye = protocol::decode_goodbye(message->payload);
+            fail(bye ? "it said: " + bye->message : std::string("it said goodbye"));
+            return;
+        }
+        default:
+            break; // Pong and the like
+        }
+    }
+}
+
+const char *Session::fallback() const {
+    return splitting_ ? "the periphery alone fills the frames from now on" : "running unsplit from now on";
 }
 
 void Session::fail(const std::string &reason) {
     live_.store(false);
     if (!failure_logged_.exchange(true))
-        SPLITVK_WARN("splitvk-agent at %s went away (%s); running unsplit from now on", address_.c_str(),
-                     reason.c_str());
+        SPLITVK_WARN("splitvk-agent at %s went away (%s); %s", address_.c_str(), reason.c_str(), fallback());
 }
 
 void Session::note_live_change(LiveChange change, uint64_t id, size_t start) {
@@ -299,8 +365,8 @@ void Session::send_locked(protocol::MessageType type, std::vector<uint8_t> &&pay
     if (result == protocol::SendResult::Closed) reason = connection_->close_reason();
     live_.store(false);
     if (!failure_logged_.exchange(true))
-        SPLITVK_WARN("splitvk-agent at %s: cannot send (%s); running unsplit from now on", address_.c_str(),
-                     reason.c_str());
+        SPLITVK_WARN("splitvk-agent at %s: cannot send (%s); %s", address_.c_str(), reason.c_str(),
+                     fallback());
 }
 
 void Session::flush_locked() {
@@ -325,9 +391,12 @@ void Session::send_metadata(protocol::MessageType type, std::vector<uint8_t> &&p
     send_locked(type, std::move(payload));
 }
 
-std::optional<protocol::Message> Session::receive(std::chrono::milliseconds timeout) {
-    if (timeout.count() <= 0) return connection_->try_receive();
-    return connection_->receive(timeout);
+std::optional<std::vector<uint8_t>> Session::receive_verify_frame(std::chrono::milliseconds timeout) {
+    std::unique_lock lock(verify_mutex_);
+    if (!verify_ready_.wait_for(lock, timeout, [&] { return !verify_frames_.empty(); })) return std::nullopt;
+    auto payload = std::move(verify_frames_.front());
+    verify_frames_.pop_front();
+    return payload;
 }
 
 void Session::close() {
@@ -346,6 +415,9 @@ void Session::close() {
                  static_cast<unsigned long long>(stats.messages_sent),
                  static_cast<unsigned long long>(stats.payload_bytes_sent),
                  static_cast<unsigned long long>(stats.wire_bytes_sent));
+    stop_receiver_.store(true);
+    if (receiver_.joinable()) receiver_.join();
+    if (tiles_) tiles_->stop();
     connection_->close("the application destroyed the device");
 }
 

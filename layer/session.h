@@ -39,16 +39,21 @@
 // naming objects destroyed since they were recorded (the app cannot submit those either).
 
 #include "../protocol/session.h" // the metadata messages (same file name as this one)
+#include "stats.h"
+#include "tile_stream.h"
 #include "transport.h"
 #include "vk_codec.h"
 
 #include <atomic>
+#include <condition_variable>
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <span>
 #include <string>
+#include <thread>
 #include <unordered_map>
 #include <unordered_set>
 #include <vector>
@@ -102,6 +107,16 @@ public:
 
     bool live() const { return live_.load(std::memory_order_relaxed); }
     bool verify() const { return verify_; }
+    // The device renders split (issue 4): split passes are scaled and presents composite. Fixed
+    // for the session's life, also after the agent went away (the centre then comes from the
+    // periphery), so command buffers recorded scaled are always composited.
+    bool splitting() const { return splitting_; }
+    const Settings &settings() const { return settings_; }
+    // Split mode: the decoded tiles of the agent (tile_stream.h), and per-frame statistics.
+    TileStream *tiles() { return tiles_.get(); }
+    FrameStats &stats() { return *stats_; }
+    // Milliseconds since the previous call (0 the first time): present-to-present frame time.
+    double frame_interval_ms();
     codec::EncodeHooks *hooks() { return &hooks_; }
     uint64_t device_id() const { return device_id_; }
 
@@ -160,9 +175,8 @@ public:
         send_locked(protocol::MessageType::Commands, scratch.take());
     }
 
-    // Queue mode: the next message from the agent, if any (never blocks), or waits at most
-    // `timeout` for one.
-    std::optional<protocol::Message> receive(std::chrono::milliseconds timeout);
+    // The next VerifyFrame payload from the agent, waiting at most `timeout` (0: never blocks).
+    std::optional<std::vector<uint8_t>> receive_verify_frame(std::chrono::milliseconds timeout);
 
     // vkDestroyDevice: sends what is pending, waits briefly for it to leave, and closes.
     void close();
@@ -179,6 +193,11 @@ public:
     std::atomic<uint64_t> verified_frames{0};
     std::atomic<uint64_t> mismatching_pixels{0};
 
+    // Split mode (present.cpp): frames composited, and those whose tiles came too late (or not at
+    // all) and whose centre is the periphery's.
+    std::atomic<uint64_t> composited_frames{0};
+    std::atomic<uint64_t> late_frames{0};
+
     // Entries in the object part of the live-state log.
     size_t live_object_count();
 
@@ -190,6 +209,10 @@ private:
     static constexpr size_t kBatchLimit = size_t{1} << 20;
 
     void flush_locked();
+    const char *fallback() const; // what the app gets once the agent is gone, for log lines
+    // The agent's messages, on a thread of the layer's: Tiles to the decoders, VerifyFrame to
+    // receive_verify_frame(), Goodbye ends the session.
+    void run_receiver();
     void send_locked(protocol::MessageType type, std::vector<uint8_t> &&payload);
     void note_live_change(LiveChange change, uint64_t id, size_t start);
 
@@ -213,6 +236,8 @@ private:
     std::atomic<bool> failure_logged_{false};
     std::atomic<uint64_t> frame_{0};
     bool verify_ = false;
+    bool splitting_ = false;
+    Settings settings_;
     uint64_t device_id_ = 0;
     std::string address_;
     std::unique_ptr<protocol::Connection> connection_;
@@ -224,6 +249,15 @@ private:
     std::unordered_map<uint64_t, std::unordered_set<uint64_t>> killed_by_; // id -> entries dying with it
     std::unordered_map<uint64_t, uint64_t> retired_;                       // retired id -> its entry
     uint64_t next_seq_ = 1;
+
+    std::unique_ptr<TileStream> tiles_;
+    std::unique_ptr<FrameStats> stats_;
+    std::chrono::steady_clock::time_point last_present_{};
+    std::mutex verify_mutex_;
+    std::condition_variable verify_ready_;
+    std::deque<std::vector<uint8_t>> verify_frames_;
+    std::atomic<bool> stop_receiver_{false};
+    std::thread receiver_; // declared last: joined first
 };
 
 // The live-state log of `device` as Commands payloads in replay order (session.h). Empty without

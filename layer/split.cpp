@@ -34,11 +34,11 @@ void note_command_buffers(uint32_t count, const VkCommandBuffer *command_buffers
 } // namespace
 
 bool split_enabled(const DeviceState &device) {
-    return device.session != nullptr && !split_settings().verify;
+    return device.session != nullptr && device.session->splitting();
 }
 
-bool swapchain_composable(const SwapchainState &) {
-    return true; // until SwapchainState::composable lands: every swapchain of a session device
+bool swapchain_composable(const SwapchainState &swapchain) {
+    return swapchain.composable;
 }
 
 const Settings &split_settings() {

@@ -31,8 +31,9 @@ struct SplitFrame {
 // the image's record.
 SplitFrame take_split_frame(DeviceState &device, VkImage image);
 
-// Whether the layer rewrites split passes on this device: it has a session, and SPLITVK_VERIFY is
-// off (verification compares whole frames with the agent's, which the split makes differ on purpose).
+// Whether the layer rewrites split passes on this device: it has a session whose agent accepted the
+// split (Session::splitting(): SPLITVK_VERIFY is off, since verification compares whole frames with
+// the agent's, which the split makes differ on purpose).
 bool split_enabled(const DeviceState &device);
 // Whether a swapchain's images are composited (the present path can join periphery and foveae).
 bool swapchain_composable(const SwapchainState &swapchain);
