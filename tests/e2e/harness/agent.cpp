@@ -65,4 +65,8 @@ std::string Agent::log() const {
     return read_file(log_path_);
 }
 
+int Agent::pid() const {
+    return process_ ? process_->pid() : -1;
+}
+
 } // namespace splitvk::e2e

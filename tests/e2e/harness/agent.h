@@ -25,6 +25,8 @@ public:
                const std::vector<std::string> &extra_args = {});
 
     uint16_t port() const { return port_; }
+    // The listener's pid, which is also its process group (sessions are its forked children).
+    int pid() const;
     std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
     std::string log() const; // what it wrote on stderr so far
     const std::string &error() const { return error_; }
