@@ -95,6 +95,8 @@ int run(const Options &options) {
     uint64_t frame = 0;
     auto last = std::chrono::steady_clock::now();
     for (; frame < options.frames && !stop_requested && !window.close_requested(); ++frame) {
+        if (options.resize_frame && frame == *options.resize_frame)
+            window.resize(options.resize_width, options.resize_height);
         renderer->draw_frame(frame);
         const auto now = std::chrono::steady_clock::now();
         frame_ms.push_back(std::chrono::duration<double, std::milli>(now - last).count());

@@ -42,6 +42,8 @@ options:
   --dynamic-rendering    draw with VK_KHR_dynamic_rendering instead of a render pass (same picture)
   --screenshot N PATH    write frame N (0-based) as a PNG, read back from its swapchain image
                          before it is presented
+  --resize-at N WxH      resize the window to WxH before frame N; the swapchain is recreated when
+                         the driver reports it out of date (window resizes without a user)
   --hold                 after the last frame (N-1), keep it on screen, print 'holding frame N-1'
                          and wait for SIGTERM or SIGINT, then exit 0
   --model PATH.obj       draw a Wavefront OBJ model instead (y up; positions, normals, texture
@@ -97,6 +99,14 @@ Options parse_options(int argc, char **argv) {
             o.screenshot_frame = parse_number<uint64_t>(arg, value(), 0, uint64_t(1) << 40);
             o.screenshot_path = value();
             if (o.screenshot_path.empty()) throw std::invalid_argument("--screenshot: empty path");
+        } else if (arg == "--resize-at") {
+            o.resize_frame = parse_number<uint64_t>(arg, value(), 0, uint64_t(1) << 40);
+            const std::string size(value());
+            const auto x = size.find('x');
+            if (x == std::string::npos)
+                throw std::invalid_argument("--resize-at: expected WxH, got '" + size + "'");
+            o.resize_width = parse_number<uint32_t>(arg, size.substr(0, x), 16, 16384);
+            o.resize_height = parse_number<uint32_t>(arg, size.substr(x + 1), 16, 16384);
         } else if (arg == "--hold") {
             o.hold = true;
         } else if (arg == "--model") {

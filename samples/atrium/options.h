@@ -20,6 +20,10 @@ struct Options {
     bool clear_depth_per_eye = false;
     bool dynamic_rendering = false;
     bool hold = false;
+    // --resize-at N WxH: before frame N, resize the window (the swapchain is then recreated).
+    std::optional<uint64_t> resize_frame;
+    uint32_t resize_width = 0;
+    uint32_t resize_height = 0;
     std::optional<uint64_t> screenshot_frame;
     std::string screenshot_path;
     std::string model_path;
