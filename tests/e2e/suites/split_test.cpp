@@ -204,6 +204,7 @@ protected:
 struct Variant {
     int eyes;
     bool srgb;
+    const char *codec; // SPLITVK_CODEC
     const char *name;
 };
 void PrintTo(const Variant &v, std::ostream *os) {
@@ -218,8 +219,9 @@ TEST_P(SplitAtrium, FoveaEqualsNativeBitForBit) {
     Grab native, split;
     ASSERT_NO_FATAL_FAILURE(
         run_and_grab(atrium_argv(v.eyes, kFrames, v.srgb), env(), "native", kFrames, &native));
-    ASSERT_NO_FATAL_FAILURE(
-        run_and_grab(atrium_argv(v.eyes, kFrames, v.srgb), split_env(), "split", kFrames, &split));
+    Env e = split_env();
+    e["SPLITVK_CODEC"] = v.codec;
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(atrium_argv(v.eyes, kFrames, v.srgb), e, "split", kFrames, &split));
     const std::string &err = split.result.err();
     EXPECT_TRUE(grep(err, "running unsplit").empty()) << tail(err, 30);
     const SplitSummary summary = split_summary(err);
@@ -230,12 +232,34 @@ TEST_P(SplitAtrium, FoveaEqualsNativeBitForBit) {
     expect_clean_validation();
 }
 
-INSTANTIATE_TEST_SUITE_P(Atrium, SplitAtrium,
-                         ::testing::Values(Variant{2, false, "Stereo"}, Variant{1, false, "Mono"},
-                                           Variant{2, true, "StereoSrgb"}),
-                         [](const ::testing::TestParamInfo<Variant> &p) {
-                             return std::string(p.param.name);
-                         });
+INSTANTIATE_TEST_SUITE_P(
+    Atrium, SplitAtrium,
+    ::testing::Values(Variant{2, false, "x264", "Stereo"}, Variant{1, false, "x264", "Mono"},
+                      Variant{2, true, "x264", "StereoSrgb"}, Variant{2, false, "zstd", "StereoZstd"},
+                      Variant{2, false, "raw", "StereoRaw"}),
+    [](const ::testing::TestParamInfo<Variant> &p) { return std::string(p.param.name); });
+
+// Swapchain recreation: the window grows from 1200x540 to 2400x1080 before frame 2, the app
+// recreates its swapchain, and the layer (compositor, split geometry) and the agent (swapchain
+// images, fovea record) follow: frame 5 at the new size has exact foveae.
+TEST_F(Split, ResizeKeepsFoveaeExact) {
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    constexpr int kResizeFrames = 6;
+    auto argv = atrium_argv(2, kResizeFrames, false);
+    argv[2] = "1200"; // --width
+    argv[4] = "540";  // --height
+    argv.insert(argv.end(), {"--resize-at", "2", "2400x1080"});
+    Grab native, split;
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, env(), "native", kResizeFrames, &native));
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, split_env(), "split", kResizeFrames, &split));
+    const std::string &err = split.result.err();
+    EXPECT_EQ(split_summary(err).late, 0u) << tail(err, 30);
+    EXPECT_FALSE(grep(err, "1200x540 swapchain images").empty()) << "the first swapchain was not split\n"
+                                                                 << tail(err, 30);
+    ASSERT_NO_FATAL_FAILURE(
+        expect_split_frame(native.image, split.image, default_foveae(kWidth, kHeight, 2)));
+    expect_clean_validation();
+}
 
 // vkcube, unmodified: SPLITVK_EYES=1 (one fovea centred in the window). vkcube has no --hold, so
 // the test hold layer freezes it after frame 3. Its dynamic viewport and scissor are what the
