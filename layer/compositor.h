@@ -59,9 +59,11 @@ struct FoveaTile {
 
 // The periphery filter, a specialisation constant of shaders/upsample.frag.
 enum class UpsampleFilter : int { Bilinear = 0, CatmullRom = 1 };
-// What compositor_for() uses. Bilinear until someone measures SSIM against native; switch here
-// (or pass a filter to Compositor::create) to try Catmull-Rom.
-inline constexpr UpsampleFilter kDefaultUpsampleFilter = UpsampleFilter::Bilinear;
+// What compositor_for() uses. Measured against native on splitvk-atrium at 2400x1080, scale 0.6
+// (tests/e2e/suites/split_test.cpp, whole-frame SSIM / PSNR): Catmull-Rom 0.9714 / 37.92 dB against
+// bilinear's 0.9682 / 37.68 dB in stereo, 0.9760 against 0.9736 in mono, 0.9707 against 0.9673 on
+// sRGB: better in every case, for 9 bilinear taps instead of 1.
+inline constexpr UpsampleFilter kDefaultUpsampleFilter = UpsampleFilter::CatmullRom;
 
 class Compositor {
 public:
