@@ -10,6 +10,7 @@
 
 #include "capture.h"
 #include "layer_entry_points.h"
+#include "resource.h"
 #include "split.h"
 
 #include <mutex>
@@ -30,6 +31,7 @@ struct CommandBufferState {
     // The split's viewport/scissor state and the split passes recorded (split.h); reset at begin,
     // read at submit (a resubmitted command buffer draws the same split passes again).
     split::CommandTracker split;
+    CommandLayouts layouts; // the image layout transitions it records (resource.h); reset at begin
 };
 
 std::shared_mutex g_mutex;
@@ -64,6 +66,11 @@ void erase_locked(VkCommandBuffer command_buffer) {
 codec::Encoder *command_buffer_encoder(VkCommandBuffer command_buffer) {
     CommandBufferState *state = find_state(command_buffer);
     return state && state->recording ? &state->encoder : nullptr;
+}
+
+CommandLayouts *command_buffer_layouts(VkCommandBuffer command_buffer) {
+    CommandBufferState *state = find_state(command_buffer);
+    return state ? &state->layouts : nullptr;
 }
 
 split::CommandTracker *split_tracker(VkCommandBuffer command_buffer) {
@@ -149,6 +156,7 @@ VKAPI_ATTR VkResult VKAPI_CALL BeginCommandBuffer(VkCommandBuffer commandBuffer,
     if (!state) return result;
     discard_stream(*state);
     state->split.reset();
+    state->layouts = {};
     if (result == VK_SUCCESS && capturing(dev)) {
         encode_vkBeginCommandBuffer(state->encoder, commandBuffer, pBeginInfo, state->level);
         state->recording = true;

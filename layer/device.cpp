@@ -40,12 +40,14 @@ DeviceState &device_state_by_key(DispatchKey key) {
 
 void forget_command_buffers(DeviceState &device); // command_buffer.cpp
 void forget_memory(DeviceState &device);          // memory.cpp
+void forget_resources(DeviceState &device);       // resource.cpp
 
 void forget_device_objects(DeviceState &device) {
     if (!device.session) return;
     release_compositors(device); // of swapchains the application left alive
     forget_command_buffers(device);
     forget_memory(device);
+    forget_resources(device);
 }
 
 DeviceState &device_state(VkDevice device) {

@@ -222,7 +222,8 @@ void compare(DeviceState &dev, const PendingVerify &p) {
 // Split mode: the frame's own tiles, waiting at most SPLITVK_TILE_WAIT. They must cover exactly
 // the foveae the frame's split passes drew; anything else counts as late.
 std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, const SplitFrame &split) {
-    if (!session.live() || !session.tiles()) return nullptr; // no agent: the periphery alone
+    // No agent, or one that joined after this frame's submits: the periphery alone.
+    if (!session.live() || !session.tiles() || frame < session.first_replayed_frame()) return nullptr;
     const auto deadline =
         std::chrono::steady_clock::now() + std::chrono::milliseconds(session.settings().tile_wait_ms);
     auto tiles = session.tiles()->take(frame, deadline);
@@ -279,6 +280,10 @@ VkSemaphore composite_split_frame(DeviceState &dev, VkQueue queue, const VkPrese
             std::max(0.0, ms_between(sent, tiles->received) - tiles->agent.present_to_send_us / 1000.0);
     }
     record.late = !tiles;
+    if (tiles && session.take_first_tiles_after_resync())
+        SPLITVK_INFO(
+            "frame %llu: the first split frame from the agent that joined, %.0f ms after it answered",
+            static_cast<unsigned long long>(frame), ms_between(session.joined_agent_answered(), waited));
 
     VkSemaphore composited = VK_NULL_HANDLE;
     Compositor *compositor = compositor_for(dev, swapchain, queue_family_of(queue));
@@ -350,13 +355,12 @@ VKAPI_ATTR VkResult VKAPI_CALL AcquireNextImage2KHR(VkDevice device,
 
 VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInfoKHR *pPresentInfo) {
     DeviceState &dev = device_state(queue);
-    // A split device composites every frame, also once the agent has gone: its command buffers
-    // draw the split passes scaled whether or not tiles come.
-    if (!dev.session || (!capturing(dev) && !dev.session->splitting()))
-        return dev.dispatch.QueuePresentKHR(queue, pPresentInfo);
+    if (!dev.session) return dev.dispatch.QueuePresentKHR(queue, pPresentInfo);
 
     Session &session = *dev.session;
     const uint64_t frame = session.take_frame();
+    // A new agent joins here, where this thread owns the queue (session.h).
+    if (session.resync_pending()) session.resync(dev, queue, frame);
     if (frame == 1) log_live_state(dev, "at frame 1"); // SPLITVK_LOG_LEVEL=debug
     protocol::FramePresent message;
     message.frame = frame;

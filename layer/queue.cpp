@@ -8,6 +8,7 @@
 #include "capture.h"
 #include "layer_entry_points.h"
 #include "object_map.h"
+#include "resource.h"
 #include "split.h"
 #include "submit_rules.h"
 
@@ -82,7 +83,10 @@ VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit(VkQueue queue, uint32_t submitCount, 
     DeviceState &dev = device_state(queue);
     if (capturing(dev)) [[unlikely]]
         capture_submit(dev, queue, submitCount, pSubmits, fence);
-    if (dev.session) note_split_submit(dev, submitCount, pSubmits);
+    if (dev.session) {
+        note_split_submit(dev, submitCount, pSubmits);
+        note_layout_submit(dev, submitCount, pSubmits);
+    }
     return dev.dispatch.QueueSubmit(queue, submitCount, pSubmits, fence);
 }
 
@@ -91,7 +95,10 @@ VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit2(VkQueue queue, uint32_t submitCount,
     DeviceState &dev = device_state(queue);
     if (capturing(dev)) [[unlikely]]
         capture_submit2(dev, queue, submitCount, pSubmits, fence);
-    if (dev.session) note_split_submit(dev, submitCount, pSubmits);
+    if (dev.session) {
+        note_split_submit(dev, submitCount, pSubmits);
+        note_layout_submit(dev, submitCount, pSubmits);
+    }
     return dev.dispatch.QueueSubmit2(queue, submitCount, pSubmits, fence);
 }
 
@@ -100,7 +107,10 @@ VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit2KHR(VkQueue queue, uint32_t submitCou
     DeviceState &dev = device_state(queue);
     if (capturing(dev)) [[unlikely]]
         capture_submit2(dev, queue, submitCount, pSubmits, fence);
-    if (dev.session) note_split_submit(dev, submitCount, pSubmits);
+    if (dev.session) {
+        note_split_submit(dev, submitCount, pSubmits);
+        note_layout_submit(dev, submitCount, pSubmits);
+    }
     return dev.dispatch.QueueSubmit2KHR(queue, submitCount, pSubmits, fence);
 }
 

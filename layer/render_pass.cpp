@@ -8,6 +8,7 @@
 
 #include "layer_entry_points.h"
 #include "object_map.h"
+#include "resource.h"
 #include "split.h"
 #include "split_geometry.h"
 #include "swapchain.h"
@@ -20,6 +21,7 @@ namespace {
 
 struct ImageViewState {
     VkImage image = VK_NULL_HANDLE;
+    VkImageSubresourceRange range{}; // what a render pass's final layout applies to
 };
 struct FramebufferState {
     std::vector<VkImageView> attachments; // empty when imageless
@@ -117,9 +119,34 @@ VkRect2D scaled_area(const VkRect2D &area, VkExtent2D extent) {
     return split::scale_rect(area, scale, split::scaled_extent(extent, scale));
 }
 
+// The images of a render pass instance's attachments, for their final layouts (resource.h).
+void note_attachments(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassBeginInfo *begin) {
+    if (!dev.session) return;
+    std::span<const VkImageView> views;
+    for (auto *p = static_cast<const VkBaseInStructure *>(begin->pNext); p; p = p->pNext)
+        if (p->sType == VK_STRUCTURE_TYPE_RENDER_PASS_ATTACHMENT_BEGIN_INFO) {
+            const auto *info = reinterpret_cast<const VkRenderPassAttachmentBeginInfo *>(p);
+            views = {info->pAttachments, info->attachmentCount};
+        }
+    const FramebufferState *fb = g_framebuffers.find(begin->framebuffer);
+    if (views.empty() && fb) views = fb->attachments;
+    std::vector<AttachmentImage> attachments;
+    for (VkImageView view : views) {
+        const ImageViewState *v = g_views.find(view);
+        attachments.push_back(v ? AttachmentImage{v->image, v->range} : AttachmentImage{});
+    }
+    note_render_pass_begin(cb, begin->renderPass, attachments);
+}
+
+void end_render_pass(DeviceState &dev, VkCommandBuffer cb) {
+    if (dev.session) note_render_pass_end(cb);
+    leave_split(dev, cb);
+}
+
 template <class Down>
 void begin_render_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassBeginInfo *begin,
                        bool secondary, Down &&down) {
+    note_attachments(dev, cb, begin);
     VkImage image = VK_NULL_HANDLE;
     VkExtent2D extent{};
     split::CommandTracker *tracker = split_pass(dev, cb, begin, secondary, &image, &extent);
@@ -178,6 +205,7 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateImageView(VkDevice device, const VkImageVie
     if (dev.session && result == VK_SUCCESS) {
         auto state = std::make_unique<ImageViewState>();
         state->image = pCreateInfo->image;
+        state->range = pCreateInfo->subresourceRange;
         g_views.insert(*pView, std::move(state));
     }
     if (capturing(dev) && result >= 0) [[unlikely]]
@@ -273,7 +301,7 @@ VKAPI_ATTR void VKAPI_CALL CmdEndRenderPass(VkCommandBuffer commandBuffer) {
     dev.dispatch.CmdEndRenderPass(commandBuffer);
     capture_command(dev, commandBuffer,
                     [&](codec::Encoder &e) { encode_vkCmdEndRenderPass(e, commandBuffer); });
-    leave_split(dev, commandBuffer);
+    end_render_pass(dev, commandBuffer);
 }
 
 VKAPI_ATTR void VKAPI_CALL CmdEndRenderPass2(VkCommandBuffer commandBuffer,
@@ -283,7 +311,7 @@ VKAPI_ATTR void VKAPI_CALL CmdEndRenderPass2(VkCommandBuffer commandBuffer,
     capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
         encode_vkCmdEndRenderPass2(e, commandBuffer, pSubpassEndInfo);
     });
-    leave_split(dev, commandBuffer);
+    end_render_pass(dev, commandBuffer);
 }
 
 VKAPI_ATTR void VKAPI_CALL CmdEndRenderPass2KHR(VkCommandBuffer commandBuffer,
@@ -293,7 +321,7 @@ VKAPI_ATTR void VKAPI_CALL CmdEndRenderPass2KHR(VkCommandBuffer commandBuffer,
     capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
         encode_vkCmdEndRenderPass2(e, commandBuffer, pSubpassEndInfo);
     });
-    leave_split(dev, commandBuffer);
+    end_render_pass(dev, commandBuffer);
 }
 
 VKAPI_ATTR void VKAPI_CALL CmdBeginRendering(VkCommandBuffer commandBuffer,

@@ -34,6 +34,14 @@ void TileStream::stop() {
         if (eye->thread.joinable()) eye->thread.join();
 }
 
+void TileStream::abandon() {
+    {
+        std::lock_guard lock(mutex_);
+        stopping_ = true;
+    }
+    changed_.notify_all();
+}
+
 bool TileStream::accept(std::vector<uint8_t> &&payload, std::string *error) {
     auto decoded = protocol::decode_tiles(payload, kMaxTileBytes);
     if (!decoded) {

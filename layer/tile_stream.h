@@ -64,6 +64,9 @@ public:
 
     // Stops the decoder threads (also makes take() return at once).
     void stop();
+    // The agent went away: take() returns at once from now on. Callable from any thread, also a
+    // decoder's own (it joins nothing).
+    void abandon();
 
 private:
     struct Pending {
