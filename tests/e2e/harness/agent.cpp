@@ -1,6 +1,7 @@
 #include "agent.h"
 
 #include <chrono>
+#include <csignal>
 #include <thread>
 
 #include <arpa/inet.h>
@@ -32,8 +33,8 @@ uint16_t free_loopback_port() {
 }
 
 bool Agent::start(const Env &env, const std::filesystem::path &out_dir,
-                  const std::vector<std::string> &extra_args) {
-    port_ = free_loopback_port();
+                  const std::vector<std::string> &extra_args, uint16_t port, const std::string &name) {
+    port_ = port ? port : free_loopback_port();
     if (port_ == 0) {
         error_ = "no free loopback port";
         return false;
@@ -44,8 +45,8 @@ bool Agent::start(const Env &env, const std::filesystem::path &out_dir,
     spec.env = env;
     spec.env["SPLITVK_LOG_LEVEL"] = "info";
     spec.out_dir = out_dir;
-    spec.name = "splitvk-agent";
-    log_path_ = out_dir / "splitvk-agent.stderr";
+    spec.name = name;
+    log_path_ = out_dir / (name + ".stderr");
     process_ = std::make_unique<Process>(spec);
     if (!process_->start()) {
         error_ = process_->error();
@@ -63,6 +64,12 @@ bool Agent::start(const Env &env, const std::filesystem::path &out_dir,
 
 std::string Agent::log() const {
     return read_file(log_path_);
+}
+
+void Agent::kill() {
+    if (!process_) return;
+    ::kill(-process_->pid(), SIGKILL);
+    process_->wait(std::chrono::seconds(10));
 }
 
 int Agent::pid() const {

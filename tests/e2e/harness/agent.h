@@ -21,8 +21,13 @@ public:
     // Starts `splitvk-agent --listen 127.0.0.1:<free port> <extra_args>` with SPLITVK_LOG_LEVEL=info,
     // its output in out_dir/splitvk-agent.{stdout,stderr}, and waits until it listens. On failure
     // returns false and error() says why (with the agent's last words).
+    // `port` 0 picks a free one; `name` is the stem of its output files.
     bool start(const Env &env, const std::filesystem::path &out_dir,
-               const std::vector<std::string> &extra_args = {});
+               const std::vector<std::string> &extra_args = {}, uint16_t port = 0,
+               const std::string &name = "splitvk-agent");
+    // SIGKILL to the listener and its sessions (one process group), as a crash or a power cut
+    // would end them: no Goodbye, no FIN from a clean exit. Waits until they are gone.
+    void kill();
 
     uint16_t port() const { return port_; }
     // The listener's pid, which is also its process group (sessions are its forked children).

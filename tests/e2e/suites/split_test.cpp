@@ -10,6 +10,7 @@
 // cannot turn a late frame into a false mismatch; the late-agent test sets it short on purpose.
 #include "agent.h"
 #include "e2e_test.h"
+#include "fovea.h"
 
 #include <algorithm>
 #include <cmath>
@@ -38,22 +39,6 @@ constexpr int kFrames = 4; // the frame compared is frame 3, after some animatio
 // corner, or one composited at the wrong scale, scores far lower still.
 constexpr double kMinSsim = 0.93;
 constexpr double kMinPsnr = 32.0;
-
-struct Rect {
-    uint32_t x, y, w, h;
-};
-
-// The default fovea (512x360 of a 1200x1080 eye, as fractions) centred in each eye: computed here
-// from the definition, not from splitvk's code, so the test is an independent oracle.
-std::vector<Rect> default_foveae(uint32_t width, uint32_t height, int eyes) {
-    std::vector<Rect> rects;
-    const uint32_t eye_w = width / eyes;
-    const auto fw = static_cast<uint32_t>(std::lround(eye_w * 512.0 / 1200.0));
-    const auto fh = static_cast<uint32_t>(std::lround(height * 360.0 / 1080.0));
-    for (int e = 0; e < eyes; ++e)
-        rects.push_back({static_cast<uint32_t>(e) * eye_w + (eye_w - fw) / 2, (height - fh) / 2, fw, fh});
-    return rects;
-}
 
 struct Grab {
     Image image;
