@@ -39,7 +39,7 @@ constexpr std::chrono::nanoseconds kSpinAbove = 500us;
 constexpr std::chrono::nanoseconds kSpinWindow = 150us;
 constexpr size_t kMinCapacity = 256 << 10;
 // A link with a delay and no rate holds delay x (whatever loopback carries) in flight; this caps it,
-// and with it such a link's throughput at 64 MiB per delay (32 GB/s at 2 ms).
+// and with it such a link's throughput at 64 MiB per delay (about 33 GB/s at 2 ms).
 constexpr size_t kMaxCapacity = 64 << 20;
 
 std::chrono::nanoseconds serialisation_time(uint64_t bytes, uint64_t rate_bps) {

@@ -12,13 +12,15 @@
 // The link holds no queue of its own beyond what the serialiser will send in the next few
 // milliseconds (kLead in the .cpp): a sender faster than the rate is held back by TCP flow control
 // on the sending socket, the way a lossless link with a short buffer would hold it back. A chunk is
-// at most what the serialiser sends in 100 us (and at least one Ethernet frame), so no chunk arrives
-// more than 0.1 ms later than its first byte would on the real link: the model's granularity.
+// at most what the serialiser sends in 100 us (and at least one Ethernet frame, as a slow real link
+// still moves whole packets), so no byte arrives more than 0.1 ms later than it would on the real
+// link: the model's granularity.
 //
 // Timing: a dedicated thread per direction sleeps until each deadline in ppoll() with its timer
-// slack set to 1 ns (the default 50 us would be half the precision budget), then writes every
-// chunk that is due in one call. Deadlines are absolute, so a late wake-up delays the chunks it is
-// late for and never the ones after it.
+// slack set to 1 ns (the default 50 us would be half the precision budget), polls through the last
+// 150 us of a long wait, then writes every chunk that is due in one call. Deadlines are absolute,
+// so a late wake-up delays the chunks it is late for and never the ones after it. Arrivals are the
+// kernel's receive timestamps, so waking up to read them does not count as time on the link.
 
 #include "link_options.h"
 
@@ -36,7 +38,8 @@ enum class LinkEnd {
 const char *to_string(LinkEnd end);
 
 // Asks the kernel to timestamp what arrives on `fd` (SO_TIMESTAMPNS), so a link reading it knows
-// when bytes arrived rather than when it woke up to read them. Set before the first byte arrives.
+// when bytes arrived rather than when it woke up to read them. Bytes that arrived before this are
+// timed by their read.
 void enable_arrival_timestamps(int fd);
 
 class ShapedLink {
