@@ -9,6 +9,7 @@
 // lookup.
 
 #include "capture.h"
+#include "gpu_timing.h"
 #include "layer_entry_points.h"
 #include "resource.h"
 #include "split.h"
@@ -157,6 +158,7 @@ VKAPI_ATTR VkResult VKAPI_CALL BeginCommandBuffer(VkCommandBuffer commandBuffer,
     discard_stream(*state);
     state->split.reset();
     state->layouts = {};
+    reset_split_pass_timing(commandBuffer);
     if (result == VK_SUCCESS && capturing(dev)) {
         encode_vkBeginCommandBuffer(state->encoder, commandBuffer, pBeginInfo, state->level);
         state->recording = true;

@@ -4,6 +4,7 @@
 
 #include "chain_info.h"
 #include "compositor.h"
+#include "gpu_timing.h"
 #include "instance.h"
 #include "layer_entry_points.h"
 #include "log.h"
@@ -48,6 +49,7 @@ void forget_device_objects(DeviceState &device) {
     forget_command_buffers(device);
     forget_memory(device);
     forget_resources(device);
+    release_gpu_timing(device);
 }
 
 DeviceState &device_state(VkDevice device) {

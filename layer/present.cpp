@@ -15,6 +15,7 @@
 
 #include "capture.h"
 #include "compositor.h"
+#include "gpu_timing.h"
 #include "layer_entry_points.h"
 #include "log.h"
 #include "session.h"
@@ -260,6 +261,7 @@ VkSemaphore composite_split_frame(DeviceState &dev, VkQueue queue, const VkPrese
     FrameRecord record;
     record.frame = frame;
     record.frame_ms = session.frame_interval_ms();
+    record.periphery_ms = latest_periphery_ms(dev);
 
     const auto wait_start = Clock::now();
     const auto tiles = frame_tiles(session, frame, split); // keeps the pixels alive through composite()

@@ -6,6 +6,7 @@
 // semaphores and pNext removed, keeping the command buffers and the fence.
 
 #include "capture.h"
+#include "gpu_timing.h"
 #include "layer_entry_points.h"
 #include "object_map.h"
 #include "resource.h"
@@ -86,6 +87,8 @@ VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit(VkQueue queue, uint32_t submitCount, 
     if (dev.session) {
         note_split_submit(dev, submitCount, pSubmits);
         note_layout_submit(dev, submitCount, pSubmits);
+        for (uint32_t i = 0; i < submitCount; ++i)
+            note_timed_submit(dev, pSubmits[i].commandBufferCount, pSubmits[i].pCommandBuffers);
     }
     return dev.dispatch.QueueSubmit(queue, submitCount, pSubmits, fence);
 }
@@ -98,6 +101,9 @@ VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit2(VkQueue queue, uint32_t submitCount,
     if (dev.session) {
         note_split_submit(dev, submitCount, pSubmits);
         note_layout_submit(dev, submitCount, pSubmits);
+        for (uint32_t i = 0; i < submitCount; ++i)
+            for (uint32_t j = 0; j < pSubmits[i].commandBufferInfoCount; ++j)
+                note_timed_submit(dev, 1, &pSubmits[i].pCommandBufferInfos[j].commandBuffer);
     }
     return dev.dispatch.QueueSubmit2(queue, submitCount, pSubmits, fence);
 }
@@ -110,6 +116,9 @@ VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit2KHR(VkQueue queue, uint32_t submitCou
     if (dev.session) {
         note_split_submit(dev, submitCount, pSubmits);
         note_layout_submit(dev, submitCount, pSubmits);
+        for (uint32_t i = 0; i < submitCount; ++i)
+            for (uint32_t j = 0; j < pSubmits[i].commandBufferInfoCount; ++j)
+                note_timed_submit(dev, 1, &pSubmits[i].pCommandBufferInfos[j].commandBuffer);
     }
     return dev.dispatch.QueueSubmit2KHR(queue, submitCount, pSubmits, fence);
 }

@@ -6,6 +6,7 @@
 // clear rects are scaled, and the viewports/scissors in effect are re-emitted scaled at its begin
 // and unscaled at its end, because dynamic state outlives the pass (viewport.cpp).
 
+#include "gpu_timing.h"
 #include "layer_entry_points.h"
 #include "object_map.h"
 #include "resource.h"
@@ -109,6 +110,7 @@ void enter_split(DeviceState &dev, VkCommandBuffer cb, split::CommandTracker &tr
 void leave_split(DeviceState &dev, VkCommandBuffer cb) {
     split::CommandTracker *tracker = dev.session ? split_tracker(cb) : nullptr;
     if (!tracker || !tracker->in_split()) return;
+    time_split_pass_ended(dev, cb);
     tracker->end_split();
     emit_viewports(dev, cb, *tracker);
     emit_scissors(dev, cb, *tracker);
@@ -153,7 +155,9 @@ void begin_render_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassB
     if (!tracker) return down(begin);
     VkRenderPassBeginInfo scaled = *begin;
     scaled.renderArea = scaled_area(begin->renderArea, extent);
+    time_before_split_pass(dev, cb);
     down(&scaled);
+    time_split_pass_begun(dev, cb);
     enter_split(dev, cb, *tracker, image, extent);
 }
 
@@ -175,7 +179,9 @@ void begin_rendering(DeviceState &dev, VkCommandBuffer cb, const VkRenderingInfo
     if (!found) return down(info);
     VkRenderingInfo scaled = *info;
     scaled.renderArea = scaled_area(info->renderArea, extent);
+    time_before_split_pass(dev, cb);
     down(&scaled);
+    time_split_pass_begun(dev, cb);
     enter_split(dev, cb, *tracker, image, extent);
 }
 

@@ -17,6 +17,7 @@ namespace splitvk {
 struct FrameRecord {
     uint64_t frame = 0;
     double frame_ms = 0;     // this present to the previous one (0 for the first)
+    double periphery_ms = 0; // GPU time of the latest completed split pass (gpu_timing.h)
     double tile_wait_ms = 0; // the present waited for this frame's tiles
     double network_ms = 0;   // FramePresent sent to Tiles received, less the agent's own time
     double decode_ms = 0;    // the slowest eye
