@@ -15,6 +15,7 @@
 
 #include "compositor.h"
 
+#include "host_buffer.h"
 #include "instance.h"
 #include "log.h"
 #include "swapchain.h"
@@ -127,11 +128,7 @@ struct Compositor::Slot {
     VkImageView periphery_view = VK_NULL_HANDLE;
     VkExtent2D periphery_extent{};
     // Fovea tiles on their way to the image; grown as needed, mapped for the slot's lifetime.
-    VkBuffer staging = VK_NULL_HANDLE;
-    VkDeviceMemory staging_memory = VK_NULL_HANDLE;
-    VkDeviceSize staging_size = 0;
-    uint8_t *staging_mapped = nullptr;
-    bool staging_coherent = true;
+    HostBuffer staging;
 };
 
 bool Compositor::supports(DeviceState &device, VkFormat format, std::string *why) {
@@ -482,55 +479,18 @@ bool Compositor::ensure_periphery_image(Slot &s, VkExtent2D periphery, std::stri
 
 // Called only while the slot is idle.
 bool Compositor::ensure_staging(Slot &s, VkDeviceSize bytes, std::string *error) {
-    if (s.staging && s.staging_size >= bytes) return true;
-    const VkDevice d = device_.handle;
-    const auto &k = device_.dispatch;
-    if (s.staging) k.DestroyBuffer(d, s.staging, nullptr);
-    if (s.staging_memory) k.FreeMemory(d, s.staging_memory, nullptr); // unmaps
-    s.staging = VK_NULL_HANDLE;
-    s.staging_memory = VK_NULL_HANDLE;
-    s.staging_mapped = nullptr;
-    s.staging_size = 0;
-
+    if (s.staging.buffer && s.staging.size >= bytes) return true;
+    destroy_host_buffer(device_, s.staging);
     const VkDeviceSize size = (bytes + kStagingGranule - 1) / kStagingGranule * kStagingGranule;
-    VkBufferCreateInfo buffer_info{};
-    buffer_info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
-    buffer_info.size = size;
-    buffer_info.usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
-    if (k.CreateBuffer(d, &buffer_info, nullptr, &s.staging) != VK_SUCCESS) {
-        *error = "cannot create the tile staging buffer";
-        return false;
-    }
-    VkMemoryRequirements req{};
-    k.GetBufferMemoryRequirements(d, s.staging, &req);
-    uint32_t type =
-        find_memory_type(device_, req.memoryTypeBits,
-                         VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
-    s.staging_coherent = type != UINT32_MAX;
-    if (type == UINT32_MAX)
-        type = find_memory_type(device_, req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT);
-    VkMemoryAllocateInfo mem_info{};
-    mem_info.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-    mem_info.allocationSize = req.size;
-    mem_info.memoryTypeIndex = type;
-    void *mapped = nullptr;
-    if (type == UINT32_MAX || k.AllocateMemory(d, &mem_info, nullptr, &s.staging_memory) != VK_SUCCESS ||
-        k.BindBufferMemory(d, s.staging, s.staging_memory, 0) != VK_SUCCESS ||
-        k.MapMemory(d, s.staging_memory, 0, VK_WHOLE_SIZE, 0, &mapped) != VK_SUCCESS) {
-        *error = "cannot allocate the tile staging buffer's memory";
-        return false;
-    }
-    s.staging_mapped = static_cast<uint8_t *>(mapped);
-    s.staging_size = size;
-    return true;
+    return create_host_buffer(device_, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, HostAccess::Write, &s.staging,
+                              error);
 }
 
 void Compositor::destroy_slot(Slot &s) {
     const VkDevice d = device_.handle;
     const auto &k = device_.dispatch;
     if (s.in_flight) k.WaitForFences(d, 1, &s.fence, VK_TRUE, kDestroyWaitNs);
-    if (s.staging) k.DestroyBuffer(d, s.staging, nullptr);
-    if (s.staging_memory) k.FreeMemory(d, s.staging_memory, nullptr);
+    destroy_host_buffer(device_, s.staging);
     if (s.periphery_view) k.DestroyImageView(d, s.periphery_view, nullptr);
     if (s.periphery) k.DestroyImage(d, s.periphery, nullptr);
     if (s.periphery_memory) k.FreeMemory(d, s.periphery_memory, nullptr);
@@ -656,7 +616,7 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
         // The staging buffer was written by the host before vkQueueSubmit, which makes host
         // writes visible to the device (no host barrier needed). Tiles do not overlap (composite
         // drops those that would), so one copy command carries them all.
-        k.CmdCopyBufferToImage(cb, s.staging, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+        k.CmdCopyBufferToImage(cb, s.staging.buffer, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
                                static_cast<uint32_t>(copy_regions_.size()), copy_regions_.data());
         // Back to the present layout. The present waits on our semaphore, whose signal makes
         // these writes available and visible to the presentation engine: no destination stage
@@ -735,7 +695,7 @@ VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<co
             const size_t stride = size_t{c.tile->rect.extent.width} * 4;
             const uint8_t *src = c.tile->pixels + size_t(c.skipped.y) * stride + size_t(c.skipped.x) * 4;
             for (uint32_t y = 0; y < c.extent.height; ++y)
-                std::memcpy(s.staging_mapped + offset + y * row, src + y * stride, row);
+                std::memcpy(s.staging.mapped + offset + y * row, src + y * stride, row);
             VkBufferImageCopy region{};
             region.bufferOffset = offset; // a multiple of 4, the texel size
             region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
@@ -744,13 +704,7 @@ VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<co
             copy_regions_.push_back(region);
             offset += row * c.extent.height;
         }
-        if (!s.staging_coherent) {
-            VkMappedMemoryRange range{};
-            range.sType = VK_STRUCTURE_TYPE_MAPPED_MEMORY_RANGE;
-            range.memory = s.staging_memory;
-            range.size = VK_WHOLE_SIZE;
-            k.FlushMappedMemoryRanges(d, 1, &range);
-        }
+        flush_host_buffer(device_, s.staging);
     }
 
     record(s, image_index, upsample ? periphery : VkExtent2D{});

@@ -16,6 +16,7 @@
 #include "capture.h"
 #include "compositor.h"
 #include "gpu_timing.h"
+#include "host_buffer.h"
 #include "layer_entry_points.h"
 #include "log.h"
 #include "session.h"
@@ -41,10 +42,7 @@ constexpr uint64_t kFenceWaitNs = 5'000'000'000; // the layer's own copy
 struct Readback {
     VkCommandPool pool = VK_NULL_HANDLE;
     VkCommandBuffer command_buffer = VK_NULL_HANDLE;
-    VkBuffer buffer = VK_NULL_HANDLE;
-    VkDeviceMemory memory = VK_NULL_HANDLE;
-    void *mapped = nullptr;
-    bool coherent = true;
+    HostBuffer staging; // the whole image, read back
     VkFence fence = VK_NULL_HANDLE;
     VkSemaphore semaphore = VK_NULL_HANDLE;
     bool in_flight = false;
@@ -58,8 +56,7 @@ void destroy(DeviceState &dev, Readback &r) {
     if (r.in_flight) dev.dispatch.WaitForFences(d, 1, &r.fence, VK_TRUE, kFenceWaitNs);
     if (r.semaphore) dev.dispatch.DestroySemaphore(d, r.semaphore, nullptr);
     if (r.fence) dev.dispatch.DestroyFence(d, r.fence, nullptr);
-    if (r.buffer) dev.dispatch.DestroyBuffer(d, r.buffer, nullptr);
-    if (r.memory) dev.dispatch.FreeMemory(d, r.memory, nullptr);
+    destroy_host_buffer(dev, r.staging);
     if (r.pool) dev.dispatch.DestroyCommandPool(d, r.pool, nullptr);
     r = Readback{};
 }
@@ -84,34 +81,10 @@ bool create(DeviceState &dev, const SwapchainState &sc, uint32_t family, Readbac
     else
         *reinterpret_cast<void **>(r.command_buffer) = *reinterpret_cast<void **>(d);
 
-    VkBufferCreateInfo buffer_info{};
-    buffer_info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
-    buffer_info.size = VkDeviceSize{sc.extent.width} * sc.extent.height * 4;
-    buffer_info.usage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-    if (k.CreateBuffer(d, &buffer_info, nullptr, &r.buffer) != VK_SUCCESS) return false;
-    VkMemoryRequirements req{};
-    k.GetBufferMemoryRequirements(d, r.buffer, &req);
-    uint32_t type = UINT32_MAX;
-    for (int pass = 0; pass < 2 && type == UINT32_MAX; ++pass) {
-        const VkMemoryPropertyFlags want =
-            pass == 0 ? VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT
-                      : VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT;
-        for (uint32_t i = 0; i < dev.memory_properties.memoryTypeCount; ++i)
-            if ((req.memoryTypeBits & (1u << i)) &&
-                (dev.memory_properties.memoryTypes[i].propertyFlags & want) == want) {
-                type = i;
-                r.coherent = pass == 0;
-                break;
-            }
-    }
-    if (type == UINT32_MAX) return false;
-    VkMemoryAllocateInfo mem_info{};
-    mem_info.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-    mem_info.allocationSize = req.size;
-    mem_info.memoryTypeIndex = type;
-    if (k.AllocateMemory(d, &mem_info, nullptr, &r.memory) != VK_SUCCESS) return false;
-    if (k.BindBufferMemory(d, r.buffer, r.memory, 0) != VK_SUCCESS) return false;
-    if (k.MapMemory(d, r.memory, 0, VK_WHOLE_SIZE, 0, &r.mapped) != VK_SUCCESS) return false;
+    std::string error;
+    if (!create_host_buffer(dev, VkDeviceSize{sc.extent.width} * sc.extent.height * 4,
+                            VK_BUFFER_USAGE_TRANSFER_DST_BIT, HostAccess::Read, &r.staging, &error))
+        return false;
     VkFenceCreateInfo fence_info{};
     fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
     if (k.CreateFence(d, &fence_info, nullptr, &r.fence) != VK_SUCCESS) return false;
@@ -142,7 +115,7 @@ void record_copy(DeviceState &dev, const SwapchainState &sc, VkImage image, Read
     VkBufferImageCopy region{};
     region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
     region.imageExtent = {sc.extent.width, sc.extent.height, 1};
-    k.CmdCopyImageToBuffer(r.command_buffer, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, r.buffer, 1,
+    k.CmdCopyImageToBuffer(r.command_buffer, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, r.staging.buffer, 1,
                            &region);
     barrier.srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
     barrier.dstAccessMask = 0;
@@ -188,13 +161,7 @@ void compare(DeviceState &dev, const PendingVerify &p) {
     const bool copied =
         dev.dispatch.WaitForFences(dev.handle, 1, &r.fence, VK_TRUE, kFenceWaitNs) == VK_SUCCESS;
     r.in_flight = !copied;
-    if (copied && !r.coherent) {
-        VkMappedMemoryRange range{};
-        range.sType = VK_STRUCTURE_TYPE_MAPPED_MEMORY_RANGE;
-        range.memory = r.memory;
-        range.size = VK_WHOLE_SIZE;
-        dev.dispatch.InvalidateMappedMemoryRanges(dev.handle, 1, &range);
-    }
+    if (copied) invalidate_host_buffer(dev, r.staging);
     const auto theirs = wait_verify_frame(session, p.frame);
     uint64_t mismatches = pixels;
     if (!copied) {
@@ -208,7 +175,7 @@ void compare(DeviceState &dev, const PendingVerify &p) {
                      p.swapchain->extent.height);
     } else {
         mismatches = 0;
-        const auto *mine = static_cast<const uint8_t *>(r.mapped);
+        const uint8_t *mine = r.staging.mapped;
         const uint8_t *other = theirs->pixels.data();
         for (uint64_t i = 0; i < pixels; ++i)
             if (std::memcmp(mine + i * 4, other + i * 4, 4) != 0) ++mismatches;

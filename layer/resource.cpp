@@ -4,6 +4,7 @@
 #include "resource.h"
 
 #include "capture.h"
+#include "host_buffer.h"
 #include "instance.h"
 #include "layer_entry_points.h"
 #include "log.h"
@@ -412,10 +413,7 @@ VkBufferImageCopy image_region(const MipCopy &mip, uint32_t layers, VkDeviceSize
 // The layer's own Vulkan objects for one readback, freed however it ends.
 struct Readback {
     DeviceState &dev;
-    VkBuffer buffer = VK_NULL_HANDLE;
-    VkDeviceMemory memory = VK_NULL_HANDLE;
-    void *mapped = nullptr;
-    bool coherent = true;
+    HostBuffer staging;
     VkCommandPool pool = VK_NULL_HANDLE;
     VkCommandBuffer cb = VK_NULL_HANDLE;
     VkFence fence = VK_NULL_HANDLE;
@@ -425,51 +423,15 @@ struct Readback {
         const VkDevice d = dev.handle;
         if (fence) dev.dispatch.DestroyFence(d, fence, nullptr);
         if (pool) dev.dispatch.DestroyCommandPool(d, pool, nullptr);
-        if (mapped) dev.dispatch.UnmapMemory(d, memory);
-        if (buffer) dev.dispatch.DestroyBuffer(d, buffer, nullptr);
-        if (memory) dev.dispatch.FreeMemory(d, memory, nullptr);
+        destroy_host_buffer(dev, staging);
     }
 
     bool create(VkDeviceSize size, uint32_t family, std::string *error) {
+        if (!create_host_buffer(dev, size, VK_BUFFER_USAGE_TRANSFER_DST_BIT, HostAccess::Read, &staging,
+                                error))
+            return false;
         const VkDevice d = dev.handle;
         const auto &k = dev.dispatch;
-        VkBufferCreateInfo buffer_info{};
-        buffer_info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
-        buffer_info.size = size;
-        buffer_info.usage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-        if (k.CreateBuffer(d, &buffer_info, nullptr, &buffer) != VK_SUCCESS) {
-            *error = "cannot create a staging buffer of " + std::to_string(size >> 20) + " MiB";
-            return false;
-        }
-        VkMemoryRequirements req{};
-        k.GetBufferMemoryRequirements(d, buffer, &req);
-        // Cached if there is such memory: every byte is read on the host.
-        uint32_t type = UINT32_MAX;
-        for (const VkMemoryPropertyFlags want :
-             {VkMemoryPropertyFlags{VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_CACHED_BIT},
-              VkMemoryPropertyFlags{VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT}}) {
-            for (uint32_t i = 0; i < dev.memory_properties.memoryTypeCount && type == UINT32_MAX; ++i)
-                if ((req.memoryTypeBits & (1u << i)) &&
-                    (dev.memory_properties.memoryTypes[i].propertyFlags & want) == want)
-                    type = i;
-            if (type != UINT32_MAX) break;
-        }
-        if (type == UINT32_MAX) {
-            *error = "no host-visible memory for the staging buffer";
-            return false;
-        }
-        coherent =
-            dev.memory_properties.memoryTypes[type].propertyFlags & VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
-        VkMemoryAllocateInfo alloc{};
-        alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-        alloc.allocationSize = req.size;
-        alloc.memoryTypeIndex = type;
-        if (k.AllocateMemory(d, &alloc, nullptr, &memory) != VK_SUCCESS ||
-            k.BindBufferMemory(d, buffer, memory, 0) != VK_SUCCESS ||
-            k.MapMemory(d, memory, 0, VK_WHOLE_SIZE, 0, &mapped) != VK_SUCCESS) {
-            *error = "cannot allocate " + std::to_string(size >> 20) + " MiB of staging memory";
-            return false;
-        }
         VkCommandPoolCreateInfo pool_info{};
         pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
         pool_info.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
@@ -709,7 +671,7 @@ bool snapshot_contents(DeviceState &dev, VkQueue queue, uint32_t family, Content
 
     Readback readback(dev);
     if (!readback.create(total, family, error)) return false;
-    record_readback(dev, readback.cb, readback.buffer, buffers, images);
+    record_readback(dev, readback.cb, readback.staging.buffer, buffers, images);
     VkSubmitInfo submit{};
     submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
     submit.commandBufferCount = 1;
@@ -723,14 +685,8 @@ bool snapshot_contents(DeviceState &dev, VkQueue queue, uint32_t family, Content
         dev.dispatch.QueueWaitIdle(queue);
         return false;
     }
-    if (!readback.coherent) {
-        VkMappedMemoryRange range{};
-        range.sType = VK_STRUCTURE_TYPE_MAPPED_MEMORY_RANGE;
-        range.memory = readback.memory;
-        range.size = VK_WHOLE_SIZE;
-        dev.dispatch.InvalidateMappedMemoryRanges(dev.handle, 1, &range);
-    }
-    const auto *staging = static_cast<const uint8_t *>(readback.mapped);
+    invalidate_host_buffer(dev, readback.staging);
+    const uint8_t *staging = readback.staging.mapped;
     for (const BufferCopy &b : buffers)
         push_memory_data(*out, dev.session->device_id(), codec::handle_value(b.memory), b.memory_offset,
                          staging + b.staging_offset, b.size);
