@@ -66,10 +66,7 @@ private:
     VkCommandPool pool_ = VK_NULL_HANDLE;
     VkCommandBuffer command_buffer_ = VK_NULL_HANDLE;
     VkFence fence_ = VK_NULL_HANDLE;
-    VkBuffer staging_ = VK_NULL_HANDLE;
-    VkDeviceMemory staging_memory_ = VK_NULL_HANDLE;
-    VkDeviceSize staging_size_ = 0;
-    void *staging_mapped_ = nullptr;
+    HostBuffer staging_;
 };
 
 } // namespace splitvk::agent

@@ -67,56 +67,14 @@ bool TileStreamer::create_slot(Slot &slot, std::string *error) {
 }
 
 bool TileStreamer::ensure_buffer(Slot &slot, VkDeviceSize bytes, std::string *error) {
-    if (slot.size >= bytes) return true;
-    const VkDevice device = context_.device;
-    if (slot.mapped) vkUnmapMemory(device, slot.memory);
-    if (slot.buffer) vkDestroyBuffer(device, slot.buffer, nullptr);
-    if (slot.memory) vkFreeMemory(device, slot.memory, nullptr);
-    slot.mapped = nullptr;
-    slot.buffer = VK_NULL_HANDLE;
-    slot.memory = VK_NULL_HANDLE;
-    slot.size = 0;
-
-    VkBufferCreateInfo info{};
-    info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
-    info.size = bytes;
-    info.usage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-    VkResult r = vkCreateBuffer(device, &info, nullptr, &slot.buffer);
-    if (r != VK_SUCCESS) {
-        *error = std::string("tile staging buffer: ") + vk_result_name(r);
-        return false;
-    }
-    VkMemoryRequirements req{};
-    vkGetBufferMemoryRequirements(device, slot.buffer, &req);
-    // Cached memory: the worker reads every byte it encodes.
-    const int32_t type = context_.find_memory_type(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT,
-                                                   VK_MEMORY_PROPERTY_HOST_CACHED_BIT);
-    if (type < 0) {
-        *error = "no host-visible memory for the tile staging buffer";
-        return false;
-    }
-    slot.coherent =
-        context_.memory_properties.memoryTypes[type].propertyFlags & VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
-    VkMemoryAllocateInfo alloc{};
-    alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-    alloc.allocationSize = req.size;
-    alloc.memoryTypeIndex = static_cast<uint32_t>(type);
-    r = vkAllocateMemory(device, &alloc, nullptr, &slot.memory);
-    if (r == VK_SUCCESS) r = vkBindBufferMemory(device, slot.buffer, slot.memory, 0);
-    if (r == VK_SUCCESS) r = vkMapMemory(device, slot.memory, 0, VK_WHOLE_SIZE, 0, &slot.mapped);
-    if (r != VK_SUCCESS) {
-        *error = std::string("tile staging memory: ") + vk_result_name(r);
-        return false;
-    }
-    slot.size = bytes;
-    return true;
+    if (slot.staging.size >= bytes) return true;
+    context_.destroy(slot.staging);
+    return context_.create_readback_buffer(bytes, &slot.staging, error);
 }
 
 void TileStreamer::destroy_slot(Slot &slot) {
     const VkDevice device = context_.device;
-    if (slot.mapped) vkUnmapMemory(device, slot.memory);
-    if (slot.buffer) vkDestroyBuffer(device, slot.buffer, nullptr);
-    if (slot.memory) vkFreeMemory(device, slot.memory, nullptr);
+    context_.destroy(slot.staging);
     if (slot.drawn) vkDestroyFence(device, slot.drawn, nullptr);
     if (slot.copied) vkDestroyFence(device, slot.copied, nullptr);
     // The command buffer goes with the pool.
@@ -155,7 +113,7 @@ void TileStreamer::record_copy(Slot &slot) {
         regions.push_back(region);
         offset += VkDeviceSize{rect.extent.width} * rect.extent.height * 4;
     }
-    vkCmdCopyImageToBuffer(cb, slot.frame.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, slot.buffer,
+    vkCmdCopyImageToBuffer(cb, slot.frame.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, slot.staging.buffer,
                            static_cast<uint32_t>(regions.size()), regions.data());
     // Back to where the app left it: the next frame's commands expect PRESENT_SRC_KHR (or
     // UNDEFINED, which accepts anything).
@@ -169,7 +127,7 @@ void TileStreamer::record_copy(Slot &slot) {
     host.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
     host.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
     host.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    host.buffer = slot.buffer;
+    host.buffer = slot.staging.buffer;
     host.size = VK_WHOLE_SIZE;
     vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
                          VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT | VK_PIPELINE_STAGE_HOST_BIT, 0, 0, nullptr, 1,
@@ -265,13 +223,7 @@ bool TileStreamer::encode_and_send(Slot &slot, std::string *error) {
         return false;
     }
     const auto copied = Clock::now();
-    if (!slot.coherent && slot.size) {
-        VkMappedMemoryRange range{};
-        range.sType = VK_STRUCTURE_TYPE_MAPPED_MEMORY_RANGE;
-        range.memory = slot.memory;
-        range.size = VK_WHOLE_SIZE;
-        vkInvalidateMappedMemoryRanges(context_.device, 1, &range);
-    }
+    context_.invalidate(slot.staging);
 
     protocol::Tiles message;
     message.frame = frame.frame;
@@ -308,7 +260,7 @@ bool TileStreamer::encode_and_send(Slot &slot, std::string *error) {
         if (keyframe) tile.flags |= protocol::kTileKeyframe;
     };
     std::vector<std::thread> threads;
-    const auto *base = static_cast<const uint8_t *>(slot.mapped);
+    const uint8_t *base = slot.staging.mapped;
     size_t offset = 0;
     std::vector<const uint8_t *> pixels;
     for (const VkRect2D &rect : frame.foveae) {

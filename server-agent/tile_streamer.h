@@ -69,11 +69,7 @@ private:
         VkCommandBuffer command_buffer = VK_NULL_HANDLE;
         VkFence drawn = VK_NULL_HANDLE;  // the frame's own work is done
         VkFence copied = VK_NULL_HANDLE; // the fovea copy is in host memory
-        VkBuffer buffer = VK_NULL_HANDLE;
-        VkDeviceMemory memory = VK_NULL_HANDLE;
-        VkDeviceSize size = 0;
-        bool coherent = true;
-        void *mapped = nullptr;
+        HostBuffer staging;
         bool busy = false; // owned by the worker until it has sent the frame
         Frame frame;
     };
