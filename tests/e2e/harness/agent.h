@@ -9,12 +9,22 @@
 #include <string>
 #include <vector>
 
+#include <gtest/gtest.h>
+
 namespace splitvk::e2e {
 
 std::filesystem::path agent_path(); // <build>/bin/splitvk-agent
 
 // A port nobody listens on right now (bound on 127.0.0.1, read back, released).
 uint16_t free_loopback_port();
+
+// Waits (at most 20 s) until the agent log at `log_path` reports its session closed, and checks
+// that the session, run with --validate, ended with no validation message.
+::testing::AssertionResult agent_session_validation_clean(const std::filesystem::path &log_path);
+
+// The client side: the validation log configure_validation() set up exists (the layer was
+// loaded) and is empty.
+::testing::AssertionResult client_validation_clean(const std::filesystem::path &validation_log);
 
 class Agent {
 public:
