@@ -88,6 +88,10 @@ def register(subparsers):
     p.add_argument("--fovea", default="512x360", help="SPLITVK_FOVEA per eye (default: %(default)s)")
     p.add_argument("--scale", default="0.6", help="SPLITVK_SCALE (default: %(default)s)")
     p.add_argument("--codec", choices=("x264", "zstd", "raw"), default="x264", help="default: %(default)s")
+    p.add_argument("--tile-wait", type=int, default=2000,
+                   help="SPLITVK_TILE_WAIT in ms (default: %(default)s: frames are lockstep as in the paper, a "
+                        "present waits for its tiles; the layer's 250 would show late frames from the periphery "
+                        "alone, which flatters the split)")
     p.add_argument("--client-cpus", default=client_cpus,
                    help="CPUs of the weak client, taskset -c syntax (default here: %(default)s)")
     p.add_argument("--client-threads", type=int, default=1,
@@ -261,7 +265,8 @@ def measure(args):
                 Link(link_bin, args.link, agent_port, agent_prefix, base, os.path.join(out_dir, "link.log")) as link:
             split_env = dict(common.layer_env(client_env, build), SPLITVK_SERVER=f"127.0.0.1:{link.port}",
                              SPLITVK_LOG_LEVEL="info", SPLITVK_SCALE=args.scale, SPLITVK_CODEC=args.codec,
-                             SPLITVK_EYES="2", SPLITVK_FOVEA=args.fovea)
+                             SPLITVK_EYES="2", SPLITVK_FOVEA=args.fovea,
+                             SPLITVK_TILE_WAIT=str(args.tile_wait))
             for i in range(args.rounds):
                 order = ("native", "split") if i % 2 == 0 else ("split", "native")
                 line = []
@@ -373,7 +378,7 @@ def summarize(args, machine, native_runs, split_runs, periphery_runs, periphery_
                    "periphery": f"{periphery_size[0]}x{periphery_size[1]}", "codec": args.codec,
                    "frames": args.frames, "rounds": args.rounds, "warmup": args.warmup,
                    "periphery_frames": args.periphery_frames, "client_cpus": args.client_cpus,
-                   "client_threads": args.client_threads, "agent_cpus": args.agent_cpus, "link": args.link,
+                   "client_threads": args.client_threads, "tile_wait": args.tile_wait, "agent_cpus": args.agent_cpus, "link": args.link,
                    "quick": args.quick},
         "native": q3(native), "split": q3(split_times),
         "native_rounds": [split.median(r) for r in native_runs],
@@ -487,7 +492,7 @@ def section_markdown(res, figures, docs_path, analysis):
         f"a {c['fovea']} fovea per eye and the client the periphery at scale {c['scale']} ({c['periphery']}). "
         f"The client (app, layer, tile decoders; native runs too) is confined to CPU {c['client_cpus']} with "
         f"lavapipe's `LP_NUM_THREADS={c['client_threads']}`, the agent to CPU {c['agent_cpus']}; link: "
-        f"{c['link']} (loopback). Native and split alternate, {c['rounds']} rounds of {c['frames']} frames, "
+        f"{c['link']} (loopback); `SPLITVK_TILE_WAIT={c.get('tile_wait', 250)}` (lockstep as in the paper). Native and split alternate, {c['rounds']} rounds of {c['frames']} frames, "
         f"the first {c['warmup']} of each run left out; each round also renders natively at {c['periphery']} "
         "to estimate the periphery render. Medians and IQRs are over every remaining frame.",
         "",
