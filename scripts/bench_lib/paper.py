@@ -24,6 +24,7 @@ import datetime
 import json
 import os
 import platform
+import resource
 import shlex
 import shutil
 import subprocess
@@ -32,8 +33,13 @@ import time
 
 from . import common, split
 
+try:  # bench_lib/link.py comes with splitvk-link; without it, Link below starts the binary itself
+    from . import link as link_module
+except ImportError:
+    link_module = None
+
 APP_NAME = "splitvk-atrium"
-LINK_PROFILES = ("none", "gige", "wifi5", "wifi6")
+LINK_PROFILES = ("direct", "none", "gige", "wifi5", "wifi6")  # direct: no proxy; none: splitvk-link unshaped
 PLOT_SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "paper_plots.py")
 PLOT_PYTHON = "/usr/bin/python3"
 DOC_BEGIN = "<!-- bench paper: begin (scripts/bench paper --write-docs replaces this section) -->"
@@ -98,8 +104,9 @@ def register(subparsers):
                    help="lavapipe rasterizer threads of the client, LP_NUM_THREADS (default: %(default)s)")
     p.add_argument("--agent-cpus", default=agent_cpus,
                    help="CPUs of splitvk-agent (and splitvk-link) (default here: %(default)s)")
-    p.add_argument("--link", choices=LINK_PROFILES, default="none",
-                   help="put splitvk-link with this profile between layer and agent (default: %(default)s)")
+    p.add_argument("--link", choices=LINK_PROFILES, default="direct",
+                   help="put splitvk-link with this profile between layer and agent: gige, wifi5 (the paper's "
+                        "client link), wifi6, or none (forwarding only); direct: no proxy (default: %(default)s)")
     p.add_argument("--link-bin", help="splitvk-link to use (default: BUILD/bin/splitvk-link)")
     p.add_argument("--out-dir", help="per-frame CSVs, logs, results.json (default: BUILD/bench-paper)")
     p.add_argument("--figures-dir", help="where the PNGs go (default: docs/figures with --write-docs, else --out-dir)")
@@ -153,20 +160,32 @@ def describe_machine(m):
 # --- running --------------------------------------------------------------------------------------
 
 class Link:
-    """splitvk-link between the layer and the agent, or nothing for profile 'none'."""
+    """splitvk-link between the layer and the agent, or nothing for 'direct'. Uses bench_lib/link.py
+    when this tree has it (and no --link-bin was given), else starts the binary with the same command
+    line (--listen, --connect, --profile). `address` is what SPLITVK_SERVER must be."""
 
-    def __init__(self, binary, profile, agent_port, prefix, env, log_path):
-        self.binary, self.profile, self.agent_port = binary, profile, agent_port
-        self.prefix, self.env, self.log_path = prefix, env, log_path
+    def __init__(self, build, binary, profile, agent_port, cpus, env, log_path, explicit_binary):
+        self.build, self.binary, self.profile, self.agent_port = build, binary, profile, agent_port
+        self.cpus, self.env, self.log_path = cpus, env, log_path
         self.proc = None
+        self.inner = None
         self.port = agent_port
+        if profile != "direct" and link_module is not None and not explicit_binary:
+            self.inner = link_module.Link(build, agent_port, profile=profile, cpus=cpus, env=env)
+
+    @property
+    def address(self):
+        return self.inner.address if self.inner else f"127.0.0.1:{self.port}"
 
     def __enter__(self):
-        if self.profile == "none":
+        if self.inner:
+            self.inner.__enter__()
+            return self
+        if self.profile == "direct":
             return self
         self.port = split.free_port()
         self.log = open(self.log_path, "w")
-        argv = list(self.prefix) + [self.binary, "--listen", f"127.0.0.1:{self.port}",
+        argv = ["taskset", "-c", self.cpus, self.binary, "--listen", f"127.0.0.1:{self.port}",
                                     "--connect", f"127.0.0.1:{self.agent_port}", "--profile", self.profile]
         self.proc = subprocess.Popen(argv, env=self.env, stdout=self.log, stderr=subprocess.STDOUT,
                                      start_new_session=True)
@@ -176,6 +195,10 @@ class Link:
         return self
 
     def __exit__(self, *exc):
+        if self.inner:
+            self.inner.__exit__(*exc)
+            with open(self.log_path, "w") as f:
+                f.write(self.inner.log)
         if self.proc:
             split.stop_group(self.proc)
             self.log.close()
@@ -183,15 +206,25 @@ class Link:
 
 
 def check_link(args, build):
-    if args.link == "none":
+    if args.link == "direct":
         return None
     binary = args.link_bin or os.path.join(build.path, "bin", "splitvk-link")
     if not os.path.exists(binary):
         raise common.MissingBuild(
             f"--link {args.link} needs splitvk-link, and {binary} does not exist: this tree does not build it "
             "yet (it comes with the splitvk-link work; once merged, rebuild with cmake --build build), "
-            "or pass --link-bin PATH, or run with --link none")
+            "or pass --link-bin PATH, or run with --link direct")
     return binary
+
+
+def cpu_run(argv, env, timeout_s, frames, cpu):
+    """common.run, adding the run's CPU time per frame (user + system of the app and its threads,
+    start-up included, from the children's rusage) to the list `cpu`."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    r = common.run(argv, env, timeout_s)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu.append(((after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)) * 1000 / frames)
+    return r
 
 
 def read_frame_times(path, warmup):
@@ -255,6 +288,7 @@ def measure(args):
               f"(scripts/bench paper: {FULL['frames']} x {FULL['rounds']}); its numbers are noisier", flush=True)
 
     native_runs, split_runs, periphery_runs = [], [], []
+    cpu = {"native": [], "split": []}
     start = time.monotonic()
     with common.display() as disp:
         base = common.clean_env(args.icd)
@@ -262,8 +296,9 @@ def measure(args):
         client_env = dict(base, LP_NUM_THREADS=str(args.client_threads))
         agent_env = dict(base, LP_NUM_THREADS=str(len(agent_cpus)))
         with split.started_agent(agent, agent_port, agent_env, os.path.join(out_dir, "agent.log"), agent_prefix), \
-                Link(link_bin, args.link, agent_port, agent_prefix, base, os.path.join(out_dir, "link.log")) as link:
-            split_env = dict(common.layer_env(client_env, build), SPLITVK_SERVER=f"127.0.0.1:{link.port}",
+                Link(build, link_bin, args.link, agent_port, cpu_text(agent_cpus), base,
+                     os.path.join(out_dir, "link.log"), bool(args.link_bin)) as link:
+            split_env = dict(common.layer_env(client_env, build), SPLITVK_SERVER=link.address,
                              SPLITVK_LOG_LEVEL="info", SPLITVK_SCALE=args.scale, SPLITVK_CODEC=args.codec,
                              SPLITVK_EYES="2", SPLITVK_FOVEA=args.fovea,
                              SPLITVK_TILE_WAIT=str(args.tile_wait))
@@ -273,12 +308,13 @@ def measure(args):
                 for mode in order:
                     times = os.path.join(out_dir, f"{mode}-round{i + 1}-frames.csv")
                     if mode == "native":
-                        r = common.run(argv(args.width, args.height, args.frames, times), client_env, timeout_s)
+                        r = cpu_run(argv(args.width, args.height, args.frames, times), client_env, timeout_s,
+                                    args.frames, cpu["native"])
                         native_runs.append(read_frame_times(times, args.warmup))
                     else:
                         stats = os.path.join(out_dir, f"split-round{i + 1}.csv")
-                        r = common.run(argv(args.width, args.height, args.frames, times),
-                                       dict(split_env, SPLITVK_STATS=stats), timeout_s)
+                        r = cpu_run(argv(args.width, args.height, args.frames, times),
+                                    dict(split_env, SPLITVK_STATS=stats), timeout_s, args.frames, cpu["split"])
                         if "running unsplit" in r.stderr or "[splitvk] split:" not in r.stderr:
                             raise common.BenchError("the split run did not split:\n" + common.tail(r.stderr))
                         split_runs.append((read_frame_times(times, args.warmup), split.read_stats(stats, args.warmup)))
@@ -292,8 +328,10 @@ def measure(args):
                 print(f"  round {i + 1}/{args.rounds}: " + "   ".join(line)
                       + f"   [{time.monotonic() - start:5.0f} s, load {os.getloadavg()[0]:.2f}]", flush=True)
     machine["load_after"] = os.getloadavg()
-    return summarize(args, machine, native_runs, split_runs, periphery_runs, (pw, ph), out_dir,
-                     time.monotonic() - start)
+    res = summarize(args, machine, native_runs, split_runs, periphery_runs, (pw, ph), out_dir,
+                    time.monotonic() - start)
+    res["client_cpu"] = {k: split.median(v) for k, v in cpu.items()}
+    return res
 
 
 # --- numbers ---------------------------------------------------------------------------------------
@@ -345,7 +383,7 @@ def timeline(prev, row, periphery_ms):
     rb_start = enc_start - f("agent_readback_ms")
     draw_start = rb_start - f("agent_draw_ms")
     segs = [
-        ("client app thread", "app: record, capture, submit", 0.0, S),
+        ("client app thread", "app: fence wait, acquire, record, capture, submit", 0.0, S),
         ("client app thread", "tile wait", S, wait),
         ("client app thread", "upload + merge", S + wait, merge),
         ("agent", "draw (replay, fovea only)", draw_start, f("agent_draw_ms")),
@@ -419,6 +457,10 @@ def tables_markdown(res):
         "|---|---|---|---|",
         f"| {c['fovea']} | {s['draw']:.2f} | {s['readback']:.2f} | {s['encode']:.2f} |",
         "",
+        (f"Client CPU time per frame (the app's process, all threads, user + system, start-up included; "
+         f"median over runs): native {res['client_cpu']['native']:.1f} ms, split {res['client_cpu']['split']:.1f} ms "
+         f"({res['client_cpu']['split'] / res['client_cpu']['native']:.3f} of native).\n\n"
+         if res.get("client_cpu") else "") +
         f"Tiles: {s['tile_bytes'] / s['raw_bytes'] if s['raw_bytes'] else 0:.3f} of their raw size; "
         f"late frames (centre from the periphery): {s['late']} of {s['frames']}.",
     ])
@@ -435,6 +477,10 @@ def print_tables(res):
           f"{s['network']:9.2f} {s['decode']:8.2f} {s['merge']:13.2f} {s['mbits']:8.1f}")
     print("agent (median ms)         draw   readback   encode")
     print(f"                     {s['draw']:9.2f} {s['readback']:10.2f} {s['encode']:8.2f}")
+    if res.get("client_cpu"):
+        c = res["client_cpu"]
+        print(f"client CPU per frame (all threads, start-up included): native {c['native']:.1f} ms, "
+              f"split {c['split']:.1f} ms ({c['split'] / c['native']:.3f})")
     print(f"late frames (centre from the periphery): {s['late']} of {s['frames']}")
     print(f"paper (Snapdragon 865 + GTX 1080): native 32.2 ms, split 26.17 ms (0.813); draw 4.42, encode 15.33, "
           f"network 4.99, decode 18.64, merge 0.96 ms; 707.83 Mbit/s")
@@ -466,16 +512,19 @@ def plot(res, figures_dir, out_dir):
     return {k: p for k, p in paths.items() if os.path.exists(p)}
 
 
-def dominant(res):
-    """(stage, ms) of the largest part of the typical split frame on the client's critical path."""
+def critical_path(res):
+    """The median split frame on the client's path, in parts that add up to it: the app's time before
+    its present, the periphery render inside the tile wait (it overlaps it), the tile wait beyond
+    that (the agent's path showing), upload + merge."""
     s, per = res["stages"], res["periphery"]
-    parts = {"tile wait": s["tile_wait"], "upload + merge": s["merge"]}
+    frame, wait, merge = res["split"]["median"], s["tile_wait"], s["merge"]
+    inside = min(wait, per["median"]) if per else 0.0
+    parts = {"app before its present (fence wait, acquire, record, capture, submit)": max(0.0, frame - wait - merge)}
     if per:
-        parts["periphery render (est.)"] = per["median"]
-        parts["rest of the app's frame (record, capture, submit beyond the periphery)"] = max(
-            0.0, s["frame"] - s["tile_wait"] - s["merge"] - per["median"])
-    name = max(parts, key=parts.get)
-    return name, parts[name]
+        parts["periphery render (est.), inside the tile wait"] = inside
+    parts["tile wait for the agent" + (" beyond the periphery render" if per else "")] = wait - inside
+    parts["upload + merge"] = merge
+    return parts
 
 
 def section_markdown(res, figures, docs_path, analysis):
@@ -492,7 +541,7 @@ def section_markdown(res, figures, docs_path, analysis):
         f"a {c['fovea']} fovea per eye and the client the periphery at scale {c['scale']} ({c['periphery']}). "
         f"The client (app, layer, tile decoders; native runs too) is confined to CPU {c['client_cpus']} with "
         f"lavapipe's `LP_NUM_THREADS={c['client_threads']}`, the agent to CPU {c['agent_cpus']}; link: "
-        f"{c['link']} (loopback); `SPLITVK_TILE_WAIT={c.get('tile_wait', 250)}` (lockstep as in the paper). Native and split alternate, {c['rounds']} rounds of {c['frames']} frames, "
+        f"{c['link']} ({'loopback, no proxy' if c['link'] == 'direct' else 'splitvk-link on loopback'}); `SPLITVK_TILE_WAIT={c.get('tile_wait', 250)}` (lockstep as in the paper). Native and split alternate, {c['rounds']} rounds of {c['frames']} frames, "
         f"the first {c['warmup']} of each run left out; each round also renders natively at {c['periphery']} "
         "to estimate the periphery render. Medians and IQRs are over every remaining frame.",
         "",
@@ -552,13 +601,58 @@ def write_docs(path, section):
 
 
 def analysis_text(res):
-    s, n, sp = res["stages"], res["native"], res["split"]
-    name, ms = dominant(res)
-    return (f"**What dominates.** Of the split frame's {sp['median']:.1f} ms median, the largest part on the "
-            f"client's path is {name}: {ms:.1f} ms (tile wait {s['tile_wait']:.1f} = "
-            f"{s['tile_wait'] / sp['median']:.0%} of the frame; agent draw {s['draw']:.1f}, encode "
-            f"{s['encode']:.1f}, client decode {s['decode']:.1f}, network {s['network']:.1f} ms). "
-            "See the analysis below the figures for what to change next.")
+    s, n, sp, per = res["stages"], res["native"], res["split"], res["periphery"]
+    F = sp["median"]
+    parts = critical_path(res)
+    ranked = sorted(parts.items(), key=lambda kv: -kv[1])
+    agent_path = s["draw"] + s["readback"] + s["encode"] + s["network"] + s["decode"]
+    agent_stages = {"agent draw": s["draw"], "agent encode": s["encode"], "network": s["network"],
+                    "client decode": s["decode"], "agent readback": s["readback"]}
+    worst_agent = max(agent_stages, key=agent_stages.get)
+    lines = [
+        f"**What dominates the split frame.** The median split frame ({F:.1f} ms) splits on the client's path "
+        "into " + ", ".join(f"{k} {v:.1f} ms ({v / F:.0%})" for k, v in ranked) + f". The largest is **{ranked[0][0]}**. "
+        f"The agent's path (draw + readback + encode + network + decode) takes {agent_path:.1f} ms, its largest "
+        f"stage {worst_agent} ({agent_stages[worst_agent]:.1f} ms)"
+        + (f", against {per['median']:.1f} ms for the client's periphery render." if per else "."),
+        "",
+        "**What to change next.** ",
+    ]
+    top = ranked[0][0]
+    advice = []
+    if top.startswith("periphery"):
+        advice.append("The client's own periphery render is the floor of the split frame, and the agent "
+                      + ("keeps up with it" if parts.get("tile wait for the agent beyond the periphery render", 0) < 0.1 * F
+                         else "does not quite keep up") +
+                      ": cut the client's share, by a lower periphery scale (0.5 shades 31 % fewer pixels than "
+                      "0.6) or a larger fovea, sized from the measured times as DESIGN §8 suggests (Equalizer), "
+                      "so that the agent's path and the periphery render end together.")
+    elif top.startswith("tile wait"):
+        advice.append(f"The agent's path is exposed; its largest stage is {worst_agent}. "
+                      + {"agent draw": "The agent replays every draw at full geometry cost and only scissors "
+                                       "the shading to the fovea: cull draws whose bounds miss the foveae "
+                                       "(per-eye frustum of the fovea) and give the agent its cores "
+                                       "(LP_NUM_THREADS on a real server GPU is moot).",
+                         "agent encode": "Stream x264 slices as they finish (NAL callback) and encode more "
+                                         "slices in parallel, or use zstd on the difference (DESIGN §5).",
+                         "network": "Send slices as they finish so that transfer overlaps encode.",
+                         "client decode": "Decode with more slice threads, or switch the tiles to zstd on the "
+                                          "difference, about ten times cheaper to decode (DESIGN §5).",
+                         "agent readback": "Read back asynchronously into several staging buffers."}[worst_agent])
+    elif top.startswith("upload"):
+        advice.append("The compositor's upload and full-frame upsampling cost more than anything else on the "
+                      "client's one core.")
+    else:
+        advice.append("The app's own time before its present dominates: measure the layer's capture cost "
+                      "(bench replication) on the confined client.")
+    if parts["upload + merge"] > 0.1 * F and not top.startswith("upload"):
+        advice.append(f"Next after that, upload + merge ({parts['upload + merge']:.1f} ms, "
+                      f"{parts['upload + merge'] / F:.0%} of the frame, against the paper's 0.96 ms): the "
+                      "compositor upsamples the whole frame with a Catmull-Rom fragment shader on the "
+                      "client's CPU rasteriser; a bilinear pass (or vkCmdBlitImage) and copying the fovea "
+                      "tiles with vkCmdCopyBufferToImage instead of sampling them would cut it.")
+    lines[-1] += " ".join(advice)
+    return "\n".join(lines)
 
 
 def run(args):

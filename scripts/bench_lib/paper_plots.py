@@ -44,7 +44,7 @@ def distribution(res, path):
 
 LANE_ORDER = ["client app thread", "client lavapipe", "client decoders", "network", "agent"]
 COLOURS = {
-    "app: record, capture, submit": "#8fbc8f",
+    "app: fence wait, acquire, record, capture, submit": "#8fbc8f",
     "periphery render (estimated)": "#2e8b57",
     "tile wait": "#f4a582",
     "upload + merge": "#b2182b",
