@@ -461,7 +461,9 @@ def tables_markdown(res):
          f"median over runs): native {res['client_cpu']['native']:.1f} ms, split {res['client_cpu']['split']:.1f} ms "
          f"({res['client_cpu']['split'] / res['client_cpu']['native']:.3f} of native).\n\n"
          if res.get("client_cpu") else "") +
-        f"Tiles: {s['tile_bytes'] / s['raw_bytes'] if s['raw_bytes'] else 0:.3f} of their raw size; "
+        f"Tiles: {s['tile_bytes'] / max(1, s['frames'] - s['late']) / 1024:.0f} KiB per frame, "
+        f"{s['tile_bytes'] / s['raw_bytes'] if s['raw_bytes'] else 0:.3f} of their raw size "
+        "(Mbit/s scales with the frame rate, so KiB per frame is what compares with other machines); "
         f"late frames (centre from the periphery): {s['late']} of {s['frames']}.",
     ])
 
