@@ -405,7 +405,6 @@ def summarize(args, machine, native_runs, split_runs, periphery_runs, periphery_
     stages = split.stage_medians(rows)
     stages["frame"] = split.median([float(r["frame_ms"]) for r in rows if float(r["frame_ms"]) > 0])
     periphery = [v for run in periphery_runs for v in run]
-    periphery_ms = split.median(periphery) if periphery else None
     typical = typical_frame(rows, stages)
     res = {
         "date": datetime.date.today().isoformat(),
@@ -485,7 +484,7 @@ def print_tables(res):
               f"split {c['split']:.1f} ms ({c['split'] / c['native']:.3f})")
     print(f"late frames (centre from the periphery): {s['late']} of {s['frames']}")
     print(f"paper (Snapdragon 865 + GTX 1080): native 32.2 ms, split 26.17 ms (0.813); draw 4.42, encode 15.33, "
-          f"network 4.99, decode 18.64, merge 0.96 ms; 707.83 Mbit/s")
+          "network 4.99, decode 18.64, merge 0.96 ms; 707.83 Mbit/s")
 
 
 def plot(res, figures_dir, out_dir):
