@@ -483,7 +483,7 @@ def print_tables(res):
         print(f"client CPU per frame (all threads, start-up included): native {c['native']:.1f} ms, "
               f"split {c['split']:.1f} ms ({c['split'] / c['native']:.3f})")
     print(f"late frames (centre from the periphery): {s['late']} of {s['frames']}")
-    print(f"paper (Snapdragon 865 + GTX 1080): native 32.2 ms, split 26.17 ms (0.813); draw 4.42, encode 15.33, "
+    print("paper (Snapdragon 865 + GTX 1080): native 32.2 ms, split 26.17 ms (0.813); draw 4.42, encode 15.33, "
           "network 4.99, decode 18.64, merge 0.96 ms; 707.83 Mbit/s")
 
 
