@@ -50,6 +50,8 @@ options:
                          coordinates, polygons, usemtl). Material libraries and image files are
                          not read: each material gets a procedural texture chosen by its name.
                          The camera walk is fitted to the model's bounds.
+  --frame-times PATH     after the last frame, write every frame's time to PATH as CSV
+                         ('frame,ms', the same present-to-present times the summary uses)
   --help                 show this text
 
 On start it prints 'atrium: T triangles, 49 textures, WxH per eye'. When the last frame has been
@@ -109,6 +111,9 @@ Options parse_options(int argc, char **argv) {
             o.resize_height = parse_number<uint32_t>(arg, size.substr(x + 1), 16, 16384);
         } else if (arg == "--hold") {
             o.hold = true;
+        } else if (arg == "--frame-times") {
+            o.frame_times_path = value();
+            if (o.frame_times_path.empty()) throw std::invalid_argument("--frame-times: empty path");
         } else if (arg == "--model") {
             o.model_path = value();
             if (o.model_path.empty()) throw std::invalid_argument("--model: empty path");

@@ -27,6 +27,8 @@ struct Options {
     std::optional<uint64_t> screenshot_frame;
     std::string screenshot_path;
     std::string model_path;
+    // --frame-times PATH: one line per frame, 'frame,ms', written after the last frame.
+    std::string frame_times_path;
     bool help = false;
 };
 

@@ -15,6 +15,7 @@ run (splitvk-atrium --hold), as PNGs.
 Client and agent share this machine's cores, so the split's timings include the agent's work
 competing with the client's: on two machines the client would only wait for it."""
 import argparse
+import contextlib
 import csv
 import os
 import signal
@@ -47,6 +48,33 @@ def add_arguments(p, frames=200, rounds=2):
     p.add_argument("--out-dir", help="keep the per-frame CSVs and logs there (default: a temporary folder)")
     common.add_build_argument(p)
     common.add_driver_argument(p)
+
+
+@contextlib.contextmanager
+def started_agent(agent, port, env, log_path, prefix=()):
+    """Runs `prefix + splitvk-agent --listen 127.0.0.1:port` (its log in log_path) while the block runs."""
+    with open(log_path, "w") as log:
+        proc = subprocess.Popen(list(prefix) + [agent, "--listen", f"127.0.0.1:{port}"], env=env,
+                                stdout=subprocess.DEVNULL, stderr=log, start_new_session=True)
+        try:
+            time.sleep(0.5)
+            if proc.poll() is not None:
+                raise common.BenchError(f"splitvk-agent did not start (see {log_path})")
+            yield proc
+        finally:
+            stop_group(proc)
+
+
+def stop_group(proc):
+    """SIGTERM to the process group a start_new_session Popen made, SIGKILL if it lingers."""
+    with contextlib.suppress(ProcessLookupError):
+        os.killpg(proc.pid, signal.SIGTERM)
+    try:
+        proc.wait(timeout=30)
+    except subprocess.TimeoutExpired:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
 
 
 def free_port():
@@ -142,13 +170,7 @@ def measure(args):
         base["DISPLAY"] = disp
         split_env = dict(common.layer_env(base, build), SPLITVK_SERVER=f"127.0.0.1:{port}", SPLITVK_LOG_LEVEL="info",
                          SPLITVK_SCALE=args.scale, SPLITVK_CODEC=args.codec, SPLITVK_EYES=str(args.eyes))
-        agent_log = open(os.path.join(out_dir, "agent.log"), "w")
-        agent_proc = subprocess.Popen([agent, "--listen", f"127.0.0.1:{port}"], env=base,
-                                      stdout=subprocess.DEVNULL, stderr=agent_log, start_new_session=True)
-        try:
-            time.sleep(0.5)
-            if agent_proc.poll() is not None:
-                raise common.BenchError("splitvk-agent did not start (see " + agent_log.name + ")")
+        with started_agent(agent, port, base, os.path.join(out_dir, "agent.log")):
             for i in range(args.rounds):
                 order = ("native", "split") if i % 2 == 0 else ("split", "native")
                 line = []
@@ -175,10 +197,6 @@ def measure(args):
                         os.path.join(args.png_dir, f"split-frame-{frames - 1}.png"))
                 run_held(argv(frames), base, frames, disp, args.width, args.height, pngs[0], timeout_s)
                 run_held(argv(frames), split_env, frames, disp, args.width, args.height, pngs[1], timeout_s)
-        finally:
-            os.killpg(agent_proc.pid, signal.SIGTERM)
-            agent_proc.wait(timeout=30)
-            agent_log.close()
 
     rows = [row for _, rows in splits for row in rows]
     stages = stage_medians(rows)
@@ -206,14 +224,19 @@ def print_tables(res):
     print(f"  native                       {res['native_median']:9.2f} {res['native_iqr']:8.2f}")
     print(f"  split                        {res['split_median']:9.2f} {res['split_iqr']:8.2f}")
     print(f"late frames (centre from the periphery): {s['late']} of {s['frames']}")
-    ratio = s["tile_bytes"] / s["raw_bytes"] if s["raw_bytes"] else 0.0
-    print(f"split/native: {res['split_median'] / res['native_median']:.3f}")
-    print(f"tile-bytes/raw: {ratio:.3f}")
+    print_final_lines(res["split_median"], res["native_median"], s["tile_wait"], s["tile_bytes"], s["raw_bytes"])
+
+
+def print_final_lines(split_median, native_median, tile_wait_median, tile_bytes, raw_bytes):
+    """The three lines every split-measuring bench ends with, for tools to read (nothing may follow)."""
+    print(f"split/native: {split_median / native_median if native_median else 0.0:.3f}")
+    print(f"tile-wait/frame: {tile_wait_median / split_median if split_median else 0.0:.3f}")
+    print(f"tile-bytes/raw: {tile_bytes / raw_bytes if raw_bytes else 0.0:.3f}")
 
 
 def run(args):
     res = measure(args)
-    print_tables(res)
     if res["pngs"]:
         print(f"native frame: {res['pngs'][0]}\nsplit frame:  {res['pngs'][1]}")
+    print_tables(res)  # ends with the three ratio lines
     return 0
