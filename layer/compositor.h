@@ -59,11 +59,13 @@ struct FoveaTile {
 
 // The periphery filter, a specialisation constant of shaders/upsample.frag.
 enum class UpsampleFilter : int { Bilinear = 0, CatmullRom = 1 };
-// What compositor_for() uses. Measured against native on splitvk-atrium at 2400x1080, scale 0.6
-// (tests/e2e/suites/split_test.cpp, whole-frame SSIM / PSNR): Catmull-Rom 0.9714 / 37.92 dB against
-// bilinear's 0.9682 / 37.68 dB in stereo, 0.9760 against 0.9736 in mono, 0.9707 against 0.9673 on
-// sRGB: better in every case, for 9 bilinear taps instead of 1.
-inline constexpr UpsampleFilter kDefaultUpsampleFilter = UpsampleFilter::CatmullRom;
+// What compositor_for() uses: bilinear. Catmull-Rom measured better against native on
+// splitvk-atrium at 2400x1080, scale 0.6 (whole-frame SSIM 0.9714 against 0.9682 in stereo, 0.9760
+// against 0.9736 mono, 0.9707 against 0.9673 sRGB; tests/e2e/suites/split_test.cpp), but its 9
+// bilinear taps per pixel cost the weak client far more than they give: in `scripts/bench paper
+// --quick` (client on one lavapipe thread) split/native was 1.197 with Catmull-Rom and 0.789 with
+// bilinear. A client with a real GPU can afford it: pass UpsampleFilter::CatmullRom to create().
+inline constexpr UpsampleFilter kDefaultUpsampleFilter = UpsampleFilter::Bilinear;
 
 class Compositor {
 public:

@@ -44,8 +44,10 @@ PLOT_SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "paper_pl
 PLOT_PYTHON = "/usr/bin/python3"
 DOC_BEGIN = "<!-- bench paper: begin (scripts/bench paper --write-docs replaces this section) -->"
 DOC_END = "<!-- bench paper: end -->"
-FULL = {"frames": 350, "rounds": 3, "periphery_frames": 120}
-QUICK = {"frames": 40, "rounds": 2, "periphery_frames": 20}
+# The periphery render is measured by the layer (SPLITVK_STATS' periphery_ms, GPU timestamps);
+# --periphery-frames N adds the older estimate, a native run at the periphery's size.
+FULL = {"frames": 350, "rounds": 3, "periphery_frames": 0}
+QUICK = {"frames": 40, "rounds": 2, "periphery_frames": 0}
 
 
 def cpu_list(text):
@@ -362,7 +364,7 @@ def typical_frame(rows, stages):
     return rows[best_i - 1], rows[best_i]
 
 
-def timeline(prev, row, periphery_ms):
+def timeline(prev, row, periphery_ms, periphery_kind="estimated"):
     """Segments (lane, label, start, duration) of one split frame, t = 0 at the previous frame's present.
 
     Known from the CSV: frame_ms (present to present, measured where the present starts waiting),
@@ -394,8 +396,20 @@ def timeline(prev, row, periphery_ms):
         ("client decoders", "decode (slower eye)", arrive, decode),
     ]
     if periphery_ms is not None:
-        segs.insert(1, ("client lavapipe", "periphery render (estimated)", S, periphery_ms))
+        # The row's own GPU measurement when there is one (the latest completed split pass).
+        own = float(row.get("periphery_ms") or 0)
+        segs.insert(1, ("client lavapipe", f"periphery render ({periphery_kind})", S, own or periphery_ms))
     return {"frame": int(row["frame"]), "frame_ms": f("frame_ms"), "present_at": S + wait + merge, "segments": segs}
+
+
+def periphery_label(config):
+    return "GPU timestamps" if config.get("periphery_source") == "gpu" else "est."
+
+
+def periphery_note(config):
+    if config.get("periphery_source") == "gpu":
+        return "periphery render as the layer measured it on the client's GPU (timestamp queries around the split pass)"
+    return f"periphery render estimated by a native run at {config['periphery']}"
 
 
 def summarize(args, machine, native_runs, split_runs, periphery_runs, periphery_size, out_dir, wall_s):
@@ -404,7 +418,10 @@ def summarize(args, machine, native_runs, split_runs, periphery_runs, periphery_
     rows = [r for _, rows in split_runs for r in rows]
     stages = split.stage_medians(rows)
     stages["frame"] = split.median([float(r["frame_ms"]) for r in rows if float(r["frame_ms"]) > 0])
-    periphery = [v for run in periphery_runs for v in run]
+    # Measured on the client's GPU when the layer wrote it; else the periphery-size native estimate.
+    measured = [float(r["periphery_ms"]) for r in rows if float(r.get("periphery_ms") or 0) > 0]
+    periphery = measured or [v for run in periphery_runs for v in run]
+    source = "gpu" if measured else ("estimate" if periphery else None)
     typical = typical_frame(rows, stages)
     res = {
         "date": datetime.date.today().isoformat(),
@@ -416,7 +433,7 @@ def summarize(args, machine, native_runs, split_runs, periphery_runs, periphery_
                    "frames": args.frames, "rounds": args.rounds, "warmup": args.warmup,
                    "periphery_frames": args.periphery_frames, "client_cpus": args.client_cpus,
                    "client_threads": args.client_threads, "tile_wait": args.tile_wait, "agent_cpus": args.agent_cpus, "link": args.link,
-                   "quick": args.quick},
+                   "quick": args.quick, "periphery_source": source},
         "native": q3(native), "split": q3(split_times),
         "native_rounds": [split.median(r) for r in native_runs],
         "split_rounds": [split.median(r) for r, _ in split_runs],
@@ -443,9 +460,9 @@ def tables_markdown(res):
         + ", ".join(f"{v:.1f}" for v in res["split_rounds"]) + " |",
         f"| **split / native** | **{sp['median'] / n['median']:.3f}** | | | |",
         "",
-        f"Client (Table 1), medians in ms; periphery render estimated by a native run at {c['periphery']}:",
+        f"Client (Table 1), medians in ms; {periphery_note(c)}:",
         "",
-        "| fovea per eye | periphery render (est.) | tile wait | network | decode | upload + merge | Mbit/s |",
+        f"| fovea per eye | periphery render ({periphery_label(c)}) | tile wait | network | decode | upload + merge | Mbit/s |",
         "|---|---|---|---|---|---|---|",
         f"| {c['fovea']} | {per_text} | {s['tile_wait']:.2f} | {s['network']:.2f} | {s['decode']:.2f} | "
         f"{s['merge']:.2f} | {s['mbits']:.1f} |",
@@ -473,7 +490,8 @@ def print_tables(res):
     print("end to end (ms per frame)        median      IQR   frames")
     print(f"  native (client alone)     {n['median']:9.2f} {n['iqr']:8.2f} {n['n']:8d}")
     print(f"  split                     {sp['median']:9.2f} {sp['iqr']:8.2f} {sp['n']:8d}")
-    print("client (median ms)   periphery(est.)  tile wait   network   decode  upload+merge   Mbit/s")
+    label = "periphery(GPU)" if res["config"].get("periphery_source") == "gpu" else "periphery(est.)"
+    print(f"client (median ms)   {label:>15}  tile wait   network   decode  upload+merge   Mbit/s")
     print(f"                     {per['median'] if per else float('nan'):15.2f} {s['tile_wait']:10.2f} "
           f"{s['network']:9.2f} {s['decode']:8.2f} {s['merge']:13.2f} {s['mbits']:8.1f}")
     print("agent (median ms)         draw   readback   encode")
@@ -536,8 +554,8 @@ def section_markdown(res, figures, docs_path, analysis):
         f"The client (app, layer, tile decoders; native runs too) is confined to CPU {c['client_cpus']} with "
         f"lavapipe's `LP_NUM_THREADS={c['client_threads']}`, the agent to CPU {c['agent_cpus']}; link: "
         f"{c['link']} ({'loopback, no proxy' if c['link'] == 'direct' else 'splitvk-link on loopback'}); `SPLITVK_TILE_WAIT={c.get('tile_wait', 250)}` (lockstep as in the paper). Native and split alternate, {c['rounds']} rounds of {c['frames']} frames, "
-        f"the first {c['warmup']} of each run left out; each round also renders natively at {c['periphery']} "
-        "to estimate the periphery render. Medians and IQRs are over every remaining frame.",
+        f"the first {c['warmup']} of each run left out; {periphery_note(c)}. Medians and IQRs are over every "
+        "remaining frame.",
         "",
         f"- date: {res['date']}",
         f"- machine: {describe_machine(m)}; Xvfb display",
@@ -572,8 +590,8 @@ def section_markdown(res, figures, docs_path, analysis):
             "frame's tile wait and merge; the tiles arrive at the present's wait start + tile wait - decode "
             "(the wait ends when the slower eye is decoded); the agent sends them network-ms earlier; encode, "
             "readback and draw end back to back before that. Assumptions: FramePresent takes ~0 ms on "
-            "loopback; the periphery render (hatched: its length is the periphery-size native median, not "
-            "measured in the split run) starts at the submit, which atrium issues right before presenting, "
+            "loopback; the periphery render (its GPU time as the layer measured it, or hatched where it is "
+            "only estimated from a periphery-size native run) starts at the submit, which atrium issues right before presenting, "
             "and runs on lavapipe's rasterizer thread, overlapping the tile wait; the app's time before its "
             "present is not only recording: with two frames in flight it waits for lavapipe to finish an "
             "earlier frame (its periphery and composite), which the CSV cannot split further. Bars that overlap in time "
@@ -613,12 +631,13 @@ def analysis_text(res):
            f"{agent_path:.1f} ms against a {s['tile_wait']:.1f} ms wait, its largest stage {worst_agent} "
            f"({agent_stages[worst_agent]:.1f} ms)."]
     if P is not None:
-        out[-1] += (f" In parallel with it the client renders its periphery (est. {P:.1f} ms, "
+        out[-1] += (f" In parallel with it the client renders its periphery ({periphery_label(res['config'])} "
+                    f"{P:.1f} ms, "
                     f"{P / n['median']:.0%} of a native frame for {float(res['config']['scale']) ** 2:.0%} of its "
                     "pixels: the geometry work does not shrink with the scale)")
         if P >= agent_path:
             out[-1] += (", which is at least as long: the two race, and the client's own periphery render is "
-                        "the larger of the two. **The periphery render dominates** (estimated), with "
+                        f"the larger of the two. **The periphery render dominates** ({periphery_label(res['config'])}), with "
                         f"{worst_agent} close behind it.")
         else:
             out[-1] += (f", which is shorter: **the agent's {worst_agent} dominates**; the client idles "
@@ -672,7 +691,8 @@ def run(args):
     else:
         res = measure(args)
     per = res["periphery"]
-    res["typical"] = timeline(*res["typical_rows"], per["median"] if per else None) if res["typical_rows"] else None
+    res["typical"] = (timeline(*res["typical_rows"], per["median"] if per else None, periphery_label(res["config"]))
+                      if res["typical_rows"] else None)
     figures_dir = args.figures_dir or (os.path.join(common.REPO, "docs", "figures") if write else res["out_dir"])
     figures = None if args.no_plots else plot(res, figures_dir, res["out_dir"])
     with open(os.path.join(res["out_dir"], "results.json"), "w") as f:

@@ -31,8 +31,8 @@ constexpr int kFrames = 4; // the frame compared is frame 3, after some animatio
 
 // The whole-frame floors. The periphery is rendered at 0.6 of the resolution in each direction and
 // upsampled, so the frame cannot equal native outside the foveae. Measured on atrium at 2400x1080
-// with the Catmull-Rom upsample (stereo, mono, sRGB): SSIM 0.970-0.976, PSNR 37.5-38.8 dB (bilinear:
-// 0.967-0.974). The floors
+// with the bilinear upsample (stereo, mono, sRGB): SSIM 0.967-0.974, PSNR 37.3-38.6 dB (Catmull-Rom:
+// 0.970-0.976). The floors
 // sit below that with room for other CPUs' and drivers' rounding, and above what a broken composite
 // gives: the test itself checks that the same frame with its foveae blacked out (tiles missing, the
 // most likely failure) falls below the SSIM floor, and a frame left un-upsampled in the top-left
