@@ -114,6 +114,8 @@ def stage_medians(rows):
         "mbits": tile_bytes * 8 / total_s / 1e6 if total_s > 0 else 0.0,
         "tile_bytes": sum(int(r["tile_bytes"]) for r in on_time), "raw_bytes": raw_bytes,
         "late": len(rows) - len(on_time), "frames": len(rows),
+        # GPU time of the client's split pass (timestamp queries); 0 where the layer had none yet.
+        "periphery": median([float(r["periphery_ms"]) for r in rows if float(r.get("periphery_ms") or 0) > 0] or [0.0]),
     }
 
 
@@ -215,9 +217,9 @@ def measure(args):
 def print_tables(res):
     s = res["stages"]
     print()
-    print("client (median ms per frame)      network   decode   upload+merge   tile wait     Mbit/s")
-    print(f"                                 {s['network']:9.2f} {s['decode']:8.2f} {s['merge']:14.2f} "
-          f"{s['tile_wait']:11.2f} {s['mbits']:10.1f}")
+    print("client (median ms per frame)  periphery (GPU)   network   decode   upload+merge   tile wait     Mbit/s")
+    print(f"                              {s['periphery']:15.2f} {s['network']:9.2f} {s['decode']:8.2f} "
+          f"{s['merge']:14.2f} {s['tile_wait']:11.2f} {s['mbits']:10.1f}")
     print("agent (median ms per frame)          draw   readback   encode")
     print(f"                                 {s['draw']:9.2f} {s['readback']:10.2f} {s['encode']:8.2f}")
     print("end to end (ms per frame)        median      IQR")
