@@ -3,11 +3,17 @@
 find_program(GLSLANG_VALIDATOR glslangValidator REQUIRED)
 find_program(SPIRV_VAL spirv-val REQUIRED)
 
-# splitvk_add_shaders(TARGET <target> HEADER <name.h> NAMESPACE <c++ namespace> SOURCES a.vert b.frag ...)
+# splitvk_add_shaders(TARGET <target> HEADER <name.h> NAMESPACE <c++ namespace> [TARGET_ENV vulkan1.0]
+#                     SOURCES a.vert b.frag ...)
+# TARGET_ENV (default vulkan1.1) is glslang's and spirv-val's --target-env: code the layer runs on
+# the application's device must be vulkan1.0 (SPIR-V 1.0), since the application may ask for 1.0.
 # Emits ${CMAKE_CURRENT_BINARY_DIR}/shaders/<name.h> with `const uint32_t <ns>::<stem>_<stage>[]` arrays
 # and adds that directory to the target's include path.
 function(splitvk_add_shaders)
-  cmake_parse_arguments(ARG "" "TARGET;HEADER;NAMESPACE" "SOURCES" ${ARGN})
+  cmake_parse_arguments(ARG "" "TARGET;HEADER;NAMESPACE;TARGET_ENV" "SOURCES" ${ARGN})
+  if(NOT ARG_TARGET_ENV)
+    set(ARG_TARGET_ENV vulkan1.1)
+  endif()
   set(out_dir ${CMAKE_CURRENT_BINARY_DIR}/shaders)
   set(spv_files)
   foreach(src ${ARG_SOURCES})
@@ -17,8 +23,8 @@ function(splitvk_add_shaders)
     add_custom_command(
       OUTPUT ${spv}
       COMMAND ${CMAKE_COMMAND} -E make_directory ${out_dir}
-      COMMAND ${GLSLANG_VALIDATOR} --quiet -V --target-env vulkan1.1 -o ${spv} ${abs}
-      COMMAND ${SPIRV_VAL} --target-env vulkan1.1 ${spv}
+      COMMAND ${GLSLANG_VALIDATOR} --quiet -V --target-env ${ARG_TARGET_ENV} -o ${spv} ${abs}
+      COMMAND ${SPIRV_VAL} --target-env ${ARG_TARGET_ENV} ${spv}
       DEPENDS ${abs}
       COMMENT "glslang + spirv-val ${name}"
       VERBATIM)

@@ -7,7 +7,7 @@ generated as calls through the dispatch table of the object they are called on.
 from allowlist import DEVICE_EXTENSIONS
 from codec_policy import FORWARD, POLICY
 from cpp import HEADER, guarded
-from layer_overrides import LOADER_ANSWERED, MANUAL_COMMANDS
+from layer_overrides import LOADER_ANSWERED, MANUAL_COMMANDS, OBSERVED_COMMANDS
 
 _LEVEL_ENUM = {
     "global": "EntryLevel::Global",
@@ -90,6 +90,8 @@ def _forward_body(c, by_name, handle_types):
     else:
         lines.append(f"    const {ret} result = {call};")
         ok = " && result >= 0" if ret == "VkResult" else ""
+    if c.name in OBSERVED_COMMANDS:
+        lines.append(f"    if (dev.session{ok}) [[unlikely]] observe::{c.short_name}(dev, {c.arguments});")
     if handle.type == "VkCommandBuffer":
         lines += [f"    if (capturing(dev){ok}) [[unlikely]] {{",
                   f"        if (codec::Encoder *enc = command_buffer_encoder({handle.name})) {{",
@@ -125,9 +127,12 @@ def _forward_body(c, by_name, handle_types):
 
 def emit(model):
     commands = [c for c in model.commands if c.name not in LOADER_ANSWERED]
-    missing = MANUAL_COMMANDS - {c.name for c in commands}
+    missing = (MANUAL_COMMANDS | OBSERVED_COMMANDS) - {c.name for c in commands}
     if missing:
-        raise SystemExit(f"manual commands not in the forwarded set: {', '.join(sorted(missing))}")
+        raise SystemExit(f"manual or observed commands not in the forwarded set: {', '.join(sorted(missing))}")
+    both = MANUAL_COMMANDS & OBSERVED_COMMANDS
+    if both:
+        raise SystemExit(f"commands both manual and observed (observe in the manual code): {', '.join(sorted(both))}")
 
     header = [HEADER.format(script="emit_layer.py"), "#pragma once", "",
               "#include <vulkan/vulkan.h>", "", "namespace splitvk {", "",
@@ -146,7 +151,14 @@ def emit(model):
     for c in commands:
         header += guarded(c.protect, [
             f"VKAPI_ATTR {c.return_type} VKAPI_CALL {c.short_name}({c.signature});"])
-    header += ["", "} // namespace entry", "} // namespace splitvk", ""]
+    header += ["", "} // namespace entry", "",
+               "struct DeviceState;", "",
+               "// Hand-written observers of generated entry points (layer_overrides.OBSERVED_COMMANDS).",
+               "namespace observe {", ""]
+    for c in commands:
+        if c.name in OBSERVED_COMMANDS:
+            header += guarded(c.protect, [f"void {c.short_name}(DeviceState &dev, {c.signature});"])
+    header += ["", "} // namespace observe", "} // namespace splitvk", ""]
 
     by_name = {c.name: c for c in model.commands}
     source = [HEADER.format(script="emit_layer.py"), '#include "layer_entry_points.h"', "",

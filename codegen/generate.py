@@ -3,6 +3,7 @@
 
 Usage: generate.py --registry /usr/share/vulkan/registry --out DIR TARGET...
 Targets: dispatch (instance/device dispatch tables), layer (layer entry points and lookup),
+formats (vk_format_info.h: block sizes of single-plane formats),
 codec (the Vulkan wire codec: encoders, decoders, dispatch, smoke test). All consume the same
 model from vkregistry.py.
 """
@@ -14,6 +15,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import emit_codec  # noqa: E402
 import emit_dispatch  # noqa: E402
+import emit_formats  # noqa: E402
 import emit_layer  # noqa: E402
 import emit_replay  # noqa: E402
 import vkregistry  # noqa: E402
@@ -23,6 +25,7 @@ EMITTERS = {
     "layer": emit_layer.emit,
     "codec": emit_codec.emit,
     "replay": emit_replay.emit,
+    "formats": emit_formats.emit,
 }
 
 

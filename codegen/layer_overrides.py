@@ -56,6 +56,67 @@ MANUAL_COMMANDS = {
     "vkAcquireNextImageKHR",
     "vkAcquireNextImage2KHR",
     "vkQueuePresentKHR",
+    # resource.cpp: TRANSFER_SRC added down the chain, so that a snapshot can read contents back.
+    "vkCreateBuffer",
+    "vkCreateImage",
+    # The split rewrite (layer/split.h): these capture the app's original call and pass a
+    # rewritten one down. render_pass.cpp: which passes draw into swapchain images (views,
+    # framebuffers, swapchain images), their scaled render area and clear rects, and the
+    # viewport/scissor state re-emitted at their begin and end.
+    "vkGetSwapchainImagesKHR",
+    "vkCreateImageView",
+    "vkDestroyImageView",
+    "vkCreateFramebuffer",
+    "vkDestroyFramebuffer",
+    "vkCmdBeginRenderPass",
+    "vkCmdBeginRenderPass2",
+    "vkCmdBeginRenderPass2KHR",
+    "vkCmdEndRenderPass",
+    "vkCmdEndRenderPass2",
+    "vkCmdEndRenderPass2KHR",
+    "vkCmdBeginRendering",
+    "vkCmdBeginRenderingKHR",
+    "vkCmdEndRendering",
+    "vkCmdEndRenderingKHR",
+    "vkCmdClearAttachments",
+    # pipeline.cpp: static viewport/scissor state made dynamic down the chain, set at bind.
+    "vkCreateGraphicsPipelines",
+    "vkDestroyPipeline",
+    "vkCmdBindPipeline",
+    # viewport.cpp: the app's dynamic viewports/scissors, kept unscaled, passed down scaled in a split pass.
+    "vkCmdSetViewport",
+    "vkCmdSetViewportWithCount",
+    "vkCmdSetViewportWithCountEXT",
+    "vkCmdSetScissor",
+    "vkCmdSetScissorWithCount",
+    "vkCmdSetScissorWithCountEXT",
+}
+
+# Commands whose generated entry point also tells a hand-written observer, after the call went down
+# and was captured: observe::<Name>(DeviceState &, <the command's parameters>) in the namespace
+# splitvk::observe, called only on a device with a session and, for VkResult commands, on success.
+# For state the layer tracks but does not change (DESIGN §3, the reliability issue's resync).
+OBSERVED_COMMANDS = {
+    # resource.cpp: where buffers and images live, and the layout of every image subresource, so
+    # that a snapshot can read their contents back.
+    "vkDestroyBuffer",
+    "vkDestroyImage",
+    "vkBindBufferMemory",
+    "vkBindBufferMemory2",
+    "vkBindBufferMemory2KHR",
+    "vkBindImageMemory",
+    "vkBindImageMemory2",
+    "vkBindImageMemory2KHR",
+    "vkCmdPipelineBarrier",
+    "vkCmdPipelineBarrier2",
+    "vkCmdPipelineBarrier2KHR",
+    "vkCmdWaitEvents",
+    "vkCmdWaitEvents2",
+    "vkCmdWaitEvents2KHR",
+    "vkCreateRenderPass",
+    "vkCreateRenderPass2",
+    "vkCreateRenderPass2KHR",
+    "vkDestroyRenderPass",
 }
 
 # Global commands are answered by the loader from the manifest for interface version 2 layers;

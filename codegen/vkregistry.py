@@ -86,6 +86,15 @@ class Command:
 
 
 @dataclass
+class Format:
+    """A single-plane VkFormat as vk.xml's <formats> describes it."""
+    name: str
+    block_bytes: int
+    block_extent: tuple[int, int, int]
+    components: list[str]  # "R", "G", "B", "A", "D", "S" in vk.xml order
+
+
+@dataclass
 class ApiModel:
     commands: list[Command] = field(default_factory=list)
     handle_types: dict[str, bool] = field(default_factory=dict)  # handle name -> dispatchable
@@ -99,6 +108,7 @@ class ApiModel:
     basetype_of: dict[str, str] = field(default_factory=dict)    # "VkDeviceSize" -> "uint64_t"
     handle_object_type: dict[str, str] = field(default_factory=dict)  # "VkBuffer" -> "VK_OBJECT_TYPE_BUFFER"
     negative_enums: set[str] = field(default_factory=set)        # enums with negative values (VkResult)
+    formats: list["Format"] = field(default_factory=list)         # vk.xml <formats>, single-plane ones
 
     def resolve(self, type_name: str) -> str:
         """The canonical name of a type (following aliases)."""
@@ -267,4 +277,11 @@ def load(registry_dir: str) -> ApiModel:
     # A structure may name parents outside the selection in `structextends`: keep the selected ones.
     for struct in model.structs.values():
         struct.extends = [p for p in struct.extends if model.resolve(p) in model.structs]
+    for elem in registry.tree.findall("formats/format"):
+        if elem.find("plane") is not None:
+            continue  # multi-planar (YCbCr) formats: copied per plane, not supported by splitvk
+        extent = tuple(int(v) for v in (elem.get("blockExtent") or "1,1,1").split(","))
+        model.formats.append(Format(name=elem.get("name"), block_bytes=int(elem.get("blockSize")),
+                                    block_extent=extent,
+                                    components=[c.get("name") for c in elem.findall("component")]))
     return model

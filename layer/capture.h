@@ -12,8 +12,10 @@
 
 namespace splitvk {
 
+// Whether calls go into the live-state log (and, with an agent connected, to the agent): every
+// device with a session, connected or not, so that a later agent can be brought in.
 inline bool capturing(const DeviceState &device) {
-    return device.session != nullptr && device.session->live();
+    return device.session != nullptr;
 }
 
 // Device-level call into the global stream, with its effect on the live-state log.
@@ -52,6 +54,10 @@ void snapshot_descriptor_contents(DeviceState &device, const std::unordered_set<
                                   codec::Encoder &out, size_t *set_count);
 void snapshot_command_buffers(DeviceState &device, const std::unordered_set<uint64_t> &live,
                               std::vector<std::vector<uint8_t>> &streams);
+
+// memory.cpp: a new agent was given the current contents of every buffer; the shadows of mapped
+// memory become those contents, so that later diffs are against what it has.
+void resync_mapped_shadows(DeviceState &device);
 
 // The stream a command buffer is being recorded into; nullptr when it is not captured
 // (allocated before the session, or not between begin and end).

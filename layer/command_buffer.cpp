@@ -9,7 +9,10 @@
 // lookup.
 
 #include "capture.h"
+#include "gpu_timing.h"
 #include "layer_entry_points.h"
+#include "resource.h"
+#include "split.h"
 
 #include <mutex>
 #include <shared_mutex>
@@ -26,6 +29,10 @@ struct CommandBufferState {
     bool recording = false;
     codec::Encoder encoder;
     std::vector<uint8_t> last_stream; // live-state log: the stream last sent for it
+    // The split's viewport/scissor state and the split passes recorded (split.h); reset at begin,
+    // read at submit (a resubmitted command buffer draws the same split passes again).
+    split::CommandTracker split;
+    CommandLayouts layouts; // the image layout transitions it records (resource.h); reset at begin
 };
 
 std::shared_mutex g_mutex;
@@ -60,6 +67,16 @@ void erase_locked(VkCommandBuffer command_buffer) {
 codec::Encoder *command_buffer_encoder(VkCommandBuffer command_buffer) {
     CommandBufferState *state = find_state(command_buffer);
     return state && state->recording ? &state->encoder : nullptr;
+}
+
+CommandLayouts *command_buffer_layouts(VkCommandBuffer command_buffer) {
+    CommandBufferState *state = find_state(command_buffer);
+    return state ? &state->layouts : nullptr;
+}
+
+split::CommandTracker *split_tracker(VkCommandBuffer command_buffer) {
+    CommandBufferState *state = find_state(command_buffer);
+    return state ? &state->split : nullptr;
 }
 
 void forget_command_buffers(DeviceState &device) {
@@ -139,6 +156,9 @@ VKAPI_ATTR VkResult VKAPI_CALL BeginCommandBuffer(VkCommandBuffer commandBuffer,
     CommandBufferState *state = find_state(commandBuffer);
     if (!state) return result;
     discard_stream(*state);
+    state->split.reset();
+    state->layouts = {};
+    reset_split_pass_timing(commandBuffer);
     if (result == VK_SUCCESS && capturing(dev)) {
         encode_vkBeginCommandBuffer(state->encoder, commandBuffer, pBeginInfo, state->level);
         state->recording = true;

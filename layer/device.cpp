@@ -3,6 +3,8 @@
 #include "device.h"
 
 #include "chain_info.h"
+#include "compositor.h"
+#include "gpu_timing.h"
 #include "instance.h"
 #include "layer_entry_points.h"
 #include "log.h"
@@ -39,11 +41,15 @@ DeviceState &device_state_by_key(DispatchKey key) {
 
 void forget_command_buffers(DeviceState &device); // command_buffer.cpp
 void forget_memory(DeviceState &device);          // memory.cpp
+void forget_resources(DeviceState &device);       // resource.cpp
 
 void forget_device_objects(DeviceState &device) {
     if (!device.session) return;
+    release_compositors(device); // of swapchains the application left alive
     forget_command_buffers(device);
     forget_memory(device);
+    forget_resources(device);
+    release_gpu_timing(device);
 }
 
 DeviceState &device_state(VkDevice device) {
@@ -121,6 +127,7 @@ VKAPI_ATTR void VKAPI_CALL DestroyDevice(VkDevice device, const VkAllocationCall
                                    [&](codec::Encoder &e) { encode_vkDestroyDevice(e, device, nullptr); });
         state->session->close();
         report_verify_summary(*state);
+        report_split_summary(*state);
     }
     state->dispatch.DestroyDevice(device, pAllocator);
 }

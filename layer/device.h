@@ -39,5 +39,7 @@ void forget_device_objects(DeviceState &device);
 uint32_t queue_family_of(VkQueue queue);
 // SPLITVK_VERIFY=full: the one summary line at vkDestroyDevice (present.cpp).
 void report_verify_summary(DeviceState &device);
+// Split mode: the one summary line at vkDestroyDevice (present.cpp).
+void report_split_summary(DeviceState &device);
 
 } // namespace splitvk

@@ -17,6 +17,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstring>
 #include <mutex>
 #include <unordered_map>
 #include <unordered_set>
@@ -82,6 +83,21 @@ void sync_mapped_memory(DeviceState &device) {
     const auto ns =
         std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - start);
     device.session->memory_compare_ns.fetch_add(static_cast<uint64_t>(ns.count()), std::memory_order_relaxed);
+}
+
+void resync_mapped_shadows(DeviceState &device) {
+    // A new agent gets every buffer's contents in the snapshot; from then on, diffs are against
+    // what it has, which is what the mapped memory holds now.
+    std::lock_guard lock(g_mutex);
+    const auto it = g_mapped.find(&device);
+    if (it == g_mapped.end()) return;
+    for (MemoryState *memory : it->second) {
+        if (!memory->mapped) continue;
+        if (memory->shadow.size() != memory->size)
+            memory->shadow.assign(static_cast<size_t>(memory->size), 0);
+        std::memcpy(memory->shadow.data() + memory->map_offset, memory->mapped,
+                    static_cast<size_t>(memory->map_size));
+    }
 }
 
 void forget_memory(DeviceState &device) {

@@ -14,9 +14,14 @@
 // does not return in time counts as all of its pixels mismatching.
 
 #include "capture.h"
+#include "compositor.h"
+#include "gpu_timing.h"
+#include "host_buffer.h"
 #include "layer_entry_points.h"
 #include "log.h"
 #include "session.h"
+#include "split.h"
+#include "stats.h"
 #include "submit_rules.h"
 #include "swapchain.h"
 
@@ -37,10 +42,7 @@ constexpr uint64_t kFenceWaitNs = 5'000'000'000; // the layer's own copy
 struct Readback {
     VkCommandPool pool = VK_NULL_HANDLE;
     VkCommandBuffer command_buffer = VK_NULL_HANDLE;
-    VkBuffer buffer = VK_NULL_HANDLE;
-    VkDeviceMemory memory = VK_NULL_HANDLE;
-    void *mapped = nullptr;
-    bool coherent = true;
+    HostBuffer staging; // the whole image, read back
     VkFence fence = VK_NULL_HANDLE;
     VkSemaphore semaphore = VK_NULL_HANDLE;
     bool in_flight = false;
@@ -54,8 +56,7 @@ void destroy(DeviceState &dev, Readback &r) {
     if (r.in_flight) dev.dispatch.WaitForFences(d, 1, &r.fence, VK_TRUE, kFenceWaitNs);
     if (r.semaphore) dev.dispatch.DestroySemaphore(d, r.semaphore, nullptr);
     if (r.fence) dev.dispatch.DestroyFence(d, r.fence, nullptr);
-    if (r.buffer) dev.dispatch.DestroyBuffer(d, r.buffer, nullptr);
-    if (r.memory) dev.dispatch.FreeMemory(d, r.memory, nullptr);
+    destroy_host_buffer(dev, r.staging);
     if (r.pool) dev.dispatch.DestroyCommandPool(d, r.pool, nullptr);
     r = Readback{};
 }
@@ -80,34 +81,10 @@ bool create(DeviceState &dev, const SwapchainState &sc, uint32_t family, Readbac
     else
         *reinterpret_cast<void **>(r.command_buffer) = *reinterpret_cast<void **>(d);
 
-    VkBufferCreateInfo buffer_info{};
-    buffer_info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
-    buffer_info.size = VkDeviceSize{sc.extent.width} * sc.extent.height * 4;
-    buffer_info.usage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-    if (k.CreateBuffer(d, &buffer_info, nullptr, &r.buffer) != VK_SUCCESS) return false;
-    VkMemoryRequirements req{};
-    k.GetBufferMemoryRequirements(d, r.buffer, &req);
-    uint32_t type = UINT32_MAX;
-    for (int pass = 0; pass < 2 && type == UINT32_MAX; ++pass) {
-        const VkMemoryPropertyFlags want =
-            pass == 0 ? VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT
-                      : VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT;
-        for (uint32_t i = 0; i < dev.memory_properties.memoryTypeCount; ++i)
-            if ((req.memoryTypeBits & (1u << i)) &&
-                (dev.memory_properties.memoryTypes[i].propertyFlags & want) == want) {
-                type = i;
-                r.coherent = pass == 0;
-                break;
-            }
-    }
-    if (type == UINT32_MAX) return false;
-    VkMemoryAllocateInfo mem_info{};
-    mem_info.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-    mem_info.allocationSize = req.size;
-    mem_info.memoryTypeIndex = type;
-    if (k.AllocateMemory(d, &mem_info, nullptr, &r.memory) != VK_SUCCESS) return false;
-    if (k.BindBufferMemory(d, r.buffer, r.memory, 0) != VK_SUCCESS) return false;
-    if (k.MapMemory(d, r.memory, 0, VK_WHOLE_SIZE, 0, &r.mapped) != VK_SUCCESS) return false;
+    std::string error;
+    if (!create_host_buffer(dev, VkDeviceSize{sc.extent.width} * sc.extent.height * 4,
+                            VK_BUFFER_USAGE_TRANSFER_DST_BIT, HostAccess::Read, &r.staging, &error))
+        return false;
     VkFenceCreateInfo fence_info{};
     fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
     if (k.CreateFence(d, &fence_info, nullptr, &r.fence) != VK_SUCCESS) return false;
@@ -138,7 +115,7 @@ void record_copy(DeviceState &dev, const SwapchainState &sc, VkImage image, Read
     VkBufferImageCopy region{};
     region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
     region.imageExtent = {sc.extent.width, sc.extent.height, 1};
-    k.CmdCopyImageToBuffer(r.command_buffer, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, r.buffer, 1,
+    k.CmdCopyImageToBuffer(r.command_buffer, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, r.staging.buffer, 1,
                            &region);
     barrier.srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
     barrier.dstAccessMask = 0;
@@ -163,10 +140,9 @@ std::optional<protocol::VerifyFrame> wait_verify_frame(Session &session, uint64_
         const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
             deadline - std::chrono::steady_clock::now());
         if (left.count() <= 0) break;
-        auto message = session.receive(left);
-        if (!message) continue;
-        if (message->type != protocol::to_wire(protocol::MessageType::VerifyFrame)) continue;
-        auto decoded = protocol::decode_verify_frame(message->payload, UINT32_MAX);
+        auto payload = session.receive_verify_frame(left);
+        if (!payload) continue;
+        auto decoded = protocol::decode_verify_frame(*payload, UINT32_MAX);
         if (!decoded) {
             SPLITVK_INFO("verify: bad VerifyFrame from the agent: %s", decoded.error().c_str());
             continue;
@@ -185,13 +161,7 @@ void compare(DeviceState &dev, const PendingVerify &p) {
     const bool copied =
         dev.dispatch.WaitForFences(dev.handle, 1, &r.fence, VK_TRUE, kFenceWaitNs) == VK_SUCCESS;
     r.in_flight = !copied;
-    if (copied && !r.coherent) {
-        VkMappedMemoryRange range{};
-        range.sType = VK_STRUCTURE_TYPE_MAPPED_MEMORY_RANGE;
-        range.memory = r.memory;
-        range.size = VK_WHOLE_SIZE;
-        dev.dispatch.InvalidateMappedMemoryRanges(dev.handle, 1, &range);
-    }
+    if (copied) invalidate_host_buffer(dev, r.staging);
     const auto theirs = wait_verify_frame(session, p.frame);
     uint64_t mismatches = pixels;
     if (!copied) {
@@ -205,7 +175,7 @@ void compare(DeviceState &dev, const PendingVerify &p) {
                      p.swapchain->extent.height);
     } else {
         mismatches = 0;
-        const auto *mine = static_cast<const uint8_t *>(r.mapped);
+        const uint8_t *mine = r.staging.mapped;
         const uint8_t *other = theirs->pixels.data();
         for (uint64_t i = 0; i < pixels; ++i)
             if (std::memcmp(mine + i * 4, other + i * 4, 4) != 0) ++mismatches;
@@ -215,6 +185,85 @@ void compare(DeviceState &dev, const PendingVerify &p) {
     }
     session.verified_frames.fetch_add(1);
     session.mismatching_pixels.fetch_add(mismatches);
+}
+
+// Split mode: the frame's own tiles, waiting at most SPLITVK_TILE_WAIT. They must cover exactly
+// the foveae the frame's split passes drew; anything else counts as late.
+std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, const SplitFrame &split) {
+    // No agent, or one that joined after this frame's submits: the periphery alone.
+    if (!session.live() || !session.tiles() || frame < session.first_replayed_frame()) return nullptr;
+    const auto deadline =
+        std::chrono::steady_clock::now() + std::chrono::milliseconds(session.settings().tile_wait_ms);
+    auto tiles = session.tiles()->take(frame, deadline);
+    bool match = tiles && tiles->tiles.size() == split.foveae.size();
+    for (size_t i = 0; match && i < split.foveae.size(); ++i) {
+        const VkRect2D &want = split.foveae[i];
+        const VkRect2D &got = tiles->tiles[i].rect;
+        match = want.offset.x == got.offset.x && want.offset.y == got.offset.y &&
+                want.extent.width == got.extent.width && want.extent.height == got.extent.height;
+    }
+    if (match) return tiles;
+    const uint64_t late = session.late_frames.fetch_add(1);
+    // One line for the first late frame, then one per hundred: a stalled agent must not flood.
+    if (late % 100 == 0)
+        SPLITVK_WARN("frame %llu: %s within %u ms; its centre is the periphery's (%llu such frames)",
+                     static_cast<unsigned long long>(frame),
+                     tiles ? "the agent's tiles do not match the frame's foveae" : "no tiles from the agent",
+                     session.settings().tile_wait_ms, static_cast<unsigned long long>(late + 1));
+    return nullptr;
+}
+
+double ms_between(std::chrono::steady_clock::time_point from, std::chrono::steady_clock::time_point to) {
+    return std::max(0.0, std::chrono::duration<double, std::milli>(to - from).count());
+}
+
+// Split mode, at present: waits for the frame's tiles and composites them over the upsampled
+// periphery on `queue`. Returns the semaphore the present must wait on instead of the app's, or
+// VK_NULL_HANDLE when nothing was composited (the present then goes ahead as the app asked).
+VkSemaphore composite_split_frame(DeviceState &dev, VkQueue queue, const VkPresentInfoKHR &present,
+                                  const SwapchainState &swapchain, const SplitFrame &split, uint64_t frame,
+                                  std::chrono::steady_clock::time_point sent) {
+    using Clock = std::chrono::steady_clock;
+    Session &session = *dev.session;
+    FrameRecord record;
+    record.frame = frame;
+    record.frame_ms = session.frame_interval_ms();
+    record.periphery_ms = latest_periphery_ms(dev);
+
+    const auto wait_start = Clock::now();
+    const auto tiles = frame_tiles(session, frame, split); // keeps the pixels alive through composite()
+    const auto waited = Clock::now();
+    record.tile_wait_ms = ms_between(wait_start, waited);
+    std::vector<FoveaTile> foveae;
+    if (tiles) {
+        for (const DecodedTile &tile : tiles->tiles) {
+            foveae.push_back({tile.rect, tile.pixels.data()});
+            record.raw_bytes += uint64_t{tile.rect.extent.width} * tile.rect.extent.height * 4;
+        }
+        record.tile_bytes = tiles->bytes;
+        record.decode_ms = std::chrono::duration<double, std::milli>(tiles->decode).count();
+        record.agent_draw_ms = tiles->agent.draw_us / 1000.0;
+        record.agent_readback_ms = tiles->agent.readback_us / 1000.0;
+        record.agent_encode_ms = tiles->agent.encode_us / 1000.0;
+        record.network_ms =
+            std::max(0.0, ms_between(sent, tiles->received) - tiles->agent.present_to_send_us / 1000.0);
+    }
+    record.late = !tiles;
+    if (tiles && session.take_first_tiles_after_resync())
+        SPLITVK_INFO(
+            "frame %llu: the first split frame from the agent that joined, %.0f ms after it answered",
+            static_cast<unsigned long long>(frame), ms_between(session.joined_agent_answered(), waited));
+
+    VkSemaphore composited = VK_NULL_HANDLE;
+    Compositor *compositor = compositor_for(dev, swapchain, queue_family_of(queue));
+    if (compositor && compositor->composite(queue, present.pImageIndices[0],
+                                            {present.pWaitSemaphores, present.waitSemaphoreCount},
+                                            split.periphery, foveae, &composited) != VK_SUCCESS)
+        composited = VK_NULL_HANDLE;
+    record.merge_ms = ms_between(waited, Clock::now());
+    if (composited) session.composited_frames.fetch_add(1);
+    session.stats().record(record);
+    return composited;
 }
 
 } // namespace
@@ -229,6 +278,12 @@ void release_present_resources(DeviceState &device, VkSwapchainKHR swapchain) {
             ++it;
         }
     }
+}
+
+void report_split_summary(DeviceState &device) {
+    if (!device.session || !device.session->splitting()) return;
+    const std::string line = device.session->stats().summary();
+    if (!line.empty()) splitvk::log_result("%s", line.c_str());
 }
 
 void report_verify_summary(DeviceState &device) {
@@ -269,10 +324,12 @@ VKAPI_ATTR VkResult VKAPI_CALL AcquireNextImage2KHR(VkDevice device,
 
 VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInfoKHR *pPresentInfo) {
     DeviceState &dev = device_state(queue);
-    if (!capturing(dev)) return dev.dispatch.QueuePresentKHR(queue, pPresentInfo);
+    if (!dev.session) return dev.dispatch.QueuePresentKHR(queue, pPresentInfo);
 
     Session &session = *dev.session;
     const uint64_t frame = session.take_frame();
+    // A new agent joins here, where this thread owns the queue (session.h).
+    if (session.resync_pending()) session.resync(dev, queue, frame);
     if (frame == 1) log_live_state(dev, "at frame 1"); // SPLITVK_LOG_LEVEL=debug
     protocol::FramePresent message;
     message.frame = frame;
@@ -284,6 +341,15 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
     // Verification reads back the first swapchain's image.
     std::optional<PendingVerify> pending;
     VkPresentInfoKHR present = *pPresentInfo;
+    // Split mode composites the first swapchain's image (its split passes drew it scaled).
+    const SwapchainState *split_swapchain = nullptr;
+    SplitFrame split;
+    if (session.splitting() && pPresentInfo->swapchainCount > 0) {
+        split_swapchain = find_swapchain(pPresentInfo->pSwapchains[0]);
+        const uint32_t index = pPresentInfo->pImageIndices[0];
+        if (split_swapchain && index < split_swapchain->images.size())
+            split = take_split_frame(dev, split_swapchain->images[index]);
+    }
     std::unique_lock lock(g_mutex, std::defer_lock);
     if (session.verify() && pPresentInfo->swapchainCount > 0) {
         const SwapchainState *sc = find_swapchain(pPresentInfo->pSwapchains[0]);
@@ -326,6 +392,16 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         }
     }
     session.send_metadata(protocol::MessageType::FramePresent, protocol::encode(message));
+
+    VkSemaphore composited = VK_NULL_HANDLE;
+    if (split.split) {
+        composited = composite_split_frame(dev, queue, present, *split_swapchain, split, frame,
+                                           std::chrono::steady_clock::now());
+        if (composited) {
+            present.waitSemaphoreCount = 1;
+            present.pWaitSemaphores = &composited;
+        }
+    }
     const VkResult result = dev.dispatch.QueuePresentKHR(queue, &present);
     if (pending) compare(dev, *pending);
     return result;

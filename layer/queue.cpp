@@ -6,8 +6,11 @@
 // semaphores and pNext removed, keeping the command buffers and the fence.
 
 #include "capture.h"
+#include "gpu_timing.h"
 #include "layer_entry_points.h"
 #include "object_map.h"
+#include "resource.h"
+#include "split.h"
 #include "submit_rules.h"
 
 #include <vector>
@@ -81,6 +84,12 @@ VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit(VkQueue queue, uint32_t submitCount, 
     DeviceState &dev = device_state(queue);
     if (capturing(dev)) [[unlikely]]
         capture_submit(dev, queue, submitCount, pSubmits, fence);
+    if (dev.session) {
+        note_split_submit(dev, submitCount, pSubmits);
+        note_layout_submit(dev, submitCount, pSubmits);
+        for (uint32_t i = 0; i < submitCount; ++i)
+            note_timed_submit(dev, pSubmits[i].commandBufferCount, pSubmits[i].pCommandBuffers);
+    }
     return dev.dispatch.QueueSubmit(queue, submitCount, pSubmits, fence);
 }
 
@@ -89,6 +98,13 @@ VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit2(VkQueue queue, uint32_t submitCount,
     DeviceState &dev = device_state(queue);
     if (capturing(dev)) [[unlikely]]
         capture_submit2(dev, queue, submitCount, pSubmits, fence);
+    if (dev.session) {
+        note_split_submit(dev, submitCount, pSubmits);
+        note_layout_submit(dev, submitCount, pSubmits);
+        for (uint32_t i = 0; i < submitCount; ++i)
+            for (uint32_t j = 0; j < pSubmits[i].commandBufferInfoCount; ++j)
+                note_timed_submit(dev, 1, &pSubmits[i].pCommandBufferInfos[j].commandBuffer);
+    }
     return dev.dispatch.QueueSubmit2(queue, submitCount, pSubmits, fence);
 }
 
@@ -97,6 +113,13 @@ VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit2KHR(VkQueue queue, uint32_t submitCou
     DeviceState &dev = device_state(queue);
     if (capturing(dev)) [[unlikely]]
         capture_submit2(dev, queue, submitCount, pSubmits, fence);
+    if (dev.session) {
+        note_split_submit(dev, submitCount, pSubmits);
+        note_layout_submit(dev, submitCount, pSubmits);
+        for (uint32_t i = 0; i < submitCount; ++i)
+            for (uint32_t j = 0; j < pSubmits[i].commandBufferInfoCount; ++j)
+                note_timed_submit(dev, 1, &pSubmits[i].pCommandBufferInfos[j].commandBuffer);
+    }
     return dev.dispatch.QueueSubmit2KHR(queue, submitCount, pSubmits, fence);
 }
 

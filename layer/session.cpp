@@ -2,10 +2,12 @@
 
 #include "session.h"
 
+#include "capture.h"
 #include "device.h"
 #include "instance.h"
 #include "layer_settings.h"
 #include "log.h"
+#include "resource.h"
 
 #include <algorithm>
 #include <chrono>
@@ -49,80 +51,287 @@ void CaptureHooks::chain_truncated(const char *parent) {
     truncation_logged_ = true;
 }
 
+protocol::Result<Session::Agent> Session::connect_agent(bool *final) {
+    *final = false;
+    protocol::ConnectionOptions options;
+    options.name = "splitvk-agent " + address_;
+    auto connected = protocol::Connection::connect(settings_.server.host, settings_.server.port,
+                                                   kConnectTimeout, std::move(options));
+    if (!connected) return protocol::Error{connected.error()};
+    Agent agent;
+    agent.connection = std::move(connected.value());
+    // A closure counts only for the connection in use: one that failed its handshake, or was
+    // replaced, is not the session's business.
+    protocol::Connection *connection = agent.connection.get();
+    agent.connection->start([this, connection](const std::string &reason) {
+        if (current_connection_.load() == connection) fail(reason);
+    });
+    protocol::Hello hello;
+    hello.token.assign(settings_.token.begin(), settings_.token.end());
+    hello.client_name = client_name_;
+    hello.client_gpu_name = client_gpu_name_;
+    hello.codec_fingerprint = codec::kCodecFingerprint;
+    hello.capabilities = protocol::capability::kZstdPayloads;
+    // SPLITVK_VERIFY compares whole frames with the agent's replay, which only an unsplit frame
+    // can match: verification and the split exclude each other.
+    hello.capabilities |=
+        settings_.verify ? protocol::capability::kVerifyFrames : protocol::capability::kFoveaTiles;
+    auto welcome = protocol::client_handshake(*agent.connection, hello, kHandshakeTimeout);
+    if (!welcome) {
+        // A wrong token or protocol version stays wrong however often it is tried; a full agent
+        // may have room later.
+        const std::string &e = welcome.error();
+        *final = e.starts_with("server rejected the session") && e.find("server full") == std::string::npos;
+        return protocol::Error{e};
+    }
+    agent.welcome = std::move(welcome).value();
+    return agent;
+}
+
+void Session::adopt_locked(Agent &&agent) {
+    stop_receiver();
+    if (connection_) connection_->close("replaced by a new connection");
+    connection_ = std::move(agent.connection);
+    current_connection_.store(connection_.get());
+    const uint64_t capabilities = agent.welcome.capabilities;
+    if (!(capabilities & protocol::capability::kZstdPayloads)) {
+        protocol::CompressionPolicy policy;
+        policy.enabled = false;
+        connection_->set_compression(policy);
+    }
+    verify_ = settings_.verify && (capabilities & protocol::capability::kVerifyFrames);
+    if (settings_.verify && !verify_)
+        SPLITVK_WARN("splitvk-agent at %s cannot verify frames; SPLITVK_VERIFY ignored", address_.c_str());
+    if (capabilities & protocol::capability::kFoveaTiles) {
+        if (!stats_) stats_ = std::make_unique<FrameStats>(settings_.stats_path);
+        splitting_.store(true);
+    }
+    if (splitting()) {
+        // A new agent's tiles are a new stream (its encoders start with an IDR): new decoders.
+        if (tiles_) tiles_->stop();
+        tiles_ = std::make_unique<TileStream>(
+            [this](const std::string &error) { fail("undecodable tiles from the agent: " + error); });
+    }
+    failure_logged_.store(false);
+    live_.store(true);
+    if (splitting()) {
+        protocol::SplitConfig config{settings_.eyes, settings_.fovea, settings_.codec};
+        send_locked(protocol::MessageType::SplitConfig, protocol::encode(config));
+    }
+    stop_receiver_.store(false);
+    receiver_ = std::thread([this] { run_receiver(); });
+    SPLITVK_INFO("replicating to splitvk-agent at %s (%s, session %llu)", address_.c_str(),
+                 agent.welcome.server_gpu_name.c_str(),
+                 static_cast<unsigned long long>(agent.welcome.session_id));
+}
+
 std::unique_ptr<Session> Session::open(const DeviceState &device, const VkDeviceCreateInfo *create_info,
                                        const std::string &application_name) {
     const LoadedSettings &loaded = layer_settings();
     if (!loaded.valid()) return nullptr;
-    const Settings &settings = loaded.settings;
-    const std::string address = settings.server.host + ":" + std::to_string(settings.server.port);
-
-    protocol::ConnectionOptions options;
-    options.name = "splitvk-agent " + address;
-    auto connected = protocol::Connection::connect(settings.server.host, settings.server.port,
-                                                   kConnectTimeout, std::move(options));
-    if (!connected) {
-        SPLITVK_WARN("no splitvk-agent at %s (%s); running unsplit", address.c_str(),
-                     connected.error().c_str());
-        return nullptr;
-    }
-
     std::unique_ptr<Session> session(new Session());
-    session->address_ = address;
-    session->connection_ = std::move(connected.value());
+    session->settings_ = loaded.settings;
+    session->address_ = loaded.settings.server.host + ":" + std::to_string(loaded.settings.server.port);
     session->device_id_ = codec::handle_value(device.handle);
     session->encoder_.set_hooks(&session->hooks_);
-    Session *raw = session.get();
-    // Until the handshake succeeded, a closure is reported by the "no splitvk-agent" line alone.
-    session->failure_logged_.store(true);
-    session->connection_->start([raw](const std::string &reason) { raw->fail(reason); });
-
+    session->client_name_ = application_name;
     VkPhysicalDeviceProperties properties{};
     device.instance->dispatch.GetPhysicalDeviceProperties(device.physical_device, &properties);
-    protocol::Hello hello;
-    hello.token.assign(settings.token.begin(), settings.token.end());
-    hello.client_name = application_name;
-    hello.client_gpu_name = properties.deviceName;
-    hello.codec_fingerprint = codec::kCodecFingerprint;
-    hello.capabilities = protocol::capability::kZstdPayloads;
-    if (settings.verify) hello.capabilities |= protocol::capability::kVerifyFrames;
-    auto welcome = protocol::client_handshake(*session->connection_, hello, kHandshakeTimeout);
-    if (!welcome) {
-        SPLITVK_WARN("no splitvk-agent at %s (%s); running unsplit", address.c_str(),
-                     welcome.error().c_str());
-        return nullptr; // the destructor closes the connection without calling back
-    }
-    if (!(welcome->capabilities & protocol::capability::kZstdPayloads)) {
-        protocol::CompressionPolicy policy;
-        policy.enabled = false;
-        session->connection_->set_compression(policy);
-    }
-    session->verify_ = settings.verify && (welcome->capabilities & protocol::capability::kVerifyFrames);
-    if (settings.verify && !session->verify_)
-        SPLITVK_WARN("splitvk-agent at %s cannot verify frames; SPLITVK_VERIFY ignored", address.c_str());
-    session->failure_logged_.store(false);
-    session->live_.store(true);
-    SPLITVK_INFO("replicating to splitvk-agent at %s (%s, session %llu)", address.c_str(),
-                 welcome->server_gpu_name.c_str(), static_cast<unsigned long long>(welcome->session_id));
+    session->client_gpu_name_ = properties.deviceName;
 
-    // The first message: the device itself, which the agent mirrors and registers the
-    // physical device and device ids from.
+    // The first log entry: the device itself, which an agent mirrors and registers the physical
+    // device and device ids from. Logged before any agent is asked, so that every agent, the
+    // first or a later one, gets it the same way: in the snapshot.
     VkDevice handle = device.handle;
     session->record(LiveChange::Created, session->device_id_, [&](codec::Encoder &e) {
         encode_vkCreateDevice(e, device.physical_device, create_info, nullptr, &handle);
     });
-    session->flush();
+
+    bool final = false;
+    auto agent = session->connect_agent(&final);
+    if (agent) {
+        std::lock_guard lock(session->mutex_);
+        session->adopt_locked(std::move(agent).value());
+        size_t entries = 0;
+        std::unordered_set<uint64_t> live_ids;
+        for (auto &message : session->object_log_locked(&entries, &live_ids))
+            session->send_locked(message.type, std::move(message.payload));
+    } else {
+        SPLITVK_WARN("no splitvk-agent at %s (%s); running unsplit%s", session->address_.c_str(),
+                     agent.error().c_str(), final ? "" : " until one answers");
+        session->failure_logged_.store(true);
+    }
+    if (!final) session->reconnector_ = std::thread([raw = session.get()] { raw->run_reconnect(); });
     return session;
 }
 
+void Session::stop_receiver() {
+    stop_receiver_.store(true);
+    if (receiver_.joinable()) receiver_.join();
+}
+
+void Session::run_reconnect() {
+    using namespace std::chrono_literals;
+    constexpr auto kFirstRetry = 250ms;
+    constexpr auto kLongestRetry = 2000ms;
+    auto backoff = kFirstRetry;
+    std::unique_lock lock(reconnect_mutex_);
+    while (!closing_) {
+        if (live() || pending_agent_) {
+            reconnect_wake_.wait(lock);
+            backoff = kFirstRetry;
+            continue;
+        }
+        if (reconnect_wake_.wait_for(lock, backoff, [&] { return closing_; })) break;
+        lock.unlock();
+        bool final = false;
+        auto agent = connect_agent(&final);
+        lock.lock();
+        if (closing_) break;
+        if (!agent) {
+            if (final) {
+                SPLITVK_WARN("splitvk-agent at %s refused the session (%s); running unsplit",
+                             address_.c_str(), agent.error().c_str());
+                break;
+            }
+            backoff = std::min(backoff * 2, kLongestRetry);
+            continue;
+        }
+        pending_agent_ = std::move(agent).value();
+        reconnected_at_ = std::chrono::steady_clock::now();
+        resync_pending_.store(true, std::memory_order_release);
+        SPLITVK_INFO("splitvk-agent at %s answered; it joins at the next present", address_.c_str());
+    }
+}
+
+void Session::resync(DeviceState &device, VkQueue queue, uint64_t frame) {
+    std::optional<Agent> agent;
+    std::chrono::steady_clock::time_point answered;
+    {
+        std::lock_guard lock(reconnect_mutex_);
+        agent = std::move(pending_agent_);
+        pending_agent_.reset();
+        answered = reconnected_at_;
+        resync_pending_.store(false);
+    }
+    if (!agent) return;
+    const auto start = std::chrono::steady_clock::now();
+    // The snapshot is what the app's submits so far have made: let them finish.
+    device.dispatch.QueueWaitIdle(queue);
+    resync_mapped_shadows(device);
+
+    // Under the session lock nothing is logged or sent by other threads: the snapshot is exact.
+    std::lock_guard lock(mutex_);
+    ContentSnapshot contents;
+    std::string error;
+    if (!snapshot_contents(device, queue, queue_family_of(queue), &contents, &error))
+        SPLITVK_WARN(
+            "cannot read back buffer and image contents for the new agent (%s); its frames may differ",
+            error.c_str());
+    adopt_locked(std::move(*agent));
+    (void)encoder_.take(); // already in the log, and so in the snapshot
+    size_t entries = 0;
+    std::unordered_set<uint64_t> live_ids;
+    size_t bytes = 0;
+    auto send = [&](protocol::MessageType type, std::vector<uint8_t> &&payload) {
+        bytes += payload.size();
+        send_locked(type, std::move(payload));
+    };
+    for (auto &message : object_log_locked(&entries, &live_ids))
+        send(message.type, std::move(message.payload));
+    for (auto &message : contents.messages)
+        send(message.type, std::move(message.payload));
+    codec::Encoder descriptors;
+    descriptors.set_hooks(&hooks_);
+    size_t sets = 0;
+    snapshot_descriptor_contents(device, live_ids, descriptors, &sets);
+    if (descriptors.size() != 0) send(protocol::MessageType::Commands, descriptors.take());
+    std::vector<std::vector<uint8_t>> streams;
+    snapshot_command_buffers(device, live_ids, streams);
+    for (auto &stream : streams)
+        send(protocol::MessageType::Commands, std::move(stream));
+    first_replayed_frame_.store(frame + 1);
+    joined_agent_answered_ = answered;
+    awaiting_first_tiles_.store(true);
+    const auto now = std::chrono::steady_clock::now();
+    SPLITVK_WARN("splitvk-agent at %s brought in at frame %llu: %zu objects, %llu buffers, %llu images, %zu "
+                 "descriptor sets, %zu command buffers, %.1f MiB in %.0f ms (%.0f ms after it answered)",
+                 address_.c_str(), static_cast<unsigned long long>(frame), entries,
+                 static_cast<unsigned long long>(contents.buffers),
+                 static_cast<unsigned long long>(contents.images), sets, streams.size(),
+                 static_cast<double>(bytes) / (1 << 20),
+                 std::chrono::duration<double, std::milli>(now - start).count(),
+                 std::chrono::duration<double, std::milli>(now - answered).count());
+}
+
 Session::~Session() {
+    {
+        std::lock_guard lock(reconnect_mutex_);
+        closing_ = true;
+    }
+    reconnect_wake_.notify_all();
+    if (reconnector_.joinable()) reconnector_.join();
+    stop_receiver();
+    if (tiles_) tiles_->stop();
+    current_connection_.store(nullptr);
     if (connection_) connection_->close();
+}
+
+double Session::frame_interval_ms() {
+    const auto now = std::chrono::steady_clock::now();
+    const double ms = last_present_ == std::chrono::steady_clock::time_point{}
+                          ? 0.0
+                          : std::chrono::duration<double, std::milli>(now - last_present_).count();
+    last_present_ = now;
+    return ms;
+}
+
+void Session::run_receiver() {
+    using protocol::MessageType;
+    while (!stop_receiver_.load()) {
+        auto message = connection_->receive(100ms);
+        if (!message) {
+            if (!connection_->is_open()) break; // on_closed has reported it
+            continue;
+        }
+        switch (static_cast<MessageType>(message->type)) {
+        case MessageType::Tiles:
+            if (tiles_) {
+                std::string error;
+                if (!tiles_->accept(std::move(message->payload), &error)) {
+                    fail("malformed Tiles from the agent: " + error);
+                    return;
+                }
+            }
+            break;
+        case MessageType::VerifyFrame: {
+            std::lock_guard lock(verify_mutex_);
+            verify_frames_.push_back(std::move(message->payload));
+            if (verify_frames_.size() > 16) verify_frames_.pop_front(); // nobody is comparing them
+            verify_ready_.notify_all();
+            break;
+        }
+        case MessageType::Goodbye: {
+            const auto bye = protocol::decode_goodbye(message->payload);
+            fail(bye ? "it said: " + bye->message : std::string("it said goodbye"));
+            return;
+        }
+        default:
+            break; // Pong and the like
+        }
+    }
+}
+
+const char *Session::fallback() const {
+    return splitting_ ? "the periphery alone fills the frames from now on" : "running unsplit from now on";
 }
 
 void Session::fail(const std::string &reason) {
     live_.store(false);
+    if (tiles_) tiles_->abandon(); // a present waiting for tiles stops waiting
+    reconnect_wake_.notify_all();
     if (!failure_logged_.exchange(true))
-        SPLITVK_WARN("splitvk-agent at %s went away (%s); running unsplit from now on", address_.c_str(),
-                     reason.c_str());
+        SPLITVK_WARN("splitvk-agent at %s went away (%s); %s", address_.c_str(), reason.c_str(), fallback());
 }
 
 void Session::note_live_change(LiveChange change, uint64_t id, size_t start) {
@@ -176,7 +385,6 @@ uint64_t Session::add_entry_locked(std::vector<uint8_t> &&bytes, std::span<const
 void Session::send_metadata_logged(protocol::MessageType type, std::vector<uint8_t> &&payload,
                                    uint64_t holder) {
     std::lock_guard lock(mutex_);
-    if (!live()) return;
     const uint64_t ids[] = {holder};
     const uint64_t seq = add_entry_locked(std::vector<uint8_t>(payload), ids, {});
     if (seq != 0) log_[seq].type = type;
@@ -257,6 +465,10 @@ void Session::forget(std::span<const uint64_t> ids) {
 
 std::vector<LiveMessage> Session::object_log(size_t *entries, std::unordered_set<uint64_t> *live_ids) {
     std::lock_guard lock(mutex_);
+    return object_log_locked(entries, live_ids);
+}
+
+std::vector<LiveMessage> Session::object_log_locked(size_t *entries, std::unordered_set<uint64_t> *live_ids) {
     prune_retired_locked();
     std::vector<LiveMessage> out;
     const auto append = [&out](protocol::MessageType type, const std::vector<uint8_t> &bytes) {
@@ -299,8 +511,8 @@ void Session::send_locked(protocol::MessageType type, std::vector<uint8_t> &&pay
     if (result == protocol::SendResult::Closed) reason = connection_->close_reason();
     live_.store(false);
     if (!failure_logged_.exchange(true))
-        SPLITVK_WARN("splitvk-agent at %s: cannot send (%s); running unsplit from now on", address_.c_str(),
-                     reason.c_str());
+        SPLITVK_WARN("splitvk-agent at %s: cannot send (%s); %s", address_.c_str(), reason.c_str(),
+                     fallback());
 }
 
 void Session::flush_locked() {
@@ -325,20 +537,30 @@ void Session::send_metadata(protocol::MessageType type, std::vector<uint8_t> &&p
     send_locked(type, std::move(payload));
 }
 
-std::optional<protocol::Message> Session::receive(std::chrono::milliseconds timeout) {
-    if (timeout.count() <= 0) return connection_->try_receive();
-    return connection_->receive(timeout);
+std::optional<std::vector<uint8_t>> Session::receive_verify_frame(std::chrono::milliseconds timeout) {
+    std::unique_lock lock(verify_mutex_);
+    if (!verify_ready_.wait_for(lock, timeout, [&] { return !verify_frames_.empty(); })) return std::nullopt;
+    auto payload = std::move(verify_frames_.front());
+    verify_frames_.pop_front();
+    return payload;
 }
 
 void Session::close() {
+    {
+        std::lock_guard lock(reconnect_mutex_);
+        closing_ = true;
+    }
+    reconnect_wake_.notify_all();
+    if (reconnector_.joinable()) reconnector_.join();
     {
         std::lock_guard lock(mutex_);
         flush_locked();
         live_.store(false);
         failure_logged_.store(true);
     }
-    connection_->flush(kCloseFlush);
-    const protocol::ConnectionStats stats = connection_->stats();
+    current_connection_.store(nullptr); // closing it is not the agent going away
+    if (connection_) connection_->flush(kCloseFlush);
+    const protocol::ConnectionStats stats = connection_ ? connection_->stats() : protocol::ConnectionStats{};
     SPLITVK_INFO("session to %s: %llu frames, %.2f ms comparing memory, %llu messages, %llu payload bytes, "
                  "%llu bytes on the wire",
                  address_.c_str(), static_cast<unsigned long long>(current_frame()),
@@ -346,7 +568,9 @@ void Session::close() {
                  static_cast<unsigned long long>(stats.messages_sent),
                  static_cast<unsigned long long>(stats.payload_bytes_sent),
                  static_cast<unsigned long long>(stats.wire_bytes_sent));
-    connection_->close("the application destroyed the device");
+    stop_receiver();
+    if (tiles_) tiles_->stop();
+    if (connection_) connection_->close("the application destroyed the device");
 }
 
 } // namespace splitvk

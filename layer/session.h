@@ -3,10 +3,19 @@
 // One replication session per VkDevice (DESIGN §2-3, issue 3): the TCP connection to
 // splitvk-agent and the device's global command stream.
 //
-// Opened at vkCreateDevice; when no agent answers, the layer logs one line and the device runs
-// unsplit (no Session at all, so every hook costs one pointer check). When the agent goes away
-// mid-run the session stops capturing (live() turns false, one line) and the layer passes
-// through from then on.
+// Opened at vkCreateDevice, with or without an agent (only invalid settings leave a device with no
+// Session at all, so that every hook costs one pointer check). The session captures into the
+// live-state log whether or not an agent is connected; live() says whether one is, and only then
+// is anything sent. Without an agent the device runs unsplit (one line) until one answers; once an
+// agent has accepted the split, the device splits for the rest of its life.
+//
+// Reconnection (the reliability issue). A thread of the session's connects with backoff whenever no
+// agent is connected: at vkCreateDevice if none answered (late join), or after the agent went away
+// (one line). A new agent is brought in at the next vkQueuePresentKHR, on the app's thread, which
+// owns the present queue for the duration of the call: resync() waits for the queue, reads back
+// the contents of every live buffer and image (resource.h), and sends the split settings and the
+// live-state snapshot (objects, contents, descriptors, command buffers) before anything else. A
+// Reject for a bad token or version ends the retries (one line): the device stays unsplit.
 //
 // Ordering. Everything the layer sends for a device goes through this object under one mutex:
 // device-level calls are encoded into a pending batch of the global stream (record()), and every
@@ -39,16 +48,22 @@
 // naming objects destroyed since they were recorded (the app cannot submit those either).
 
 #include "../protocol/session.h" // the metadata messages (same file name as this one)
+#include "stats.h"
+#include "tile_stream.h"
 #include "transport.h"
 #include "vk_codec.h"
 
 #include <atomic>
+#include <condition_variable>
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <span>
 #include <string>
+#include <thread>
 #include <unordered_map>
 #include <unordered_set>
 #include <vector>
@@ -94,26 +109,37 @@ private:
 
 class Session {
 public:
-    // Connects and handshakes, then sends the encoded vkCreateDevice. nullptr (after one warning
-    // line) when there is no usable agent.
+    // Logs the encoded vkCreateDevice and connects; without an agent (one warning line) it keeps
+    // trying in the background. nullptr only when the settings are invalid.
     static std::unique_ptr<Session> open(const DeviceState &device, const VkDeviceCreateInfo *create_info,
                                          const std::string &application_name);
     ~Session();
 
     bool live() const { return live_.load(std::memory_order_relaxed); }
     bool verify() const { return verify_; }
+    // The device renders split (issue 4): split passes are scaled and presents composite. Set when
+    // an agent first accepts the split and kept for the session's life, also while no agent is
+    // connected (the centre then comes from the periphery), so command buffers recorded scaled are
+    // always composited.
+    bool splitting() const { return splitting_.load(std::memory_order_relaxed); }
+    const Settings &settings() const { return settings_; }
+    // Split mode: the decoded tiles of the agent (tile_stream.h), and per-frame statistics.
+    TileStream *tiles() { return tiles_.get(); }
+    FrameStats &stats() { return *stats_; }
+    // Milliseconds since the previous call (0 the first time): present-to-present frame time.
+    double frame_interval_ms();
     codec::EncodeHooks *hooks() { return &hooks_; }
     uint64_t device_id() const { return device_id_; }
 
     // Encodes one device-level call into the global stream (`encode(Encoder&)`), in call order.
+    // Logged whether or not an agent is connected; sent only when one is.
     template <class F>
     void record(LiveChange change, uint64_t id, F &&encode) {
         std::lock_guard lock(mutex_);
-        if (!live()) return;
         const size_t start = encoder_.size();
         encode(encoder_);
         note_live_change(change, id, start);
-        if (encoder_.size() >= kBatchLimit) flush_locked();
+        after_record_locked();
     }
 
     // As record(), for a call that makes one log entry held by every id in `holders` (dropped
@@ -121,12 +147,11 @@ public:
     template <class F>
     void record_logged(std::span<const uint64_t> holders, std::span<const uint64_t> killers, F &&encode) {
         std::lock_guard lock(mutex_);
-        if (!live()) return;
         const size_t start = encoder_.size();
         encode(encoder_);
         const auto bytes = encoder_.data().subspan(start);
         add_entry_locked(std::vector<uint8_t>(bytes.begin(), bytes.end()), holders, killers);
-        if (encoder_.size() >= kBatchLimit) flush_locked();
+        after_record_locked();
     }
 
     // Objects gone without a call of their own (freed command buffers and descriptor sets, a
@@ -160,9 +185,8 @@ public:
         send_locked(protocol::MessageType::Commands, scratch.take());
     }
 
-    // Queue mode: the next message from the agent, if any (never blocks), or waits at most
-    // `timeout` for one.
-    std::optional<protocol::Message> receive(std::chrono::milliseconds timeout);
+    // The next VerifyFrame payload from the agent, waiting at most `timeout` (0: never blocks).
+    std::optional<std::vector<uint8_t>> receive_verify_frame(std::chrono::milliseconds timeout);
 
     // vkDestroyDevice: sends what is pending, waits briefly for it to leave, and closes.
     void close();
@@ -179,17 +203,58 @@ public:
     std::atomic<uint64_t> verified_frames{0};
     std::atomic<uint64_t> mismatching_pixels{0};
 
+    // Split mode (present.cpp): frames composited, and those whose tiles came too late (or not at
+    // all) and whose centre is the periphery's.
+    std::atomic<uint64_t> composited_frames{0};
+    std::atomic<uint64_t> late_frames{0};
+
     // Entries in the object part of the live-state log.
     size_t live_object_count();
 
-    // Stops capturing after a failure, with one line.
+    // The agent went away (one line): nothing is sent until a new one is brought in.
     void fail(const std::string &reason);
+
+    // A new agent has connected and waits for the snapshot: the next present calls resync().
+    bool resync_pending() const { return resync_pending_.load(std::memory_order_acquire); }
+    // On the app's thread, inside vkQueuePresentKHR on `queue`: brings the new agent in (see the
+    // top of this file). Frame `frame`'s own submits reached no agent, so it has no tiles.
+    void resync(DeviceState &device, VkQueue queue, uint64_t frame);
+    // The first frame whose submits a (re)connected agent replays, and when that agent answered
+    // (present thread only): the resync time is from then to that frame's tiles.
+    uint64_t first_replayed_frame() const { return first_replayed_frame_.load(std::memory_order_relaxed); }
+    std::chrono::steady_clock::time_point joined_agent_answered() const { return joined_agent_answered_; }
+    // True once per resync: for the first frame composited with the joined agent's tiles.
+    bool take_first_tiles_after_resync() { return awaiting_first_tiles_.exchange(false); }
 
 private:
     Session() = default;
     static constexpr size_t kBatchLimit = size_t{1} << 20;
 
     void flush_locked();
+    // After an encode into the global batch: sent in batches when an agent is connected, dropped
+    // (it is in the log) when none is.
+    void after_record_locked() {
+        if (!live())
+            (void)encoder_.take();
+        else if (encoder_.size() >= kBatchLimit)
+            flush_locked();
+    }
+    struct Agent {
+        std::unique_ptr<protocol::Connection> connection;
+        protocol::Welcome welcome;
+    };
+    // Connects and handshakes with the configured agent. *final when retrying cannot help (the
+    // agent rejected the token or the protocol version).
+    protocol::Result<Agent> connect_agent(bool *final);
+    // Makes `agent` the session's connection (under mutex_): receiver thread, tile stream.
+    void adopt_locked(Agent &&agent);
+    void stop_receiver();
+    void run_reconnect();
+    std::vector<LiveMessage> object_log_locked(size_t *entries, std::unordered_set<uint64_t> *live_ids);
+    const char *fallback() const; // what the app gets once the agent is gone, for log lines
+    // The agent's messages, on a thread of the layer's: Tiles to the decoders, VerifyFrame to
+    // receive_verify_frame(), Goodbye ends the session.
+    void run_receiver();
     void send_locked(protocol::MessageType type, std::vector<uint8_t> &&payload);
     void note_live_change(LiveChange change, uint64_t id, size_t start);
 
@@ -213,8 +278,15 @@ private:
     std::atomic<bool> failure_logged_{false};
     std::atomic<uint64_t> frame_{0};
     bool verify_ = false;
+    std::atomic<bool> splitting_{false};
+    Settings settings_;
     uint64_t device_id_ = 0;
     std::string address_;
+    std::string client_name_;
+    std::string client_gpu_name_;
+    // The connection whose closure means the agent went away: a late report from one that failed
+    // its handshake or was replaced is ignored.
+    std::atomic<protocol::Connection *> current_connection_{nullptr};
     std::unique_ptr<protocol::Connection> connection_;
     CaptureHooks hooks_;
     codec::Encoder encoder_;
@@ -224,6 +296,27 @@ private:
     std::unordered_map<uint64_t, std::unordered_set<uint64_t>> killed_by_; // id -> entries dying with it
     std::unordered_map<uint64_t, uint64_t> retired_;                       // retired id -> its entry
     uint64_t next_seq_ = 1;
+
+    std::unique_ptr<TileStream> tiles_;
+    std::unique_ptr<FrameStats> stats_;
+    std::chrono::steady_clock::time_point last_present_{};
+    std::mutex verify_mutex_;
+    std::condition_variable verify_ready_;
+    std::deque<std::vector<uint8_t>> verify_frames_;
+    std::atomic<bool> stop_receiver_{false};
+    std::thread receiver_;
+
+    // Reconnection: the thread, what it found, and when.
+    std::mutex reconnect_mutex_;
+    std::condition_variable reconnect_wake_;
+    bool closing_ = false;               // under reconnect_mutex_
+    std::optional<Agent> pending_agent_; // under reconnect_mutex_
+    std::atomic<bool> resync_pending_{false};
+    std::atomic<uint64_t> first_replayed_frame_{0};
+    std::chrono::steady_clock::time_point reconnected_at_{}; // under reconnect_mutex_
+    std::chrono::steady_clock::time_point joined_agent_answered_{};
+    std::atomic<bool> awaiting_first_tiles_{false};
+    std::thread reconnector_;
 };
 
 // The live-state log of `device` as Commands payloads in replay order (session.h). Empty without

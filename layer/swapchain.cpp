@@ -1,13 +1,22 @@
 // VkSwapchainKHR: the agent has no surface, so a swapchain becomes offscreen images there
 // (DESIGN §3). After vkCreateSwapchainKHR the layer sends SwapchainImages (its images' ids, extent,
-// format, usage, layers); vkDestroySwapchainKHR sends SwapchainDestroyed. With SPLITVK_VERIFY=full
-// the layer adds TRANSFER_SRC to the usage so that it can read presented images back (and retries
-// without it if the driver refuses).
-
+// format, usage, layers); vkDestroySwapchainKHR sends SwapchainDestroyed.
+//
+// Usage the layer adds (DESIGN §4), only while a session captures, and only bits the surface
+// supports: Compositor::kSwapchainUsage (TRANSFER_SRC, TRANSFER_DST, COLOR_ATTACHMENT) so the
+// compositor can upsample the periphery and write the fovea tiles, and TRANSFER_SRC with
+// SPLITVK_VERIFY=full to read presented images back. If the driver refuses the swapchain with
+// them, the layer retries with less (verification's bit alone, then the application's usage)
+// and marks the swapchain not composable. The application never sees the added bits: the state
+// and the agent get its own usage, and no query returns a swapchain's usage. (What can leak: a
+// driver may pick a slower image layout or drop compression for the wider usage.)
 #include "swapchain.h"
 
 #include "capture.h"
+#include "compositor.h"
+#include "instance.h"
 #include "layer_entry_points.h"
+#include "log.h"
 #include "object_map.h"
 #include "session.h"
 
@@ -15,6 +24,30 @@ namespace splitvk {
 namespace {
 
 ObjectMap<VkSwapchainKHR, SwapchainState> g_swapchains;
+
+// Whether the compositor could work on this swapchain if the layer adds kSwapchainUsage.
+bool can_compose(DeviceState &dev, const VkSwapchainCreateInfoKHR &info, std::string *why) {
+    if (info.imageArrayLayers != 1) {
+        *why = std::to_string(info.imageArrayLayers) + " array layers";
+        return false;
+    }
+    if (info.flags & VK_SWAPCHAIN_CREATE_PROTECTED_BIT_KHR) {
+        *why = "protected images";
+        return false;
+    }
+    VkSurfaceCapabilitiesKHR caps{};
+    if (!dev.instance->dispatch.GetPhysicalDeviceSurfaceCapabilitiesKHR ||
+        dev.instance->dispatch.GetPhysicalDeviceSurfaceCapabilitiesKHR(dev.physical_device, info.surface,
+                                                                       &caps) != VK_SUCCESS) {
+        *why = "the surface's capabilities are unknown";
+        return false;
+    }
+    if ((caps.supportedUsageFlags & Compositor::kSwapchainUsage) != Compositor::kSwapchainUsage) {
+        *why = "the surface does not support transfer and colour attachment usage";
+        return false;
+    }
+    return Compositor::supports(dev, info.imageFormat, why);
+}
 
 } // namespace
 
@@ -31,26 +64,51 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateSwapchainKHR(VkDevice device,
     DeviceState &dev = device_state(device);
     if (!capturing(dev)) return dev.dispatch.CreateSwapchainKHR(device, pCreateInfo, pAllocator, pSwapchain);
 
-    bool transfer_src = (pCreateInfo->imageUsage & VK_IMAGE_USAGE_TRANSFER_SRC_BIT) != 0;
+    const VkImageUsageFlags app_usage = pCreateInfo->imageUsage;
+    std::string why;
+    const bool compose = can_compose(dev, *pCreateInfo, &why);
+    const VkImageUsageFlags verify_usage = dev.session->verify() ? VK_IMAGE_USAGE_TRANSFER_SRC_BIT : 0;
+    // Most usage first; each attempt that adds nothing new over the next one is skipped.
+    const VkImageUsageFlags attempts[] = {
+        app_usage | verify_usage | (compose ? Compositor::kSwapchainUsage : 0),
+        app_usage | verify_usage,
+        app_usage,
+    };
+    VkSwapchainCreateInfoKHR info = *pCreateInfo;
     VkResult result = VK_ERROR_INITIALIZATION_FAILED;
-    if (dev.session->verify() && !transfer_src) {
-        VkSwapchainCreateInfoKHR info = *pCreateInfo;
-        info.imageUsage |= VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+    for (size_t i = 0; i < std::size(attempts); ++i) {
+        if (i > 0 && attempts[i] == attempts[i - 1]) continue;
+        info.imageUsage = attempts[i];
         result = dev.dispatch.CreateSwapchainKHR(device, &info, pAllocator, pSwapchain);
-        transfer_src = result == VK_SUCCESS;
+        if (result == VK_SUCCESS) break;
+        // A failed vkCreateSwapchainKHR retires oldSwapchain all the same, and a retired
+        // swapchain must not be passed again: the retry replaces nothing.
+        info.oldSwapchain = VK_NULL_HANDLE;
+        if (i + 1 < std::size(attempts) && attempts[i + 1] != attempts[i])
+            SPLITVK_INFO("swapchain: the driver refused usage 0x%x (%d); retrying with less",
+                         unsigned(attempts[i]), int(result));
     }
-    if (result != VK_SUCCESS)
-        result = dev.dispatch.CreateSwapchainKHR(device, pCreateInfo, pAllocator, pSwapchain);
     if (result != VK_SUCCESS) return result;
+    const bool composable =
+        compose && (info.imageUsage & Compositor::kSwapchainUsage) == Compositor::kSwapchainUsage;
+    if (!composable)
+        SPLITVK_INFO("swapchain %ux%u is not composable (%s): it will not be split",
+                     pCreateInfo->imageExtent.width, pCreateInfo->imageExtent.height,
+                     compose ? "the driver refused the usage" : why.c_str());
 
     auto state = std::make_unique<SwapchainState>();
     state->device = &dev;
     state->handle = *pSwapchain;
     state->extent = pCreateInfo->imageExtent;
     state->format = pCreateInfo->imageFormat;
-    state->usage = pCreateInfo->imageUsage;
+    state->usage = app_usage; // the application's: what the agent's images need
     state->array_layers = pCreateInfo->imageArrayLayers;
-    state->transfer_src = transfer_src;
+    state->transfer_src = (info.imageUsage & VK_IMAGE_USAGE_TRANSFER_SRC_BIT) != 0;
+    state->composable = composable;
+    state->present_layout = pCreateInfo->presentMode == VK_PRESENT_MODE_SHARED_DEMAND_REFRESH_KHR ||
+                                    pCreateInfo->presentMode == VK_PRESENT_MODE_SHARED_CONTINUOUS_REFRESH_KHR
+                                ? VK_IMAGE_LAYOUT_SHARED_PRESENT_KHR
+                                : VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
     uint32_t count = 0;
     if (dev.dispatch.GetSwapchainImagesKHR(device, *pSwapchain, &count, nullptr) == VK_SUCCESS) {
         state->images.resize(count);
@@ -81,6 +139,7 @@ VKAPI_ATTR void VKAPI_CALL DestroySwapchainKHR(VkDevice device, VkSwapchainKHR s
     DeviceState &dev = device_state(device);
     if (dev.session && swapchain != VK_NULL_HANDLE) {
         release_present_resources(dev, swapchain);
+        release_compositor(dev, swapchain);
         if (g_swapchains.remove(swapchain)) {
             const uint64_t id = codec::handle_value(swapchain);
             dev.session->forget(std::span(&id, 1)); // its SwapchainImages leaves the live-state log

@@ -17,6 +17,13 @@ struct SwapchainState {
     VkImageUsageFlags usage = 0;
     uint32_t array_layers = 1;
     bool transfer_src = false; // the layer could add TRANSFER_SRC (verification reads it back)
+    // The images have the usage composition needs (Compositor::kSwapchainUsage, added by the layer
+    // when the application did not ask for it) and a format the compositor handles. The split
+    // rewrite must leave a swapchain that is not composable unsplit: nothing could upsample it.
+    bool composable = false;
+    // The layout the application presents in, and the compositor leaves the image in:
+    // SHARED_PRESENT_KHR for the shared present modes, PRESENT_SRC_KHR otherwise.
+    VkImageLayout present_layout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
     std::vector<VkImage> images;
 };
 

@@ -9,7 +9,7 @@ SPLITVK_PACKAGES=(
   libvulkan-dev vulkan-validationlayers mesa-vulkan-drivers vulkan-tools
   glslang-tools spirv-tools
   libx264-dev libavcodec-dev libavutil-dev libasio-dev libglm-dev libzstd-dev libgtest-dev
-  libxcb1-dev libx11-dev xvfb xauth ffmpeg
+  libxcb1-dev libx11-dev xvfb xauth x11-utils ffmpeg
 )
 
 log() { printf '==> %s\n' "$*"; }

@@ -34,6 +34,7 @@ bool client_type(uint16_t type) {
     case MessageType::FramePresent:
     case MessageType::SwapchainImages:
     case MessageType::SwapchainDestroyed:
+    case MessageType::SplitConfig:
         return true;
     default:
         return false;
@@ -124,6 +125,14 @@ int Session::run() {
                  connection_->peer_address().c_str());
     std::string error;
     if (!replayer_.init(config_.device_index, config_.validate, &error)) return fail(error, kSessionSetup);
+    // Tiles are sent from the tile streamer's worker thread; Connection::send is thread-safe and
+    // keeps them in order with everything else this session sends.
+    replayer_.set_tile_sender([this](std::vector<uint8_t> &&payload, std::string *send_error) {
+        const auto r = connection_->send_owned(MessageType::Tiles, std::move(payload), 10000ms);
+        if (r == protocol::SendResult::Queued) return true;
+        *send_error = std::string("sending Tiles: ") + protocol::to_string(r);
+        return false;
+    });
 
     for (;;) {
         auto message = connection_->receive(500ms);
@@ -183,6 +192,14 @@ bool Session::handle(protocol::Message &message, bool *done, std::string *error)
             swapchain_bytes_.erase(it);
         }
         return replayer_.swapchain_destroyed(*m, error);
+    }
+    case MessageType::SplitConfig: {
+        auto m = protocol::decode_split_config(message.payload);
+        if (!m) {
+            *error = "SplitConfig: " + m.error();
+            return false;
+        }
+        return replayer_.split_config(*m, error);
     }
     case MessageType::FrameBegin: {
         auto m = protocol::decode_frame_begin(message.payload);

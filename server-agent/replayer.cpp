@@ -23,6 +23,8 @@ std::string hex(uint64_t v) {
 
 Replayer::Replayer(uint64_t session_id) : session_id_(session_id) {
     table = &table_;
+    // Whole frames until the client's SplitConfig says it splits (a verifying client never does).
+    fovea_.set_enabled(false);
 }
 
 Replayer::~Replayer() {
@@ -161,6 +163,9 @@ bool Replayer::vkQueueSubmit(const codec::Decoded_vkQueueSubmit &c) {
     const VkResult r = ::vkQueueSubmit(context_.queue, static_cast<uint32_t>(submits.size()), submits.data(),
                                        VK_NULL_HANDLE);
     if (r != VK_SUCCESS) return failed("vkQueueSubmit", r);
+    for (const VkSubmitInfo &s : submits)
+        fovea_.submitted(s.commandBufferCount, s.pCommandBuffers);
+    note_frame_submit();
     gpu_busy_ = true;
     ++submits_;
     return true;
@@ -172,6 +177,10 @@ bool Replayer::vkQueueSubmit2(const codec::Decoded_vkQueueSubmit2 &c) {
     const VkResult r = vk.QueueSubmit2(context_.queue, static_cast<uint32_t>(submits.size()), submits.data(),
                                        VK_NULL_HANDLE);
     if (r != VK_SUCCESS) return failed("vkQueueSubmit2", r);
+    for (const VkSubmitInfo2 &s : submits)
+        for (uint32_t i = 0; i < s.commandBufferInfoCount; ++i)
+            fovea_.submitted(1, &s.pCommandBufferInfos[i].commandBuffer);
+    note_frame_submit();
     gpu_busy_ = true;
     ++submits_;
     return true;
@@ -282,7 +291,10 @@ bool Replayer::vkDestroyImage(const codec::Decoded_vkDestroyImage &c) {
 bool Replayer::vkCreateGraphicsPipelines(const codec::Decoded_vkCreateGraphicsPipelines &c) {
     auto copy = c;
     copy.pipelineCache = VK_NULL_HANDLE;
-    return ReplayVisitorBase::vkCreateGraphicsPipelines(copy);
+    copy.pCreateInfos = fovea_.prepare_pipelines(c.createInfoCount, c.pCreateInfos);
+    if (!ReplayVisitorBase::vkCreateGraphicsPipelines(copy)) return false;
+    fovea_.pipelines_created(c.pPipelines_count, c.pPipelines);
+    return true;
 }
 
 bool Replayer::vkCreateComputePipelines(const codec::Decoded_vkCreateComputePipelines &c) {
@@ -324,8 +336,55 @@ bool Replayer::swapchain_destroyed(const protocol::SwapchainDestroyed &message, 
     return true;
 }
 
+bool Replayer::split_config(const protocol::SplitConfig &message, std::string *error) {
+    if (!tile_sender_) {
+        *error = "SplitConfig: this session cannot send tiles";
+        return false;
+    }
+    if (!tiles_) tiles_ = std::make_unique<TileStreamer>(context_, tile_sender_);
+    fovea_.configure(message.eyes, message.fovea);
+    fovea_.set_enabled(true);
+    tiles_->set_codec(message.codec);
+    return true;
+}
+
+void Replayer::note_frame_submit() {
+    if (frame_first_submit_ == std::chrono::steady_clock::time_point{})
+        frame_first_submit_ = std::chrono::steady_clock::now();
+}
+
 bool Replayer::frame_present(const protocol::FramePresent &message,
                              std::vector<protocol::VerifyFrame> &verify, std::string *error) {
+    const auto received = std::chrono::steady_clock::now();
+    if (tiles_) {
+        // The client composites the first swapchain of a present (layer/present.cpp); the fovea
+        // record of every presented image is taken so that none carries over to a later frame.
+        for (size_t i = 0; i < message.images.size(); ++i) {
+            const auto &presented = message.images[i];
+            SwapchainImages::Presented image;
+            if (!swapchains_.presented(presented.swapchain_id, presented.image_index, &image, error)) {
+                *error = "FramePresent " + std::to_string(message.frame) + ": " + *error;
+                return false;
+            }
+            auto foveae = fovea_.take_drawn_foveae(image.image_id);
+            if (i > 0) continue;
+            TileStreamer::Frame frame;
+            frame.frame = message.frame;
+            frame.swapchain_id = presented.swapchain_id;
+            frame.image_index = presented.image_index;
+            frame.image = image.image;
+            frame.format = image.format;
+            frame.foveae = std::move(foveae);
+            frame.first_submit = frame_first_submit_;
+            frame.present = received;
+            if (!tiles_->present(std::move(frame), error)) {
+                *error = "FramePresent " + std::to_string(message.frame) + ": " + *error;
+                return false;
+            }
+        }
+        gpu_busy_ = true; // the fovea copy is in flight
+    }
+    frame_first_submit_ = {};
     if (!(message.flags & protocol::kPresentVerify)) return true;
     quiesce(); // the frame's submits complete before the images are read
     for (const auto &presented : message.images) {
@@ -346,6 +405,108 @@ bool Replayer::frame_present(const protocol::FramePresent &message,
         }
         verify.push_back(std::move(frame));
     }
+    return true;
+}
+
+// --- the split: fovea shading (fovea_shading.h) ---------------------------------------------
+
+bool Replayer::vkCreateImageView(const codec::Decoded_vkCreateImageView &c) {
+    if (!ReplayVisitorBase::vkCreateImageView(c)) return false;
+    fovea_.image_view_created(c.pView[0], c.pCreateInfo->image);
+    return true;
+}
+
+bool Replayer::vkDestroyImageView(const codec::Decoded_vkDestroyImageView &c) {
+    fovea_.image_view_destroyed(c.imageView);
+    return ReplayVisitorBase::vkDestroyImageView(c);
+}
+
+bool Replayer::vkCreateFramebuffer(const codec::Decoded_vkCreateFramebuffer &c) {
+    if (!ReplayVisitorBase::vkCreateFramebuffer(c)) return false;
+    fovea_.framebuffer_created(c.pFramebuffer[0], *c.pCreateInfo);
+    return true;
+}
+
+bool Replayer::vkDestroyFramebuffer(const codec::Decoded_vkDestroyFramebuffer &c) {
+    fovea_.framebuffer_destroyed(c.framebuffer);
+    return ReplayVisitorBase::vkDestroyFramebuffer(c);
+}
+
+bool Replayer::vkDestroyPipeline(const codec::Decoded_vkDestroyPipeline &c) {
+    fovea_.pipeline_destroyed(c.pipeline);
+    return ReplayVisitorBase::vkDestroyPipeline(c);
+}
+
+bool Replayer::vkBeginCommandBuffer(const codec::Decoded_vkBeginCommandBuffer &c) {
+    if (!ReplayVisitorBase::vkBeginCommandBuffer(c)) return false;
+    fovea_.begin_command_buffer(c.commandBuffer);
+    return true;
+}
+
+bool Replayer::vkCmdBindPipeline(const codec::Decoded_vkCmdBindPipeline &c) {
+    if (!ReplayVisitorBase::vkCmdBindPipeline(c)) return false;
+    fovea_.bind_pipeline(c.commandBuffer, c.pipelineBindPoint, c.pipeline);
+    return true;
+}
+
+bool Replayer::vkCmdSetViewport(const codec::Decoded_vkCmdSetViewport &c) {
+    if (!ReplayVisitorBase::vkCmdSetViewport(c)) return false;
+    fovea_.set_viewports(c.commandBuffer, c.firstViewport, c.viewportCount, c.pViewports, false);
+    return true;
+}
+
+bool Replayer::vkCmdSetViewportWithCount(const codec::Decoded_vkCmdSetViewportWithCount &c) {
+    if (!ReplayVisitorBase::vkCmdSetViewportWithCount(c)) return false;
+    fovea_.set_viewports(c.commandBuffer, 0, c.viewportCount, c.pViewports, true);
+    return true;
+}
+
+bool Replayer::vkCmdSetScissor(const codec::Decoded_vkCmdSetScissor &c) {
+    if (!vk.CmdSetScissor) return missing("vkCmdSetScissor");
+    fovea_.set_scissors(c.commandBuffer, c.firstScissor, c.scissorCount, c.pScissors, false);
+    return true;
+}
+
+bool Replayer::vkCmdSetScissorWithCount(const codec::Decoded_vkCmdSetScissorWithCount &c) {
+    if (!vk.CmdSetScissorWithCount) return missing("vkCmdSetScissorWithCount");
+    fovea_.set_scissors(c.commandBuffer, 0, c.scissorCount, c.pScissors, true);
+    return true;
+}
+
+bool Replayer::vkCmdBeginRenderPass(const codec::Decoded_vkCmdBeginRenderPass &c) {
+    if (!ReplayVisitorBase::vkCmdBeginRenderPass(c)) return false;
+    fovea_.begin_render_pass(c.commandBuffer, *c.pRenderPassBegin, c.contents != VK_SUBPASS_CONTENTS_INLINE);
+    return true;
+}
+
+bool Replayer::vkCmdBeginRenderPass2(const codec::Decoded_vkCmdBeginRenderPass2 &c) {
+    if (!ReplayVisitorBase::vkCmdBeginRenderPass2(c)) return false;
+    fovea_.begin_render_pass(c.commandBuffer, *c.pRenderPassBegin,
+                             c.pSubpassBeginInfo->contents != VK_SUBPASS_CONTENTS_INLINE);
+    return true;
+}
+
+bool Replayer::vkCmdBeginRendering(const codec::Decoded_vkCmdBeginRendering &c) {
+    if (!ReplayVisitorBase::vkCmdBeginRendering(c)) return false;
+    fovea_.begin_rendering(c.commandBuffer, *c.pRenderingInfo);
+    return true;
+}
+
+bool Replayer::vkCmdEndRenderPass(const codec::Decoded_vkCmdEndRenderPass &c) {
+    if (!ReplayVisitorBase::vkCmdEndRenderPass(c)) return false;
+    fovea_.end_pass(c.commandBuffer);
+    return true;
+}
+
+bool Replayer::vkCmdEndRenderPass2(const codec::Decoded_vkCmdEndRenderPass2 &c) {
+    if (!ReplayVisitorBase::vkCmdEndRenderPass2(c)) return false;
+    fovea_.end_pass(c.commandBuffer);
+    return true;
+}
+
+bool Replayer::vkCmdEndRendering(const codec::Decoded_vkCmdEndRendering &c) {
+    if (!ReplayVisitorBase::vkCmdEndRendering(c)) return false;
+    fovea_.end_pass(c.commandBuffer);
     return true;
 }
 

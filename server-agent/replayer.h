@@ -6,14 +6,18 @@
 // queue, without the client's semaphores and fences), memory (memory_rebind.h), pipelines (no
 // pipeline cache), and the metadata messages (memory data, swapchains, frame marks).
 
+#include "fovea_shading.h"
 #include "memory_rebind.h"
 #include "session.h"
 #include "swapchain_images.h"
+#include "tile_streamer.h"
 #include "vk_codec.h"
 #include "vk_replay.h"
 #include "vulkan_context.h"
 
+#include <chrono>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -35,9 +39,17 @@ public:
     bool memory_data(const protocol::MemoryData &message, std::string *error);
     bool swapchain_images(const protocol::SwapchainImages &message, std::string *error);
     bool swapchain_destroyed(const protocol::SwapchainDestroyed &message, std::string *error);
-    // FramePresent: with kPresentVerify, waits for the frame's work and reads each image back.
+    // FramePresent: hands the first presented image's fovea to the tile streamer (when tiles are
+    // enabled); with kPresentVerify, also waits for the frame's work and reads each image back.
     bool frame_present(const protocol::FramePresent &message, std::vector<protocol::VerifyFrame> &verify,
                        std::string *error);
+    // Where Tiles messages go. Tiles start with SplitConfig: the client sends it only when it
+    // splits, and until then the agent neither restricts shading to the fovea nor sends tiles.
+    void set_tile_sender(TileStreamer::Send send) { tile_sender_ = std::move(send); }
+    bool split_config(const protocol::SplitConfig &message, std::string *error);
+
+    // Split passes shaded in the foveae only (fovea_shading.h).
+    FoveaShading &fovea() { return fovea_; }
 
     uint64_t commands_replayed() const { return commands_; }
     uint64_t submits() const { return submits_; }
@@ -71,11 +83,31 @@ public:
     bool vkCreateGraphicsPipelines(const codec::Decoded_vkCreateGraphicsPipelines &c) override;
     bool vkCreateComputePipelines(const codec::Decoded_vkCreateComputePipelines &c) override;
 
+    // The split (fovea_shading.h): what makes a split pass, and the scissors narrowed inside one.
+    bool vkCreateImageView(const codec::Decoded_vkCreateImageView &c) override;
+    bool vkDestroyImageView(const codec::Decoded_vkDestroyImageView &c) override;
+    bool vkCreateFramebuffer(const codec::Decoded_vkCreateFramebuffer &c) override;
+    bool vkDestroyFramebuffer(const codec::Decoded_vkDestroyFramebuffer &c) override;
+    bool vkDestroyPipeline(const codec::Decoded_vkDestroyPipeline &c) override;
+    bool vkBeginCommandBuffer(const codec::Decoded_vkBeginCommandBuffer &c) override;
+    bool vkCmdBindPipeline(const codec::Decoded_vkCmdBindPipeline &c) override;
+    bool vkCmdSetViewport(const codec::Decoded_vkCmdSetViewport &c) override;
+    bool vkCmdSetViewportWithCount(const codec::Decoded_vkCmdSetViewportWithCount &c) override;
+    bool vkCmdSetScissor(const codec::Decoded_vkCmdSetScissor &c) override;
+    bool vkCmdSetScissorWithCount(const codec::Decoded_vkCmdSetScissorWithCount &c) override;
+    bool vkCmdBeginRenderPass(const codec::Decoded_vkCmdBeginRenderPass &c) override;
+    bool vkCmdBeginRenderPass2(const codec::Decoded_vkCmdBeginRenderPass2 &c) override;
+    bool vkCmdBeginRendering(const codec::Decoded_vkCmdBeginRendering &c) override;
+    bool vkCmdEndRenderPass(const codec::Decoded_vkCmdEndRenderPass &c) override;
+    bool vkCmdEndRenderPass2(const codec::Decoded_vkCmdEndRenderPass2 &c) override;
+    bool vkCmdEndRendering(const codec::Decoded_vkCmdEndRendering &c) override;
+
 private:
     // Waits for the GPU when work is in flight: the client destroys, frees, re-records and
     // rewrites memory after waiting on its own fences, which the agent does not replay.
     void quiesce();
     bool needs_quiesce(codec::VkCommandId id) const;
+    void note_frame_submit();
     bool peek_create_device(std::span<const uint8_t> payload, size_t offset, std::string *error);
 
     uint64_t session_id_;
@@ -84,6 +116,10 @@ private:
     codec::Arena arena_;
     MemoryRebind memory_{context_};
     SwapchainImages swapchains_{context_, table_};
+    FoveaShading fovea_{vk, swapchains_};
+    TileStreamer::Send tile_sender_;
+    std::unique_ptr<TileStreamer> tiles_; // declared after context_: its worker stops before the device goes
+    std::chrono::steady_clock::time_point frame_first_submit_{};
     std::string error_;
     bool gpu_busy_ = false;
     bool unsupported_format_logged_ = false;

@@ -11,9 +11,7 @@ SwapchainImages::~SwapchainImages() {
     vkDeviceWaitIdle(context_.device);
     for (auto &[id, swapchain] : swapchains_)
         release(swapchain);
-    if (staging_mapped_) vkUnmapMemory(context_.device, staging_memory_);
-    if (staging_) vkDestroyBuffer(context_.device, staging_, nullptr);
-    if (staging_memory_) vkFreeMemory(context_.device, staging_memory_, nullptr);
+    context_.destroy(staging_);
     if (fence_) vkDestroyFence(context_.device, fence_, nullptr);
     if (pool_) vkDestroyCommandPool(context_.device, pool_, nullptr);
 }
@@ -95,6 +93,24 @@ bool SwapchainImages::create(const protocol::SwapchainImages &message, std::stri
     return true;
 }
 
+bool SwapchainImages::presented(uint64_t swapchain_id, uint32_t image_index, Presented *out,
+                                std::string *error) const {
+    const auto it = swapchains_.find(swapchain_id);
+    if (it == swapchains_.end()) {
+        *error = "present of unknown swapchain id";
+        return false;
+    }
+    const Swapchain &swapchain = it->second;
+    if (image_index >= swapchain.images.size()) {
+        *error = "present of image index " + std::to_string(image_index) + " of a swapchain with " +
+                 std::to_string(swapchain.images.size()) + " images";
+        return false;
+    }
+    *out = {swapchain.images[image_index], swapchain.info.image_ids[image_index],
+            static_cast<VkFormat>(swapchain.info.format)};
+    return true;
+}
+
 bool SwapchainImages::destroy(uint64_t swapchain_id, std::string *error) {
     auto it = swapchains_.find(swapchain_id);
     if (it == swapchains_.end()) {
@@ -133,46 +149,9 @@ bool SwapchainImages::ensure_readback(VkDeviceSize bytes, std::string *error) {
             return false;
         }
     }
-    if (staging_size_ >= bytes) return true;
-    if (staging_mapped_) vkUnmapMemory(context_.device, staging_memory_);
-    if (staging_) vkDestroyBuffer(context_.device, staging_, nullptr);
-    if (staging_memory_) vkFreeMemory(context_.device, staging_memory_, nullptr);
-    staging_ = VK_NULL_HANDLE;
-    staging_memory_ = VK_NULL_HANDLE;
-    staging_mapped_ = nullptr;
-    staging_size_ = 0;
-    VkBufferCreateInfo info{};
-    info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
-    info.size = bytes;
-    info.usage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-    r = vkCreateBuffer(context_.device, &info, nullptr, &staging_);
-    if (r != VK_SUCCESS) {
-        *error = std::string("readback buffer: ") + vk_result_name(r);
-        return false;
-    }
-    VkMemoryRequirements req{};
-    vkGetBufferMemoryRequirements(context_.device, staging_, &req);
-    const int32_t type =
-        context_.find_memory_type(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT,
-                                  VK_MEMORY_PROPERTY_HOST_COHERENT_BIT | VK_MEMORY_PROPERTY_HOST_CACHED_BIT);
-    if (type < 0) {
-        *error = "no host-visible memory for readback";
-        return false;
-    }
-    VkMemoryAllocateInfo alloc{};
-    alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-    alloc.allocationSize = req.size;
-    alloc.memoryTypeIndex = static_cast<uint32_t>(type);
-    r = vkAllocateMemory(context_.device, &alloc, nullptr, &staging_memory_);
-    if (r == VK_SUCCESS) r = vkBindBufferMemory(context_.device, staging_, staging_memory_, 0);
-    if (r == VK_SUCCESS)
-        r = vkMapMemory(context_.device, staging_memory_, 0, VK_WHOLE_SIZE, 0, &staging_mapped_);
-    if (r != VK_SUCCESS) {
-        *error = std::string("readback memory: ") + vk_result_name(r);
-        return false;
-    }
-    staging_size_ = bytes;
-    return true;
+    if (staging_.size >= bytes) return true;
+    context_.destroy(staging_);
+    return context_.create_readback_buffer(bytes, &staging_, error);
 }
 
 bool SwapchainImages::read_back(uint64_t swapchain_id, uint32_t image_index, Rect rect,
@@ -222,7 +201,7 @@ bool SwapchainImages::read_back(uint64_t swapchain_id, uint32_t image_index, Rec
     region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
     region.imageOffset = {static_cast<int32_t>(rect.x), static_cast<int32_t>(rect.y), 0};
     region.imageExtent = {rect.width, rect.height, 1};
-    vkCmdCopyImageToBuffer(command_buffer_, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, staging_, 1,
+    vkCmdCopyImageToBuffer(command_buffer_, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, staging_.buffer, 1,
                            &region);
     barrier.srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
     barrier.dstAccessMask = 0;
@@ -234,7 +213,7 @@ bool SwapchainImages::read_back(uint64_t swapchain_id, uint32_t image_index, Rec
     host.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
     host.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
     host.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    host.buffer = staging_;
+    host.buffer = staging_.buffer;
     host.size = VK_WHOLE_SIZE;
     vkCmdPipelineBarrier(command_buffer_, VK_PIPELINE_STAGE_TRANSFER_BIT,
                          VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT | VK_PIPELINE_STAGE_HOST_BIT, 0, 0, nullptr, 1,
@@ -251,19 +230,26 @@ bool SwapchainImages::read_back(uint64_t swapchain_id, uint32_t image_index, Rec
         *error = std::string("readback submit: ") + vk_result_name(r);
         return false;
     }
-    VkMappedMemoryRange range{};
-    range.sType = VK_STRUCTURE_TYPE_MAPPED_MEMORY_RANGE;
-    range.memory = staging_memory_;
-    range.size = VK_WHOLE_SIZE;
-    vkInvalidateMappedMemoryRanges(context_.device, 1, &range);
+    context_.invalidate(staging_);
     out.swapchain_id = swapchain_id;
     out.image_index = image_index;
     out.width = rect.width;
     out.height = rect.height;
     out.format = swapchain.info.format;
     out.pixels.resize(static_cast<size_t>(bytes));
-    std::memcpy(out.pixels.data(), staging_mapped_, out.pixels.size());
+    std::memcpy(out.pixels.data(), staging_.mapped, out.pixels.size());
     return true;
+}
+
+bool SwapchainImages::find_image(VkImage image, uint64_t *image_id, VkExtent2D *extent) const {
+    for (const auto &[id, swapchain] : swapchains_)
+        for (size_t i = 0; i < swapchain.images.size(); ++i)
+            if (swapchain.images[i] == image && i < swapchain.info.image_ids.size()) {
+                *image_id = swapchain.info.image_ids[i];
+                *extent = {swapchain.info.width, swapchain.info.height};
+                return true;
+            }
+    return false;
 }
 
 } // namespace splitvk::agent

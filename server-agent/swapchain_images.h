@@ -28,6 +28,10 @@ public:
     bool create(const protocol::SwapchainImages &message, std::string *error);
     bool destroy(uint64_t swapchain_id, std::string *error);
 
+    // Whether `image` (the agent's handle) is a swapchain image; if so its client id and extent
+    // (fovea_shading.h: split passes are the ones drawing into these).
+    bool find_image(VkImage image, uint64_t *image_id, VkExtent2D *extent) const;
+
     // A rectangle of a presented image (left in VK_IMAGE_LAYOUT_PRESENT_SRC_KHR by the app), read
     // back tightly packed, 4 bytes per pixel. The caller has made the frame's submits complete.
     // Returns false with `error` on failure; sets *unsupported (and reads nothing) for formats
@@ -37,6 +41,15 @@ public:
     };
     bool read_back(uint64_t swapchain_id, uint32_t image_index, Rect rect, protocol::VerifyFrame &out,
                    bool *unsupported, std::string *error);
+
+    // A presented image: the agent's VkImage, the client's id for it and its format. False with
+    // one line in `error` for an unknown swapchain or index.
+    struct Presented {
+        VkImage image = VK_NULL_HANDLE;
+        uint64_t image_id = 0;
+        VkFormat format = VK_FORMAT_UNDEFINED;
+    };
+    bool presented(uint64_t swapchain_id, uint32_t image_index, Presented *out, std::string *error) const;
 
 private:
     struct Swapchain {
@@ -53,10 +66,7 @@ private:
     VkCommandPool pool_ = VK_NULL_HANDLE;
     VkCommandBuffer command_buffer_ = VK_NULL_HANDLE;
     VkFence fence_ = VK_NULL_HANDLE;
-    VkBuffer staging_ = VK_NULL_HANDLE;
-    VkDeviceMemory staging_memory_ = VK_NULL_HANDLE;
-    VkDeviceSize staging_size_ = 0;
-    void *staging_mapped_ = nullptr;
+    HostBuffer staging_;
 };
 
 } // namespace splitvk::agent

@@ -339,4 +339,60 @@ int32_t VulkanContext::find_memory_type(uint32_t type_bits, VkMemoryPropertyFlag
     return fallback;
 }
 
+bool VulkanContext::create_readback_buffer(VkDeviceSize size, HostBuffer *out, std::string *error) const {
+    HostBuffer b;
+    VkBufferCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+    info.size = size;
+    info.usage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    VkResult r = vkCreateBuffer(device, &info, nullptr, &b.buffer);
+    if (r != VK_SUCCESS) {
+        *error = std::string("readback buffer: ") + vk_result_name(r);
+        return false;
+    }
+    VkMemoryRequirements req{};
+    vkGetBufferMemoryRequirements(device, b.buffer, &req);
+    // Cached: the host reads every byte (uncached reads are slow on a discrete GPU).
+    const int32_t type = find_memory_type(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT,
+                                          VK_MEMORY_PROPERTY_HOST_CACHED_BIT);
+    if (type < 0) {
+        *error = "no host-visible memory for a readback buffer";
+        destroy(b);
+        return false;
+    }
+    VkMemoryAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    alloc.allocationSize = req.size;
+    alloc.memoryTypeIndex = static_cast<uint32_t>(type);
+    void *mapped = nullptr;
+    r = vkAllocateMemory(device, &alloc, nullptr, &b.memory);
+    if (r == VK_SUCCESS) r = vkBindBufferMemory(device, b.buffer, b.memory, 0);
+    if (r == VK_SUCCESS) r = vkMapMemory(device, b.memory, 0, VK_WHOLE_SIZE, 0, &mapped);
+    if (r != VK_SUCCESS) {
+        *error = std::string("readback memory: ") + vk_result_name(r);
+        destroy(b);
+        return false;
+    }
+    b.mapped = static_cast<uint8_t *>(mapped);
+    b.size = size;
+    b.coherent = memory_properties.memoryTypes[type].propertyFlags & VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+    *out = b;
+    return true;
+}
+
+void VulkanContext::destroy(HostBuffer &b) const {
+    if (b.buffer) vkDestroyBuffer(device, b.buffer, nullptr);
+    if (b.memory) vkFreeMemory(device, b.memory, nullptr); // unmaps
+    b = HostBuffer{};
+}
+
+void VulkanContext::invalidate(const HostBuffer &b) const {
+    if (b.coherent || !b.memory) return;
+    VkMappedMemoryRange range{};
+    range.sType = VK_STRUCTURE_TYPE_MAPPED_MEMORY_RANGE;
+    range.memory = b.memory;
+    range.size = VK_WHOLE_SIZE;
+    vkInvalidateMappedMemoryRanges(device, 1, &range);
+}
+
 } // namespace splitvk::agent

@@ -11,6 +11,15 @@
 
 namespace splitvk::agent {
 
+// A buffer in host-visible memory, mapped for its whole life: what the agent reads back.
+struct HostBuffer {
+    VkBuffer buffer = VK_NULL_HANDLE;
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    uint8_t *mapped = nullptr;
+    VkDeviceSize size = 0;
+    bool coherent = true;
+};
+
 class VulkanContext {
 public:
     VulkanContext() = default;
@@ -38,6 +47,13 @@ public:
 
     // Validation messages seen (errors and warnings).
     uint64_t validation_messages() const { return validation_messages_; }
+
+    // A host-visible TRANSFER_DST buffer of `size` bytes the host reads (cached memory preferred).
+    // False with one line in `error`; `out` is then empty.
+    bool create_readback_buffer(VkDeviceSize size, HostBuffer *out, std::string *error) const;
+    void destroy(HostBuffer &buffer) const;
+    // Makes the GPU's writes visible to the host (non-coherent memory only).
+    void invalidate(const HostBuffer &buffer) const;
 
     // A memory type among `type_bits` with all of `required`, preferring `preferred` too; -1 if none.
     int32_t find_memory_type(uint32_t type_bits, VkMemoryPropertyFlags required,

@@ -35,14 +35,23 @@ options:
   --present-mode MODE    fifo, mailbox or immediate (default mailbox: not throttled to the
                          display, no tearing); unsupported modes fall back to fifo with a note
   --srgb                 use a B8G8R8A8_SRGB swapchain instead of B8G8R8A8_UNORM (same picture)
+  --static-viewports     one pipeline per eye with static viewport and scissor (for the startup
+                         extent) instead of dynamic state (same picture)
+  --clear-depth-per-eye  clear each eye's depth with vkCmdClearAttachments before drawing it
+                         (same picture)
+  --dynamic-rendering    draw with VK_KHR_dynamic_rendering instead of a render pass (same picture)
   --screenshot N PATH    write frame N (0-based) as a PNG, read back from its swapchain image
                          before it is presented
+  --resize-at N WxH      resize the window to WxH before frame N; the swapchain is recreated when
+                         the driver reports it out of date (window resizes without a user)
   --hold                 after the last frame (N-1), keep it on screen, print 'holding frame N-1'
                          and wait for SIGTERM or SIGINT, then exit 0
   --model PATH.obj       draw a Wavefront OBJ model instead (y up; positions, normals, texture
                          coordinates, polygons, usemtl). Material libraries and image files are
                          not read: each material gets a procedural texture chosen by its name.
                          The camera walk is fitted to the model's bounds.
+  --frame-times PATH     after the last frame, write every frame's time to PATH as CSV
+                         ('frame,ms', the same present-to-present times the summary uses)
   --help                 show this text
 
 On start it prints 'atrium: T triangles, 49 textures, WxH per eye'. When the last frame has been
@@ -82,12 +91,29 @@ Options parse_options(int argc, char **argv) {
                                             std::string(mode) + "'");
         } else if (arg == "--srgb") {
             o.srgb = true;
+        } else if (arg == "--static-viewports") {
+            o.static_viewports = true;
+        } else if (arg == "--clear-depth-per-eye") {
+            o.clear_depth_per_eye = true;
+        } else if (arg == "--dynamic-rendering") {
+            o.dynamic_rendering = true;
         } else if (arg == "--screenshot") {
             o.screenshot_frame = parse_number<uint64_t>(arg, value(), 0, uint64_t(1) << 40);
             o.screenshot_path = value();
             if (o.screenshot_path.empty()) throw std::invalid_argument("--screenshot: empty path");
+        } else if (arg == "--resize-at") {
+            o.resize_frame = parse_number<uint64_t>(arg, value(), 0, uint64_t(1) << 40);
+            const std::string size(value());
+            const auto x = size.find('x');
+            if (x == std::string::npos)
+                throw std::invalid_argument("--resize-at: expected WxH, got '" + size + "'");
+            o.resize_width = parse_number<uint32_t>(arg, size.substr(0, x), 16, 16384);
+            o.resize_height = parse_number<uint32_t>(arg, size.substr(x + 1), 16, 16384);
         } else if (arg == "--hold") {
             o.hold = true;
+        } else if (arg == "--frame-times") {
+            o.frame_times_path = value();
+            if (o.frame_times_path.empty()) throw std::invalid_argument("--frame-times: empty path");
         } else if (arg == "--model") {
             o.model_path = value();
             if (o.model_path.empty()) throw std::invalid_argument("--model: empty path");

@@ -16,10 +16,19 @@ struct Options {
     uint64_t frames = 300;
     VkPresentModeKHR present_mode = VK_PRESENT_MODE_MAILBOX_KHR;
     bool srgb = false;
+    bool static_viewports = false;
+    bool clear_depth_per_eye = false;
+    bool dynamic_rendering = false;
     bool hold = false;
+    // --resize-at N WxH: before frame N, resize the window (the swapchain is then recreated).
+    std::optional<uint64_t> resize_frame;
+    uint32_t resize_width = 0;
+    uint32_t resize_height = 0;
     std::optional<uint64_t> screenshot_frame;
     std::string screenshot_path;
     std::string model_path;
+    // --frame-times PATH: one line per frame, 'frame,ms', written after the last frame.
+    std::string frame_times_path;
     bool help = false;
 };
 

@@ -55,6 +55,13 @@ Renderer::Renderer(VkContext &context, Swapchain &swapchain, const Scene &scene,
                    const RendererOptions &options)
     : context_(context), swapchain_(swapchain), scene_(scene), camera_(camera), options_(options),
       device_(context.device()) {
+    if (options_.dynamic_rendering) {
+        cmd_begin_rendering_ = reinterpret_cast<PFN_vkCmdBeginRenderingKHR>(
+            vkGetDeviceProcAddr(device_, "vkCmdBeginRenderingKHR"));
+        cmd_end_rendering_ =
+            reinterpret_cast<PFN_vkCmdEndRenderingKHR>(vkGetDeviceProcAddr(device_, "vkCmdEndRenderingKHR"));
+        if (!cmd_begin_rendering_ || !cmd_end_rendering_) throw Error("vkCmdBeginRenderingKHR is missing");
+    }
     upload(scene, textures);
     create_descriptors(textures.size());
     present_pass_ = create_render_pass(VK_IMAGE_LAYOUT_PRESENT_SRC_KHR);
@@ -94,6 +101,8 @@ Renderer::~Renderer() {
     destroy_targets();
     context_.destroy(readback_);
     vkDestroyPipeline(device_, pipeline_, nullptr);
+    for (VkPipeline eye_pipeline : eye_pipelines_)
+        vkDestroyPipeline(device_, eye_pipeline, nullptr);
     vkDestroyPipelineLayout(device_, pipeline_layout_, nullptr);
     vkDestroyRenderPass(device_, present_pass_, nullptr);
     vkDestroyRenderPass(device_, readback_pass_, nullptr);
@@ -469,7 +478,33 @@ void Renderer::create_pipeline(bool double_sided) {
     info.layout = pipeline_layout_;
     info.renderPass = present_pass_;
     info.subpass = 0;
-    const VkResult result = vkCreateGraphicsPipelines(device_, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline_);
+    const VkFormat color_format = swapchain_.format();
+    VkPipelineRenderingCreateInfoKHR rendering{};
+    rendering.sType = VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO_KHR;
+    rendering.colorAttachmentCount = 1;
+    rendering.pColorAttachmentFormats = &color_format;
+    rendering.depthAttachmentFormat = depth_format;
+    if (options_.dynamic_rendering) {
+        info.pNext = &rendering;
+        info.renderPass = VK_NULL_HANDLE;
+    }
+    VkResult result = vkCreateGraphicsPipelines(device_, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline_);
+    // Static state exercises the layer's other path: it must make these dynamic to scale them.
+    const VkExtent2D extent = swapchain_.extent();
+    for (uint32_t eye = 0; options_.static_viewports && result == VK_SUCCESS && eye < options_.eyes; ++eye) {
+        const uint32_t x = eye == 0 ? 0 : extent.width / options_.eyes;
+        const uint32_t width = eye + 1 == options_.eyes ? extent.width - x : extent.width / options_.eyes;
+        const VkViewport eye_viewport{float(x), 0.0f, float(width), float(extent.height), 0.0f, 1.0f};
+        const VkRect2D eye_scissor{{int32_t(x), 0}, {width, extent.height}};
+        VkPipelineViewportStateCreateInfo fixed = viewport;
+        fixed.pViewports = &eye_viewport;
+        fixed.pScissors = &eye_scissor;
+        VkGraphicsPipelineCreateInfo eye_info = info;
+        eye_info.pViewportState = &fixed;
+        eye_info.pDynamicState = nullptr;
+        result =
+            vkCreateGraphicsPipelines(device_, VK_NULL_HANDLE, 1, &eye_info, nullptr, &eye_pipelines_[eye]);
+    }
     vkDestroyShaderModule(device_, vert, nullptr);
     vkDestroyShaderModule(device_, frag, nullptr);
     ATRIUM_VK_CHECK(result);
@@ -526,6 +561,70 @@ void Renderer::recreate_swapchain() {
     create_targets();
 }
 
+// What the render pass's layouts and external dependencies do (create_render_pass), as barriers.
+void Renderer::begin_rendering(VkCommandBuffer cmd, uint32_t image, VkExtent2D extent,
+                               const VkClearValue *clears) {
+    VkImageMemoryBarrier barriers[2] = {};
+    for (auto &b : barriers) {
+        b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+        b.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+        b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    }
+    barriers[0].dstAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+    barriers[0].newLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    barriers[0].image = swapchain_.images()[image];
+    barriers[0].subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    barriers[1].srcAccessMask = VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+    barriers[1].dstAccessMask =
+        VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+    barriers[1].newLayout = VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+    barriers[1].image = depth_.image;
+    barriers[1].subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, 1};
+    const VkPipelineStageFlags stages = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT |
+                                        VK_PIPELINE_STAGE_EARLY_FRAGMENT_TESTS_BIT |
+                                        VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT;
+    vkCmdPipelineBarrier(cmd, stages, stages, 0, 0, nullptr, 0, nullptr, 2, barriers);
+
+    VkRenderingAttachmentInfoKHR color{};
+    color.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO_KHR;
+    color.imageView = swapchain_.views()[image];
+    color.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    color.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    color.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    color.clearValue = clears[0];
+    VkRenderingAttachmentInfoKHR depth = color;
+    depth.imageView = depth_.view;
+    depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+    depth.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    depth.clearValue = clears[1];
+    VkRenderingInfoKHR info{};
+    info.sType = VK_STRUCTURE_TYPE_RENDERING_INFO_KHR;
+    info.renderArea = {{0, 0}, extent};
+    info.layerCount = 1;
+    info.colorAttachmentCount = 1;
+    info.pColorAttachments = &color;
+    info.pDepthAttachment = &depth;
+    cmd_begin_rendering_(cmd, &info);
+}
+
+void Renderer::end_rendering(VkCommandBuffer cmd, uint32_t image, bool readback) {
+    cmd_end_rendering_(cmd);
+    // To PRESENT_SRC (the present's semaphore waits for everything), or to TRANSFER_SRC for the
+    // screenshot's copy, which reads what was rendered.
+    VkImageMemoryBarrier barrier{};
+    barrier.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+    barrier.srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+    barrier.dstAccessMask = readback ? VK_ACCESS_TRANSFER_READ_BIT : 0;
+    barrier.oldLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    barrier.newLayout = readback ? VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL : VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+    barrier.srcQueueFamilyIndex = barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    barrier.image = swapchain_.images()[image];
+    barrier.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
+                         readback ? VK_PIPELINE_STAGE_TRANSFER_BIT : VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, 0,
+                         0, nullptr, 0, nullptr, 1, &barrier);
+}
+
 void Renderer::wait_idle() {
     ATRIUM_VK_CHECK(vkDeviceWaitIdle(device_));
 }
@@ -579,7 +678,10 @@ void Renderer::record(FrameSlot &slot, uint32_t image, bool readback) {
     pass.renderArea = {{0, 0}, extent};
     pass.clearValueCount = 2;
     pass.pClearValues = clears;
-    vkCmdBeginRenderPass(cmd, &pass, VK_SUBPASS_CONTENTS_INLINE);
+    if (options_.dynamic_rendering)
+        begin_rendering(cmd, image, extent, clears);
+    else
+        vkCmdBeginRenderPass(cmd, &pass, VK_SUBPASS_CONTENTS_INLINE);
 
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout_, 0, 1, &slot.frame_set, 0,
@@ -594,8 +696,19 @@ void Renderer::record(FrameSlot &slot, uint32_t image, bool readback) {
         const uint32_t width = eye + 1 == options_.eyes ? extent.width - x : extent.width / options_.eyes;
         const VkViewport viewport{float(x), 0.0f, float(width), float(extent.height), 0.0f, 1.0f};
         const VkRect2D scissor{{int32_t(x), 0}, {width, extent.height}};
-        vkCmdSetViewport(cmd, 0, 1, &viewport);
-        vkCmdSetScissor(cmd, 0, 1, &scissor);
+        if (options_.static_viewports) {
+            vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, eye_pipelines_[eye]);
+        } else {
+            vkCmdSetViewport(cmd, 0, 1, &viewport);
+            vkCmdSetScissor(cmd, 0, 1, &scissor);
+        }
+        if (options_.clear_depth_per_eye) {
+            VkClearAttachment clear{};
+            clear.aspectMask = VK_IMAGE_ASPECT_DEPTH_BIT;
+            clear.clearValue.depthStencil = {1.0f, 0};
+            const VkClearRect rect{scissor, 0, 1};
+            vkCmdClearAttachments(cmd, 1, &clear, 1, &rect);
+        }
         uint32_t bound_texture = UINT32_MAX;
         for (const DrawRange &draw : scene_.draws) {
             const Material &material = scene_.materials[draw.material];
@@ -611,7 +724,10 @@ void Renderer::record(FrameSlot &slot, uint32_t image, bool readback) {
             vkCmdDrawIndexed(cmd, draw.index_count, 1, draw.first_index, 0, 0);
         }
     }
-    vkCmdEndRenderPass(cmd);
+    if (options_.dynamic_rendering)
+        end_rendering(cmd, image, readback);
+    else
+        vkCmdEndRenderPass(cmd);
 
     if (readback) {
         VkBufferImageCopy region{};

@@ -32,6 +32,9 @@ struct FrameUniforms {
 struct RendererOptions {
     uint32_t eyes = 2;
     std::optional<uint64_t> screenshot_frame; // read this frame's swapchain image back
+    bool static_viewports = false;            // per-eye pipelines with static viewport/scissor
+    bool clear_depth_per_eye = false;         // vkCmdClearAttachments on each eye's depth
+    bool dynamic_rendering = false;           // vkCmdBeginRenderingKHR instead of a render pass
 };
 
 class Renderer {
@@ -72,6 +75,8 @@ private:
     void create_descriptors(size_t textures);
     VkRenderPass create_render_pass(VkImageLayout final_layout);
     void create_pipeline(bool double_sided);
+    void begin_rendering(VkCommandBuffer cmd, uint32_t image, VkExtent2D extent, const VkClearValue *clears);
+    void end_rendering(VkCommandBuffer cmd, uint32_t image, bool readback);
     void create_targets();
     void destroy_targets();
     void recreate_swapchain();
@@ -93,6 +98,9 @@ private:
     std::vector<VkDescriptorSet> texture_sets_;
     VkPipelineLayout pipeline_layout_ = VK_NULL_HANDLE;
     VkPipeline pipeline_ = VK_NULL_HANDLE;
+    PFN_vkCmdBeginRenderingKHR cmd_begin_rendering_ = nullptr; // --dynamic-rendering (extension entry points)
+    PFN_vkCmdEndRenderingKHR cmd_end_rendering_ = nullptr;
+    VkPipeline eye_pipelines_[2] = {};            // --static-viewports: eye i's viewport and scissor baked in
     VkRenderPass present_pass_ = VK_NULL_HANDLE;  // ends in PRESENT_SRC_KHR
     VkRenderPass readback_pass_ = VK_NULL_HANDLE; // ends in TRANSFER_SRC_OPTIMAL, for the screenshot
 

@@ -44,7 +44,7 @@ int device_type_rank(VkPhysicalDeviceType type) {
 
 } // namespace
 
-VkContext::VkContext(const XcbWindow &window) {
+VkContext::VkContext(const XcbWindow &window, bool dynamic_rendering) {
     uint32_t loader_version = VK_API_VERSION_1_0;
     if (vkEnumerateInstanceVersion(&loader_version) != VK_SUCCESS || loader_version < VK_API_VERSION_1_1)
         throw Error("the Vulkan loader does not support Vulkan 1.1");
@@ -127,12 +127,18 @@ VkContext::VkContext(const XcbWindow &window) {
     queue_info.queueFamilyIndex = queue_family_;
     queue_info.queueCount = 1;
     queue_info.pQueuePriorities = &priority;
-    const char *device_extensions[] = {VK_KHR_SWAPCHAIN_EXTENSION_NAME};
+    const char *device_extensions[] = {
+        VK_KHR_SWAPCHAIN_EXTENSION_NAME, VK_KHR_CREATE_RENDERPASS_2_EXTENSION_NAME,
+        VK_KHR_DEPTH_STENCIL_RESOLVE_EXTENSION_NAME, VK_KHR_DYNAMIC_RENDERING_EXTENSION_NAME};
+    VkPhysicalDeviceDynamicRenderingFeaturesKHR dynamic_rendering_features{};
+    dynamic_rendering_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DYNAMIC_RENDERING_FEATURES_KHR;
+    dynamic_rendering_features.dynamicRendering = VK_TRUE;
     VkDeviceCreateInfo device_info{};
     device_info.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+    device_info.pNext = dynamic_rendering ? &dynamic_rendering_features : nullptr;
     device_info.queueCreateInfoCount = 1;
     device_info.pQueueCreateInfos = &queue_info;
-    device_info.enabledExtensionCount = 1;
+    device_info.enabledExtensionCount = dynamic_rendering ? 4 : 1;
     device_info.ppEnabledExtensionNames = device_extensions;
     ATRIUM_VK_CHECK(vkCreateDevice(physical_device_, &device_info, nullptr, &device_));
     vkGetDeviceQueue(device_, queue_family_, 0, &queue_);

@@ -12,7 +12,8 @@ class XcbWindow;
 class VkContext {
 public:
     // Throws Error when there is no Vulkan driver or no device that can present to the window.
-    explicit VkContext(const XcbWindow &window);
+    // dynamic_rendering: enable VK_KHR_dynamic_rendering (and what it requires).
+    VkContext(const XcbWindow &window, bool dynamic_rendering);
     ~VkContext();
     VkContext(const VkContext &) = delete;
     VkContext &operator=(const VkContext &) = delete;

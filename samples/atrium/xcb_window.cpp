@@ -67,6 +67,12 @@ XcbWindow::~XcbWindow() {
     xcb_disconnect(connection_);
 }
 
+void XcbWindow::resize(uint32_t width, uint32_t height) {
+    const uint32_t values[] = {width, height};
+    xcb_configure_window(connection_, window_, XCB_CONFIG_WINDOW_WIDTH | XCB_CONFIG_WINDOW_HEIGHT, values);
+    sync();
+}
+
 bool XcbWindow::close_requested() {
     while (xcb_generic_event_t *event = xcb_poll_for_event(connection_)) {
         if ((event->response_type & 0x7f) == XCB_CLIENT_MESSAGE) {

@@ -20,6 +20,9 @@ public:
     xcb_connection_t *connection() const { return connection_; }
     xcb_window_t window() const { return window_; }
 
+    // Asks the X server for a new size; the swapchain notices at its next acquire or present.
+    void resize(uint32_t width, uint32_t height);
+
     // Drains pending events; returns true once the window manager has asked the window to close.
     bool close_requested();
 

@@ -1,6 +1,7 @@
 #include "agent.h"
 
 #include <chrono>
+#include <csignal>
 #include <thread>
 
 #include <arpa/inet.h>
@@ -32,8 +33,8 @@ uint16_t free_loopback_port() {
 }
 
 bool Agent::start(const Env &env, const std::filesystem::path &out_dir,
-                  const std::vector<std::string> &extra_args) {
-    port_ = free_loopback_port();
+                  const std::vector<std::string> &extra_args, uint16_t port, const std::string &name) {
+    port_ = port ? port : free_loopback_port();
     if (port_ == 0) {
         error_ = "no free loopback port";
         return false;
@@ -44,8 +45,8 @@ bool Agent::start(const Env &env, const std::filesystem::path &out_dir,
     spec.env = env;
     spec.env["SPLITVK_LOG_LEVEL"] = "info";
     spec.out_dir = out_dir;
-    spec.name = "splitvk-agent";
-    log_path_ = out_dir / "splitvk-agent.stderr";
+    spec.name = name;
+    log_path_ = out_dir / (name + ".stderr");
     process_ = std::make_unique<Process>(spec);
     if (!process_->start()) {
         error_ = process_->error();
@@ -63,6 +64,42 @@ bool Agent::start(const Env &env, const std::filesystem::path &out_dir,
 
 std::string Agent::log() const {
     return read_file(log_path_);
+}
+
+void Agent::kill() {
+    if (!process_) return;
+    ::kill(-process_->pid(), SIGKILL);
+    process_->wait(std::chrono::seconds(10));
+}
+
+::testing::AssertionResult agent_session_validation_clean(const std::filesystem::path &log_path) {
+    std::string log = read_file(log_path);
+    const auto deadline = std::chrono::steady_clock::now() + 20s;
+    while (log.find("closed after") == std::string::npos && std::chrono::steady_clock::now() < deadline) {
+        std::this_thread::sleep_for(50ms);
+        log = read_file(log_path);
+    }
+    if (log.find("; 0 validation") != std::string::npos) return ::testing::AssertionSuccess();
+    std::string tail_lines;
+    const auto lines = split_lines(log);
+    for (size_t i = lines.size() > 15 ? lines.size() - 15 : 0; i < lines.size(); ++i)
+        tail_lines += lines[i] + "\n";
+    return ::testing::AssertionFailure()
+           << "the agent's session did not end cleanly under validation (" << log_path.string() << "):\n"
+           << tail_lines;
+}
+
+::testing::AssertionResult client_validation_clean(const std::filesystem::path &validation_log) {
+    if (!std::filesystem::exists(validation_log))
+        return ::testing::AssertionFailure()
+               << "client-side validation was not loaded (no " << validation_log.string() << ")";
+    const std::string messages = read_file(validation_log);
+    if (messages.empty()) return ::testing::AssertionSuccess();
+    return ::testing::AssertionFailure() << "client-side validation reported:\n" << messages.substr(0, 2000);
+}
+
+int Agent::pid() const {
+    return process_ ? process_->pid() : -1;
 }
 
 } // namespace splitvk::e2e

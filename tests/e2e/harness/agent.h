@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include <gtest/gtest.h>
+
 namespace splitvk::e2e {
 
 std::filesystem::path agent_path(); // <build>/bin/splitvk-agent
@@ -16,15 +18,30 @@ std::filesystem::path agent_path(); // <build>/bin/splitvk-agent
 // A port nobody listens on right now (bound on 127.0.0.1, read back, released).
 uint16_t free_loopback_port();
 
+// Waits (at most 20 s) until the agent log at `log_path` reports its session closed, and checks
+// that the session, run with --validate, ended with no validation message.
+::testing::AssertionResult agent_session_validation_clean(const std::filesystem::path &log_path);
+
+// The client side: the validation log configure_validation() set up exists (the layer was
+// loaded) and is empty.
+::testing::AssertionResult client_validation_clean(const std::filesystem::path &validation_log);
+
 class Agent {
 public:
     // Starts `splitvk-agent --listen 127.0.0.1:<free port> <extra_args>` with SPLITVK_LOG_LEVEL=info,
     // its output in out_dir/splitvk-agent.{stdout,stderr}, and waits until it listens. On failure
     // returns false and error() says why (with the agent's last words).
+    // `port` 0 picks a free one; `name` is the stem of its output files.
     bool start(const Env &env, const std::filesystem::path &out_dir,
-               const std::vector<std::string> &extra_args = {});
+               const std::vector<std::string> &extra_args = {}, uint16_t port = 0,
+               const std::string &name = "splitvk-agent");
+    // SIGKILL to the listener and its sessions (one process group), as a crash or a power cut
+    // would end them: no Goodbye, no FIN from a clean exit. Waits until they are gone.
+    void kill();
 
     uint16_t port() const { return port_; }
+    // The listener's pid, which is also its process group (sessions are its forked children).
+    int pid() const;
     std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
     std::string log() const; // what it wrote on stderr so far
     const std::string &error() const { return error_; }

@@ -3,6 +3,8 @@
 #include "png_writer.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <sstream>
 #include <unordered_set>
 
@@ -39,6 +41,115 @@ CompareResult compare_exact(const Image &a, const Image &b) {
         }
     }
     return r;
+}
+
+CompareResult compare_exact(const Image &a, const Image &b, uint32_t x0, uint32_t y0, uint32_t w,
+                            uint32_t h) {
+    CompareResult r;
+    r.same_size = a.width == b.width && a.height == b.height && a.bgr0.size() == b.bgr0.size() &&
+                  a.bgr0.size() == a.stride() * a.height && x0 + w <= a.width && y0 + h <= a.height;
+    if (!r.same_size) return r;
+    r.pixels = uint64_t{w} * h;
+    for (uint32_t y = y0; y < y0 + h; ++y)
+        for (uint32_t x = x0; x < x0 + w; ++x) {
+            const uint8_t *pa = a.pixel(x, y);
+            const uint8_t *pb = b.pixel(x, y);
+            if (pa[0] != pb[0] || pa[1] != pb[1] || pa[2] != pb[2]) {
+                if (r.mismatched_pixels == 0) {
+                    r.first_x = x;
+                    r.first_y = y;
+                }
+                ++r.mismatched_pixels;
+            }
+        }
+    return r;
+}
+
+double psnr(const Image &reference, const Image &test) {
+    if (reference.bgr0.size() != test.bgr0.size() || reference.bgr0.empty()) return 0;
+    double squared = 0;
+    uint64_t samples = 0;
+    for (size_t i = 0; i < reference.bgr0.size(); i += 4)
+        for (size_t c = 0; c < 3; ++c) {
+            const double d =
+                static_cast<double>(reference.bgr0[i + c]) - static_cast<double>(test.bgr0[i + c]);
+            squared += d * d;
+            ++samples;
+        }
+    if (squared == 0) return std::numeric_limits<double>::infinity();
+    return 10 * std::log10(255.0 * 255.0 / (squared / static_cast<double>(samples)));
+}
+
+namespace {
+
+std::vector<float> luma(const Image &img) {
+    std::vector<float> y(size_t{img.width} * img.height);
+    for (size_t i = 0; i < y.size(); ++i) {
+        const uint8_t *p = img.bgr0.data() + i * 4;
+        y[i] = 0.114f * p[0] + 0.587f * p[1] + 0.299f * p[2];
+    }
+    return y;
+}
+
+// Separable 11x11 Gaussian (sigma 1.5) over the windows that fit entirely: output is
+// (w - 10) x (h - 10).
+std::vector<float> gaussian_valid(const std::vector<float> &in, uint32_t w, uint32_t h) {
+    float kernel[11];
+    float sum = 0;
+    for (int i = 0; i < 11; ++i) {
+        kernel[i] = std::exp(-float((i - 5) * (i - 5)) / (2 * 1.5f * 1.5f));
+        sum += kernel[i];
+    }
+    for (float &k : kernel)
+        k /= sum;
+    const uint32_t ow = w - 10, oh = h - 10;
+    std::vector<float> rows(size_t{ow} * h);
+    for (uint32_t y = 0; y < h; ++y)
+        for (uint32_t x = 0; x < ow; ++x) {
+            float acc = 0;
+            for (int k = 0; k < 11; ++k)
+                acc += kernel[k] * in[size_t{y} * w + x + k];
+            rows[size_t{y} * ow + x] = acc;
+        }
+    std::vector<float> out(size_t{ow} * oh);
+    for (uint32_t y = 0; y < oh; ++y)
+        for (uint32_t x = 0; x < ow; ++x) {
+            float acc = 0;
+            for (int k = 0; k < 11; ++k)
+                acc += kernel[k] * rows[size_t{y + k} * ow + x];
+            out[size_t{y} * ow + x] = acc;
+        }
+    return out;
+}
+
+} // namespace
+
+double ssim(const Image &reference, const Image &test) {
+    if (reference.width != test.width || reference.height != test.height || reference.width < 11 ||
+        reference.height < 11)
+        return 0;
+    const uint32_t w = reference.width, h = reference.height;
+    const auto a = luma(reference);
+    const auto b = luma(test);
+    std::vector<float> aa(a.size()), bb(a.size()), ab(a.size());
+    for (size_t i = 0; i < a.size(); ++i) {
+        aa[i] = a[i] * a[i];
+        bb[i] = b[i] * b[i];
+        ab[i] = a[i] * b[i];
+    }
+    const auto mu_a = gaussian_valid(a, w, h);
+    const auto mu_b = gaussian_valid(b, w, h);
+    const auto e_aa = gaussian_valid(aa, w, h);
+    const auto e_bb = gaussian_valid(bb, w, h);
+    const auto e_ab = gaussian_valid(ab, w, h);
+    const double c1 = (0.01 * 255) * (0.01 * 255), c2 = (0.03 * 255) * (0.03 * 255);
+    double total = 0;
+    for (size_t i = 0; i < mu_a.size(); ++i) {
+        const double ma = mu_a[i], mb = mu_b[i];
+        const double va = e_aa[i] - ma * ma, vb = e_bb[i] - mb * mb, cov = e_ab[i] - ma * mb;
+        total += ((2 * ma * mb + c1) * (2 * cov + c2)) / ((ma * ma + mb * mb + c1) * (va + vb + c2));
+    }
+    return total / static_cast<double>(mu_a.size());
 }
 
 size_t distinct_colours(const Image &img) {

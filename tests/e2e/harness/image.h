@@ -34,6 +34,15 @@ struct CompareResult {
 // depth-24 visual has no alpha), invisible on screen, and is ignored.
 CompareResult compare_exact(const Image &a, const Image &b);
 
+// The same, within the rectangle (x, y, w, h) of both images only.
+CompareResult compare_exact(const Image &a, const Image &b, uint32_t x, uint32_t y, uint32_t w, uint32_t h);
+
+// Whole-image quality against a reference, over the colour bytes. PSNR in dB over B, G and R
+// (infinity for equal images). SSIM as Wang et al. 2004 on luma (BT.601 weights), 11x11
+// Gaussian window with sigma 1.5, K1 0.01, K2 0.03, averaged over the valid windows.
+double psnr(const Image &reference, const Image &test);
+double ssim(const Image &reference, const Image &test);
+
 // Number of distinct colours, to tell a rendered picture from a blank or nearly blank window.
 size_t distinct_colours(const Image &img);
 

@@ -113,6 +113,18 @@ void use_explicit_layers(Env &env, const std::vector<std::string> &layers) {
     env["VK_ADD_LAYER_PATH"] = explicit_layer_dir().string();
 }
 
+void use_hold_layer(Env &env, int frame) {
+    const std::string hold = "VK_LAYER_SPLITVK_test_hold";
+    const auto layers = env.find("VK_INSTANCE_LAYERS");
+    env["VK_INSTANCE_LAYERS"] =
+        layers == env.end() || layers->second.empty() ? hold : hold + ":" + layers->second;
+    const auto path = env.find("VK_ADD_LAYER_PATH");
+    env["VK_ADD_LAYER_PATH"] = path == env.end() || path->second.empty()
+                                   ? std::string(SPLITVK_E2E_HOLD_LAYER_DIR)
+                                   : std::string(SPLITVK_E2E_HOLD_LAYER_DIR) + ":" + path->second;
+    env["TEST_HOLD_FRAME"] = std::to_string(frame);
+}
+
 void make_implicit_layer_visible(Env &env) {
     env["XDG_DATA_DIRS"] = implicit_data_dir().string() + ":/usr/share";
 }

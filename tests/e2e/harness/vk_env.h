@@ -41,6 +41,10 @@ Env app_env(const std::string &display);
 // VK_INSTANCE_LAYERS = `layers` joined with ':' (first = closest to the app), VK_ADD_LAYER_PATH =
 // the build tree's explicit manifest folder.
 void use_explicit_layers(Env &env, const std::vector<std::string> &layers);
+// Puts VK_LAYER_SPLITVK_test_hold (tests/e2e/hold_layer) first in VK_INSTANCE_LAYERS, closest to
+// the app: after presenting frame `frame` the app prints "holding frame N" and freezes until
+// signalled. Call after use_explicit_layers() (or on an env without layers).
+void use_hold_layer(Env &env, int frame);
 // The build tree's implicit manifest becomes visible (XDG_DATA_DIRS = <build>/share:/usr/share);
 // the layer is then enabled only through SPLITVK_ENABLE=1, which this does not set.
 void make_implicit_layer_visible(Env &env);

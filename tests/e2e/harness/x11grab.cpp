@@ -3,7 +3,9 @@
 #include "vk_env.h"
 
 #include <chrono>
+#include <cstdio>
 #include <fstream>
+#include <sstream>
 #include <thread>
 
 namespace splitvk::e2e {
@@ -60,6 +62,35 @@ bool grab_stable(const std::string &display, int x, int y, uint32_t w, uint32_t 
     }
     *error = "the screen kept changing over " + std::to_string(attempts) + " grabs of " + raw_path.string();
     return false;
+}
+
+bool window_origin(const std::string &display, uint32_t w, uint32_t h, int *x, int *y,
+                   const std::filesystem::path &out_dir, std::string *error) {
+    ProcessSpec spec;
+    spec.argv = {"xwininfo", "-root", "-tree"};
+    spec.env = {{"DISPLAY", display}, {"PATH", "/usr/bin:/bin"}};
+    spec.out_dir = out_dir;
+    spec.name = "xwininfo";
+    const ProcessResult r = run_process(spec, std::chrono::seconds(10));
+    if (!r.ok()) {
+        *error = "xwininfo failed: " + r.describe();
+        return false;
+    }
+    // Child lines read "0x200000 (has no name): ()  600x600+100+100  +100+100".
+    const std::string size = std::to_string(w) + "x" + std::to_string(h) + "+";
+    int found = 0;
+    std::istringstream lines(r.out());
+    for (std::string line; std::getline(lines, line);) {
+        const auto at = line.find(size);
+        if (at == std::string::npos) continue;
+        if (std::sscanf(line.c_str() + at + size.size(), "%d+%d", x, y) == 2) ++found;
+    }
+    if (found != 1) {
+        *error = std::to_string(found) + " windows of " + std::to_string(w) + "x" + std::to_string(h) +
+                 " on " + display + ":\n" + r.out();
+        return false;
+    }
+    return true;
 }
 
 } // namespace splitvk::e2e

@@ -19,4 +19,10 @@ bool grab_screen(const std::string &display, int x, int y, uint32_t w, uint32_t 
 bool grab_stable(const std::string &display, int x, int y, uint32_t w, uint32_t h,
                  const std::filesystem::path &raw_path, Image *out, std::string *error, int attempts = 6);
 
+// Where the one top-level window of size w x h on `display` sits (xwininfo -root -tree): apps
+// such as vkcube choose their own window position. False with *error when there is no such window
+// or more than one.
+bool window_origin(const std::string &display, uint32_t w, uint32_t h, int *x, int *y,
+                   const std::filesystem::path &out_dir, std::string *error);
+
 } // namespace splitvk::e2e

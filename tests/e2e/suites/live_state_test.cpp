@@ -10,7 +10,6 @@
 #include <regex>
 #include <thread>
 
-
 namespace splitvk::e2e {
 namespace {
 

@@ -1,0 +1,790 @@
+// Composition before present (DESIGN §4); see compositor.h for the contract.
+//
+// One submit per present, on the present queue, in this order:
+//   1. wait on the application's present semaphores (at the transfer stage, the first use);
+//   2. copy the top-left periphery of the swapchain image into the slot's periphery image (an
+//      image of the swapchain's format: the draw below cannot sample the image it writes);
+//   3. draw one full-screen triangle into the swapchain image (a render pass on a view in its
+//      own format) that samples the periphery image: for sRGB formats the sampler decodes and
+//      the attachment encodes, so the filter blends linear values;
+//   4. copy the fovea tiles from the slot's host-visible staging buffer into the image with
+//      vkCmdCopyBufferToImage: bytes move unchanged, so the fovea is bit-exact in any format
+//      (a shader or a view of another format would re-encode sRGB);
+//   5. leave the image in the present layout and signal the slot's semaphore, which the present
+//      waits on instead of the application's.
+
+#include "compositor.h"
+
+#include "host_buffer.h"
+#include "instance.h"
+#include "log.h"
+#include "swapchain.h"
+#include "upsample_shaders.h"
+
+#include <algorithm>
+#include <cstring>
+#include <unordered_map>
+
+namespace splitvk {
+namespace {
+
+constexpr uint64_t kSlotWaitNs = 1'000'000'000;    // a slot's previous submit, before reuse
+constexpr uint64_t kDestroyWaitNs = 5'000'000'000; // at destroy, per slot
+constexpr VkDeviceSize kStagingGranule = 256 * 1024;
+
+struct PushConstants {
+    float scale[2];
+    float texel_size[2];
+    float max_centre[2];
+};
+
+constexpr VkFormatFeatureFlags kSwapchainFeatures = VK_FORMAT_FEATURE_TRANSFER_SRC_BIT |
+                                                    VK_FORMAT_FEATURE_TRANSFER_DST_BIT |
+                                                    VK_FORMAT_FEATURE_COLOR_ATTACHMENT_BIT;
+constexpr VkFormatFeatureFlags kPeripheryFeatures = VK_FORMAT_FEATURE_TRANSFER_DST_BIT |
+                                                    VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT |
+                                                    VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT;
+
+// Tiles are 4 bytes per pixel: the formats swapchains come in.
+bool four_bytes_per_texel(VkFormat format) {
+    switch (format) {
+    case VK_FORMAT_B8G8R8A8_UNORM:
+    case VK_FORMAT_B8G8R8A8_SRGB:
+    case VK_FORMAT_R8G8B8A8_UNORM:
+    case VK_FORMAT_R8G8B8A8_SRGB:
+    case VK_FORMAT_A8B8G8R8_UNORM_PACK32:
+    case VK_FORMAT_A8B8G8R8_SRGB_PACK32:
+    case VK_FORMAT_A2R10G10B10_UNORM_PACK32:
+    case VK_FORMAT_A2B10G10R10_UNORM_PACK32:
+        return true;
+    default:
+        return false;
+    }
+}
+
+uint32_t find_memory_type(const DeviceState &dev, uint32_t bits, VkMemoryPropertyFlags want) {
+    for (uint32_t i = 0; i < dev.memory_properties.memoryTypeCount; ++i)
+        if ((bits & (1u << i)) && (dev.memory_properties.memoryTypes[i].propertyFlags & want) == want)
+            return i;
+    return UINT32_MAX;
+}
+
+VkImageMemoryBarrier image_barrier(VkImage image, VkAccessFlags src, VkAccessFlags dst, VkImageLayout from,
+                                   VkImageLayout to) {
+    VkImageMemoryBarrier b{};
+    b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+    b.srcAccessMask = src;
+    b.dstAccessMask = dst;
+    b.oldLayout = from;
+    b.newLayout = to;
+    b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.image = image;
+    b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    return b;
+}
+
+// A tile clipped to the image, as a copy region into a staging buffer at `offset`.
+struct ClippedTile {
+    const FoveaTile *tile = nullptr;
+    VkOffset2D offset{};  // in the image
+    VkExtent2D extent{};  // copied
+    VkOffset2D skipped{}; // tile pixels left of / above the image
+};
+
+bool clip(const FoveaTile &t, VkExtent2D image, ClippedTile *out) {
+    const int64_t x0 = std::max<int64_t>(t.rect.offset.x, 0);
+    const int64_t y0 = std::max<int64_t>(t.rect.offset.y, 0);
+    const int64_t x1 = std::min<int64_t>(int64_t{t.rect.offset.x} + t.rect.extent.width, image.width);
+    const int64_t y1 = std::min<int64_t>(int64_t{t.rect.offset.y} + t.rect.extent.height, image.height);
+    if (!t.pixels || x1 <= x0 || y1 <= y0) return false;
+    out->tile = &t;
+    out->offset = {static_cast<int32_t>(x0), static_cast<int32_t>(y0)};
+    out->extent = {static_cast<uint32_t>(x1 - x0), static_cast<uint32_t>(y1 - y0)};
+    out->skipped = {static_cast<int32_t>(x0 - t.rect.offset.x), static_cast<int32_t>(y0 - t.rect.offset.y)};
+    return true;
+}
+
+bool overlaps(const ClippedTile &a, const ClippedTile &b) {
+    return a.offset.x < b.offset.x + int32_t(b.extent.width) &&
+           b.offset.x < a.offset.x + int32_t(a.extent.width) &&
+           a.offset.y < b.offset.y + int32_t(b.extent.height) &&
+           b.offset.y < a.offset.y + int32_t(a.extent.height);
+}
+
+} // namespace
+
+struct Compositor::Slot {
+    VkCommandBuffer command_buffer = VK_NULL_HANDLE;
+    VkFence fence = VK_NULL_HANDLE;
+    VkSemaphore semaphore = VK_NULL_HANDLE;
+    bool in_flight = false;
+    VkImageView target_view = VK_NULL_HANDLE; // the swapchain image, as the draw's attachment
+    VkFramebuffer framebuffer = VK_NULL_HANDLE;
+    VkDescriptorSet set = VK_NULL_HANDLE;
+    // The copy of the periphery the draw samples; at least as large as the periphery.
+    VkImage periphery = VK_NULL_HANDLE;
+    VkDeviceMemory periphery_memory = VK_NULL_HANDLE;
+    VkImageView periphery_view = VK_NULL_HANDLE;
+    VkExtent2D periphery_extent{};
+    // Fovea tiles on their way to the image; grown as needed, mapped for the slot's lifetime.
+    HostBuffer staging;
+};
+
+bool Compositor::supports(DeviceState &device, VkFormat format, std::string *why) {
+    if (!four_bytes_per_texel(format)) {
+        *why = "format " + std::to_string(format) + " is not 4 bytes per pixel";
+        return false;
+    }
+    VkFormatProperties props{};
+    device.instance->dispatch.GetPhysicalDeviceFormatProperties(device.physical_device, format, &props);
+    if ((props.optimalTilingFeatures & kSwapchainFeatures) != kSwapchainFeatures ||
+        (props.optimalTilingFeatures & kPeripheryFeatures) != kPeripheryFeatures) {
+        *why = "format " + std::to_string(format) + " lacks transfer, colour attachment or linear sampling";
+        return false;
+    }
+    return true;
+}
+
+Compositor::Compositor(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family,
+                       UpsampleFilter filter)
+    : device_(device), swapchain_(swapchain.handle), extent_(swapchain.extent), format_(swapchain.format),
+      present_layout_(swapchain.present_layout), images_(swapchain.images), queue_family_(queue_family),
+      filter_(filter) {}
+
+std::unique_ptr<Compositor> Compositor::create(DeviceState &device, const SwapchainState &swapchain,
+                                               uint32_t queue_family, std::string *error,
+                                               UpsampleFilter filter) {
+    if (!swapchain.composable) {
+        *error = "the swapchain was created without the usage composition needs";
+        return nullptr;
+    }
+    uint32_t family_count = 0;
+    device.instance->dispatch.GetPhysicalDeviceQueueFamilyProperties(device.physical_device, &family_count,
+                                                                     nullptr);
+    std::vector<VkQueueFamilyProperties> families(family_count);
+    device.instance->dispatch.GetPhysicalDeviceQueueFamilyProperties(device.physical_device, &family_count,
+                                                                     families.data());
+    if (queue_family >= family_count || !(families[queue_family].queueFlags & VK_QUEUE_GRAPHICS_BIT)) {
+        *error = "the present queue's family " + std::to_string(queue_family) + " cannot draw";
+        return nullptr;
+    }
+    if (!supports(device, swapchain.format, error)) return nullptr;
+    std::unique_ptr<Compositor> c(new Compositor(device, swapchain, queue_family, filter));
+    if (!c->init(error)) return nullptr;
+    return c;
+}
+
+bool Compositor::init(std::string *error) {
+    const VkDevice d = device_.handle;
+    const auto &k = device_.dispatch;
+    const auto fail = [&](const char *what) {
+        *error = std::string("cannot create the compositor's ") + what;
+        return false;
+    };
+
+    VkCommandPoolCreateInfo pool_info{};
+    pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+    pool_info.queueFamilyIndex = queue_family_;
+    if (k.CreateCommandPool(d, &pool_info, nullptr, &pool_) != VK_SUCCESS) return fail("command pool");
+
+    // Clamp to edge and the clamp in the shader keep taps inside the periphery; one mip level.
+    VkSamplerCreateInfo sampler_info{};
+    sampler_info.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
+    sampler_info.magFilter = VK_FILTER_LINEAR;
+    sampler_info.minFilter = VK_FILTER_LINEAR;
+    sampler_info.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+    sampler_info.addressModeU = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+    sampler_info.addressModeV = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+    sampler_info.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+    sampler_info.maxLod = 0.0f;
+    if (k.CreateSampler(d, &sampler_info, nullptr, &sampler_) != VK_SUCCESS) return fail("sampler");
+
+    VkDescriptorSetLayoutBinding binding{};
+    binding.binding = 0;
+    binding.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+    binding.descriptorCount = 1;
+    binding.stageFlags = VK_SHADER_STAGE_FRAGMENT_BIT;
+    binding.pImmutableSamplers = &sampler_;
+    VkDescriptorSetLayoutCreateInfo set_layout_info{};
+    set_layout_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
+    set_layout_info.bindingCount = 1;
+    set_layout_info.pBindings = &binding;
+    if (k.CreateDescriptorSetLayout(d, &set_layout_info, nullptr, &set_layout_) != VK_SUCCESS)
+        return fail("descriptor set layout");
+
+    const uint32_t count = std::max<uint32_t>(1, static_cast<uint32_t>(images_.size()));
+    VkDescriptorPoolSize pool_size{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, count};
+    VkDescriptorPoolCreateInfo descriptor_pool_info{};
+    descriptor_pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+    descriptor_pool_info.maxSets = count;
+    descriptor_pool_info.poolSizeCount = 1;
+    descriptor_pool_info.pPoolSizes = &pool_size;
+    if (k.CreateDescriptorPool(d, &descriptor_pool_info, nullptr, &descriptor_pool_) != VK_SUCCESS)
+        return fail("descriptor pool");
+
+    VkPushConstantRange push{VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(PushConstants)};
+    VkPipelineLayoutCreateInfo layout_info{};
+    layout_info.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+    layout_info.setLayoutCount = 1;
+    layout_info.pSetLayouts = &set_layout_;
+    layout_info.pushConstantRangeCount = 1;
+    layout_info.pPushConstantRanges = &push;
+    if (k.CreatePipelineLayout(d, &layout_info, nullptr, &pipeline_layout_) != VK_SUCCESS)
+        return fail("pipeline layout");
+
+    // The draw overwrites every pixel, so the old contents need not be loaded. The layout stays
+    // COLOR_ATTACHMENT_OPTIMAL throughout: record() transitions around the pass with barriers,
+    // whose stages and accesses these two dependencies repeat.
+    VkAttachmentDescription attachment{};
+    attachment.format = format_;
+    attachment.samples = VK_SAMPLE_COUNT_1_BIT;
+    attachment.loadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+    attachment.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    attachment.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+    attachment.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    attachment.initialLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    attachment.finalLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    VkAttachmentReference reference{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL};
+    VkSubpassDescription subpass{};
+    subpass.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
+    subpass.colorAttachmentCount = 1;
+    subpass.pColorAttachments = &reference;
+    VkSubpassDependency dependencies[2]{};
+    dependencies[0].srcSubpass = VK_SUBPASS_EXTERNAL;
+    dependencies[0].dstSubpass = 0;
+    dependencies[0].srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+    dependencies[0].dstStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+    dependencies[0].srcAccessMask = 0;
+    dependencies[0].dstAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+    dependencies[1].srcSubpass = 0;
+    dependencies[1].dstSubpass = VK_SUBPASS_EXTERNAL;
+    dependencies[1].srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+    dependencies[1].dstStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+    dependencies[1].srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+    dependencies[1].dstAccessMask = 0;
+    VkRenderPassCreateInfo render_pass_info{};
+    render_pass_info.sType = VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO;
+    render_pass_info.attachmentCount = 1;
+    render_pass_info.pAttachments = &attachment;
+    render_pass_info.subpassCount = 1;
+    render_pass_info.pSubpasses = &subpass;
+    render_pass_info.dependencyCount = 2;
+    render_pass_info.pDependencies = dependencies;
+    if (k.CreateRenderPass(d, &render_pass_info, nullptr, &render_pass_) != VK_SUCCESS)
+        return fail("render pass");
+
+    VkShaderModule vert = VK_NULL_HANDLE, frag = VK_NULL_HANDLE;
+    VkShaderModuleCreateInfo module_info{};
+    module_info.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
+    module_info.codeSize = sizeof(shaders::composite_vert);
+    module_info.pCode = shaders::composite_vert;
+    const bool have_vert = k.CreateShaderModule(d, &module_info, nullptr, &vert) == VK_SUCCESS;
+    module_info.codeSize = sizeof(shaders::upsample_frag);
+    module_info.pCode = shaders::upsample_frag;
+    const bool have_frag = k.CreateShaderModule(d, &module_info, nullptr, &frag) == VK_SUCCESS;
+
+    const int32_t filter = static_cast<int32_t>(filter_);
+    VkSpecializationMapEntry entry{0, 0, sizeof(filter)};
+    VkSpecializationInfo specialization{1, &entry, sizeof(filter), &filter};
+    VkPipelineShaderStageCreateInfo stages[2]{};
+    stages[0].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+    stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
+    stages[0].module = vert;
+    stages[0].pName = "main";
+    stages[1].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+    stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
+    stages[1].module = frag;
+    stages[1].pName = "main";
+    stages[1].pSpecializationInfo = &specialization;
+    VkPipelineVertexInputStateCreateInfo vertex_input{};
+    vertex_input.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO;
+    VkPipelineInputAssemblyStateCreateInfo input_assembly{};
+    input_assembly.sType = VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO;
+    input_assembly.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+    VkPipelineViewportStateCreateInfo viewport{};
+    viewport.sType = VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO;
+    viewport.viewportCount = 1;
+    viewport.scissorCount = 1;
+    VkPipelineRasterizationStateCreateInfo raster{};
+    raster.sType = VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO;
+    raster.polygonMode = VK_POLYGON_MODE_FILL;
+    raster.cullMode = VK_CULL_MODE_NONE;
+    raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+    raster.lineWidth = 1.0f;
+    VkPipelineMultisampleStateCreateInfo multisample{};
+    multisample.sType = VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO;
+    multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+    VkPipelineColorBlendAttachmentState blend_attachment{};
+    blend_attachment.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
+                                      VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
+    VkPipelineColorBlendStateCreateInfo blend{};
+    blend.sType = VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO;
+    blend.attachmentCount = 1;
+    blend.pAttachments = &blend_attachment;
+    const VkDynamicState dynamic_states[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+    VkPipelineDynamicStateCreateInfo dynamic{};
+    dynamic.sType = VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO;
+    dynamic.dynamicStateCount = 2;
+    dynamic.pDynamicStates = dynamic_states;
+    VkGraphicsPipelineCreateInfo pipeline_info{};
+    pipeline_info.sType = VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO;
+    pipeline_info.stageCount = 2;
+    pipeline_info.pStages = stages;
+    pipeline_info.pVertexInputState = &vertex_input;
+    pipeline_info.pInputAssemblyState = &input_assembly;
+    pipeline_info.pViewportState = &viewport;
+    pipeline_info.pRasterizationState = &raster;
+    pipeline_info.pMultisampleState = &multisample;
+    pipeline_info.pColorBlendState = &blend;
+    pipeline_info.pDynamicState = &dynamic;
+    pipeline_info.layout = pipeline_layout_;
+    pipeline_info.renderPass = render_pass_;
+    pipeline_info.subpass = 0;
+    const bool have_pipeline =
+        have_vert && have_frag &&
+        k.CreateGraphicsPipelines(d, VK_NULL_HANDLE, 1, &pipeline_info, nullptr, &pipeline_) == VK_SUCCESS;
+    if (vert) k.DestroyShaderModule(d, vert, nullptr);
+    if (frag) k.DestroyShaderModule(d, frag, nullptr);
+    if (!have_pipeline) return fail("pipeline");
+
+    slots_.resize(images_.size());
+    return true;
+}
+
+bool Compositor::init_slot(Slot &s, uint32_t image_index, std::string *error) {
+    const VkDevice d = device_.handle;
+    const auto &k = device_.dispatch;
+    const auto fail = [&](const char *what) {
+        *error = std::string("cannot create the compositor's ") + what + " for image " +
+                 std::to_string(image_index);
+        return false;
+    };
+    VkCommandBufferAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    alloc.commandPool = pool_;
+    alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    alloc.commandBufferCount = 1;
+    if (k.AllocateCommandBuffers(d, &alloc, &s.command_buffer) != VK_SUCCESS) return fail("command buffer");
+    // A dispatchable object the layer made below the loader: it needs the loader's dispatch
+    // pointer before any call goes through the loader's trampolines (or layers above us).
+    if (device_.set_loader_data)
+        device_.set_loader_data(d, s.command_buffer);
+    else
+        *reinterpret_cast<void **>(s.command_buffer) = *reinterpret_cast<void **>(d);
+
+    VkFenceCreateInfo fence_info{};
+    fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+    if (k.CreateFence(d, &fence_info, nullptr, &s.fence) != VK_SUCCESS) return fail("fence");
+    VkSemaphoreCreateInfo semaphore_info{};
+    semaphore_info.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
+    if (k.CreateSemaphore(d, &semaphore_info, nullptr, &s.semaphore) != VK_SUCCESS) return fail("semaphore");
+
+    // A view of the swapchain image in its own format (never another: the fovea goes in by copy).
+    VkImageViewCreateInfo view_info{};
+    view_info.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO;
+    view_info.image = images_[image_index];
+    view_info.viewType = VK_IMAGE_VIEW_TYPE_2D;
+    view_info.format = format_;
+    view_info.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    if (k.CreateImageView(d, &view_info, nullptr, &s.target_view) != VK_SUCCESS) return fail("image view");
+    VkFramebufferCreateInfo framebuffer_info{};
+    framebuffer_info.sType = VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO;
+    framebuffer_info.renderPass = render_pass_;
+    framebuffer_info.attachmentCount = 1;
+    framebuffer_info.pAttachments = &s.target_view;
+    framebuffer_info.width = extent_.width;
+    framebuffer_info.height = extent_.height;
+    framebuffer_info.layers = 1;
+    if (k.CreateFramebuffer(d, &framebuffer_info, nullptr, &s.framebuffer) != VK_SUCCESS)
+        return fail("framebuffer");
+
+    VkDescriptorSetAllocateInfo set_info{};
+    set_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+    set_info.descriptorPool = descriptor_pool_;
+    set_info.descriptorSetCount = 1;
+    set_info.pSetLayouts = &set_layout_;
+    if (k.AllocateDescriptorSets(d, &set_info, &s.set) != VK_SUCCESS) return fail("descriptor set");
+    return true;
+}
+
+// Called only while the slot is idle (its fence waited for), so the old image can go.
+bool Compositor::ensure_periphery_image(Slot &s, VkExtent2D periphery, std::string *error) {
+    if (s.periphery && s.periphery_extent.width >= periphery.width &&
+        s.periphery_extent.height >= periphery.height)
+        return true;
+    const VkDevice d = device_.handle;
+    const auto &k = device_.dispatch;
+    if (s.periphery_view) k.DestroyImageView(d, s.periphery_view, nullptr);
+    if (s.periphery) k.DestroyImage(d, s.periphery, nullptr);
+    if (s.periphery_memory) k.FreeMemory(d, s.periphery_memory, nullptr);
+    s.periphery_view = VK_NULL_HANDLE;
+    s.periphery = VK_NULL_HANDLE;
+    s.periphery_memory = VK_NULL_HANDLE;
+    s.periphery_extent = {};
+
+    // The swapchain's format: the copy moves bytes, and sampling an sRGB image decodes them.
+    VkImageCreateInfo image_info{};
+    image_info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
+    image_info.imageType = VK_IMAGE_TYPE_2D;
+    image_info.format = format_;
+    image_info.extent = {periphery.width, periphery.height, 1};
+    image_info.mipLevels = 1;
+    image_info.arrayLayers = 1;
+    image_info.samples = VK_SAMPLE_COUNT_1_BIT;
+    image_info.tiling = VK_IMAGE_TILING_OPTIMAL;
+    image_info.usage = VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
+    image_info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+    image_info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    if (k.CreateImage(d, &image_info, nullptr, &s.periphery) != VK_SUCCESS) {
+        *error = "cannot create the periphery image";
+        return false;
+    }
+    VkMemoryRequirements req{};
+    k.GetImageMemoryRequirements(d, s.periphery, &req);
+    uint32_t type = find_memory_type(device_, req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+    if (type == UINT32_MAX) type = find_memory_type(device_, req.memoryTypeBits, 0);
+    VkMemoryAllocateInfo mem_info{};
+    mem_info.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    mem_info.allocationSize = req.size;
+    mem_info.memoryTypeIndex = type;
+    if (type == UINT32_MAX || k.AllocateMemory(d, &mem_info, nullptr, &s.periphery_memory) != VK_SUCCESS ||
+        k.BindImageMemory(d, s.periphery, s.periphery_memory, 0) != VK_SUCCESS) {
+        *error = "cannot allocate the periphery image's memory";
+        return false;
+    }
+    VkImageViewCreateInfo view_info{};
+    view_info.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO;
+    view_info.image = s.periphery;
+    view_info.viewType = VK_IMAGE_VIEW_TYPE_2D;
+    view_info.format = format_;
+    view_info.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    if (k.CreateImageView(d, &view_info, nullptr, &s.periphery_view) != VK_SUCCESS) {
+        *error = "cannot create the periphery image's view";
+        return false;
+    }
+    s.periphery_extent = periphery;
+    VkDescriptorImageInfo image{VK_NULL_HANDLE, s.periphery_view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+    VkWriteDescriptorSet write{};
+    write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+    write.dstSet = s.set;
+    write.dstBinding = 0;
+    write.descriptorCount = 1;
+    write.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+    write.pImageInfo = &image;
+    k.UpdateDescriptorSets(d, 1, &write, 0, nullptr);
+    return true;
+}
+
+// Called only while the slot is idle.
+bool Compositor::ensure_staging(Slot &s, VkDeviceSize bytes, std::string *error) {
+    if (s.staging.buffer && s.staging.size >= bytes) return true;
+    destroy_host_buffer(device_, s.staging);
+    const VkDeviceSize size = (bytes + kStagingGranule - 1) / kStagingGranule * kStagingGranule;
+    return create_host_buffer(device_, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, HostAccess::Write, &s.staging,
+                              error);
+}
+
+void Compositor::destroy_slot(Slot &s) {
+    const VkDevice d = device_.handle;
+    const auto &k = device_.dispatch;
+    if (s.in_flight) k.WaitForFences(d, 1, &s.fence, VK_TRUE, kDestroyWaitNs);
+    destroy_host_buffer(device_, s.staging);
+    if (s.periphery_view) k.DestroyImageView(d, s.periphery_view, nullptr);
+    if (s.periphery) k.DestroyImage(d, s.periphery, nullptr);
+    if (s.periphery_memory) k.FreeMemory(d, s.periphery_memory, nullptr);
+    if (s.framebuffer) k.DestroyFramebuffer(d, s.framebuffer, nullptr);
+    if (s.target_view) k.DestroyImageView(d, s.target_view, nullptr);
+    if (s.semaphore) k.DestroySemaphore(d, s.semaphore, nullptr);
+    if (s.fence) k.DestroyFence(d, s.fence, nullptr);
+    // The descriptor set and command buffer go with their pools.
+    s = Slot{};
+}
+
+Compositor::~Compositor() {
+    const VkDevice d = device_.handle;
+    const auto &k = device_.dispatch;
+    std::lock_guard lock(mutex_);
+    for (auto &slot : slots_)
+        if (slot) destroy_slot(*slot);
+    if (pipeline_) k.DestroyPipeline(d, pipeline_, nullptr);
+    if (render_pass_) k.DestroyRenderPass(d, render_pass_, nullptr);
+    if (pipeline_layout_) k.DestroyPipelineLayout(d, pipeline_layout_, nullptr);
+    if (descriptor_pool_) k.DestroyDescriptorPool(d, descriptor_pool_, nullptr);
+    if (set_layout_) k.DestroyDescriptorSetLayout(d, set_layout_, nullptr);
+    if (sampler_) k.DestroySampler(d, sampler_, nullptr);
+    if (pool_) k.DestroyCommandPool(d, pool_, nullptr);
+}
+
+void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
+    const auto &k = device_.dispatch;
+    const VkCommandBuffer cb = s.command_buffer;
+    const VkImage image = images_[image_index];
+    const bool upsample = periphery.width > 0 && periphery.height > 0 &&
+                          (periphery.width != extent_.width || periphery.height != extent_.height);
+    const bool has_tiles = !copy_regions_.empty();
+
+    k.ResetCommandBuffer(cb, 0);
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    k.BeginCommandBuffer(cb, &begin);
+
+    // The submit waits on the application's semaphores at the TRANSFER stage; the first barrier's
+    // source stage is TRANSFER too, so its layout transition happens after that wait (a semaphore
+    // signal makes all the application's writes available, so no source access is needed).
+    // Whatever presented the image before the application re-acquired it is ordered by the
+    // application's acquire semaphore, which its own rendering (and so its present semaphores)
+    // already waited on.
+    if (upsample) {
+        VkImageMemoryBarrier barriers[2] = {
+            image_barrier(image, 0, VK_ACCESS_TRANSFER_READ_BIT, present_layout_,
+                          VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL),
+            // Old contents are not needed. This slot's previous submit sampled the periphery
+            // image in the fragment shader; the host waited for its fence, but the execution
+            // dependency from FRAGMENT_SHADER states the write-after-read order on the queue too.
+            image_barrier(s.periphery, 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                          VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL),
+        };
+        k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
+                             VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr, 2, barriers);
+        VkImageCopy copy{};
+        copy.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        copy.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        copy.extent = {periphery.width, periphery.height, 1};
+        k.CmdCopyImage(cb, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, s.periphery,
+                       VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &copy);
+
+        // The copy's write of the periphery image before the fragment shader reads it; the
+        // copy's read of the swapchain image before the draw overwrites it (write-after-read:
+        // an execution dependency, plus the transition to the attachment layout).
+        VkImageMemoryBarrier to_draw[2] = {
+            image_barrier(s.periphery, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
+                          VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL),
+            image_barrier(image, 0, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
+                          VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL),
+        };
+        k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                             VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT |
+                                 VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
+                             0, 0, nullptr, 0, nullptr, 2, to_draw);
+
+        VkRenderPassBeginInfo pass{};
+        pass.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
+        pass.renderPass = render_pass_;
+        pass.framebuffer = s.framebuffer;
+        pass.renderArea = {{0, 0}, extent_};
+        k.CmdBeginRenderPass(cb, &pass, VK_SUBPASS_CONTENTS_INLINE);
+        k.CmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_);
+        k.CmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout_, 0, 1, &s.set, 0,
+                                nullptr);
+        const VkViewport viewport{0.0f, 0.0f, float(extent_.width), float(extent_.height), 0.0f, 1.0f};
+        const VkRect2D scissor{{0, 0}, extent_};
+        k.CmdSetViewport(cb, 0, 1, &viewport);
+        k.CmdSetScissor(cb, 0, 1, &scissor);
+        PushConstants push{};
+        push.scale[0] = float(periphery.width) / float(extent_.width);
+        push.scale[1] = float(periphery.height) / float(extent_.height);
+        push.texel_size[0] = 1.0f / float(s.periphery_extent.width);
+        push.texel_size[1] = 1.0f / float(s.periphery_extent.height);
+        push.max_centre[0] = float(periphery.width) - 0.5f;
+        push.max_centre[1] = float(periphery.height) - 0.5f;
+        k.CmdPushConstants(cb, pipeline_layout_, VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
+        k.CmdDraw(cb, 3, 1, 0, 0);
+        k.CmdEndRenderPass(cb);
+
+        // The draw's writes before the tile copies overwrite the fovea (write-after-write), or
+        // before the present.
+        VkImageMemoryBarrier after_draw = image_barrier(
+            image, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, has_tiles ? VK_ACCESS_TRANSFER_WRITE_BIT : 0,
+            VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+            has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
+        k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
+                             has_tiles ? VK_PIPELINE_STAGE_TRANSFER_BIT
+                                       : VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT,
+                             0, 0, nullptr, 0, nullptr, 1, &after_draw);
+    } else if (has_tiles) {
+        // Tiles over what the application rendered: keep the contents (old layout, not UNDEFINED).
+        VkImageMemoryBarrier b = image_barrier(image, 0, VK_ACCESS_TRANSFER_WRITE_BIT, present_layout_,
+                                               VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+        k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
+                             nullptr, 0, nullptr, 1, &b);
+    }
+
+    if (has_tiles) {
+        // The staging buffer was written by the host before vkQueueSubmit, which makes host
+        // writes visible to the device (no host barrier needed). Tiles do not overlap (composite
+        // drops those that would), so one copy command carries them all.
+        k.CmdCopyBufferToImage(cb, s.staging.buffer, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                               static_cast<uint32_t>(copy_regions_.size()), copy_regions_.data());
+        // Back to the present layout. The present waits on our semaphore, whose signal makes
+        // these writes available and visible to the presentation engine: no destination stage
+        // or access beyond the end of the pipe.
+        VkImageMemoryBarrier b = image_barrier(image, VK_ACCESS_TRANSFER_WRITE_BIT, 0,
+                                               VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, present_layout_);
+        k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, 0, 0,
+                             nullptr, 0, nullptr, 1, &b);
+    }
+    k.EndCommandBuffer(cb);
+}
+
+VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<const VkSemaphore> waits,
+                               VkExtent2D periphery, std::span<const FoveaTile> tiles, VkSemaphore *signal) {
+    std::lock_guard lock(mutex_);
+    if (image_index >= images_.size()) return VK_ERROR_UNKNOWN;
+    std::string error;
+    auto &slot_ptr = slots_[image_index];
+    if (!slot_ptr) {
+        slot_ptr = std::make_unique<Slot>();
+        if (!init_slot(*slot_ptr, image_index, &error)) {
+            SPLITVK_WARN("compositor: %s", error.c_str());
+            destroy_slot(*slot_ptr);
+            slot_ptr.reset();
+            return VK_ERROR_OUT_OF_DEVICE_MEMORY;
+        }
+    }
+    Slot &s = *slot_ptr;
+    const VkDevice d = device_.handle;
+    const auto &k = device_.dispatch;
+
+    // The slot's previous submit (of this image's previous present) must be done before its
+    // command buffer, staging buffer and periphery image are reused. Bounded: rather skip the
+    // composition of this frame than hang the application.
+    if (s.in_flight) {
+        const VkResult waited = k.WaitForFences(d, 1, &s.fence, VK_TRUE, kSlotWaitNs);
+        if (waited != VK_SUCCESS) return waited == VK_TIMEOUT ? VK_TIMEOUT : waited;
+        s.in_flight = false;
+    }
+
+    periphery.width = std::min(periphery.width, extent_.width);
+    periphery.height = std::min(periphery.height, extent_.height);
+    const bool upsample = periphery.width > 0 && periphery.height > 0 &&
+                          (periphery.width != extent_.width || periphery.height != extent_.height);
+
+    // Tiles: clipped to the image, overlapping ones dropped (one copy command must not write a
+    // texel twice), packed one after another into the staging buffer.
+    std::vector<ClippedTile> clipped;
+    VkDeviceSize bytes = 0;
+    for (const FoveaTile &t : tiles) {
+        ClippedTile c;
+        if (!clip(t, extent_, &c)) continue;
+        if (std::any_of(clipped.begin(), clipped.end(),
+                        [&](const ClippedTile &o) { return overlaps(o, c); })) {
+            SPLITVK_DEBUG("compositor: dropped a tile that overlaps another");
+            continue;
+        }
+        clipped.push_back(c);
+        bytes += VkDeviceSize{c.extent.width} * c.extent.height * 4;
+    }
+    if (!upsample && clipped.empty()) return VK_NOT_READY; // nothing to do: present as asked
+
+    if (upsample && !ensure_periphery_image(s, periphery, &error)) {
+        SPLITVK_WARN("compositor: %s", error.c_str());
+        return VK_ERROR_OUT_OF_DEVICE_MEMORY;
+    }
+    copy_regions_.clear();
+    if (!clipped.empty()) {
+        if (!ensure_staging(s, bytes, &error)) {
+            SPLITVK_WARN("compositor: %s", error.c_str());
+            return VK_ERROR_OUT_OF_DEVICE_MEMORY;
+        }
+        VkDeviceSize offset = 0;
+        for (const ClippedTile &c : clipped) {
+            const size_t row = size_t{c.extent.width} * 4;
+            const size_t stride = size_t{c.tile->rect.extent.width} * 4;
+            const uint8_t *src = c.tile->pixels + size_t(c.skipped.y) * stride + size_t(c.skipped.x) * 4;
+            for (uint32_t y = 0; y < c.extent.height; ++y)
+                std::memcpy(s.staging.mapped + offset + y * row, src + y * stride, row);
+            VkBufferImageCopy region{};
+            region.bufferOffset = offset; // a multiple of 4, the texel size
+            region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+            region.imageOffset = {c.offset.x, c.offset.y, 0};
+            region.imageExtent = {c.extent.width, c.extent.height, 1};
+            copy_regions_.push_back(region);
+            offset += row * c.extent.height;
+        }
+        flush_host_buffer(device_, s.staging);
+    }
+
+    record(s, image_index, upsample ? periphery : VkExtent2D{});
+
+    std::vector<VkPipelineStageFlags> stages(waits.size(), VK_PIPELINE_STAGE_TRANSFER_BIT);
+    VkSubmitInfo submit{};
+    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    submit.waitSemaphoreCount = static_cast<uint32_t>(waits.size());
+    submit.pWaitSemaphores = waits.data();
+    submit.pWaitDstStageMask = stages.data();
+    submit.commandBufferCount = 1;
+    submit.pCommandBuffers = &s.command_buffer;
+    submit.signalSemaphoreCount = 1;
+    submit.pSignalSemaphores = &s.semaphore;
+    k.ResetFences(d, 1, &s.fence);
+    // On failure the semaphores and the fence are left as they were (except after device loss).
+    const VkResult result = k.QueueSubmit(queue, 1, &submit, s.fence);
+    if (result != VK_SUCCESS) return result;
+    s.in_flight = true;
+    *signal = s.semaphore;
+    return VK_SUCCESS;
+}
+
+// ---------------------------------------------------------------------------- registry by swapchain
+
+namespace {
+
+struct Entry {
+    DeviceState *device = nullptr;
+    std::unique_ptr<Compositor> compositor;
+    uint32_t failed_family = UINT32_MAX; // create() failed for this family (logged once)
+};
+
+std::mutex g_mutex;
+std::unordered_map<VkSwapchainKHR, Entry> g_compositors;
+
+} // namespace
+
+Compositor *compositor_for(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family) {
+    if (!swapchain.composable || queue_family == UINT32_MAX) return nullptr;
+    std::lock_guard lock(g_mutex);
+    Entry &e = g_compositors[swapchain.handle];
+    e.device = &device;
+    if (e.compositor && e.compositor->queue_family() == queue_family) return e.compositor.get();
+    if (e.failed_family == queue_family) return nullptr;
+    e.compositor.reset(); // made for another queue family: its command pool cannot serve this one
+    std::string error;
+    e.compositor = Compositor::create(device, swapchain, queue_family, &error);
+    if (!e.compositor) {
+        e.failed_family = queue_family;
+        SPLITVK_WARN("compositor: swapchain %dx%d presents uncomposited: %s", int(swapchain.extent.width),
+                     int(swapchain.extent.height), error.c_str());
+    }
+    return e.compositor.get();
+}
+
+void release_compositor(DeviceState &, VkSwapchainKHR swapchain) {
+    std::unique_ptr<Compositor> doomed;
+    {
+        std::lock_guard lock(g_mutex);
+        const auto it = g_compositors.find(swapchain);
+        if (it == g_compositors.end()) return;
+        doomed = std::move(it->second.compositor);
+        g_compositors.erase(it);
+    }
+}
+
+void release_compositors(DeviceState &device) {
+    std::vector<std::unique_ptr<Compositor>> doomed;
+    {
+        std::lock_guard lock(g_mutex);
+        for (auto it = g_compositors.begin(); it != g_compositors.end();) {
+            if (it->second.device == &device) {
+                doomed.push_back(std::move(it->second.compositor));
+                it = g_compositors.erase(it);
+            } else {
+                ++it;
+            }
+        }
+    }
+}
+
+} // namespace splitvk

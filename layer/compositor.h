@@ -1,0 +1,147 @@
+#pragma once
+
+// Composition before present (DESIGN §4): the periphery the application rendered at the reduced
+// scale into the top-left of a swapchain image is upsampled to the whole image, then the fovea
+// tiles the agent rendered are written over it byte for byte, and the image is presented.
+//
+// One Compositor per swapchain, used from vkQueuePresentKHR (when capturing(dev)):
+//
+//   VkPresentInfoKHR present = *pPresentInfo;
+//   const SwapchainState *sc = find_swapchain(pPresentInfo->pSwapchains[0]);
+//   Compositor *c = sc ? compositor_for(dev, *sc, queue_family_of(queue)) : nullptr;
+//   VkSemaphore signal = VK_NULL_HANDLE;
+//   if (c && c->composite(queue, pPresentInfo->pImageIndices[0],
+//                         {pPresentInfo->pWaitSemaphores, pPresentInfo->waitSemaphoreCount},
+//                         periphery /* the scaled render area the split used */, tiles, &signal) ==
+//                         VK_SUCCESS) {
+//       present.waitSemaphoreCount = 1;   // the app's semaphores are consumed by the compositor
+//       present.pWaitSemaphores = &signal;
+//   }   // otherwise present as the application asked: its semaphores are untouched
+//   dev.dispatch.QueuePresentKHR(queue, &present);
+//
+// - Anything else that must see the composited image before present (SPLITVK_VERIFY's readback)
+//   waits on `signal` and the present then waits on its semaphore instead.
+// - Several swapchains in one present: composite each; give the application's semaphores to
+//   the first only (a binary semaphore is waited once; later submits on the queue are in the
+//   second scope of that wait) and let the present wait on every `signal`.
+// - nullptr from compositor_for: the swapchain is not composable (the split must not have
+//   split it) or the compositor could not be made (logged once): present unchanged.
+//
+// composite() submits one command buffer on the present queue that waits on the application's
+// present semaphores (and so consumes them, as the present would have), and signals a semaphore
+// of the compositor's that the present must wait on instead. Every swapchain image has its own
+// slot (command buffer, fence, semaphore, periphery copy, tile staging buffer), so a frame never
+// overwrites resources a previous frame's submit still reads (the Mesa overlay's bug of one slot
+// per submit index). A slot's previous submit is waited for before reuse, for at most one
+// second (kSlotWaitNs); if it has not finished by then, composite() gives up for this frame
+// rather than hang the application.
+
+#include "device.h"
+
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace splitvk {
+
+struct SwapchainState;
+
+// A fovea tile: rect.extent.width * height pixels, 4 bytes each, rows tightly packed, in the
+// swapchain format's byte order (what vkCmdCopyImageToBuffer of that image gives). The pointer
+// stays valid until composite() returns. A tile reaching past the image is clipped to it.
+struct FoveaTile {
+    VkRect2D rect{};
+    const uint8_t *pixels = nullptr;
+};
+
+// The periphery filter, a specialisation constant of shaders/upsample.frag.
+enum class UpsampleFilter : int { Bilinear = 0, CatmullRom = 1 };
+// What compositor_for() uses: bilinear. Catmull-Rom measured better against native on
+// splitvk-atrium at 2400x1080, scale 0.6 (whole-frame SSIM 0.9714 against 0.9682 in stereo, 0.9760
+// against 0.9736 mono, 0.9707 against 0.9673 sRGB; tests/e2e/suites/split_test.cpp), but its 9
+// bilinear taps per pixel cost the weak client far more than they give: in `scripts/bench paper
+// --quick` (client on one lavapipe thread) split/native was 1.197 with Catmull-Rom and 0.789 with
+// bilinear. A client with a real GPU can afford it: pass UpsampleFilter::CatmullRom to create().
+inline constexpr UpsampleFilter kDefaultUpsampleFilter = UpsampleFilter::Bilinear;
+
+class Compositor {
+public:
+    // Whether a swapchain of `format` can be composited on this device, with the usage
+    // kSwapchainUsage added (swapchain.cpp asks before it adds the usage). `why` says why not.
+    static bool supports(DeviceState &device, VkFormat format, std::string *why);
+    // The swapchain image usage composition needs: TRANSFER_SRC (the periphery copy),
+    // TRANSFER_DST (the tiles), COLOR_ATTACHMENT (the upsample draw).
+    static constexpr VkImageUsageFlags kSwapchainUsage = VK_IMAGE_USAGE_TRANSFER_SRC_BIT |
+                                                         VK_IMAGE_USAGE_TRANSFER_DST_BIT |
+                                                         VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT;
+
+    // Everything composition needs that does not depend on a frame; per-image slots are made
+    // on first use. nullptr and *error when the device cannot (queue_family without graphics,
+    // unsupported format, out of memory).
+    static std::unique_ptr<Compositor> create(DeviceState &device, const SwapchainState &swapchain,
+                                              uint32_t queue_family, std::string *error,
+                                              UpsampleFilter filter = kDefaultUpsampleFilter);
+    ~Compositor(); // waits (bounded) for its submits, then frees everything
+    Compositor(const Compositor &) = delete;
+    Compositor &operator=(const Compositor &) = delete;
+
+    // Submits to `queue` (of the family given at create()): waits on `waits` (the application's
+    // present wait semaphores), upsamples the top-left `periphery` of image `image_index` to the
+    // whole image (skipped when `periphery` is empty or the whole image), writes `tiles` into it
+    // bit-exactly, and leaves it in the layout the present expects (PRESENT_SRC_KHR, or
+    // SHARED_PRESENT_KHR for shared present modes). On VK_SUCCESS, *signal is the compositor's
+    // semaphore that the present must wait on instead of `waits` (it stays the compositor's:
+    // do not destroy it). On any other result nothing was submitted, `waits` are untouched and
+    // *signal is unchanged: present as the application asked. VK_NOT_READY: nothing to do (no
+    // upsample, no tile); VK_TIMEOUT: this image's previous composition had not finished.
+    VkResult composite(VkQueue queue, uint32_t image_index, std::span<const VkSemaphore> waits,
+                       VkExtent2D periphery, std::span<const FoveaTile> tiles, VkSemaphore *signal);
+
+    uint32_t queue_family() const { return queue_family_; }
+
+private:
+    struct Slot;
+    Compositor(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family,
+               UpsampleFilter filter);
+    bool init(std::string *error);
+    bool init_slot(Slot &slot, uint32_t image_index, std::string *error);
+    bool ensure_periphery_image(Slot &slot, VkExtent2D periphery, std::string *error);
+    bool ensure_staging(Slot &slot, VkDeviceSize bytes, std::string *error);
+    void record(Slot &slot, uint32_t image_index, VkExtent2D periphery); // periphery {} = no upsample
+    void destroy_slot(Slot &slot);
+
+    DeviceState &device_;
+    VkSwapchainKHR swapchain_ = VK_NULL_HANDLE;
+    VkExtent2D extent_{};
+    VkFormat format_ = VK_FORMAT_UNDEFINED;
+    VkImageLayout present_layout_ = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+    std::vector<VkImage> images_;
+    uint32_t queue_family_ = 0;
+    UpsampleFilter filter_ = kDefaultUpsampleFilter;
+
+    VkCommandPool pool_ = VK_NULL_HANDLE;
+    VkSampler sampler_ = VK_NULL_HANDLE;
+    VkDescriptorSetLayout set_layout_ = VK_NULL_HANDLE;
+    VkDescriptorPool descriptor_pool_ = VK_NULL_HANDLE;
+    VkPipelineLayout pipeline_layout_ = VK_NULL_HANDLE;
+    VkRenderPass render_pass_ = VK_NULL_HANDLE;
+    VkPipeline pipeline_ = VK_NULL_HANDLE;
+
+    std::mutex mutex_;                            // one present at a time per swapchain; guards the slots
+    std::vector<std::unique_ptr<Slot>> slots_;    // by image index, made on first use
+    std::vector<VkBufferImageCopy> copy_regions_; // this frame's tiles, for record()
+};
+
+// The compositor of a swapchain, created on first use (for `queue_family`, the present queue's);
+// nullptr, with one log line per swapchain, when the swapchain is not composable or the
+// compositor cannot be made. A later call with another queue family replaces it.
+Compositor *compositor_for(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family);
+// vkDestroySwapchainKHR (swapchain.cpp): frees the swapchain's compositor.
+void release_compositor(DeviceState &device, VkSwapchainKHR swapchain);
+// vkDestroyDevice: frees the compositors of swapchains the application did not destroy.
+void release_compositors(DeviceState &device);
+
+} // namespace splitvk

@@ -1,0 +1,133 @@
+#include "gpu_timing.h"
+
+#include "instance.h"
+
+#include <mutex>
+#include <unordered_map>
+#include <vector>
+
+namespace splitvk {
+namespace {
+
+constexpr uint32_t kPairs = 512; // command buffers timed at once; more go untimed
+
+struct DeviceTiming {
+    VkQueryPool pool = VK_NULL_HANDLE;
+    bool unsupported = false;
+    double period_ns = 1.0;
+    uint32_t next_pair = 0;
+    std::unordered_map<VkCommandBuffer, uint32_t> pairs; // command buffer -> its pair
+    std::vector<bool> submitted = std::vector<bool>(kPairs);
+    double latest_ms = 0;
+};
+
+struct CommandTiming {
+    uint32_t pair = 0;
+    bool begun = false; // this recording wrote the begin timestamp
+    bool ended = false;
+};
+
+std::mutex g_mutex;
+std::unordered_map<DeviceState *, DeviceTiming> g_devices;
+std::unordered_map<VkCommandBuffer, CommandTiming> g_recording; // current recordings with a timed pass
+
+// Under g_mutex: the device's pool, created on first use; nullptr when timestamps are unusable.
+DeviceTiming *timing_locked(DeviceState &dev) {
+    DeviceTiming &t = g_devices[&dev];
+    if (t.pool || t.unsupported) return t.unsupported ? nullptr : &t;
+    VkPhysicalDeviceProperties properties{};
+    dev.instance->dispatch.GetPhysicalDeviceProperties(dev.physical_device, &properties);
+    t.period_ns = properties.limits.timestampPeriod;
+    VkQueryPoolCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO;
+    info.queryType = VK_QUERY_TYPE_TIMESTAMP;
+    info.queryCount = 2 * kPairs;
+    // timestampComputeAndGraphics says every graphics queue has valid timestamps.
+    if (!properties.limits.timestampComputeAndGraphics || t.period_ns <= 0 ||
+        dev.dispatch.CreateQueryPool(dev.handle, &info, nullptr, &t.pool) != VK_SUCCESS) {
+        t.unsupported = true;
+        return nullptr;
+    }
+    return &t;
+}
+
+} // namespace
+
+void time_before_split_pass(DeviceState &dev, VkCommandBuffer cb) {
+    std::lock_guard lock(g_mutex);
+    if (g_recording.count(cb)) return; // only the first split pass of a recording is timed
+    DeviceTiming *t = timing_locked(dev);
+    if (!t) return;
+    auto found = t->pairs.find(cb);
+    if (found == t->pairs.end()) {
+        if (t->next_pair == kPairs) return;
+        found = t->pairs.emplace(cb, t->next_pair++).first;
+    }
+    g_recording[cb] = CommandTiming{found->second, false, false};
+    dev.dispatch.CmdResetQueryPool(cb, t->pool, 2 * found->second, 2);
+}
+
+void time_split_pass_begun(DeviceState &dev, VkCommandBuffer cb) {
+    std::lock_guard lock(g_mutex);
+    const auto it = g_recording.find(cb);
+    if (it == g_recording.end() || it->second.begun) return;
+    it->second.begun = true;
+    dev.dispatch.CmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, g_devices[&dev].pool,
+                                   2 * it->second.pair);
+}
+
+void time_split_pass_ended(DeviceState &dev, VkCommandBuffer cb) {
+    std::lock_guard lock(g_mutex);
+    const auto it = g_recording.find(cb);
+    if (it == g_recording.end() || !it->second.begun || it->second.ended) return;
+    it->second.ended = true;
+    dev.dispatch.CmdWriteTimestamp(cb, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, g_devices[&dev].pool,
+                                   2 * it->second.pair + 1);
+}
+
+void note_timed_submit(DeviceState &dev, uint32_t count, const VkCommandBuffer *cbs) {
+    std::lock_guard lock(g_mutex);
+    const auto found = g_devices.find(&dev);
+    if (found == g_devices.end()) return;
+    for (uint32_t i = 0; i < count; ++i) {
+        const auto it = g_recording.find(cbs[i]);
+        if (it != g_recording.end() && it->second.ended) found->second.submitted[it->second.pair] = true;
+    }
+}
+
+void reset_split_pass_timing(VkCommandBuffer cb) {
+    std::lock_guard lock(g_mutex);
+    g_recording.erase(cb);
+}
+
+double latest_periphery_ms(DeviceState &dev) {
+    std::lock_guard lock(g_mutex);
+    const auto found = g_devices.find(&dev);
+    if (found == g_devices.end() || !found->second.pool) return 0;
+    DeviceTiming &t = found->second;
+    // Both timestamps of each submitted pair with their availability, without waiting: the most
+    // recent completed measurement wins.
+    uint64_t latest_end = 0;
+    for (uint32_t pair = 0; pair < t.next_pair; ++pair) {
+        if (!t.submitted[pair]) continue;
+        uint64_t v[4] = {}; // begin, available, end, available
+        dev.dispatch.GetQueryPoolResults(dev.handle, t.pool, 2 * pair, 2, sizeof(v), v, 2 * sizeof(uint64_t),
+                                         VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WITH_AVAILABILITY_BIT);
+        if (!v[1] || !v[3] || v[2] < v[0] || v[2] <= latest_end) continue;
+        latest_end = v[2];
+        t.latest_ms = static_cast<double>(v[2] - v[0]) * t.period_ns / 1e6;
+    }
+    return t.latest_ms;
+}
+
+void release_gpu_timing(DeviceState &dev) {
+    std::lock_guard lock(g_mutex);
+    const auto found = g_devices.find(&dev);
+    if (found == g_devices.end()) return;
+    for (const auto &[cb, pair] : found->second.pairs)
+        g_recording.erase(cb);
+    if (found->second.pool) dev.dispatch.DestroyQueryPool(dev.handle, found->second.pool, nullptr);
+    g_devices.erase(found);
+}
+
+} // namespace splitvk

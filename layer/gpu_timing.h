@@ -1,0 +1,36 @@
+#pragma once
+
+// GPU time of the client's periphery render (SPLITVK_STATS' periphery_ms): on the GPU, not the
+// CPU, because the application records and submits long before the GPU runs the work, and a CPU
+// clock around vkQueueSubmit would measure the driver, not the rendering.
+//
+// Each command buffer that records a split pass gets a pair of timestamp queries of the device's
+// pool: reset just before its first split pass begins (outside the pass, so also valid when the
+// command buffer is submitted again without being re-recorded), written at the top of the pipe
+// after that pass began and at the bottom of the pipe after it ended. Results are read without
+// waiting at present: a frame reports the latest completed measurement, one or two frames old,
+// which is what a median over a run needs. Secondary command buffers are not timed.
+
+#include "device.h"
+
+namespace splitvk {
+
+// render_pass.cpp, around the first split pass a command buffer records.
+void time_before_split_pass(DeviceState &device, VkCommandBuffer command_buffer);
+void time_split_pass_begun(DeviceState &device, VkCommandBuffer command_buffer);
+void time_split_pass_ended(DeviceState &device, VkCommandBuffer command_buffer);
+
+// vkQueueSubmit: these command buffers' timestamps will be written (only submitted pairs are read:
+// a query is uninitialised until its reset executes).
+void note_timed_submit(DeviceState &device, uint32_t count, const VkCommandBuffer *command_buffers);
+
+// vkBeginCommandBuffer: a new recording has no split pass timed yet.
+void reset_split_pass_timing(VkCommandBuffer command_buffer);
+
+// Milliseconds of the latest split pass the GPU has completed, 0 when none has yet.
+double latest_periphery_ms(DeviceState &device);
+
+// vkDestroyDevice.
+void release_gpu_timing(DeviceState &device);
+
+} // namespace splitvk

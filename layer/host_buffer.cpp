@@ -1,0 +1,79 @@
+#include "host_buffer.h"
+
+namespace splitvk {
+namespace {
+
+uint32_t find_type(const DeviceState &dev, uint32_t bits, VkMemoryPropertyFlags want) {
+    for (uint32_t i = 0; i < dev.memory_properties.memoryTypeCount; ++i)
+        if ((bits & (1u << i)) && (dev.memory_properties.memoryTypes[i].propertyFlags & want) == want)
+            return i;
+    return UINT32_MAX;
+}
+
+VkMappedMemoryRange whole(const HostBuffer &buffer) {
+    VkMappedMemoryRange range{};
+    range.sType = VK_STRUCTURE_TYPE_MAPPED_MEMORY_RANGE;
+    range.memory = buffer.memory;
+    range.size = VK_WHOLE_SIZE;
+    return range;
+}
+
+} // namespace
+
+bool create_host_buffer(DeviceState &dev, VkDeviceSize size, VkBufferUsageFlags usage, HostAccess access,
+                        HostBuffer *out, std::string *error) {
+    const VkDevice d = dev.handle;
+    const auto &k = dev.dispatch;
+    HostBuffer b;
+    VkBufferCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+    info.size = size;
+    info.usage = usage;
+    if (k.CreateBuffer(d, &info, nullptr, &b.buffer) != VK_SUCCESS) {
+        *error = "cannot create a staging buffer of " + std::to_string(size) + " bytes";
+        return false;
+    }
+    VkMemoryRequirements req{};
+    k.GetBufferMemoryRequirements(d, b.buffer, &req);
+    const VkMemoryPropertyFlags preferred = access == HostAccess::Read ? VK_MEMORY_PROPERTY_HOST_CACHED_BIT
+                                                                       : VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+    uint32_t type = find_type(dev, req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | preferred);
+    if (type == UINT32_MAX) type = find_type(dev, req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT);
+    VkMemoryAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    alloc.allocationSize = req.size;
+    alloc.memoryTypeIndex = type;
+    void *mapped = nullptr;
+    if (type == UINT32_MAX || k.AllocateMemory(d, &alloc, nullptr, &b.memory) != VK_SUCCESS ||
+        k.BindBufferMemory(d, b.buffer, b.memory, 0) != VK_SUCCESS ||
+        k.MapMemory(d, b.memory, 0, VK_WHOLE_SIZE, 0, &mapped) != VK_SUCCESS) {
+        *error = "cannot allocate " + std::to_string(size) + " bytes of host-visible memory";
+        destroy_host_buffer(dev, b);
+        return false;
+    }
+    b.mapped = static_cast<uint8_t *>(mapped);
+    b.size = size;
+    b.coherent = dev.memory_properties.memoryTypes[type].propertyFlags & VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+    *out = b;
+    return true;
+}
+
+void destroy_host_buffer(DeviceState &dev, HostBuffer &b) {
+    if (b.buffer) dev.dispatch.DestroyBuffer(dev.handle, b.buffer, nullptr);
+    if (b.memory) dev.dispatch.FreeMemory(dev.handle, b.memory, nullptr); // unmaps
+    b = HostBuffer{};
+}
+
+void invalidate_host_buffer(DeviceState &dev, const HostBuffer &b) {
+    if (b.coherent || !b.memory) return;
+    const VkMappedMemoryRange range = whole(b);
+    dev.dispatch.InvalidateMappedMemoryRanges(dev.handle, 1, &range);
+}
+
+void flush_host_buffer(DeviceState &dev, const HostBuffer &b) {
+    if (b.coherent || !b.memory) return;
+    const VkMappedMemoryRange range = whole(b);
+    dev.dispatch.FlushMappedMemoryRanges(dev.handle, 1, &range);
+}
+
+} // namespace splitvk

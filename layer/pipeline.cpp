@@ -1,0 +1,101 @@
+// VkPipeline: static viewport/scissor state made dynamic (DESIGN §4). Inside a split pass the
+// layer must draw with scaled viewports and scissors, which a pipeline's static state would
+// override; so pipelines are created down the chain with VIEWPORT/SCISSOR added to their dynamic
+// state (the capture keeps the app's create info: the agent decides for itself), the static
+// values are kept here, and binding such a pipeline sets them (scaled inside a split pass).
+
+#include "layer_entry_points.h"
+#include "object_map.h"
+#include "split.h"
+
+#include <vector>
+
+namespace splitvk {
+namespace {
+
+struct PipelineState {
+    std::shared_ptr<const split::StaticViewportState> viewport_state;
+};
+
+ObjectMap<VkPipeline, PipelineState> g_pipelines;
+
+} // namespace
+
+std::shared_ptr<const split::StaticViewportState> pipeline_static_state(VkPipeline pipeline) {
+    const PipelineState *state = g_pipelines.find(pipeline);
+    return state ? state->viewport_state : nullptr;
+}
+
+namespace entry {
+
+VKAPI_ATTR VkResult VKAPI_CALL CreateGraphicsPipelines(VkDevice device, VkPipelineCache pipelineCache,
+                                                       uint32_t createInfoCount,
+                                                       const VkGraphicsPipelineCreateInfo *pCreateInfos,
+                                                       const VkAllocationCallbacks *pAllocator,
+                                                       VkPipeline *pPipelines) {
+    DeviceState &dev = device_state(device);
+    std::vector<std::shared_ptr<split::StaticViewportState>> statics;
+    std::vector<VkGraphicsPipelineCreateInfo> infos;
+    std::vector<split::DynamicStateStorage> storage;
+    if (split_enabled(dev)) {
+        statics.resize(createInfoCount);
+        infos.resize(createInfoCount);
+        storage.resize(createInfoCount); // not resized again: infos point into it
+        for (uint32_t i = 0; i < createInfoCount; ++i) {
+            statics[i] = split::static_viewport_state(pCreateInfos[i]);
+            const bool viewports = statics[i] && statics[i]->has_viewports;
+            const bool scissors = statics[i] && statics[i]->has_scissors;
+            split::add_dynamic_states(pCreateInfos[i], viewports, scissors, storage[i], infos[i]);
+        }
+    }
+    const VkResult result = dev.dispatch.CreateGraphicsPipelines(device, pipelineCache, createInfoCount,
+                                                                 infos.empty() ? pCreateInfos : infos.data(),
+                                                                 pAllocator, pPipelines);
+    for (uint32_t i = 0; i < statics.size(); ++i)
+        if (statics[i] && pPipelines[i] != VK_NULL_HANDLE) {
+            auto state = std::make_unique<PipelineState>();
+            state->viewport_state = std::move(statics[i]);
+            g_pipelines.insert(pPipelines[i], std::move(state));
+        }
+    if (capturing(dev) && result >= 0) [[unlikely]] {
+        const std::vector<uint64_t> holders = handle_ids(pPipelines, createInfoCount);
+        record_logged(dev, holders, {}, [&](codec::Encoder &e) {
+            encode_vkCreateGraphicsPipelines(e, device, pipelineCache, createInfoCount, pCreateInfos,
+                                             pAllocator, pPipelines);
+        });
+    }
+    return result;
+}
+
+VKAPI_ATTR void VKAPI_CALL DestroyPipeline(VkDevice device, VkPipeline pipeline,
+                                           const VkAllocationCallbacks *pAllocator) {
+    DeviceState &dev = device_state(device);
+    dev.dispatch.DestroyPipeline(device, pipeline, pAllocator);
+    if (pipeline != VK_NULL_HANDLE && dev.session) g_pipelines.remove(pipeline);
+    if (capturing(dev)) [[unlikely]]
+        record_global(dev, LiveChange::Destroyed, codec::handle_value(pipeline),
+                      [&](codec::Encoder &e) { encode_vkDestroyPipeline(e, device, pipeline, pAllocator); });
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdBindPipeline(VkCommandBuffer commandBuffer,
+                                           VkPipelineBindPoint pipelineBindPoint, VkPipeline pipeline) {
+    DeviceState &dev = device_state(commandBuffer);
+    dev.dispatch.CmdBindPipeline(commandBuffer, pipelineBindPoint, pipeline);
+    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
+        encode_vkCmdBindPipeline(e, commandBuffer, pipelineBindPoint, pipeline);
+    });
+    if (pipelineBindPoint != VK_PIPELINE_BIND_POINT_GRAPHICS || !dev.session) return;
+    split::CommandTracker *tracker = split_tracker(commandBuffer);
+    if (!tracker) return;
+    const bool had_viewports = tracker->static_viewports(), had_scissors = tracker->static_scissors();
+    tracker->bind_pipeline(pipeline_static_state(pipeline));
+    // A pipeline the layer made dynamic needs its values set; leaving one, the app's dynamic
+    // values (held back while it was bound) apply again.
+    if (had_viewports || tracker->static_viewports()) emit_viewports(dev, commandBuffer, *tracker);
+    if (had_scissors || tracker->static_scissors()) emit_scissors(dev, commandBuffer, *tracker);
+    if (had_viewports || tracker->static_viewports())
+        tracker->note_foveae(split_settings().eyes, split_settings().fovea);
+}
+
+} // namespace entry
+} // namespace splitvk

@@ -1,0 +1,391 @@
+// Render pass instances and dynamic renderings: which are split passes (split.h), and their
+// rewrite. A split pass draws into a swapchain image, found through the image views of its
+// framebuffer (or of its VkRenderPassAttachmentBeginInfo when imageless, or of its dynamic
+// rendering attachments); the layer tracks views -> images, framebuffers -> views, and swapchain
+// images -> their swapchain (vkGetSwapchainImagesKHR). Inside a split pass the render area and
+// clear rects are scaled, and the viewports/scissors in effect are re-emitted scaled at its begin
+// and unscaled at its end, because dynamic state outlives the pass (viewport.cpp).
+
+#include "gpu_timing.h"
+#include "layer_entry_points.h"
+#include "object_map.h"
+#include "resource.h"
+#include "split.h"
+#include "split_geometry.h"
+#include "swapchain.h"
+
+#include <atomic>
+#include <vector>
+
+namespace splitvk {
+namespace {
+
+struct ImageViewState {
+    VkImage image = VK_NULL_HANDLE;
+    VkImageSubresourceRange range{}; // what a render pass's final layout applies to
+};
+struct FramebufferState {
+    std::vector<VkImageView> attachments; // empty when imageless
+};
+struct SwapchainImageState {
+    VkSwapchainKHR swapchain = VK_NULL_HANDLE;
+};
+
+ObjectMap<VkImageView, ImageViewState> g_views;
+ObjectMap<VkFramebuffer, FramebufferState> g_framebuffers;
+ObjectMap<VkImage, SwapchainImageState> g_swapchain_images;
+
+std::atomic<bool> g_secondary_logged{false};
+
+// The extent of `view`'s image when it is an image of a live composable swapchain.
+bool split_target(VkImageView view, VkImage *image, VkExtent2D *extent) {
+    const ImageViewState *v = view ? g_views.find(view) : nullptr;
+    if (!v) return false;
+    const SwapchainImageState *s = g_swapchain_images.find(v->image);
+    if (!s) return false;
+    const SwapchainState *swapchain = find_swapchain(s->swapchain);
+    // The handle value may have been reused since vkGetSwapchainImagesKHR: check it still belongs.
+    if (!swapchain || !swapchain_composable(*swapchain)) return false;
+    for (VkImage i : swapchain->images)
+        if (i == v->image) {
+            *image = i;
+            *extent = swapchain->extent;
+            return true;
+        }
+    return false;
+}
+
+bool find_target(uint32_t count, const VkImageView *views, VkImage *image, VkExtent2D *extent) {
+    for (uint32_t i = 0; i < count; ++i)
+        if (split_target(views[i], image, extent)) return true;
+    return false;
+}
+
+void log_secondary_once() {
+    if (!g_secondary_logged.exchange(true))
+        SPLITVK_WARN("a pass into a swapchain image records its contents in secondary command buffers: "
+                     "not split (rendered at full resolution)");
+}
+
+// The split tracker when `begin` starts a split pass, with its target; nullptr otherwise.
+split::CommandTracker *split_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassBeginInfo *begin,
+                                  bool secondary, VkImage *image, VkExtent2D *extent) {
+    if (!split_enabled(dev)) return nullptr;
+    split::CommandTracker *tracker = split_tracker(cb);
+    if (!tracker) return nullptr;
+    const auto *attachments = static_cast<const VkRenderPassAttachmentBeginInfo *>(nullptr);
+    for (auto *p = static_cast<const VkBaseInStructure *>(begin->pNext); p; p = p->pNext)
+        if (p->sType == VK_STRUCTURE_TYPE_RENDER_PASS_ATTACHMENT_BEGIN_INFO)
+            attachments = reinterpret_cast<const VkRenderPassAttachmentBeginInfo *>(p);
+    bool found = false;
+    if (attachments) {
+        found = find_target(attachments->attachmentCount, attachments->pAttachments, image, extent);
+    } else if (const FramebufferState *fb = g_framebuffers.find(begin->framebuffer)) {
+        found =
+            find_target(static_cast<uint32_t>(fb->attachments.size()), fb->attachments.data(), image, extent);
+    }
+    if (!found) return nullptr;
+    if (secondary) {
+        log_secondary_once();
+        return nullptr;
+    }
+    return tracker;
+}
+
+std::atomic<bool> g_first_split_logged{false};
+
+void enter_split(DeviceState &dev, VkCommandBuffer cb, split::CommandTracker &tracker, VkImage image,
+                 VkExtent2D extent) {
+    if (!g_first_split_logged.exchange(true)) {
+        const VkExtent2D periphery = split::scaled_extent(extent, split_settings().scale);
+        SPLITVK_INFO("split: passes into %ux%u swapchain images render their periphery at %ux%u",
+                     extent.width, extent.height, periphery.width, periphery.height);
+    }
+    tracker.begin_split(codec::handle_value(image), extent);
+    emit_viewports(dev, cb, tracker);
+    emit_scissors(dev, cb, tracker);
+    tracker.note_foveae(split_settings().eyes, split_settings().fovea);
+}
+
+void leave_split(DeviceState &dev, VkCommandBuffer cb) {
+    split::CommandTracker *tracker = dev.session ? split_tracker(cb) : nullptr;
+    if (!tracker || !tracker->in_split()) return;
+    time_split_pass_ended(dev, cb);
+    tracker->end_split();
+    emit_viewports(dev, cb, *tracker);
+    emit_scissors(dev, cb, *tracker);
+}
+
+VkRect2D scaled_area(const VkRect2D &area, VkExtent2D extent) {
+    const double scale = split_settings().scale;
+    return split::scale_rect(area, scale, split::scaled_extent(extent, scale));
+}
+
+// The images of a render pass instance's attachments, for their final layouts (resource.h).
+void note_attachments(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassBeginInfo *begin) {
+    if (!dev.session) return;
+    std::span<const VkImageView> views;
+    for (auto *p = static_cast<const VkBaseInStructure *>(begin->pNext); p; p = p->pNext)
+        if (p->sType == VK_STRUCTURE_TYPE_RENDER_PASS_ATTACHMENT_BEGIN_INFO) {
+            const auto *info = reinterpret_cast<const VkRenderPassAttachmentBeginInfo *>(p);
+            views = {info->pAttachments, info->attachmentCount};
+        }
+    const FramebufferState *fb = g_framebuffers.find(begin->framebuffer);
+    if (views.empty() && fb) views = fb->attachments;
+    std::vector<AttachmentImage> attachments;
+    for (VkImageView view : views) {
+        const ImageViewState *v = g_views.find(view);
+        attachments.push_back(v ? AttachmentImage{v->image, v->range} : AttachmentImage{});
+    }
+    note_render_pass_begin(cb, begin->renderPass, attachments);
+}
+
+void end_render_pass(DeviceState &dev, VkCommandBuffer cb) {
+    if (dev.session) note_render_pass_end(cb);
+    leave_split(dev, cb);
+}
+
+template <class Down>
+void begin_render_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassBeginInfo *begin,
+                       bool secondary, Down &&down) {
+    note_attachments(dev, cb, begin);
+    VkImage image = VK_NULL_HANDLE;
+    VkExtent2D extent{};
+    split::CommandTracker *tracker = split_pass(dev, cb, begin, secondary, &image, &extent);
+    if (!tracker) return down(begin);
+    VkRenderPassBeginInfo scaled = *begin;
+    scaled.renderArea = scaled_area(begin->renderArea, extent);
+    time_before_split_pass(dev, cb);
+    down(&scaled);
+    time_split_pass_begun(dev, cb);
+    enter_split(dev, cb, *tracker, image, extent);
+}
+
+template <class Down>
+void begin_rendering(DeviceState &dev, VkCommandBuffer cb, const VkRenderingInfo *info, Down &&down) {
+    split::CommandTracker *tracker = split_enabled(dev) ? split_tracker(cb) : nullptr;
+    VkImage image = VK_NULL_HANDLE;
+    VkExtent2D extent{};
+    bool found = false;
+    for (uint32_t i = 0; tracker && !found && i < info->colorAttachmentCount; ++i) {
+        const VkRenderingAttachmentInfo &a = info->pColorAttachments[i];
+        found = split_target(a.imageView, &image, &extent) ||
+                (a.resolveMode != VK_RESOLVE_MODE_NONE && split_target(a.resolveImageView, &image, &extent));
+    }
+    if (found && (info->flags & VK_RENDERING_CONTENTS_SECONDARY_COMMAND_BUFFERS_BIT)) {
+        log_secondary_once();
+        found = false;
+    }
+    if (!found) return down(info);
+    VkRenderingInfo scaled = *info;
+    scaled.renderArea = scaled_area(info->renderArea, extent);
+    time_before_split_pass(dev, cb);
+    down(&scaled);
+    time_split_pass_begun(dev, cb);
+    enter_split(dev, cb, *tracker, image, extent);
+}
+
+} // namespace
+
+namespace entry {
+
+VKAPI_ATTR VkResult VKAPI_CALL GetSwapchainImagesKHR(VkDevice device, VkSwapchainKHR swapchain,
+                                                     uint32_t *pSwapchainImageCount,
+                                                     VkImage *pSwapchainImages) {
+    DeviceState &dev = device_state(device);
+    const VkResult result =
+        dev.dispatch.GetSwapchainImagesKHR(device, swapchain, pSwapchainImageCount, pSwapchainImages);
+    if (dev.session && pSwapchainImages && result >= 0)
+        for (uint32_t i = 0; i < *pSwapchainImageCount; ++i) {
+            auto state = std::make_unique<SwapchainImageState>();
+            state->swapchain = swapchain;
+            g_swapchain_images.insert(pSwapchainImages[i], std::move(state));
+        }
+    return result;
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL CreateImageView(VkDevice device, const VkImageViewCreateInfo *pCreateInfo,
+                                               const VkAllocationCallbacks *pAllocator, VkImageView *pView) {
+    DeviceState &dev = device_state(device);
+    const VkResult result = dev.dispatch.CreateImageView(device, pCreateInfo, pAllocator, pView);
+    if (dev.session && result == VK_SUCCESS) {
+        auto state = std::make_unique<ImageViewState>();
+        state->image = pCreateInfo->image;
+        state->range = pCreateInfo->subresourceRange;
+        g_views.insert(*pView, std::move(state));
+    }
+    if (capturing(dev) && result >= 0) [[unlikely]]
+        record_global(dev, LiveChange::Created, codec::handle_value(*pView), [&](codec::Encoder &e) {
+            encode_vkCreateImageView(e, device, pCreateInfo, pAllocator, pView);
+        });
+    return result;
+}
+
+VKAPI_ATTR void VKAPI_CALL DestroyImageView(VkDevice device, VkImageView imageView,
+                                            const VkAllocationCallbacks *pAllocator) {
+    DeviceState &dev = device_state(device);
+    dev.dispatch.DestroyImageView(device, imageView, pAllocator);
+    if (dev.session && imageView != VK_NULL_HANDLE) g_views.remove(imageView);
+    if (capturing(dev)) [[unlikely]]
+        record_global(dev, LiveChange::Destroyed, codec::handle_value(imageView), [&](codec::Encoder &e) {
+            encode_vkDestroyImageView(e, device, imageView, pAllocator);
+        });
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL CreateFramebuffer(VkDevice device, const VkFramebufferCreateInfo *pCreateInfo,
+                                                 const VkAllocationCallbacks *pAllocator,
+                                                 VkFramebuffer *pFramebuffer) {
+    DeviceState &dev = device_state(device);
+    const VkResult result = dev.dispatch.CreateFramebuffer(device, pCreateInfo, pAllocator, pFramebuffer);
+    if (dev.session && result == VK_SUCCESS) {
+        auto state = std::make_unique<FramebufferState>();
+        if (!(pCreateInfo->flags & VK_FRAMEBUFFER_CREATE_IMAGELESS_BIT) && pCreateInfo->pAttachments)
+            state->attachments.assign(pCreateInfo->pAttachments,
+                                      pCreateInfo->pAttachments + pCreateInfo->attachmentCount);
+        g_framebuffers.insert(*pFramebuffer, std::move(state));
+    }
+    if (capturing(dev) && result >= 0) [[unlikely]]
+        record_global(dev, LiveChange::Created, codec::handle_value(*pFramebuffer), [&](codec::Encoder &e) {
+            encode_vkCreateFramebuffer(e, device, pCreateInfo, pAllocator, pFramebuffer);
+        });
+    return result;
+}
+
+VKAPI_ATTR void VKAPI_CALL DestroyFramebuffer(VkDevice device, VkFramebuffer framebuffer,
+                                              const VkAllocationCallbacks *pAllocator) {
+    DeviceState &dev = device_state(device);
+    dev.dispatch.DestroyFramebuffer(device, framebuffer, pAllocator);
+    if (dev.session && framebuffer != VK_NULL_HANDLE) g_framebuffers.remove(framebuffer);
+    if (capturing(dev)) [[unlikely]]
+        record_global(dev, LiveChange::Destroyed, codec::handle_value(framebuffer), [&](codec::Encoder &e) {
+            encode_vkDestroyFramebuffer(e, device, framebuffer, pAllocator);
+        });
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdBeginRenderPass(VkCommandBuffer commandBuffer,
+                                              const VkRenderPassBeginInfo *pRenderPassBegin,
+                                              VkSubpassContents contents) {
+    DeviceState &dev = device_state(commandBuffer);
+    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
+        encode_vkCmdBeginRenderPass(e, commandBuffer, pRenderPassBegin, contents);
+    });
+    begin_render_pass(
+        dev, commandBuffer, pRenderPassBegin, contents != VK_SUBPASS_CONTENTS_INLINE,
+        [&](const VkRenderPassBeginInfo *b) { dev.dispatch.CmdBeginRenderPass(commandBuffer, b, contents); });
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdBeginRenderPass2(VkCommandBuffer commandBuffer,
+                                               const VkRenderPassBeginInfo *pRenderPassBegin,
+                                               const VkSubpassBeginInfo *pSubpassBeginInfo) {
+    DeviceState &dev = device_state(commandBuffer);
+    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
+        encode_vkCmdBeginRenderPass2(e, commandBuffer, pRenderPassBegin, pSubpassBeginInfo);
+    });
+    begin_render_pass(dev, commandBuffer, pRenderPassBegin,
+                      pSubpassBeginInfo->contents != VK_SUBPASS_CONTENTS_INLINE,
+                      [&](const VkRenderPassBeginInfo *b) {
+                          dev.dispatch.CmdBeginRenderPass2(commandBuffer, b, pSubpassBeginInfo);
+                      });
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdBeginRenderPass2KHR(VkCommandBuffer commandBuffer,
+                                                  const VkRenderPassBeginInfo *pRenderPassBegin,
+                                                  const VkSubpassBeginInfo *pSubpassBeginInfo) {
+    DeviceState &dev = device_state(commandBuffer);
+    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
+        encode_vkCmdBeginRenderPass2(e, commandBuffer, pRenderPassBegin, pSubpassBeginInfo);
+    });
+    begin_render_pass(dev, commandBuffer, pRenderPassBegin,
+                      pSubpassBeginInfo->contents != VK_SUBPASS_CONTENTS_INLINE,
+                      [&](const VkRenderPassBeginInfo *b) {
+                          dev.dispatch.CmdBeginRenderPass2KHR(commandBuffer, b, pSubpassBeginInfo);
+                      });
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdEndRenderPass(VkCommandBuffer commandBuffer) {
+    DeviceState &dev = device_state(commandBuffer);
+    dev.dispatch.CmdEndRenderPass(commandBuffer);
+    capture_command(dev, commandBuffer,
+                    [&](codec::Encoder &e) { encode_vkCmdEndRenderPass(e, commandBuffer); });
+    end_render_pass(dev, commandBuffer);
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdEndRenderPass2(VkCommandBuffer commandBuffer,
+                                             const VkSubpassEndInfo *pSubpassEndInfo) {
+    DeviceState &dev = device_state(commandBuffer);
+    dev.dispatch.CmdEndRenderPass2(commandBuffer, pSubpassEndInfo);
+    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
+        encode_vkCmdEndRenderPass2(e, commandBuffer, pSubpassEndInfo);
+    });
+    end_render_pass(dev, commandBuffer);
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdEndRenderPass2KHR(VkCommandBuffer commandBuffer,
+                                                const VkSubpassEndInfo *pSubpassEndInfo) {
+    DeviceState &dev = device_state(commandBuffer);
+    dev.dispatch.CmdEndRenderPass2KHR(commandBuffer, pSubpassEndInfo);
+    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
+        encode_vkCmdEndRenderPass2(e, commandBuffer, pSubpassEndInfo);
+    });
+    end_render_pass(dev, commandBuffer);
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdBeginRendering(VkCommandBuffer commandBuffer,
+                                             const VkRenderingInfo *pRenderingInfo) {
+    DeviceState &dev = device_state(commandBuffer);
+    capture_command(dev, commandBuffer,
+                    [&](codec::Encoder &e) { encode_vkCmdBeginRendering(e, commandBuffer, pRenderingInfo); });
+    begin_rendering(dev, commandBuffer, pRenderingInfo,
+                    [&](const VkRenderingInfo *i) { dev.dispatch.CmdBeginRendering(commandBuffer, i); });
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdBeginRenderingKHR(VkCommandBuffer commandBuffer,
+                                                const VkRenderingInfo *pRenderingInfo) {
+    DeviceState &dev = device_state(commandBuffer);
+    capture_command(dev, commandBuffer,
+                    [&](codec::Encoder &e) { encode_vkCmdBeginRendering(e, commandBuffer, pRenderingInfo); });
+    begin_rendering(dev, commandBuffer, pRenderingInfo,
+                    [&](const VkRenderingInfo *i) { dev.dispatch.CmdBeginRenderingKHR(commandBuffer, i); });
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdEndRendering(VkCommandBuffer commandBuffer) {
+    DeviceState &dev = device_state(commandBuffer);
+    dev.dispatch.CmdEndRendering(commandBuffer);
+    capture_command(dev, commandBuffer,
+                    [&](codec::Encoder &e) { encode_vkCmdEndRendering(e, commandBuffer); });
+    leave_split(dev, commandBuffer);
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdEndRenderingKHR(VkCommandBuffer commandBuffer) {
+    DeviceState &dev = device_state(commandBuffer);
+    dev.dispatch.CmdEndRenderingKHR(commandBuffer);
+    capture_command(dev, commandBuffer,
+                    [&](codec::Encoder &e) { encode_vkCmdEndRendering(e, commandBuffer); });
+    leave_split(dev, commandBuffer);
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdClearAttachments(VkCommandBuffer commandBuffer, uint32_t attachmentCount,
+                                               const VkClearAttachment *pAttachments, uint32_t rectCount,
+                                               const VkClearRect *pRects) {
+    DeviceState &dev = device_state(commandBuffer);
+    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
+        encode_vkCmdClearAttachments(e, commandBuffer, attachmentCount, pAttachments, rectCount, pRects);
+    });
+    const split::CommandTracker *tracker = dev.session ? split_tracker(commandBuffer) : nullptr;
+    if (!tracker || !tracker->in_split())
+        return dev.dispatch.CmdClearAttachments(commandBuffer, attachmentCount, pAttachments, rectCount,
+                                                pRects);
+    std::vector<VkClearRect> rects;
+    for (uint32_t i = 0; i < rectCount; ++i) {
+        VkClearRect r = pRects[i];
+        r.rect = scaled_area(r.rect, tracker->extent());
+        // A rect clamped away entirely is invalid to pass down (clear rects must not be empty).
+        if (r.rect.extent.width && r.rect.extent.height) rects.push_back(r);
+    }
+    if (!rects.empty())
+        dev.dispatch.CmdClearAttachments(commandBuffer, attachmentCount, pAttachments,
+                                         static_cast<uint32_t>(rects.size()), rects.data());
+}
+
+} // namespace entry
+} // namespace splitvk

@@ -1,0 +1,148 @@
+// The split's re-emitted state and the per-image record of what split passes drew (split.h).
+
+#include "split.h"
+
+#include "layer_settings.h"
+#include "split_geometry.h"
+#include "swapchain.h"
+
+#include <mutex>
+#include <unordered_map>
+
+namespace splitvk {
+namespace {
+
+std::mutex g_frames_mutex;
+// Swapchain image handle value -> what the submitted split passes drew into it since the last take.
+std::unordered_map<uint64_t, split::DrawnImage> g_frames;
+
+void note_command_buffers(uint32_t count, const VkCommandBuffer *command_buffers) {
+    for (uint32_t i = 0; i < count; ++i) {
+        const split::CommandTracker *tracker = split_tracker(command_buffers[i]);
+        if (!tracker || tracker->drawn().empty()) continue;
+        std::lock_guard lock(g_frames_mutex);
+        for (const split::DrawnImage &drawn : tracker->drawn()) {
+            auto [it, inserted] = g_frames.try_emplace(drawn.image, drawn);
+            if (inserted) continue;
+            it->second.extent = drawn.extent;
+            for (const VkRect2D &r : drawn.foveae)
+                split::add_fovea(it->second.foveae, r);
+        }
+    }
+}
+
+} // namespace
+
+bool split_enabled(const DeviceState &device) {
+    return device.session != nullptr && device.session->splitting();
+}
+
+bool swapchain_composable(const SwapchainState &swapchain) {
+    return swapchain.composable;
+}
+
+const Settings &split_settings() {
+    return layer_settings().settings;
+}
+
+SplitFrame take_split_frame(DeviceState &, VkImage image) {
+    SplitFrame frame;
+    std::lock_guard lock(g_frames_mutex);
+    const auto it = g_frames.find(codec::handle_value(image));
+    if (it == g_frames.end()) return frame;
+    frame.split = true;
+    frame.periphery = split::scaled_extent(it->second.extent, split_settings().scale);
+    frame.foveae = std::move(it->second.foveae);
+    g_frames.erase(it);
+    return frame;
+}
+
+void note_split_submit(DeviceState &device, uint32_t count, const VkSubmitInfo *submits) {
+    if (!split_enabled(device)) return;
+    for (uint32_t i = 0; i < count; ++i)
+        note_command_buffers(submits[i].commandBufferCount, submits[i].pCommandBuffers);
+}
+
+void note_split_submit(DeviceState &device, uint32_t count, const VkSubmitInfo2 *submits) {
+    if (!split_enabled(device)) return;
+    for (uint32_t i = 0; i < count; ++i)
+        for (uint32_t j = 0; j < submits[i].commandBufferInfoCount; ++j)
+            note_command_buffers(1, &submits[i].pCommandBufferInfos[j].commandBuffer);
+}
+
+void emit_viewports(DeviceState &device, VkCommandBuffer command_buffer,
+                    const split::CommandTracker &tracker) {
+    const double scale = split_settings().scale;
+    const auto out = [&](const VkViewport &v) {
+        return tracker.in_split() ? split::scale_viewport(v, scale) : v;
+    };
+    std::vector<VkViewport> values;
+    if (tracker.static_viewports()) {
+        for (const VkViewport &v : tracker.pipeline()->viewports)
+            values.push_back(out(v));
+        device.dispatch.CmdSetViewport(command_buffer, 0, static_cast<uint32_t>(values.size()),
+                                       values.data());
+        return;
+    }
+    const auto &dynamic = tracker.dynamic_viewports();
+    if (dynamic.empty()) return;
+    for (const VkViewport &v : dynamic.values)
+        values.push_back(out(v));
+    if (dynamic.with_count) {
+        const auto set = device.dispatch.CmdSetViewportWithCount ? device.dispatch.CmdSetViewportWithCount
+                                                                 : device.dispatch.CmdSetViewportWithCountEXT;
+        if (set) set(command_buffer, static_cast<uint32_t>(values.size()), values.data());
+        return;
+    }
+    // Only the indices the app set: the others hold no valid viewport to pass down.
+    for (uint32_t first = 0; first < values.size();) {
+        if (!dynamic.valid(first)) {
+            ++first;
+            continue;
+        }
+        uint32_t end = first;
+        while (end < values.size() && dynamic.valid(end))
+            ++end;
+        device.dispatch.CmdSetViewport(command_buffer, first, end - first, values.data() + first);
+        first = end;
+    }
+}
+
+void emit_scissors(DeviceState &device, VkCommandBuffer command_buffer,
+                   const split::CommandTracker &tracker) {
+    const double scale = split_settings().scale;
+    const VkExtent2D scaled = split::scaled_extent(tracker.extent(), scale);
+    const auto out = [&](const VkRect2D &r) {
+        return tracker.in_split() ? split::scale_rect(r, scale, scaled) : r;
+    };
+    std::vector<VkRect2D> values;
+    if (tracker.static_scissors()) {
+        for (const VkRect2D &r : tracker.pipeline()->scissors)
+            values.push_back(out(r));
+        device.dispatch.CmdSetScissor(command_buffer, 0, static_cast<uint32_t>(values.size()), values.data());
+        return;
+    }
+    const auto &dynamic = tracker.dynamic_scissors();
+    if (dynamic.empty()) return;
+    for (const VkRect2D &r : dynamic.values)
+        values.push_back(out(r));
+    if (dynamic.with_count) {
+        const auto set = device.dispatch.CmdSetScissorWithCount ? device.dispatch.CmdSetScissorWithCount
+                                                                : device.dispatch.CmdSetScissorWithCountEXT;
+        if (set) set(command_buffer, static_cast<uint32_t>(values.size()), values.data());
+        return;
+    }
+    for (uint32_t first = 0; first < values.size();) {
+        if (!dynamic.valid(first)) {
+            ++first;
+            continue;
+        }
+        uint32_t end = first;
+        while (end < values.size() && dynamic.valid(end))
+            ++end;
+        device.dispatch.CmdSetScissor(command_buffer, first, end - first, values.data() + first);
+        first = end;
+    }
+}
+
+} // namespace splitvk

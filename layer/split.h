@@ -1,0 +1,68 @@
+#pragma once
+
+// The client half of the image-space split (DESIGN §4, issue 4). A split pass is a render pass
+// instance (or dynamic rendering) that draws into a swapchain image of a composable swapchain;
+// inside it the layer passes down a rewritten call (render area, viewports, scissors and clear
+// rects scaled into the top-left ceil(s·W) x ceil(s·H)) while the capture stream keeps the app's
+// original call, which the agent replays at full resolution and narrows to the foveae.
+//
+// Files: render_pass.cpp (image views, framebuffers, swapchain images, pass begin/end, clears),
+// pipeline.cpp (static viewport/scissor made dynamic), viewport.cpp (dynamic state), split.cpp
+// (what is re-emitted, and the per-image record the present path takes).
+
+#include "capture.h"
+#include "split_tracker.h"
+
+#include <vector>
+
+namespace splitvk {
+
+struct SwapchainState;
+
+struct SplitFrame {
+    bool split = false;
+    VkExtent2D periphery{};
+    std::vector<VkRect2D> foveae;
+};
+
+// What the submits since the last call rendered into swapchain image `image`: whether a split pass
+// drew into it, the scaled periphery extent, and the fovea rects (full-resolution image coordinates,
+// sorted by x then y: the agent's take_drawn_foveae order) of the eyes the split passes drew. Clears
+// the image's record.
+SplitFrame take_split_frame(DeviceState &device, VkImage image);
+
+// Whether the layer rewrites split passes on this device: it has a session whose agent accepted the
+// split (Session::splitting(): SPLITVK_VERIFY is off, since verification compares whole frames with
+// the agent's, which the split makes differ on purpose).
+bool split_enabled(const DeviceState &device);
+// Whether a swapchain's images are composited (the present path can join periphery and foveae).
+bool swapchain_composable(const SwapchainState &swapchain);
+
+const Settings &split_settings();
+
+// The split tracker of a command buffer allocated while the device had a session (reset at
+// vkBeginCommandBuffer); nullptr otherwise (command_buffer.cpp).
+split::CommandTracker *split_tracker(VkCommandBuffer command_buffer);
+
+// Sends a command buffer command to its capture stream, if captured.
+template <class F>
+inline void capture_command(DeviceState &device, VkCommandBuffer command_buffer, F &&encode) {
+    if (capturing(device)) [[unlikely]]
+        if (codec::Encoder *e = command_buffer_encoder(command_buffer)) encode(*e);
+}
+
+// Sets the viewports / scissors in effect (the bound pipeline's static ones or the app's dynamic
+// ones), scaled inside a split pass and unscaled outside it.
+void emit_viewports(DeviceState &device, VkCommandBuffer command_buffer,
+                    const split::CommandTracker &tracker);
+void emit_scissors(DeviceState &device, VkCommandBuffer command_buffer, const split::CommandTracker &tracker);
+
+// The static viewport/scissor state of a pipeline the layer made dynamic (pipeline.cpp); null
+// for every other pipeline.
+std::shared_ptr<const split::StaticViewportState> pipeline_static_state(VkPipeline pipeline);
+
+// queue.cpp: unions what the submitted command buffers' split passes drew into the per-image record.
+void note_split_submit(DeviceState &device, uint32_t count, const VkSubmitInfo *submits);
+void note_split_submit(DeviceState &device, uint32_t count, const VkSubmitInfo2 *submits);
+
+} // namespace splitvk

@@ -1,0 +1,82 @@
+#include "stats.h"
+
+#include "log.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+
+namespace splitvk {
+
+namespace {
+
+// The value at quantile q of sorted data, interpolating between neighbours.
+double quantile(const std::vector<double> &sorted, double q) {
+    if (sorted.empty()) return 0;
+    const double position = q * static_cast<double>(sorted.size() - 1);
+    const auto below = static_cast<size_t>(position);
+    const size_t above = std::min(below + 1, sorted.size() - 1);
+    const double fraction = position - static_cast<double>(below);
+    return sorted[below] + (sorted[above] - sorted[below]) * fraction;
+}
+
+} // namespace
+
+const char *FrameStats::csv_header() {
+    return "frame,frame_ms,periphery_ms,tile_wait_ms,network_ms,decode_ms,merge_ms,tile_bytes,raw_bytes,"
+           "agent_draw_ms,"
+           "agent_readback_ms,agent_encode_ms,late";
+}
+
+FrameStats::FrameStats(const std::string &path) {
+    if (path.empty()) return;
+    file_ = std::fopen(path.c_str(), "w");
+    if (!file_) {
+        SPLITVK_WARN("SPLITVK_STATS: cannot write %s (%s); no per-frame statistics", path.c_str(),
+                     std::strerror(errno));
+        return;
+    }
+    // A large buffer: rows reach the disk in a few writes, never one per frame.
+    std::setvbuf(file_, nullptr, _IOFBF, size_t{1} << 20);
+    std::fprintf(file_, "%s\n", csv_header());
+}
+
+FrameStats::~FrameStats() {
+    if (file_) std::fclose(file_);
+}
+
+void FrameStats::record(const FrameRecord &r) {
+    std::lock_guard lock(mutex_);
+    const auto now = std::chrono::steady_clock::now();
+    if (frames_ == 0) first_ = now;
+    last_ = now;
+    ++frames_;
+    if (r.late) ++late_;
+    tile_bytes_ += r.tile_bytes;
+    if (r.frame_ms > 0) frame_ms_.push_back(r.frame_ms);
+    if (file_)
+        std::fprintf(file_, "%llu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%llu,%llu,%.3f,%.3f,%.3f,%d\n",
+                     static_cast<unsigned long long>(r.frame), r.frame_ms, r.periphery_ms, r.tile_wait_ms,
+                     r.network_ms, r.decode_ms, r.merge_ms, static_cast<unsigned long long>(r.tile_bytes),
+                     static_cast<unsigned long long>(r.raw_bytes), r.agent_draw_ms, r.agent_readback_ms,
+                     r.agent_encode_ms, r.late ? 1 : 0);
+}
+
+std::string FrameStats::summary() {
+    std::lock_guard lock(mutex_);
+    if (frames_ == 0) return {};
+    if (file_) std::fflush(file_);
+    auto sorted = frame_ms_;
+    std::sort(sorted.begin(), sorted.end());
+    const double seconds = std::chrono::duration<double>(last_ - first_).count();
+    const double mbits = seconds > 0 ? static_cast<double>(tile_bytes_) * 8 / seconds / 1e6 : 0;
+    char line[256];
+    std::snprintf(
+        line, sizeof(line),
+        "split: %llu frames, frame time median %.1f ms (IQR %.1f ms), %.1f Mbit/s of tiles, %llu late",
+        static_cast<unsigned long long>(frames_), quantile(sorted, 0.5),
+        quantile(sorted, 0.75) - quantile(sorted, 0.25), mbits, static_cast<unsigned long long>(late_));
+    return line;
+}
+
+} // namespace splitvk

@@ -1,0 +1,61 @@
+#pragma once
+
+// Per-frame statistics of a split device (SPLITVK_STATS=path.csv): one CSV row per present, and
+// a one-line summary at vkDestroyDevice. Times are milliseconds; the agent's stages come with
+// its tiles (protocol::AgentTimings). Rows are written by the presenting thread, buffered, and
+// flushed at exit: a frame never waits for the disk.
+
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace splitvk {
+
+struct FrameRecord {
+    uint64_t frame = 0;
+    double frame_ms = 0;     // this present to the previous one (0 for the first)
+    double periphery_ms = 0; // GPU time of the latest completed split pass (gpu_timing.h)
+    double tile_wait_ms = 0; // the present waited for this frame's tiles
+    double network_ms = 0;   // FramePresent sent to Tiles received, less the agent's own time
+    double decode_ms = 0;    // the slowest eye
+    double merge_ms = 0;     // upload and composite, as recorded and submitted on this thread
+    uint64_t tile_bytes = 0; // Tiles payload received
+    uint64_t raw_bytes = 0;  // the same tiles uncompressed (4 bytes per pixel)
+    double agent_draw_ms = 0;
+    double agent_readback_ms = 0;
+    double agent_encode_ms = 0;
+    bool late = false; // composited from the periphery alone
+};
+
+class FrameStats {
+public:
+    // `path` empty: only the summary is kept.
+    explicit FrameStats(const std::string &path);
+    ~FrameStats();
+    FrameStats(const FrameStats &) = delete;
+    FrameStats &operator=(const FrameStats &) = delete;
+
+    void record(const FrameRecord &record);
+
+    // "split: 300 frames, frame time median 41.2 ms (IQR 3.1 ms), 87.5 Mbit/s of tiles, 0 late";
+    // empty when no frame was recorded.
+    std::string summary();
+
+    // The CSV header: column names with their units.
+    static const char *csv_header();
+
+private:
+    std::mutex mutex_;
+    std::FILE *file_ = nullptr;
+    std::vector<double> frame_ms_;
+    uint64_t frames_ = 0;
+    uint64_t late_ = 0;
+    uint64_t tile_bytes_ = 0;
+    std::chrono::steady_clock::time_point first_{};
+    std::chrono::steady_clock::time_point last_{};
+};
+
+} // namespace splitvk

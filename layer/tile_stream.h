@@ -1,0 +1,103 @@
+#pragma once
+
+// The client's half of the tile path (DESIGN §2 and §5): Tiles messages from the agent are
+// decoded on the layer's own threads, one per eye, so that eyes decode in parallel and each eye's
+// decoder (a stateful stream: P-frames reference that eye's previous frame) is used by one thread
+// in order. vkQueuePresentKHR then takes its own frame's tiles (lockstep: frame N is composited
+// with the tiles of frame N, never older ones), waiting at most SPLITVK_TILE_WAIT.
+//
+// Every Tiles message is decoded, also one that arrives after its present gave up on it: the next
+// frame's P-frames reference it. Frames older than the one a present asked for are dropped.
+
+#include "../protocol/session.h" // Tiles, AgentTimings (layer/session.h has the same name)
+#include "tile_codec.h"
+
+#include <vulkan/vulkan.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace splitvk {
+
+struct DecodedTile {
+    VkRect2D rect{};
+    std::vector<uint8_t> pixels; // rect.extent.width * height * 4 bytes, rows packed
+};
+
+// One frame's tiles as decoded, with what the statistics need.
+struct FrameTiles {
+    uint64_t frame = 0;
+    uint64_t swapchain_id = 0;
+    uint32_t image_index = 0;
+    std::vector<DecodedTile> tiles;
+    protocol::AgentTimings agent;
+    uint64_t bytes = 0;                             // the Tiles payload as received
+    std::chrono::steady_clock::time_point received; // the whole message was read
+    std::chrono::steady_clock::duration decode{};   // the slowest eye
+    bool failed = false;                            // a tile did not decode (logged)
+};
+
+class TileStream {
+public:
+    // `on_error` is called (on a decoder thread) with one line when the agent sent something that
+    // cannot be decoded; the session then stops splitting.
+    explicit TileStream(std::function<void(const std::string &)> on_error);
+    ~TileStream();
+    TileStream(const TileStream &) = delete;
+    TileStream &operator=(const TileStream &) = delete;
+
+    // The session's receive thread: one Tiles payload. False (nothing queued) when it is malformed.
+    bool accept(std::vector<uint8_t> &&payload, std::string *error);
+
+    // vkQueuePresentKHR: frame `frame`'s decoded tiles, waiting until `deadline`. nullptr when they
+    // are late, and then also when they failed to decode. Drops every older frame.
+    std::shared_ptr<const FrameTiles> take(uint64_t frame, std::chrono::steady_clock::time_point deadline);
+
+    // Stops the decoder threads (also makes take() return at once).
+    void stop();
+    // The agent went away: take() returns at once from now on. Callable from any thread, also a
+    // decoder's own (it joins nothing).
+    void abandon();
+
+private:
+    struct Pending {
+        std::shared_ptr<FrameTiles> frame;
+        size_t remaining = 0; // tiles not decoded yet
+        std::vector<protocol::EncodedTile> encoded;
+        std::chrono::steady_clock::duration slowest{};
+    };
+    struct EyeJob {
+        std::shared_ptr<Pending> pending;
+        size_t tile = 0;
+    };
+    struct EyeDecoder {
+        std::thread thread;
+        std::deque<EyeJob> jobs; // under mutex_
+        // Decoder thread only.
+        uint32_t width = 0, height = 0;
+        TileCodec codec = TileCodec::X264;
+        std::unique_ptr<tiles::TileDecoder> decoder;
+    };
+
+    void run_eye(size_t eye);
+    void decode_tile(EyeDecoder &eye, const EyeJob &job);
+
+    std::function<void(const std::string &)> on_error_;
+    std::mutex mutex_;
+    std::condition_variable changed_;
+    bool stopping_ = false;
+    std::vector<std::unique_ptr<EyeDecoder>> eyes_;
+    std::map<uint64_t, std::shared_ptr<Pending>> frames_; // by frame number, complete or not
+    uint64_t oldest_wanted_ = 0;                          // frames before this are dropped on arrival
+};
+
+} // namespace splitvk

@@ -1,0 +1,120 @@
+// Dynamic viewport and scissor state (split.h). The app's values are kept unscaled in the command
+// buffer's tracker, since dynamic state outlives the render pass instance it was set in: a value
+// set before a split pass must reach the driver scaled inside it and unscaled after it, so it is
+// re-emitted at each split pass begin and end (render_pass.cpp). While a pipeline whose static
+// state the layer made dynamic is bound, the app's values are only kept: the pipeline's own values
+// must stay in effect until a pipeline with dynamic state is bound (pipeline.cpp).
+
+#include "layer_entry_points.h"
+#include "split.h"
+#include "split_geometry.h"
+
+#include <vector>
+
+namespace splitvk {
+namespace {
+
+template <class Down>
+void set_viewports(DeviceState &dev, VkCommandBuffer cb, uint32_t first, uint32_t count,
+                   const VkViewport *viewports, bool with_count, Down &&down) {
+    split::CommandTracker *tracker = dev.session ? split_tracker(cb) : nullptr;
+    if (!tracker) return down(viewports);
+    tracker->set_viewports(first, count, viewports, with_count);
+    if (tracker->static_viewports()) return;
+    if (!tracker->in_split()) return down(viewports);
+    tracker->note_foveae(split_settings().eyes, split_settings().fovea);
+    std::vector<VkViewport> scaled(viewports, viewports + count);
+    for (VkViewport &v : scaled)
+        v = split::scale_viewport(v, split_settings().scale);
+    down(scaled.data());
+}
+
+template <class Down>
+void set_scissors(DeviceState &dev, VkCommandBuffer cb, uint32_t first, uint32_t count,
+                  const VkRect2D *scissors, bool with_count, Down &&down) {
+    split::CommandTracker *tracker = dev.session ? split_tracker(cb) : nullptr;
+    if (!tracker) return down(scissors);
+    tracker->set_scissors(first, count, scissors, with_count);
+    if (tracker->static_scissors()) return;
+    if (!tracker->in_split()) return down(scissors);
+    const double scale = split_settings().scale;
+    const VkExtent2D extent = split::scaled_extent(tracker->extent(), scale);
+    std::vector<VkRect2D> scaled(scissors, scissors + count);
+    for (VkRect2D &r : scaled)
+        r = split::scale_rect(r, scale, extent);
+    down(scaled.data());
+}
+
+} // namespace
+
+namespace entry {
+
+VKAPI_ATTR void VKAPI_CALL CmdSetViewport(VkCommandBuffer commandBuffer, uint32_t firstViewport,
+                                          uint32_t viewportCount, const VkViewport *pViewports) {
+    DeviceState &dev = device_state(commandBuffer);
+    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
+        encode_vkCmdSetViewport(e, commandBuffer, firstViewport, viewportCount, pViewports);
+    });
+    set_viewports(dev, commandBuffer, firstViewport, viewportCount, pViewports, false,
+                  [&](const VkViewport *v) {
+                      dev.dispatch.CmdSetViewport(commandBuffer, firstViewport, viewportCount, v);
+                  });
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdSetViewportWithCount(VkCommandBuffer commandBuffer, uint32_t viewportCount,
+                                                   const VkViewport *pViewports) {
+    DeviceState &dev = device_state(commandBuffer);
+    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
+        encode_vkCmdSetViewportWithCount(e, commandBuffer, viewportCount, pViewports);
+    });
+    set_viewports(dev, commandBuffer, 0, viewportCount, pViewports, true, [&](const VkViewport *v) {
+        dev.dispatch.CmdSetViewportWithCount(commandBuffer, viewportCount, v);
+    });
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdSetViewportWithCountEXT(VkCommandBuffer commandBuffer, uint32_t viewportCount,
+                                                      const VkViewport *pViewports) {
+    DeviceState &dev = device_state(commandBuffer);
+    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
+        encode_vkCmdSetViewportWithCount(e, commandBuffer, viewportCount, pViewports);
+    });
+    set_viewports(dev, commandBuffer, 0, viewportCount, pViewports, true, [&](const VkViewport *v) {
+        dev.dispatch.CmdSetViewportWithCountEXT(commandBuffer, viewportCount, v);
+    });
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdSetScissor(VkCommandBuffer commandBuffer, uint32_t firstScissor,
+                                         uint32_t scissorCount, const VkRect2D *pScissors) {
+    DeviceState &dev = device_state(commandBuffer);
+    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
+        encode_vkCmdSetScissor(e, commandBuffer, firstScissor, scissorCount, pScissors);
+    });
+    set_scissors(dev, commandBuffer, firstScissor, scissorCount, pScissors, false, [&](const VkRect2D *r) {
+        dev.dispatch.CmdSetScissor(commandBuffer, firstScissor, scissorCount, r);
+    });
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdSetScissorWithCount(VkCommandBuffer commandBuffer, uint32_t scissorCount,
+                                                  const VkRect2D *pScissors) {
+    DeviceState &dev = device_state(commandBuffer);
+    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
+        encode_vkCmdSetScissorWithCount(e, commandBuffer, scissorCount, pScissors);
+    });
+    set_scissors(dev, commandBuffer, 0, scissorCount, pScissors, true, [&](const VkRect2D *r) {
+        dev.dispatch.CmdSetScissorWithCount(commandBuffer, scissorCount, r);
+    });
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdSetScissorWithCountEXT(VkCommandBuffer commandBuffer, uint32_t scissorCount,
+                                                     const VkRect2D *pScissors) {
+    DeviceState &dev = device_state(commandBuffer);
+    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
+        encode_vkCmdSetScissorWithCount(e, commandBuffer, scissorCount, pScissors);
+    });
+    set_scissors(dev, commandBuffer, 0, scissorCount, pScissors, true, [&](const VkRect2D *r) {
+        dev.dispatch.CmdSetScissorWithCountEXT(commandBuffer, scissorCount, r);
+    });
+}
+
+} // namespace entry
+} // namespace splitvk

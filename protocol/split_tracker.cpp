@@ -1,0 +1,119 @@
+#include "split_tracker.h"
+
+#include "split_geometry.h"
+
+#include <algorithm>
+
+namespace splitvk::split {
+
+void merge_drawn(std::vector<DrawnImage> &into, const std::vector<DrawnImage> &from) {
+    for (const DrawnImage &d : from) {
+        auto it =
+            std::find_if(into.begin(), into.end(), [&](const DrawnImage &x) { return x.image == d.image; });
+        if (it == into.end()) {
+            into.push_back(d);
+            continue;
+        }
+        it->extent = d.extent;
+        for (const VkRect2D &r : d.foveae)
+            add_fovea(it->foveae, r);
+    }
+}
+
+void CommandTracker::bind_pipeline(std::shared_ptr<const StaticViewportState> state) {
+    pipeline_ = std::move(state);
+    if (!pipeline_) return;
+    if (pipeline_->has_viewports)
+        viewports_.assign(0, static_cast<uint32_t>(pipeline_->viewports.size()), pipeline_->viewports.data(),
+                          false);
+    if (pipeline_->has_scissors)
+        scissors_.assign(0, static_cast<uint32_t>(pipeline_->scissors.size()), pipeline_->scissors.data(),
+                         false);
+}
+
+const VkViewport *CommandTracker::viewport(size_t i) const {
+    if (static_viewports()) return i < pipeline_->viewports.size() ? &pipeline_->viewports[i] : nullptr;
+    return viewports_.valid(i) ? &viewports_.values[i] : nullptr;
+}
+
+size_t CommandTracker::viewport_count() const {
+    return static_viewports() ? pipeline_->viewports.size() : viewports_.values.size();
+}
+
+const VkRect2D *CommandTracker::scissor(size_t i) const {
+    if (static_scissors()) return i < pipeline_->scissors.size() ? &pipeline_->scissors[i] : nullptr;
+    return scissors_.valid(i) ? &scissors_.values[i] : nullptr;
+}
+
+size_t CommandTracker::scissor_count() const {
+    return static_scissors() ? pipeline_->scissors.size() : scissors_.values.size();
+}
+
+void CommandTracker::note_foveae(EyeMode mode, const FoveaSize &fovea) {
+    if (!in_split_) return;
+    auto it =
+        std::find_if(drawn_.begin(), drawn_.end(), [&](const DrawnImage &x) { return x.image == image_; });
+    if (it == drawn_.end()) {
+        drawn_.push_back({image_, extent_, {}});
+        it = drawn_.end() - 1;
+    }
+    it->extent = extent_;
+    for (size_t i = 0; i < viewport_count(); ++i)
+        if (const VkViewport *v = viewport(i))
+            add_fovea(it->foveae, fovea_for_viewport(*v, extent_, mode, fovea));
+}
+
+namespace {
+
+bool has_state(const VkPipelineDynamicStateCreateInfo *dynamic, VkDynamicState state) {
+    if (!dynamic) return false;
+    for (uint32_t i = 0; i < dynamic->dynamicStateCount; ++i)
+        if (dynamic->pDynamicStates[i] == state) return true;
+    return false;
+}
+
+} // namespace
+
+std::shared_ptr<StaticViewportState> static_viewport_state(const VkGraphicsPipelineCreateInfo &info) {
+    const VkPipelineDynamicStateCreateInfo *dynamic = info.pDynamicState;
+    // With rasterization statically discarded, pViewportState is ignored (and may be garbage).
+    if (info.pRasterizationState && info.pRasterizationState->rasterizerDiscardEnable &&
+        !has_state(dynamic, VK_DYNAMIC_STATE_RASTERIZER_DISCARD_ENABLE))
+        return nullptr;
+    // Pipeline libraries carry partial state; their parts are not tracked.
+    if (info.flags & VK_PIPELINE_CREATE_LIBRARY_BIT_KHR) return nullptr;
+    const VkPipelineViewportStateCreateInfo *vs = info.pViewportState;
+    if (!vs) return nullptr;
+    auto state = std::make_shared<StaticViewportState>();
+    if (!has_state(dynamic, VK_DYNAMIC_STATE_VIEWPORT) &&
+        !has_state(dynamic, VK_DYNAMIC_STATE_VIEWPORT_WITH_COUNT) && vs->pViewports && vs->viewportCount) {
+        state->has_viewports = true;
+        state->viewports.assign(vs->pViewports, vs->pViewports + vs->viewportCount);
+    }
+    if (!has_state(dynamic, VK_DYNAMIC_STATE_SCISSOR) &&
+        !has_state(dynamic, VK_DYNAMIC_STATE_SCISSOR_WITH_COUNT) && vs->pScissors && vs->scissorCount) {
+        state->has_scissors = true;
+        state->scissors.assign(vs->pScissors, vs->pScissors + vs->scissorCount);
+    }
+    if (!state->has_viewports && !state->has_scissors) return nullptr;
+    return state;
+}
+
+void add_dynamic_states(const VkGraphicsPipelineCreateInfo &info, bool viewport, bool scissor,
+                        DynamicStateStorage &storage, VkGraphicsPipelineCreateInfo &out) {
+    out = info;
+    if (!viewport && !scissor) return;
+    storage.states.clear();
+    if (info.pDynamicState)
+        storage.states.assign(info.pDynamicState->pDynamicStates,
+                              info.pDynamicState->pDynamicStates + info.pDynamicState->dynamicStateCount);
+    if (viewport) storage.states.push_back(VK_DYNAMIC_STATE_VIEWPORT);
+    if (scissor) storage.states.push_back(VK_DYNAMIC_STATE_SCISSOR);
+    storage.info = info.pDynamicState ? *info.pDynamicState : VkPipelineDynamicStateCreateInfo{};
+    storage.info.sType = VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO;
+    storage.info.dynamicStateCount = static_cast<uint32_t>(storage.states.size());
+    storage.info.pDynamicStates = storage.states.data();
+    out.pDynamicState = &storage.info;
+}
+
+} // namespace splitvk::split

@@ -1,0 +1,137 @@
+#pragma once
+
+// Per-command-buffer viewport/scissor state of the split (DESIGN §4), shared by the layer (which
+// rewrites the state into the scaled periphery) and the agent (which narrows scissors to the
+// foveae). Both sides feed it the application's original calls, so they agree on which viewports
+// were in effect inside each split pass and thus on the foveae drawn.
+//
+// Dynamic viewport/scissor state persists across render pass instances within a command buffer,
+// and a pipeline with static state overrides it only while bound: the tracker keeps the app's
+// dynamic values (unscaled) and the bound pipeline's static values separately, so that each side
+// can re-emit the state in effect whenever a split pass begins or ends or the pipeline changes.
+
+#include "settings.h"
+
+#include <vulkan/vulkan.h>
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace splitvk::split {
+
+// A graphics pipeline's static viewport/scissor state, which the rewriting side made dynamic at
+// creation (so it must set these values itself while the pipeline is bound).
+struct StaticViewportState {
+    bool has_viewports = false;
+    bool has_scissors = false;
+    std::vector<VkViewport> viewports;
+    std::vector<VkRect2D> scissors;
+};
+
+// A swapchain image drawn by split passes: the image (client id or handle value), its full
+// extent, and the foveae (full-resolution, sorted by x then y) of the viewports in effect.
+struct DrawnImage {
+    uint64_t image = 0;
+    VkExtent2D extent{};
+    std::vector<VkRect2D> foveae;
+};
+
+// Unions `from` into `into` (one entry per image).
+void merge_drawn(std::vector<DrawnImage> &into, const std::vector<DrawnImage> &from);
+
+template <class T>
+struct StateArray {
+    std::vector<T> values;
+    std::vector<bool> set;
+    bool with_count = false; // last set through vkCmdSet*WithCount (count included)
+
+    void assign(uint32_t first, uint32_t count, const T *items, bool count_too) {
+        if (count_too) {
+            values.assign(items, items + count);
+            set.assign(count, true);
+        } else {
+            if (values.size() < first + count) {
+                values.resize(first + count);
+                set.resize(first + count, false);
+            }
+            for (uint32_t i = 0; i < count; ++i) {
+                values[first + i] = items[i];
+                set[first + i] = true;
+            }
+        }
+        with_count = count_too;
+    }
+    bool valid(size_t i) const { return i < set.size() && set[i]; }
+    bool empty() const { return values.empty(); }
+};
+
+class CommandTracker {
+public:
+    void reset() { *this = CommandTracker(); }
+
+    void set_viewports(uint32_t first, uint32_t count, const VkViewport *v, bool with_count) {
+        viewports_.assign(first, count, v, with_count);
+    }
+    void set_scissors(uint32_t first, uint32_t count, const VkRect2D *r, bool with_count) {
+        scissors_.assign(first, count, r, with_count);
+    }
+    // A graphics pipeline bind; null when the pipeline has no static viewport/scissor state.
+    // Binding a pipeline with static state writes that state into the command buffer's (Vulkan's
+    // "pipeline state that is not dynamic is applied to the command buffer state"), so a
+    // dynamic-state pipeline bound next without a vkCmdSet* sees the static values.
+    void bind_pipeline(std::shared_ptr<const StaticViewportState> state);
+    const StaticViewportState *pipeline() const { return pipeline_.get(); }
+    bool static_viewports() const { return pipeline_ && pipeline_->has_viewports; }
+    bool static_scissors() const { return pipeline_ && pipeline_->has_scissors; }
+
+    void begin_split(uint64_t image, VkExtent2D extent) {
+        in_split_ = true;
+        image_ = image;
+        extent_ = extent;
+    }
+    void end_split() { in_split_ = false; }
+    bool in_split() const { return in_split_; }
+    uint64_t image() const { return image_; }
+    VkExtent2D extent() const { return extent_; }
+
+    // The app's dynamic values (unscaled).
+    const StateArray<VkViewport> &dynamic_viewports() const { return viewports_; }
+    const StateArray<VkRect2D> &dynamic_scissors() const { return scissors_; }
+
+    // The viewport in effect at index i: the bound pipeline's static one or the app's dynamic one.
+    const VkViewport *viewport(size_t i) const;
+    size_t viewport_count() const;
+    const VkRect2D *scissor(size_t i) const;
+    size_t scissor_count() const;
+
+    // Inside a split pass: adds the fovea of every viewport in effect to the pass's image record.
+    // Called whenever the viewports in effect may change (pass begin, viewport set, pipeline bind).
+    void note_foveae(EyeMode mode, const FoveaSize &fovea);
+    const std::vector<DrawnImage> &drawn() const { return drawn_; }
+
+private:
+    StateArray<VkViewport> viewports_;
+    StateArray<VkRect2D> scissors_;
+    std::shared_ptr<const StaticViewportState> pipeline_;
+    bool in_split_ = false;
+    uint64_t image_ = 0;
+    VkExtent2D extent_{};
+    std::vector<DrawnImage> drawn_;
+};
+
+// Reads a pipeline's static viewport/scissor state from its create info. Returns null when both
+// are dynamic (or absent); `*add_viewport` / `*add_scissor` say which dynamic states the caller
+// must add to make the rest dynamic (the caller decides whether it needs viewports dynamic).
+std::shared_ptr<StaticViewportState> static_viewport_state(const VkGraphicsPipelineCreateInfo &info);
+
+// `info`'s dynamic states plus VIEWPORT / SCISSOR as requested, in `storage` (which `out`
+// points into); `out` is the create info to pass down.
+struct DynamicStateStorage {
+    std::vector<VkDynamicState> states;
+    VkPipelineDynamicStateCreateInfo info{};
+};
+void add_dynamic_states(const VkGraphicsPipelineCreateInfo &info, bool viewport, bool scissor,
+                        DynamicStateStorage &storage, VkGraphicsPipelineCreateInfo &out);
+
+} // namespace splitvk::split

@@ -1,0 +1,709 @@
+"""bench paper: the paper's experiment (Tables 1-2, Figure 3) on a weak client, in one run.
+
+splitvk-atrium at 2400x1080, two eyes, fovea 512x360 per eye, periphery at scale 0.6, the camera
+moving with the frame number. Native and split alternate, --rounds times, against a splitvk-agent
+the bench starts. The weak device is emulated: the client (the app, the layer and its decoders,
+native runs too) is confined to --client-cpus with lavapipe's LP_NUM_THREADS=--client-threads;
+the agent (and splitvk-link with --link) runs on --agent-cpus.
+
+Each round also renders the scene natively at the periphery's size (scale x the window, 1440x648
+by default) on the client's cores: the client's periphery render, estimated, since the layer does
+not time the app's own rendering.
+
+Prints median and IQR of the frame time (every frame of every run, after --warmup frames per run)
+of native and split, the client's and the agent's per-stage medians, Mbit/s of tiles; draws the
+frame-time distributions and one typical frame's timeline (docs/figures/ with /usr/bin/python3
+and python3-matplotlib); with --write-docs (the default for a full run) replaces the paper section
+of docs/BENCHMARKS.md. The output ends with three lines, nothing after them:
+  split/native: R       split median frame time over native median frame time
+  tile-wait/frame: R    median tile wait over the split median frame time
+  tile-bytes/raw: R     compressed tile bytes over raw tile bytes
+Timings never pass or fail."""
+import argparse
+import datetime
+import json
+import os
+import platform
+import resource
+import shlex
+import shutil
+import subprocess
+import sys
+import time
+
+from . import common, split
+
+try:  # bench_lib/link.py comes with splitvk-link; without it, Link below starts the binary itself
+    from . import link as link_module
+except ImportError:
+    link_module = None
+
+APP_NAME = "splitvk-atrium"
+LINK_PROFILES = ("direct", "none", "gige", "wifi5", "wifi6")  # direct: no proxy; none: splitvk-link unshaped
+PLOT_SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "paper_plots.py")
+PLOT_PYTHON = "/usr/bin/python3"
+DOC_BEGIN = "<!-- bench paper: begin (scripts/bench paper --write-docs replaces this section) -->"
+DOC_END = "<!-- bench paper: end -->"
+# The periphery render is measured by the layer (SPLITVK_STATS' periphery_ms, GPU timestamps);
+# --periphery-frames N adds the older estimate, a native run at the periphery's size.
+FULL = {"frames": 350, "rounds": 3, "periphery_frames": 0}
+QUICK = {"frames": 40, "rounds": 2, "periphery_frames": 0}
+
+
+def cpu_list(text):
+    """'0', '1-3,6' -> sorted list of ints (raises ValueError)."""
+    cpus = set()
+    for part in text.split(","):
+        part = part.strip()
+        if "-" in part:
+            lo, hi = part.split("-", 1)
+            cpus.update(range(int(lo), int(hi) + 1))
+        elif part:
+            cpus.add(int(part))
+    if not cpus:
+        raise ValueError(f"empty CPU list '{text}'")
+    return sorted(cpus)
+
+
+def cpu_text(cpus):
+    return ",".join(str(c) for c in cpus)
+
+
+def default_cpus():
+    """Client on the first CPU, the agent on the rest (on one CPU both share it)."""
+    cpus = sorted(os.sched_getaffinity(0))
+    client = cpus[:1]
+    agent = cpus[1:] or cpus
+    return cpu_text(client), cpu_text(agent)
+
+
+def register(subparsers):
+    client_cpus, agent_cpus = default_cpus()
+    p = subparsers.add_parser(
+        "paper", help="the paper's experiment on a confined (weak) client: tables, figures, docs",
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--quick", action="store_true",
+                   help=f"a short run: {QUICK['frames']} frames x {QUICK['rounds']} rounds (under 3 minutes); "
+                        "does not write docs unless --write-docs")
+    p.add_argument("--frames", type=int, help=f"frames per run (default: {FULL['frames']}; "
+                                                f"the paper's 1000 frames are --frames 1000 --rounds 1)")
+    p.add_argument("--rounds", type=int, help=f"native/split pairs (default: {FULL['rounds']})")
+    p.add_argument("--warmup", type=int, default=10, help="frames left out at the start of each run (default: %(default)s)")
+    p.add_argument("--periphery-frames", type=int,
+                   help=f"frames of the per-round periphery-size native run, 0 for none (default: {FULL['periphery_frames']})")
+    p.add_argument("--width", type=int, default=2400, help="window width (default: %(default)s)")
+    p.add_argument("--height", type=int, default=1080, help="window height (default: %(default)s)")
+    p.add_argument("--fovea", default="512x360", help="SPLITVK_FOVEA per eye (default: %(default)s)")
+    p.add_argument("--scale", default="0.6", help="SPLITVK_SCALE (default: %(default)s)")
+    p.add_argument("--codec", choices=("x264", "zstd", "raw"), default="x264", help="default: %(default)s")
+    p.add_argument("--tile-wait", type=int, default=2000,
+                   help="SPLITVK_TILE_WAIT in ms (default: %(default)s: frames are lockstep as in the paper, a "
+                        "present waits for its tiles; the layer's 250 would show late frames from the periphery "
+                        "alone, which flatters the split)")
+    p.add_argument("--client-cpus", default=client_cpus,
+                   help="CPUs of the weak client, taskset -c syntax (default here: %(default)s)")
+    p.add_argument("--client-threads", type=int, default=1,
+                   help="lavapipe rasterizer threads of the client, LP_NUM_THREADS (default: %(default)s)")
+    p.add_argument("--agent-cpus", default=agent_cpus,
+                   help="CPUs of splitvk-agent (and splitvk-link) (default here: %(default)s)")
+    p.add_argument("--link", choices=LINK_PROFILES, default="direct",
+                   help="put splitvk-link with this profile between layer and agent: gige, wifi5 (the paper's "
+                        "client link), wifi6, or none (forwarding only); direct: no proxy (default: %(default)s)")
+    p.add_argument("--link-bin", help="splitvk-link to use (default: BUILD/bin/splitvk-link)")
+    p.add_argument("--out-dir", help="per-frame CSVs, logs, results.json (default: BUILD/bench-paper)")
+    p.add_argument("--figures-dir", help="where the PNGs go (default: docs/figures with --write-docs, else --out-dir)")
+    docs = p.add_mutually_exclusive_group()
+    docs.add_argument("--write-docs", dest="write_docs", action="store_true", default=None,
+                      help="replace the paper section of docs/BENCHMARKS.md (default for a full run)")
+    docs.add_argument("--no-write-docs", dest="write_docs", action="store_false")
+    p.add_argument("--docs", default=os.path.join(common.REPO, "docs", "BENCHMARKS.md"), help=argparse.SUPPRESS)
+    p.add_argument("--no-plots", action="store_true", help="skip the PNGs")
+    p.add_argument("--from-results", metavar="JSON",
+                   help="measure nothing: redo the tables, figures and docs from an earlier run's results.json")
+    common.add_build_argument(p)
+    common.add_driver_argument(p)
+
+
+# --- machine ------------------------------------------------------------------------------------
+
+def machine_info():
+    model = platform.processor() or "unknown CPU"
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    model = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    mem_gib = None
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemTotal:"):
+                    mem_gib = int(line.split()[1]) / (1024 * 1024)
+    except OSError:
+        pass
+    mesa = "unknown"
+    try:
+        mesa = subprocess.run(["dpkg-query", "-W", "-f", "${Version}", "mesa-vulkan-drivers"],
+                              capture_output=True, text=True, timeout=10).stdout.strip() or mesa
+    except (OSError, subprocess.SubprocessError):
+        pass
+    return {"cpu": model, "cores": os.cpu_count(), "mem_gib": mem_gib, "mesa": mesa,
+            "kernel": platform.release(), "load_before": os.getloadavg()}
+
+
+def describe_machine(m):
+    mem = f"{m['mem_gib']:.0f} GiB" if m["mem_gib"] else "? GiB"
+    return (f"{m['cpu']}, {m['cores']} cores, {mem}, Mesa {m['mesa']} (lavapipe), kernel {m['kernel']}")
+
+
+# --- running --------------------------------------------------------------------------------------
+
+class Link:
+    """splitvk-link between the layer and the agent, or nothing for 'direct'. Uses bench_lib/link.py
+    when this tree has it (and no --link-bin was given), else starts the binary with the same command
+    line (--listen, --connect, --profile). `address` is what SPLITVK_SERVER must be."""
+
+    def __init__(self, build, binary, profile, agent_port, cpus, env, log_path, explicit_binary):
+        self.build, self.binary, self.profile, self.agent_port = build, binary, profile, agent_port
+        self.cpus, self.env, self.log_path = cpus, env, log_path
+        self.proc = None
+        self.inner = None
+        self.port = agent_port
+        if profile != "direct" and link_module is not None and not explicit_binary:
+            self.inner = link_module.Link(build, agent_port, profile=profile, cpus=cpus, env=env)
+
+    @property
+    def address(self):
+        return self.inner.address if self.inner else f"127.0.0.1:{self.port}"
+
+    def __enter__(self):
+        if self.inner:
+            self.inner.__enter__()
+            return self
+        if self.profile == "direct":
+            return self
+        self.port = split.free_port()
+        self.log = open(self.log_path, "w")
+        argv = ["taskset", "-c", self.cpus, self.binary, "--listen", f"127.0.0.1:{self.port}",
+                                    "--connect", f"127.0.0.1:{self.agent_port}", "--profile", self.profile]
+        self.proc = subprocess.Popen(argv, env=self.env, stdout=self.log, stderr=subprocess.STDOUT,
+                                     start_new_session=True)
+        time.sleep(0.5)
+        if self.proc.poll() is not None:
+            raise common.BenchError(f"splitvk-link did not start (see {self.log_path})")
+        return self
+
+    def __exit__(self, *exc):
+        if self.inner:
+            self.inner.__exit__(*exc)
+            with open(self.log_path, "w") as f:
+                f.write(self.inner.log)
+        if self.proc:
+            split.stop_group(self.proc)
+            self.log.close()
+        return False
+
+
+def check_link(args, build):
+    if args.link == "direct":
+        return None
+    binary = args.link_bin or os.path.join(build.path, "bin", "splitvk-link")
+    if not os.path.exists(binary):
+        raise common.MissingBuild(
+            f"--link {args.link} needs splitvk-link, and {binary} does not exist: this tree does not build it "
+            "yet (it comes with the splitvk-link work; once merged, rebuild with cmake --build build), "
+            "or pass --link-bin PATH, or run with --link direct")
+    return binary
+
+
+def cpu_run(argv, env, timeout_s, frames, cpu):
+    """common.run, adding the run's CPU time per frame (user + system of the app and its threads,
+    start-up included, from the children's rusage) to the list `cpu`."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    r = common.run(argv, env, timeout_s)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu.append(((after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)) * 1000 / frames)
+    return r
+
+
+def read_frame_times(path, warmup):
+    with open(path) as f:
+        next(f)
+        values = [float(line.split(",")[1]) for line in f if line.strip()]
+    return values[warmup:]
+
+
+def measure(args):
+    build = common.Build(args.build)
+    build.check()
+    agent = os.path.join(build.path, "bin", "splitvk-agent")
+    if not os.path.exists(agent):
+        raise common.MissingBuild(f"{agent} is missing; build the tree first")
+    link_bin = check_link(args, build)
+    if min(args.frames, args.rounds, args.width, args.height, args.client_threads) < 1 or args.warmup < 0 \
+            or args.warmup >= args.frames or args.periphery_frames < 0:
+        raise common.BenchError("need positive sizes and --warmup < --frames")
+    if args.periphery_frames and args.periphery_frames <= args.warmup:
+        raise common.BenchError("--periphery-frames must exceed --warmup (or be 0)")
+    if not shutil.which("taskset"):
+        raise common.BenchError("taskset is missing (apt-get install util-linux)")
+    try:
+        client_cpus, agent_cpus = cpu_list(args.client_cpus), cpu_list(args.agent_cpus)
+    except ValueError as e:
+        raise common.BenchError(f"bad CPU list: {e}")
+    available = os.sched_getaffinity(0)
+    for c in client_cpus + agent_cpus:
+        if c not in available:
+            raise common.BenchError(f"CPU {c} is not available to this process (have {cpu_text(sorted(available))})")
+    scale = float(args.scale)
+    pw, ph = max(16, round(args.width * scale)), max(16, round(args.height * scale))
+
+    out_dir = args.out_dir or os.path.join(build.path, "bench-paper")
+    os.makedirs(out_dir, exist_ok=True)
+    for name in os.listdir(out_dir):  # no stale CSVs from an earlier run
+        if name.endswith(".csv"):
+            os.remove(os.path.join(out_dir, name))
+    client_prefix = ["taskset", "-c", cpu_text(client_cpus)]
+    agent_prefix = ["taskset", "-c", cpu_text(agent_cpus)]
+
+    def argv(width, height, frames, times_path):
+        return client_prefix + [build.atrium, "--width", str(width), "--height", str(height), "--eyes", "2",
+                                "--frames", str(frames), "--present-mode", "immediate", "--frame-times", times_path]
+
+    timeout_s = 300 + 3 * args.frames
+    agent_port = split.free_port()
+    machine = machine_info()
+    print(f"paper: {APP_NAME} {args.width}x{args.height} stereo, fovea {args.fovea} per eye, scale {args.scale} "
+          f"(periphery {pw}x{ph}), codec {args.codec}, moving camera; {args.frames} frames per run "
+          f"({args.warmup} warm-up left out), {args.rounds} rounds native/split alternating"
+          + (f", periphery-size native runs of {args.periphery_frames} frames" if args.periphery_frames else ""),
+          flush=True)
+    print(f"paper: weak client on CPU {cpu_text(client_cpus)} with LP_NUM_THREADS={args.client_threads}; "
+          f"agent on CPU {cpu_text(agent_cpus)} (LP_NUM_THREADS={len(agent_cpus)}); link: {args.link}", flush=True)
+    print(f"paper: machine: {describe_machine(machine)}; load average before: "
+          + " ".join(f"{x:.2f}" for x in machine["load_before"]), flush=True)
+    if args.quick:
+        print(f"paper: --quick: {args.frames} frames x {args.rounds} rounds, a sketch of the full run "
+              f"(scripts/bench paper: {FULL['frames']} x {FULL['rounds']}); its numbers are noisier", flush=True)
+
+    native_runs, split_runs, periphery_runs = [], [], []
+    cpu = {"native": [], "split": []}
+    start = time.monotonic()
+    with common.display() as disp:
+        base = common.clean_env(args.icd)
+        base["DISPLAY"] = disp
+        client_env = dict(base, LP_NUM_THREADS=str(args.client_threads))
+        agent_env = dict(base, LP_NUM_THREADS=str(len(agent_cpus)))
+        with split.started_agent(agent, agent_port, agent_env, os.path.join(out_dir, "agent.log"), agent_prefix), \
+                Link(build, link_bin, args.link, agent_port, cpu_text(agent_cpus), base,
+                     os.path.join(out_dir, "link.log"), bool(args.link_bin)) as link:
+            split_env = dict(common.layer_env(client_env, build), SPLITVK_SERVER=link.address,
+                             SPLITVK_LOG_LEVEL="info", SPLITVK_SCALE=args.scale, SPLITVK_CODEC=args.codec,
+                             SPLITVK_EYES="2", SPLITVK_FOVEA=args.fovea,
+                             SPLITVK_TILE_WAIT=str(args.tile_wait))
+            for i in range(args.rounds):
+                order = ("native", "split") if i % 2 == 0 else ("split", "native")
+                line = []
+                for mode in order:
+                    times = os.path.join(out_dir, f"{mode}-round{i + 1}-frames.csv")
+                    if mode == "native":
+                        r = cpu_run(argv(args.width, args.height, args.frames, times), client_env, timeout_s,
+                                    args.frames, cpu["native"])
+                        native_runs.append(read_frame_times(times, args.warmup))
+                    else:
+                        stats = os.path.join(out_dir, f"split-round{i + 1}.csv")
+                        r = cpu_run(argv(args.width, args.height, args.frames, times),
+                                    dict(split_env, SPLITVK_STATS=stats), timeout_s, args.frames, cpu["split"])
+                        if "running unsplit" in r.stderr or "[splitvk] split:" not in r.stderr:
+                            raise common.BenchError("the split run did not split:\n" + common.tail(r.stderr))
+                        split_runs.append((read_frame_times(times, args.warmup), split.read_stats(stats, args.warmup)))
+                    m, iqr, _ = r.frame_time()
+                    line.append(f"{mode} {m:7.2f} ms/frame (IQR {iqr:.2f})")
+                if args.periphery_frames:
+                    times = os.path.join(out_dir, f"periphery-round{i + 1}-frames.csv")
+                    common.run(argv(pw, ph, args.periphery_frames, times), client_env, timeout_s)
+                    periphery_runs.append(read_frame_times(times, args.warmup))
+                    line.append(f"periphery {split.median(periphery_runs[-1]):6.2f}")
+                print(f"  round {i + 1}/{args.rounds}: " + "   ".join(line)
+                      + f"   [{time.monotonic() - start:5.0f} s, load {os.getloadavg()[0]:.2f}]", flush=True)
+    machine["load_after"] = os.getloadavg()
+    res = summarize(args, machine, native_runs, split_runs, periphery_runs, (pw, ph), out_dir,
+                    time.monotonic() - start)
+    res["client_cpu"] = {k: split.median(v) for k, v in cpu.items()}
+    return res
+
+
+# --- numbers ---------------------------------------------------------------------------------------
+
+def q3(values):
+    q1, m, q3_ = common.quartiles(values)
+    return {"median": m, "iqr": q3_ - q1, "q1": q1, "q3": q3_, "n": len(values)}
+
+
+def typical_frame(rows, stages):
+    """The on-time split frame closest to the medians of its frame time and stages (and its predecessor)."""
+    best, best_i = None, None
+    keys = (("frame_ms", "frame"), ("tile_wait_ms", "tile_wait"), ("decode_ms", "decode"),
+            ("merge_ms", "merge"), ("agent_draw_ms", "draw"), ("agent_encode_ms", "encode"),
+            ("network_ms", "network"))
+    for i in range(1, len(rows)):
+        r, prev = rows[i], rows[i - 1]
+        if r["late"] != "0" or int(r["frame"]) != int(prev["frame"]) + 1:
+            continue
+        score = 0.0
+        for col, key in keys:
+            ref = stages[key]
+            score += abs(float(r[col]) - ref) / max(ref, 1.0)
+        if best is None or score < best:
+            best, best_i = score, i
+    if best_i is None:
+        return None
+    return rows[best_i - 1], rows[best_i]
+
+
+def timeline(prev, row, periphery_ms, periphery_kind="estimated"):
+    """Segments (lane, label, start, duration) of one split frame, t = 0 at the previous frame's present.
+
+    Known from the CSV: frame_ms (present to present, measured where the present starts waiting),
+    the previous frame's tile wait and merge, this frame's tile wait, decode, merge, network, agent
+    draw/readback/encode. Derived: the app's time before its present S = frame_ms - prev wait - prev
+    merge; the tiles arrive at S + tile_wait - decode (the tile wait ends when the slower eye is
+    decoded); the agent sends at arrival - network; encode, readback and draw end back to back before
+    that. Assumed: the periphery render starts at the submit, which atrium issues right before its
+    present, and runs on lavapipe's rasterizer thread (so it overlaps the tile wait) for as long as the
+    periphery-size native frame takes."""
+    f = lambda k, r=row: float(r[k])  # noqa: E731
+    prev_tail = f("tile_wait_ms", prev) + f("merge_ms", prev)
+    S = max(0.0, f("frame_ms") - prev_tail)
+    wait, decode, merge, network = f("tile_wait_ms"), f("decode_ms"), f("merge_ms"), f("network_ms")
+    arrive = S + max(0.0, wait - decode)
+    send = max(S, arrive - network)
+    enc_start = send - f("agent_encode_ms")
+    rb_start = enc_start - f("agent_readback_ms")
+    draw_start = rb_start - f("agent_draw_ms")
+    segs = [
+        ("client app thread", "app: fence wait, acquire, record, capture, submit", 0.0, S),
+        ("client app thread", "tile wait", S, wait),
+        ("client app thread", "upload + merge", S + wait, merge),
+        ("agent", "draw (replay, fovea only)", draw_start, f("agent_draw_ms")),
+        ("agent", "readback", rb_start, f("agent_readback_ms")),
+        ("agent", "encode (eyes in parallel)", enc_start, f("agent_encode_ms")),
+        ("network", "FramePresent ->", S, 0.0),
+        ("network", "tiles <- network", send, max(0.0, arrive - send)),
+        ("client decoders", "decode (slower eye)", arrive, decode),
+    ]
+    if periphery_ms is not None:
+        # The row's own GPU measurement when there is one (the latest completed split pass).
+        own = float(row.get("periphery_ms") or 0)
+        segs.insert(1, ("client lavapipe", f"periphery render ({periphery_kind})", S, own or periphery_ms))
+    return {"frame": int(row["frame"]), "frame_ms": f("frame_ms"), "present_at": S + wait + merge, "segments": segs}
+
+
+def periphery_label(config):
+    return "GPU timestamps" if config.get("periphery_source") == "gpu" else "est."
+
+
+def periphery_note(config):
+    if config.get("periphery_source") == "gpu":
+        return "periphery render as the layer measured it on the client's GPU (timestamp queries around the split pass)"
+    return f"periphery render estimated by a native run at {config['periphery']}"
+
+
+def summarize(args, machine, native_runs, split_runs, periphery_runs, periphery_size, out_dir, wall_s):
+    native = [v for run in native_runs for v in run]
+    split_times = [v for run, _ in split_runs for v in run]
+    rows = [r for _, rows in split_runs for r in rows]
+    stages = split.stage_medians(rows)
+    stages["frame"] = split.median([float(r["frame_ms"]) for r in rows if float(r["frame_ms"]) > 0])
+    # Measured on the client's GPU when the layer wrote it; else the periphery-size native estimate.
+    measured = [float(r["periphery_ms"]) for r in rows if float(r.get("periphery_ms") or 0) > 0]
+    periphery = measured or [v for run in periphery_runs for v in run]
+    source = "gpu" if measured else ("estimate" if periphery else None)
+    typical = typical_frame(rows, stages)
+    res = {
+        "date": datetime.date.today().isoformat(),
+        "command": " ".join(["scripts/bench", "paper"] + [shlex.quote(a) for a in sys.argv[2:]])
+                   if len(sys.argv) > 1 and sys.argv[1] == "paper" else "scripts/bench paper",
+        "machine": machine, "wall_s": wall_s, "out_dir": out_dir,
+        "config": {"width": args.width, "height": args.height, "fovea": args.fovea, "scale": args.scale,
+                   "periphery": f"{periphery_size[0]}x{periphery_size[1]}", "codec": args.codec,
+                   "frames": args.frames, "rounds": args.rounds, "warmup": args.warmup,
+                   "periphery_frames": args.periphery_frames, "client_cpus": args.client_cpus,
+                   "client_threads": args.client_threads, "tile_wait": args.tile_wait, "agent_cpus": args.agent_cpus, "link": args.link,
+                   "quick": args.quick, "periphery_source": source},
+        "native": q3(native), "split": q3(split_times),
+        "native_rounds": [split.median(r) for r in native_runs],
+        "split_rounds": [split.median(r) for r, _ in split_runs],
+        "periphery": q3(periphery) if periphery else None,
+        "stages": stages,
+        "typical_rows": list(typical) if typical else None,
+        "native_frames": native, "split_frames": split_times,
+    }
+    return res
+
+
+# --- output ----------------------------------------------------------------------------------------
+
+def tables_markdown(res):
+    s, n, sp, per = res["stages"], res["native"], res["split"], res["periphery"]
+    per_text = f"{per['median']:.2f}" if per else "n/a"
+    c = res["config"]
+    return "\n".join([
+        "| end to end, ms per frame | median | IQR | frames | median per round |",
+        "|---|---|---|---|---|",
+        f"| native (client alone) | {n['median']:.2f} | {n['iqr']:.2f} | {n['n']} | "
+        + ", ".join(f"{v:.1f}" for v in res["native_rounds"]) + " |",
+        f"| split | {sp['median']:.2f} | {sp['iqr']:.2f} | {sp['n']} | "
+        + ", ".join(f"{v:.1f}" for v in res["split_rounds"]) + " |",
+        f"| **split / native** | **{sp['median'] / n['median']:.3f}** | | | |",
+        "",
+        f"Client (Table 1), medians in ms; {periphery_note(c)}:",
+        "",
+        f"| fovea per eye | periphery render ({periphery_label(c)}) | tile wait | network | decode | upload + merge | Mbit/s |",
+        "|---|---|---|---|---|---|---|",
+        f"| {c['fovea']} | {per_text} | {s['tile_wait']:.2f} | {s['network']:.2f} | {s['decode']:.2f} | "
+        f"{s['merge']:.2f} | {s['mbits']:.1f} |",
+        "",
+        "Agent (Table 2), medians in ms:",
+        "",
+        "| fovea per eye | draw | readback | encode |",
+        "|---|---|---|---|",
+        f"| {c['fovea']} | {s['draw']:.2f} | {s['readback']:.2f} | {s['encode']:.2f} |",
+        "",
+        (f"Client CPU time per frame (the app's process, all threads, user + system, start-up included; "
+         f"median over runs): native {res['client_cpu']['native']:.1f} ms, split {res['client_cpu']['split']:.1f} ms "
+         f"({res['client_cpu']['split'] / res['client_cpu']['native']:.3f} of native).\n\n"
+         if res.get("client_cpu") else "") +
+        f"Tiles: {s['tile_bytes'] / max(1, s['frames'] - s['late']) / 1024:.0f} KiB per frame, "
+        f"{s['tile_bytes'] / s['raw_bytes'] if s['raw_bytes'] else 0:.3f} of their raw size "
+        "(Mbit/s scales with the frame rate, so KiB per frame is what compares with other machines); "
+        f"late frames (centre from the periphery): {s['late']} of {s['frames']}.",
+    ])
+
+
+def print_tables(res):
+    s, n, sp, per = res["stages"], res["native"], res["split"], res["periphery"]
+    print()
+    print("end to end (ms per frame)        median      IQR   frames")
+    print(f"  native (client alone)     {n['median']:9.2f} {n['iqr']:8.2f} {n['n']:8d}")
+    print(f"  split                     {sp['median']:9.2f} {sp['iqr']:8.2f} {sp['n']:8d}")
+    label = "periphery(GPU)" if res["config"].get("periphery_source") == "gpu" else "periphery(est.)"
+    print(f"client (median ms)   {label:>15}  tile wait   network   decode  upload+merge   Mbit/s")
+    print(f"                     {per['median'] if per else float('nan'):15.2f} {s['tile_wait']:10.2f} "
+          f"{s['network']:9.2f} {s['decode']:8.2f} {s['merge']:13.2f} {s['mbits']:8.1f}")
+    print("agent (median ms)         draw   readback   encode")
+    print(f"                     {s['draw']:9.2f} {s['readback']:10.2f} {s['encode']:8.2f}")
+    if res.get("client_cpu"):
+        c = res["client_cpu"]
+        print(f"client CPU per frame (all threads, start-up included): native {c['native']:.1f} ms, "
+              f"split {c['split']:.1f} ms ({c['split'] / c['native']:.3f})")
+    print(f"late frames (centre from the periphery): {s['late']} of {s['frames']}")
+    print("paper (Snapdragon 865 + GTX 1080): native 32.2 ms, split 26.17 ms (0.813); draw 4.42, encode 15.33, "
+          "network 4.99, decode 18.64, merge 0.96 ms; 707.83 Mbit/s")
+
+
+def plot(res, figures_dir, out_dir):
+    """Runs paper_plots.py under /usr/bin/python3; returns the PNG paths, or None with a message."""
+    if not os.path.exists(PLOT_PYTHON):
+        print(f"paper: no plots: {PLOT_PYTHON} is missing", file=sys.stderr)
+        return None
+    probe = subprocess.run([PLOT_PYTHON, "-c", "import matplotlib"], capture_output=True)
+    if probe.returncode != 0:
+        print("paper: no plots: matplotlib is missing for /usr/bin/python3; install it with "
+              "'apt-get install python3-matplotlib' and re-run (the numbers above are complete)", file=sys.stderr)
+        return None
+    os.makedirs(figures_dir, exist_ok=True)
+    data = os.path.join(out_dir, "results.json")
+    with open(data, "w") as f:
+        json.dump(res, f)
+    paths = {"distribution": os.path.join(figures_dir, "paper-frame-times.png"),
+             "timeline": os.path.join(figures_dir, "paper-timeline.png")}
+    r = subprocess.run([PLOT_PYTHON, PLOT_SCRIPT, data, paths["distribution"], paths["timeline"]],
+                       capture_output=True, text=True)
+    if r.returncode != 0:
+        print("paper: plotting failed:\n" + common.tail(r.stdout + r.stderr), file=sys.stderr)
+        return None
+    if r.stderr.strip():
+        print("paper: " + r.stderr.strip(), file=sys.stderr)
+    return {k: p for k, p in paths.items() if os.path.exists(p)}
+
+
+def critical_path(res):
+    """The median split frame on the client's app thread, in measured parts that add up to it."""
+    s = res["stages"]
+    frame, wait, merge = res["split"]["median"], s["tile_wait"], s["merge"]
+    return {"app before its present (fence wait, acquire, record, capture, submit)": max(0.0, frame - wait - merge),
+            "tile wait": wait, "upload + merge": merge}
+
+
+def section_markdown(res, figures, docs_path, analysis):
+    m, c = res["machine"], res["config"]
+    rel = lambda p: os.path.relpath(p, os.path.dirname(docs_path))  # noqa: E731
+    lb = " ".join(f"{x:.2f}" for x in m["load_before"])
+    la = " ".join(f"{x:.2f}" for x in m["load_after"])
+    out = [
+        DOC_BEGIN,
+        "## The paper's experiment (`scripts/bench paper`)",
+        "",
+        "What it measures: the paper's Tables 1-2 and Figure 3 on an emulated weak client. splitvk-atrium "
+        f"renders {c['width']}x{c['height']} side-by-side stereo with a moving camera; split, the agent shades "
+        f"a {c['fovea']} fovea per eye and the client the periphery at scale {c['scale']} ({c['periphery']}). "
+        f"The client (app, layer, tile decoders; native runs too) is confined to CPU {c['client_cpus']} with "
+        f"lavapipe's `LP_NUM_THREADS={c['client_threads']}`, the agent to CPU {c['agent_cpus']}; link: "
+        f"{c['link']} ({'loopback, no proxy' if c['link'] == 'direct' else 'splitvk-link on loopback'}); `SPLITVK_TILE_WAIT={c.get('tile_wait', 250)}` (lockstep as in the paper). Native and split alternate, {c['rounds']} rounds of {c['frames']} frames, "
+        f"the first {c['warmup']} of each run left out; {periphery_note(c)}. Medians and IQRs are over every "
+        "remaining frame.",
+        "",
+        f"- date: {res['date']}",
+        f"- machine: {describe_machine(m)}; Xvfb display",
+        f"- load average (1, 5, 15 min) before: {lb}; after: {la} (other engineers' builds share the machine)",
+        f"- command: `{res['command']}` ({res['wall_s'] / 60:.1f} minutes)"
+        + (f"; this section and the figures written from its results.json by `{res['rendered_by']}`"
+           if res.get("rendered_by") else ""),
+        "",
+        tables_markdown(res),
+        "",
+        "Paper (Snapdragon 865 client, GTX 1080 server, 5 GHz WiFi): native 32.2 ms (IQR 7.8), split 26.17 ms "
+        "(IQR 4.6), split/native 0.813; client network 4.99, decode 18.64, merge 0.96 ms, 707.83 Mbit/s; "
+        "server draw 4.42, encode 15.33 ms.",
+        "",
+    ]
+    if figures and "distribution" in figures:
+        out += [
+            f"![frame-time distributions]({rel(figures['distribution'])})",
+            "",
+            "**Frame-time distributions** (as the paper's Figure 3): per-frame present-to-present times of "
+            "every native and split frame as histograms on one axis, the medians as vertical lines; the inset "
+            "legend gives median and IQR. Read it as: the further left and narrower, the faster and steadier.",
+            "",
+        ]
+    if figures and "timeline" in figures:
+        out += [
+            f"![timeline of a typical split frame]({rel(figures['timeline'])})",
+            "",
+            "**Timeline of one typical split frame** (the on-time frame whose frame time and stages are "
+            "closest to the medians), t = 0 at the previous frame's present. Built from that frame's CSV "
+            "row (and its predecessor's): the app's time before its present is frame time minus the previous "
+            "frame's tile wait and merge; the tiles arrive at the present's wait start + tile wait - decode "
+            "(the wait ends when the slower eye is decoded); the agent sends them network-ms earlier; encode, "
+            "readback and draw end back to back before that. Assumptions: FramePresent takes ~0 ms on "
+            "loopback; the periphery render (its GPU time as the layer measured it, or hatched where it is "
+            "only estimated from a periphery-size native run) starts at the submit, which atrium issues right before presenting, "
+            "and runs on lavapipe's rasterizer thread, overlapping the tile wait; the app's time before its "
+            "present is not only recording: with two frames in flight it waits for lavapipe to finish an "
+            "earlier frame (its periphery and composite), which the CSV cannot split further. Bars that overlap in time "
+            "on different lanes ran in parallel; on this machine the agent has its own core, the client's "
+            "lanes share one.",
+            "",
+        ]
+    out += [analysis, "", DOC_END]
+    return "\n".join(out)
+
+
+def write_docs(path, section):
+    text = open(path).read() if os.path.exists(path) else "# Benchmarks\n"
+    if DOC_BEGIN in text and DOC_END in text:
+        head, rest = text.split(DOC_BEGIN, 1)
+        _, tail = rest.split(DOC_END, 1)
+        text = head + section + tail
+    else:
+        text = text.rstrip("\n") + "\n\n" + section + "\n"
+    with open(path, "w") as f:
+        f.write(text)
+
+
+def analysis_text(res):
+    """What dominates the median split frame and what to change next, from the numbers alone."""
+    s, n, sp, per = res["stages"], res["native"], res["split"], res["periphery"]
+    F = sp["median"]
+    parts = critical_path(res)
+    agent_stages = {"agent draw": s["draw"], "agent readback": s["readback"], "agent encode": s["encode"],
+                    "network": s["network"], "client decode": s["decode"]}
+    agent_path = sum(agent_stages.values())
+    worst_agent = max(agent_stages, key=agent_stages.get)
+    P = per["median"] if per else None
+    out = ["**What dominates the split frame.** On the client's app thread the median split frame "
+           f"({F:.1f} ms) is " + ", ".join(f"{k} {v:.1f} ms ({v / F:.0%})" for k, v in parts.items()) + ". "
+           f"The tile wait is the agent's path showing: draw + readback + encode + network + decode add up to "
+           f"{agent_path:.1f} ms against a {s['tile_wait']:.1f} ms wait, its largest stage {worst_agent} "
+           f"({agent_stages[worst_agent]:.1f} ms)."]
+    if P is not None:
+        out[-1] += (f" In parallel with it the client renders its periphery ({periphery_label(res['config'])} "
+                    f"{P:.1f} ms, "
+                    f"{P / n['median']:.0%} of a native frame for {float(res['config']['scale']) ** 2:.0%} of its "
+                    "pixels: the geometry work does not shrink with the scale)")
+        if P >= agent_path:
+            out[-1] += (", which is at least as long: the two race, and the client's own periphery render is "
+                        f"the larger of the two. **The periphery render dominates** ({periphery_label(res['config'])}), with "
+                        f"{worst_agent} close behind it.")
+        else:
+            out[-1] += (f", which is shorter: **the agent's {worst_agent} dominates**; the client idles "
+                        f"{agent_path - P:.1f} ms of each frame.")
+    cpu = res.get("client_cpu")
+    if cpu:
+        out[-1] += (f" The split used {cpu['split'] / cpu['native']:.0%} of native's client CPU time per frame "
+                    f"({cpu['split']:.0f} against {cpu['native']:.0f} ms)")
+        if cpu["native"] < 0.8 * n["median"]:
+            out[-1] += (f", but the client's core was shared: native got {cpu['native']:.0f} ms of CPU in a "
+                        f"{n['median']:.0f} ms frame, so wall times here are stretched by the machine's load and "
+                        "the CPU ratio is the better measure of the client's saving")
+        out[-1] += "."
+    out += ["", "**What to change next.**"]
+    steps = []
+    if parts["upload + merge"] > 0.05 * F:
+        steps.append(f"Upload + merge is serial after the wait and costs {parts['upload + merge']:.1f} ms "
+                     f"({parts['upload + merge'] / F:.0%}; the paper's 0.96 ms): the compositor upsamples the whole "
+                     "frame with a Catmull-Rom fragment shader on the client's CPU rasteriser. A bilinear pass "
+                     "(or vkCmdBlitImage) for the periphery and vkCmdCopyBufferToImage for the fovea tiles would "
+                     "take most of it off the critical path, whatever the agent does.")
+    if P is not None and P >= agent_path:
+        steps.append("The client still shades the foveae's pixels in its periphery buffer, which the tiles then "
+                     "overwrite: masking them out (depth or stencil pre-pass, or splitting the render area around "
+                     "the foveae) and a lower --scale cut the periphery render; moving the balance to the agent "
+                     "(a larger fovea) only pays while the agent's path stays shorter than the periphery render.")
+    if worst_agent == "agent draw":
+        steps.append(f"On the agent, draw ({s['draw']:.1f} ms) replays every draw at full geometry cost and only "
+                     "scissors the shading: culling draws whose bounds miss the foveae would cut it (on a real "
+                     "server GPU it is the paper's 4.42 ms, and the client alone sets the pace).")
+    elif worst_agent == "agent encode":
+        steps.append("Stream x264 slices as they finish (the NAL callback) so that network and decode overlap encode.")
+    elif worst_agent == "client decode":
+        steps.append("Decode is on the weak client: zstd on the difference decodes about ten times cheaper (DESIGN §5).")
+    out[-1] += " " + " ".join(f"({i + 1}) {t}" for i, t in enumerate(steps))
+    return "\n".join(out)
+
+
+def run(args):
+    preset = QUICK if args.quick else FULL
+    for key, value in preset.items():
+        if getattr(args, key) is None:
+            setattr(args, key, value)
+    write = args.write_docs if args.write_docs is not None else not args.quick
+    if args.from_results:
+        with open(args.from_results) as f:
+            res = json.load(f)
+        res["rendered_by"] = " ".join(["scripts/bench", "paper"] + [shlex.quote(a) for a in sys.argv[2:]])
+        args.quick = res["config"]["quick"]
+        write = args.write_docs if args.write_docs is not None else not args.quick
+    else:
+        res = measure(args)
+    per = res["periphery"]
+    res["typical"] = (timeline(*res["typical_rows"], per["median"] if per else None, periphery_label(res["config"]))
+                      if res["typical_rows"] else None)
+    figures_dir = args.figures_dir or (os.path.join(common.REPO, "docs", "figures") if write else res["out_dir"])
+    figures = None if args.no_plots else plot(res, figures_dir, res["out_dir"])
+    with open(os.path.join(res["out_dir"], "results.json"), "w") as f:
+        json.dump(res, f)
+    if write:
+        write_docs(args.docs, section_markdown(res, figures, args.docs, analysis_text(res)))
+    print_tables(res)
+    if figures:
+        print("figures: " + "\n         ".join(figures.values()))
+    print(f"per-frame data: {res['out_dir']}" + (f"; docs: {args.docs} (paper section replaced)" if write else ""))
+    s = res["stages"]
+    split.print_final_lines(res["split"]["median"], res["native"]["median"], s["tile_wait"], s["tile_bytes"],
+                            s["raw_bytes"])
+    return 0

@@ -1,0 +1,99 @@
+#pragma once
+
+// The agent half of the image-space split (DESIGN §4, issue 4): in split passes (render passes or
+// dynamic renderings that draw into a swapchain image) the agent keeps the app's full-resolution
+// viewports and intersects every scissor with the fovea of the eye its viewport belongs to
+// (scissor i pairs with viewport i), so that only foveal pixels are shaded. The foveae come from
+// protocol/split_geometry.h and the viewports in effect from protocol/split_tracker.h, exactly as
+// on the client, so both sides report the same fovea rects for a frame.
+//
+// The derived scissors are re-emitted whenever a viewport, a scissor or a pipeline with static
+// state changes inside a split pass, and the app's own scissors when the pass ends (dynamic state
+// outlives the pass). Pipelines with a static scissor get VK_DYNAMIC_STATE_SCISSOR at creation,
+// with their static values set at bind. Clear rects are left as recorded: clears shade nothing,
+// and only the fovea rects are read back.
+
+#include "settings.h"
+#include "split_tracker.h"
+#include "swapchain_images.h"
+#include "vk_replay.h"
+
+#include <vulkan/vulkan.h>
+
+#include <cstdint>
+#include <memory>
+#include <unordered_map>
+#include <vector>
+
+namespace splitvk::agent {
+
+class FoveaShading {
+public:
+    FoveaShading(ReplayDispatch &vk, SwapchainImages &swapchains) : vk_(vk), swapchains_(swapchains) {}
+
+    // The client's eye layout and fovea size; Settings' defaults until called.
+    void configure(EyeMode eyes, const FoveaSize &fovea) {
+        eyes_ = eyes;
+        fovea_ = fovea;
+    }
+    // Off: everything replays as recorded (SPLITVK_VERIFY compares whole frames, and the client
+    // does not split then). Set before the first command.
+    void set_enabled(bool enabled) { enabled_ = enabled; }
+    bool enabled() const { return enabled_; }
+
+    // The fovea rects drawn into swapchain image `image_id` (client id) by split passes in the submits
+    // replayed since the last call (union of eyes; full-resolution coordinates, sorted by x then y,
+    // as the client's take_split_frame reports them). Clears the record.
+    std::vector<VkRect2D> take_drawn_foveae(uint64_t image_id);
+
+    // Object tracking (after the driver call; destroys before it).
+    void image_view_created(VkImageView view, VkImage image);
+    void image_view_destroyed(VkImageView view);
+    void framebuffer_created(VkFramebuffer framebuffer, const VkFramebufferCreateInfo &info);
+    void framebuffer_destroyed(VkFramebuffer framebuffer);
+    // The create infos to pass down (valid until the next call), then what was created.
+    const VkGraphicsPipelineCreateInfo *prepare_pipelines(uint32_t count,
+                                                          const VkGraphicsPipelineCreateInfo *infos);
+    void pipelines_created(uint32_t count, const VkPipeline *pipelines);
+    void pipeline_destroyed(VkPipeline pipeline);
+
+    // Command buffer commands, after the recorded call was replayed (except set_scissors, which
+    // replays it).
+    void begin_command_buffer(VkCommandBuffer cb);
+    void bind_pipeline(VkCommandBuffer cb, VkPipelineBindPoint bind_point, VkPipeline pipeline);
+    void set_viewports(VkCommandBuffer cb, uint32_t first, uint32_t count, const VkViewport *viewports,
+                       bool with_count);
+    void set_scissors(VkCommandBuffer cb, uint32_t first, uint32_t count, const VkRect2D *scissors,
+                      bool with_count);
+    void begin_render_pass(VkCommandBuffer cb, const VkRenderPassBeginInfo &begin, bool secondary);
+    void begin_rendering(VkCommandBuffer cb, const VkRenderingInfo &info);
+    void end_pass(VkCommandBuffer cb);
+
+    // A replayed submit: the split passes of these command buffers drew their foveae.
+    void submitted(uint32_t count, const VkCommandBuffer *command_buffers);
+
+private:
+    bool target(VkImageView view, uint64_t *image_id, VkExtent2D *extent) const;
+    void enter_split(VkCommandBuffer cb, split::CommandTracker &tracker, uint64_t image_id,
+                     VkExtent2D extent);
+    void emit_scissors(VkCommandBuffer cb, const split::CommandTracker &tracker);
+    split::CommandTracker *tracker(VkCommandBuffer cb);
+
+    ReplayDispatch &vk_;
+    SwapchainImages &swapchains_;
+    bool enabled_ = true;
+    EyeMode eyes_ = Settings{}.eyes;
+    FoveaSize fovea_ = Settings{}.fovea;
+    std::unordered_map<VkImageView, VkImage> views_;
+    std::unordered_map<VkFramebuffer, std::vector<VkImageView>> framebuffers_;
+    std::unordered_map<VkPipeline, std::shared_ptr<const split::StaticViewportState>> pipelines_;
+    std::unordered_map<VkCommandBuffer, split::CommandTracker> command_buffers_;
+    std::unordered_map<uint64_t, std::vector<VkRect2D>> drawn_; // client image id -> foveae
+    // prepare_pipelines' output
+    std::vector<std::shared_ptr<split::StaticViewportState>> pending_;
+    std::vector<VkGraphicsPipelineCreateInfo> infos_;
+    std::vector<split::DynamicStateStorage> storage_;
+    bool secondary_logged_ = false;
+};
+
+} // namespace splitvk::agent

@@ -1,0 +1,291 @@
+#include "tile_streamer.h"
+
+#include "log.h"
+
+#include <algorithm>
+#include <cstring>
+
+namespace splitvk::agent {
+
+using namespace std::chrono_literals;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+constexpr uint64_t kFenceWaitNs = 30'000'000'000; // a frame that long is a lost GPU, not a slow one
+constexpr auto kSlotWait = 30s;
+
+uint32_t micros(Clock::duration d) {
+    const auto us = std::chrono::duration_cast<std::chrono::microseconds>(d).count();
+    return static_cast<uint32_t>(std::clamp<int64_t>(us, 0, UINT32_MAX));
+}
+
+} // namespace
+
+TileStreamer::TileStreamer(VulkanContext &context, Send send) : context_(context), send_(std::move(send)) {}
+
+TileStreamer::~TileStreamer() {
+    {
+        std::lock_guard lock(mutex_);
+        stopping_ = true;
+    }
+    changed_.notify_all();
+    if (worker_.joinable()) worker_.join();
+    if (!context_.device) return;
+    for (Slot &slot : slots_)
+        destroy_slot(slot);
+    if (pool_) vkDestroyCommandPool(context_.device, pool_, nullptr);
+}
+
+bool TileStreamer::create_slot(Slot &slot, std::string *error) {
+    const VkDevice device = context_.device;
+    if (!pool_) {
+        VkCommandPoolCreateInfo pool_info{};
+        pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+        pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+        pool_info.queueFamilyIndex = context_.queue_family;
+        if (const VkResult r = vkCreateCommandPool(device, &pool_info, nullptr, &pool_); r != VK_SUCCESS) {
+            *error = std::string("tile command pool: ") + vk_result_name(r);
+            return false;
+        }
+    }
+    VkCommandBufferAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    alloc.commandPool = pool_;
+    alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    alloc.commandBufferCount = 1;
+    VkResult r = vkAllocateCommandBuffers(device, &alloc, &slot.command_buffer);
+    VkFenceCreateInfo fence_info{};
+    fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+    if (r == VK_SUCCESS) r = vkCreateFence(device, &fence_info, nullptr, &slot.drawn);
+    if (r == VK_SUCCESS) r = vkCreateFence(device, &fence_info, nullptr, &slot.copied);
+    if (r != VK_SUCCESS) {
+        *error = std::string("tile staging slot: ") + vk_result_name(r);
+        return false;
+    }
+    return true;
+}
+
+bool TileStreamer::ensure_buffer(Slot &slot, VkDeviceSize bytes, std::string *error) {
+    if (slot.staging.size >= bytes) return true;
+    context_.destroy(slot.staging);
+    return context_.create_readback_buffer(bytes, &slot.staging, error);
+}
+
+void TileStreamer::destroy_slot(Slot &slot) {
+    const VkDevice device = context_.device;
+    context_.destroy(slot.staging);
+    if (slot.drawn) vkDestroyFence(device, slot.drawn, nullptr);
+    if (slot.copied) vkDestroyFence(device, slot.copied, nullptr);
+    // The command buffer goes with the pool.
+    slot = Slot{};
+}
+
+void TileStreamer::record_copy(Slot &slot) {
+    const VkCommandBuffer cb = slot.command_buffer;
+    vkResetCommandBuffer(cb, 0);
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    vkBeginCommandBuffer(cb, &begin);
+    // The app's submits left the image in PRESENT_SRC_KHR; they precede this one on the queue,
+    // so a full source scope makes their attachment writes visible to the copy.
+    VkImageMemoryBarrier barrier{};
+    barrier.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+    barrier.srcAccessMask = VK_ACCESS_MEMORY_WRITE_BIT;
+    barrier.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+    barrier.oldLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+    barrier.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    barrier.image = slot.frame.image;
+    barrier.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
+                         nullptr, 0, nullptr, 1, &barrier);
+    std::vector<VkBufferImageCopy> regions;
+    VkDeviceSize offset = 0;
+    for (const VkRect2D &rect : slot.frame.foveae) {
+        VkBufferImageCopy region{};
+        region.bufferOffset = offset; // tightly packed, one rect after the other
+        region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        region.imageOffset = {rect.offset.x, rect.offset.y, 0};
+        region.imageExtent = {rect.extent.width, rect.extent.height, 1};
+        regions.push_back(region);
+        offset += VkDeviceSize{rect.extent.width} * rect.extent.height * 4;
+    }
+    vkCmdCopyImageToBuffer(cb, slot.frame.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, slot.staging.buffer,
+                           static_cast<uint32_t>(regions.size()), regions.data());
+    // Back to where the app left it: the next frame's commands expect PRESENT_SRC_KHR (or
+    // UNDEFINED, which accepts anything).
+    barrier.srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+    barrier.dstAccessMask = 0;
+    barrier.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    barrier.newLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+    VkBufferMemoryBarrier host{};
+    host.sType = VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER;
+    host.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    host.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    host.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    host.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    host.buffer = slot.staging.buffer;
+    host.size = VK_WHOLE_SIZE;
+    vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                         VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT | VK_PIPELINE_STAGE_HOST_BIT, 0, 0, nullptr, 1,
+                         &host, 1, &barrier);
+    vkEndCommandBuffer(cb);
+}
+
+bool TileStreamer::present(Frame frame, std::string *error) {
+    Slot &slot = slots_[next_slot_];
+    {
+        std::unique_lock lock(mutex_);
+        if (!changed_.wait_for(lock, kSlotWait, [&] { return !slot.busy || worker_error_; })) {
+            *error = "tile encoder stalled: no staging slot free for 30 s";
+            return false;
+        }
+        if (worker_error_) {
+            *error = *worker_error_;
+            return false;
+        }
+    }
+    if (!slot.command_buffer && !create_slot(slot, error)) return false;
+
+    VkDeviceSize bytes = 0;
+    for (const VkRect2D &rect : frame.foveae)
+        bytes += VkDeviceSize{rect.extent.width} * rect.extent.height * 4;
+    slot.frame = std::move(frame);
+    VkFence fences[] = {slot.drawn, slot.copied};
+    vkResetFences(context_.device, 2, fences);
+
+    // An empty submit signals `drawn` when everything before it on the queue, the frame's own
+    // work, has completed: the draw time the client's statistics show.
+    VkResult r = vkQueueSubmit(context_.queue, 0, nullptr, slot.drawn);
+    if (r == VK_SUCCESS && bytes > 0) {
+        if (!ensure_buffer(slot, bytes, error)) return false;
+        record_copy(slot);
+        VkSubmitInfo submit{};
+        submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+        submit.commandBufferCount = 1;
+        submit.pCommandBuffers = &slot.command_buffer;
+        r = vkQueueSubmit(context_.queue, 1, &submit, slot.copied);
+    } else if (r == VK_SUCCESS) {
+        r = vkQueueSubmit(context_.queue, 0, nullptr, slot.copied);
+    }
+    if (r != VK_SUCCESS) {
+        *error = std::string("tile readback submit: ") + vk_result_name(r);
+        return false;
+    }
+    {
+        std::lock_guard lock(mutex_);
+        slot.busy = true;
+        queue_.push_back(&slot);
+        if (!worker_.joinable()) worker_ = std::thread([this] { run_worker(); });
+    }
+    changed_.notify_all();
+    next_slot_ = (next_slot_ + 1) % kSlots;
+    return true;
+}
+
+bool TileStreamer::wait_fence(VkFence fence) {
+    return vkWaitForFences(context_.device, 1, &fence, VK_TRUE, kFenceWaitNs) == VK_SUCCESS;
+}
+
+void TileStreamer::run_worker() {
+    for (;;) {
+        Slot *slot = nullptr;
+        {
+            std::unique_lock lock(mutex_);
+            changed_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
+            if (queue_.empty()) return; // stopping, nothing left
+            slot = queue_.front();
+            queue_.pop_front();
+        }
+        std::string error;
+        const bool ok = encode_and_send(*slot, &error);
+        {
+            std::lock_guard lock(mutex_);
+            slot->busy = false;
+            if (!ok && !worker_error_) worker_error_ = std::move(error);
+        }
+        changed_.notify_all();
+    }
+}
+
+bool TileStreamer::encode_and_send(Slot &slot, std::string *error) {
+    const Frame &frame = slot.frame;
+    if (!wait_fence(slot.drawn)) {
+        *error = "frame " + std::to_string(frame.frame) + ": the GPU did not finish the frame";
+        return false;
+    }
+    const auto drawn = Clock::now();
+    if (!wait_fence(slot.copied)) {
+        *error = "frame " + std::to_string(frame.frame) + ": the fovea readback did not finish";
+        return false;
+    }
+    const auto copied = Clock::now();
+    context_.invalidate(slot.staging);
+
+    protocol::Tiles message;
+    message.frame = frame.frame;
+    message.swapchain_id = frame.swapchain_id;
+    message.image_index = frame.image_index;
+    message.format = static_cast<uint32_t>(frame.format);
+    message.tiles.resize(frame.foveae.size());
+    if (eyes_.size() < frame.foveae.size()) eyes_.resize(frame.foveae.size());
+
+    // Each eye is its own stream with its own encoder: encode them on parallel threads (the first
+    // on this one) and join before sending, so a frame's tiles travel as one message.
+    std::vector<std::string> errors(frame.foveae.size());
+    auto encode_eye = [&](size_t eye, const uint8_t *pixels) {
+        const VkRect2D &rect = frame.foveae[eye];
+        EyeStream &stream = eyes_[eye];
+        if (!stream.encoder || stream.width != rect.extent.width || stream.height != rect.extent.height ||
+            stream.codec != codec_) {
+            stream = EyeStream{rect.extent.width, rect.extent.height, codec_, nullptr};
+            stream.encoder =
+                tiles::make_tile_encoder(codec_, rect.extent.width, rect.extent.height, &errors[eye]);
+            if (!stream.encoder) return;
+        }
+        protocol::EncodedTile &tile = message.tiles[eye];
+        tile.x = static_cast<uint32_t>(rect.offset.x);
+        tile.y = static_cast<uint32_t>(rect.offset.y);
+        tile.width = rect.extent.width;
+        tile.height = rect.extent.height;
+        tile.codec = codec_;
+        bool keyframe = false;
+        if (!stream.encoder->encode(pixels, tile.data, &keyframe, &errors[eye])) {
+            stream.encoder.reset(); // the next frame starts a new stream with a keyframe
+            return;
+        }
+        if (keyframe) tile.flags |= protocol::kTileKeyframe;
+    };
+    std::vector<std::thread> threads;
+    const uint8_t *base = slot.staging.mapped;
+    size_t offset = 0;
+    std::vector<const uint8_t *> pixels;
+    for (const VkRect2D &rect : frame.foveae) {
+        pixels.push_back(base + offset);
+        offset += size_t{rect.extent.width} * rect.extent.height * 4;
+    }
+    for (size_t eye = 1; eye < frame.foveae.size(); ++eye)
+        threads.emplace_back(encode_eye, eye, pixels[eye]);
+    if (!frame.foveae.empty()) encode_eye(0, pixels[0]);
+    for (auto &t : threads)
+        t.join();
+    const auto encoded = Clock::now();
+    for (size_t eye = 0; eye < errors.size(); ++eye)
+        if (!errors[eye].empty()) {
+            *error =
+                "frame " + std::to_string(frame.frame) + ", eye " + std::to_string(eye) + ": " + errors[eye];
+            return false;
+        }
+
+    message.timings.draw_us =
+        frame.first_submit == Clock::time_point{} ? 0 : micros(drawn - frame.first_submit);
+    message.timings.readback_us = micros(copied - drawn);
+    message.timings.encode_us = micros(encoded - copied);
+    message.timings.present_to_send_us = micros(Clock::now() - frame.present);
+    return send_(protocol::encode(message), error);
+}
+
+} // namespace splitvk::agent

@@ -1,0 +1,109 @@
+#pragma once
+
+// The fovea path of a presented frame on the agent (DESIGN §2 and §5).
+//
+// At FramePresent the replay thread records a copy of the frame's fovea rects into host memory
+// and submits it on the replay queue, behind the frame's own submits (queue order is the only
+// ordering needed: the agent replays every submit on that one queue). Then it goes on replaying
+// the next frame at once. A worker thread waits for the copy, encodes each eye on its own thread
+// (one encoder per eye, as each eye is a stream of its own: x264 P-frames reference the previous
+// frame of the same eye) and sends the Tiles message.
+//
+// Staging: kSlots frames may be in flight between the replay thread and the worker, each with
+// its own command buffer, fences and host buffer. When all are busy, present() waits for the
+// oldest (bounded), which is the back-pressure that keeps the agent from running ahead of its
+// encoder.
+
+#include "session.h"
+#include "tile_codec.h"
+#include "vulkan_context.h"
+
+#include <vulkan/vulkan.h>
+
+#include <array>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace splitvk::agent {
+
+class TileStreamer {
+public:
+    // Sends one encoded Tiles payload; false when it could not be queued (the session then ends).
+    using Send = std::function<bool(std::vector<uint8_t> &&payload, std::string *error)>;
+
+    TileStreamer(VulkanContext &context, Send send);
+    ~TileStreamer();
+    TileStreamer(const TileStreamer &) = delete;
+    TileStreamer &operator=(const TileStreamer &) = delete;
+
+    void set_codec(TileCodec codec) { codec_ = codec; }
+
+    struct Frame {
+        uint64_t frame = 0;
+        uint64_t swapchain_id = 0;
+        uint32_t image_index = 0;
+        VkImage image = VK_NULL_HANDLE; // left in PRESENT_SRC_KHR by the frame's submits
+        VkFormat format = VK_FORMAT_UNDEFINED;
+        std::vector<VkRect2D> foveae;                         // may be empty: an empty Tiles message
+        std::chrono::steady_clock::time_point first_submit{}; // of the frame, for draw time
+        std::chrono::steady_clock::time_point present{};      // FramePresent received
+    };
+
+    // Replay thread: submits the frame's fovea copy and hands it to the worker. False with one line
+    // in `error` when the copy cannot be submitted, or the worker has failed.
+    bool present(Frame frame, std::string *error);
+
+private:
+    static constexpr size_t kSlots = 3;
+
+    struct Slot {
+        VkCommandBuffer command_buffer = VK_NULL_HANDLE;
+        VkFence drawn = VK_NULL_HANDLE;  // the frame's own work is done
+        VkFence copied = VK_NULL_HANDLE; // the fovea copy is in host memory
+        HostBuffer staging;
+        bool busy = false; // owned by the worker until it has sent the frame
+        Frame frame;
+    };
+
+    // One eye's stream: encoders are stateful, so an eye keeps its encoder while its size and the
+    // codec stay the same.
+    struct EyeStream {
+        uint32_t width = 0, height = 0;
+        TileCodec codec = TileCodec::X264;
+        std::unique_ptr<tiles::TileEncoder> encoder;
+    };
+
+    bool create_slot(Slot &slot, std::string *error);
+    bool ensure_buffer(Slot &slot, VkDeviceSize bytes, std::string *error);
+    void destroy_slot(Slot &slot);
+    void record_copy(Slot &slot);
+    void run_worker();
+    bool encode_and_send(Slot &slot, std::string *error);
+    bool wait_fence(VkFence fence);
+
+    VulkanContext &context_;
+    Send send_;
+    TileCodec codec_ = TileCodec::X264;
+    VkCommandPool pool_ = VK_NULL_HANDLE;
+    std::array<Slot, kSlots> slots_{};
+    size_t next_slot_ = 0;
+    std::vector<EyeStream> eyes_; // worker thread only
+
+    std::mutex mutex_;
+    std::condition_variable changed_;
+    std::deque<Slot *> queue_; // handed to the worker, in frame order
+    std::optional<std::string> worker_error_;
+    bool stopping_ = false;
+    std::thread worker_;
+};
+
+} // namespace splitvk::agent

@@ -1,0 +1,444 @@
+// The layer's compositor (layer/compositor.cpp) on the first Vulkan device (lavapipe in tests),
+// driven directly, without the layer: plain images stand in for a swapchain's. Each frame
+// "renders" known content into an image (signalling a semaphore, as an application's last submit
+// does), composites it with two fovea tiles (one reaching past the image), and reads the result
+// back after waiting on the compositor's semaphore, as the present would. Checks: the tiles are
+// bit-exact (UNORM and sRGB), the rest is the top-left periphery upsampled (bilinear and
+// Catmull-Rom against CPU references, within 2 of 255), slots are reused across frames, and the
+// Khronos validation layer with synchronization validation, when installed, says nothing.
+
+#include "compositor.h"
+#include "instance.h"
+#include "swapchain.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+namespace splitvk {
+// DeviceState owns a std::unique_ptr<Session>; the compositor never touches the session, so a
+// complete (empty) type is all this binary needs to destroy a DeviceState.
+class Session {};
+
+namespace {
+
+constexpr uint32_t kWidth = 64, kHeight = 48;
+constexpr VkExtent2D kPeriphery{(kWidth * 3 + 4) / 5, (kHeight * 3 + 4) / 5}; // ceil(0.6 W) x ceil(0.6 H)
+constexpr uint32_t kImages = 2, kFrames = 5;
+
+int g_messages = 0;
+VKAPI_ATTR VkBool32 VKAPI_CALL on_message(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
+                                          VkDebugUtilsMessageTypeFlagsEXT,
+                                          const VkDebugUtilsMessengerCallbackDataEXT *data, void *) {
+    if (severity >= VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT) {
+        ++g_messages;
+        ADD_FAILURE() << "validation: " << data->pMessage;
+    }
+    return VK_FALSE;
+}
+
+uint32_t memory_type(const VkPhysicalDeviceMemoryProperties &props, uint32_t bits,
+                     VkMemoryPropertyFlags want) {
+    for (uint32_t i = 0; i < props.memoryTypeCount; ++i)
+        if ((bits & (1u << i)) && (props.memoryTypes[i].propertyFlags & want) == want) return i;
+    return UINT32_MAX;
+}
+
+float srgb_to_linear(float v) {
+    return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
+}
+float linear_to_srgb(float l) {
+    l = std::clamp(l, 0.0f, 1.0f);
+    return l <= 0.0031308f ? l * 12.92f : 1.055f * std::pow(l, 1.0f / 2.4f) - 0.055f;
+}
+
+struct Param {
+    VkFormat format;
+    UpsampleFilter filter;
+};
+
+class CompositorTest : public ::testing::TestWithParam<Param> {
+protected:
+    void SetUp() override {
+        g_messages = 0;
+        uint32_t count = 0;
+        vkEnumerateInstanceLayerProperties(&count, nullptr);
+        std::vector<VkLayerProperties> layers(count);
+        vkEnumerateInstanceLayerProperties(&count, layers.data());
+        validation_ = std::any_of(layers.begin(), layers.end(), [](const VkLayerProperties &l) {
+            return std::strcmp(l.layerName, "VK_LAYER_KHRONOS_validation") == 0;
+        });
+        const char *layer = "VK_LAYER_KHRONOS_validation";
+        // VK_KHR_surface: VK_KHR_swapchain (for the PRESENT_SRC_KHR layout) requires it.
+        const char *extensions[] = {VK_KHR_SURFACE_EXTENSION_NAME, VK_EXT_DEBUG_UTILS_EXTENSION_NAME};
+        VkValidationFeatureEnableEXT sync = VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT;
+        VkValidationFeaturesEXT features{};
+        features.sType = VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT;
+        features.enabledValidationFeatureCount = 1;
+        features.pEnabledValidationFeatures = &sync;
+        VkApplicationInfo app{};
+        app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
+        app.apiVersion = VK_API_VERSION_1_0; // what vkcube asks for: the compositor must cope
+        VkInstanceCreateInfo info{};
+        info.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
+        info.pApplicationInfo = &app;
+        info.enabledExtensionCount = 1;
+        info.ppEnabledExtensionNames = extensions;
+        if (validation_) {
+            info.pNext = &features;
+            info.enabledLayerCount = 1;
+            info.ppEnabledLayerNames = &layer;
+            info.enabledExtensionCount = 2;
+        }
+        if (vkCreateInstance(&info, nullptr, &instance_) != VK_SUCCESS) GTEST_SKIP() << "no Vulkan instance";
+        if (validation_) {
+            VkDebugUtilsMessengerCreateInfoEXT messenger{};
+            messenger.sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT;
+            messenger.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT |
+                                        VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
+            messenger.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT |
+                                    VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
+                                    VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
+            messenger.pfnUserCallback = on_message;
+            auto create = reinterpret_cast<PFN_vkCreateDebugUtilsMessengerEXT>(
+                vkGetInstanceProcAddr(instance_, "vkCreateDebugUtilsMessengerEXT"));
+            ASSERT_TRUE(create);
+            ASSERT_EQ(create(instance_, &messenger, nullptr, &messenger_), VK_SUCCESS);
+        }
+        count = 1;
+        VkPhysicalDevice physical = VK_NULL_HANDLE;
+        const VkResult enumerated = vkEnumeratePhysicalDevices(instance_, &count, &physical);
+        if ((enumerated != VK_SUCCESS && enumerated != VK_INCOMPLETE) || !physical)
+            GTEST_SKIP() << "no Vulkan device";
+        vkGetPhysicalDeviceQueueFamilyProperties(physical, &count, nullptr);
+        std::vector<VkQueueFamilyProperties> families(count);
+        vkGetPhysicalDeviceQueueFamilyProperties(physical, &count, families.data());
+        family_ = UINT32_MAX;
+        for (uint32_t i = 0; i < count && family_ == UINT32_MAX; ++i)
+            if (families[i].queueFlags & VK_QUEUE_GRAPHICS_BIT) family_ = i;
+        if (family_ == UINT32_MAX) GTEST_SKIP() << "no graphics queue";
+
+        const float priority = 1.0f;
+        VkDeviceQueueCreateInfo queue_info{};
+        queue_info.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO;
+        queue_info.queueFamilyIndex = family_;
+        queue_info.queueCount = 1;
+        queue_info.pQueuePriorities = &priority;
+        // VK_KHR_swapchain makes PRESENT_SRC_KHR a layout these images may be in.
+        const char *swapchain = VK_KHR_SWAPCHAIN_EXTENSION_NAME;
+        VkDeviceCreateInfo device_info{};
+        device_info.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+        device_info.queueCreateInfoCount = 1;
+        device_info.pQueueCreateInfos = &queue_info;
+        device_info.enabledExtensionCount = 1;
+        device_info.ppEnabledExtensionNames = &swapchain;
+        VkDevice device = VK_NULL_HANDLE;
+        if (vkCreateDevice(physical, &device_info, nullptr, &device) != VK_SUCCESS)
+            GTEST_SKIP() << "no device with VK_KHR_swapchain";
+        vkGetDeviceQueue(device, family_, 0, &queue_);
+
+        instance_state_.handle = instance_;
+        load_instance_dispatch_table(instance_state_.dispatch, instance_, vkGetInstanceProcAddr);
+        device_.handle = device;
+        device_.physical_device = physical;
+        device_.instance = &instance_state_;
+        load_device_dispatch_table(device_.dispatch, device, vkGetDeviceProcAddr);
+        vkGetPhysicalDeviceMemoryProperties(physical, &device_.memory_properties);
+    }
+
+    void TearDown() override {
+        if (device_.handle) {
+            vkDeviceWaitIdle(device_.handle);
+            vkDestroyDevice(device_.handle, nullptr);
+        }
+        if (messenger_) {
+            auto destroy = reinterpret_cast<PFN_vkDestroyDebugUtilsMessengerEXT>(
+                vkGetInstanceProcAddr(instance_, "vkDestroyDebugUtilsMessengerEXT"));
+            destroy(instance_, messenger_, nullptr);
+        }
+        if (instance_) vkDestroyInstance(instance_, nullptr);
+    }
+
+    bool validation_ = false;
+    VkInstance instance_ = VK_NULL_HANDLE;
+    VkDebugUtilsMessengerEXT messenger_ = VK_NULL_HANDLE;
+    InstanceState instance_state_;
+    DeviceState device_;
+    uint32_t family_ = 0;
+    VkQueue queue_ = VK_NULL_HANDLE;
+};
+
+// What the application rendered: smooth (so bicubic taps are not dominated by rounding) and
+// different every frame.
+uint8_t content(uint32_t x, uint32_t y, uint32_t c, uint32_t frame) {
+    const double v = 128.0 + 100.0 * std::sin(x * 0.35 + c * 1.3 + frame) * std::cos(y * 0.27 + frame * 0.5);
+    return static_cast<uint8_t>(std::lround(v));
+}
+uint8_t tile_byte(uint32_t x, uint32_t y, uint32_t c, uint32_t frame) {
+    return static_cast<uint8_t>(x * 7 + y * 13 + c * 77 + frame * 31);
+}
+
+TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
+    const auto [format, filter] = GetParam();
+    const bool srgb = format == VK_FORMAT_B8G8R8A8_SRGB;
+    const VkDevice d = device_.handle;
+    std::string why;
+    if (!Compositor::supports(device_, format, &why)) GTEST_SKIP() << why;
+
+    // The "swapchain" images, the application's staging/readback buffer, sync objects.
+    SwapchainState sc;
+    sc.handle = reinterpret_cast<VkSwapchainKHR>(uintptr_t{0x5c});
+    sc.extent = {kWidth, kHeight};
+    sc.format = format;
+    sc.composable = true;
+    std::vector<VkDeviceMemory> memories;
+    for (uint32_t i = 0; i < kImages; ++i) {
+        VkImageCreateInfo info{};
+        info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
+        info.imageType = VK_IMAGE_TYPE_2D;
+        info.format = format;
+        info.extent = {kWidth, kHeight, 1};
+        info.mipLevels = 1;
+        info.arrayLayers = 1;
+        info.samples = VK_SAMPLE_COUNT_1_BIT;
+        info.tiling = VK_IMAGE_TILING_OPTIMAL;
+        info.usage = Compositor::kSwapchainUsage;
+        VkImage image = VK_NULL_HANDLE;
+        ASSERT_EQ(vkCreateImage(d, &info, nullptr, &image), VK_SUCCESS);
+        VkMemoryRequirements req;
+        vkGetImageMemoryRequirements(d, image, &req);
+        VkMemoryAllocateInfo alloc{};
+        alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+        alloc.allocationSize = req.size;
+        alloc.memoryTypeIndex = memory_type(device_.memory_properties, req.memoryTypeBits, 0);
+        VkDeviceMemory memory = VK_NULL_HANDLE;
+        ASSERT_EQ(vkAllocateMemory(d, &alloc, nullptr, &memory), VK_SUCCESS);
+        ASSERT_EQ(vkBindImageMemory(d, image, memory, 0), VK_SUCCESS);
+        sc.images.push_back(image);
+        memories.push_back(memory);
+    }
+    const VkDeviceSize bytes = VkDeviceSize{kWidth} * kHeight * 4;
+    VkBufferCreateInfo buffer_info{};
+    buffer_info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+    buffer_info.size = bytes;
+    buffer_info.usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    VkBuffer buffer = VK_NULL_HANDLE;
+    ASSERT_EQ(vkCreateBuffer(d, &buffer_info, nullptr, &buffer), VK_SUCCESS);
+    VkMemoryRequirements req;
+    vkGetBufferMemoryRequirements(d, buffer, &req);
+    VkMemoryAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    alloc.allocationSize = req.size;
+    alloc.memoryTypeIndex =
+        memory_type(device_.memory_properties, req.memoryTypeBits,
+                    VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
+    ASSERT_NE(alloc.memoryTypeIndex, UINT32_MAX);
+    VkDeviceMemory buffer_memory = VK_NULL_HANDLE;
+    ASSERT_EQ(vkAllocateMemory(d, &alloc, nullptr, &buffer_memory), VK_SUCCESS);
+    ASSERT_EQ(vkBindBufferMemory(d, buffer, buffer_memory, 0), VK_SUCCESS);
+    void *mapped_void = nullptr;
+    ASSERT_EQ(vkMapMemory(d, buffer_memory, 0, VK_WHOLE_SIZE, 0, &mapped_void), VK_SUCCESS);
+    auto *mapped = static_cast<uint8_t *>(mapped_void);
+
+    VkCommandPoolCreateInfo pool_info{};
+    pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+    pool_info.queueFamilyIndex = family_;
+    VkCommandPool pool = VK_NULL_HANDLE;
+    ASSERT_EQ(vkCreateCommandPool(d, &pool_info, nullptr, &pool), VK_SUCCESS);
+    VkCommandBufferAllocateInfo cb_info{};
+    cb_info.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    cb_info.commandPool = pool;
+    cb_info.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    cb_info.commandBufferCount = 1;
+    VkCommandBuffer cb = VK_NULL_HANDLE;
+    ASSERT_EQ(vkAllocateCommandBuffers(d, &cb_info, &cb), VK_SUCCESS);
+    VkSemaphoreCreateInfo semaphore_info{};
+    semaphore_info.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
+    VkSemaphore rendered = VK_NULL_HANDLE;
+    ASSERT_EQ(vkCreateSemaphore(d, &semaphore_info, nullptr, &rendered), VK_SUCCESS);
+    VkFenceCreateInfo fence_info{};
+    fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+    VkFence fence = VK_NULL_HANDLE;
+    ASSERT_EQ(vkCreateFence(d, &fence_info, nullptr, &fence), VK_SUCCESS);
+
+    std::string error;
+    auto compositor = Compositor::create(device_, sc, family_, &error, filter);
+    ASSERT_TRUE(compositor) << error;
+
+    const auto barrier = [&](VkImage image, VkImageLayout from, VkImageLayout to, VkAccessFlags src_access,
+                             VkAccessFlags dst_access, VkPipelineStageFlags src, VkPipelineStageFlags dst) {
+        VkImageMemoryBarrier b{};
+        b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+        b.srcAccessMask = src_access;
+        b.dstAccessMask = dst_access;
+        b.oldLayout = from;
+        b.newLayout = to;
+        b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+        b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+        b.image = image;
+        b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+        vkCmdPipelineBarrier(cb, src, dst, 0, 0, nullptr, 0, nullptr, 1, &b);
+    };
+    VkBufferImageCopy whole{};
+    whole.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    whole.imageExtent = {kWidth, kHeight, 1};
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    const VkPipelineStageFlags transfer_stage = VK_PIPELINE_STAGE_TRANSFER_BIT;
+
+    std::vector<uint8_t> rendered_pixels(bytes);
+    for (uint32_t frame = 0; frame < kFrames; ++frame) {
+        const uint32_t index = frame % kImages;
+        const VkImage image = sc.images[index];
+        // The application's frame, ending in PRESENT_SRC_KHR with `rendered` signalled.
+        for (uint32_t y = 0; y < kHeight; ++y)
+            for (uint32_t x = 0; x < kWidth; ++x)
+                for (uint32_t c = 0; c < 4; ++c)
+                    rendered_pixels[(size_t{y} * kWidth + x) * 4 + c] = content(x, y, c, frame);
+        std::memcpy(mapped, rendered_pixels.data(), bytes);
+        vkBeginCommandBuffer(cb, &begin);
+        barrier(image, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0,
+                VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT);
+        vkCmdCopyBufferToImage(cb, buffer, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &whole);
+        barrier(image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR,
+                VK_ACCESS_TRANSFER_WRITE_BIT, 0, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT);
+        vkEndCommandBuffer(cb);
+        VkSubmitInfo submit{};
+        submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+        submit.commandBufferCount = 1;
+        submit.pCommandBuffers = &cb;
+        submit.signalSemaphoreCount = 1;
+        submit.pSignalSemaphores = &rendered;
+        ASSERT_EQ(vkQueueSubmit(queue_, 1, &submit, fence), VK_SUCCESS);
+        ASSERT_EQ(vkWaitForFences(d, 1, &fence, VK_TRUE, 10'000'000'000ull), VK_SUCCESS);
+        vkResetFences(d, 1, &fence);
+
+        // Two tiles: one in the middle, one reaching past the right edge (clipped).
+        const VkRect2D rects[2] = {{{20, 15}, {17, 11}}, {{int32_t(kWidth) - 6, 3}, {10, 5}}};
+        std::vector<uint8_t> tile_pixels[2];
+        FoveaTile tiles[2];
+        for (int t = 0; t < 2; ++t) {
+            tile_pixels[t].resize(size_t{rects[t].extent.width} * rects[t].extent.height * 4);
+            for (uint32_t y = 0; y < rects[t].extent.height; ++y)
+                for (uint32_t x = 0; x < rects[t].extent.width; ++x)
+                    for (uint32_t c = 0; c < 4; ++c)
+                        tile_pixels[t][(size_t{y} * rects[t].extent.width + x) * 4 + c] =
+                            tile_byte(x, y, c + 4 * t, frame);
+            tiles[t] = {rects[t], tile_pixels[t].data()};
+        }
+        VkSemaphore signal = VK_NULL_HANDLE;
+        ASSERT_EQ(compositor->composite(queue_, index, std::span(&rendered, 1), kPeriphery, tiles, &signal),
+                  VK_SUCCESS);
+        ASSERT_NE(signal, VK_NULL_HANDLE);
+
+        // What the present would show: read back after waiting on the compositor's semaphore.
+        vkBeginCommandBuffer(cb, &begin);
+        barrier(image, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, 0,
+                VK_ACCESS_TRANSFER_READ_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT);
+        vkCmdCopyImageToBuffer(cb, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, buffer, 1, &whole);
+        vkEndCommandBuffer(cb);
+        submit.waitSemaphoreCount = 1;
+        submit.pWaitSemaphores = &signal;
+        submit.pWaitDstStageMask = &transfer_stage;
+        submit.signalSemaphoreCount = 0;
+        ASSERT_EQ(vkQueueSubmit(queue_, 1, &submit, fence), VK_SUCCESS);
+        ASSERT_EQ(vkWaitForFences(d, 1, &fence, VK_TRUE, 10'000'000'000ull), VK_SUCCESS);
+        vkResetFences(d, 1, &fence);
+        const uint8_t *shown = mapped;
+
+        // The tiles, byte for byte, clipped to the image.
+        uint64_t tile_mismatches = 0;
+        for (int t = 0; t < 2; ++t)
+            for (uint32_t y = 0; y < rects[t].extent.height; ++y)
+                for (uint32_t x = 0; x < rects[t].extent.width; ++x) {
+                    const uint32_t ix = rects[t].offset.x + x, iy = rects[t].offset.y + y;
+                    if (ix >= kWidth || iy >= kHeight) continue;
+                    if (std::memcmp(shown + (size_t{iy} * kWidth + ix) * 4,
+                                    tile_pixels[t].data() + (size_t{y} * rects[t].extent.width + x) * 4, 4))
+                        ++tile_mismatches;
+                }
+        EXPECT_EQ(tile_mismatches, 0u) << "frame " << frame;
+
+        // The rest: the top-left periphery of what was rendered, upsampled.
+        const auto texel = [&](int x, int y, uint32_t c) {
+            x = std::clamp(x, 0, int(kPeriphery.width) - 1);
+            y = std::clamp(y, 0, int(kPeriphery.height) - 1);
+            const float v = rendered_pixels[(size_t(y) * kWidth + x) * 4 + c] / 255.0f;
+            return srgb && c < 3 ? srgb_to_linear(v) : v;
+        };
+        const auto cubic = [](float f, float w[4]) {
+            w[0] = f * (-0.5f + f * (1.0f - 0.5f * f));
+            w[1] = 1.0f + f * f * (-2.5f + 1.5f * f);
+            w[2] = f * (0.5f + f * (2.0f - 1.5f * f));
+            w[3] = f * f * (-0.5f + 0.5f * f);
+        };
+        float worst = 0.0f;
+        for (uint32_t y = 0; y < kHeight; ++y)
+            for (uint32_t x = 0; x < kWidth; ++x) {
+                bool in_tile = false;
+                for (const auto &r : rects)
+                    in_tile |= int(x) >= r.offset.x && x < r.offset.x + r.extent.width &&
+                               int(y) >= r.offset.y && y < r.offset.y + r.extent.height;
+                if (in_tile) continue;
+                const float px =
+                    std::clamp((x + 0.5f) * kPeriphery.width / kWidth, 0.5f, kPeriphery.width - 0.5f);
+                const float py =
+                    std::clamp((y + 0.5f) * kPeriphery.height / kHeight, 0.5f, kPeriphery.height - 0.5f);
+                const int ix = int(std::floor(px - 0.5f)), iy = int(std::floor(py - 0.5f));
+                const float fx = px - 0.5f - ix, fy = py - 0.5f - iy;
+                for (uint32_t c = 0; c < 4; ++c) {
+                    float v = 0.0f;
+                    if (filter == UpsampleFilter::CatmullRom) {
+                        float wx[4], wy[4];
+                        cubic(fx, wx);
+                        cubic(fy, wy);
+                        for (int j = 0; j < 4; ++j)
+                            for (int i = 0; i < 4; ++i)
+                                v += wx[i] * wy[j] * texel(ix - 1 + i, iy - 1 + j, c);
+                    } else {
+                        v = (texel(ix, iy, c) * (1 - fx) + texel(ix + 1, iy, c) * fx) * (1 - fy) +
+                            (texel(ix, iy + 1, c) * (1 - fx) + texel(ix + 1, iy + 1, c) * fx) * fy;
+                    }
+                    const float expected =
+                        255.0f * (srgb && c < 3 ? linear_to_srgb(v) : std::clamp(v, 0.0f, 1.0f));
+                    worst = std::max(worst, std::abs(expected - shown[(size_t{y} * kWidth + x) * 4 + c]));
+                }
+            }
+        EXPECT_LE(worst, 2.0f) << "frame " << frame << ": the periphery differs from the reference";
+    }
+
+    compositor.reset(); // waits for its submits
+    vkDestroyFence(d, fence, nullptr);
+    vkDestroySemaphore(d, rendered, nullptr);
+    vkDestroyCommandPool(d, pool, nullptr);
+    vkDestroyBuffer(d, buffer, nullptr);
+    vkFreeMemory(d, buffer_memory, nullptr);
+    for (uint32_t i = 0; i < kImages; ++i) {
+        vkDestroyImage(d, sc.images[i], nullptr);
+        vkFreeMemory(d, memories[i], nullptr);
+    }
+    if (validation_) {
+        EXPECT_EQ(g_messages, 0);
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(Formats, CompositorTest,
+                         ::testing::Values(Param{VK_FORMAT_B8G8R8A8_UNORM, UpsampleFilter::Bilinear},
+                                           Param{VK_FORMAT_B8G8R8A8_SRGB, UpsampleFilter::Bilinear},
+                                           Param{VK_FORMAT_B8G8R8A8_UNORM, UpsampleFilter::CatmullRom},
+                                           Param{VK_FORMAT_B8G8R8A8_SRGB, UpsampleFilter::CatmullRom}),
+                         [](const auto &test) {
+                             return std::string(test.param.format == VK_FORMAT_B8G8R8A8_SRGB ? "Srgb"
+                                                                                             : "Unorm") +
+                                    (test.param.filter == UpsampleFilter::CatmullRom ? "CatmullRom"
+                                                                                     : "Bilinear");
+                         });
+
+} // namespace
+} // namespace splitvk

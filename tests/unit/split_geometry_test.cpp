@@ -1,0 +1,225 @@
+// The split's shared geometry and tracker (protocol/split_*.h): the layer scales with them and the agent
+// places foveae with it, so these numbers are what both sides agree on.
+
+#include "split_geometry.h"
+#include "split_tracker.h"
+
+#include <gtest/gtest.h>
+
+namespace splitvk::split {
+namespace {
+
+bool same(const VkRect2D &a, const VkRect2D &b) {
+    return a.offset.x == b.offset.x && a.offset.y == b.offset.y && a.extent.width == b.extent.width &&
+           a.extent.height == b.extent.height;
+}
+
+#define EXPECT_RECT(r, X, Y, W, H)                                                                           \
+    EXPECT_TRUE(same((r), VkRect2D{{(X), (Y)}, {(W), (H)}}))                                                 \
+        << (r).offset.x << "," << (r).offset.y << " " << (r).extent.width << "x" << (r).extent.height
+
+TEST(SplitGeometry, ScaledExtentIsThePapersPeriphery) {
+    const VkExtent2D e = scaled_extent({2400, 1080}, 0.6);
+    EXPECT_EQ(e.width, 1440u);
+    EXPECT_EQ(e.height, 648u);
+    const VkExtent2D odd = scaled_extent({1201, 541}, 0.6); // 720.6 x 324.6 round up
+    EXPECT_EQ(odd.width, 721u);
+    EXPECT_EQ(odd.height, 325u);
+    EXPECT_EQ(scaled_extent({1, 1}, 0.01).width, 1u);
+}
+
+TEST(SplitGeometry, ViewportScalesAllButDepth) {
+    const VkViewport v = scale_viewport({1200.f, 0.f, 1200.f, 1080.f, 0.25f, 0.75f}, 0.6);
+    EXPECT_FLOAT_EQ(v.x, 720.f);
+    EXPECT_FLOAT_EQ(v.y, 0.f);
+    EXPECT_FLOAT_EQ(v.width, 720.f);
+    EXPECT_FLOAT_EQ(v.height, 648.f);
+    EXPECT_FLOAT_EQ(v.minDepth, 0.25f);
+    EXPECT_FLOAT_EQ(v.maxDepth, 0.75f);
+    const VkViewport flipped = scale_viewport({0.f, 1080.f, 2400.f, -1080.f, 0.f, 1.f}, 0.5);
+    EXPECT_FLOAT_EQ(flipped.y, 540.f);
+    EXPECT_FLOAT_EQ(flipped.height, -540.f);
+}
+
+TEST(SplitGeometry, RectsRoundOutwardsAndClamp) {
+    const VkExtent2D scaled = scaled_extent({2400, 1080}, 0.6);
+    EXPECT_RECT(scale_rect({{0, 0}, {2400, 1080}}, 0.6, scaled), 0, 0, 1440u, 648u);
+    EXPECT_RECT(scale_rect({{1200, 0}, {1200, 1080}}, 0.6, scaled), 720, 0, 720u, 648u);
+    // 1 -> 0.6 floors to 0; 1+2=3 -> 1.8 ceils to 2.
+    EXPECT_RECT(scale_rect({{1, 1}, {2, 2}}, 0.6, scaled), 0, 0, 2u, 2u);
+    // A scissor past the image is clamped to the scaled extent.
+    EXPECT_RECT(scale_rect({{2000, 1000}, {1000, 1000}}, 0.6, scaled), 1200, 600, 240u, 48u);
+    EXPECT_RECT(scale_rect({{5000, 0}, {10, 10}}, 0.6, scaled), 1440, 0, 0u, 6u);
+    // The 'whole surface' scissor some apps use.
+    EXPECT_RECT(scale_rect({{0, 0}, {0x7fffffffu, 0x7fffffffu}}, 0.6, scaled), 0, 0, 1440u, 648u);
+}
+
+TEST(SplitGeometry, Intersection) {
+    EXPECT_RECT(intersect({{0, 0}, {100, 100}}, {{50, 60}, {100, 100}}), 50, 60, 50u, 40u);
+    const VkRect2D empty = intersect({{0, 0}, {10, 10}}, {{20, 20}, {5, 5}});
+    EXPECT_EQ(empty.extent.width, 0u);
+    EXPECT_EQ(empty.extent.height, 0u);
+    EXPECT_GE(empty.offset.x, 0);
+}
+
+TEST(SplitGeometry, EyeAssignment) {
+    const VkExtent2D image{2400, 1080};
+    const VkViewport left{0.f, 0.f, 1200.f, 1080.f, 0.f, 1.f};
+    const VkViewport right{1200.f, 0.f, 1200.f, 1080.f, 0.f, 1.f};
+    const VkViewport whole{0.f, 0.f, 2400.f, 1080.f, 0.f, 1.f};
+    const VkViewport sloppy{-0.5f, 0.f, 1200.8f, 1080.f, 0.f, 1.f}; // within a pixel of the left half
+    EXPECT_RECT(eye_for_viewport(left, image, EyeMode::Auto), 0, 0, 1200u, 1080u);
+    EXPECT_RECT(eye_for_viewport(right, image, EyeMode::Auto), 1200, 0, 1200u, 1080u);
+    EXPECT_RECT(eye_for_viewport(whole, image, EyeMode::Auto), 0, 0, 2400u, 1080u);
+    EXPECT_RECT(eye_for_viewport(sloppy, image, EyeMode::Auto), 0, 0, 1200u, 1080u);
+    EXPECT_RECT(eye_for_viewport(left, image, EyeMode::One), 0, 0, 2400u, 1080u);
+    // Two: the half holding the centre, even for a viewport spanning both.
+    EXPECT_RECT(eye_for_viewport(whole, image, EyeMode::Two), 1200, 0, 1200u, 1080u);
+    EXPECT_RECT(eye_for_viewport({100.f, 0.f, 1500.f, 10.f, 0.f, 1.f}, image, EyeMode::Two), 0, 0, 1200u,
+                1080u);
+    // An odd width: the right eye takes the extra column.
+    EXPECT_RECT(eye_for_viewport({601.f, 0.f, 600.f, 10.f, 0.f, 1.f}, {1201, 540}, EyeMode::Auto), 600, 0,
+                601u, 540u);
+}
+
+TEST(SplitGeometry, DefaultFoveaIsThePapers) {
+    const FoveaSize fovea; // 512x360 of a 1200x1080 eye
+    const VkExtent2D image{2400, 1080};
+    EXPECT_RECT(fovea_for_viewport({0.f, 0.f, 1200.f, 1080.f, 0.f, 1.f}, image, EyeMode::Auto, fovea), 344,
+                360, 512u, 360u);
+    EXPECT_RECT(fovea_for_viewport({1200.f, 0.f, 1200.f, 1080.f, 0.f, 1.f}, image, EyeMode::Auto, fovea),
+                1544, 360, 512u, 360u);
+    // One eye of the whole image: the same fractions of 2400x1080.
+    EXPECT_RECT(fovea_for_viewport({0.f, 0.f, 2400.f, 1080.f, 0.f, 1.f}, image, EyeMode::Auto, fovea), 688,
+                360, 1024u, 360u);
+    FoveaSize pixels;
+    pixels.fractional = false;
+    pixels.width = 5000;
+    pixels.height = 100;
+    EXPECT_RECT(fovea_of_eye({{1200, 0}, {1200, 1080}}, pixels), 1200, 490, 1200u, 100u);
+}
+
+TEST(SplitGeometry, FoveaSetIsSortedAndUnique) {
+    std::vector<VkRect2D> foveae;
+    add_fovea(foveae, {{1544, 360}, {512, 360}});
+    add_fovea(foveae, {{344, 360}, {512, 360}});
+    add_fovea(foveae, {{1544, 360}, {512, 360}});
+    add_fovea(foveae, {{344, 10}, {512, 360}});
+    ASSERT_EQ(foveae.size(), 3u);
+    EXPECT_RECT(foveae[0], 344, 10, 512u, 360u);
+    EXPECT_RECT(foveae[1], 344, 360, 512u, 360u);
+    EXPECT_RECT(foveae[2], 1544, 360, 512u, 360u);
+}
+
+} // namespace
+} // namespace splitvk::split
+
+// The per-command-buffer tracker (protocol/split_tracker.h): both sides feed it the app's calls,
+// so which viewports were in effect inside split passes, and thus the foveae, must follow the
+// Vulkan state rules exactly.
+namespace splitvk::split {
+namespace {
+
+const VkViewport kLeft{0.f, 0.f, 1200.f, 1080.f, 0.f, 1.f};
+const VkViewport kRight{1200.f, 0.f, 1200.f, 1080.f, 0.f, 1.f};
+const VkExtent2D kImage{2400, 1080};
+
+TEST(SplitTracker, ViewportsSetBeforeThePassCountOnlyInsideIt) {
+    CommandTracker t;
+    t.set_viewports(0, 1, &kLeft, false);
+    t.note_foveae(EyeMode::Auto, FoveaSize{}); // outside a split pass: nothing
+    EXPECT_TRUE(t.drawn().empty());
+    t.begin_split(7, kImage);
+    t.note_foveae(EyeMode::Auto, FoveaSize{}); // the persisting left viewport
+    t.set_viewports(0, 1, &kRight, false);
+    t.note_foveae(EyeMode::Auto, FoveaSize{});
+    t.end_split();
+    ASSERT_EQ(t.drawn().size(), 1u);
+    EXPECT_EQ(t.drawn()[0].image, 7u);
+    ASSERT_EQ(t.drawn()[0].foveae.size(), 2u);
+    EXPECT_RECT(t.drawn()[0].foveae[0], 344, 360, 512u, 360u);
+    EXPECT_RECT(t.drawn()[0].foveae[1], 1544, 360, 512u, 360u);
+}
+
+TEST(SplitTracker, StaticPipelineStateWinsWhileBound) {
+    auto state = std::make_shared<StaticViewportState>();
+    state->has_viewports = true;
+    state->viewports = {kRight};
+    CommandTracker t;
+    t.set_viewports(0, 1, &kLeft, false);
+    t.bind_pipeline(state);
+    ASSERT_NE(t.viewport(0), nullptr);
+    EXPECT_FLOAT_EQ(t.viewport(0)->x, 1200.f);
+    EXPECT_FALSE(t.static_scissors());
+    // The static value was applied to the command buffer state: a dynamic pipeline sees it...
+    t.bind_pipeline(nullptr);
+    EXPECT_FLOAT_EQ(t.viewport(0)->x, 1200.f);
+    // ...unless the app sets its own, even while the static pipeline is bound.
+    t.bind_pipeline(state);
+    t.set_viewports(0, 1, &kLeft, false);
+    EXPECT_FLOAT_EQ(t.viewport(0)->x, 1200.f);
+    t.bind_pipeline(nullptr);
+    EXPECT_FLOAT_EQ(t.viewport(0)->x, 0.f);
+}
+
+TEST(SplitTracker, UnsetIndicesAreNotViewports) {
+    CommandTracker t;
+    t.set_viewports(1, 1, &kRight, false);
+    EXPECT_EQ(t.viewport(0), nullptr);
+    ASSERT_NE(t.viewport(1), nullptr);
+    const VkViewport both[] = {kLeft, kRight};
+    t.set_viewports(0, 2, both, true);
+    EXPECT_TRUE(t.dynamic_viewports().with_count);
+    t.set_viewports(0, 1, &kRight, true); // with count: the count is state too
+    EXPECT_EQ(t.viewport(1), nullptr);
+}
+
+TEST(SplitTracker, MergeUnionsFoveaePerImage) {
+    std::vector<DrawnImage> all;
+    merge_drawn(all, {{1, kImage, {{{1544, 360}, {512, 360}}}}});
+    merge_drawn(all, {{1, kImage, {{{344, 360}, {512, 360}}}}, {2, kImage, {{{344, 360}, {512, 360}}}}});
+    ASSERT_EQ(all.size(), 2u);
+    ASSERT_EQ(all[0].foveae.size(), 2u);
+    EXPECT_EQ(all[0].foveae[0].offset.x, 344);
+    EXPECT_EQ(all[1].foveae.size(), 1u);
+}
+
+TEST(SplitTracker, StaticStateFromCreateInfo) {
+    const VkRect2D scissor{{0, 0}, {100, 100}};
+    VkPipelineViewportStateCreateInfo vs{};
+    vs.sType = VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO;
+    vs.viewportCount = vs.scissorCount = 1;
+    vs.pViewports = &kLeft;
+    vs.pScissors = &scissor;
+    const VkDynamicState scissor_only[] = {VK_DYNAMIC_STATE_SCISSOR};
+    VkPipelineDynamicStateCreateInfo dynamic{};
+    dynamic.sType = VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO;
+    dynamic.dynamicStateCount = 1;
+    dynamic.pDynamicStates = scissor_only;
+    VkGraphicsPipelineCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO;
+    info.pViewportState = &vs;
+    info.pDynamicState = &dynamic;
+    const auto state = static_viewport_state(info);
+    ASSERT_NE(state, nullptr);
+    EXPECT_TRUE(state->has_viewports);
+    EXPECT_FALSE(state->has_scissors);
+
+    DynamicStateStorage storage;
+    VkGraphicsPipelineCreateInfo out{};
+    add_dynamic_states(info, true, false, storage, out);
+    ASSERT_EQ(out.pDynamicState->dynamicStateCount, 2u);
+    EXPECT_EQ(out.pDynamicState->pDynamicStates[0], VK_DYNAMIC_STATE_SCISSOR);
+    EXPECT_EQ(out.pDynamicState->pDynamicStates[1], VK_DYNAMIC_STATE_VIEWPORT);
+    EXPECT_EQ(info.pDynamicState, &dynamic); // the app's create info is untouched
+
+    // Statically discarded rasterization: pViewportState is ignored, so nothing is static.
+    VkPipelineRasterizationStateCreateInfo raster{};
+    raster.sType = VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO;
+    raster.rasterizerDiscardEnable = VK_TRUE;
+    info.pRasterizationState = &raster;
+    EXPECT_EQ(static_viewport_state(info), nullptr);
+}
+
+} // namespace
+} // namespace splitvk::split
