@@ -51,7 +51,8 @@ void set_log_prefix(std::string_view prefix) {
 
 namespace {
 
-void write_line(const char *level_word, const char *format, va_list args) {
+// format(printf, 2, 0): a va_list consumer, so clang checks the callers' formats, not this one.
+[[gnu::format(printf, 2, 0)]] void write_line(const char *level_word, const char *format, va_list args) {
     char message[1024];
     std::vsnprintf(message, sizeof(message), format, args);
 

@@ -220,7 +220,9 @@ struct X264Log {
     std::mutex mutex; // sliced threads may log from x264's worker threads
     std::string last_error;
 
-    static void callback(void *self, int level, const char *format, va_list args) {
+    // format(printf, 3, 0): the format is x264's own, checked where x264 calls its logger.
+    [[gnu::format(printf, 3, 0)]] static void callback(void *self, int level, const char *format,
+                                                       va_list args) {
         if (level > X264_LOG_ERROR) return;
         char line[256];
         std::vsnprintf(line, sizeof line, format, args);

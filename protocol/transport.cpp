@@ -121,7 +121,9 @@ struct Connection::Impl : std::enable_shared_from_this<Connection::Impl> {
 
     explicit Impl(ConnectionOptions opts)
         : options(std::move(opts)), socket(io),
-          decoder(ReceivePolicy{options.max_payload, options.unknown_types, options.is_known_type}),
+          decoder(
+              ReceivePolicy{options.max_receive_payload ? options.max_receive_payload : options.max_payload,
+                            options.unknown_types, options.is_known_type, options.max_receive_payload_name}),
           read_buffer(kReadBufferSize), compressor(std::make_shared<Compressor>(options.compression)) {}
 
     // --- lifetime -----------------------------------------------------------------------------

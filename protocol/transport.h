@@ -91,6 +91,10 @@ struct ConnectionOptions {
     std::string name = "connection"; // prefixes debug log lines
     // Cap on any payload, raw or decompressed, in both directions.
     uint32_t max_payload = kDefaultMaxPayload;
+    // A different cap for what this end receives (0: max_payload). The agent's --max-message-bytes
+    // bounds what a client may send without bounding the frames the agent itself sends back.
+    uint32_t max_receive_payload = 0;
+    std::string max_receive_payload_name;          // named in the error when a message is over the cap
     size_t send_queue_limit = size_t{128} << 20;   // bytes (headers + payloads as sent)
     size_t receive_queue_limit = size_t{64} << 20; // queue mode: reading pauses above this
     CompressionPolicy compression;                 // set enabled = false unless the peer has kZstdPayloads

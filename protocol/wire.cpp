@@ -128,6 +128,7 @@ HeaderVerdict check_header(const MessageHeader &header, uint64_t expected_sequen
     if (header.payload_length > policy.max_payload) {
         error = what() + ": payload length " + std::to_string(header.payload_length) + " exceeds the limit " +
                 std::to_string(policy.max_payload);
+        if (!policy.max_payload_name.empty()) error += " (" + policy.max_payload_name + ")";
         return HeaderVerdict::Reject;
     }
     const bool known =
@@ -236,7 +237,8 @@ bool FrameDecoder::finish_message(std::vector<Message> &out) {
         auto result = decompressor_->decompress(payload_, policy_.max_payload);
         if (!result) {
             set_error("message " + std::to_string(header_.sequence) + " (type " + hex16(header_.type) +
-                      "): " + result.error() + " at stream offset " + std::to_string(message_offset_));
+                      "): " + result.error() + " at stream offset " + std::to_string(message_offset_) +
+                      (policy_.max_payload_name.empty() ? "" : " (limit: " + policy_.max_payload_name + ")"));
             return false;
         }
         message.payload = std::move(result).value();

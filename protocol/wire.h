@@ -163,6 +163,8 @@ struct ReceivePolicy {
     UnknownTypePolicy unknown_types = UnknownTypePolicy::Reject;
     // Which types this receiver knows. Empty: is_defined_type().
     std::function<bool(uint16_t)> is_known_type;
+    // What sets max_payload, named in the error line ("--max-message-bytes"); empty: nothing.
+    std::string max_payload_name;
 };
 
 enum class HeaderVerdict { Accept, Skip, Reject };

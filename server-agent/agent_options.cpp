@@ -4,6 +4,8 @@
 
 #include <charconv>
 
+#include <arpa/inet.h>
+
 namespace splitvk::agent {
 namespace {
 
@@ -16,9 +18,46 @@ std::optional<uint32_t> parse_index(const std::string &text) {
 
 } // namespace
 
+std::optional<uint64_t> parse_byte_size(const std::string &text) {
+    uint64_t value = 0;
+    const char *begin = text.data(), *end = text.data() + text.size();
+    auto [p, ec] = std::from_chars(begin, end, value);
+    if (ec != std::errc() || p == begin) return std::nullopt;
+    unsigned shift = 0;
+    if (p != end) {
+        switch (*p) {
+        case 'K':
+        case 'k':
+            shift = 10;
+            break;
+        case 'M':
+        case 'm':
+            shift = 20;
+            break;
+        case 'G':
+        case 'g':
+            shift = 30;
+            break;
+        case 'T':
+        case 't':
+            shift = 40;
+            break;
+        default:
+            return std::nullopt;
+        }
+        ++p;
+        if (p != end && (*p == 'i' || *p == 'B')) ++p; // 4GiB, 4GB: the same binary unit
+        if (p != end && *p == 'B') ++p;
+        if (p != end) return std::nullopt;
+    }
+    if (value > (uint64_t{1} << 63 >> shift)) return std::nullopt;
+    return value << shift;
+}
+
 const char *agent_usage() {
     return "usage: splitvk-agent [--listen ADDR:PORT] [--device N] [--token-file FILE] [--validate]\n"
-           "                     [--max-sessions N]\n"
+           "                     [--max-sessions N] [--max-message-bytes SIZE] [--max-host-memory SIZE]\n"
+           "                     [--max-gpu-memory SIZE] [--record-corpus DIR]\n"
            "       splitvk-agent --list-devices\n"
            "\n"
            "The splitvk server agent: replays the command stream of applications running the\n"
@@ -31,12 +70,31 @@ const char *agent_usage() {
            "  --validate          enable VK_LAYER_KHRONOS_validation (synchronization validation too) in\n"
            "                      every session and log its messages as errors\n"
            "  --max-sessions N    sessions served at once (default 16); more are rejected as server full\n"
+           "  --max-message-bytes SIZE\n"
+           "                      cap on one received message, raw or decompressed (default 64M: the\n"
+           "                      most the layer ever sends); 64K-2G\n"
+           "  --max-host-memory SIZE\n"
+           "                      cap on the client data one session keeps in host memory (default 4G)\n"
+           "  --max-gpu-memory SIZE\n"
+           "                      cap on the VkDeviceMemory one session's client allocates (default 8G:\n"
+           "                      more than a VR title at 2400x1080 needs, so a few sessions fit one GPU)\n"
+           "                      Going over a cap ends that session only, with one log line. SIZE is\n"
+           "                      bytes, or with a binary suffix: 512K, 512M, 4G.\n"
+           "  --record-corpus DIR debugging: write the messages each session receives to DIR as seed\n"
+           "                      inputs for the fuzzers (tests/fuzz, scripts/fuzz); the first 256\n"
+           "                      per session, tokens left out\n"
            "  --list-devices      print the GPUs this agent can use and exit\n"
            "  --help              print this help and exit\n";
 }
 
 bool is_loopback_host(const std::string &host) {
-    return host == "localhost" || host == "::1" || host.starts_with("127.");
+    // Numeric addresses only (and "localhost"): a name such as "127.example.com" resolves to
+    // whatever its DNS says, so a textual prefix test would let it through.
+    in_addr v4{};
+    if (inet_pton(AF_INET, host.c_str(), &v4) == 1) return (ntohl(v4.s_addr) >> 24) == 127;
+    in6_addr v6{};
+    if (inet_pton(AF_INET6, host.c_str(), &v6) == 1) return IN6_IS_ADDR_LOOPBACK(&v6);
+    return host == "localhost";
 }
 
 ParsedOptions parse_agent_options(const std::vector<std::string> &arguments) {
@@ -91,6 +149,29 @@ ParsedOptions parse_agent_options(const std::vector<std::string> &arguments) {
                 return parsed;
             }
             o.max_sessions = *count;
+        } else if (arg == "--max-message-bytes" || arg == "--max-host-memory" || arg == "--max-gpu-memory") {
+            const auto v = value("a size such as 512M or 4G");
+            if (!v) return parsed;
+            const auto size = parse_byte_size(*v);
+            if (arg == "--max-message-bytes") {
+                // Below 64 KiB not even the setup of a small application fits; 2 GiB keeps the
+                // u32 length (and the reader's arithmetic) far from overflow.
+                if (!size || *size < (uint64_t{64} << 10) || *size > (uint64_t{2} << 30)) {
+                    parsed.error = arg + " '" + *v + "' is invalid: expected a size from 64K to 2G";
+                    return parsed;
+                }
+                o.max_message_bytes = static_cast<uint32_t>(*size);
+            } else {
+                if (!size || *size == 0) {
+                    parsed.error = arg + " '" + *v + "' is invalid: expected a size such as 512M or 4G";
+                    return parsed;
+                }
+                (arg == "--max-host-memory" ? o.max_host_memory : o.max_gpu_memory) = *size;
+            }
+        } else if (arg == "--record-corpus") {
+            const auto v = value("a directory");
+            if (!v) return parsed;
+            o.record_corpus = *v;
         } else {
             parsed.error = "unknown option '" + arg + "' (see --help)";
             return parsed;

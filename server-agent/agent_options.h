@@ -9,6 +9,14 @@
 
 namespace splitvk::agent {
 
+// 64 MiB: what the layer itself can send (its connection refuses larger payloads), so a larger
+// message never comes from a real client.
+inline constexpr uint32_t kDefaultMaxMessageBytes = 64u << 20;
+// 4 GiB of host memory and 8 GiB of GPU memory per session: several times what splitvk-atrium or
+// a VR title at 2400x1080 uses, well below what a server with one GPU shared by a few sessions has.
+inline constexpr uint64_t kDefaultMaxHostMemory = uint64_t{4} << 30;
+inline constexpr uint64_t kDefaultMaxGpuMemory = uint64_t{8} << 30;
+
 struct AgentOptions {
     std::string listen_host = "127.0.0.1";
     uint16_t listen_port = 7447;
@@ -16,6 +24,11 @@ struct AgentOptions {
     std::string token_file;
     bool validate = false;      // VK_LAYER_KHRONOS_validation in every session, messages logged
     uint32_t max_sessions = 16; // sessions served at once; more are rejected as ServerFull
+    // Per-session caps (docs/security.md). Going over one ends that session with one log line.
+    uint32_t max_message_bytes = kDefaultMaxMessageBytes; // any received payload, raw or decompressed
+    uint64_t max_host_memory = kDefaultMaxHostMemory;     // client data the session keeps in host memory
+    uint64_t max_gpu_memory = kDefaultMaxGpuMemory;       // VkDeviceMemory the client asks for
+    std::string record_corpus;                            // debug: write received messages here
     bool list_devices = false;
     bool help = false;
 };
@@ -26,6 +39,9 @@ struct ParsedOptions {
 };
 
 ParsedOptions parse_agent_options(const std::vector<std::string> &arguments);
+
+// "4096", "512K", "512M", "4G", "1T" (binary units: K = 1024); nullopt if malformed or over 2^63.
+std::optional<uint64_t> parse_byte_size(const std::string &text);
 
 // Loopback addresses need no token; anything else exposes a GPU command interpreter to a network.
 bool is_loopback_host(const std::string &host);

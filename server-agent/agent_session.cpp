@@ -1,11 +1,14 @@
 #include "agent_session.h"
 
+#include "corpus_recorder.h"
 #include "log.h"
 #include "replayer.h"
 #include "session.h"
 #include "vk_codec.h"
 
+#include <algorithm>
 #include <chrono>
+#include <unordered_map>
 
 namespace splitvk::agent {
 
@@ -16,7 +19,6 @@ using protocol::to_wire;
 namespace {
 
 constexpr auto kHandshakeTimeout = 10s;
-constexpr uint32_t kMaxPayload = protocol::kDefaultMaxPayload;
 
 // The types a client may send; anything else (the rest of the Vulkan range included) is a
 // protocol error that ends the session.
@@ -42,18 +44,27 @@ bool client_type(uint16_t type) {
 class Session {
 public:
     Session(std::unique_ptr<protocol::Connection> connection, const SessionConfig &config)
-        : connection_(std::move(connection)), config_(config), replayer_(config.session_id) {}
+        : connection_(std::move(connection)), config_(config), replayer_(config.session_id) {
+        if (!config.record_corpus.empty())
+            recorder_ = std::make_unique<CorpusRecorder>(config.record_corpus, config.session_id);
+    }
 
     int run();
 
 private:
     int fail(const std::string &what, int status);
+    // --max-gpu-memory for the offscreen images that stand for swapchain images, which the
+    // replayer allocates outside MemoryRebind: their own count, capped like the others.
+    bool swapchain_memory(const protocol::SwapchainImages &m, std::string *error);
     // Handles one message; false with `error` set ends the session.
     bool handle(protocol::Message &message, bool *done, std::string *error);
 
     std::unique_ptr<protocol::Connection> connection_;
     SessionConfig config_;
     Replayer replayer_;
+    std::unique_ptr<CorpusRecorder> recorder_;
+    std::unordered_map<uint64_t, uint64_t> swapchain_bytes_; // by swapchain id
+    uint64_t swapchain_total_ = 0;
     uint64_t messages_ = 0;
     uint64_t frames_ = 0;
 };
@@ -68,6 +79,24 @@ int Session::fail(const std::string &what, int status) {
     }
     connection_->close("session error");
     return status;
+}
+
+bool Session::swapchain_memory(const protocol::SwapchainImages &m, std::string *error) {
+    // 8 bytes per pixel: the widest format a surface presents (R16G16B16A16_SFLOAT); the decoder
+    // bounds every factor, so the product cannot overflow.
+    const uint64_t bytes = uint64_t{m.width} * m.height * 8 * m.array_layers * m.image_ids.size();
+    uint64_t &slot = swapchain_bytes_[m.swapchain_id];
+    const uint64_t total = swapchain_total_ - slot + bytes;
+    if (total > config_.max_gpu_memory) {
+        *error = "SwapchainImages: " + std::to_string(bytes) +
+                 " bytes of offscreen images would take the session's swapchain images to " +
+                 std::to_string(total) + " bytes, over --max-gpu-memory (" +
+                 std::to_string(config_.max_gpu_memory) + " bytes)";
+        return false;
+    }
+    swapchain_total_ = total;
+    slot = bytes;
+    return true;
 }
 
 int Session::run() {
@@ -85,6 +114,7 @@ int Session::run() {
         connection_->close("handshake failed");
         return kSessionHandshake;
     }
+    if (recorder_) recorder_->hello(hs->hello);
     if (!(hs->welcome.capabilities & protocol::capability::kZstdPayloads)) {
         protocol::CompressionPolicy off;
         off.enabled = false;
@@ -113,6 +143,7 @@ int Session::run() {
             return fail(reason, kSessionError);
         }
         ++messages_;
+        if (recorder_) recorder_->message(message->type, message->payload);
         bool done = false;
         if (!handle(*message, &done, &error)) return fail(error, kSessionError);
         if (done) break;
@@ -134,7 +165,7 @@ bool Session::handle(protocol::Message &message, bool *done, std::string *error)
     case MessageType::Commands:
         return replayer_.replay(message.payload, error);
     case MessageType::MemoryData: {
-        auto m = protocol::decode_memory_data(message.payload, kMaxPayload);
+        auto m = protocol::decode_memory_data(message.payload, config_.max_message_bytes);
         if (!m) {
             *error = "MemoryData: " + m.error();
             return false;
@@ -147,6 +178,7 @@ bool Session::handle(protocol::Message &message, bool *done, std::string *error)
             *error = "SwapchainImages: " + m.error();
             return false;
         }
+        if (!swapchain_memory(*m, error)) return false;
         return replayer_.swapchain_images(*m, error);
     }
     case MessageType::SwapchainDestroyed: {
@@ -154,6 +186,10 @@ bool Session::handle(protocol::Message &message, bool *done, std::string *error)
         if (!m) {
             *error = "SwapchainDestroyed: " + m.error();
             return false;
+        }
+        if (auto it = swapchain_bytes_.find(m->swapchain_id); it != swapchain_bytes_.end()) {
+            swapchain_total_ -= it->second;
+            swapchain_bytes_.erase(it);
         }
         return replayer_.swapchain_destroyed(*m, error);
     }
@@ -227,9 +263,15 @@ const char *session_exit_name(int status) {
 }
 
 int run_session(protocol::UniqueFd socket, const SessionConfig &config) {
+    // Before the session's replayer (and the MemoryRebind it owns) exists.
+    set_process_memory_limits({config.max_host_memory, config.max_gpu_memory});
     protocol::ConnectionOptions options;
     options.name = "session " + std::to_string(config.session_id);
-    options.max_payload = kMaxPayload;
+    // What the client may send is capped by --max-message-bytes; what the agent sends back (a
+    // whole frame for SPLITVK_VERIFY) by the protocol's own cap, which the layer receives with.
+    options.max_payload = std::max(protocol::kDefaultMaxPayload, config.max_message_bytes);
+    options.max_receive_payload = config.max_message_bytes;
+    options.max_receive_payload_name = "--max-message-bytes";
     options.unknown_types = protocol::UnknownTypePolicy::Reject;
     options.is_known_type = client_type;
     auto connection = protocol::Connection::adopt(std::move(socket), options);

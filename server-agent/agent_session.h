@@ -20,6 +20,11 @@ struct SessionConfig {
     bool full = false; // over --max-sessions: reject the Hello as ServerFull
     std::vector<uint8_t> token;
     std::string gpu_name;
+    // Caps (agent_options.h): over one, the session ends with one log line naming the flag.
+    uint32_t max_message_bytes = protocol::kDefaultMaxPayload;
+    uint64_t max_host_memory = UINT64_MAX;
+    uint64_t max_gpu_memory = UINT64_MAX;
+    std::string record_corpus; // --record-corpus DIR; empty: off
 };
 
 // Exit statuses of a session process (the listener logs them).

@@ -97,6 +97,12 @@ int run_listener(const AgentOptions &options, const std::string &gpu_name) {
 
     SPLITVK_INFO("listening on %s:%u, GPU %u (%s)%s", options.listen_host.c_str(), (*acceptor)->port(),
                  options.device_index, gpu_name.c_str(), options.validate ? ", validation on" : "");
+    SPLITVK_INFO("per session: messages up to %u bytes, %llu bytes of host memory, %llu bytes of GPU memory",
+                 options.max_message_bytes, static_cast<unsigned long long>(options.max_host_memory),
+                 static_cast<unsigned long long>(options.max_gpu_memory));
+    if (!options.record_corpus.empty())
+        SPLITVK_WARN("--record-corpus %s: every session's messages are written there, in the clear",
+                     options.record_corpus.c_str());
     std::map<pid_t, Child> children;
     uint64_t next_session = 1;
     while (!g_stop) {
@@ -115,6 +121,10 @@ int run_listener(const AgentOptions &options, const std::string &gpu_name) {
         config.full = children.size() >= options.max_sessions;
         config.token = token;
         config.gpu_name = gpu_name;
+        config.max_message_bytes = options.max_message_bytes;
+        config.max_host_memory = options.max_host_memory;
+        config.max_gpu_memory = options.max_gpu_memory;
+        config.record_corpus = options.record_corpus;
         std::fflush(nullptr);
         const pid_t pid = fork();
         if (pid < 0) {

@@ -16,7 +16,20 @@ std::string hex(uint64_t v) {
     return text;
 }
 
+MemoryLimits g_process_limits;
+
+// "over --max-gpu-memory (8589934592 bytes)": the line names the flag that raises the cap.
+std::string over(const char *flag, uint64_t limit) {
+    return std::string("over ") + flag + " (" + std::to_string(limit) + " bytes)";
+}
+
 } // namespace
+
+void set_process_memory_limits(const MemoryLimits &limits) {
+    g_process_limits = limits;
+}
+
+MemoryRebind::MemoryRebind(VulkanContext &context) : context_(context), limits_(g_process_limits) {}
 
 MemoryRebind::~MemoryRebind() {
     for (auto &[handle, resource] : resources_)
@@ -28,6 +41,16 @@ bool MemoryRebind::allocate(uint64_t memory_id, VkDeviceSize size, std::string *
         *error = "allocation size 0";
         return false;
     }
+    auto existing = memories_.find(memory_id);
+    const uint64_t replaced = existing == memories_.end() ? 0 : existing->second.size;
+    const uint64_t total = client_gpu_bytes_ - replaced;
+    if (size > limits_.gpu_bytes || total > limits_.gpu_bytes - size) {
+        *error = std::to_string(size) + " bytes would take the session's device memory to " +
+                 std::to_string(total + std::min<uint64_t>(size, UINT64_MAX - total)) + " bytes, " +
+                 over("--max-gpu-memory", limits_.gpu_bytes);
+        return false;
+    }
+    client_gpu_bytes_ = total + size;
     memories_[memory_id].size = size;
     return true;
 }
@@ -40,6 +63,8 @@ void MemoryRebind::free(uint64_t memory_id) {
         auto r = resources_.find(handle);
         if (r != resources_.end()) r->second.memory_id = 0;
     }
+    client_gpu_bytes_ -= it->second.size;
+    host_bytes_ -= it->second.pages.size() * kPageSize;
     memories_.erase(it);
 }
 
@@ -61,6 +86,7 @@ void MemoryRebind::release(Resource &resource) {
         if (resource.mapped) vkUnmapMemory(context_.device, resource.memory);
         vkFreeMemory(context_.device, resource.memory, nullptr);
     }
+    agent_gpu_bytes_ -= resource.allocated;
     resource = {};
 }
 
@@ -132,6 +158,14 @@ bool MemoryRebind::bind(uint64_t handle, uint64_t memory_id, VkDeviceSize offset
         *error = "no compatible memory type";
         return false;
     }
+    if (req.size > limits_.gpu_bytes || agent_gpu_bytes_ > limits_.gpu_bytes - req.size) {
+        *error =
+            "the resource's own " + std::to_string(req.size) +
+            " bytes would take the agent's allocations for this session to " +
+            std::to_string(agent_gpu_bytes_ + std::min<uint64_t>(req.size, UINT64_MAX - agent_gpu_bytes_)) +
+            " bytes, " + over("--max-gpu-memory", limits_.gpu_bytes);
+        return false;
+    }
     VkMemoryAllocateInfo info{};
     info.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
     info.allocationSize = req.size;
@@ -143,6 +177,8 @@ bool MemoryRebind::bind(uint64_t handle, uint64_t memory_id, VkDeviceSize offset
                  " bytes) failed: " + vk_result_name(result);
         return false;
     }
+    resource.allocated = req.size;
+    agent_gpu_bytes_ += req.size;
     result =
         resource.is_image
             ? vkBindImageMemory(context_.device, codec::to_handle<VkImage>(handle), resource.memory, 0)
@@ -209,7 +245,17 @@ bool MemoryRebind::write(uint64_t memory_id, VkDeviceSize offset, std::span<cons
         const VkDeviceSize in_page = pos - page * kPageSize;
         const VkDeviceSize n = std::min(end - pos, kPageSize - in_page);
         auto &slot = memory.pages[page];
-        if (!slot) slot = std::make_unique<uint8_t[]>(kPageSize); // value-initialised: zeroes
+        if (!slot) {
+            if (host_bytes_ + kPageSize > limits_.host_bytes) {
+                memory.pages.erase(page);
+                *error = "keeping these bytes would take the session's host memory to " +
+                         std::to_string(host_bytes_ + kPageSize) + " bytes, " +
+                         over("--max-host-memory", limits_.host_bytes);
+                return false;
+            }
+            slot = std::make_unique<uint8_t[]>(kPageSize); // value-initialised: zeroes
+            host_bytes_ += kPageSize;
+        }
         std::memcpy(slot.get() + in_page, bytes.data() + (pos - offset), n);
         pos += n;
     }

@@ -27,9 +27,26 @@
 
 namespace splitvk::agent {
 
+// Per-session caps (splitvk-agent --max-host-memory, --max-gpu-memory; docs/security.md). Going
+// over one is an error like any other: the session ends with one line naming the cap.
+struct MemoryLimits {
+    // Client data kept in host memory: the shadow pages of every client memory object, which
+    // hold whatever MemoryData wrote there (bound or not) until the memory is freed.
+    uint64_t host_bytes = UINT64_MAX;
+    // Device memory, counted twice over and capped on each count: the vkAllocateMemory sizes the
+    // client asked for, and the agent's own allocations for the resources bound to them (which a
+    // client could otherwise inflate by binding many large resources to one small allocation).
+    uint64_t gpu_bytes = UINT64_MAX;
+};
+
+// The limits every MemoryRebind created afterwards in this process starts with. A session is a
+// process of its own (listener.cpp), so this is the session's setting; it is set before the
+// session's replayer exists, which owns its MemoryRebind.
+void set_process_memory_limits(const MemoryLimits &limits);
+
 class MemoryRebind {
 public:
-    explicit MemoryRebind(VulkanContext &context) : context_(context) {}
+    explicit MemoryRebind(VulkanContext &context);
     ~MemoryRebind();
     MemoryRebind(const MemoryRebind &) = delete;
     MemoryRebind &operator=(const MemoryRebind &) = delete;
@@ -55,6 +72,11 @@ public:
 
     size_t bound_resources() const { return resources_.size(); }
 
+    void set_limits(const MemoryLimits &limits) { limits_ = limits; }
+    uint64_t host_bytes() const { return host_bytes_; }             // shadow pages held
+    uint64_t client_gpu_bytes() const { return client_gpu_bytes_; } // live client allocations
+    uint64_t agent_gpu_bytes() const { return agent_gpu_bytes_; }   // the agent's own allocations
+
 private:
     static constexpr VkDeviceSize kPageSize = 64 * 1024;
     struct ClientMemory {
@@ -71,6 +93,7 @@ private:
         VkDeviceMemory memory = VK_NULL_HANDLE;
         uint8_t *mapped = nullptr; // host-visible buffers: written directly
         VkDeviceSize mapped_size = 0;
+        VkDeviceSize allocated = 0; // bytes of `memory`, counted in agent_gpu_bytes_
     };
 
     bool bind(uint64_t handle, uint64_t memory_id, VkDeviceSize offset, const VkMemoryRequirements &req,
@@ -81,6 +104,10 @@ private:
     VulkanContext &context_;
     std::unordered_map<uint64_t, ClientMemory> memories_;
     std::unordered_map<uint64_t, Resource> resources_; // by the agent's handle value
+    MemoryLimits limits_;
+    uint64_t host_bytes_ = 0;
+    uint64_t client_gpu_bytes_ = 0;
+    uint64_t agent_gpu_bytes_ = 0;
 };
 
 } // namespace splitvk::agent

@@ -9,10 +9,12 @@
 #include "vk_codec.h"
 #include "wire.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -659,6 +661,187 @@ TEST(AgentValidate, GoodStreamHasNoValidationMessages) {
     EXPECT_NE(agent.log().find("; 0 validation messages"), std::string::npos) << agent.log();
     EXPECT_EQ(agent.log().find("validation: "), std::string::npos) << agent.log();
     if (std::getenv("SPLITVK_TEST_SHOW_LOG")) std::fputs(agent.log().c_str(), stdout);
+}
+
+// --- limits (docs/security.md): going over one ends only that session, with one line naming it --
+
+void encode_allocate(codec::Encoder &e, uint64_t memory, VkDeviceSize size) {
+    VkMemoryAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    alloc.allocationSize = size;
+    VkDeviceMemory m = id<VkDeviceMemory>(memory);
+    codec::encode_vkAllocateMemory(e, id<VkDevice>(kDevice), &alloc, nullptr, &m);
+}
+
+// A bystander session is open while `offend` breaks a cap in session 2; the bystander then runs
+// the good stream to the end, and a fresh session (3) works too.
+template <class Offend>
+void expect_cap_ends_only_that_session(Agent &agent, const std::string &log_fragment, Offend offend) {
+    ASSERT_TRUE(agent.started()) << agent.log();
+    Client bystander;
+    ASSERT_TRUE(bystander.connect(agent)) << bystander.error;
+    Client offender;
+    ASSERT_TRUE(offender.connect(agent)) << offender.error;
+    ASSERT_TRUE(agent.wait_for_log("session 2: agent_session_test")) << agent.log();
+    offend(offender);
+    EXPECT_TRUE(agent.wait_for_end(2, "error")) << agent.log();
+    EXPECT_TRUE(agent.wait_for_log(log_fragment)) << "missing '" << log_fragment << "' in\n" << agent.log();
+    EXPECT_EQ(agent.occurrences(log_fragment), 1u) << agent.log();
+    std::vector<uint8_t> pixels;
+    std::string why;
+    ASSERT_TRUE(run_good_stream(bystander, &pixels, &why)) << why << "\n" << agent.log();
+    EXPECT_EQ(pixels, expected_pixels());
+    bystander.bye();
+    EXPECT_TRUE(agent.wait_for_end(1, "closed by the client")) << agent.log();
+    expect_good_session(agent, 3);
+    if (std::getenv("SPLITVK_TEST_SHOW_LOG")) std::fputs(agent.log().c_str(), stdout);
+}
+
+TEST(AgentLimits, MessageOverMaxMessageBytesEndsOnlyThatSession) {
+    Agent agent({"--max-message-bytes", "64K"});
+    // Incompressible bytes, so the cap is met on the wire (the compressed case is checked on the
+    // decompressed size, with the same flag in the line).
+    expect_cap_ends_only_that_session(agent, "(--max-message-bytes)", [](Client &c) {
+        std::vector<uint8_t> big(100 << 10);
+        uint32_t x = 12345;
+        for (auto &b : big)
+            b = static_cast<uint8_t>((x = x * 1103515245u + 12345u) >> 24);
+        c.send(MessageType::MemoryData, protocol::encode(memory_data(0, std::move(big))));
+    });
+}
+
+TEST(AgentLimits, CompressedMessageOverMaxMessageBytesEndsOnlyThatSession) {
+    Agent agent({"--max-message-bytes", "64K"});
+    expect_cap_ends_only_that_session(agent, "--max-message-bytes", [](Client &c) {
+        c.send(MessageType::MemoryData, protocol::encode(memory_data(0, std::vector<uint8_t>(1 << 20, 7))));
+    });
+}
+
+TEST(AgentLimits, AllocationsOverMaxGpuMemoryEndOnlyThatSession) {
+    Agent agent({"--max-gpu-memory", "1M"});
+    expect_cap_ends_only_that_session(agent, "over --max-gpu-memory (1048576 bytes)", [](Client &c) {
+        codec::Encoder e;
+        encode_setup(e);                          // 4096 bytes
+        encode_allocate(e, kMemory + 1, 1 << 19); // 512 KiB: fits
+        encode_allocate(e, kMemory + 2, 1 << 19); // over 1 MiB in all
+        c.commands(e);
+    });
+}
+
+TEST(AgentLimits, ResourcesBoundOverMaxGpuMemoryEndOnlyThatSession) {
+    // The client's allocation is small; the buffer bound to it asks the agent for more.
+    Agent agent({"--max-gpu-memory", "1M"});
+    expect_cap_ends_only_that_session(agent, "over --max-gpu-memory (1048576 bytes)", [](Client &c) {
+        codec::Encoder e;
+        encode_setup(e);
+        VkBufferCreateInfo buffer{};
+        buffer.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+        buffer.size = 4 << 20;
+        buffer.usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+        VkBuffer b = id<VkBuffer>(kBuffer + 1);
+        codec::encode_vkCreateBuffer(e, id<VkDevice>(kDevice), &buffer, nullptr, &b);
+        codec::encode_vkBindBufferMemory(e, id<VkDevice>(kDevice), b, id<VkDeviceMemory>(kMemory), 0);
+        c.commands(e);
+    });
+}
+
+TEST(AgentLimits, SwapchainImagesOverMaxGpuMemoryEndOnlyThatSession) {
+    // The offscreen images that stand for a swapchain's are device memory too.
+    Agent agent({"--max-gpu-memory", "1M"});
+    expect_cap_ends_only_that_session(agent, "over --max-gpu-memory (1048576 bytes)", [](Client &c) {
+        codec::Encoder e;
+        encode_setup(e);
+        c.commands(e);
+        protocol::SwapchainImages sc;
+        sc.device_id = kDevice;
+        sc.swapchain_id = kSwapchain;
+        sc.width = 1024;
+        sc.height = 1024;
+        sc.format = VK_FORMAT_B8G8R8A8_UNORM;
+        sc.usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT;
+        sc.image_ids = {kImage, kImage + 1, kImage + 2};
+        c.send(MessageType::SwapchainImages, protocol::encode(sc));
+    });
+}
+
+TEST(AgentLimits, ShadowsOverMaxHostMemoryEndOnlyThatSession) {
+    Agent agent({"--max-host-memory", "1M"});
+    expect_cap_ends_only_that_session(agent, "over --max-host-memory (1048576 bytes)", [](Client &c) {
+        codec::Encoder e;
+        encode_setup(e);
+        encode_allocate(e, kMemory + 1, 8 << 20);
+        c.commands(e);
+        // Not bound to anything: kept in the session's shadow until a bind. Two messages, the
+        // second one over.
+        for (uint64_t offset : {uint64_t{0}, uint64_t{1} << 20}) {
+            protocol::MemoryData m = memory_data(offset, pattern(768 << 10, 3));
+            m.memory_id = kMemory + 1;
+            c.send(MessageType::MemoryData, protocol::encode(m));
+        }
+    });
+}
+
+// --listen on anything but loopback without --token-file: one line, exit status 2, no listening.
+TEST(AgentToken, NonLoopbackWithoutTokenIsRefused) {
+    char path[] = "/tmp/splitvk-agent-token-XXXXXX";
+    const int fd = mkstemp(path);
+    ASSERT_GE(fd, 0);
+    const pid_t pid = fork();
+    if (pid == 0) {
+        dup2(fd, STDERR_FILENO);
+        execl(SPLITVK_AGENT_BINARY, SPLITVK_AGENT_BINARY, "--listen", "0.0.0.0:7447",
+              static_cast<char *>(nullptr));
+        _exit(127);
+    }
+    close(fd);
+    int status = 0;
+    ASSERT_EQ(waitpid(pid, &status, 0), pid);
+    const std::string log = read_file(path);
+    std::remove(path);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << "wait status " << status << "\n" << log;
+    EXPECT_NE(log.find("refusing to listen on non-loopback address 0.0.0.0 without --token-file"),
+              std::string::npos)
+        << log;
+    EXPECT_EQ(std::count(log.begin(), log.end(), '\n'), 1) << log;
+    EXPECT_EQ(log.find("listening on"), std::string::npos) << log;
+}
+
+// --record-corpus: the seeds scripts/fuzz records. Every file is a stream that starts at
+// sequence 1, the Hello without its token, the stream of the session in order.
+TEST(AgentRecordCorpus, WritesSeedsWithoutTheToken) {
+    char dir[] = "/tmp/splitvk-agent-corpus-XXXXXX";
+    ASSERT_NE(mkdtemp(dir), nullptr);
+    {
+        Agent agent({"--token-file", "TOKEN_FILE", "--record-corpus", dir});
+        ASSERT_TRUE(agent.started()) << agent.log();
+        EXPECT_NE(agent.log().find("--record-corpus"), std::string::npos) << agent.log();
+        Client client;
+        ASSERT_TRUE(client.connect(agent, "right-token")) << client.error;
+        std::vector<uint8_t> pixels;
+        std::string why;
+        ASSERT_TRUE(run_good_stream(client, &pixels, &why)) << why << "\n" << agent.log();
+        client.bye();
+        EXPECT_TRUE(agent.wait_for_end(1, "closed by the client")) << agent.log();
+    }
+    const std::string prefix = std::string(dir) + "/s1-";
+    const std::string hello = read_file(prefix + "hello");
+    ASSERT_GE(hello.size(), protocol::kHeaderSize);
+    EXPECT_EQ(hello.find("right-token"), std::string::npos);
+    const std::string stream = read_file(prefix + "stream");
+    ASSERT_GE(stream.size(), protocol::kHeaderSize);
+    const auto first = protocol::decode_header(std::span<const uint8_t, protocol::kHeaderSize>(
+        reinterpret_cast<const uint8_t *>(stream.data()), protocol::kHeaderSize));
+    EXPECT_EQ(first.sequence, 1u);
+    EXPECT_EQ(first.type, protocol::to_wire(MessageType::Commands));
+    EXPECT_FALSE(read_file(prefix + "0000-Vulkan_command").empty());
+    // A whole recorded stream frames cleanly.
+    protocol::FrameDecoder frames;
+    std::vector<protocol::Message> messages;
+    EXPECT_TRUE(frames.feed({reinterpret_cast<const uint8_t *>(stream.data()), stream.size()}, messages))
+        << frames.error();
+    EXPECT_GE(messages.size(), 3u);
+    EXPECT_TRUE(frames.at_message_boundary());
+    std::filesystem::remove_all(dir);
 }
 
 } // namespace

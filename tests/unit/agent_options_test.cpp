@@ -41,6 +41,54 @@ TEST(AgentOptions, NonLoopbackNeedsAToken) {
               std::string::npos);
     EXPECT_TRUE(parse_agent_options({"--listen", "0.0.0.0:7447", "--token-file", "t"}).error.empty());
     EXPECT_TRUE(parse_agent_options({"--listen", "localhost:7447"}).error.empty());
+    EXPECT_TRUE(parse_agent_options({"--listen", "127.0.0.2:7447"}).error.empty());
+    EXPECT_TRUE(parse_agent_options({"--listen", "[::1]:7447"}).error.empty());
+    // Anything that is not a numeric loopback address needs the token, names included: a name
+    // that starts like one resolves wherever its DNS says.
+    for (const char *listen : {"192.168.1.20:7447", "[::]:7447", "127.example.com:7447", "gpu-box:7447"}) {
+        const auto parsed = parse_agent_options({"--listen", listen});
+        EXPECT_NE(parsed.error.find("without --token-file"), std::string::npos) << listen;
+        EXPECT_EQ(parsed.error.find('\n'), std::string::npos);
+    }
+    EXPECT_FALSE(is_loopback_host("127.0.0.1.nip.io"));
+    EXPECT_TRUE(is_loopback_host("127.255.0.9"));
+}
+
+TEST(AgentOptions, ByteSizes) {
+    EXPECT_EQ(parse_byte_size("4096"), 4096u);
+    EXPECT_EQ(parse_byte_size("512K"), 512u << 10);
+    EXPECT_EQ(parse_byte_size("512M"), 512u << 20);
+    EXPECT_EQ(parse_byte_size("4G"), uint64_t{4} << 30);
+    EXPECT_EQ(parse_byte_size("4GiB"), uint64_t{4} << 30);
+    EXPECT_EQ(parse_byte_size("2t"), uint64_t{2} << 40);
+    for (const char *bad : {"", "M", "-1", "4X", "4GG", "1 G", "99999999999T", "0x10"})
+        EXPECT_FALSE(parse_byte_size(bad)) << bad;
+}
+
+TEST(AgentOptions, Limits) {
+    const auto defaults = parse_agent_options({});
+    EXPECT_EQ(defaults.options.max_message_bytes, 64u << 20);
+    EXPECT_EQ(defaults.options.max_host_memory, uint64_t{4} << 30);
+    EXPECT_EQ(defaults.options.max_gpu_memory, uint64_t{8} << 30);
+    const auto parsed = parse_agent_options(
+        {"--max-message-bytes", "1M", "--max-host-memory", "512M", "--max-gpu-memory", "2G"});
+    ASSERT_TRUE(parsed.error.empty()) << parsed.error;
+    EXPECT_EQ(parsed.options.max_message_bytes, 1u << 20);
+    EXPECT_EQ(parsed.options.max_host_memory, 512u << 20);
+    EXPECT_EQ(parsed.options.max_gpu_memory, uint64_t{2} << 30);
+    for (const std::vector<std::string> &args :
+         std::vector<std::vector<std::string>>{{"--max-message-bytes", "1K"},
+                                               {"--max-message-bytes", "3G"},
+                                               {"--max-host-memory", "0"},
+                                               {"--max-gpu-memory", "lots"},
+                                               {"--max-gpu-memory"}}) {
+        const auto bad = parse_agent_options(args);
+        EXPECT_NE(bad.error.find(args.front()), std::string::npos) << args.front();
+        EXPECT_EQ(bad.error.find('\n'), std::string::npos);
+    }
+    for (const char *flag :
+         {"--max-message-bytes", "--max-host-memory", "--max-gpu-memory", "--record-corpus"})
+        EXPECT_NE(std::string(agent_usage()).find(flag), std::string::npos) << flag;
 }
 
 TEST(AgentOptions, BadInputIsOneLineError) {
