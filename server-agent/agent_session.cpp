@@ -44,7 +44,8 @@ bool client_type(uint16_t type) {
 class Session {
 public:
     Session(std::unique_ptr<protocol::Connection> connection, const SessionConfig &config)
-        : connection_(std::move(connection)), config_(config), replayer_(config.session_id) {
+        : connection_(std::move(connection)), config_(config),
+          replayer_(config.session_id, {config.max_host_memory, config.max_gpu_memory}) {
         if (!config.record_corpus.empty())
             recorder_ = std::make_unique<CorpusRecorder>(config.record_corpus, config.session_id);
     }
@@ -263,8 +264,6 @@ const char *session_exit_name(int status) {
 }
 
 int run_session(protocol::UniqueFd socket, const SessionConfig &config) {
-    // Before the session's replayer (and the MemoryRebind it owns) exists.
-    set_process_memory_limits({config.max_host_memory, config.max_gpu_memory});
     protocol::ConnectionOptions options;
     options.name = "session " + std::to_string(config.session_id);
     // What the client may send is capped by --max-message-bytes; what the agent sends back (a

@@ -16,20 +16,12 @@ std::string hex(uint64_t v) {
     return text;
 }
 
-MemoryLimits g_process_limits;
-
 // "over --max-gpu-memory (8589934592 bytes)": the line names the flag that raises the cap.
 std::string over(const char *flag, uint64_t limit) {
     return std::string("over ") + flag + " (" + std::to_string(limit) + " bytes)";
 }
 
 } // namespace
-
-void set_process_memory_limits(const MemoryLimits &limits) {
-    g_process_limits = limits;
-}
-
-MemoryRebind::MemoryRebind(VulkanContext &context) : context_(context), limits_(g_process_limits) {}
 
 MemoryRebind::~MemoryRebind() {
     for (auto &[handle, resource] : resources_)

@@ -39,14 +39,9 @@ struct MemoryLimits {
     uint64_t gpu_bytes = UINT64_MAX;
 };
 
-// The limits every MemoryRebind created afterwards in this process starts with. A session is a
-// process of its own (listener.cpp), so this is the session's setting; it is set before the
-// session's replayer exists, which owns its MemoryRebind.
-void set_process_memory_limits(const MemoryLimits &limits);
-
 class MemoryRebind {
 public:
-    explicit MemoryRebind(VulkanContext &context);
+    MemoryRebind(VulkanContext &context, const MemoryLimits &limits) : context_(context), limits_(limits) {}
     ~MemoryRebind();
     MemoryRebind(const MemoryRebind &) = delete;
     MemoryRebind &operator=(const MemoryRebind &) = delete;

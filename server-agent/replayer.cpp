@@ -21,7 +21,8 @@ std::string hex(uint64_t v) {
 
 } // namespace
 
-Replayer::Replayer(uint64_t session_id) : session_id_(session_id) {
+Replayer::Replayer(uint64_t session_id, const MemoryLimits &limits)
+    : session_id_(session_id), memory_(context_, limits) {
     table = &table_;
     // Whole frames until the client's SplitConfig says it splits (a verifying client never does).
     fovea_.set_enabled(false);

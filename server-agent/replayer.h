@@ -26,7 +26,8 @@ namespace splitvk::agent {
 
 class Replayer final : public ReplayVisitorBase {
 public:
-    explicit Replayer(uint64_t session_id);
+    // `limits`: the session's --max-host-memory / --max-gpu-memory caps (memory_rebind.h).
+    Replayer(uint64_t session_id, const MemoryLimits &limits);
     ~Replayer() override;
 
     // The session's instance on GPU `device_index`; false with one line in `error`.
@@ -114,7 +115,7 @@ private:
     VulkanContext context_;
     codec::HandleTable table_;
     codec::Arena arena_;
-    MemoryRebind memory_{context_};
+    MemoryRebind memory_;
     SwapchainImages swapchains_{context_, table_};
     FoveaShading fovea_{vk, swapchains_};
     TileStreamer::Send tile_sender_;
