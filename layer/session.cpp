@@ -156,9 +156,16 @@ std::unique_ptr<Session> Session::open(const DeviceState &device, const VkDevice
         std::unordered_set<uint64_t> live_ids;
         for (auto &message : session->object_log_locked(&entries, &live_ids))
             session->send_locked(message.type, std::move(message.payload));
+    } else if (final) {
+        // An agent answered and refused (a wrong or missing token, another protocol): say so in the
+        // words the reconnect path uses, not "no splitvk-agent", which sends the user looking for
+        // a network problem.
+        SPLITVK_WARN("splitvk-agent at %s refused the session (%s); running unsplit",
+                     session->address_.c_str(), agent.error().c_str());
+        session->failure_logged_.store(true);
     } else {
-        SPLITVK_WARN("no splitvk-agent at %s (%s); running unsplit%s", session->address_.c_str(),
-                     agent.error().c_str(), final ? "" : " until one answers");
+        SPLITVK_WARN("no splitvk-agent at %s (%s); running unsplit until one answers",
+                     session->address_.c_str(), agent.error().c_str());
         session->failure_logged_.store(true);
     }
     if (!final) session->reconnector_ = std::thread([raw = session.get()] { raw->run_reconnect(); });

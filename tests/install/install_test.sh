@@ -18,6 +18,14 @@ done
 lib=$(find "$prefix" -name libVkLayer_splitvk.so | head -1)
 [ -n "$lib" ] || { echo "FAIL: libVkLayer_splitvk.so not installed"; exit 1; }
 
+# In the ASan+UBSan build (scripts/test's build-asan/) the installed layer is instrumented and
+# vkcube is not: the ASan runtime must come first in vkcube's library list (LD_PRELOAD), or the
+# layer aborts at dlopen. LeakSanitizer stays off there: it would report lavapipe's and the
+# loader's allocations, not splitvk's (whose leaks the unit tests check).
+sanitizer_env=()
+asan=$(ldd "$lib" | awk '/libasan\.so/ {print $3; exit}')
+[ -n "$asan" ] && sanitizer_env=(LD_PRELOAD="$asan" ASAN_OPTIONS=detect_leaks=0)
+
 fifo=$(mktemp -u) && mkfifo "$fifo"
 Xvfb -displayfd 3 -screen 0 640x480x24 -nolisten tcp 3>"$fifo" >/dev/null 2>&1 &
 xvfb_pid=$!
@@ -27,7 +35,7 @@ read -r -t 20 display <"$fifo"; rm -f "$fifo"
 run() {
   env -i PATH="$PATH" HOME="$prefix" DISPLAY=":$display" XDG_DATA_DIRS="$prefix/share" \
     XDG_CONFIG_DIRS=/nonexistent XDG_DATA_HOME=/nonexistent XDG_CONFIG_HOME=/nonexistent \
-    VK_DRIVER_FILES=/usr/share/vulkan/icd.d/lvp_icd.x86_64.json SPLITVK_LOG_LEVEL=info "$@" \
+    VK_DRIVER_FILES=/usr/share/vulkan/icd.d/lvp_icd.x86_64.json SPLITVK_LOG_LEVEL=info "${sanitizer_env[@]}" "$@" \
     vkcube --c 3 --width 64 --height 64 2>&1
 }
 expect_active() {

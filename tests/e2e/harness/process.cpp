@@ -1,5 +1,7 @@
 #include "process.h"
 
+#include "vk_env.h"
+
 #include <cerrno>
 #include <cstring>
 #include <fstream>
@@ -19,6 +21,66 @@ namespace {
 
 double seconds_since(Clock::time_point t) {
     return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+// In the sanitizer build (scripts/test's build-asan/: -fsanitize=address,undefined on everything
+// this project builds, the harness included) the children need two things the test binary cannot
+// get from ctest's environment:
+#if defined(__SANITIZE_ADDRESS__)
+#define SPLITVK_E2E_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define SPLITVK_E2E_ASAN 1
+#endif
+#endif
+
+#ifdef SPLITVK_E2E_ASAN
+// The libasan this binary runs with (from /proc/self/maps), so that a child preloads the same one.
+std::string loaded_libasan() {
+    static const std::string path = [] {
+        for (const auto &line : split_lines(read_file("/proc/self/maps"))) {
+            const auto slash = line.find('/');
+            if (slash != std::string::npos && line.find("/libasan.so", slash) != std::string::npos)
+                return line.substr(slash);
+        }
+        return std::string();
+    }();
+    return path;
+}
+
+bool starts_with_path(const std::filesystem::path &p, const std::filesystem::path &dir) {
+    std::error_code ec;
+    const auto a = std::filesystem::weakly_canonical(p, ec).string();
+    const auto b = std::filesystem::weakly_canonical(dir, ec).string();
+    return !b.empty() && a.rfind(b + "/", 0) == 0;
+}
+#endif
+
+void adapt_env_to_sanitizers([[maybe_unused]] const std::string &program, [[maybe_unused]] Env &env) {
+#ifdef SPLITVK_E2E_ASAN
+    // 1. No leak checking in children. LeakSanitizer's report at exit would be about code that is
+    //    not ours: lavapipe (and LLVM's JIT under it), the Vulkan loader, the validation layer and
+    //    Xlib/xcb keep allocations until exit, and the driver's are made by a module the loader has
+    //    dlclose()d by then, so they can be neither symbolized nor suppressed by a suppressions
+    //    file. splitvk's own code keeps leak checking in the unit tests (run with detect_leaks=1),
+    //    and the soak watches the real processes' memory over 10,000 frames. ASan's other checks and
+    //    UBSan stay on in every child (ctest's ASAN_OPTIONS / UBSAN_OPTIONS are passed on; a later
+    //    flag wins, so this is appended).
+    auto &asan = env["ASAN_OPTIONS"];
+    asan += (asan.empty() ? "" : ":") + std::string("detect_leaks=0");
+    // 2. An uninstrumented program (vkcube, vkcubepp, gfxrecon-replay) that loads one of this
+    //    build's instrumented layers (splitvk, or the test hold layer) must have the ASan runtime
+    //    first in its initial library list, or the layer aborts at dlopen with "ASan runtime does
+    //    not come first in initial library list". Programs of this build are linked with libasan
+    //    already; others are left alone when no splitvk layer can load (Xvfb, ffmpeg).
+    const auto layers = env.find("VK_INSTANCE_LAYERS");
+    const bool loads_ours = (layers != env.end() && layers->second.find("SPLITVK") != std::string::npos) ||
+                            env.count("SPLITVK_ENABLE") != 0;
+    if (loads_ours && !starts_with_path(program, build_dir()) && !loaded_libasan().empty()) {
+        auto &preload = env["LD_PRELOAD"];
+        preload = preload.empty() ? loaded_libasan() : loaded_libasan() + ":" + preload;
+    }
+#endif
 }
 
 } // namespace
@@ -124,8 +186,10 @@ bool Process::start() {
 
     // Everything the child needs is prepared before fork: between fork and exec only
     // async-signal-safe calls are allowed (the test binary may have threads).
+    Env env = spec_.env;
+    adapt_env_to_sanitizers(*program, env);
     std::vector<std::string> env_strings;
-    for (auto &[k, v] : spec_.env)
+    for (auto &[k, v] : env)
         env_strings.push_back(k + "=" + v);
     std::vector<char *> envp;
     for (auto &s : env_strings)
