@@ -27,7 +27,11 @@ void note_timed_submit(DeviceState &device, uint32_t count, const VkCommandBuffe
 // vkBeginCommandBuffer: a new recording has no split pass timed yet.
 void reset_split_pass_timing(VkCommandBuffer command_buffer);
 
-// Milliseconds of the latest split pass the GPU has completed, 0 when none has yet.
+// Milliseconds of the latest split pass the GPU has completed, 0 when none has yet. Reads the
+// query pool only every kPeripheryReadInterval calls and returns the last value in between: some
+// drivers make vkGetQueryPoolResults wait for the device to go idle even without WAIT_BIT
+// (lavapipe does), and the present thread must not pay that every frame.
+inline constexpr uint64_t kPeripheryReadInterval = 16;
 double latest_periphery_ms(DeviceState &device);
 
 // vkDestroyDevice.

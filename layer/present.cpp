@@ -228,7 +228,8 @@ VkSemaphore composite_split_frame(DeviceState &dev, VkQueue queue, const VkPrese
     FrameRecord record;
     record.frame = frame;
     record.frame_ms = session.frame_interval_ms();
-    record.periphery_ms = latest_periphery_ms(dev);
+    // Only for the CSV: reading GPU timestamps may stall the present on some drivers (gpu_timing.h).
+    if (session.settings().stats_path.size()) record.periphery_ms = latest_periphery_ms(dev);
 
     const auto wait_start = Clock::now();
     const auto tiles = frame_tiles(session, frame, split); // keeps the pixels alive through composite()

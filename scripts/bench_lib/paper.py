@@ -372,15 +372,14 @@ def timeline(prev, row, periphery_ms, periphery_kind="estimated"):
     draw/readback/encode. Derived: the app's time before its present S = frame_ms - prev wait - prev
     merge; the tiles arrive at S + tile_wait - decode (the tile wait ends when the slower eye is
     decoded); the agent sends at arrival - network; encode, readback and draw end back to back before
-    that. Assumed: the periphery render starts at the submit, which atrium issues right before its
-    present, and runs on lavapipe's rasterizer thread (so it overlaps the tile wait) for as long as the
-    periphery-size native frame takes."""
+    that. Assumed: the periphery render ends at the present's start, because lavapipe executes a
+    submit on the submitting thread and atrium presents right after submitting."""
     f = lambda k, r=row: float(r[k])  # noqa: E731
     prev_tail = f("tile_wait_ms", prev) + f("merge_ms", prev)
     S = max(0.0, f("frame_ms") - prev_tail)
     wait, decode, merge, network = f("tile_wait_ms"), f("decode_ms"), f("merge_ms"), f("network_ms")
-    arrive = S + max(0.0, wait - decode)
-    send = max(S, arrive - network)
+    arrive = max(0.0, S + wait - decode)  # the wait ends when the slower eye is decoded, or at once
+    send = max(0.0, arrive - network)
     enc_start = send - f("agent_encode_ms")
     rb_start = enc_start - f("agent_readback_ms")
     draw_start = rb_start - f("agent_draw_ms")
@@ -396,9 +395,12 @@ def timeline(prev, row, periphery_ms, periphery_kind="estimated"):
         ("client decoders", "decode (slower eye)", arrive, decode),
     ]
     if periphery_ms is not None:
-        # The row's own GPU measurement when there is one (the latest completed split pass).
-        own = float(row.get("periphery_ms") or 0)
-        segs.insert(1, ("client lavapipe", f"periphery render ({periphery_kind})", S, own or periphery_ms))
+        # The row's own GPU measurement when there is one (the latest completed split pass). Lavapipe
+        # runs a submit's work on the submitting thread before vkQueueSubmit returns (it has no
+        # queue thread), and atrium presents right after submitting: the periphery render ends about
+        # where the present starts.
+        own = float(row.get("periphery_ms") or 0) or periphery_ms
+        segs.insert(1, ("client lavapipe", f"periphery render ({periphery_kind})", max(0.0, S - own), own))
     return {"frame": int(row["frame"]), "frame_ms": f("frame_ms"), "present_at": S + wait + merge, "segments": segs}
 
 
@@ -591,10 +593,10 @@ def section_markdown(res, figures, docs_path, analysis):
             "(the wait ends when the slower eye is decoded); the agent sends them network-ms earlier; encode, "
             "readback and draw end back to back before that. Assumptions: FramePresent takes ~0 ms on "
             "loopback; the periphery render (its GPU time as the layer measured it, or hatched where it is "
-            "only estimated from a periphery-size native run) starts at the submit, which atrium issues right before presenting, "
-            "and runs on lavapipe's rasterizer thread, overlapping the tile wait; the app's time before its "
-            "present is not only recording: with two frames in flight it waits for lavapipe to finish an "
-            "earlier frame (its periphery and composite), which the CSV cannot split further. Bars that overlap in time "
+            "only estimated from a periphery-size native run) ends where the present starts: lavapipe has no "
+            "queue thread, so vkQueueSubmit returns only once the submitting thread has run the pass's vertex "
+            "work and rasterised it (LP_NUM_THREADS=1), and atrium presents right after submitting. The "
+            "agent's path is drawn ending where the tiles arrive. Bars that overlap in time "
             "on different lanes ran in parallel; on this machine the agent has its own core, the client's "
             "lanes share one.",
             "",
