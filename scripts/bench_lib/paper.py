@@ -372,8 +372,8 @@ def timeline(prev, row, periphery_ms, periphery_kind="estimated"):
     draw/readback/encode. Derived: the app's time before its present S = frame_ms - prev wait - prev
     merge; the tiles arrive at S + tile_wait - decode (the tile wait ends when the slower eye is
     decoded); the agent sends at arrival - network; encode, readback and draw end back to back before
-    that. Assumed: the periphery render ends at the present's start, because lavapipe executes a
-    submit on the submitting thread and atrium presents right after submitting."""
+    that. Assumed: the periphery render ends at the present's start (or starts at 0 when longer),
+    because lavapipe executes a submit on the submitting thread and rasterises at the next flush."""
     f = lambda k, r=row: float(r[k])  # noqa: E731
     prev_tail = f("tile_wait_ms", prev) + f("merge_ms", prev)
     S = max(0.0, f("frame_ms") - prev_tail)
@@ -592,11 +592,13 @@ def section_markdown(res, figures, docs_path, analysis):
             "frame's tile wait and merge; the tiles arrive at the present's wait start + tile wait - decode "
             "(the wait ends when the slower eye is decoded); the agent sends them network-ms earlier; encode, "
             "readback and draw end back to back before that. Assumptions: FramePresent takes ~0 ms on "
-            "loopback; the periphery render (its GPU time as the layer measured it, or hatched where it is "
-            "only estimated from a periphery-size native run) ends where the present starts: lavapipe has no "
-            "queue thread, so vkQueueSubmit returns only once the submitting thread has run the pass's vertex "
-            "work and rasterised it (LP_NUM_THREADS=1), and atrium presents right after submitting. The "
-            "agent's path is drawn ending where the tiles arrive. Bars that overlap in time "
+            "loopback; the periphery render (its GPU time as the layer measured it with timestamp queries, or "
+            "hatched where it is only estimated from a periphery-size native run) is drawn ending where the "
+            "present starts, or from the frame's start when it is longer: lavapipe has no queue thread, so "
+            "the submitting thread runs the pass's vertex work inside vkQueueSubmit and the rasterisation at "
+            "the next flush (the composite's submit), and its GPU time spreads over the app thread's own "
+            "stages rather than running beside them. The agent's path is drawn ending where the tiles arrive. "
+            "Bars that overlap in time "
             "on different lanes ran in parallel; on this machine the agent has its own core, the client's "
             "lanes share one.",
             "",
@@ -658,9 +660,10 @@ def analysis_text(res):
     if parts["upload + merge"] > 0.05 * F:
         steps.append(f"Upload + merge is serial after the wait and costs {parts['upload + merge']:.1f} ms "
                      f"({parts['upload + merge'] / F:.0%}; the paper's 0.96 ms): the compositor upsamples the whole "
-                     "frame with a Catmull-Rom fragment shader on the client's CPU rasteriser. A bilinear pass "
-                     "(or vkCmdBlitImage) for the periphery and vkCmdCopyBufferToImage for the fovea tiles would "
-                     "take most of it off the critical path, whatever the agent does.")
+                     "frame in a full-screen fragment pass, which the client's CPU rasteriser runs on the app's own "
+                     "thread when the composite is submitted (lavapipe has no queue thread). A client with a GPU "
+                     "runs it in the paper's time; here, leaving the foveae out of the upsample pass (the tiles "
+                     "overwrite them), or a vkCmdBlitImage, would shorten it.")
     if P is not None and P >= agent_path:
         steps.append("The client still shades the foveae's pixels in its periphery buffer, which the tiles then "
                      "overwrite: masking them out (depth or stencil pre-pass, or splitting the render area around "
