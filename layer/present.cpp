@@ -29,6 +29,7 @@
 #include <cstring>
 #include <map>
 #include <mutex>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -205,11 +206,16 @@ std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, 
     if (match) return tiles;
     const uint64_t late = session.late_frames.fetch_add(1);
     // One line for the first late frame, then one per hundred: a stalled agent must not flood.
-    if (late % 100 == 0)
-        SPLITVK_WARN("frame %llu: %s within %u ms; its centre is the periphery's (%llu such frames)",
-                     static_cast<unsigned long long>(frame),
-                     tiles ? "the agent's tiles do not match the frame's foveae" : "no tiles from the agent",
-                     session.settings().tile_wait_ms, static_cast<unsigned long long>(late + 1));
+    if (late % 100 == 0) {
+        const std::string why =
+            tiles ? "the agent's tiles do not match the frame's foveae"
+            : !session.live()
+                ? "the agent went away before its tiles came"
+                : "no tiles from the agent within " + std::to_string(session.settings().tile_wait_ms) + " ms";
+        SPLITVK_WARN("frame %llu: %s; its centre is the periphery's (%llu such frames)",
+                     static_cast<unsigned long long>(frame), why.c_str(),
+                     static_cast<unsigned long long>(late + 1));
+    }
     return nullptr;
 }
 
