@@ -49,6 +49,23 @@ void note_queue(DeviceState &dev, VkQueue queue, uint32_t family) {
     g_queues.insert(queue, std::move(info));
 }
 
+// What the submitted command buffers recorded, in submission order: split passes (split.h),
+// image layouts (resource.h) and split-pass timestamps (gpu_timing.h).
+void note_submit(DeviceState &dev, uint32_t count, const VkSubmitInfo *submits) {
+    note_split_submit(dev, count, submits);
+    note_layout_submit(dev, count, submits);
+    for (uint32_t i = 0; i < count; ++i)
+        note_timed_submit(dev, submits[i].commandBufferCount, submits[i].pCommandBuffers);
+}
+
+void note_submit(DeviceState &dev, uint32_t count, const VkSubmitInfo2 *submits) {
+    note_split_submit(dev, count, submits);
+    note_layout_submit(dev, count, submits);
+    for (uint32_t i = 0; i < count; ++i)
+        for (uint32_t j = 0; j < submits[i].commandBufferInfoCount; ++j)
+            note_timed_submit(dev, 1, &submits[i].pCommandBufferInfos[j].commandBuffer);
+}
+
 } // namespace
 
 uint32_t queue_family_of(VkQueue queue) {
@@ -84,12 +101,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit(VkQueue queue, uint32_t submitCount, 
     DeviceState &dev = device_state(queue);
     if (capturing(dev)) [[unlikely]]
         capture_submit(dev, queue, submitCount, pSubmits, fence);
-    if (dev.session) {
-        note_split_submit(dev, submitCount, pSubmits);
-        note_layout_submit(dev, submitCount, pSubmits);
-        for (uint32_t i = 0; i < submitCount; ++i)
-            note_timed_submit(dev, pSubmits[i].commandBufferCount, pSubmits[i].pCommandBuffers);
-    }
+    if (dev.session) note_submit(dev, submitCount, pSubmits);
     return dev.dispatch.QueueSubmit(queue, submitCount, pSubmits, fence);
 }
 
@@ -98,13 +110,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit2(VkQueue queue, uint32_t submitCount,
     DeviceState &dev = device_state(queue);
     if (capturing(dev)) [[unlikely]]
         capture_submit2(dev, queue, submitCount, pSubmits, fence);
-    if (dev.session) {
-        note_split_submit(dev, submitCount, pSubmits);
-        note_layout_submit(dev, submitCount, pSubmits);
-        for (uint32_t i = 0; i < submitCount; ++i)
-            for (uint32_t j = 0; j < pSubmits[i].commandBufferInfoCount; ++j)
-                note_timed_submit(dev, 1, &pSubmits[i].pCommandBufferInfos[j].commandBuffer);
-    }
+    if (dev.session) note_submit(dev, submitCount, pSubmits);
     return dev.dispatch.QueueSubmit2(queue, submitCount, pSubmits, fence);
 }
 
@@ -113,13 +119,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit2KHR(VkQueue queue, uint32_t submitCou
     DeviceState &dev = device_state(queue);
     if (capturing(dev)) [[unlikely]]
         capture_submit2(dev, queue, submitCount, pSubmits, fence);
-    if (dev.session) {
-        note_split_submit(dev, submitCount, pSubmits);
-        note_layout_submit(dev, submitCount, pSubmits);
-        for (uint32_t i = 0; i < submitCount; ++i)
-            for (uint32_t j = 0; j < pSubmits[i].commandBufferInfoCount; ++j)
-                note_timed_submit(dev, 1, &pSubmits[i].pCommandBufferInfos[j].commandBuffer);
-    }
+    if (dev.session) note_submit(dev, submitCount, pSubmits);
     return dev.dispatch.QueueSubmit2KHR(queue, submitCount, pSubmits, fence);
 }
 

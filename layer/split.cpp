@@ -70,6 +70,26 @@ void note_split_submit(DeviceState &device, uint32_t count, const VkSubmitInfo2 
             note_command_buffers(1, &submits[i].pCommandBufferInfos[j].commandBuffer);
 }
 
+namespace {
+
+// Passes down only the indices the app set, in runs: the others hold no valid value to pass.
+template <class State, class Value, class Set>
+void set_valid_runs(const State &dynamic, const std::vector<Value> &values, Set &&set) {
+    for (uint32_t first = 0; first < values.size();) {
+        if (!dynamic.valid(first)) {
+            ++first;
+            continue;
+        }
+        uint32_t end = first;
+        while (end < values.size() && dynamic.valid(end))
+            ++end;
+        set(first, end - first, values.data() + first);
+        first = end;
+    }
+}
+
+} // namespace
+
 void emit_viewports(DeviceState &device, VkCommandBuffer command_buffer,
                     const split::CommandTracker &tracker) {
     const double scale = split_settings().scale;
@@ -94,18 +114,9 @@ void emit_viewports(DeviceState &device, VkCommandBuffer command_buffer,
         if (set) set(command_buffer, static_cast<uint32_t>(values.size()), values.data());
         return;
     }
-    // Only the indices the app set: the others hold no valid viewport to pass down.
-    for (uint32_t first = 0; first < values.size();) {
-        if (!dynamic.valid(first)) {
-            ++first;
-            continue;
-        }
-        uint32_t end = first;
-        while (end < values.size() && dynamic.valid(end))
-            ++end;
-        device.dispatch.CmdSetViewport(command_buffer, first, end - first, values.data() + first);
-        first = end;
-    }
+    set_valid_runs(dynamic, values, [&](uint32_t first, uint32_t count, const VkViewport *v) {
+        device.dispatch.CmdSetViewport(command_buffer, first, count, v);
+    });
 }
 
 void emit_scissors(DeviceState &device, VkCommandBuffer command_buffer,
@@ -132,17 +143,9 @@ void emit_scissors(DeviceState &device, VkCommandBuffer command_buffer,
         if (set) set(command_buffer, static_cast<uint32_t>(values.size()), values.data());
         return;
     }
-    for (uint32_t first = 0; first < values.size();) {
-        if (!dynamic.valid(first)) {
-            ++first;
-            continue;
-        }
-        uint32_t end = first;
-        while (end < values.size() && dynamic.valid(end))
-            ++end;
-        device.dispatch.CmdSetScissor(command_buffer, first, end - first, values.data() + first);
-        first = end;
-    }
+    set_valid_runs(dynamic, values, [&](uint32_t first, uint32_t count, const VkRect2D *r) {
+        device.dispatch.CmdSetScissor(command_buffer, first, count, r);
+    });
 }
 
 } // namespace splitvk
