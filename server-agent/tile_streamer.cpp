@@ -82,26 +82,7 @@ void TileStreamer::destroy_slot(Slot &slot) {
 }
 
 void TileStreamer::record_copy(Slot &slot) {
-    const VkCommandBuffer cb = slot.command_buffer;
-    vkResetCommandBuffer(cb, 0);
-    VkCommandBufferBeginInfo begin{};
-    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
-    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-    vkBeginCommandBuffer(cb, &begin);
-    // The app's submits left the image in PRESENT_SRC_KHR; they precede this one on the queue,
-    // so a full source scope makes their attachment writes visible to the copy.
-    VkImageMemoryBarrier barrier{};
-    barrier.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
-    barrier.srcAccessMask = VK_ACCESS_MEMORY_WRITE_BIT;
-    barrier.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
-    barrier.oldLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
-    barrier.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-    barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    barrier.image = slot.frame.image;
-    barrier.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-    vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
-                         nullptr, 0, nullptr, 1, &barrier);
+    vkResetCommandBuffer(slot.command_buffer, 0);
     std::vector<VkBufferImageCopy> regions;
     VkDeviceSize offset = 0;
     for (const VkRect2D &rect : slot.frame.foveae) {
@@ -113,26 +94,7 @@ void TileStreamer::record_copy(Slot &slot) {
         regions.push_back(region);
         offset += VkDeviceSize{rect.extent.width} * rect.extent.height * 4;
     }
-    vkCmdCopyImageToBuffer(cb, slot.frame.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, slot.staging.buffer,
-                           static_cast<uint32_t>(regions.size()), regions.data());
-    // Back to where the app left it: the next frame's commands expect PRESENT_SRC_KHR (or
-    // UNDEFINED, which accepts anything).
-    barrier.srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
-    barrier.dstAccessMask = 0;
-    barrier.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-    barrier.newLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
-    VkBufferMemoryBarrier host{};
-    host.sType = VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER;
-    host.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-    host.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-    host.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    host.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    host.buffer = slot.staging.buffer;
-    host.size = VK_WHOLE_SIZE;
-    vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                         VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT | VK_PIPELINE_STAGE_HOST_BIT, 0, 0, nullptr, 1,
-                         &host, 1, &barrier);
-    vkEndCommandBuffer(cb);
+    VulkanContext::record_present_readback(slot.command_buffer, slot.frame.image, slot.staging, regions);
 }
 
 bool TileStreamer::present(Frame frame, std::string *error) {

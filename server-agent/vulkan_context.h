@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace splitvk::agent {
 
@@ -54,6 +55,12 @@ public:
     void destroy(HostBuffer &buffer) const;
     // Makes the GPU's writes visible to the host (non-coherent memory only).
     void invalidate(const HostBuffer &buffer) const;
+
+    // Records, into `cb` (begun and ended here), copies of `regions` of a presented image into
+    // `dst`, leaving the image in PRESENT_SRC_KHR as the app left it and the bytes visible to the
+    // host once the submit completes.
+    static void record_present_readback(VkCommandBuffer cb, VkImage image, const HostBuffer &dst,
+                                        const std::vector<VkBufferImageCopy> &regions);
 
     // A memory type among `type_bits` with all of `required`, preferring `preferred` too; -1 if none.
     int32_t find_memory_type(uint32_t type_bits, VkMemoryPropertyFlags required,
