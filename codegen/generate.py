@@ -3,7 +3,8 @@
 
 Usage: generate.py --registry /usr/share/vulkan/registry --out DIR TARGET...
 Targets: dispatch (instance/device dispatch tables), layer (layer entry points and lookup),
-formats (vk_format_info.h: block sizes of single-plane formats),
+formats (vk_format_info.h: block sizes of single-plane formats), envelope (vk_envelope_tables.h:
+how device limits, features and formats combine),
 codec (the Vulkan wire codec: encoders, decoders, dispatch, smoke test). All consume the same
 model from vkregistry.py.
 """
@@ -15,6 +16,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import emit_codec  # noqa: E402
 import emit_dispatch  # noqa: E402
+import emit_envelope  # noqa: E402
 import emit_formats  # noqa: E402
 import emit_layer  # noqa: E402
 import emit_replay  # noqa: E402
@@ -26,6 +28,7 @@ EMITTERS = {
     "codec": emit_codec.emit,
     "replay": emit_replay.emit,
     "formats": emit_formats.emit,
+    "envelope": emit_envelope.emit,
 }
 
 

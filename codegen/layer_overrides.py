@@ -12,6 +12,16 @@ MANUAL_COMMANDS = {
     "vkCreateInstance",
     "vkDestroyInstance",
     "vkEnumerateDeviceExtensionProperties",
+    # physical_device.cpp: the device envelope the application is told (issue 10).
+    "vkGetPhysicalDeviceProperties",
+    "vkGetPhysicalDeviceProperties2",
+    "vkGetPhysicalDeviceProperties2KHR",
+    "vkGetPhysicalDeviceFeatures",
+    "vkGetPhysicalDeviceFeatures2",
+    "vkGetPhysicalDeviceFeatures2KHR",
+    "vkGetPhysicalDeviceFormatProperties",
+    "vkGetPhysicalDeviceFormatProperties2",
+    "vkGetPhysicalDeviceFormatProperties2KHR",
     # device.cpp: the device chain.
     "vkCreateDevice",
     "vkDestroyDevice",

@@ -42,6 +42,7 @@ class Param:
     values: str | None = None         # `values` (the sType a structure must carry)
     selector: str | None = None       # union members: the member selecting the active member
     selection: str | None = None      # union members: the selector value choosing this one
+    limittype: str | None = None      # `limittype` of a limit or feature member: "max", "min,pot", ...
 
     @property
     def lengths(self) -> list[str]:
@@ -154,7 +155,7 @@ def _parse_param(elem) -> Param:
                  optional_levels=optional_levels,
                  noautovalidity=elem.get("noautovalidity") == "true",
                  array_dims=dims, values=elem.get("values"), selector=elem.get("selector"),
-                 selection=elem.get("selection"))
+                 selection=elem.get("selection"), limittype=elem.get("limittype"))
 
 
 def _itertext_without_comments(elem):
