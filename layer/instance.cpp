@@ -71,6 +71,9 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateInstance(const VkInstanceCreateInfo *pCreat
     }
 
     layer_settings();
+    // Greet the agent now, in the background, so that the device envelope can include its GPU by
+    // the time the application asks for limits (agent_link.h).
+    state->early_agent = EarlyAgent::start(state->application_name);
     SPLITVK_INFO("%s active in '%s'", kLayerName,
                  state->application_name.empty() ? "(unnamed application)" : state->application_name.c_str());
     g_instances.insert(dispatch_key(*pInstance), std::move(state));

@@ -196,6 +196,17 @@ std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, 
     const auto deadline =
         std::chrono::steady_clock::now() + std::chrono::milliseconds(session.settings().tile_wait_ms);
     auto tiles = session.tiles()->take(frame, deadline);
+    if (tiles && tiles->invalid) {
+        // Never a wrong fovea on screen: the agent says its GPU could not draw this frame as the
+        // client asked (server-agent/limit_guard.h), so the centre stays the periphery's.
+        const uint64_t invalid = session.invalid_frames.fetch_add(1);
+        if (invalid % 100 == 0)
+            SPLITVK_WARN(
+                "frame %llu: the agent's GPU could not render it correctly (its log says why); its centre "
+                "is the periphery's (%llu such frames)",
+                static_cast<unsigned long long>(frame), static_cast<unsigned long long>(invalid + 1));
+        return nullptr;
+    }
     bool match = tiles && tiles->tiles.size() == split.foveae.size();
     for (size_t i = 0; match && i < split.foveae.size(); ++i) {
         const VkRect2D &want = split.foveae[i];
@@ -238,6 +249,7 @@ VkSemaphore composite_split_frame(DeviceState &dev, VkQueue queue, const VkPrese
     if (session.settings().stats_path.size()) record.periphery_ms = latest_periphery_ms(dev);
 
     const auto wait_start = Clock::now();
+    const uint64_t invalid_before = session.invalid_frames.load();
     const auto tiles = frame_tiles(session, frame, split); // keeps the pixels alive through composite()
     const auto waited = Clock::now();
     record.tile_wait_ms = ms_between(wait_start, waited);
@@ -255,7 +267,8 @@ VkSemaphore composite_split_frame(DeviceState &dev, VkQueue queue, const VkPrese
         record.network_ms =
             std::max(0.0, ms_between(sent, tiles->received) - tiles->agent.present_to_send_us / 1000.0);
     }
-    record.late = !tiles;
+    // A frame the agent flagged came on time; it is not late, only not usable.
+    record.late = !tiles && session.invalid_frames.load() == invalid_before;
     if (tiles && session.take_first_tiles_after_resync())
         SPLITVK_INFO(
             "frame %llu: the first split frame from the agent that joined, %.0f ms after it answered",
@@ -291,6 +304,10 @@ void report_split_summary(DeviceState &device) {
     if (!device.session || !device.session->splitting()) return;
     const std::string line = device.session->stats().summary();
     if (!line.empty()) splitvk::log_result("%s", line.c_str());
+    if (const uint64_t invalid = device.session->invalid_frames.load())
+        splitvk::log_result(
+            "split: %llu frames the agent flagged invalid showed the periphery in their centre",
+            static_cast<unsigned long long>(invalid));
 }
 
 void report_verify_summary(DeviceState &device) {

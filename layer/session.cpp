@@ -7,6 +7,7 @@
 #include "instance.h"
 #include "layer_settings.h"
 #include "log.h"
+#include "physical_device.h"
 #include "resource.h"
 
 #include <algorithm>
@@ -17,9 +18,6 @@ namespace {
 
 using namespace std::chrono_literals;
 
-// Never hang the application: a refused connection fails at once, a silent address after this.
-constexpr auto kConnectTimeout = 250ms;
-constexpr auto kHandshakeTimeout = 1000ms;
 // A full send queue (128 MiB) means the agent is not keeping up; wait this long, then give up.
 constexpr auto kSendWait = 2000ms;
 constexpr auto kCloseFlush = 500ms;
@@ -51,44 +49,40 @@ void CaptureHooks::chain_truncated(const char *parent) {
     truncation_logged_ = true;
 }
 
-protocol::Result<Session::Agent> Session::connect_agent(bool *final) {
-    *final = false;
-    protocol::ConnectionOptions options;
-    options.name = "splitvk-agent " + address_;
-    auto connected = protocol::Connection::connect(settings_.server.host, settings_.server.port,
-                                                   kConnectTimeout, std::move(options));
-    if (!connected) return protocol::Error{connected.error()};
-    Agent agent;
-    agent.connection = std::move(connected.value());
-    // A closure counts only for the connection in use: one that failed its handshake, or was
-    // replaced, is not the session's business.
-    protocol::Connection *connection = agent.connection.get();
-    agent.connection->start([this, connection](const std::string &reason) {
-        if (current_connection_.load() == connection) fail(reason);
-    });
-    protocol::Hello hello;
-    hello.token.assign(settings_.token.begin(), settings_.token.end());
-    hello.client_name = client_name_;
+protocol::Result<AgentLink> Session::connect_agent(bool *final) {
+    protocol::Hello hello = base_hello(settings_, client_name_);
     hello.client_gpu_name = client_gpu_name_;
-    hello.codec_fingerprint = codec::kCodecFingerprint;
-    hello.capabilities = protocol::capability::kZstdPayloads;
-    // SPLITVK_VERIFY compares whole frames with the agent's replay, which only an unsplit frame
-    // can match: verification and the split exclude each other.
-    hello.capabilities |=
-        settings_.verify ? protocol::capability::kVerifyFrames : protocol::capability::kFoveaTiles;
-    auto welcome = protocol::client_handshake(*agent.connection, hello, kHandshakeTimeout);
-    if (!welcome) {
-        // A wrong token or protocol version stays wrong however often it is tried; a full agent
-        // may have room later.
-        const std::string &e = welcome.error();
-        *final = e.starts_with("server rejected the session") && e.find("server full") == std::string::npos;
-        return protocol::Error{e};
-    }
-    agent.welcome = std::move(welcome).value();
-    return agent;
+    hello.device_envelope = envelope_wire_;
+    auto link = splitvk::connect_agent(settings_, hello, final);
+    if (link) watch_closure(*link);
+    return link;
 }
 
-void Session::adopt_locked(Agent &&agent) {
+std::string Session::early_link_mismatch(const AgentLink &link, const PhysicalDeviceState *physical) const {
+    // The agent greeted at vkCreateInstance saw no envelope. When its GPU is part of the envelope
+    // it honours it by construction; when it answered too late for that, check here what the
+    // agent would have checked at a handshake.
+    if (!physical || !physical->envelope || physical->agent_included || link.welcome.server_device.empty())
+        return {};
+    auto device = protocol::decode_device_description(link.welcome.server_device);
+    if (!device) return {};
+    const auto problems = protocol::violations(*device, *physical->envelope);
+    if (problems.empty()) return {};
+    std::string why = std::string(protocol::to_string(protocol::RejectReason::DeviceMismatch)) + ": ";
+    for (size_t i = 0; i < problems.size() && i < 4; ++i)
+        why += (i ? "; " : "") + problems[i];
+    return why;
+}
+
+void Session::watch_closure(AgentLink &link) {
+    // A closure counts only for the connection in use: one that failed its handshake, or was
+    // replaced, is not the session's business.
+    link.on_closed->set([this, connection = link.connection.get()](const std::string &reason) {
+        if (current_connection_.load() == connection) fail(reason);
+    });
+}
+
+void Session::adopt_locked(AgentLink &&agent) {
     stop_receiver();
     if (connection_) connection_->close("replaced by a new connection");
     connection_ = std::move(agent.connection);
@@ -147,8 +141,36 @@ std::unique_ptr<Session> Session::open(const DeviceState &device, const VkDevice
         encode_vkCreateDevice(e, device.physical_device, create_info, nullptr, &handle);
     });
 
+    // The application was told the envelope (physical_device.h); an agent must honour it.
+    const PhysicalDeviceState *physical = physical_device_state(device.physical_device);
+    if (physical) session->envelope_wire_ = physical->envelope_wire;
+
+    // The instance greeted the agent already: take that connection if it is still open, so that
+    // one application run is one session on the agent.
     bool final = false;
-    auto agent = session->connect_agent(&final);
+    protocol::Result<AgentLink> agent = protocol::Error{"no splitvk-agent answered"};
+    EarlyAgent::Outcome early =
+        device.instance->early_agent ? device.instance->early_agent->take() : EarlyAgent::Outcome{};
+    if (early.link) {
+        session->watch_closure(*early.link);
+        if (!early.link->connection->is_open()) {
+            agent = session->connect_agent(&final);
+        } else if (const std::string why = session->early_link_mismatch(*early.link, physical);
+                   !why.empty()) {
+            early.link->connection->send(protocol::MessageType::Goodbye, protocol::encode_goodbye({why}));
+            early.link->connection->flush(kCloseFlush);
+            early.link->connection->close("device mismatch");
+            agent = protocol::Error{"server rejected the session: " + why};
+            final = true;
+        } else {
+            agent = std::move(*early.link);
+        }
+    } else if (early.refused) {
+        agent = protocol::Error{early.error};
+        final = true;
+    } else {
+        agent = session->connect_agent(&final);
+    }
     if (agent) {
         std::lock_guard lock(session->mutex_);
         session->adopt_locked(std::move(agent).value());
@@ -212,7 +234,7 @@ void Session::run_reconnect() {
 }
 
 void Session::resync(DeviceState &device, VkQueue queue, uint64_t frame) {
-    std::optional<Agent> agent;
+    std::optional<AgentLink> agent;
     std::chrono::steady_clock::time_point answered;
     {
         std::lock_guard lock(reconnect_mutex_);

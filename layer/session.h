@@ -48,6 +48,8 @@
 // naming objects destroyed since they were recorded (the app cannot submit those either).
 
 #include "../protocol/session.h" // the metadata messages (same file name as this one)
+#include "agent_link.h"
+#include "physical_device.h"
 #include "stats.h"
 #include "tile_stream.h"
 #include "transport.h"
@@ -207,6 +209,7 @@ public:
     // all) and whose centre is the periphery's.
     std::atomic<uint64_t> composited_frames{0};
     std::atomic<uint64_t> late_frames{0};
+    std::atomic<uint64_t> invalid_frames{0}; // the agent flagged them: its GPU could not honour them
 
     // Entries in the object part of the live-state log.
     size_t live_object_count();
@@ -239,15 +242,15 @@ private:
         else if (encoder_.size() >= kBatchLimit)
             flush_locked();
     }
-    struct Agent {
-        std::unique_ptr<protocol::Connection> connection;
-        protocol::Welcome welcome;
-    };
-    // Connects and handshakes with the configured agent. *final when retrying cannot help (the
-    // agent rejected the token or the protocol version).
-    protocol::Result<Agent> connect_agent(bool *final);
+    // Connects and handshakes with the configured agent (agent_link.h), the device envelope in
+    // the Hello. *final when retrying cannot help.
+    protocol::Result<AgentLink> connect_agent(bool *final);
+    // Reports `link`'s closure to this session while it is the session's connection.
+    void watch_closure(AgentLink &link);
+    // Why the agent greeted at vkCreateInstance cannot serve this device's envelope; empty if it can.
+    std::string early_link_mismatch(const AgentLink &link, const PhysicalDeviceState *physical) const;
     // Makes `agent` the session's connection (under mutex_): receiver thread, tile stream.
-    void adopt_locked(Agent &&agent);
+    void adopt_locked(AgentLink &&agent);
     void stop_receiver();
     void run_reconnect();
     std::vector<LiveMessage> object_log_locked(size_t *entries, std::unordered_set<uint64_t> *live_ids);
@@ -284,6 +287,7 @@ private:
     std::string address_;
     std::string client_name_;
     std::string client_gpu_name_;
+    std::vector<uint8_t> envelope_wire_; // the device envelope the app was told, encoded; empty: unchecked
     // The connection whose closure means the agent went away: a late report from one that failed
     // its handshake or was replaced is ignored.
     std::atomic<protocol::Connection *> current_connection_{nullptr};
@@ -309,8 +313,8 @@ private:
     // Reconnection: the thread, what it found, and when.
     std::mutex reconnect_mutex_;
     std::condition_variable reconnect_wake_;
-    bool closing_ = false;               // under reconnect_mutex_
-    std::optional<Agent> pending_agent_; // under reconnect_mutex_
+    bool closing_ = false;                   // under reconnect_mutex_
+    std::optional<AgentLink> pending_agent_; // under reconnect_mutex_
     std::atomic<bool> resync_pending_{false};
     std::atomic<uint64_t> first_replayed_frame_{0};
     std::chrono::steady_clock::time_point reconnected_at_{}; // under reconnect_mutex_

@@ -55,6 +55,7 @@ bool TileStream::accept(std::vector<uint8_t> &&payload, std::string *error) {
     frame.swapchain_id = decoded->swapchain_id;
     frame.image_index = decoded->image_index;
     frame.agent = decoded->timings;
+    frame.invalid = (decoded->flags & protocol::kTilesInvalid) != 0;
     frame.bytes = payload.size();
     frame.received = Clock::now();
     frame.tiles.resize(decoded->tiles.size());

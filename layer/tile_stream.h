@@ -44,6 +44,7 @@ struct FrameTiles {
     std::chrono::steady_clock::time_point received; // the whole message was read
     std::chrono::steady_clock::duration decode{};   // the slowest eye
     bool failed = false;                            // a tile did not decode (logged)
+    bool invalid = false; // the agent could not render this frame correctly (kTilesInvalid)
 };
 
 class TileStream {

@@ -59,6 +59,8 @@ const char *to_string(RejectReason reason) {
         return "malformed handshake";
     case RejectReason::NotAuthorised:
         return "not authorised";
+    case RejectReason::DeviceMismatch:
+        return "the agent's GPU cannot honour the application's device limits";
     }
     return "unspecified";
 }
@@ -72,6 +74,8 @@ std::vector<uint8_t> encode_hello(const Hello &hello) {
     w.string(clean_text(hello.client_name, kMaxNameBytes));
     w.string(clean_text(hello.client_gpu_name, kMaxNameBytes));
     w.u64(hello.codec_fingerprint);
+    w.u32(hello.flags);
+    w.blob(hello.device_envelope);
     return w.take();
 }
 
@@ -92,16 +96,22 @@ Result<Hello> decode_hello(std::span<const uint8_t> payload) {
     hello.client_name = read_text(r, kMaxNameBytes, "client_name");
     hello.client_gpu_name = read_text(r, kMaxNameBytes, "client_gpu_name");
     hello.codec_fingerprint = r.u64("codec_fingerprint");
+    if (protocol_minor(hello.protocol_version) >= 1) {
+        hello.flags = r.u32("flags");
+        const auto envelope = r.blob(kMaxDeviceBlobBytes, "device_envelope");
+        hello.device_envelope.assign(envelope.begin(), envelope.end());
+    }
     if (!finish(r, hello.protocol_version, "Hello")) return Error{"malformed Hello: " + r.error()};
     return hello;
 }
 
 std::vector<uint8_t> encode_welcome(const Welcome &welcome) {
-    WireWriter w(32 + welcome.server_gpu_name.size());
+    WireWriter w(32 + welcome.server_gpu_name.size() + welcome.server_device.size());
     w.u32(welcome.protocol_version);
     w.u64(welcome.capabilities);
     w.u64(welcome.session_id);
     w.string(clean_text(welcome.server_gpu_name, kMaxNameBytes));
+    w.blob(welcome.server_device);
     return w.take();
 }
 
@@ -115,6 +125,10 @@ Result<Welcome> decode_welcome(std::span<const uint8_t> payload) {
     welcome.capabilities = r.u64("capabilities");
     welcome.session_id = r.u64("session_id");
     welcome.server_gpu_name = read_text(r, kMaxNameBytes, "server_gpu_name");
+    if (protocol_minor(welcome.protocol_version) >= 1) {
+        const auto device = r.blob(kMaxDeviceBlobBytes, "server_device");
+        welcome.server_device.assign(device.begin(), device.end());
+    }
     if (!finish(r, welcome.protocol_version, "Welcome")) return Error{"malformed Welcome: " + r.error()};
     return welcome;
 }
@@ -130,7 +144,7 @@ Result<Reject> decode_reject(std::span<const uint8_t> payload) {
     WireReader r(payload);
     Reject reject;
     const uint32_t reason = r.u32("reason");
-    reject.reason = reason <= static_cast<uint32_t>(RejectReason::NotAuthorised)
+    reject.reason = reason <= static_cast<uint32_t>(RejectReason::DeviceMismatch)
                         ? static_cast<RejectReason>(reason)
                         : RejectReason::Unspecified;
     reject.message = read_text(r, kMaxReasonBytes, "message");
@@ -187,15 +201,21 @@ std::variant<Welcome, Reject> evaluate_hello(const Hello &hello, const ServerHan
             return Reject{RejectReason::BadToken, "the token does not match the server's"};
     }
     if (config.codec_fingerprint != 0 && hello.codec_fingerprint != config.codec_fingerprint) {
-        return Reject{RejectReason::VersionMismatch,
-                      "client and server were built from different Vulkan codecs (vk.xml or allow-list differ)"};
+        return Reject{
+            RejectReason::VersionMismatch,
+            "client and server were built from different Vulkan codecs (vk.xml or allow-list differ)"};
     }
     if (config.full) return Reject{RejectReason::ServerFull, "the server takes no more sessions"};
+    if (config.check_envelope && !hello.device_envelope.empty()) {
+        std::string why = config.check_envelope(hello.device_envelope);
+        if (!why.empty()) return Reject{RejectReason::DeviceMismatch, std::move(why)};
+    }
     Welcome welcome;
     welcome.protocol_version = kProtocolVersion;
     welcome.capabilities = hello.capabilities & config.capabilities;
     welcome.session_id = config.session_id;
     welcome.server_gpu_name = config.server_gpu_name;
+    welcome.server_device = config.server_device;
     return welcome;
 }
 

@@ -15,6 +15,7 @@
 #include "result.h"
 
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -24,7 +25,8 @@
 namespace splitvk::protocol {
 
 inline constexpr uint16_t kProtocolMajor = 1;
-inline constexpr uint16_t kProtocolMinor = 0;
+// Minor 1: Hello carries flags and the device envelope, Welcome the agent's device (issue 10).
+inline constexpr uint16_t kProtocolMinor = 1;
 
 constexpr uint32_t make_protocol_version(uint16_t major, uint16_t minor) {
     return (static_cast<uint32_t>(major) << 16) | minor;
@@ -55,6 +57,10 @@ inline constexpr uint64_t kSupportedCapabilities =
 inline constexpr uint32_t kMaxTokenBytes = 256;
 inline constexpr uint32_t kMaxNameBytes = 256; // VK_MAX_PHYSICAL_DEVICE_NAME_SIZE
 inline constexpr uint32_t kMaxReasonBytes = 512;
+inline constexpr uint32_t kMaxDeviceBlobBytes = 64 * 1024; // an encoded DeviceDescription
+
+// Hello flags (minor 1).
+inline constexpr uint32_t kHelloProbe = 1u << 0; // only asking for the agent's device: Goodbye follows
 
 struct Hello {
     uint32_t protocol_version = kProtocolVersion;
@@ -65,6 +71,10 @@ struct Hello {
     // kCodecFingerprint of the client's generated codec: both sides must be built from the same
     // vk.xml and allow-list, or their command encodings differ.
     uint64_t codec_fingerprint = 0;
+    uint32_t flags = 0; // kHelloProbe
+    // The device envelope the application was told (protocol/device_envelope.h, encoded); empty
+    // when the client checks nothing (SPLITVK_ENVELOPE=client) or only probes.
+    std::vector<uint8_t> device_envelope;
 };
 
 struct Welcome {
@@ -72,6 +82,7 @@ struct Welcome {
     uint64_t capabilities = 0; // intersection of both sides' capabilities
     uint64_t session_id = 0;
     std::string server_gpu_name;
+    std::vector<uint8_t> server_device; // the agent's device as it replays (encoded DeviceDescription)
 };
 
 enum class RejectReason : uint32_t {
@@ -81,6 +92,7 @@ enum class RejectReason : uint32_t {
     ServerFull = 3,
     Malformed = 4,
     NotAuthorised = 5,
+    DeviceMismatch = 6, // the agent's GPU cannot honour the device envelope the app was told
 };
 const char *to_string(RejectReason reason);
 
@@ -123,8 +135,12 @@ struct ServerHandshakeConfig {
     uint64_t capabilities = kSupportedCapabilities;
     std::string server_gpu_name;
     uint64_t session_id = 0;
-    bool full = false;              // the server takes no more sessions
-    uint64_t codec_fingerprint = 0; // the server's kCodecFingerprint; 0: not checked
+    bool full = false;                  // the server takes no more sessions
+    uint64_t codec_fingerprint = 0;     // the server's kCodecFingerprint; 0: not checked
+    std::vector<uint8_t> server_device; // sent in Welcome
+    // Whether this server can honour a client's device envelope: empty when it can, else one line
+    // saying why not. Unset: not checked.
+    std::function<std::string(std::span<const uint8_t> envelope)> check_envelope;
 };
 std::variant<Welcome, Reject> evaluate_hello(const Hello &hello, const ServerHandshakeConfig &config);
 

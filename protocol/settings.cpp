@@ -40,6 +40,9 @@ const SettingInfo kSettings[] = {
     {"TOKEN_FILE", "a readable file holding the token", "(none)", "file holding the shared secret"},
     {"VERIFY", "off or full", "off",
      "full: the agent returns every presented frame and the layer compares it pixel by pixel"},
+    {"ENVELOPE", "auto or client", "auto",
+     "auto: the app sees limits, features and formats that the client and every agent honour; client: the "
+     "client's own, unchecked (agents then flag frames they cannot render)"},
 };
 
 struct Source {
@@ -221,6 +224,15 @@ bool apply(std::string_view name, std::string_view raw, Settings &s) {
             s.verify = false;
         else if (v == "full")
             s.verify = true;
+        else
+            return false;
+        return true;
+    }
+    if (name == "ENVELOPE") {
+        if (v == "auto")
+            s.envelope = true;
+        else if (v == "client")
+            s.envelope = false;
         else
             return false;
         return true;

@@ -49,6 +49,9 @@ struct Settings {
     std::string token; // SPLITVK_TOKEN, or the contents of SPLITVK_TOKEN_FILE
     std::string token_file;
     bool verify = false; // SPLITVK_VERIFY=full: compare every presented frame with the agent's
+    // SPLITVK_ENVELOPE (issue 10): auto tells the application limits both sides honour; client
+    // tells it the client's own, unchecked, which only a diagnosis should want.
+    bool envelope = true;
 };
 
 // One row of the settings table: what the docs list and the parser accepts.

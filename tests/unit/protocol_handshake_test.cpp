@@ -42,16 +42,18 @@ TEST(ProtocolHandshake, HelloRoundTripAndLayout) {
 }
 
 TEST(ProtocolHandshake, WelcomeRejectGoodbyeRoundTrip) {
-    Welcome welcome{kProtocolVersion, capability::kZstdPayloads, 0x1122334455667788ull, "NVIDIA H200"};
+    Welcome welcome{kProtocolVersion, capability::kZstdPayloads, 0x1122334455667788ull, "NVIDIA H200", {1, 2, 3}};
     auto w = decode_welcome(encode_welcome(welcome));
     ASSERT_TRUE(w.ok()) << w.error();
+    EXPECT_EQ(w->server_device, welcome.server_device);
     EXPECT_EQ(w->protocol_version, welcome.protocol_version);
     EXPECT_EQ(w->capabilities, welcome.capabilities);
     EXPECT_EQ(w->session_id, welcome.session_id);
     EXPECT_EQ(w->server_gpu_name, "NVIDIA H200");
 
     for (const auto reason : {RejectReason::VersionMismatch, RejectReason::BadToken, RejectReason::ServerFull,
-                              RejectReason::Malformed, RejectReason::NotAuthorised}) {
+                              RejectReason::Malformed, RejectReason::NotAuthorised,
+                              RejectReason::DeviceMismatch}) {
         auto r = decode_reject(encode_reject(Reject{reason, "why"}));
         ASSERT_TRUE(r.ok()) << r.error();
         EXPECT_EQ(r->reason, reason);
@@ -263,7 +265,7 @@ TEST(ProtocolHandshake, ConstantTimeEqualIsCorrect) {
 }
 
 TEST(ProtocolHandshake, MalformedWelcomeAndReject) {
-    const auto welcome = encode_welcome(Welcome{kProtocolVersion, 1, 2, "gpu"});
+    const auto welcome = encode_welcome(Welcome{kProtocolVersion, 1, 2, "gpu", {}});
     for (size_t cut = 0; cut < welcome.size(); ++cut)
         EXPECT_FALSE(decode_welcome(std::span<const uint8_t>(welcome).first(cut)).ok()) << cut;
     const auto reject = encode_reject(Reject{RejectReason::BadToken, "no"});

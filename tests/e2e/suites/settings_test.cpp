@@ -117,6 +117,7 @@ const std::map<std::string, std::string> &bad_values() {
         {"TOKEN", "two words"},                           // whitespace
         {"TOKEN_FILE", "/nonexistent-splitvk-dir/token"}, // unreadable
         {"VERIFY", "partial"},                            // off or full
+        {"ENVELOPE", "strict"},                           // auto or client
     };
     return values;
 }

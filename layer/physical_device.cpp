@@ -1,0 +1,216 @@
+// VkPhysicalDevice: the device envelope the application is told (physical_device.h).
+
+#include "physical_device.h"
+
+#include "instance.h"
+#include "layer_entry_points.h"
+#include "layer_settings.h"
+#include "log.h"
+#include "vk_envelope_tables.h"
+
+#include <algorithm>
+#include <cstring>
+#include <iterator>
+#include <string>
+
+namespace splitvk {
+namespace {
+
+std::string join(const std::vector<std::string> &items, size_t most) {
+    std::string out;
+    for (size_t i = 0; i < items.size() && i < most; ++i)
+        out += (i ? ", " : "") + items[i];
+    if (items.size() > most) out += ", ... (" + std::to_string(items.size() - most) + " more)";
+    return out;
+}
+
+void log_envelope(const PhysicalDeviceState &state, const std::string &sources) {
+    std::vector<std::string> limits;
+    for (const auto &change : protocol::limit_changes(state.client, *state.envelope))
+        limits.push_back(change.name + " " + change.from + " -> " + change.to);
+    const auto hidden = protocol::features_hidden(state.client, *state.envelope);
+    const size_t formats = protocol::formats_narrowed(state.client, *state.envelope);
+    SPLITVK_INFO("device envelope of '%s' (%s): limits changed: %s", state.client.name.c_str(),
+                 sources.c_str(), limits.empty() ? "none" : join(limits, limits.size()).c_str());
+    SPLITVK_INFO("device envelope of '%s': %zu features hidden%s%s; %zu formats with fewer features",
+                 state.client.name.c_str(), hidden.size(), hidden.empty() ? "" : ": ",
+                 join(hidden, 12).c_str(), formats);
+}
+
+std::unique_ptr<PhysicalDeviceState> make_state(InstanceState &instance, VkPhysicalDevice physical_device) {
+    auto state = std::make_unique<PhysicalDeviceState>();
+    protocol::DeviceQueries queries;
+    queries.get_properties = instance.dispatch.GetPhysicalDeviceProperties;
+    queries.get_features = instance.dispatch.GetPhysicalDeviceFeatures;
+    queries.get_features2 = instance.dispatch.GetPhysicalDeviceFeatures2
+                                ? instance.dispatch.GetPhysicalDeviceFeatures2
+                                : instance.dispatch.GetPhysicalDeviceFeatures2KHR;
+    queries.get_format_properties = instance.dispatch.GetPhysicalDeviceFormatProperties;
+    state->client = protocol::describe(physical_device, queries);
+
+    const LoadedSettings &loaded = layer_settings();
+    if (!loaded.valid() || !loaded.settings.envelope) {
+        if (loaded.valid())
+            SPLITVK_INFO("SPLITVK_ENVELOPE=client: '%s' reports its own limits, which no agent checks",
+                         state->client.name.c_str());
+        return state;
+    }
+    protocol::DeviceDescription envelope = state->client;
+    protocol::apply(envelope, protocol::agent_baseline());
+    std::string sources = "the client, the agent baseline";
+    if (instance.early_agent) {
+        if (const auto &agent = instance.early_agent->agent_device()) {
+            protocol::combine(envelope, *agent);
+            state->agent_included = true;
+            sources += ", the agent's '" + agent->name + "'";
+        }
+    }
+    envelope.name = state->client.name;
+    state->envelope = std::move(envelope);
+    state->envelope_wire = protocol::encode(*state->envelope);
+    log_envelope(*state, sources);
+    return state;
+}
+
+// Clears every feature of a VkPhysicalDeviceFeatures2 chain that the envelope hides, by name:
+// the Vulkan 1.1-1.3 aggregates and every extension structure that repeats a promoted feature.
+void mask_feature_chain(void *next, const protocol::DeviceDescription &envelope) {
+    for (auto *s = static_cast<VkBaseOutStructure *>(next); s; s = s->pNext) {
+        for (const auto &chained : envelope::kFeatureChainStructs) {
+            if (chained.stype != s->sType) continue;
+            for (uint32_t m = 0; m < chained.count; ++m) {
+                const auto &member = chained.members[m];
+                for (size_t f = 0; f < std::size(envelope::kFeatureFields); ++f) {
+                    if (envelope.features[f] ||
+                        std::strcmp(envelope::kFeatureFields[f].name, member.name) != 0)
+                        continue;
+                    *reinterpret_cast<VkBool32 *>(reinterpret_cast<uint8_t *>(s) + member.offset) = VK_FALSE;
+                }
+            }
+        }
+    }
+}
+
+void mask_core_features(VkPhysicalDeviceFeatures &features, const protocol::DeviceDescription &envelope) {
+    for (size_t f = 0; f < std::size(envelope::kFeatureFields); ++f) {
+        const auto &field = envelope::kFeatureFields[f];
+        if (field.source != envelope::FeatureStruct::Core || envelope.features[f]) continue;
+        *reinterpret_cast<VkBool32 *>(reinterpret_cast<uint8_t *>(&features) + field.offset) = VK_FALSE;
+    }
+}
+
+const VkFormatProperties *envelope_format(const protocol::DeviceDescription &envelope, VkFormat format) {
+    for (size_t i = 0; i < std::size(envelope::kEnvelopeFormats); ++i)
+        if (envelope::kEnvelopeFormats[i] == format) return &envelope.formats[i];
+    return nullptr;
+}
+
+const protocol::DeviceDescription *envelope_of(VkPhysicalDevice physical_device) {
+    const PhysicalDeviceState *state = physical_device_state(physical_device);
+    return state && state->envelope ? &*state->envelope : nullptr;
+}
+
+} // namespace
+
+const PhysicalDeviceState *physical_device_state(VkPhysicalDevice physical_device) {
+    InstanceState *instance = find_instance(dispatch_key(physical_device));
+    if (!instance) return nullptr;
+    std::lock_guard lock(instance->physical_devices_mutex);
+    auto &slot = instance->physical_devices[physical_device];
+    if (!slot) slot = make_state(*instance, physical_device);
+    return slot.get();
+}
+
+namespace entry {
+
+VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceProperties(VkPhysicalDevice physicalDevice,
+                                                       VkPhysicalDeviceProperties *pProperties) {
+    instance_dispatch(physicalDevice).GetPhysicalDeviceProperties(physicalDevice, pProperties);
+    if (const auto *envelope = envelope_of(physicalDevice)) pProperties->limits = envelope->limits;
+}
+
+VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceProperties2(VkPhysicalDevice physicalDevice,
+                                                        VkPhysicalDeviceProperties2 *pProperties) {
+    instance_dispatch(physicalDevice).GetPhysicalDeviceProperties2(physicalDevice, pProperties);
+    if (const auto *envelope = envelope_of(physicalDevice)) pProperties->properties.limits = envelope->limits;
+}
+
+VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceProperties2KHR(VkPhysicalDevice physicalDevice,
+                                                           VkPhysicalDeviceProperties2 *pProperties) {
+    instance_dispatch(physicalDevice).GetPhysicalDeviceProperties2KHR(physicalDevice, pProperties);
+    if (const auto *envelope = envelope_of(physicalDevice)) pProperties->properties.limits = envelope->limits;
+}
+
+VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceFeatures(VkPhysicalDevice physicalDevice,
+                                                     VkPhysicalDeviceFeatures *pFeatures) {
+    instance_dispatch(physicalDevice).GetPhysicalDeviceFeatures(physicalDevice, pFeatures);
+    if (const auto *envelope = envelope_of(physicalDevice)) mask_core_features(*pFeatures, *envelope);
+}
+
+VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceFeatures2(VkPhysicalDevice physicalDevice,
+                                                      VkPhysicalDeviceFeatures2 *pFeatures) {
+    instance_dispatch(physicalDevice).GetPhysicalDeviceFeatures2(physicalDevice, pFeatures);
+    if (const auto *envelope = envelope_of(physicalDevice)) {
+        mask_core_features(pFeatures->features, *envelope);
+        mask_feature_chain(pFeatures->pNext, *envelope);
+    }
+}
+
+VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceFeatures2KHR(VkPhysicalDevice physicalDevice,
+                                                         VkPhysicalDeviceFeatures2 *pFeatures) {
+    instance_dispatch(physicalDevice).GetPhysicalDeviceFeatures2KHR(physicalDevice, pFeatures);
+    if (const auto *envelope = envelope_of(physicalDevice)) {
+        mask_core_features(pFeatures->features, *envelope);
+        mask_feature_chain(pFeatures->pNext, *envelope);
+    }
+}
+
+VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceFormatProperties(VkPhysicalDevice physicalDevice, VkFormat format,
+                                                             VkFormatProperties *pFormatProperties) {
+    instance_dispatch(physicalDevice)
+        .GetPhysicalDeviceFormatProperties(physicalDevice, format, pFormatProperties);
+    if (const auto *envelope = envelope_of(physicalDevice))
+        if (const VkFormatProperties *narrowed = envelope_format(*envelope, format))
+            *pFormatProperties = *narrowed;
+}
+
+namespace {
+
+void narrow_format_properties2(VkPhysicalDevice physicalDevice, VkFormat format,
+                               VkFormatProperties2 *properties) {
+    const auto *envelope = envelope_of(physicalDevice);
+    const VkFormatProperties *narrowed = envelope ? envelope_format(*envelope, format) : nullptr;
+    if (!narrowed) return;
+    properties->formatProperties = *narrowed;
+    // VkFormatProperties3 repeats the 32 legacy bits in its 64-bit flags; the bits above are
+    // features only the 2-flags know, outside the envelope.
+    for (auto *s = static_cast<VkBaseOutStructure *>(properties->pNext); s; s = s->pNext) {
+        if (s->sType != VK_STRUCTURE_TYPE_FORMAT_PROPERTIES_3) continue;
+        auto *p3 = reinterpret_cast<VkFormatProperties3 *>(s);
+        constexpr VkFormatFeatureFlags2 kHigh = ~VkFormatFeatureFlags2{0xFFFFFFFFu};
+        p3->linearTilingFeatures &= kHigh | narrowed->linearTilingFeatures;
+        p3->optimalTilingFeatures &= kHigh | narrowed->optimalTilingFeatures;
+        p3->bufferFeatures &= kHigh | narrowed->bufferFeatures;
+    }
+}
+
+} // namespace
+
+VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceFormatProperties2(VkPhysicalDevice physicalDevice,
+                                                              VkFormat format,
+                                                              VkFormatProperties2 *pFormatProperties) {
+    instance_dispatch(physicalDevice)
+        .GetPhysicalDeviceFormatProperties2(physicalDevice, format, pFormatProperties);
+    narrow_format_properties2(physicalDevice, format, pFormatProperties);
+}
+
+VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceFormatProperties2KHR(VkPhysicalDevice physicalDevice,
+                                                                 VkFormat format,
+                                                                 VkFormatProperties2 *pFormatProperties) {
+    instance_dispatch(physicalDevice)
+        .GetPhysicalDeviceFormatProperties2KHR(physicalDevice, format, pFormatProperties);
+    narrow_format_properties2(physicalDevice, format, pFormatProperties);
+}
+
+} // namespace entry
+} // namespace splitvk
