@@ -57,7 +57,7 @@ std::optional<uint64_t> parse_byte_size(const std::string &text) {
 const char *agent_usage() {
     return "usage: splitvk-agent [--listen ADDR:PORT] [--device N] [--token-file FILE] [--validate]\n"
            "                     [--max-sessions N] [--max-message-bytes SIZE] [--max-host-memory SIZE]\n"
-           "                     [--max-gpu-memory SIZE] [--record-corpus DIR]\n"
+           "                     [--max-gpu-memory SIZE] [--record-corpus DIR] [--emulate-limits FILE]\n"
            "       splitvk-agent --list-devices\n"
            "\n"
            "The splitvk server agent: replays the command stream of applications running the\n"
@@ -83,6 +83,11 @@ const char *agent_usage() {
            "  --record-corpus DIR debugging: write the messages each session receives to DIR as seed\n"
            "                      inputs for the fuzzers (tests/fuzz, scripts/fuzz); the first 256\n"
            "                      per session, tokens left out\n"
+           "  --emulate-limits FILE\n"
+           "                      behave as a GPU with the limits and features of a Khronos Vulkan\n"
+           "                      profile JSON (capabilities -> properties -> VkPhysicalDeviceProperties\n"
+           "                      -> limits, and features): clients are checked against them and replayed\n"
+           "                      commands that break them are flagged, as on such a GPU\n"
            "  --list-devices      print the GPUs this agent can use and exit\n"
            "  --help              print this help and exit\n";
 }
@@ -168,6 +173,10 @@ ParsedOptions parse_agent_options(const std::vector<std::string> &arguments) {
                 }
                 (arg == "--max-host-memory" ? o.max_host_memory : o.max_gpu_memory) = *size;
             }
+        } else if (arg == "--emulate-limits") {
+            const auto v = value("a Vulkan profile JSON file");
+            if (!v) return parsed;
+            o.emulate_limits = *v;
         } else if (arg == "--record-corpus") {
             const auto v = value("a directory");
             if (!v) return parsed;

@@ -29,6 +29,9 @@ struct AgentOptions {
     uint64_t max_host_memory = kDefaultMaxHostMemory;     // client data the session keeps in host memory
     uint64_t max_gpu_memory = kDefaultMaxGpuMemory;       // VkDeviceMemory the client asks for
     std::string record_corpus;                            // debug: write received messages here
+    // A Khronos profile JSON: the agent behaves as a device with those limits and features
+    // (issue 10), to test what a stricter GPU would do without one.
+    std::string emulate_limits;
     bool list_devices = false;
     bool help = false;
 };

@@ -45,7 +45,7 @@ class Session {
 public:
     Session(std::unique_ptr<protocol::Connection> connection, const SessionConfig &config)
         : connection_(std::move(connection)), config_(config),
-          replayer_(config.session_id, {config.max_host_memory, config.max_gpu_memory}) {
+          replayer_(config.session_id, {config.max_host_memory, config.max_gpu_memory}, config.device) {
         if (!config.record_corpus.empty())
             recorder_ = std::make_unique<CorpusRecorder>(config.record_corpus, config.session_id);
     }
@@ -108,6 +108,17 @@ int Session::run() {
     handshake.session_id = config_.session_id;
     handshake.full = config_.full;
     handshake.codec_fingerprint = codec::kCodecFingerprint;
+    handshake.server_device = protocol::encode(config_.device);
+    handshake.check_envelope = [this](std::span<const uint8_t> blob) -> std::string {
+        auto envelope = protocol::decode_device_description(blob);
+        if (!envelope) return "unreadable device envelope: " + envelope.error();
+        const auto problems = protocol::violations(config_.device, *envelope);
+        std::string why;
+        for (size_t i = 0; i < problems.size() && i < 4; ++i)
+            why += (i ? "; " : "") + problems[i];
+        if (problems.size() > 4) why += "; and " + std::to_string(problems.size() - 4) + " more";
+        return why;
+    };
     auto hs = protocol::server_handshake(*connection_, handshake, kHandshakeTimeout);
     if (!hs) {
         SPLITVK_ERROR("session %llu: handshake failed: %s; closing",
@@ -124,6 +135,17 @@ int Session::run() {
     SPLITVK_INFO("session %llu: %s (%s) from %s", static_cast<unsigned long long>(config_.session_id),
                  hs->hello.client_name.c_str(), hs->hello.client_gpu_name.c_str(),
                  connection_->peer_address().c_str());
+    if (!hs->hello.device_envelope.empty()) {
+        if (auto envelope = protocol::decode_device_description(hs->hello.device_envelope)) {
+            const auto gaps = protocol::format_gaps(config_.device, *envelope);
+            if (!gaps.empty())
+                SPLITVK_WARN(
+                    "session %llu: %zu formats have features the client's application was told but this "
+                    "GPU lacks (first: VkFormat %d); images that need them are flagged",
+                    static_cast<unsigned long long>(config_.session_id), gaps.size(),
+                    static_cast<int>(gaps.front()));
+        }
+    }
     std::string error;
     if (!replayer_.init(config_.device_index, config_.validate, &error)) return fail(error, kSessionSetup);
     // Tiles are sent from the tile streamer's worker thread; Connection::send is thread-safe and

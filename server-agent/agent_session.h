@@ -5,6 +5,7 @@
 // the client leaves or something fails. Any decode or replay error ends the session with one log
 // line naming what failed.
 
+#include "device_envelope.h"
 #include "transport.h"
 
 #include <cstdint>
@@ -25,6 +26,9 @@ struct SessionConfig {
     uint64_t max_host_memory = UINT64_MAX;
     uint64_t max_gpu_memory = UINT64_MAX;
     std::string record_corpus; // --record-corpus DIR; empty: off
+    // The GPU as clients are told it is (--emulate-limits included): sent in Welcome, checked
+    // against each client's device envelope, and what replayed commands are checked against.
+    protocol::DeviceDescription device;
 };
 
 // Exit statuses of a session process (the listener logs them).

@@ -51,9 +51,12 @@ std::vector<GpuInfo> enumerate_gpus(std::string *error) {
         props.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
         props.pNext = &driver;
         vkGetPhysicalDeviceProperties2(devices[i], &props);
+        protocol::DeviceQueries queries{vkGetPhysicalDeviceProperties, vkGetPhysicalDeviceFeatures,
+                                        vkGetPhysicalDeviceFeatures2, vkGetPhysicalDeviceFormatProperties};
         gpus.push_back(GpuInfo{i, props.properties.deviceName, device_type_name(props.properties.deviceType),
                                props.properties.apiVersion,
-                               std::string(driver.driverName) + " " + driver.driverInfo});
+                               std::string(driver.driverName) + " " + driver.driverInfo,
+                               protocol::describe(devices[i], queries)});
     }
     vkDestroyInstance(instance, nullptr);
     if (gpus.empty() && error) *error = "no Vulkan physical devices found";

@@ -1,5 +1,7 @@
 #pragma once
 
+#include "device_envelope.h"
+
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -12,6 +14,7 @@ struct GpuInfo {
     std::string type; // "discrete", "integrated", "cpu", ...
     uint32_t api_version;
     std::string driver;
+    protocol::DeviceDescription description; // limits, features, formats (device_envelope.h)
 };
 
 // The GPUs the Vulkan loader offers this process, in its enumeration order. On failure returns

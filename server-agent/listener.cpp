@@ -75,7 +75,8 @@ bool read_token(const std::string &path, std::vector<uint8_t> *token, std::strin
 
 } // namespace
 
-int run_listener(const AgentOptions &options, const std::string &gpu_name) {
+int run_listener(const AgentOptions &options, const std::string &gpu_name,
+                 const protocol::DeviceDescription &device) {
     std::vector<uint8_t> token;
     std::string error;
     if (!options.token_file.empty() && !read_token(options.token_file, &token, &error)) {
@@ -125,6 +126,7 @@ int run_listener(const AgentOptions &options, const std::string &gpu_name) {
         config.max_host_memory = options.max_host_memory;
         config.max_gpu_memory = options.max_gpu_memory;
         config.record_corpus = options.record_corpus;
+        config.device = device;
         std::fflush(nullptr);
         const pid_t pid = fork();
         if (pid < 0) {

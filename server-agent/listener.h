@@ -6,12 +6,15 @@
 // logs one line per session start and end, and stops cleanly on SIGTERM / SIGINT.
 
 #include "agent_options.h"
+#include "device_envelope.h"
 
 #include <string>
 
 namespace splitvk::agent {
 
-// Serves until SIGTERM or SIGINT; returns the process exit status.
-int run_listener(const AgentOptions &options, const std::string &gpu_name);
+// Serves until SIGTERM or SIGINT; returns the process exit status. `device` is the GPU as sessions
+// present it to clients: the real one, narrowed by --emulate-limits.
+int run_listener(const AgentOptions &options, const std::string &gpu_name,
+                 const protocol::DeviceDescription &device);
 
 } // namespace splitvk::agent

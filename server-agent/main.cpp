@@ -8,6 +8,8 @@
 #include <vulkan/vulkan.h>
 
 #include <cstdio>
+#include <fstream>
+#include <iterator>
 
 namespace {
 
@@ -51,5 +53,28 @@ int main(int argc, char **argv) {
                       gpus.empty() ? error.c_str() : "no such GPU (see --list-devices)");
         return 2;
     }
-    return splitvk::agent::run_listener(options, gpus[options.device_index].name);
+    const auto &gpu = gpus[options.device_index];
+    splitvk::protocol::DeviceDescription device = gpu.description;
+    if (!options.emulate_limits.empty()) {
+        std::ifstream in(options.emulate_limits, std::ios::binary);
+        if (!in.is_open()) {
+            SPLITVK_ERROR("--emulate-limits %s: cannot read it", options.emulate_limits.c_str());
+            return 2;
+        }
+        const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        auto profile = splitvk::protocol::parse_profile(text, options.emulate_limits);
+        if (!profile) {
+            SPLITVK_ERROR("--emulate-limits %s: %s", options.emulate_limits.c_str(), profile.error().c_str());
+            return 2;
+        }
+        splitvk::protocol::apply(device, *profile);
+        std::string changed;
+        for (const auto &c : splitvk::protocol::limit_changes(gpu.description, device))
+            changed += (changed.empty() ? "" : ", ") + c.name + " " + c.from + " -> " + c.to;
+        const auto hidden = splitvk::protocol::features_hidden(gpu.description, device);
+        SPLITVK_INFO("--emulate-limits %s: behaving as a GPU with %s; %zu features hidden",
+                     options.emulate_limits.c_str(), changed.empty() ? "the same limits" : changed.c_str(),
+                     hidden.size());
+    }
+    return splitvk::agent::run_listener(options, gpu.name, device);
 }

@@ -21,8 +21,8 @@ std::string hex(uint64_t v) {
 
 } // namespace
 
-Replayer::Replayer(uint64_t session_id, const MemoryLimits &limits)
-    : session_id_(session_id), memory_(context_, limits) {
+Replayer::Replayer(uint64_t session_id, const MemoryLimits &limits, protocol::DeviceDescription device)
+    : session_id_(session_id), memory_(context_, limits), guard_(session_id, std::move(device)) {
     table = &table_;
     // Whole frames until the client's SplitConfig says it splits (a verifying client never does).
     fovea_.set_enabled(false);
@@ -164,8 +164,10 @@ bool Replayer::vkQueueSubmit(const codec::Decoded_vkQueueSubmit &c) {
     const VkResult r = ::vkQueueSubmit(context_.queue, static_cast<uint32_t>(submits.size()), submits.data(),
                                        VK_NULL_HANDLE);
     if (r != VK_SUCCESS) return failed("vkQueueSubmit", r);
-    for (const VkSubmitInfo &s : submits)
+    for (const VkSubmitInfo &s : submits) {
         fovea_.submitted(s.commandBufferCount, s.pCommandBuffers);
+        guard_.submitted(s.commandBufferCount, s.pCommandBuffers);
+    }
     note_frame_submit();
     gpu_busy_ = true;
     ++submits_;
@@ -179,8 +181,10 @@ bool Replayer::vkQueueSubmit2(const codec::Decoded_vkQueueSubmit2 &c) {
                                        VK_NULL_HANDLE);
     if (r != VK_SUCCESS) return failed("vkQueueSubmit2", r);
     for (const VkSubmitInfo2 &s : submits)
-        for (uint32_t i = 0; i < s.commandBufferInfoCount; ++i)
+        for (uint32_t i = 0; i < s.commandBufferInfoCount; ++i) {
             fovea_.submitted(1, &s.pCommandBufferInfos[i].commandBuffer);
+            guard_.submitted(1, &s.pCommandBufferInfos[i].commandBuffer);
+        }
     note_frame_submit();
     gpu_busy_ = true;
     ++submits_;
@@ -276,6 +280,7 @@ bool Replayer::vkDestroyBuffer(const codec::Decoded_vkDestroyBuffer &c) {
 }
 
 bool Replayer::vkCreateImage(const codec::Decoded_vkCreateImage &c) {
+    guard_.image_created(*c.pCreateInfo);
     if (!ReplayVisitorBase::vkCreateImage(c)) return false;
     memory_.image_created(c.pImage[0], *c.pCreateInfo);
     return true;
@@ -357,6 +362,7 @@ void Replayer::note_frame_submit() {
 bool Replayer::frame_present(const protocol::FramePresent &message,
                              std::vector<protocol::VerifyFrame> &verify, std::string *error) {
     const auto received = std::chrono::steady_clock::now();
+    const bool invalid = guard_.take_frame_invalid();
     if (tiles_) {
         // The client composites the first swapchain of a present (layer/present.cpp); the fovea
         // record of every presented image is taken so that none carries over to a later frame.
@@ -376,6 +382,11 @@ bool Replayer::frame_present(const protocol::FramePresent &message,
             frame.image = image.image;
             frame.format = image.format;
             frame.foveae = std::move(foveae);
+            if (invalid) {
+                // Nothing of this frame's fovea is worth reading back or encoding.
+                frame.foveae.clear();
+                frame.invalid = true;
+            }
             frame.first_submit = frame_first_submit_;
             frame.present = received;
             if (!tiles_->present(std::move(frame), error)) {
@@ -441,6 +452,31 @@ bool Replayer::vkDestroyPipeline(const codec::Decoded_vkDestroyPipeline &c) {
 bool Replayer::vkBeginCommandBuffer(const codec::Decoded_vkBeginCommandBuffer &c) {
     if (!ReplayVisitorBase::vkBeginCommandBuffer(c)) return false;
     fovea_.begin_command_buffer(c.commandBuffer);
+    guard_.command_buffer_begun(c.commandBuffer);
+    return true;
+}
+
+// --- the limit guard (limit_guard.h) ---------------------------------------------------------
+
+bool Replayer::vkUpdateDescriptorSets(const codec::Decoded_vkUpdateDescriptorSets &c) {
+    std::vector<VkWriteDescriptorSet> writes;
+    std::vector<VkDescriptorBufferInfo> buffer_infos;
+    auto checked = c;
+    checked.pDescriptorWrites =
+        guard_.descriptor_writes(c.descriptorWriteCount, c.pDescriptorWrites, writes, buffer_infos);
+    guard_.descriptor_copies(c.descriptorCopyCount, c.pDescriptorCopies);
+    return ReplayVisitorBase::vkUpdateDescriptorSets(checked);
+}
+
+bool Replayer::vkFreeDescriptorSets(const codec::Decoded_vkFreeDescriptorSets &c) {
+    guard_.descriptor_sets_freed(c.descriptorSetCount, c.pDescriptorSets);
+    return ReplayVisitorBase::vkFreeDescriptorSets(c);
+}
+
+bool Replayer::vkCmdBindDescriptorSets(const codec::Decoded_vkCmdBindDescriptorSets &c) {
+    if (!ReplayVisitorBase::vkCmdBindDescriptorSets(c)) return false;
+    guard_.sets_bound(c.commandBuffer, c.descriptorSetCount, c.pDescriptorSets, c.dynamicOffsetCount,
+                      c.pDynamicOffsets);
     return true;
 }
 

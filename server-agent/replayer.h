@@ -7,6 +7,7 @@
 // pipeline cache), and the metadata messages (memory data, swapchains, frame marks).
 
 #include "fovea_shading.h"
+#include "limit_guard.h"
 #include "memory_rebind.h"
 #include "session.h"
 #include "swapchain_images.h"
@@ -27,7 +28,9 @@ namespace splitvk::agent {
 class Replayer final : public ReplayVisitorBase {
 public:
     // `limits`: the session's --max-host-memory / --max-gpu-memory caps (memory_rebind.h).
-    Replayer(uint64_t session_id, const MemoryLimits &limits);
+    // `device`: the agent's GPU as clients are told it is (--emulate-limits included), what the
+    // limit guard holds replayed commands to.
+    Replayer(uint64_t session_id, const MemoryLimits &limits, protocol::DeviceDescription device);
     ~Replayer() override;
 
     // The session's instance on GPU `device_index`; false with one line in `error`.
@@ -82,6 +85,11 @@ public:
     bool vkCreateImage(const codec::Decoded_vkCreateImage &c) override;
     bool vkDestroyImage(const codec::Decoded_vkDestroyImage &c) override;
     bool vkCreateGraphicsPipelines(const codec::Decoded_vkCreateGraphicsPipelines &c) override;
+
+    // The limit guard (limit_guard.h): what this GPU cannot honour marks the frames that use it.
+    bool vkUpdateDescriptorSets(const codec::Decoded_vkUpdateDescriptorSets &c) override;
+    bool vkFreeDescriptorSets(const codec::Decoded_vkFreeDescriptorSets &c) override;
+    bool vkCmdBindDescriptorSets(const codec::Decoded_vkCmdBindDescriptorSets &c) override;
     bool vkCreateComputePipelines(const codec::Decoded_vkCreateComputePipelines &c) override;
 
     // The split (fovea_shading.h): what makes a split pass, and the scissors narrowed inside one.
@@ -117,6 +125,7 @@ private:
     codec::Arena arena_;
     MemoryRebind memory_;
     SwapchainImages swapchains_{context_, table_};
+    LimitGuard guard_;
     FoveaShading fovea_{vk, swapchains_};
     TileStreamer::Send tile_sender_;
     std::unique_ptr<TileStreamer> tiles_; // declared after context_: its worker stops before the device goes

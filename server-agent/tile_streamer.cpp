@@ -192,6 +192,7 @@ bool TileStreamer::encode_and_send(Slot &slot, std::string *error) {
     message.swapchain_id = frame.swapchain_id;
     message.image_index = frame.image_index;
     message.format = static_cast<uint32_t>(frame.format);
+    if (frame.invalid) message.flags |= protocol::kTilesInvalid;
     message.tiles.resize(frame.foveae.size());
     if (eyes_.size() < frame.foveae.size()) eyes_.resize(frame.foveae.size());
 

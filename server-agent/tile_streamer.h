@@ -53,7 +53,8 @@ public:
         uint32_t image_index = 0;
         VkImage image = VK_NULL_HANDLE; // left in PRESENT_SRC_KHR by the frame's submits
         VkFormat format = VK_FORMAT_UNDEFINED;
-        std::vector<VkRect2D> foveae;                         // may be empty: an empty Tiles message
+        std::vector<VkRect2D> foveae; // may be empty: an empty Tiles message
+        bool invalid = false;         // limit_guard.h: sent as kTilesInvalid, with no tiles
         std::chrono::steady_clock::time_point first_submit{}; // of the frame, for draw time
         std::chrono::steady_clock::time_point present{};      // FramePresent received
     };

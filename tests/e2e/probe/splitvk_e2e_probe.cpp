@@ -7,6 +7,7 @@
 // With --sync-hazard the barrier between the two fills is left out: a write-after-write hazard that
 // only synchronization validation reports. The validation tests use it to prove that
 // synchronization validation is really on (a negative control), so a clean run means something.
+// It prints the limits it was told, for the device envelope tests.
 #include <vulkan/vulkan.h>
 
 #include <cstdio>
@@ -47,6 +48,14 @@ int run(const std::string &app_name, bool sync_hazard) {
     std::vector<VkPhysicalDevice> gpus(count);
     CHECK(vkEnumeratePhysicalDevices(instance, &count, gpus.data()));
     VkPhysicalDevice gpu = gpus[0];
+    // What the application is told (the device envelope tests read it).
+    VkPhysicalDeviceProperties properties{};
+    vkGetPhysicalDeviceProperties(gpu, &properties);
+    std::printf("limits: minUniformBufferOffsetAlignment=%llu minStorageBufferOffsetAlignment=%llu "
+                "maxPushConstantsSize=%u maxImageDimension2D=%u\n",
+                static_cast<unsigned long long>(properties.limits.minUniformBufferOffsetAlignment),
+                static_cast<unsigned long long>(properties.limits.minStorageBufferOffsetAlignment),
+                properties.limits.maxPushConstantsSize, properties.limits.maxImageDimension2D);
 
     uint32_t qcount = 0;
     vkGetPhysicalDeviceQueueFamilyProperties(gpu, &qcount, nullptr);
