@@ -221,6 +221,7 @@ std::vector<uint8_t> encode(const Tiles &m) {
         w.u32(t.flags);
         w.blob(t.data);
     }
+    w.u32(m.flags);
     return w.take();
 }
 
@@ -259,6 +260,9 @@ Result<Tiles> decode_tiles(std::span<const uint8_t> payload, uint32_t max_bytes)
         t.data.assign(data.begin(), data.end());
         m.tiles.push_back(std::move(t));
     }
+    m.flags = r.u32("flags");
+    if (r.ok() && (m.flags & ~kTilesInvalid)) r.fail("unknown Tiles flags");
+    if (r.ok() && (m.flags & kTilesInvalid) && !m.tiles.empty()) r.fail("an invalid frame with tiles");
     return finish(r, std::move(m), "Tiles");
 }
 

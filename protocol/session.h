@@ -92,6 +92,9 @@ struct SplitConfig {
 };
 
 inline constexpr uint32_t kTileKeyframe = 1u << 0; // decodable alone (an IDR for x264)
+// Tiles flags: the agent replayed something its GPU cannot honour in this frame (issue 10,
+// server-agent/limit_guard.h); the message carries no tiles and the client shows the periphery.
+inline constexpr uint32_t kTilesInvalid = 1u << 0;
 
 // One eye's fovea, encoded by `codec` (tile_codec.h) as one frame of that eye's stream.
 struct EncodedTile {
@@ -118,6 +121,7 @@ struct Tiles {
     uint32_t format = 0; // VkFormat of the image the pixels come from
     AgentTimings timings;
     std::vector<EncodedTile> tiles;
+    uint32_t flags = 0; // kTilesInvalid
 };
 
 std::vector<uint8_t> encode(const MemoryData &m);

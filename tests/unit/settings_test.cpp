@@ -115,6 +115,7 @@ TEST_F(SettingsTest, InvalidValuesAreOneLineErrorsNamingTheSetting) {
         {"TOKEN", {"", "two words", "tab\there"}},
         {"TOKEN_FILE", {"", "/nonexistent/token", "/"}},
         {"VERIFY", {"", "on", "1", "partial"}},
+        {"ENVELOPE", {"", "on", "agent", "strict"}},
     };
     ASSERT_EQ(table.size(), setting_table().size()) << "every setting in the table has invalid cases";
     for (const auto &[name, values] : table) {
