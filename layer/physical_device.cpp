@@ -42,9 +42,10 @@ std::unique_ptr<PhysicalDeviceState> make_state(InstanceState &instance, VkPhysi
     protocol::DeviceQueries queries;
     queries.get_properties = instance.dispatch.GetPhysicalDeviceProperties;
     queries.get_features = instance.dispatch.GetPhysicalDeviceFeatures;
-    queries.get_features2 = instance.dispatch.GetPhysicalDeviceFeatures2
-                                ? instance.dispatch.GetPhysicalDeviceFeatures2
-                                : instance.dispatch.GetPhysicalDeviceFeatures2KHR;
+    // Asking for the 1.1-1.3 features is only valid on an instance of 1.1 or later; on an older
+    // one the application cannot ask for them either, and the envelope leaves them alone below.
+    if (instance.api_version >= VK_API_VERSION_1_1)
+        queries.get_features2 = instance.dispatch.GetPhysicalDeviceFeatures2;
     queries.get_format_properties = instance.dispatch.GetPhysicalDeviceFormatProperties;
     state->client = protocol::describe(physical_device, queries);
 
@@ -72,17 +73,22 @@ std::unique_ptr<PhysicalDeviceState> make_state(InstanceState &instance, VkPhysi
     return state;
 }
 
+// Whether the envelope hides feature `f`: the client has it and another source does not. A feature
+// the client could not be asked for (a 1.0 instance) is never hidden: the driver's answer stands.
+bool hidden(const PhysicalDeviceState &state, size_t f) {
+    return state.client.features[f] && !state.envelope->features[f];
+}
+
 // Clears every feature of a VkPhysicalDeviceFeatures2 chain that the envelope hides, by name:
 // the Vulkan 1.1-1.3 aggregates and every extension structure that repeats a promoted feature.
-void mask_feature_chain(void *next, const protocol::DeviceDescription &envelope) {
+void mask_feature_chain(void *next, const PhysicalDeviceState &state) {
     for (auto *s = static_cast<VkBaseOutStructure *>(next); s; s = s->pNext) {
         for (const auto &chained : envelope::kFeatureChainStructs) {
             if (chained.stype != s->sType) continue;
             for (uint32_t m = 0; m < chained.count; ++m) {
                 const auto &member = chained.members[m];
                 for (size_t f = 0; f < std::size(envelope::kFeatureFields); ++f) {
-                    if (envelope.features[f] ||
-                        std::strcmp(envelope::kFeatureFields[f].name, member.name) != 0)
+                    if (!hidden(state, f) || std::strcmp(envelope::kFeatureFields[f].name, member.name) != 0)
                         continue;
                     *reinterpret_cast<VkBool32 *>(reinterpret_cast<uint8_t *>(s) + member.offset) = VK_FALSE;
                 }
@@ -91,10 +97,10 @@ void mask_feature_chain(void *next, const protocol::DeviceDescription &envelope)
     }
 }
 
-void mask_core_features(VkPhysicalDeviceFeatures &features, const protocol::DeviceDescription &envelope) {
+void mask_core_features(VkPhysicalDeviceFeatures &features, const PhysicalDeviceState &state) {
     for (size_t f = 0; f < std::size(envelope::kFeatureFields); ++f) {
         const auto &field = envelope::kFeatureFields[f];
-        if (field.source != envelope::FeatureStruct::Core || envelope.features[f]) continue;
+        if (field.source != envelope::FeatureStruct::Core || !hidden(state, f)) continue;
         *reinterpret_cast<VkBool32 *>(reinterpret_cast<uint8_t *>(&features) + field.offset) = VK_FALSE;
     }
 }
@@ -108,6 +114,11 @@ const VkFormatProperties *envelope_format(const protocol::DeviceDescription &env
 const protocol::DeviceDescription *envelope_of(VkPhysicalDevice physical_device) {
     const PhysicalDeviceState *state = physical_device_state(physical_device);
     return state && state->envelope ? &*state->envelope : nullptr;
+}
+
+const PhysicalDeviceState *enveloped(VkPhysicalDevice physical_device) {
+    const PhysicalDeviceState *state = physical_device_state(physical_device);
+    return state && state->envelope ? state : nullptr;
 }
 
 } // namespace
@@ -144,24 +155,24 @@ VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceProperties2KHR(VkPhysicalDevice phys
 VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceFeatures(VkPhysicalDevice physicalDevice,
                                                      VkPhysicalDeviceFeatures *pFeatures) {
     instance_dispatch(physicalDevice).GetPhysicalDeviceFeatures(physicalDevice, pFeatures);
-    if (const auto *envelope = envelope_of(physicalDevice)) mask_core_features(*pFeatures, *envelope);
+    if (const auto *state = enveloped(physicalDevice)) mask_core_features(*pFeatures, *state);
 }
 
 VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceFeatures2(VkPhysicalDevice physicalDevice,
                                                       VkPhysicalDeviceFeatures2 *pFeatures) {
     instance_dispatch(physicalDevice).GetPhysicalDeviceFeatures2(physicalDevice, pFeatures);
-    if (const auto *envelope = envelope_of(physicalDevice)) {
-        mask_core_features(pFeatures->features, *envelope);
-        mask_feature_chain(pFeatures->pNext, *envelope);
+    if (const auto *state = enveloped(physicalDevice)) {
+        mask_core_features(pFeatures->features, *state);
+        mask_feature_chain(pFeatures->pNext, *state);
     }
 }
 
 VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceFeatures2KHR(VkPhysicalDevice physicalDevice,
                                                          VkPhysicalDeviceFeatures2 *pFeatures) {
     instance_dispatch(physicalDevice).GetPhysicalDeviceFeatures2KHR(physicalDevice, pFeatures);
-    if (const auto *envelope = envelope_of(physicalDevice)) {
-        mask_core_features(pFeatures->features, *envelope);
-        mask_feature_chain(pFeatures->pNext, *envelope);
+    if (const auto *state = enveloped(physicalDevice)) {
+        mask_core_features(pFeatures->features, *state);
+        mask_feature_chain(pFeatures->pNext, *state);
     }
 }
 

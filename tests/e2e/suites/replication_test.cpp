@@ -45,10 +45,12 @@ protected:
         ASSERT_TRUE(built(atrium_path()));
     }
 
-    // The agent, with the validation layer in its sessions.
-    void start_agent() {
+    // The agent, with the validation layer in its sessions; `extra` adds options.
+    void start_agent(const std::vector<std::string> &extra = {}) {
         ASSERT_TRUE(built(agent_path()));
-        ASSERT_TRUE(agent_.start(env(), out_, {"--validate"})) << agent_.error();
+        std::vector<std::string> args = {"--validate"};
+        args.insert(args.end(), extra.begin(), extra.end());
+        ASSERT_TRUE(agent_.start(env(), out_, args)) << agent_.error();
         port_ = agent_.port();
     }
 
@@ -119,6 +121,89 @@ INSTANTIATE_TEST_SUITE_P(VulkanTools, ReplicationCube, ::testing::Values("vkcube
                          [](const ::testing::TestParamInfo<const char *> &p) {
                              return std::string(p.param);
                          });
+
+// The agent behaves as a GPU with 256-byte buffer alignments (a desktop GPU's), the client is
+// lavapipe (16): the device envelope tells the application 256, so what it aligns by that replays
+// exactly on the agent. Without the envelope, atrium's second uniform slot sits at 0x110 and the
+// agent flags every second frame (issue 10: on an NVIDIA GPU those frames drew a flat fovea).
+class ReplicationStricterAgent : public Replication, public ::testing::WithParamInterface<const char *> {};
+
+TEST_P(ReplicationStricterAgent, VerifiesWithNoViolation) {
+    ASSERT_NO_FATAL_FAILURE(start_agent(
+        {"--emulate-limits", (source_dir() / "tests/e2e/profiles/strict_alignment.json").string()}));
+    const std::string program = GetParam();
+    std::vector<std::string> argv;
+    if (program == "atrium") {
+        argv = {atrium_path().string(), "--width", "600", "--height", "270", "--eyes", "2", "--frames",
+                std::to_string(kFrames)};
+    } else {
+        ASSERT_TRUE(find_program(program, env())) << program << " is not installed (vulkan-tools)";
+        argv = {program, "--c", std::to_string(kFrames)};
+    }
+    Env e = split_env();
+    e["SPLITVK_LOG_LEVEL"] = "info";
+    auto r = run_app(argv, e, out_, program, 180s);
+    // The application was told the stricter GPU's alignment, by the agent that answered at
+    // vkCreateInstance.
+    EXPECT_FALSE(grep(r.err(), "minUniformBufferOffsetAlignment 16 -> 256").empty()) << tail(r.err());
+    EXPECT_FALSE(grep(r.err(), "the agent's 'llvmpipe").empty()) << tail(r.err());
+    expect_verified(r, kFrames);
+    const std::string agent_log = read_file(out_ / "splitvk-agent.stderr");
+    EXPECT_TRUE(grep(agent_log, "flagged invalid").empty()) << tail(agent_log);
+    EXPECT_TRUE(grep(agent_log, "rejected the client").empty()) << tail(agent_log);
+    // One application run, one session: the device adopted the connection made at vkCreateInstance.
+    EXPECT_EQ(grep(agent_log, ") started").size(), 1u) << tail(agent_log);
+}
+
+INSTANTIATE_TEST_SUITE_P(Envelope, ReplicationStricterAgent,
+                         ::testing::Values("atrium", "vkcube", "vkcubepp"),
+                         [](const ::testing::TestParamInfo<const char *> &p) {
+                             return std::string(p.param);
+                         });
+
+// An agent that joins after the application was told its limits, on a GPU that cannot honour them
+// (images up to 1024 where the app was told 8192): it refuses the session, one line on each side,
+// and the application runs on unsplit and exits 0.
+TEST_F(Replication, LateAgentThatCannotHonourTheEnvelopeIsRefused) {
+    ASSERT_TRUE(built(agent_path()));
+    port_ = free_loopback_port();
+    ASSERT_NE(port_, 0);
+    Env e = env();
+    use_explicit_layers(e, {kLayerName});
+    e["SPLITVK_SERVER"] = "127.0.0.1:" + std::to_string(port_);
+    ProcessSpec spec;
+    spec.argv = {atrium_path().string(), "--width", "600", "--height", "270", "--frames", "100000"};
+    spec.env = e;
+    spec.out_dir = out_;
+    spec.name = "atrium-late-agent";
+    Process app(spec);
+    ASSERT_TRUE(app.start()) << app.error();
+    const auto stderr_says = [&](const std::string &text, std::chrono::seconds timeout) {
+        const auto deadline = Clock::now() + timeout;
+        while (Clock::now() < deadline && app.running()) {
+            if (read_file(out_ / (spec.name + ".stderr")).find(text) != std::string::npos) return true;
+            std::this_thread::sleep_for(50ms);
+        }
+        return read_file(out_ / (spec.name + ".stderr")).find(text) != std::string::npos;
+    };
+    ASSERT_TRUE(stderr_says("no splitvk-agent at", 120s)) << tail(read_file(out_ / (spec.name + ".stderr")));
+    ASSERT_TRUE(agent_.start(
+        env(), out_, {"--emulate-limits", (source_dir() / "tests/e2e/profiles/tiny_images.json").string()},
+        port_))
+        << agent_.error();
+    const bool refused = stderr_says("refused the session", 60s);
+    auto r = app.terminate(10s);
+    ASSERT_TRUE(refused) << tail(r.err());
+    ASSERT_TRUE(r.ok()) << r.describe() << "\n" << tail(r.err());
+    const auto lines = grep(r.err(), "refused the session");
+    ASSERT_EQ(lines.size(), 1u) << r.err();
+    EXPECT_NE(lines[0].find("maxImageDimension2D: told 8192, this device 1024"), std::string::npos)
+        << lines[0];
+    EXPECT_NE(lines[0].find("running unsplit"), std::string::npos) << lines[0];
+    const std::string agent_log = read_file(out_ / "splitvk-agent.stderr");
+    EXPECT_EQ(grep(agent_log, "rejected the client: the agent's GPU cannot honour").size(), 1u)
+        << tail(agent_log);
+}
 
 // No agent at the address: one warning line, then the application runs unsplit and exits 0.
 TEST_F(Replication, NoAgentRunsUnsplit) {

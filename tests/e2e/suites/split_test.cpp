@@ -310,5 +310,73 @@ TEST_F(Split, LateAgentLeavesCompleteFrames) {
     EXPECT_TRUE(client_validation_clean(validation_log_));
 }
 
+// Issue 10: the agent behaves as a GPU with 256-byte buffer alignments (--emulate-limits), the
+// client is lavapipe (16). The application is told 256 (the device envelope), so the foveae stay
+// exact and the agent flags nothing.
+TEST_F(Split, StricterAgentKeepsFoveaeExact) {
+    const auto strict = (source_dir() / "tests/e2e/profiles/strict_alignment.json").string();
+    ASSERT_TRUE(agent_.start(env(), out_, {"--validate", "--emulate-limits", strict})) << agent_.error();
+    Grab native, split;
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(atrium_argv(2, kFrames, false), env(), "native", kFrames, &native));
+    ASSERT_NO_FATAL_FAILURE(
+        run_and_grab(atrium_argv(2, kFrames, false), split_env(), "split", kFrames, &split));
+    const std::string &err = split.result.err();
+    EXPECT_FALSE(grep(err, "minUniformBufferOffsetAlignment 16 -> 256").empty()) << tail(err, 30);
+    EXPECT_TRUE(grep(err, "flagged invalid").empty()) << tail(err, 30);
+    EXPECT_EQ(split_summary(err).late, 0u) << tail(err, 30);
+    ASSERT_NO_FATAL_FAILURE(
+        expect_split_frame(native.image, split.image, default_foveae(kWidth, kHeight, 2)));
+    expect_clean_validation();
+    EXPECT_TRUE(grep(agent_.log(), "flagged invalid").empty()) << tail(agent_.log(), 30);
+}
+
+// The envelope made too loose on purpose (SPLITVK_ENVELOPE=client: the app is told lavapipe's 16)
+// against the same stricter agent: atrium's second uniform slot sits at 0x110, which the agent's
+// GPU cannot bind. The agent says so once and flags every frame that uses it; the layer shows
+// those frames' centre from the periphery. Proof that no wrong fovea reached the screen: the held
+// frame (frame 3, an odd one) equals, bit for bit, the same frame from a run whose agent could
+// render nothing (images over its 1024 limit), which is the periphery alone.
+TEST_F(Split, LooseEnvelopeNeverCompositesAWrongFovea) {
+    const auto strict = (source_dir() / "tests/e2e/profiles/strict_alignment.json").string();
+    const auto tiny = (source_dir() / "tests/e2e/profiles/tiny_images.json").string();
+    ASSERT_TRUE(agent_.start(env(), out_, {"--emulate-limits", strict})) << agent_.error();
+    Agent blind;
+    ASSERT_TRUE(blind.start(env(), out_, {"--emulate-limits", tiny}, 0, "blind-agent")) << blind.error();
+    Grab native, loose, periphery;
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(atrium_argv(2, kFrames, false), env(), "native", kFrames, &native));
+    Env e = split_env();
+    e["SPLITVK_ENVELOPE"] = "client";
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(atrium_argv(2, kFrames, false), e, "loose", kFrames, &loose));
+    e["SPLITVK_SERVER"] = blind.address();
+    ASSERT_NO_FATAL_FAILURE(
+        run_and_grab(atrium_argv(2, kFrames, false), e, "periphery", kFrames, &periphery));
+
+    const std::string &err = loose.result.err();
+    const std::regex flagged(R"(split: (\d+) frames the agent flagged invalid)");
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(err, m, flagged)) << tail(err, 30);
+    const uint64_t invalid = std::stoull(m[1]);
+    EXPECT_GT(invalid, 0u);
+    EXPECT_LT(invalid, static_cast<uint64_t>(kFrames))
+        << "the even frames bind the aligned slot and are exact";
+    EXPECT_EQ(split_summary(err).late, 0u) << "a flagged frame is not a late one\n" << tail(err, 30);
+    EXPECT_EQ(grep(agent_.log(), "is not a multiple of minUniformBufferOffsetAlignment 0x100").size(), 1u)
+        << tail(agent_.log(), 30);
+    const std::string &blind_err = periphery.result.err();
+    ASSERT_TRUE(std::regex_search(blind_err, m, flagged)) << tail(blind_err, 30);
+    EXPECT_EQ(std::stoull(m[1]), static_cast<uint64_t>(kFrames));
+
+    const auto same = compare_exact(periphery.image, loose.image);
+    EXPECT_TRUE(same.equal()) << "the flagged frame is not the periphery alone: " << same.summary() << "\n"
+                              << save_mismatch_artefacts(out_, "flagged", periphery.image, loose.image);
+    for (const Rect &f : default_foveae(kWidth, kHeight, 2))
+        EXPECT_FALSE(compare_exact(native.image, loose.image, f.x, f.y, f.w, f.h).equal())
+            << "a fovea equals native: the frame was not the flagged one";
+    const double s = ssim(native.image, loose.image);
+    std::cout << "  the flagged frame against native: SSIM " << s << "\n";
+    EXPECT_GE(s, kMinSsim) << "a flagged frame must still be a complete picture";
+    EXPECT_TRUE(client_validation_clean(validation_log_));
+}
+
 } // namespace
 } // namespace splitvk::e2e
