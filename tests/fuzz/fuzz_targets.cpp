@@ -1,5 +1,6 @@
 #include "fuzz_targets.h"
 
+#include "device_envelope.h"
 #include "handshake.h"
 #include "session.h"
 #include "tile_codec.h"
@@ -117,6 +118,15 @@ void decode_control(const protocol::Message &m) {
             protocol::ServerHandshakeConfig config;
             config.token = {'s', 'e', 'c', 'r', 'e', 't'};
             config.codec_fingerprint = codec::kCodecFingerprint;
+            // The device envelope a client sends (issue 10), decoded and checked as the agent does.
+            config.check_envelope = [](std::span<const uint8_t> blob) -> std::string {
+                auto envelope = protocol::decode_device_description(blob);
+                if (!envelope) return envelope.error();
+                protocol::DeviceDescription self = *envelope;
+                self.limits.minUniformBufferOffsetAlignment = 256;
+                const auto problems = protocol::violations(self, *envelope);
+                return problems.empty() ? std::string() : problems.front();
+            };
             const auto verdict = protocol::evaluate_hello(*hello, config);
             g_sink = g_sink + static_cast<unsigned>(verdict.index());
         }
