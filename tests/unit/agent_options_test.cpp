@@ -86,9 +86,17 @@ TEST(AgentOptions, Limits) {
         EXPECT_NE(bad.error.find(args.front()), std::string::npos) << args.front();
         EXPECT_EQ(bad.error.find('\n'), std::string::npos);
     }
-    for (const char *flag :
-         {"--max-message-bytes", "--max-host-memory", "--max-gpu-memory", "--record-corpus"})
+    for (const char *flag : {"--max-message-bytes", "--max-host-memory", "--max-gpu-memory",
+                             "--record-corpus", "--emulate-limits"})
         EXPECT_NE(std::string(agent_usage()).find(flag), std::string::npos) << flag;
+}
+
+TEST(AgentOptions, EmulateLimitsTakesAProfile) {
+    const auto parsed = parse_agent_options({"--emulate-limits", "strict.json"});
+    ASSERT_TRUE(parsed.error.empty()) << parsed.error;
+    EXPECT_EQ(parsed.options.emulate_limits, "strict.json");
+    const auto missing = parse_agent_options({"--emulate-limits"});
+    EXPECT_NE(missing.error.find("--emulate-limits"), std::string::npos) << missing.error;
 }
 
 TEST(AgentOptions, BadInputIsOneLineError) {
