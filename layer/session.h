@@ -204,6 +204,8 @@ public:
     // SPLITVK_VERIFY=full: frames compared and pixels that differed (present.cpp).
     std::atomic<uint64_t> verified_frames{0};
     std::atomic<uint64_t> mismatching_pixels{0};
+    std::atomic<uint32_t> largest_difference{0}; // of one colour channel, over every verified frame
+    std::atomic<uint64_t> difference_sum{0};     // of every differing pixel's colour channels
 
     // Split mode (present.cpp): frames composited, and those whose tiles came too late (or not at
     // all) and whose centre is the periphery's.
