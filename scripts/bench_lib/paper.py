@@ -122,6 +122,9 @@ def register(subparsers):
                    help="measure nothing: redo the tables, figures and docs from an earlier run's results.json")
     common.add_build_argument(p)
     common.add_driver_argument(p)
+    p.add_argument("--agent-icd", default=None, metavar="JSON",
+                   help="Vulkan driver manifest for splitvk-agent alone, e.g. a real GPU's "
+                        "(default: the client's, --icd); scripts/device-check uses it")
 
 
 # --- machine ------------------------------------------------------------------------------------
@@ -297,6 +300,8 @@ def measure(args):
         base["DISPLAY"] = disp
         client_env = dict(base, LP_NUM_THREADS=str(args.client_threads))
         agent_env = dict(base, LP_NUM_THREADS=str(len(agent_cpus)))
+        if args.agent_icd:
+            agent_env["VK_DRIVER_FILES"] = args.agent_icd
         with split.started_agent(agent, agent_port, agent_env, os.path.join(out_dir, "agent.log"), agent_prefix), \
                 Link(build, link_bin, args.link, agent_port, cpu_text(agent_cpus), base,
                      os.path.join(out_dir, "link.log"), bool(args.link_bin)) as link:
