@@ -29,6 +29,11 @@ struct AgentOptions {
     uint64_t max_host_memory = kDefaultMaxHostMemory;     // client data the session keeps in host memory
     uint64_t max_gpu_memory = kDefaultMaxGpuMemory;       // VkDeviceMemory the client asks for
     std::string record_corpus;                            // debug: write received messages here
+    // The session process's confinement (confinement.h): the user a root agent's sessions drop
+    // to, and --no-confine (debugging) to leave sessions with the agent's own rights.
+    std::string user = "nobody";
+    bool user_given = false;
+    bool confine = true;
     bool list_devices = false;
     bool help = false;
 };
