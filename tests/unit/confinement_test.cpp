@@ -3,21 +3,27 @@
 
 #include "confinement.h"
 
+#include <algorithm>
 #include <cerrno>
+#include <cstddef>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <string>
 
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <gtest/gtest.h>
+#include <linux/filter.h>
+#include <linux/seccomp.h>
 #include <netinet/in.h>
 #include <pwd.h>
 #include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
+#include <sys/syscall.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -162,6 +168,55 @@ TEST(Confinement, SessionProcessCannotOpenOutsideTheAllowedSet) {
     if (plan->landlock_abi >= 4) {
         EXPECT_EQ(r.at("tcp_connect"), "EACCES");
     }
+}
+
+// A kernel without Landlock, as the agent sees one: landlock_create_ruleset fails with ENOSYS
+// (a seccomp filter in the child says so). The listener says it once, and sessions go on with
+// no_new_privs and the user drop.
+TEST(Confinement, KernelWithoutLandlockIsSaidOnceAndSessionsGoOn) {
+    const std::string outside = make_dir("nolandlock", 0777);
+    ASSERT_FALSE(outside.empty());
+    write_file(outside + "/file", "readable");
+    const std::string log = outside + "/agent.log";
+    const auto r = in_child([&](auto report) {
+        sock_filter filter[] = {
+            BPF_STMT(BPF_LD | BPF_W | BPF_ABS, offsetof(seccomp_data, nr)),
+            BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, SYS_landlock_create_ruleset, 0, 1),
+            BPF_STMT(BPF_RET | BPF_K, SECCOMP_RET_ERRNO | ENOSYS),
+            BPF_STMT(BPF_RET | BPF_K, SECCOMP_RET_ALLOW),
+        };
+        sock_fprog program{static_cast<unsigned short>(sizeof(filter) / sizeof(filter[0])), filter};
+        if (prctl(PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) != 0 ||
+            prctl(PR_SET_SECCOMP, SECCOMP_MODE_FILTER, &program) != 0)
+            return report("seccomp", std::strerror(errno));
+        if (!std::freopen(log.c_str(), "w", stderr)) return report("log", std::strerror(errno));
+        std::string why;
+        const auto plan = plan_confinement(AgentOptions{}, &why);
+        std::fflush(stderr);
+        if (!plan) return report("plan", why);
+        report("abi", std::to_string(plan->landlock_abi));
+        SessionDirectories dirs;
+        const std::string dir = dirs.open(*plan, &why) ? dirs.create(1, &why) : "";
+        report("confine", !dir.empty() && confine_session(*plan, dir, &why) ? "ok" : why);
+        report("no_new_privs", std::to_string(prctl(PR_GET_NO_NEW_PRIVS, 0, 0, 0, 0)));
+        report("uid", std::to_string(getuid()));
+        report("outside_read", try_open(outside + "/file", O_RDONLY));
+    });
+    std::ifstream in(log);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    remove_tree(outside);
+    ASSERT_EQ(r.count("abi"), 1u) << (r.empty() ? "the child reported nothing" : r.begin()->second);
+    EXPECT_EQ(r.at("abi"), "0");
+    EXPECT_EQ(r.at("confine"), "ok");
+    EXPECT_EQ(r.at("no_new_privs"), "1");
+    if (geteuid() == 0) {
+        EXPECT_NE(r.at("uid"), "0");
+    }
+    EXPECT_EQ(r.at("outside_read"), "ok");
+    const std::string line = "this kernel has no Landlock";
+    ASSERT_NE(text.find(line), std::string::npos) << text;
+    EXPECT_EQ(text.find(line, text.find(line) + 1), std::string::npos) << text;
+    EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 1) << text;
 }
 
 TEST(Confinement, NoConfineLeavesTheProcessAsItIs) {
