@@ -86,26 +86,24 @@ std::vector<std::string> gpu_device_paths() {
 }
 
 // The groups that own the GPU device files, root's excepted: a render node is typically
-// root:render 0660, and the session's user needs that group to reach the GPU at all.
+// root:render 0660, and the session's user needs that group to reach the GPU at all. Of /dev/dri
+// only the render nodes count: the card nodes (display, mode setting) need no more than rendering.
 std::vector<gid_t> gpu_device_groups() {
+    std::vector<std::string> nodes = gpu_device_paths();
+    nodes.erase(nodes.begin()); // /dev/dri
+    if (DIR *dir = opendir("/dev/dri")) {
+        while (const dirent *e = readdir(dir)) {
+            if (std::strncmp(e->d_name, "renderD", 7) == 0)
+                nodes.push_back(std::string("/dev/dri/") + e->d_name);
+        }
+        closedir(dir);
+    }
     std::vector<gid_t> groups;
-    const auto add = [&](const std::string &path) {
+    for (const auto &node : nodes) {
         struct stat st {};
-        if (stat(path.c_str(), &st) == 0 && S_ISCHR(st.st_mode) && st.st_gid != 0 &&
+        if (stat(node.c_str(), &st) == 0 && S_ISCHR(st.st_mode) && st.st_gid != 0 &&
             std::find(groups.begin(), groups.end(), st.st_gid) == groups.end())
             groups.push_back(st.st_gid);
-    };
-    for (const auto &path : gpu_device_paths()) {
-        if (path != "/dev/dri") {
-            add(path);
-            continue;
-        }
-        if (DIR *dir = opendir("/dev/dri")) {
-            while (const dirent *e = readdir(dir)) {
-                if (std::strncmp(e->d_name, "renderD", 7) == 0) add(std::string("/dev/dri/") + e->d_name);
-            }
-            closedir(dir);
-        }
     }
     return groups;
 }
@@ -165,7 +163,8 @@ void add_env_paths(const char *variable, const char *suffix, std::vector<std::st
     }
 }
 
-// One rule; a path that does not exist is skipped (the lists name what a system may have).
+// One rule. A path that does not exist is skipped (the lists name what a system may have), and so
+// is one the session's user cannot reach anyway.
 bool add_rule(int ruleset, const std::string &path, uint64_t access, uint64_t handled, std::string *error) {
     const int fd = open(path.c_str(), O_PATH | O_CLOEXEC);
     if (fd < 0) return errno == ENOENT || errno == ENOTDIR || errno == EACCES;
