@@ -325,10 +325,11 @@ std::vector<std::string> read_only_paths() {
                                       "/proc/self",    "/proc/cpuinfo", "/proc/meminfo", "/proc/stat",
                                       "/proc/devices", "/proc/sys",     "/proc/driver"};
     // What the loader is pointed at instead of, or besides, the system manifests (VK_DRIVER_FILES
-    // and VK_ICD_FILENAMES name manifest files or folders; the layer variables name folders).
+    // and VK_ICD_FILENAMES name manifest files or folders, the layer variables folders,
+    // VK_LAYER_SETTINGS_PATH vk_layer_settings.txt or its folder).
     for (const char *variable :
          {"VK_DRIVER_FILES", "VK_ICD_FILENAMES", "VK_ADD_DRIVER_FILES", "VK_LAYER_PATH", "VK_ADD_LAYER_PATH",
-          "VK_IMPLICIT_LAYER_PATH", "VK_ADD_IMPLICIT_LAYER_PATH"})
+          "VK_IMPLICIT_LAYER_PATH", "VK_ADD_IMPLICIT_LAYER_PATH", "VK_LAYER_SETTINGS_PATH"})
         add_env_paths(variable, "", paths);
     for (const char *variable : {"XDG_DATA_DIRS", "XDG_CONFIG_DIRS"})
         add_env_paths(variable, "/vulkan", paths);
