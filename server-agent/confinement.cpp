@@ -237,21 +237,20 @@ bool drop_user(const SessionUser &user, std::string *error) {
     return true;
 }
 
-// Directory entries of `dir_fd` (closed by the caller); "." and ".." left out.
+// Directory entries of `dir_fd`, "." and ".." left out. getdents64 into a buffer on the stack
+// rather than opendir's heap buffer: the listener runs this for every session it cleans up after.
 std::vector<std::string> entries(int dir_fd) {
     std::vector<std::string> names;
-    const int copy = dup(dir_fd);
-    if (copy < 0) return names;
-    DIR *dir = fdopendir(copy);
-    if (!dir) {
-        close(copy);
-        return names;
+    alignas(dirent64) char buffer[8192];
+    ssize_t n;
+    while ((n = getdents64(dir_fd, buffer, sizeof(buffer))) > 0) {
+        for (ssize_t at = 0; at < n;) {
+            const auto *e = reinterpret_cast<const dirent64 *>(buffer + at);
+            at += e->d_reclen;
+            if (std::strcmp(e->d_name, ".") != 0 && std::strcmp(e->d_name, "..") != 0)
+                names.emplace_back(e->d_name);
+        }
     }
-    while (const dirent *e = readdir(dir)) {
-        if (std::strcmp(e->d_name, ".") != 0 && std::strcmp(e->d_name, "..") != 0)
-            names.emplace_back(e->d_name);
-    }
-    closedir(dir);
     return names;
 }
 
