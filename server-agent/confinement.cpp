@@ -6,12 +6,14 @@
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 
 #include <dirent.h>
 #include <fcntl.h>
 #include <grp.h>
 #include <linux/landlock.h>
 #include <pwd.h>
+#include <sys/file.h>
 #include <sys/prctl.h>
 #include <sys/stat.h>
 #include <sys/syscall.h>
@@ -394,19 +396,59 @@ bool confine_session(const ConfinementPlan &plan, const std::string &session_dir
     return true;
 }
 
+namespace {
+
+constexpr char kBasePrefix[] = "splitvk-agent-";
+
+// Removes the directories of listeners that died without cleaning up (SIGKILL, a crash): a live
+// listener holds an flock on its directory, which the kernel drops with the process, whichever
+// way it ends. A directory younger than a minute is left alone: its listener may not have locked
+// it yet.
+void sweep_stale(const std::string &tmp) {
+    const int dir = ::open(tmp.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (dir < 0) return;
+    const time_t now = time(nullptr);
+    for (const auto &name : entries(dir)) {
+        if (name.rfind(kBasePrefix, 0) != 0 || name.size() != sizeof(kBasePrefix) - 1 + 6) continue;
+        const int fd = openat(dir, name.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+        if (fd < 0) continue;
+        struct stat st {};
+        if (fstat(fd, &st) == 0 && st.st_uid == geteuid() && (st.st_mode & 07777) == 0711 &&
+            st.st_mtime < now - 60 && flock(fd, LOCK_EX | LOCK_NB) == 0)
+            remove_at(dir, name, 0);
+        close(fd);
+    }
+    close(dir);
+}
+
+} // namespace
+
 SessionDirectories::~SessionDirectories() {
     if (!base_.empty()) remove_tree(base_);
+    if (lock_ >= 0) close(lock_);
 }
 
 bool SessionDirectories::open(const ConfinementPlan &plan, std::string *error) {
     plan_ = &plan;
-    const char *tmp = std::getenv("TMPDIR");
-    std::string pattern = std::string(tmp && *tmp == '/' ? tmp : "/tmp") + "/splitvk-agent-XXXXXX";
+    const char *tmp_env = std::getenv("TMPDIR");
+    const std::string tmp = tmp_env && *tmp_env == '/' ? tmp_env : "/tmp";
+    sweep_stale(tmp);
+    std::string pattern = tmp + "/" + kBasePrefix + "XXXXXX";
     if (!mkdtemp(pattern.data())) return *error = errno_text("cannot create " + pattern), false;
     base_ = pattern;
     // Sessions of another user must pass through to their own directory, and list nothing.
     if (chmod(base_.c_str(), 0711) != 0) return *error = errno_text("chmod " + base_), false;
+    lock_ = ::open(base_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (lock_ < 0 || flock(lock_, LOCK_EX | LOCK_NB) != 0)
+        return *error = errno_text("flock " + base_), false;
     return true;
+}
+
+void SessionDirectories::close_in_session() {
+    // The session must neither remove the listener's directory at exit nor be able to unlock it.
+    if (lock_ >= 0) close(lock_);
+    lock_ = -1;
+    base_.clear();
 }
 
 std::string SessionDirectories::create(uint64_t session_id, std::string *error) {

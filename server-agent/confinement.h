@@ -56,7 +56,9 @@ std::vector<std::string> read_only_paths();
 
 // Per-session private directories under one directory of the listener's (mode 0711: sessions reach
 // their own, and list none). Each is created before the fork, owned by the session's user, and
-// removed by the listener once the session's process is gone, whatever it left there.
+// removed by the listener once the session's process is gone, whatever it left there. The
+// listener's directory goes when it exits; one that a killed listener left behind, the next
+// listener to start removes.
 class SessionDirectories {
 public:
     SessionDirectories() = default;
@@ -70,10 +72,13 @@ public:
     std::string create(uint64_t session_id, std::string *error);
     // Copies the --record-corpus files out (when the plan records) and removes the directory.
     void release(uint64_t session_id, const std::string &dir);
+    // In a forked session: lets go of the listener's directory without touching it.
+    void close_in_session();
 
 private:
     const ConfinementPlan *plan_ = nullptr;
     std::string base_;
+    int lock_ = -1; // flock held on base_ while the listener lives
 };
 
 // Removes `path` and everything under it without following a symbolic link anywhere (a session's

@@ -164,6 +164,7 @@ int run_listener(const AgentOptions &options, const std::string &gpu_name) {
             std::signal(SIGTERM, SIG_DFL);
             std::signal(SIGINT, SIG_DFL);
             (*acceptor)->close();
+            dirs.close_in_session();
             // Confined before the first byte from the client is decoded.
             if (!confine_session(*plan, dir, &error)) {
                 SPLITVK_ERROR("session %llu: cannot confine the session process: %s; closing",

@@ -5,9 +5,11 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <csignal>
 #include <cstddef>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <fstream>
 #include <iterator>
 #include <map>
@@ -178,6 +180,15 @@ TEST(Confinement, KernelWithoutLandlockIsSaidOnceAndSessionsGoOn) {
     ASSERT_FALSE(outside.empty());
     write_file(outside + "/file", "readable");
     const std::string log = outside + "/agent.log";
+    // The session's directory, made by this process as a listener would (the child is dropped to
+    // nobody and could not remove it from /tmp).
+    std::string error;
+    const auto listener_plan = plan_confinement(AgentOptions{}, &error);
+    ASSERT_TRUE(listener_plan) << error;
+    SessionDirectories dirs;
+    ASSERT_TRUE(dirs.open(*listener_plan, &error)) << error;
+    const std::string session_dir = dirs.create(1, &error);
+    ASSERT_FALSE(session_dir.empty()) << error;
     const auto r = in_child([&](auto report) {
         sock_filter filter[] = {
             BPF_STMT(BPF_LD | BPF_W | BPF_ABS, offsetof(seccomp_data, nr)),
@@ -195,9 +206,7 @@ TEST(Confinement, KernelWithoutLandlockIsSaidOnceAndSessionsGoOn) {
         std::fflush(stderr);
         if (!plan) return report("plan", why);
         report("abi", std::to_string(plan->landlock_abi));
-        SessionDirectories dirs;
-        const std::string dir = dirs.open(*plan, &why) ? dirs.create(1, &why) : "";
-        report("confine", !dir.empty() && confine_session(*plan, dir, &why) ? "ok" : why);
+        report("confine", confine_session(*plan, session_dir, &why) ? "ok" : why);
         report("no_new_privs", std::to_string(prctl(PR_GET_NO_NEW_PRIVS, 0, 0, 0, 0)));
         report("uid", std::to_string(getuid()));
         report("outside_read", try_open(outside + "/file", O_RDONLY));
@@ -205,6 +214,7 @@ TEST(Confinement, KernelWithoutLandlockIsSaidOnceAndSessionsGoOn) {
     std::ifstream in(log);
     const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     remove_tree(outside);
+    dirs.release(1, session_dir);
     ASSERT_EQ(r.count("abi"), 1u) << (r.empty() ? "the child reported nothing" : r.begin()->second);
     EXPECT_EQ(r.at("abi"), "0");
     EXPECT_EQ(r.at("confine"), "ok");
@@ -271,6 +281,47 @@ TEST(Confinement, SessionDirectoriesArePrivateAndGoAway) {
         EXPECT_FALSE(dirs.create(8, &error).empty()) << error; // left for the destructor
     }
     EXPECT_NE(access(base.c_str(), F_OK), 0);
+}
+
+// A listener killed with SIGKILL cannot clean up; the next one to start removes what it left, and
+// leaves alone the directory of a listener that still runs, however old.
+TEST(Confinement, ADirectoryLeftByAKilledListenerIsRemovedByTheNext) {
+    std::string error;
+    const auto plan = plan_confinement(AgentOptions{}, &error);
+    ASSERT_TRUE(plan) << error;
+    int fds[2];
+    ASSERT_EQ(pipe(fds), 0);
+    const pid_t pid = fork();
+    if (pid == 0) {
+        SessionDirectories dirs;
+        std::string why;
+        if (dirs.open(*plan, &why) && !dirs.create(1, &why).empty())
+            (void)!write(fds[1], dirs.base().data(), dirs.base().size());
+        raise(SIGKILL);
+    }
+    close(fds[1]);
+    char buffer[4096];
+    const ssize_t n = read(fds[0], buffer, sizeof(buffer));
+    close(fds[0]);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    ASSERT_TRUE(WIFSIGNALED(status));
+    ASSERT_GT(n, 0);
+    const std::string killed(buffer, static_cast<size_t>(n));
+    ASSERT_EQ(access((killed + "/s1").c_str(), F_OK), 0) << killed;
+
+    SessionDirectories live;
+    ASSERT_TRUE(live.open(*plan, &error)) << error;
+    // Both over a minute old: younger, a directory may still be waiting for its listener's lock.
+    const timespec old[2] = {{time(nullptr) - 120, 0}, {time(nullptr) - 120, 0}};
+    ASSERT_EQ(utimensat(AT_FDCWD, killed.c_str(), old, 0), 0);
+    ASSERT_EQ(utimensat(AT_FDCWD, live.base().c_str(), old, 0), 0);
+    {
+        SessionDirectories next;
+        ASSERT_TRUE(next.open(*plan, &error)) << error;
+    }
+    EXPECT_NE(access(killed.c_str(), F_OK), 0) << killed << " is still there";
+    EXPECT_EQ(access(live.base().c_str(), F_OK), 0) << "the live listener's directory was removed";
 }
 
 TEST(Confinement, RemoveTreeNeverFollowsALink) {
