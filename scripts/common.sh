@@ -10,6 +10,7 @@ SPLITVK_PACKAGES=(
   glslang-tools spirv-tools
   libx264-dev libavcodec-dev libavutil-dev libasio-dev libglm-dev libzstd-dev libgtest-dev
   libxcb1-dev libx11-dev xvfb xauth x11-utils ffmpeg
+  systemd
 )
 
 log() { printf '==> %s\n' "$*"; }

@@ -58,6 +58,7 @@ const char *agent_usage() {
     return "usage: splitvk-agent [--listen ADDR:PORT] [--device N] [--token-file FILE] [--validate]\n"
            "                     [--max-sessions N] [--max-message-bytes SIZE] [--max-host-memory SIZE]\n"
            "                     [--max-gpu-memory SIZE] [--record-corpus DIR] [--emulate-limits FILE]\n"
+           "                     [--user NAME] [--no-confine]\n"
            "       splitvk-agent --list-devices\n"
            "\n"
            "The splitvk server agent: replays the command stream of applications running the\n"
@@ -88,6 +89,10 @@ const char *agent_usage() {
            "                      profile JSON (capabilities -> properties -> VkPhysicalDeviceProperties\n"
            "                      -> limits, and features): clients are checked against them and replayed\n"
            "                      commands that break them are flagged, as on such a GPU\n"
+           "  --user NAME         the user each session process drops to when the agent runs as root\n"
+           "                      (default nobody); it also gets the groups of the GPU device files\n"
+           "  --no-confine        debugging only: sessions keep the agent's user and rights, without\n"
+           "                      no_new_privs or Landlock (docs/security.md)\n"
            "  --list-devices      print the GPUs this agent can use and exit\n"
            "  --help              print this help and exit\n";
 }
@@ -181,6 +186,17 @@ ParsedOptions parse_agent_options(const std::vector<std::string> &arguments) {
             const auto v = value("a directory");
             if (!v) return parsed;
             o.record_corpus = *v;
+        } else if (arg == "--user") {
+            const auto v = value("a user name");
+            if (!v) return parsed;
+            if (v->empty() || *v == "root" || *v == "0") {
+                parsed.error = "--user '" + *v + "' is invalid: sessions must run as an unprivileged user";
+                return parsed;
+            }
+            o.user = *v;
+            o.user_given = true;
+        } else if (arg == "--no-confine") {
+            o.confine = false;
         } else {
             parsed.error = "unknown option '" + arg + "' (see --help)";
             return parsed;

@@ -32,6 +32,11 @@ struct AgentOptions {
     // A Khronos profile JSON: the agent behaves as a device with those limits and features
     // (issue 10), to test what a stricter GPU would do without one.
     std::string emulate_limits;
+    // The session process's confinement (confinement.h): the user a root agent's sessions drop
+    // to, and --no-confine (debugging) to leave sessions with the agent's own rights.
+    std::string user = "nobody";
+    bool user_given = false;
+    bool confine = true;
     bool list_devices = false;
     bool help = false;
 };

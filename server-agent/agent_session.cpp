@@ -280,6 +280,8 @@ const char *session_exit_name(int status) {
         return "Vulkan setup failed";
     case kSessionValidation:
         return "closed, with validation messages";
+    case kSessionConfinement:
+        return "confinement failed";
     default:
         return "unknown exit status";
     }

@@ -33,11 +33,12 @@ struct SessionConfig {
 
 // Exit statuses of a session process (the listener logs them).
 enum SessionExit : int {
-    kSessionClosed = 0,     // the client closed or said goodbye
-    kSessionError = 1,      // malformed input, a decode or replay error
-    kSessionHandshake = 2,  // no valid Hello (bad token, version, a command first, timeout)
-    kSessionSetup = 3,      // the agent's own Vulkan setup failed
-    kSessionValidation = 4, // closed normally, but --validate reported messages
+    kSessionClosed = 0,      // the client closed or said goodbye
+    kSessionError = 1,       // malformed input, a decode or replay error
+    kSessionHandshake = 2,   // no valid Hello (bad token, version, a command first, timeout)
+    kSessionSetup = 3,       // the agent's own Vulkan setup failed
+    kSessionValidation = 4,  // closed normally, but --validate reported messages
+    kSessionConfinement = 5, // the session process could not be confined (confinement.h)
 };
 const char *session_exit_name(int status);
 

@@ -1,6 +1,7 @@
 #include "listener.h"
 
 #include "agent_session.h"
+#include "confinement.h"
 #include "log.h"
 #include "transport.h"
 
@@ -27,6 +28,7 @@ void on_stop_signal(int) {
 
 struct Child {
     uint64_t session_id = 0;
+    std::string dir; // its private directory; empty with --no-confine
 };
 
 void log_exit(const Child &child, pid_t pid, int status) {
@@ -42,13 +44,15 @@ void log_exit(const Child &child, pid_t pid, int status) {
     }
 }
 
-void reap(std::map<pid_t, Child> &children, bool block) {
+void reap(std::map<pid_t, Child> &children, SessionDirectories &dirs, bool block) {
     for (;;) {
         int status = 0;
         const pid_t pid = waitpid(-1, &status, block ? 0 : WNOHANG);
         if (pid <= 0) return;
         auto it = children.find(pid);
         if (it == children.end()) continue;
+        // Before the line that says it ended: whoever waits for that line finds the corpus there.
+        dirs.release(it->second.session_id, it->second.dir);
         log_exit(it->second, pid, status);
         children.erase(it);
         if (block && children.empty()) return;
@@ -83,6 +87,16 @@ int run_listener(const AgentOptions &options, const std::string &gpu_name,
         SPLITVK_ERROR("%s", error.c_str());
         return 2;
     }
+    const auto plan = plan_confinement(options, &error);
+    if (!plan) {
+        SPLITVK_ERROR("%s", error.c_str());
+        return 2;
+    }
+    SessionDirectories dirs;
+    if (plan->enabled && !dirs.open(*plan, &error)) {
+        SPLITVK_ERROR("session directories: %s", error.c_str());
+        return 2;
+    }
     auto acceptor = protocol::Acceptor::listen(options.listen_host, options.listen_port);
     if (!acceptor) {
         SPLITVK_ERROR("cannot listen on %s:%u: %s", options.listen_host.c_str(), options.listen_port,
@@ -98,6 +112,7 @@ int run_listener(const AgentOptions &options, const std::string &gpu_name,
 
     SPLITVK_INFO("listening on %s:%u, GPU %u (%s)%s", options.listen_host.c_str(), (*acceptor)->port(),
                  options.device_index, gpu_name.c_str(), options.validate ? ", validation on" : "");
+    if (plan->enabled) SPLITVK_INFO("session directories under %s", dirs.base().c_str());
     SPLITVK_INFO("per session: messages up to %u bytes, %llu bytes of host memory, %llu bytes of GPU memory",
                  options.max_message_bytes, static_cast<unsigned long long>(options.max_host_memory),
                  static_cast<unsigned long long>(options.max_gpu_memory));
@@ -107,7 +122,7 @@ int run_listener(const AgentOptions &options, const std::string &gpu_name,
     std::map<pid_t, Child> children;
     uint64_t next_session = 1;
     while (!g_stop) {
-        reap(children, false);
+        reap(children, dirs, false);
         auto fd = (*acceptor)->accept(200ms);
         if (!fd) {
             if (g_stop) break;
@@ -127,11 +142,23 @@ int run_listener(const AgentOptions &options, const std::string &gpu_name,
         config.max_gpu_memory = options.max_gpu_memory;
         config.record_corpus = options.record_corpus;
         config.device = device;
+        std::string dir;
+        if (plan->enabled) {
+            dir = dirs.create(config.session_id, &error);
+            if (dir.empty()) {
+                SPLITVK_ERROR("session %llu: %s; not served",
+                              static_cast<unsigned long long>(config.session_id), error.c_str());
+                continue;
+            }
+            // A confined session writes only inside its directory; the listener copies the files out.
+            if (!config.record_corpus.empty()) config.record_corpus = dir;
+        }
         std::fflush(nullptr);
         const pid_t pid = fork();
         if (pid < 0) {
             SPLITVK_ERROR("session %llu: fork failed: %s", static_cast<unsigned long long>(config.session_id),
                           std::strerror(errno));
+            dirs.release(config.session_id, dir);
             continue;
         }
         if (pid == 0) {
@@ -139,11 +166,19 @@ int run_listener(const AgentOptions &options, const std::string &gpu_name,
             std::signal(SIGTERM, SIG_DFL);
             std::signal(SIGINT, SIG_DFL);
             (*acceptor)->close();
+            dirs.close_in_session();
+            // Confined before the first byte from the client is decoded.
+            if (!confine_session(*plan, dir, &error)) {
+                SPLITVK_ERROR("session %llu: cannot confine the session process: %s; closing",
+                              static_cast<unsigned long long>(config.session_id), error.c_str());
+                std::fflush(nullptr);
+                _exit(kSessionConfinement);
+            }
             const int status = run_session(std::move(*fd), config);
             std::fflush(nullptr);
             _exit(status);
         }
-        children[pid] = Child{config.session_id};
+        children[pid] = Child{config.session_id, dir};
         SPLITVK_INFO("session %llu (pid %d) started%s", static_cast<unsigned long long>(config.session_id),
                      static_cast<int>(pid), config.full ? " over --max-sessions: it will be rejected" : "");
     }
@@ -151,7 +186,7 @@ int run_listener(const AgentOptions &options, const std::string &gpu_name,
     SPLITVK_INFO("stopping: %zu sessions still running get SIGTERM", children.size());
     for (const auto &[pid, child] : children)
         kill(pid, SIGTERM);
-    if (!children.empty()) reap(children, true);
+    if (!children.empty()) reap(children, dirs, true);
     SPLITVK_INFO("stopped");
     return 0;
 }

@@ -24,6 +24,7 @@
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
 #include <netinet/in.h>
+#include <pwd.h>
 #include <signal.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
@@ -650,6 +651,88 @@ TEST(AgentListener, ACrashedSessionLeavesTheListenerServing) {
     bystander.bye();
     EXPECT_TRUE(agent.wait_for_end(2, "closed by the client")) << agent.log();
     expect_good_session(agent, 3);
+}
+
+// --- the session process's confinement (server-agent/confinement.h, docs/security.md) -----------
+
+pid_t session_pid(const Agent &agent, uint64_t session) {
+    const std::string l = agent.log();
+    const std::string prefix = "session " + std::to_string(session) + " (pid ";
+    const size_t at = l.find(prefix);
+    return at == std::string::npos ? -1 : static_cast<pid_t>(std::atol(l.c_str() + at + prefix.size()));
+}
+
+// "Uid:", "NoNewPrivs:" ... of /proc/PID/status: the first field after the name.
+std::string status_field(pid_t pid, const std::string &name) {
+    std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+    std::string line;
+    while (std::getline(in, line)) {
+        if (line.rfind(name + ":", 0) != 0) continue;
+        std::istringstream fields(line.substr(name.size() + 1));
+        std::string first;
+        fields >> first;
+        return first;
+    }
+    return {};
+}
+
+std::string log_value(const std::string &log, const std::string &prefix) {
+    const size_t at = log.find(prefix);
+    if (at == std::string::npos) return {};
+    const size_t start = at + prefix.size();
+    return log.substr(start, log.find('\n', start) - start);
+}
+
+// A real session replays and renders under the confinement: no_new_privs, the unprivileged user
+// (as root), Landlock (the unit test Confinement.SessionProcessCannotOpenOutsideTheAllowedSet
+// shows what it refuses); its private directory goes when it ends, the listener's at exit.
+TEST(AgentConfinement, ConfinedSessionStillReplaysAndRenders) {
+    Agent agent;
+    ASSERT_TRUE(agent.started()) << agent.log();
+    const std::string log = agent.log();
+    EXPECT_TRUE(log.find("sessions run confined: no_new_privs") != std::string::npos ||
+                log.find("this kernel has no Landlock") != std::string::npos)
+        << log;
+    const std::string base = log_value(log, "session directories under ");
+    ASSERT_FALSE(base.empty()) << log;
+    Client client;
+    ASSERT_TRUE(client.connect(agent)) << client.error;
+    ASSERT_TRUE(agent.wait_for_log("session 1: agent_session_test")) << agent.log();
+    const pid_t pid = session_pid(agent, 1);
+    ASSERT_GT(pid, 0) << agent.log();
+    EXPECT_EQ(status_field(pid, "NoNewPrivs"), "1");
+    if (geteuid() == 0) {
+        const passwd *nobody = getpwnam("nobody");
+        ASSERT_NE(nobody, nullptr);
+        EXPECT_EQ(status_field(pid, "Uid"), std::to_string(nobody->pw_uid));
+        EXPECT_EQ(status_field(pid, "Gid"), std::to_string(nobody->pw_gid));
+    }
+    EXPECT_TRUE(std::filesystem::is_directory(base + "/s1"));
+    std::vector<uint8_t> pixels;
+    std::string why;
+    ASSERT_TRUE(run_good_stream(client, &pixels, &why)) << why << "\n" << agent.log();
+    EXPECT_EQ(pixels, expected_pixels());
+    client.bye();
+    EXPECT_TRUE(agent.wait_for_end(1, "closed by the client")) << agent.log();
+    EXPECT_FALSE(std::filesystem::exists(base + "/s1"));
+    agent.stop();
+    EXPECT_FALSE(std::filesystem::exists(base));
+}
+
+TEST(AgentConfinement, NoConfineSaysSoAndLeavesTheSessionAsItIs) {
+    Agent agent({"--no-confine"});
+    ASSERT_TRUE(agent.started()) << agent.log();
+    EXPECT_NE(agent.log().find("--no-confine: sessions run with the agent's rights"), std::string::npos)
+        << agent.log();
+    Client client;
+    ASSERT_TRUE(client.connect(agent)) << client.error;
+    ASSERT_TRUE(agent.wait_for_log("session 1: agent_session_test")) << agent.log();
+    const pid_t pid = session_pid(agent, 1);
+    ASSERT_GT(pid, 0);
+    EXPECT_EQ(status_field(pid, "NoNewPrivs"), status_field(getpid(), "NoNewPrivs"));
+    EXPECT_EQ(status_field(pid, "Uid"), std::to_string(geteuid()));
+    client.bye();
+    EXPECT_TRUE(agent.wait_for_end(1, "closed by the client")) << agent.log();
 }
 
 TEST(AgentToken, BadTokenIsRejectedAndTheRightOneWorks) {

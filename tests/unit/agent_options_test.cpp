@@ -36,6 +36,23 @@ TEST(AgentOptions, ValidateAndMaxSessions) {
     EXPECT_NE(std::string(agent_usage()).find("--validate"), std::string::npos);
 }
 
+TEST(AgentOptions, UserAndNoConfine) {
+    const auto defaults = parse_agent_options({});
+    EXPECT_EQ(defaults.options.user, "nobody");
+    EXPECT_FALSE(defaults.options.user_given);
+    EXPECT_TRUE(defaults.options.confine);
+    const auto parsed = parse_agent_options({"--user", "splitvk", "--no-confine"});
+    ASSERT_TRUE(parsed.error.empty()) << parsed.error;
+    EXPECT_EQ(parsed.options.user, "splitvk");
+    EXPECT_TRUE(parsed.options.user_given);
+    EXPECT_FALSE(parsed.options.confine);
+    for (const char *user : {"root", "0", ""})
+        EXPECT_NE(parse_agent_options({"--user", user}).error.find("unprivileged"), std::string::npos)
+            << user;
+    EXPECT_NE(parse_agent_options({"--user"}).error.find("--user needs"), std::string::npos);
+    EXPECT_NE(std::string(agent_usage()).find("--no-confine"), std::string::npos);
+}
+
 TEST(AgentOptions, NonLoopbackNeedsAToken) {
     EXPECT_NE(parse_agent_options({"--listen", "0.0.0.0:7447"}).error.find("--token-file"),
               std::string::npos);
