@@ -11,6 +11,7 @@
 #include "vk_format_info.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstring>
 #include <mutex>
@@ -108,7 +109,15 @@ void bind_image(VkImage image) {
 // vk.xml describes as single-plane only: a multi-planar image's bytes reach the agent 1:1.
 void send_image_layouts(DeviceState &dev, VkImage image, const VkImageCreateInfo &info) {
     const FormatInfo format = format_info(info.format);
-    if (format.block_bytes == 0) return;
+    if (format.block_bytes == 0) {
+        static std::atomic<bool> logged{false};
+        if (!logged.exchange(true))
+            SPLITVK_WARN(
+                "a linear image of multi-planar VkFormat %d: what the host writes into it reaches the "
+                "agent byte for byte, exact only when both drivers lay it out alike",
+                static_cast<int>(info.format));
+        return;
+    }
     protocol::ImageLayouts message;
     message.device_id = dev.session->device_id();
     message.image_id = codec::handle_value(image);
