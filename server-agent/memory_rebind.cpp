@@ -90,24 +90,6 @@ VkDeviceSize covered(const Resource &r) {
     return r.relayout.empty() ? std::min(r.client_size, r.mapped_size) : r.client_size;
 }
 
-// Where one subresource's rows are: `rows` rows of `row_bytes` in each of `slices` slices.
-struct RowShape {
-    VkDeviceSize row_bytes = 0;
-    uint32_t rows = 0;
-    uint32_t slices = 0;
-};
-
-// The bytes from the subresource's offset to the end of its last row, or an error when its rows
-// overlap (a pitch shorter than what it must step over). Pitches are at most 2^40 and counts at
-// most 2^16 (the decoder's caps, and the agent's own driver's), so nothing here overflows.
-bool row_span(const RowShape &shape, VkDeviceSize row_pitch, VkDeviceSize depth_pitch, VkDeviceSize *span) {
-    if (row_pitch < shape.row_bytes) return false;
-    const VkDeviceSize slice = VkDeviceSize{shape.rows - 1} * row_pitch + shape.row_bytes;
-    if (shape.slices > 1 && depth_pitch < slice) return false;
-    *span = VkDeviceSize{shape.slices - 1} * depth_pitch + slice;
-    return true;
-}
-
 } // namespace
 
 bool MemoryRebind::image_layouts(VkImage image, const protocol::ImageLayouts &layouts, std::string *error,
@@ -170,9 +152,11 @@ bool MemoryRebind::image_layouts(VkImage image, const protocol::ImageLayouts &la
                 return false;
             }
             const protocol::SubresourceLayout *client = found->second;
-            VkDeviceSize client_span = 0;
-            if (!row_span(shape, client->row_pitch, client->depth_pitch, &client_span) ||
-                client_span > client->size) {
+            Relayout l;
+            l.shape = shape;
+            l.client = {client->offset, client->row_pitch, client->depth_pitch};
+            uint64_t client_span = 0;
+            if (!row_span(shape, l.client, &client_span) || client_span > client->size) {
                 *error = "the layout of " + which + " (row pitch " + std::to_string(client->row_pitch) +
                          ", depth pitch " + std::to_string(client->depth_pitch) + ", size " +
                          std::to_string(client->size) + ") cannot hold " + std::to_string(shape.rows) +
@@ -182,27 +166,18 @@ bool MemoryRebind::image_layouts(VkImage image, const protocol::ImageLayouts &la
             const VkImageSubresource sub{static_cast<VkImageAspectFlags>(aspect), mip, layer};
             VkSubresourceLayout agent{};
             vkGetImageSubresourceLayout(context_.device, image, &sub, &agent);
-            VkDeviceSize agent_span = 0;
-            if (!row_span(shape, agent.rowPitch, agent.depthPitch, &agent_span) || agent.offset > req.size ||
+            l.agent = {agent.offset, agent.rowPitch, agent.depthPitch};
+            uint64_t agent_span = 0;
+            if (!row_span(shape, l.agent, &agent_span) || agent.offset > req.size ||
                 agent_span > req.size - agent.offset) {
                 *error = "the agent's own layout of " + which + " does not fit its memory requirements";
                 return false;
             }
             client_end = std::max(client_end, client->offset + client_span);
-            Relayout l;
-            l.row_bytes = shape.row_bytes;
-            l.rows = shape.rows;
-            l.slices = shape.slices;
-            l.client_offset = client->offset;
-            l.client_row_pitch = client->row_pitch;
-            l.client_depth_pitch = client->depth_pitch;
-            l.agent_offset = agent.offset;
-            l.agent_row_pitch = agent.rowPitch;
-            l.agent_depth_pitch = agent.depthPitch;
             // Pitches that nothing steps over need not agree.
-            same = same && l.client_offset == l.agent_offset &&
-                   (l.rows == 1 || l.client_row_pitch == l.agent_row_pitch) &&
-                   (l.slices == 1 || l.client_depth_pitch == l.agent_depth_pitch);
+            same = same && l.client.offset == l.agent.offset &&
+                   (shape.rows == 1 || l.client.row_pitch == l.agent.row_pitch) &&
+                   (shape.slices == 1 || l.client.depth_pitch == l.agent.depth_pitch);
             relayout.push_back(l);
         }
     }
@@ -224,26 +199,8 @@ void MemoryRebind::place(const Resource &r, VkDeviceSize at, const uint8_t *src,
         std::memcpy(r.mapped + at, src, n);
         return;
     }
-    // Only the rows that [at, end) touches: a diff block is usually a few rows of one subresource.
-    const VkDeviceSize end = at + n;
-    for (const Relayout &l : r.relayout) {
-        for (uint32_t z = 0; z < l.slices; ++z) {
-            const VkDeviceSize base = l.client_offset + z * l.client_depth_pitch;
-            const VkDeviceSize last = base + VkDeviceSize{l.rows - 1} * l.client_row_pitch + l.row_bytes;
-            if (end <= base || at >= last) continue;
-            uint64_t y = at > base ? (at - base) / l.client_row_pitch : 0;
-            for (; y < l.rows; ++y) {
-                const VkDeviceSize row = base + y * l.client_row_pitch;
-                if (row >= end) break;
-                const VkDeviceSize from = std::max(at, row);
-                const VkDeviceSize to = std::min(end, row + l.row_bytes);
-                if (from >= to) continue; // [at, end) lies in this row's padding
-                std::memcpy(r.mapped + l.agent_offset + z * l.agent_depth_pitch + y * l.agent_row_pitch +
-                                (from - row),
-                            src + (from - at), to - from);
-            }
-        }
-    }
+    for (const Relayout &l : r.relayout)
+        relay_rows(l, r.mapped, at, src, n);
 }
 
 void MemoryRebind::release(Resource &resource) {

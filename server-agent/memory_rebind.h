@@ -17,6 +17,7 @@
 // (a format whose aspects the agent does not re-lay: multi-planar or combined depth/stencil), or
 // when both layouts are the same, bytes are copied 1:1 at the same offsets.
 
+#include "linear_layout.h"
 #include "session.h"
 #include "vulkan_context.h"
 
@@ -91,15 +92,6 @@ private:
         std::map<VkDeviceSize, std::unique_ptr<uint8_t[]>> pages; // page index -> kPageSize bytes
         std::unordered_set<uint64_t> bound;                       // resources bound to it
     };
-    // One subresource of a linear image whose client layout differs from the agent's: `rows` rows
-    // of `row_bytes` in each of `slices` depth slices, at the client's and the agent's offsets.
-    struct Relayout {
-        VkDeviceSize row_bytes = 0;
-        uint32_t rows = 0;
-        uint32_t slices = 0;
-        VkDeviceSize client_offset = 0, client_row_pitch = 0, client_depth_pitch = 0;
-        VkDeviceSize agent_offset = 0, agent_row_pitch = 0, agent_depth_pitch = 0;
-    };
     struct Resource {
         bool is_image = false;
         VkDeviceSize client_size = 0; // bytes of client memory the resource covers (buffers)
@@ -112,7 +104,7 @@ private:
         uint32_t array_layers = 1;
         bool has_layouts = false;
         VkDeviceSize client_image_bytes = 0; // the client's image: the end of its last subresource
-        std::vector<Relayout> relayout;      // empty: bytes are copied 1:1
+        std::vector<Relayout> relayout;      // per subresource; empty: bytes are copied 1:1
         uint64_t memory_id = 0;              // 0 while unbound
         VkDeviceSize client_offset = 0;
         VkDeviceMemory memory = VK_NULL_HANDLE;
