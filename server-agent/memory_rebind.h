@@ -9,9 +9,9 @@
 // Buffers get host-visible coherent memory and receive MemoryData directly. Optimal-tiling images
 // get device-local memory and receive contents only through GPU copies, as applications do.
 // Linear images get host-visible memory, and the bytes the host wrote into them are laid out by
-// the client's driver, which need not place rows where the agent's does (lavapipe packs a row of
-// a 4-pixel RGBA8 image in 16 bytes; a GPU may pad it to 256). The client sends the
-// VkSubresourceLayout of every subresource (ImageLayouts); MemoryData and the shadow applied at
+// the client's driver, which need not place rows where the agent's does (lavapipe packs the rows
+// of a small RGBA8 image tightly; GPUs align row pitch and subresource offsets). The client sends
+// the VkSubresourceLayout of every subresource (ImageLayouts); MemoryData and the shadow applied at
 // bind time are then copied row by row, each byte of a row (in texel blocks, vk_format_info.h)
 // from the client's layout to the agent's own, and row padding is dropped. Without ImageLayouts
 // (a format whose aspects the agent does not re-lay: multi-planar or combined depth/stencil), or
