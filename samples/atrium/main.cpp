@@ -92,7 +92,8 @@ int run(const Options &options) {
         const std::vector<Texture> textures = generate_textures(texture_size, threads);
         renderer.emplace(context, swapchain, scene, textures, camera,
                          RendererOptions{options.eyes, options.screenshot_frame, options.static_viewports,
-                                         options.clear_depth_per_eye, options.dynamic_rendering});
+                                         options.clear_depth_per_eye, options.dynamic_rendering,
+                                         options.linear_textures});
     }
     const VkExtent2D extent = swapchain.extent();
     std::printf("atrium: %s triangles, %u textures, %ux%u per eye\n",

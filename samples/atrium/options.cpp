@@ -40,6 +40,8 @@ options:
   --clear-depth-per-eye  clear each eye's depth with vkCmdClearAttachments before drawing it
                          (same picture)
   --dynamic-rendering    draw with VK_KHR_dynamic_rendering instead of a render pass (same picture)
+  --linear-textures      upload the textures through linear-tiling images that the host writes at
+                         the driver's row pitch, instead of a staging buffer (same picture)
   --screenshot N PATH    write frame N (0-based) as a PNG, read back from its swapchain image
                          before it is presented
   --resize-at N WxH      resize the window to WxH before frame N; the swapchain is recreated when
@@ -97,6 +99,8 @@ Options parse_options(int argc, char **argv) {
             o.clear_depth_per_eye = true;
         } else if (arg == "--dynamic-rendering") {
             o.dynamic_rendering = true;
+        } else if (arg == "--linear-textures") {
+            o.linear_textures = true;
         } else if (arg == "--screenshot") {
             o.screenshot_frame = parse_number<uint64_t>(arg, value(), 0, uint64_t(1) << 40);
             o.screenshot_path = value();

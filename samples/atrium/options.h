@@ -19,6 +19,7 @@ struct Options {
     bool static_viewports = false;
     bool clear_depth_per_eye = false;
     bool dynamic_rendering = false;
+    bool linear_textures = false;
     bool hold = false;
     // --resize-at N WxH: before frame N, resize the window (the swapchain is then recreated).
     std::optional<uint64_t> resize_frame;

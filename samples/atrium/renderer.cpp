@@ -1,6 +1,7 @@
 #include "renderer.h"
 
 #include "atrium_spirv.h"
+#include "linear_upload.h"
 
 #include <algorithm>
 #include <cmath>
@@ -121,8 +122,12 @@ void Renderer::upload(const Scene &scene, const std::vector<Texture> &textures) 
     const VkDeviceSize vertex_bytes = scene.vertices.size() * sizeof(Vertex);
     const VkDeviceSize index_bytes = scene.indices.size() * sizeof(uint32_t);
     VkDeviceSize staging_bytes = align_up(vertex_bytes, 16) + align_up(index_bytes, 16);
-    for (const Texture &t : textures)
-        staging_bytes += align_up(t.texels.size(), 16);
+    std::optional<LinearUpload> linear;
+    if (options_.linear_textures)
+        linear.emplace(context_, textures, texture_format);
+    else
+        for (const Texture &t : textures)
+            staging_bytes += align_up(t.texels.size(), 16);
 
     Buffer staging =
         context_.create_buffer(staging_bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
@@ -200,7 +205,8 @@ void Renderer::upload(const Scene &scene, const std::vector<Texture> &textures) 
     }
     vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
                          nullptr, 0, nullptr, uint32_t(to_transfer.size()), to_transfer.data());
-    for (size_t i = 0; i < textures.size(); ++i) {
+    if (linear) linear->record(cmd, textures_);
+    for (size_t i = 0; i < textures.size() && !linear; ++i) {
         const Texture &t = textures[i];
         const VkDeviceSize base = stage(t.texels.data(), t.texels.size());
         std::vector<VkBufferImageCopy> regions;
