@@ -232,6 +232,11 @@ TEST_F(Split, ResizeKeepsFoveaeExact) {
     EXPECT_EQ(split_summary(err).late, 0u) << tail(err, 30);
     EXPECT_FALSE(grep(err, "1200x540 swapchain images").empty()) << "the first swapchain was not split\n"
                                                                  << tail(err, 30);
+    // The split line is given again for the new size (issue 13, point 6).
+    EXPECT_EQ(
+        grep(err, "split: passes into 2400x1080 swapchain images render their periphery at 1440x648").size(),
+        1u)
+        << tail(err, 30);
     ASSERT_NO_FATAL_FAILURE(
         expect_split_frame(native.image, split.image, default_foveae(kWidth, kHeight, 2)));
     expect_clean_validation();
