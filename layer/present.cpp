@@ -273,6 +273,30 @@ VkSemaphore composite_split_frame(DeviceState &dev, VkQueue queue, const VkPrese
     return composited;
 }
 
+// Frames replayed with no split pass before the warning: an application may present a few copied
+// frames (a splash screen) before it renders; most present none.
+constexpr uint64_t kUnsplitFramesBeforeWarning = 100;
+
+void warn_unsplit(Session &session) {
+    if (session.split_frames.load() > 0 || session.unsplit_warned.exchange(true)) return;
+    SPLITVK_WARN(
+        "split: %llu frames forwarded to the agent, none split: no render pass drew into a presented "
+        "swapchain image (the application copies or blits its frames into the swapchain; "
+        "gfxrecon-replay does unless given --use-captured-swapchain-indices), so the agent "
+        "replays every frame and the frames shown are the application's own",
+        static_cast<unsigned long long>(session.unsplit_frames.load()));
+}
+
+// Counts the frame a live agent replays as split or not, and warns once when none ever is.
+void note_split_or_not(Session &session, uint64_t frame, bool split) {
+    if (!session.live() || frame < session.first_replayed_frame()) return;
+    if (split) {
+        session.split_frames.fetch_add(1);
+    } else if (session.unsplit_frames.fetch_add(1) + 1 == kUnsplitFramesBeforeWarning) {
+        warn_unsplit(session);
+    }
+}
+
 } // namespace
 
 void release_present_resources(DeviceState &device, VkSwapchainKHR swapchain) {
@@ -289,6 +313,8 @@ void release_present_resources(DeviceState &device, VkSwapchainKHR swapchain) {
 
 void report_split_summary(DeviceState &device) {
     if (!device.session || !device.session->splitting()) return;
+    // A short session that never split ends before the warning's count: it says so now.
+    if (device.session->unsplit_frames.load() > 0) warn_unsplit(*device.session);
     const std::string line = device.session->stats().summary();
     if (!line.empty()) splitvk::log_result("%s", line.c_str());
 }
@@ -356,6 +382,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         const uint32_t index = pPresentInfo->pImageIndices[0];
         if (split_swapchain && index < split_swapchain->images.size())
             split = take_split_frame(dev, split_swapchain->images[index]);
+        note_split_or_not(session, frame, split.split);
     }
     std::unique_lock lock(g_mutex, std::defer_lock);
     if (session.verify() && pPresentInfo->swapchainCount > 0) {

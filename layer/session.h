@@ -207,6 +207,11 @@ public:
     // all) and whose centre is the periphery's.
     std::atomic<uint64_t> composited_frames{0};
     std::atomic<uint64_t> late_frames{0};
+    // Split mode (present.cpp): frames a live agent replays whose presented image a split pass drew,
+    // and those it replays with none; the second with none of the first gets one warning.
+    std::atomic<uint64_t> split_frames{0};
+    std::atomic<uint64_t> unsplit_frames{0};
+    std::atomic<bool> unsplit_warned{false};
 
     // Entries in the object part of the live-state log.
     size_t live_object_count();
