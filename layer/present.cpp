@@ -188,13 +188,24 @@ void compare(DeviceState &dev, const PendingVerify &p) {
     session.mismatching_pixels.fetch_add(mismatches);
 }
 
-// Split mode: the frame's own tiles, waiting at most SPLITVK_TILE_WAIT. They must cover exactly
-// the foveae the frame's split passes drew; anything else counts as late.
+// The first split frame an agent replays after it (re)joined costs it many times a later one, and
+// nothing can be done about that ahead of the frame: lavapipe compiles its shader variants at the
+// first draw that uses them (the agent's pipelines are created when the application creates them,
+// long before), and the tile encoder starts with a keyframe. Measured on lavapipe, 2 busy cores:
+// the agent's draw 8-63 ms for vkcube's first frame against 0.8 ms after, 0.8-1.5 s for atrium's
+// at 2400x1080 against 0.25 s; x264 12-71 ms against 0.5 ms. That frame waits this long, once.
+constexpr uint32_t kFirstSplitFrameWaitMs = 5000;
+
+// Split mode: the frame's own tiles, waiting at most SPLITVK_TILE_WAIT (longer for the first split
+// frame after the agent joined). They must cover exactly the foveae the frame's split passes drew;
+// anything else counts as late.
 std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, const SplitFrame &split) {
     // No agent, or one that joined after this frame's submits: the periphery alone.
     if (!session.live() || !session.tiles() || frame < session.first_replayed_frame()) return nullptr;
-    const auto deadline =
-        std::chrono::steady_clock::now() + std::chrono::milliseconds(session.settings().tile_wait_ms);
+    const uint32_t wait_ms = session.take_first_split_frame()
+                                 ? std::max(session.settings().tile_wait_ms, kFirstSplitFrameWaitMs)
+                                 : session.settings().tile_wait_ms;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(wait_ms);
     auto tiles = session.tiles()->take(frame, deadline);
     bool match = tiles && tiles->tiles.size() == split.foveae.size();
     for (size_t i = 0; match && i < split.foveae.size(); ++i) {
@@ -207,11 +218,10 @@ std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, 
     const uint64_t late = session.late_frames.fetch_add(1);
     // One line for the first late frame, then one per hundred: a stalled agent must not flood.
     if (late % 100 == 0) {
-        const std::string why =
-            tiles ? "the agent's tiles do not match the frame's foveae"
-            : !session.live()
-                ? "the agent went away before its tiles came"
-                : "no tiles from the agent within " + std::to_string(session.settings().tile_wait_ms) + " ms";
+        const std::string why = tiles ? "the agent's tiles do not match the frame's foveae"
+                                : !session.live()
+                                    ? "the agent went away before its tiles came"
+                                    : "no tiles from the agent within " + std::to_string(wait_ms) + " ms";
         SPLITVK_WARN("frame %llu: %s; its centre is the periphery's (%llu such frames)",
                      static_cast<unsigned long long>(frame), why.c_str(),
                      static_cast<unsigned long long>(late + 1));

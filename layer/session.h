@@ -230,6 +230,9 @@ public:
     std::chrono::steady_clock::time_point joined_agent_answered() const { return joined_agent_answered_; }
     // True once per resync: for the first frame composited with the joined agent's tiles.
     bool take_first_tiles_after_resync() { return awaiting_first_tiles_.exchange(false); }
+    // True for the first split frame an agent replays after it (re)joined (present.cpp): that frame
+    // may wait longer for its tiles.
+    bool take_first_split_frame() { return first_split_frame_pending_.exchange(false); }
 
 private:
     Session() = default;
@@ -321,6 +324,7 @@ private:
     std::chrono::steady_clock::time_point reconnected_at_{}; // under reconnect_mutex_
     std::chrono::steady_clock::time_point joined_agent_answered_{};
     std::atomic<bool> awaiting_first_tiles_{false};
+    std::atomic<bool> first_split_frame_pending_{true};
     std::thread reconnector_;
 };
 
