@@ -64,7 +64,7 @@ std::atomic<bool> g_reported{false};
 
 void report_layer_position(const VkLayerInstanceLink *link) {
     layer_settings(); // the log level
-    if (!log_enabled(LogLevel::Info) || g_reported.exchange(true)) return;
+    if (!log_enabled(LogLevel::Info) || g_reported.load()) return;
     struct Search {
         std::set<std::string> below;
         std::set<const Overlay *> above;
@@ -78,6 +78,9 @@ void report_layer_position(const VkLayerInstanceLink *link) {
             return 0;
         },
         &search);
+    // Once per process, from the first instance that has one above it (a probing instance first
+    // created without the overlay does not use the line up).
+    if (search.above.empty() || g_reported.exchange(true)) return;
     for (const Overlay *overlay : search.above)
         SPLITVK_INFO(
             "%s is above splitvk in the layer chain: what it draws at present is split like the "
