@@ -80,6 +80,9 @@ vkNegotiateLoaderLayerInterfaceVersion(VkNegotiateLayerInterface *pVersionStruct
     pVersionStruct->loaderLayerInterfaceVersion = 2;
     pVersionStruct->pfnGetInstanceProcAddr = splitvk::entry::GetInstanceProcAddr;
     pVersionStruct->pfnGetDeviceProcAddr = splitvk::entry::GetDeviceProcAddr;
+    // vk_layerGetPhysicalDeviceProcAddr is only asked for physical-device commands the loader does
+    // not know; every one splitvk intercepts is known and reaches it through GetInstanceProcAddr.
+    // Without one, the loader hands the layers above us the next layer's.
     pVersionStruct->pfnGetPhysicalDeviceProcAddr = nullptr;
     return VK_SUCCESS;
 }

@@ -364,6 +364,21 @@ TEST_F(LayerOrder, LayerPathFolderOrderDecides) {
     }
 }
 
+// VK_ADD_LAYER_PATH is searched before the system folders, so a splitvk found through it is above
+// validation from /usr/share whatever the order in VK_INSTANCE_LAYERS (why the older recipe worked).
+TEST_F(LayerOrder, AddLayerPathIsSearchedFirst) {
+    for (const char *instance_layers : {"VK_LAYER_SPLITVK_split_render:VK_LAYER_KHRONOS_validation",
+                                        "VK_LAYER_KHRONOS_validation:VK_LAYER_SPLITVK_split_render"}) {
+        SCOPED_TRACE(instance_layers);
+        Env e = env();
+        e["VK_INSTANCE_LAYERS"] = instance_layers;
+        e["VK_ADD_LAYER_PATH"] = explicit_layer_dir().string();
+        const auto stack = probe_stack(e);
+        EXPECT_GE(stack_index(stack, kLayerName), 0);
+        EXPECT_LT(stack_index(stack, kLayerName), stack_index(stack, kValidationLayerName));
+    }
+}
+
 TEST_F(LayerOrder, ImplicitSplitvkIsAboveExplicitLayers) {
     Env e = env();
     make_implicit_layer_visible(e);
