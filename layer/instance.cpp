@@ -51,6 +51,7 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateInstance(const VkInstanceCreateInfo *pCreat
     auto *link = find_layer_link<VkLayerInstanceCreateInfo>(pCreateInfo->pNext,
                                                             VK_STRUCTURE_TYPE_LOADER_INSTANCE_CREATE_INFO);
     if (!link || !link->u.pLayerInfo) return VK_ERROR_INITIALIZATION_FAILED;
+    report_layer_position(link->u.pLayerInfo);
 
     const PFN_vkGetInstanceProcAddr next_gipa = link->u.pLayerInfo->pfnNextGetInstanceProcAddr;
     const auto next_create =

@@ -27,13 +27,13 @@ VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetDeviceProcAddr(VkDevice device, cons
     if (std::strcmp(pName, "vkGetDeviceProcAddr") == 0) {
         return reinterpret_cast<PFN_vkVoidFunction>(GetDeviceProcAddr);
     }
-    if (device == VK_NULL_HANDLE) return nullptr;
-    DeviceState *state = find_device(dispatch_key(device));
-    if (!state) return nullptr;
-    const PFN_vkVoidFunction next = state->next_get_device_proc_addr(device, pName);
     const EntryPoint *entry = find_entry_point(pName);
-    if (entry && entry->level == EntryLevel::Device) return intercept_if_available(entry, next);
-    return next;
+    const bool device_level = entry && entry->level == EntryLevel::Device;
+    // As in GetInstanceProcAddr: without a device we know, answer for what we intercept.
+    DeviceState *state = device == VK_NULL_HANDLE ? nullptr : find_device(dispatch_key(device));
+    if (!state) return device_level ? entry->function : nullptr;
+    const PFN_vkVoidFunction next = state->next_get_device_proc_addr(device, pName);
+    return device_level ? intercept_if_available(entry, next) : next;
 }
 
 VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetInstanceProcAddr(VkInstance instance, const char *pName) {
@@ -46,9 +46,12 @@ VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetInstanceProcAddr(VkInstance instance
     }
     const EntryPoint *entry = find_entry_point(pName);
     if (entry && entry->level == EntryLevel::Global) return entry->function;
-    if (instance == VK_NULL_HANDLE) return nullptr;
-    InstanceState *state = find_instance(dispatch_key(instance));
-    if (!state) return nullptr;
+    // Layers above us (MangoHud, the Mesa overlay, the old sample layer code) resolve the next
+    // layer's vkCreateDevice and friends with a null instance while building their chains; a
+    // NULL answer makes their vkCreateDevice fail. Without an instance we know, there is no next
+    // table to ask, so every command we intercept is answered with our entry point.
+    InstanceState *state = instance == VK_NULL_HANDLE ? nullptr : find_instance(dispatch_key(instance));
+    if (!state) return entry ? entry->function : nullptr;
     const PFN_vkVoidFunction next = state->next_get_instance_proc_addr(instance, pName);
     return entry ? intercept_if_available(entry, next) : next;
 }
@@ -77,6 +80,9 @@ vkNegotiateLoaderLayerInterfaceVersion(VkNegotiateLayerInterface *pVersionStruct
     pVersionStruct->loaderLayerInterfaceVersion = 2;
     pVersionStruct->pfnGetInstanceProcAddr = splitvk::entry::GetInstanceProcAddr;
     pVersionStruct->pfnGetDeviceProcAddr = splitvk::entry::GetDeviceProcAddr;
+    // vk_layerGetPhysicalDeviceProcAddr is only asked for physical-device commands the loader does
+    // not know; every one splitvk intercepts is known and reaches it through GetInstanceProcAddr.
+    // Without one, the loader hands the layers above us the next layer's.
     pVersionStruct->pfnGetPhysicalDeviceProcAddr = nullptr;
     return VK_SUCCESS;
 }

@@ -203,13 +203,24 @@ void compare(DeviceState &dev, const PendingVerify &p) {
     session.mismatching_pixels.fetch_add(mismatches);
 }
 
-// Split mode: the frame's own tiles, waiting at most SPLITVK_TILE_WAIT. They must cover exactly
-// the foveae the frame's split passes drew; anything else counts as late.
+// The first split frame an agent replays after it (re)joined costs it many times a later one, and
+// nothing can be done about that ahead of the frame: lavapipe compiles its shader variants at the
+// first draw that uses them (the agent's pipelines are created when the application creates them,
+// long before), and the tile encoder starts with a keyframe. Measured on lavapipe, 2 busy cores:
+// the agent's draw 8-63 ms for vkcube's first frame against 0.8 ms after, 0.8-1.5 s for atrium's
+// at 2400x1080 against 0.25 s; x264 12-71 ms against 0.5 ms. That frame waits this long, once.
+constexpr uint32_t kFirstSplitFrameWaitMs = 5000;
+
+// Split mode: the frame's own tiles, waiting at most SPLITVK_TILE_WAIT (longer for the first split
+// frame after the agent joined). They must cover exactly the foveae the frame's split passes drew;
+// anything else counts as late.
 std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, const SplitFrame &split) {
     // No agent, or one that joined after this frame's submits: the periphery alone.
     if (!session.live() || !session.tiles() || frame < session.first_replayed_frame()) return nullptr;
-    const auto deadline =
-        std::chrono::steady_clock::now() + std::chrono::milliseconds(session.settings().tile_wait_ms);
+    const uint32_t wait_ms = session.take_first_split_frame()
+                                 ? std::max(session.settings().tile_wait_ms, kFirstSplitFrameWaitMs)
+                                 : session.settings().tile_wait_ms;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(wait_ms);
     auto tiles = session.tiles()->take(frame, deadline);
     if (tiles && tiles->invalid) {
         // Never a wrong fovea on screen: the agent says its GPU could not draw this frame as the
@@ -233,11 +244,10 @@ std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, 
     const uint64_t late = session.late_frames.fetch_add(1);
     // One line for the first late frame, then one per hundred: a stalled agent must not flood.
     if (late % 100 == 0) {
-        const std::string why =
-            tiles ? "the agent's tiles do not match the frame's foveae"
-            : !session.live()
-                ? "the agent went away before its tiles came"
-                : "no tiles from the agent within " + std::to_string(session.settings().tile_wait_ms) + " ms";
+        const std::string why = tiles ? "the agent's tiles do not match the frame's foveae"
+                                : !session.live()
+                                    ? "the agent went away before its tiles came"
+                                    : "no tiles from the agent within " + std::to_string(wait_ms) + " ms";
         SPLITVK_WARN("frame %llu: %s; its centre is the periphery's (%llu such frames)",
                      static_cast<unsigned long long>(frame), why.c_str(),
                      static_cast<unsigned long long>(late + 1));
@@ -301,6 +311,30 @@ VkSemaphore composite_split_frame(DeviceState &dev, VkQueue queue, const VkPrese
     return composited;
 }
 
+// Frames replayed with no split pass before the warning: an application may present a few copied
+// frames (a splash screen) before it renders; most present none.
+constexpr uint64_t kUnsplitFramesBeforeWarning = 100;
+
+void warn_unsplit(Session &session) {
+    if (session.split_frames.load() > 0 || session.unsplit_warned.exchange(true)) return;
+    SPLITVK_WARN(
+        "split: %llu frames forwarded to the agent, none split: no render pass drew into a presented "
+        "swapchain image (the application copies or blits its frames into the swapchain; "
+        "gfxrecon-replay does unless given --use-captured-swapchain-indices), so the agent "
+        "replays every frame and the frames shown are the application's own",
+        static_cast<unsigned long long>(session.unsplit_frames.load()));
+}
+
+// Counts the frame a live agent replays as split or not, and warns once when none ever is.
+void note_split_or_not(Session &session, uint64_t frame, bool split) {
+    if (!session.live() || frame < session.first_replayed_frame()) return;
+    if (split) {
+        session.split_frames.fetch_add(1);
+    } else if (session.unsplit_frames.fetch_add(1) + 1 == kUnsplitFramesBeforeWarning) {
+        warn_unsplit(session);
+    }
+}
+
 } // namespace
 
 void release_present_resources(DeviceState &device, VkSwapchainKHR swapchain) {
@@ -317,6 +351,8 @@ void release_present_resources(DeviceState &device, VkSwapchainKHR swapchain) {
 
 void report_split_summary(DeviceState &device) {
     if (!device.session || !device.session->splitting()) return;
+    // A short session that never split ends before the warning's count: it says so now.
+    if (device.session->unsplit_frames.load() > 0) warn_unsplit(*device.session);
     const std::string line = device.session->stats().summary();
     if (!line.empty()) splitvk::log_result("%s", line.c_str());
     if (const uint64_t invalid = device.session->invalid_frames.load())
@@ -395,6 +431,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         const uint32_t index = pPresentInfo->pImageIndices[0];
         if (split_swapchain && index < split_swapchain->images.size())
             split = take_split_frame(dev, split_swapchain->images[index]);
+        note_split_or_not(session, frame, split.split);
     }
     std::unique_lock lock(g_mutex, std::defer_lock);
     if (session.verify() && pPresentInfo->swapchainCount > 0) {

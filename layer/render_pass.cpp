@@ -15,6 +15,9 @@
 #include "swapchain.h"
 
 #include <atomic>
+#include <mutex>
+#include <set>
+#include <utility>
 #include <vector>
 
 namespace splitvk {
@@ -92,15 +95,24 @@ split::CommandTracker *split_pass(DeviceState &dev, VkCommandBuffer cb, const Vk
     return tracker;
 }
 
-std::atomic<bool> g_first_split_logged{false};
+// The swapchain sizes the split line was given for: once per size, so that a resize says what the
+// new size's periphery is, and two windows presenting in turn do not repeat it every frame.
+std::mutex g_logged_extents_mutex;
+std::set<std::pair<uint32_t, uint32_t>> g_logged_extents;
+
+void log_split_extent_once(VkExtent2D extent) {
+    {
+        std::lock_guard lock(g_logged_extents_mutex);
+        if (!g_logged_extents.emplace(extent.width, extent.height).second) return;
+    }
+    const VkExtent2D periphery = split::scaled_extent(extent, split_settings().scale);
+    SPLITVK_INFO("split: passes into %ux%u swapchain images render their periphery at %ux%u", extent.width,
+                 extent.height, periphery.width, periphery.height);
+}
 
 void enter_split(DeviceState &dev, VkCommandBuffer cb, split::CommandTracker &tracker, VkImage image,
                  VkExtent2D extent) {
-    if (!g_first_split_logged.exchange(true)) {
-        const VkExtent2D periphery = split::scaled_extent(extent, split_settings().scale);
-        SPLITVK_INFO("split: passes into %ux%u swapchain images render their periphery at %ux%u",
-                     extent.width, extent.height, periphery.width, periphery.height);
-    }
+    log_split_extent_once(extent);
     tracker.begin_split(codec::handle_value(image), extent);
     emit_viewports(dev, cb, tracker);
     emit_scissors(dev, cb, tracker);

@@ -282,6 +282,7 @@ void Session::resync(DeviceState &device, VkQueue queue, uint64_t frame) {
     first_replayed_frame_.store(frame + 1);
     joined_agent_answered_ = answered;
     awaiting_first_tiles_.store(true);
+    first_split_frame_pending_.store(true);
     const auto now = std::chrono::steady_clock::now();
     SPLITVK_WARN("splitvk-agent at %s brought in at frame %llu: %zu objects, %llu buffers, %llu images, %zu "
                  "descriptor sets, %zu command buffers, %.1f MiB in %.0f ms (%.0f ms after it answered)",

@@ -218,6 +218,11 @@ public:
     std::atomic<uint64_t> composited_frames{0};
     std::atomic<uint64_t> late_frames{0};
     std::atomic<uint64_t> invalid_frames{0}; // the agent flagged them: its GPU could not honour them
+    // Split mode (present.cpp): frames a live agent replays whose presented image a split pass drew,
+    // and those it replays with none; the second with none of the first gets one warning.
+    std::atomic<uint64_t> split_frames{0};
+    std::atomic<uint64_t> unsplit_frames{0};
+    std::atomic<bool> unsplit_warned{false};
 
     // Entries in the object part of the live-state log.
     size_t live_object_count();
@@ -236,6 +241,9 @@ public:
     std::chrono::steady_clock::time_point joined_agent_answered() const { return joined_agent_answered_; }
     // True once per resync: for the first frame composited with the joined agent's tiles.
     bool take_first_tiles_after_resync() { return awaiting_first_tiles_.exchange(false); }
+    // True for the first split frame an agent replays after it (re)joined (present.cpp): that frame
+    // may wait longer for its tiles.
+    bool take_first_split_frame() { return first_split_frame_pending_.exchange(false); }
 
 private:
     Session() = default;
@@ -328,6 +336,7 @@ private:
     std::chrono::steady_clock::time_point reconnected_at_{}; // under reconnect_mutex_
     std::chrono::steady_clock::time_point joined_agent_answered_{};
     std::atomic<bool> awaiting_first_tiles_{false};
+    std::atomic<bool> first_split_frame_pending_{true};
     std::thread reconnector_;
 };
 

@@ -703,6 +703,45 @@ TEST_F(AgentTest, LinearImageLayoutForAnotherFormatEndsOnlyThatSession) {
         1, "ImageLayouts: image 0xa000: format, extent, mip levels or array layers differ");
 }
 
+// A client ends a session by closing its side, without waiting for the tiles of the frames it
+// has presented: an unsplit one (no pass drew into its swapchain images) waits for none, so the
+// agent is still replaying a backlog of presents when the connection closes. The tiles of that
+// backlog have nobody to read them; that is the session's normal end, not an error (it used to end
+// with "sending Tiles: connection closed").
+TEST_F(AgentTest, ClosingWithPresentsInFlightEndsCleanly) {
+    Client client;
+    ASSERT_TRUE(client.connect(agent_)) << client.error;
+    codec::Encoder e;
+    encode_setup(e);
+    ASSERT_TRUE(client.commands(e));
+    protocol::SwapchainImages sc;
+    sc.device_id = kDevice;
+    sc.swapchain_id = kSwapchain;
+    sc.width = kWidth;
+    sc.height = kHeight;
+    sc.format = VK_FORMAT_R8G8B8A8_UNORM;
+    sc.usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+    sc.image_ids = {kImage};
+    ASSERT_TRUE(client.send(MessageType::SwapchainImages, protocol::encode(sc)));
+    ASSERT_TRUE(client.send(MessageType::SplitConfig, protocol::encode(protocol::SplitConfig{})));
+    constexpr uint64_t kPresents = 500;
+    for (uint64_t frame = 0; frame < kPresents; ++frame) {
+        protocol::FramePresent present;
+        present.frame = frame;
+        present.queue_id = kQueue;
+        present.images = {{kSwapchain, 0}};
+        ASSERT_TRUE(client.send(MessageType::FramePresent, protocol::encode(present)));
+    }
+    // The layer's close: flush, then close, no Goodbye and no wait for the agent.
+    client.connection->flush(5000ms);
+    client.connection->close();
+    EXPECT_TRUE(agent_.wait_for_end(1, "closed by the client")) << agent_.log();
+    EXPECT_EQ(agent_.log().find("error"), std::string::npos) << agent_.log();
+    EXPECT_NE(agent_.log().find(std::to_string(kPresents) + " frames"), std::string::npos)
+        << "the session did not replay every present it was sent:\n"
+        << agent_.log();
+}
+
 TEST_F(AgentTest, TruncatedMessageEndsOnlyThatSession) {
     const int fd = raw_connect(agent_);
     ASSERT_GE(fd, 0);

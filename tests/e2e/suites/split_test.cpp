@@ -232,8 +232,36 @@ TEST_F(Split, ResizeKeepsFoveaeExact) {
     EXPECT_EQ(split_summary(err).late, 0u) << tail(err, 30);
     EXPECT_FALSE(grep(err, "1200x540 swapchain images").empty()) << "the first swapchain was not split\n"
                                                                  << tail(err, 30);
+    // The split line is given again for the new size (issue 13, point 6).
+    EXPECT_EQ(
+        grep(err, "split: passes into 2400x1080 swapchain images render their periphery at 1440x648").size(),
+        1u)
+        << tail(err, 30);
     ASSERT_NO_FATAL_FAILURE(
         expect_split_frame(native.image, split.image, default_foveae(kWidth, kHeight, 2)));
+    expect_clean_validation();
+}
+
+// The first split frame after the agent joins costs the agent many times a later one (its shader
+// variants and tile encoder start there), so that frame waits for its tiles beyond
+// SPLITVK_TILE_WAIT. With a 1 ms tile wait every later frame may be late, but not the first one: its
+// row in the statistics says late 0, and no late line names it.
+TEST_F(Split, FirstSplitFrameWaitsForTheAgent) {
+    ASSERT_TRUE(find_program("vkcube", env())) << "vkcube is not installed (vulkan-tools)";
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    Env e = split_env("1");
+    e["SPLITVK_STATS"] = (out_ / "frames.csv").string();
+    auto r = run_app({"vkcube", "--c", "10"}, e, out_, "vkcube", 120s);
+    ASSERT_TRUE(r.ok()) << r.describe();
+    const std::string err = r.err();
+    ASSERT_FALSE(grep(err, "split: passes into").empty()) << tail(err, 30);
+    const auto rows = split_lines(read_file(out_ / "frames.csv"));
+    ASSERT_GE(rows.size(), 2u) << "no statistics";
+    ASSERT_EQ(rows[0].substr(0, 6), "frame,");
+    ASSERT_EQ(rows[0].substr(rows[0].rfind(',') + 1), "late");
+    EXPECT_EQ(rows[1].substr(0, 2), "0,") << rows[1];
+    EXPECT_EQ(rows[1].substr(rows[1].rfind(',') + 1), "0") << "the first split frame was late: " << rows[1];
+    EXPECT_TRUE(grep(err, "frame 0: no tiles").empty()) << tail(err, 30);
     expect_clean_validation();
 }
 
