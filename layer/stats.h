@@ -2,12 +2,12 @@
 
 // Per-frame statistics of a split device (SPLITVK_STATS=path.csv): one CSV row per present, and
 // a one-line summary at vkDestroyDevice. Times are milliseconds; the agent's stages come with
-// its tiles (protocol::AgentTimings). Rows are written by the presenting thread, buffered, and
-// flushed at exit: a frame never waits for the disk.
+// its tiles (protocol::AgentTimings). Each row is formatted whole and handed to the kernel with one
+// write(2) by the presenting thread, so an application killed at any point (SIGTERM, SIGKILL)
+// leaves the header and whole rows only; a write into the page cache does not wait for the disk.
 
 #include <chrono>
 #include <cstdint>
-#include <cstdio>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -49,7 +49,10 @@ public:
 
 private:
     std::mutex mutex_;
-    std::FILE *file_ = nullptr;
+    // Appends `text` with one write (a regular file takes it whole); false after an error.
+    bool append(const std::string &text);
+
+    int fd_ = -1;
     std::vector<double> frame_ms_;
     uint64_t frames_ = 0;
     uint64_t late_ = 0;

@@ -16,6 +16,7 @@
 #include <cmath>
 #include <csignal>
 #include <regex>
+#include <sstream>
 #include <thread>
 
 #include <sys/types.h>
@@ -308,6 +309,67 @@ TEST_F(Split, LateAgentLeavesCompleteFrames) {
               << " dB\n";
     EXPECT_GE(s, kMinSsim) << save_mismatch_artefacts(out_, "late", native.image, grabbed);
     EXPECT_TRUE(client_validation_clean(validation_log_));
+}
+
+// SPLITVK_STATS survives the application's end: vkcube, which has no SIGTERM handler, is killed by
+// SIGTERM in the middle of a split run. Its statistics file must hold the header and whole rows
+// only, every one with the header's number of columns: nothing the layer wrote may be cut off.
+TEST_F(Split, StatsFileIsWholeAfterSigterm) {
+    ASSERT_TRUE(find_program("vkcube", env())) << "vkcube is not installed (vulkan-tools)";
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    Env e = env();
+    use_explicit_layers(e, {kLayerName});
+    e["SPLITVK_SERVER"] = agent_.address();
+    e["SPLITVK_EYES"] = "1";
+    e["SPLITVK_TILE_WAIT"] = "60000";
+    const auto stats_path = out_ / "stats.csv";
+    e["SPLITVK_STATS"] = stats_path.string();
+    ProcessSpec spec;
+    spec.argv = {"vkcube", "--width", "320", "--height", "320"};
+    spec.env = e;
+    spec.out_dir = out_;
+    spec.name = "vkcube-split";
+    Process p(spec);
+    ASSERT_TRUE(p.start()) << p.error();
+    // Rows must reach the file while the application runs, not only at its end.
+    constexpr size_t kRows = 30;
+    const auto deadline = Clock::now() + 180s;
+    auto count_lines = [&] {
+        const std::string text = read_file(stats_path);
+        return static_cast<size_t>(std::count(text.begin(), text.end(), '\n'));
+    };
+    while (count_lines() < kRows + 1 && p.running() && Clock::now() < deadline)
+        std::this_thread::sleep_for(50ms);
+    const ProcessResult r = p.terminate(10s);
+    ASSERT_FALSE(r.exited) << "vkcube ended before it was killed: " << r.describe() << "\n"
+                           << tail(r.err(), 30);
+    ASSERT_EQ(r.term_signal, SIGTERM) << r.describe();
+
+    const std::string text = read_file(stats_path);
+    ASSERT_FALSE(text.empty()) << "no statistics file";
+    EXPECT_EQ(text.back(), '\n') << "the last row is cut off: " << text.substr(text.rfind('\n') + 1);
+    const auto lines = split_lines(text);
+    ASSERT_GE(lines.size(), kRows + 1) << "rows were held back while the application ran:\n" << text;
+    const auto columns = [](const std::string &line) {
+        return std::count(line.begin(), line.end(), ',') + 1;
+    };
+    const std::string &header = lines.front();
+    EXPECT_EQ(header.rfind("frame,frame_ms,", 0), 0u) << header;
+    const auto want = columns(header);
+    const std::regex number(R"(-?[0-9]+(\.[0-9]+)?)");
+    uint64_t previous = 0;
+    for (size_t i = 1; i < lines.size(); ++i) {
+        ASSERT_EQ(columns(lines[i]), want) << "row " << i << " is not whole: '" << lines[i] << "'";
+        std::stringstream fields(lines[i]);
+        std::string field;
+        while (std::getline(fields, field, ','))
+            ASSERT_TRUE(std::regex_match(field, number)) << "row " << i << ": '" << lines[i] << "'";
+        const uint64_t frame = std::stoull(lines[i].substr(0, lines[i].find(',')));
+        if (i > 1) {
+            EXPECT_GT(frame, previous) << "rows out of order at row " << i;
+        }
+        previous = frame;
+    }
 }
 
 } // namespace
