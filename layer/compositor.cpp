@@ -15,6 +15,7 @@
 
 #include "compositor.h"
 
+#include "gpu_timing.h"
 #include "host_buffer.h"
 #include "instance.h"
 #include "log.h"
@@ -129,6 +130,10 @@ struct Compositor::Slot {
     VkExtent2D periphery_extent{};
     // Fovea tiles on their way to the image; grown as needed, mapped for the slot's lifetime.
     HostBuffer staging;
+    // take_waits(): the empty submit that stands in for the application's semaphores.
+    VkSemaphore taken = VK_NULL_HANDLE;
+    VkFence taken_fence = VK_NULL_HANDLE;
+    bool taken_in_flight = false;
 };
 
 bool Compositor::supports(DeviceState &device, VkFormat format, std::string *why) {
@@ -147,14 +152,14 @@ bool Compositor::supports(DeviceState &device, VkFormat format, std::string *why
 }
 
 Compositor::Compositor(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family,
-                       UpsampleFilter filter)
+                       UpsampleFilter filter, bool timed)
     : device_(device), swapchain_(swapchain.handle), extent_(swapchain.extent), format_(swapchain.format),
       present_layout_(swapchain.present_layout), images_(swapchain.images), queue_family_(queue_family),
-      filter_(filter) {}
+      filter_(filter), timed_(timed) {}
 
 std::unique_ptr<Compositor> Compositor::create(DeviceState &device, const SwapchainState &swapchain,
                                                uint32_t queue_family, std::string *error,
-                                               UpsampleFilter filter) {
+                                               UpsampleFilter filter, bool timed) {
     if (!swapchain.composable) {
         *error = "the swapchain was created without the usage composition needs";
         return nullptr;
@@ -170,7 +175,7 @@ std::unique_ptr<Compositor> Compositor::create(DeviceState &device, const Swapch
         return nullptr;
     }
     if (!supports(device, swapchain.format, error)) return nullptr;
-    std::unique_ptr<Compositor> c(new Compositor(device, swapchain, queue_family, filter));
+    std::unique_ptr<Compositor> c(new Compositor(device, swapchain, queue_family, filter, timed));
     if (!c->init(error)) return nullptr;
     return c;
 }
@@ -380,6 +385,8 @@ bool Compositor::init_slot(Slot &s, uint32_t image_index, std::string *error) {
     VkSemaphoreCreateInfo semaphore_info{};
     semaphore_info.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
     if (k.CreateSemaphore(d, &semaphore_info, nullptr, &s.semaphore) != VK_SUCCESS) return fail("semaphore");
+    if (k.CreateFence(d, &fence_info, nullptr, &s.taken_fence) != VK_SUCCESS) return fail("fence");
+    if (k.CreateSemaphore(d, &semaphore_info, nullptr, &s.taken) != VK_SUCCESS) return fail("semaphore");
 
     // A view of the swapchain image in its own format (never another: the fovea goes in by copy).
     VkImageViewCreateInfo view_info{};
@@ -498,6 +505,9 @@ void Compositor::destroy_slot(Slot &s) {
     if (s.target_view) k.DestroyImageView(d, s.target_view, nullptr);
     if (s.semaphore) k.DestroySemaphore(d, s.semaphore, nullptr);
     if (s.fence) k.DestroyFence(d, s.fence, nullptr);
+    if (s.taken_in_flight) k.WaitForFences(d, 1, &s.taken_fence, VK_TRUE, kDestroyWaitNs);
+    if (s.taken) k.DestroySemaphore(d, s.taken, nullptr);
+    if (s.taken_fence) k.DestroyFence(d, s.taken_fence, nullptr);
     // The descriptor set and command buffer go with their pools.
     s = Slot{};
 }
@@ -530,6 +540,7 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
     begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
     begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
     k.BeginCommandBuffer(cb, &begin);
+    if (timed_) time_composite_begin(device_, cb);
 
     // The submit waits on the application's semaphores at the TRANSFER stage; the first barrier's
     // source stage is TRANSFER too, so its layout transition happens after that wait (a semaphore
@@ -626,13 +637,15 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
         k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, 0, 0,
                              nullptr, 0, nullptr, 1, &b);
     }
+    if (timed_) time_composite_end(device_, cb);
     k.EndCommandBuffer(cb);
 }
 
-VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<const VkSemaphore> waits,
-                               VkExtent2D periphery, std::span<const FoveaTile> tiles, VkSemaphore *signal) {
-    std::lock_guard lock(mutex_);
-    if (image_index >= images_.size()) return VK_ERROR_UNKNOWN;
+Compositor::Slot *Compositor::ready_slot(uint32_t image_index, bool wait_taken, VkResult *result) {
+    if (image_index >= images_.size()) {
+        *result = VK_ERROR_UNKNOWN;
+        return nullptr;
+    }
     std::string error;
     auto &slot_ptr = slots_[image_index];
     if (!slot_ptr) {
@@ -641,21 +654,72 @@ VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<co
             SPLITVK_WARN("compositor: %s", error.c_str());
             destroy_slot(*slot_ptr);
             slot_ptr.reset();
-            return VK_ERROR_OUT_OF_DEVICE_MEMORY;
+            *result = VK_ERROR_OUT_OF_DEVICE_MEMORY;
+            return nullptr;
         }
     }
     Slot &s = *slot_ptr;
     const VkDevice d = device_.handle;
     const auto &k = device_.dispatch;
-
-    // The slot's previous submit (of this image's previous present) must be done before its
-    // command buffer, staging buffer and periphery image are reused. Bounded: rather skip the
-    // composition of this frame than hang the application.
+    // The slot's previous submits (of this image's previous present) must be done before its
+    // command buffer, staging buffer, periphery image and fences are reused. Bounded: rather skip
+    // the composition of this frame than hang the application.
     if (s.in_flight) {
         const VkResult waited = k.WaitForFences(d, 1, &s.fence, VK_TRUE, kSlotWaitNs);
-        if (waited != VK_SUCCESS) return waited == VK_TIMEOUT ? VK_TIMEOUT : waited;
+        if (waited != VK_SUCCESS) {
+            *result = waited;
+            return nullptr;
+        }
         s.in_flight = false;
     }
+    if (wait_taken && s.taken_in_flight) {
+        const VkResult waited = k.WaitForFences(d, 1, &s.taken_fence, VK_TRUE, kSlotWaitNs);
+        if (waited != VK_SUCCESS) {
+            *result = waited;
+            return nullptr;
+        }
+        s.taken_in_flight = false;
+    }
+    *result = VK_SUCCESS;
+    return &s;
+}
+
+VkResult Compositor::take_waits(VkQueue queue, uint32_t image_index, std::span<const VkSemaphore> waits,
+                                VkSemaphore *taken, VkFence *done) {
+    std::lock_guard lock(mutex_);
+    VkResult result = VK_SUCCESS;
+    Slot *s = ready_slot(image_index, /*wait_taken=*/true, &result);
+    if (!s) return result;
+    const auto &k = device_.dispatch;
+    std::vector<VkPipelineStageFlags> stages(waits.size(), VK_PIPELINE_STAGE_ALL_COMMANDS_BIT);
+    VkSubmitInfo submit{};
+    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    submit.waitSemaphoreCount = static_cast<uint32_t>(waits.size());
+    submit.pWaitSemaphores = waits.data();
+    submit.pWaitDstStageMask = stages.data();
+    submit.signalSemaphoreCount = 1;
+    submit.pSignalSemaphores = &s->taken;
+    k.ResetFences(device_.handle, 1, &s->taken_fence);
+    result = k.QueueSubmit(queue, 1, &submit, s->taken_fence);
+    if (result != VK_SUCCESS) return result;
+    s->taken_in_flight = true;
+    *taken = s->taken;
+    *done = s->taken_fence;
+    return VK_SUCCESS;
+}
+
+VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<const VkSemaphore> waits,
+                               VkExtent2D periphery, std::span<const FoveaTile> tiles, VkSemaphore *signal) {
+    std::lock_guard lock(mutex_);
+    VkResult result = VK_SUCCESS;
+    std::string error;
+    // The slot's take_waits() batch of this frame is not waited for: it precedes this submit on
+    // the queue, and its semaphore is among `waits`.
+    Slot *slot = ready_slot(image_index, /*wait_taken=*/false, &result);
+    if (!slot) return result;
+    Slot &s = *slot;
+    const VkDevice d = device_.handle;
+    const auto &k = device_.dispatch;
 
     periphery.width = std::min(periphery.width, extent_.width);
     periphery.height = std::min(periphery.height, extent_.height);
@@ -721,8 +785,9 @@ VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<co
     submit.pSignalSemaphores = &s.semaphore;
     k.ResetFences(d, 1, &s.fence);
     // On failure the semaphores and the fence are left as they were (except after device loss).
-    const VkResult result = k.QueueSubmit(queue, 1, &submit, s.fence);
+    result = k.QueueSubmit(queue, 1, &submit, s.fence);
     if (result != VK_SUCCESS) return result;
+    note_timed_submit(device_, 1, &s.command_buffer);
     s.in_flight = true;
     *signal = s.semaphore;
     return VK_SUCCESS;
@@ -743,7 +808,8 @@ std::unordered_map<VkSwapchainKHR, Entry> g_compositors;
 
 } // namespace
 
-Compositor *compositor_for(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family) {
+Compositor *compositor_for(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family,
+                           bool timed) {
     if (!swapchain.composable || queue_family == UINT32_MAX) return nullptr;
     std::lock_guard lock(g_mutex);
     Entry &e = g_compositors[swapchain.handle];
@@ -752,7 +818,7 @@ Compositor *compositor_for(DeviceState &device, const SwapchainState &swapchain,
     if (e.failed_family == queue_family) return nullptr;
     e.compositor.reset(); // made for another queue family: its command pool cannot serve this one
     std::string error;
-    e.compositor = Compositor::create(device, swapchain, queue_family, &error);
+    e.compositor = Compositor::create(device, swapchain, queue_family, &error, kDefaultUpsampleFilter, timed);
     if (!e.compositor) {
         e.failed_family = queue_family;
         SPLITVK_WARN("compositor: swapchain %dx%d presents uncomposited: %s", int(swapchain.extent.width),

@@ -80,10 +80,12 @@ public:
 
     // Everything composition needs that does not depend on a frame; per-image slots are made
     // on first use. nullptr and *error when the device cannot (queue_family without graphics,
-    // unsupported format, out of memory).
+    // unsupported format, out of memory). `timed`: each composite's GPU time is measured
+    // (gpu_timing.h; SPLITVK_STATS' merge_gpu_ms).
     static std::unique_ptr<Compositor> create(DeviceState &device, const SwapchainState &swapchain,
                                               uint32_t queue_family, std::string *error,
-                                              UpsampleFilter filter = kDefaultUpsampleFilter);
+                                              UpsampleFilter filter = kDefaultUpsampleFilter,
+                                              bool timed = false);
     ~Compositor(); // waits (bounded) for its submits, then frees everything
     Compositor(const Compositor &) = delete;
     Compositor &operator=(const Compositor &) = delete;
@@ -100,14 +102,26 @@ public:
     VkResult composite(VkQueue queue, uint32_t image_index, std::span<const VkSemaphore> waits,
                        VkExtent2D periphery, std::span<const FoveaTile> tiles, VkSemaphore *signal);
 
+    // SPLITVK_STATS' exposed wait, before the tile wait: submits an empty batch to `queue` that
+    // waits on `waits` and signals *taken and *done. A fence signal covers every command submitted
+    // to the queue before it, so *done tells when the GPU has finished the application's frame.
+    // On VK_SUCCESS `waits` are consumed: pass {*taken} to composite() instead, and present with
+    // *taken if composite() then fails (both stay the compositor's). Otherwise nothing was
+    // submitted. VK_TIMEOUT: this image's previous composition had not finished.
+    VkResult take_waits(VkQueue queue, uint32_t image_index, std::span<const VkSemaphore> waits,
+                        VkSemaphore *taken, VkFence *done);
+
     uint32_t queue_family() const { return queue_family_; }
 
 private:
     struct Slot;
     Compositor(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family,
-               UpsampleFilter filter);
+               UpsampleFilter filter, bool timed);
     bool init(std::string *error);
     bool init_slot(Slot &slot, uint32_t image_index, std::string *error);
+    // Under mutex_: image `image_index`'s slot, made on first use, its previous submits finished
+    // (bounded; take_waits()'s only when `wait_taken`); nullptr and *result when not.
+    Slot *ready_slot(uint32_t image_index, bool wait_taken, VkResult *result);
     bool ensure_periphery_image(Slot &slot, VkExtent2D periphery, std::string *error);
     bool ensure_staging(Slot &slot, VkDeviceSize bytes, std::string *error);
     void record(Slot &slot, uint32_t image_index, VkExtent2D periphery); // periphery {} = no upsample
@@ -121,6 +135,7 @@ private:
     std::vector<VkImage> images_;
     uint32_t queue_family_ = 0;
     UpsampleFilter filter_ = kDefaultUpsampleFilter;
+    bool timed_ = false;
 
     VkCommandPool pool_ = VK_NULL_HANDLE;
     VkSampler sampler_ = VK_NULL_HANDLE;
@@ -137,8 +152,10 @@ private:
 
 // The compositor of a swapchain, created on first use (for `queue_family`, the present queue's);
 // nullptr, with one log line per swapchain, when the swapchain is not composable or the
-// compositor cannot be made. A later call with another queue family replaces it.
-Compositor *compositor_for(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family);
+// compositor cannot be made. A later call with another queue family replaces it. `timed`: see
+// Compositor::create (the first call decides).
+Compositor *compositor_for(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family,
+                           bool timed = false);
 // vkDestroySwapchainKHR (swapchain.cpp): frees the swapchain's compositor.
 void release_compositor(DeviceState &device, VkSwapchainKHR swapchain);
 // vkDestroyDevice: frees the compositors of swapchains the application did not destroy.

@@ -18,7 +18,8 @@ struct DeviceTiming {
     uint32_t next_pair = 0;
     std::unordered_map<VkCommandBuffer, uint32_t> pairs; // command buffer -> its pair
     std::vector<bool> submitted = std::vector<bool>(kPairs);
-    double latest_ms = 0;
+    std::vector<bool> composite = std::vector<bool>(kPairs); // the pair times a composite
+    GpuTimes latest;
     uint64_t calls = 0;
 };
 
@@ -52,20 +53,42 @@ DeviceTiming *timing_locked(DeviceState &dev) {
     return &t;
 }
 
+// Under g_mutex: `cb`'s pair, given on first use; nullptr when there is none.
+const uint32_t *pair_locked(DeviceTiming &t, VkCommandBuffer cb) {
+    auto found = t.pairs.find(cb);
+    if (found == t.pairs.end()) {
+        if (t.next_pair == kPairs) return nullptr;
+        found = t.pairs.emplace(cb, t.next_pair++).first;
+    }
+    return &found->second;
+}
+
 } // namespace
 
 void time_before_split_pass(DeviceState &dev, VkCommandBuffer cb) {
     std::lock_guard lock(g_mutex);
     if (g_recording.count(cb)) return; // only the first split pass of a recording is timed
     DeviceTiming *t = timing_locked(dev);
-    if (!t) return;
-    auto found = t->pairs.find(cb);
-    if (found == t->pairs.end()) {
-        if (t->next_pair == kPairs) return;
-        found = t->pairs.emplace(cb, t->next_pair++).first;
-    }
-    g_recording[cb] = CommandTiming{found->second, false, false};
-    dev.dispatch.CmdResetQueryPool(cb, t->pool, 2 * found->second, 2);
+    const uint32_t *pair = t ? pair_locked(*t, cb) : nullptr;
+    if (!pair) return;
+    t->composite[*pair] = false; // a handle a freed compositor's command buffer once had
+    g_recording[cb] = CommandTiming{*pair, false, false};
+    dev.dispatch.CmdResetQueryPool(cb, t->pool, 2 * *pair, 2);
+}
+
+void time_composite_begin(DeviceState &dev, VkCommandBuffer cb) {
+    std::lock_guard lock(g_mutex);
+    DeviceTiming *t = timing_locked(dev);
+    const uint32_t *pair = t ? pair_locked(*t, cb) : nullptr;
+    if (!pair) return;
+    t->composite[*pair] = true;
+    g_recording[cb] = CommandTiming{*pair, true, false};
+    dev.dispatch.CmdResetQueryPool(cb, t->pool, 2 * *pair, 2);
+    dev.dispatch.CmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, t->pool, 2 * *pair);
+}
+
+void time_composite_end(DeviceState &dev, VkCommandBuffer cb) {
+    time_split_pass_ended(dev, cb);
 }
 
 void time_split_pass_begun(DeviceState &dev, VkCommandBuffer cb) {
@@ -101,25 +124,27 @@ void reset_split_pass_timing(VkCommandBuffer cb) {
     g_recording.erase(cb);
 }
 
-double latest_periphery_ms(DeviceState &dev) {
+GpuTimes latest_gpu_times(DeviceState &dev) {
     std::lock_guard lock(g_mutex);
     const auto found = g_devices.find(&dev);
-    if (found == g_devices.end() || !found->second.pool) return 0;
+    if (found == g_devices.end() || !found->second.pool) return {};
     DeviceTiming &t = found->second;
-    if (t.calls++ % kPeripheryReadInterval != 0) return t.latest_ms;
+    if (t.calls++ % kGpuTimesReadInterval != 0) return t.latest;
     // Both timestamps of each submitted pair with their availability, without waiting: the most
-    // recent completed measurement wins.
-    uint64_t latest_end = 0;
+    // recent completed measurement of each kind wins.
+    uint64_t latest_end[2] = {0, 0}; // periphery, composite
     for (uint32_t pair = 0; pair < t.next_pair; ++pair) {
         if (!t.submitted[pair]) continue;
         uint64_t v[4] = {}; // begin, available, end, available
         dev.dispatch.GetQueryPoolResults(dev.handle, t.pool, 2 * pair, 2, sizeof(v), v, 2 * sizeof(uint64_t),
                                          VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WITH_AVAILABILITY_BIT);
-        if (!v[1] || !v[3] || v[2] < v[0] || v[2] <= latest_end) continue;
-        latest_end = v[2];
-        t.latest_ms = static_cast<double>(v[2] - v[0]) * t.period_ns / 1e6;
+        const size_t kind = t.composite[pair] ? 1 : 0;
+        if (!v[1] || !v[3] || v[2] < v[0] || v[2] <= latest_end[kind]) continue;
+        latest_end[kind] = v[2];
+        const double ms = static_cast<double>(v[2] - v[0]) * t.period_ns / 1e6;
+        (kind ? t.latest.composite_ms : t.latest.periphery_ms) = ms;
     }
-    return t.latest_ms;
+    return t.latest;
 }
 
 void release_gpu_timing(DeviceState &dev) {

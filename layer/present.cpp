@@ -29,6 +29,7 @@
 #include <cstring>
 #include <map>
 #include <mutex>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -188,13 +189,38 @@ void compare(DeviceState &dev, const PendingVerify &p) {
     session.mismatching_pixels.fetch_add(mismatches);
 }
 
+// How often a tile wait looks whether the GPU has finished the application's frame (exposed_wait_ms).
+constexpr auto kExposurePoll = 1ms;
+
+// The part of a tile wait during which the GPU had finished the application's frame: `done` (a
+// fence of Compositor::take_waits) is looked at every kExposurePoll while the tiles are awaited.
+struct Exposure {
+    DeviceState *device = nullptr;
+    VkFence done = VK_NULL_HANDLE;
+    std::chrono::steady_clock::time_point since{}; // when `done` was first seen signalled
+    bool seen = false;
+
+    void look() {
+        if (seen || !done) return;
+        seen = device->dispatch.GetFenceStatus(device->handle, done) == VK_SUCCESS;
+        if (seen) since = std::chrono::steady_clock::now();
+    }
+};
+
 // Split mode: the frame's own tiles, waiting at most SPLITVK_TILE_WAIT. They must cover exactly
 // the foveae the frame's split passes drew; anything else counts as late.
-std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, const SplitFrame &split) {
+std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, const SplitFrame &split,
+                                              Exposure &exposure) {
     // No agent, or one that joined after this frame's submits: the periphery alone.
     if (!session.live() || !session.tiles() || frame < session.first_replayed_frame()) return nullptr;
     const auto deadline =
         std::chrono::steady_clock::now() + std::chrono::milliseconds(session.settings().tile_wait_ms);
+    exposure.look();
+    while (!exposure.seen && exposure.done &&
+           !session.tiles()->wait_ready(
+               frame, std::min(deadline, std::chrono::steady_clock::now() + kExposurePoll)) &&
+           std::chrono::steady_clock::now() < deadline)
+        exposure.look();
     auto tiles = session.tiles()->take(frame, deadline);
     bool match = tiles && tiles->tiles.size() == split.foveae.size();
     for (size_t i = 0; match && i < split.foveae.size(); ++i) {
@@ -225,7 +251,8 @@ double ms_between(std::chrono::steady_clock::time_point from, std::chrono::stead
 
 // Split mode, at present: waits for the frame's tiles and composites them over the upsampled
 // periphery on `queue`. Returns the semaphore the present must wait on instead of the app's, or
-// VK_NULL_HANDLE when nothing was composited (the present then goes ahead as the app asked).
+// VK_NULL_HANDLE when the application's semaphores are untouched (the present then goes ahead as
+// the app asked).
 VkSemaphore composite_split_frame(DeviceState &dev, VkQueue queue, const VkPresentInfoKHR &present,
                                   const SwapchainState &swapchain, const SplitFrame &split, uint64_t frame,
                                   std::chrono::steady_clock::time_point sent) {
@@ -234,13 +261,24 @@ VkSemaphore composite_split_frame(DeviceState &dev, VkQueue queue, const VkPrese
     FrameRecord record;
     record.frame = frame;
     record.frame_ms = session.frame_interval_ms();
-    // Only for the CSV: reading GPU timestamps may stall the present on some drivers (gpu_timing.h).
-    if (session.settings().stats_path.size()) record.periphery_ms = latest_periphery_ms(dev);
+    const bool stats = !session.settings().stats_path.empty();
+
+    Compositor *compositor = compositor_for(dev, swapchain, queue_family_of(queue), stats);
+    std::span<const VkSemaphore> waits{present.pWaitSemaphores, present.waitSemaphoreCount};
+    // Only for the CSV: the application's semaphores go to an empty submit of the compositor's,
+    // whose fence tells when the GPU has finished the frame (exposed_wait_ms).
+    Exposure exposure{&dev};
+    VkSemaphore taken = VK_NULL_HANDLE;
+    if (stats && compositor &&
+        compositor->take_waits(queue, present.pImageIndices[0], waits, &taken, &exposure.done) == VK_SUCCESS)
+        waits = {&taken, 1};
 
     const auto wait_start = Clock::now();
-    const auto tiles = frame_tiles(session, frame, split); // keeps the pixels alive through composite()
+    // Keeps the pixels alive through composite().
+    const auto tiles = frame_tiles(session, frame, split, exposure);
     const auto waited = Clock::now();
     record.tile_wait_ms = ms_between(wait_start, waited);
+    if (exposure.seen) record.exposed_wait_ms = ms_between(std::max(wait_start, exposure.since), waited);
     std::vector<FoveaTile> foveae;
     if (tiles) {
         for (const DecodedTile &tile : tiles->tiles) {
@@ -262,13 +300,18 @@ VkSemaphore composite_split_frame(DeviceState &dev, VkQueue queue, const VkPrese
             static_cast<unsigned long long>(frame), ms_between(session.joined_agent_answered(), waited));
 
     VkSemaphore composited = VK_NULL_HANDLE;
-    Compositor *compositor = compositor_for(dev, swapchain, queue_family_of(queue));
-    if (compositor && compositor->composite(queue, present.pImageIndices[0],
-                                            {present.pWaitSemaphores, present.waitSemaphoreCount},
-                                            split.periphery, foveae, &composited) != VK_SUCCESS)
-        composited = VK_NULL_HANDLE;
+    if (compositor && compositor->composite(queue, present.pImageIndices[0], waits, split.periphery, foveae,
+                                            &composited) != VK_SUCCESS)
+        composited = taken; // VK_NULL_HANDLE unless take_waits() consumed the application's semaphores
     record.merge_ms = ms_between(waited, Clock::now());
-    if (composited) session.composited_frames.fetch_add(1);
+    if (composited && composited != taken) session.composited_frames.fetch_add(1);
+    // After the composite: reading GPU timestamps may stall the present on some drivers
+    // (gpu_timing.h), and that must not count as tile wait or merge.
+    if (stats) {
+        const GpuTimes gpu = latest_gpu_times(dev);
+        record.periphery_ms = gpu.periphery_ms;
+        record.merge_gpu_ms = gpu.composite_ms;
+    }
     session.stats().record(record);
     return composited;
 }

@@ -19,9 +19,13 @@ struct FrameRecord {
     double frame_ms = 0;     // this present to the previous one (0 for the first)
     double periphery_ms = 0; // GPU time of the latest completed split pass (gpu_timing.h)
     double tile_wait_ms = 0; // the present waited for this frame's tiles
+    // The part of tile_wait_ms after the GPU had finished everything submitted before this present
+    // (Compositor::take_waits): the client was done with its frame and only waited for tiles.
+    double exposed_wait_ms = 0;
     double network_ms = 0;   // FramePresent sent to Tiles received, less the agent's own time
     double decode_ms = 0;    // the slowest eye
     double merge_ms = 0;     // upload and composite, as recorded and submitted on this thread
+    double merge_gpu_ms = 0; // GPU time of the latest completed composite (gpu_timing.h)
     uint64_t tile_bytes = 0; // Tiles payload received
     uint64_t raw_bytes = 0;  // the same tiles uncompressed (4 bytes per pixel)
     double agent_draw_ms = 0;

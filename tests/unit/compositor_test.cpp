@@ -5,9 +5,11 @@
 // back after waiting on the compositor's semaphore, as the present would. Checks: the tiles are
 // bit-exact (UNORM and sRGB), the rest is the top-left periphery upsampled (bilinear and
 // Catmull-Rom against CPU references, within 2 of 255), slots are reused across frames, and the
-// Khronos validation layer with synchronization validation, when installed, says nothing.
+// Khronos validation layer with synchronization validation, when installed, says nothing. The
+// Timed variant goes the SPLITVK_STATS way: take_waits() first, and a measured composite GPU time.
 
 #include "compositor.h"
+#include "gpu_timing.h"
 #include "instance.h"
 #include "swapchain.h"
 
@@ -59,6 +61,9 @@ float linear_to_srgb(float l) {
 struct Param {
     VkFormat format;
     UpsampleFilter filter;
+    // SPLITVK_STATS' path: take_waits() stands in for the application's semaphores, and the
+    // composite's GPU time is measured.
+    bool timed = false;
 };
 
 class CompositorTest : public ::testing::TestWithParam<Param> {
@@ -183,7 +188,7 @@ uint8_t tile_byte(uint32_t x, uint32_t y, uint32_t c, uint32_t frame) {
 }
 
 TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
-    const auto [format, filter] = GetParam();
+    const auto [format, filter, timed] = GetParam();
     const bool srgb = format == VK_FORMAT_B8G8R8A8_SRGB;
     const VkDevice d = device_.handle;
     std::string why;
@@ -267,7 +272,7 @@ TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
     ASSERT_EQ(vkCreateFence(d, &fence_info, nullptr, &fence), VK_SUCCESS);
 
     std::string error;
-    auto compositor = Compositor::create(device_, sc, family_, &error, filter);
+    auto compositor = Compositor::create(device_, sc, family_, &error, filter, timed);
     ASSERT_TRUE(compositor) << error;
 
     const auto barrier = [&](VkImage image, VkImageLayout from, VkImageLayout to, VkAccessFlags src_access,
@@ -332,8 +337,17 @@ TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
                             tile_byte(x, y, c + 4 * t, frame);
             tiles[t] = {rects[t], tile_pixels[t].data()};
         }
+        VkSemaphore waits = rendered;
+        if (timed) {
+            VkFence done = VK_NULL_HANDLE;
+            ASSERT_EQ(compositor->take_waits(queue_, index, std::span(&rendered, 1), &waits, &done),
+                      VK_SUCCESS);
+            ASSERT_NE(waits, rendered);
+            // The fence says when the application's frame is done on the GPU: it is.
+            EXPECT_EQ(vkWaitForFences(d, 1, &done, VK_TRUE, 10'000'000'000ull), VK_SUCCESS);
+        }
         VkSemaphore signal = VK_NULL_HANDLE;
-        ASSERT_EQ(compositor->composite(queue_, index, std::span(&rendered, 1), kPeriphery, tiles, &signal),
+        ASSERT_EQ(compositor->composite(queue_, index, std::span(&waits, 1), kPeriphery, tiles, &signal),
                   VK_SUCCESS);
         ASSERT_NE(signal, VK_NULL_HANDLE);
 
@@ -414,6 +428,14 @@ TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
     }
 
     compositor.reset(); // waits for its submits
+    if (timed) {
+        // The first read of the query pool: every composite has completed.
+        const GpuTimes times = latest_gpu_times(device_);
+        EXPECT_GT(times.composite_ms, 0.0);
+        EXPECT_LT(times.composite_ms, 10'000.0);
+        EXPECT_EQ(times.periphery_ms, 0.0) << "no split pass was timed";
+    }
+    release_gpu_timing(device_);
     vkDestroyFence(d, fence, nullptr);
     vkDestroySemaphore(d, rendered, nullptr);
     vkDestroyCommandPool(d, pool, nullptr);
@@ -432,12 +454,14 @@ INSTANTIATE_TEST_SUITE_P(Formats, CompositorTest,
                          ::testing::Values(Param{VK_FORMAT_B8G8R8A8_UNORM, UpsampleFilter::Bilinear},
                                            Param{VK_FORMAT_B8G8R8A8_SRGB, UpsampleFilter::Bilinear},
                                            Param{VK_FORMAT_B8G8R8A8_UNORM, UpsampleFilter::CatmullRom},
-                                           Param{VK_FORMAT_B8G8R8A8_SRGB, UpsampleFilter::CatmullRom}),
+                                           Param{VK_FORMAT_B8G8R8A8_SRGB, UpsampleFilter::CatmullRom},
+                                           Param{VK_FORMAT_B8G8R8A8_UNORM, UpsampleFilter::Bilinear, true}),
                          [](const auto &test) {
                              return std::string(test.param.format == VK_FORMAT_B8G8R8A8_SRGB ? "Srgb"
                                                                                              : "Unorm") +
                                     (test.param.filter == UpsampleFilter::CatmullRom ? "CatmullRom"
-                                                                                     : "Bilinear");
+                                                                                     : "Bilinear") +
+                                    (test.param.timed ? "Timed" : "");
                          });
 
 } // namespace
