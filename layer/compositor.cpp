@@ -4,9 +4,10 @@
 //   1. wait on the application's present semaphores (at the transfer stage, the first use);
 //   2. copy the top-left periphery of the swapchain image into the slot's periphery image (an
 //      image of the swapchain's format: the draw below cannot sample the image it writes);
-//   3. draw one full-screen triangle into the swapchain image (a render pass on a view in its
-//      own format) that samples the periphery image: for sRGB formats the sampler decodes and
-//      the attachment encodes, so the filter blends linear values;
+//   3. draw a full-screen triangle into the swapchain image (a render pass on a view in its own
+//      format) that samples the periphery image, once per band around the tiles (scissored:
+//      periphery_bands), so no fragment is shaded where a tile goes: for sRGB formats the
+//      sampler decodes and the attachment encodes, so the filter blends linear values;
 //   4. copy the fovea tiles from the slot's host-visible staging buffer into the image with
 //      vkCmdCopyBufferToImage: bytes move unchanged, so the fovea is bit-exact in any format
 //      (a shader or a view of another format would re-encode sRGB);
@@ -114,6 +115,41 @@ bool overlaps(const ClippedTile &a, const ClippedTile &b) {
 }
 
 } // namespace
+
+std::vector<VkRect2D> periphery_bands(VkExtent2D image, std::span<const VkBufferImageCopy> tiles) {
+    // Horizontal bands between the tiles' top and bottom edges: within one, every tile covers
+    // either all of it or none of it, so the gaps between the tiles it holds are whole rects.
+    std::vector<uint32_t> edges = {0, image.height};
+    for (const VkBufferImageCopy &t : tiles) {
+        edges.push_back(std::min<uint32_t>(uint32_t(t.imageOffset.y), image.height));
+        edges.push_back(std::min<uint32_t>(uint32_t(t.imageOffset.y) + t.imageExtent.height, image.height));
+    }
+    std::sort(edges.begin(), edges.end());
+    edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+    std::vector<VkRect2D> bands;
+    std::vector<std::pair<uint32_t, uint32_t>> covered; // x ranges of the tiles in a band
+    for (size_t i = 0; i + 1 < edges.size(); ++i) {
+        const uint32_t top = edges[i], bottom = edges[i + 1];
+        covered.clear();
+        for (const VkBufferImageCopy &t : tiles)
+            if (uint32_t(t.imageOffset.y) <= top &&
+                uint32_t(t.imageOffset.y) + t.imageExtent.height >= bottom)
+                covered.emplace_back(
+                    uint32_t(t.imageOffset.x),
+                    std::min<uint32_t>(uint32_t(t.imageOffset.x) + t.imageExtent.width, image.width));
+        std::sort(covered.begin(), covered.end());
+        uint32_t x = 0;
+        const auto gap = [&](uint32_t to) {
+            if (to > x) bands.push_back({{int32_t(x), int32_t(top)}, {to - x, bottom - top}});
+        };
+        for (const auto &[from, to] : covered) {
+            gap(from);
+            x = std::max(x, to);
+        }
+        gap(image.width);
+    }
+    return bands;
+}
 
 struct Compositor::Slot {
     VkCommandBuffer command_buffer = VK_NULL_HANDLE;
@@ -591,9 +627,7 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
         k.CmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout_, 0, 1, &s.set, 0,
                                 nullptr);
         const VkViewport viewport{0.0f, 0.0f, float(extent_.width), float(extent_.height), 0.0f, 1.0f};
-        const VkRect2D scissor{{0, 0}, extent_};
         k.CmdSetViewport(cb, 0, 1, &viewport);
-        k.CmdSetScissor(cb, 0, 1, &scissor);
         PushConstants push{};
         push.scale[0] = float(periphery.width) / float(extent_.width);
         push.scale[1] = float(periphery.height) / float(extent_.height);
@@ -602,7 +636,12 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
         push.max_centre[0] = float(periphery.width) - 0.5f;
         push.max_centre[1] = float(periphery.height) - 0.5f;
         k.CmdPushConstants(cb, pipeline_layout_, VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
-        k.CmdDraw(cb, 3, 1, 0, 0);
+        // Only around the foveae: the tile copies below overwrite them, so what the pass leaves
+        // there (undefined: the attachment is not loaded) is never seen.
+        for (const VkRect2D &band : periphery_bands(extent_, copy_regions_)) {
+            k.CmdSetScissor(cb, 0, 1, &band);
+            k.CmdDraw(cb, 3, 1, 0, 0);
+        }
         k.CmdEndRenderPass(cb);
 
         // The draw's writes before the tile copies overwrite the fovea (write-after-write), or

@@ -92,13 +92,13 @@ public:
 
     // Submits to `queue` (of the family given at create()): waits on `waits` (the application's
     // present wait semaphores), upsamples the top-left `periphery` of image `image_index` to the
-    // whole image (skipped when `periphery` is empty or the whole image), writes `tiles` into it
-    // bit-exactly, and leaves it in the layout the present expects (PRESENT_SRC_KHR, or
-    // SHARED_PRESENT_KHR for shared present modes). On VK_SUCCESS, *signal is the compositor's
-    // semaphore that the present must wait on instead of `waits` (it stays the compositor's:
-    // do not destroy it). On any other result nothing was submitted, `waits` are untouched and
-    // *signal is unchanged: present as the application asked. VK_NOT_READY: nothing to do (no
-    // upsample, no tile); VK_TIMEOUT: this image's previous composition had not finished.
+    // whole image but where tiles go (skipped when `periphery` is empty or the whole image),
+    // writes `tiles` into it bit-exactly, and leaves it in the layout the present expects (PRESENT_SRC_KHR,
+    // or SHARED_PRESENT_KHR for shared present modes). On VK_SUCCESS, *signal is the compositor's semaphore
+    // that the present must wait on instead of `waits` (it stays the compositor's: do not destroy it). On any
+    // other result nothing was submitted, `waits` are untouched and *signal is unchanged: present as the
+    // application asked. VK_NOT_READY: nothing to do (no upsample, no tile); VK_TIMEOUT: this image's
+    // previous composition had not finished.
     VkResult composite(VkQueue queue, uint32_t image_index, std::span<const VkSemaphore> waits,
                        VkExtent2D periphery, std::span<const FoveaTile> tiles, VkSemaphore *signal);
 
@@ -149,6 +149,10 @@ private:
     std::vector<std::unique_ptr<Slot>> slots_;    // by image index, made on first use
     std::vector<VkBufferImageCopy> copy_regions_; // this frame's tiles, for record()
 };
+
+// The parts of an `image` that the upsample draws when `tiles` (non-overlapping, inside the
+// image) are copied over it afterwards: the rects around them, in horizontal bands, top to bottom.
+std::vector<VkRect2D> periphery_bands(VkExtent2D image, std::span<const VkBufferImageCopy> tiles);
 
 // The compositor of a swapchain, created on first use (for `queue_family`, the present queue's);
 // nullptr, with one log line per swapchain, when the swapchain is not composable or the
