@@ -3,8 +3,11 @@
 // One submit per present, on the present queue, in this order:
 //   1. wait on the application's present semaphores (at the transfer stage, the first use);
 //   2. copy the top-left periphery of the swapchain image into the slot's periphery image (an
-//      image of the swapchain's format: the draw below cannot sample the image it writes);
-//   3. draw a full-screen triangle into the swapchain image (a render pass on a view in its own
+//      image of the swapchain's format and the periphery's size: neither the blit nor the draw
+//      below may read the region it writes);
+//   3. by default (UpsampleFilter::BilinearBlit), blit the periphery image over the whole
+//      swapchain image with a linear filter (sRGB is decoded before filtering and encoded after);
+//      otherwise draw a full-screen triangle into the swapchain image (a render pass on a view in its own
 //      format) that samples the periphery image, once per band around the tiles (scissored:
 //      periphery_bands), so no fragment is shaded where a tile goes: for sRGB formats the
 //      sampler decodes and the attachment encodes, so the filter blends linear values;
@@ -43,6 +46,9 @@ struct PushConstants {
 constexpr VkFormatFeatureFlags kSwapchainFeatures = VK_FORMAT_FEATURE_TRANSFER_SRC_BIT |
                                                     VK_FORMAT_FEATURE_TRANSFER_DST_BIT |
                                                     VK_FORMAT_FEATURE_COLOR_ATTACHMENT_BIT;
+constexpr VkFormatFeatureFlags kBlitFeatures = VK_FORMAT_FEATURE_BLIT_SRC_BIT |
+                                               VK_FORMAT_FEATURE_BLIT_DST_BIT |
+                                               VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT;
 constexpr VkFormatFeatureFlags kPeripheryFeatures = VK_FORMAT_FEATURE_TRANSFER_DST_BIT |
                                                     VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT |
                                                     VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT;
@@ -191,7 +197,7 @@ Compositor::Compositor(DeviceState &device, const SwapchainState &swapchain, uin
                        UpsampleFilter filter, bool timed)
     : device_(device), swapchain_(swapchain.handle), extent_(swapchain.extent), format_(swapchain.format),
       present_layout_(swapchain.present_layout), images_(swapchain.images), queue_family_(queue_family),
-      filter_(filter), timed_(timed) {}
+      filter_(filter), blit_(filter == UpsampleFilter::BilinearBlit), timed_(timed) {}
 
 std::unique_ptr<Compositor> Compositor::create(DeviceState &device, const SwapchainState &swapchain,
                                                uint32_t queue_family, std::string *error,
@@ -211,6 +217,12 @@ std::unique_ptr<Compositor> Compositor::create(DeviceState &device, const Swapch
         return nullptr;
     }
     if (!supports(device, swapchain.format, error)) return nullptr;
+    if (filter == UpsampleFilter::BilinearBlit) {
+        VkFormatProperties props{};
+        device.instance->dispatch.GetPhysicalDeviceFormatProperties(device.physical_device, swapchain.format,
+                                                                    &props);
+        if ((props.optimalTilingFeatures & kBlitFeatures) != kBlitFeatures) filter = UpsampleFilter::Bilinear;
+    }
     std::unique_ptr<Compositor> c(new Compositor(device, swapchain, queue_family, filter, timed));
     if (!c->init(error)) return nullptr;
     return c;
@@ -454,8 +466,9 @@ bool Compositor::init_slot(Slot &s, uint32_t image_index, std::string *error) {
 
 // Called only while the slot is idle (its fence waited for), so the old image can go.
 bool Compositor::ensure_periphery_image(Slot &s, VkExtent2D periphery, std::string *error) {
-    if (s.periphery && s.periphery_extent.width >= periphery.width &&
-        s.periphery_extent.height >= periphery.height)
+    // Exactly the periphery's size: the blit clamps its filter to the image's edge.
+    if (s.periphery && s.periphery_extent.width == periphery.width &&
+        s.periphery_extent.height == periphery.height)
         return true;
     const VkDevice d = device_.handle;
     const auto &k = device_.dispatch;
@@ -477,7 +490,8 @@ bool Compositor::ensure_periphery_image(Slot &s, VkExtent2D periphery, std::stri
     image_info.arrayLayers = 1;
     image_info.samples = VK_SAMPLE_COUNT_1_BIT;
     image_info.tiling = VK_IMAGE_TILING_OPTIMAL;
-    image_info.usage = VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
+    image_info.usage =
+        VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
     image_info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
     image_info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
     if (k.CreateImage(d, &image_info, nullptr, &s.periphery) != VK_SUCCESS) {
@@ -603,57 +617,89 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
         k.CmdCopyImage(cb, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, s.periphery,
                        VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &copy);
 
-        // The copy's write of the periphery image before the fragment shader reads it; the
-        // copy's read of the swapchain image before the draw overwrites it (write-after-read:
-        // an execution dependency, plus the transition to the attachment layout).
-        VkImageMemoryBarrier to_draw[2] = {
-            image_barrier(s.periphery, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
-                          VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL),
-            image_barrier(image, 0, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
-                          VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL),
-        };
-        k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                             VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT |
-                                 VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
-                             0, 0, nullptr, 0, nullptr, 2, to_draw);
+        if (blit_) {
+            // The copy's write of the periphery image before the blit reads it; the copy's read of
+            // the swapchain image before the blit overwrites it (write-after-read).
+            VkImageMemoryBarrier to_blit[2] = {
+                image_barrier(s.periphery, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT,
+                              VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL),
+                image_barrier(image, 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                              VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL),
+            };
+            k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
+                                 nullptr, 0, nullptr, 2, to_blit);
+            // The periphery image is exactly the periphery's size, so the filter's clamp to its
+            // edge is the clamp to the periphery's edge that the shader does.
+            VkImageBlit region{};
+            region.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+            region.srcOffsets[1] = {int32_t(periphery.width), int32_t(periphery.height), 1};
+            region.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+            region.dstOffsets[1] = {int32_t(extent_.width), int32_t(extent_.height), 1};
+            k.CmdBlitImage(cb, s.periphery, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, image,
+                           VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region, VK_FILTER_LINEAR);
+            // The blit's writes before the tile copies overwrite the fovea (write-after-write), or
+            // before the present.
+            VkImageMemoryBarrier after_blit = image_barrier(
+                image, VK_ACCESS_TRANSFER_WRITE_BIT, has_tiles ? VK_ACCESS_TRANSFER_WRITE_BIT : 0,
+                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
+            k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                                 has_tiles ? VK_PIPELINE_STAGE_TRANSFER_BIT
+                                           : VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT,
+                                 0, 0, nullptr, 0, nullptr, 1, &after_blit);
+        } else {
+            // The copy's write of the periphery image before the fragment shader reads it; the
+            // copy's read of the swapchain image before the draw overwrites it (write-after-read:
+            // an execution dependency, plus the transition to the attachment layout).
+            VkImageMemoryBarrier to_draw[2] = {
+                image_barrier(s.periphery, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
+                              VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL),
+                image_barrier(image, 0, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
+                              VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL),
+            };
+            k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                                 VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT |
+                                     VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
+                                 0, 0, nullptr, 0, nullptr, 2, to_draw);
 
-        VkRenderPassBeginInfo pass{};
-        pass.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
-        pass.renderPass = render_pass_;
-        pass.framebuffer = s.framebuffer;
-        pass.renderArea = {{0, 0}, extent_};
-        k.CmdBeginRenderPass(cb, &pass, VK_SUBPASS_CONTENTS_INLINE);
-        k.CmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_);
-        k.CmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout_, 0, 1, &s.set, 0,
-                                nullptr);
-        const VkViewport viewport{0.0f, 0.0f, float(extent_.width), float(extent_.height), 0.0f, 1.0f};
-        k.CmdSetViewport(cb, 0, 1, &viewport);
-        PushConstants push{};
-        push.scale[0] = float(periphery.width) / float(extent_.width);
-        push.scale[1] = float(periphery.height) / float(extent_.height);
-        push.texel_size[0] = 1.0f / float(s.periphery_extent.width);
-        push.texel_size[1] = 1.0f / float(s.periphery_extent.height);
-        push.max_centre[0] = float(periphery.width) - 0.5f;
-        push.max_centre[1] = float(periphery.height) - 0.5f;
-        k.CmdPushConstants(cb, pipeline_layout_, VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
-        // Only around the foveae: the tile copies below overwrite them, so what the pass leaves
-        // there (undefined: the attachment is not loaded) is never seen.
-        for (const VkRect2D &band : periphery_bands(extent_, copy_regions_)) {
-            k.CmdSetScissor(cb, 0, 1, &band);
-            k.CmdDraw(cb, 3, 1, 0, 0);
+            VkRenderPassBeginInfo pass{};
+            pass.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
+            pass.renderPass = render_pass_;
+            pass.framebuffer = s.framebuffer;
+            pass.renderArea = {{0, 0}, extent_};
+            k.CmdBeginRenderPass(cb, &pass, VK_SUBPASS_CONTENTS_INLINE);
+            k.CmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_);
+            k.CmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout_, 0, 1, &s.set, 0,
+                                    nullptr);
+            const VkViewport viewport{0.0f, 0.0f, float(extent_.width), float(extent_.height), 0.0f, 1.0f};
+            k.CmdSetViewport(cb, 0, 1, &viewport);
+            PushConstants push{};
+            push.scale[0] = float(periphery.width) / float(extent_.width);
+            push.scale[1] = float(periphery.height) / float(extent_.height);
+            push.texel_size[0] = 1.0f / float(s.periphery_extent.width);
+            push.texel_size[1] = 1.0f / float(s.periphery_extent.height);
+            push.max_centre[0] = float(periphery.width) - 0.5f;
+            push.max_centre[1] = float(periphery.height) - 0.5f;
+            k.CmdPushConstants(cb, pipeline_layout_, VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
+            // Only around the foveae: the tile copies below overwrite them, so what the pass leaves
+            // there (undefined: the attachment is not loaded) is never seen.
+            for (const VkRect2D &band : periphery_bands(extent_, copy_regions_)) {
+                k.CmdSetScissor(cb, 0, 1, &band);
+                k.CmdDraw(cb, 3, 1, 0, 0);
+            }
+            k.CmdEndRenderPass(cb);
+
+            // The draw's writes before the tile copies overwrite the fovea (write-after-write), or
+            // before the present.
+            VkImageMemoryBarrier after_draw = image_barrier(
+                image, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, has_tiles ? VK_ACCESS_TRANSFER_WRITE_BIT : 0,
+                VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
+            k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
+                                 has_tiles ? VK_PIPELINE_STAGE_TRANSFER_BIT
+                                           : VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT,
+                                 0, 0, nullptr, 0, nullptr, 1, &after_draw);
         }
-        k.CmdEndRenderPass(cb);
-
-        // The draw's writes before the tile copies overwrite the fovea (write-after-write), or
-        // before the present.
-        VkImageMemoryBarrier after_draw = image_barrier(
-            image, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, has_tiles ? VK_ACCESS_TRANSFER_WRITE_BIT : 0,
-            VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
-            has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
-        k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
-                             has_tiles ? VK_PIPELINE_STAGE_TRANSFER_BIT
-                                       : VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT,
-                             0, 0, nullptr, 0, nullptr, 1, &after_draw);
     } else if (has_tiles) {
         // Tiles over what the application rendered: keep the contents (old layout, not UNDEFINED).
         VkImageMemoryBarrier b = image_barrier(image, 0, VK_ACCESS_TRANSFER_WRITE_BIT, present_layout_,

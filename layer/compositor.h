@@ -58,14 +58,19 @@ struct FoveaTile {
 };
 
 // The periphery filter, a specialisation constant of shaders/upsample.frag.
-enum class UpsampleFilter : int { Bilinear = 0, CatmullRom = 1 };
-// What compositor_for() uses: bilinear. Catmull-Rom measured better against native on
-// splitvk-atrium at 2400x1080, scale 0.6 (whole-frame SSIM 0.9714 against 0.9682 in stereo, 0.9760
-// against 0.9736 mono, 0.9707 against 0.9673 sRGB; tests/e2e/suites/split_test.cpp), but its 9
-// bilinear taps per pixel cost the weak client far more than they give: in `scripts/bench paper
-// --quick` (client on one lavapipe thread) split/native was 1.197 with Catmull-Rom and 0.789 with
-// bilinear. A client with a real GPU can afford it: pass UpsampleFilter::CatmullRom to create().
-inline constexpr UpsampleFilter kDefaultUpsampleFilter = UpsampleFilter::Bilinear;
+// BilinearBlit is no shader's: the upsample is a vkCmdBlitImage with a linear filter (bilinear
+// too), where the format allows it (else Bilinear).
+enum class UpsampleFilter : int { Bilinear = 0, CatmullRom = 1, BilinearBlit = 2 };
+// What compositor_for() uses: bilinear, by vkCmdBlitImage. On lavapipe (one thread, best of 12,
+// tests/unit/compositor_test.cpp DISABLED_Cost) a composite with the stereo foveae costs 16.9 ms at
+// 2400x1080 and 2.1-2.2 ms at 960x432 with the blit, 19.6 ms and 2.6-2.9 ms with the bilinear
+// shader drawn only around the foveae; both give the same picture (whole-frame SSIM against native
+// on splitvk-atrium at 2400x1080: 0.9682 stereo, 0.9736 mono, 0.9673 sRGB). Catmull-Rom measured
+// better against native (0.9714, 0.9760, 0.9707) but its 9 bilinear taps per pixel cost the weak
+// client far more than they give (55.8 ms at 2400x1080 in the same measurement; in `scripts/bench
+// paper --quick`, split/native 1.197 against 0.789). A client with a real GPU can afford it: pass
+// UpsampleFilter::CatmullRom to create().
+inline constexpr UpsampleFilter kDefaultUpsampleFilter = UpsampleFilter::BilinearBlit;
 
 class Compositor {
 public:
@@ -135,6 +140,7 @@ private:
     std::vector<VkImage> images_;
     uint32_t queue_family_ = 0;
     UpsampleFilter filter_ = kDefaultUpsampleFilter;
+    bool blit_ = false; // the upsample is a vkCmdBlitImage, not a draw
     bool timed_ = false;
 
     VkCommandPool pool_ = VK_NULL_HANDLE;

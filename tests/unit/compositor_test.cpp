@@ -411,7 +411,7 @@ TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
                 const float fx = px - 0.5f - ix, fy = py - 0.5f - iy;
                 for (uint32_t c = 0; c < 4; ++c) {
                     float v = 0.0f;
-                    if (filter == UpsampleFilter::CatmullRom) {
+                    if (filter == UpsampleFilter::CatmullRom) { // BilinearBlit: the bilinear reference
                         float wx[4], wy[4];
                         cubic(fx, wx);
                         cubic(fy, wy);
@@ -653,12 +653,15 @@ INSTANTIATE_TEST_SUITE_P(Formats, CompositorTest,
                                            Param{VK_FORMAT_B8G8R8A8_SRGB, UpsampleFilter::Bilinear},
                                            Param{VK_FORMAT_B8G8R8A8_UNORM, UpsampleFilter::CatmullRom},
                                            Param{VK_FORMAT_B8G8R8A8_SRGB, UpsampleFilter::CatmullRom},
-                                           Param{VK_FORMAT_B8G8R8A8_UNORM, UpsampleFilter::Bilinear, true}),
+                                           Param{VK_FORMAT_B8G8R8A8_UNORM, UpsampleFilter::Bilinear, true},
+                                           Param{VK_FORMAT_B8G8R8A8_UNORM, UpsampleFilter::BilinearBlit},
+                                           Param{VK_FORMAT_B8G8R8A8_SRGB, UpsampleFilter::BilinearBlit}),
                          [](const auto &test) {
                              return std::string(test.param.format == VK_FORMAT_B8G8R8A8_SRGB ? "Srgb"
                                                                                              : "Unorm") +
-                                    (test.param.filter == UpsampleFilter::CatmullRom ? "CatmullRom"
-                                                                                     : "Bilinear") +
+                                    (test.param.filter == UpsampleFilter::CatmullRom     ? "CatmullRom"
+                                     : test.param.filter == UpsampleFilter::BilinearBlit ? "BilinearBlit"
+                                                                                         : "Bilinear") +
                                     (test.param.timed ? "Timed" : "");
                          });
 
