@@ -5,12 +5,13 @@
 //   2. copy the top-left periphery of the swapchain image into the slot's periphery image (an
 //      image of the swapchain's format and the periphery's size: neither the blit nor the draw
 //      below may read the region it writes);
-//   3. by default (UpsampleFilter::BilinearBlit), blit the periphery image over the whole
-//      swapchain image with a linear filter (sRGB is decoded before filtering and encoded after);
-//      otherwise draw a full-screen triangle into the swapchain image (a render pass on a view in its own
-//      format) that samples the periphery image, once per band around the tiles (scissored:
-//      periphery_bands), so no fragment is shaded where a tile goes: for sRGB formats the
-//      sampler decodes and the attachment encodes, so the filter blends linear values;
+//   3. by default (UpsampleFilter::BilinearBlit), blit the periphery image into the swapchain
+//      image with a linear filter, around the tiles where the scale allows (blit_regions); sRGB
+//      is decoded before filtering and encoded after. Otherwise draw a full-screen triangle into
+//      the swapchain image (a render pass on a view in its own format) that samples the
+//      periphery image, once per band around the tiles (scissored: periphery_bands), so no
+//      fragment is shaded where a tile goes: for sRGB formats the sampler decodes and the
+//      attachment encodes, so the filter blends linear values;
 //   4. copy the fovea tiles from the slot's host-visible staging buffer into the image with
 //      vkCmdCopyBufferToImage: bytes move unchanged, so the fovea is bit-exact in any format
 //      (a shader or a view of another format would re-encode sRGB);
@@ -28,6 +29,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <numeric>
 #include <unordered_map>
 
 namespace splitvk {
@@ -155,6 +157,49 @@ std::vector<VkRect2D> periphery_bands(VkExtent2D image, std::span<const VkBuffer
         gap(image.width);
     }
     return bands;
+}
+
+std::vector<VkImageBlit> blit_regions(VkExtent2D image, VkExtent2D periphery,
+                                      std::span<const VkBufferImageCopy> tiles) {
+    // A blit region maps integer rects onto integer rects, so a band's edges must be multiples of
+    // the period after which image and periphery pixels line up again (5 for a scale of 0.6);
+    // each tile shrinks to the largest such rect inside it, and the blit covers the rest of the
+    // tile too, which its copy then overwrites. A long period skips nothing.
+    constexpr uint32_t kMaxPeriod = 64;
+    const uint32_t px = image.width / std::gcd(image.width, periphery.width);
+    const uint32_t py = image.height / std::gcd(image.height, periphery.height);
+    std::vector<VkBufferImageCopy> inner;
+    if (px <= kMaxPeriod && py <= kMaxPeriod) {
+        for (const VkBufferImageCopy &t : tiles) {
+            const uint32_t x0 = (uint32_t(t.imageOffset.x) + px - 1) / px * px;
+            const uint32_t y0 = (uint32_t(t.imageOffset.y) + py - 1) / py * py;
+            const uint32_t x1 = (uint32_t(t.imageOffset.x) + t.imageExtent.width) / px * px;
+            const uint32_t y1 = (uint32_t(t.imageOffset.y) + t.imageExtent.height) / py * py;
+            if (x1 <= x0 || y1 <= y0) continue;
+            VkBufferImageCopy c{};
+            c.imageOffset = {int32_t(x0), int32_t(y0), 0};
+            c.imageExtent = {x1 - x0, y1 - y0, 1};
+            inner.push_back(c);
+        }
+    }
+    std::vector<VkImageBlit> regions;
+    for (const VkRect2D &band : periphery_bands(image, inner)) {
+        const auto src = [](uint32_t v, uint32_t from, uint32_t to) {
+            return int32_t(uint64_t{v} * to / from); // exact: v is a multiple of the period
+        };
+        const uint32_t x1 = uint32_t(band.offset.x) + band.extent.width;
+        const uint32_t y1 = uint32_t(band.offset.y) + band.extent.height;
+        VkImageBlit r{};
+        r.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        r.srcOffsets[0] = {src(uint32_t(band.offset.x), image.width, periphery.width),
+                           src(uint32_t(band.offset.y), image.height, periphery.height), 0};
+        r.srcOffsets[1] = {src(x1, image.width, periphery.width), src(y1, image.height, periphery.height), 1};
+        r.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        r.dstOffsets[0] = {band.offset.x, band.offset.y, 0};
+        r.dstOffsets[1] = {int32_t(x1), int32_t(y1), 1};
+        regions.push_back(r);
+    }
+    return regions;
 }
 
 struct Compositor::Slot {
@@ -630,13 +675,10 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
                                  nullptr, 0, nullptr, 2, to_blit);
             // The periphery image is exactly the periphery's size, so the filter's clamp to its
             // edge is the clamp to the periphery's edge that the shader does.
-            VkImageBlit region{};
-            region.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-            region.srcOffsets[1] = {int32_t(periphery.width), int32_t(periphery.height), 1};
-            region.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-            region.dstOffsets[1] = {int32_t(extent_.width), int32_t(extent_.height), 1};
+            const std::vector<VkImageBlit> regions = blit_regions(extent_, periphery, copy_regions_);
             k.CmdBlitImage(cb, s.periphery, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, image,
-                           VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region, VK_FILTER_LINEAR);
+                           VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, static_cast<uint32_t>(regions.size()),
+                           regions.data(), VK_FILTER_LINEAR);
             // The blit's writes before the tile copies overwrite the fovea (write-after-write), or
             // before the present.
             VkImageMemoryBarrier after_blit = image_barrier(

@@ -164,6 +164,11 @@ private:
 // image) are copied over it afterwards: the rects around them, in horizontal bands, top to bottom.
 std::vector<VkRect2D> periphery_bands(VkExtent2D image, std::span<const VkBufferImageCopy> tiles);
 
+// The regions of the blit that upsamples `periphery` to `image` around `tiles` (the same kind):
+// bands whose edges map onto whole periphery texels, each scaled exactly as the whole image is.
+std::vector<VkImageBlit> blit_regions(VkExtent2D image, VkExtent2D periphery,
+                                      std::span<const VkBufferImageCopy> tiles);
+
 // The compositor of a swapchain, created on first use (for `queue_family`, the present queue's);
 // nullptr, with one log line per swapchain, when the swapchain is not composable or the
 // compositor cannot be made. A later call with another queue family replaces it. `timed`: see

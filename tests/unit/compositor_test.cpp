@@ -31,7 +31,8 @@ class Session {};
 
 namespace {
 
-constexpr uint32_t kWidth = 64, kHeight = 48;
+// 0.6 of these is 48x27: image and periphery line up every 5 pixels, so the blit skips the tiles.
+constexpr uint32_t kWidth = 80, kHeight = 45;
 constexpr VkExtent2D kPeriphery{(kWidth * 3 + 4) / 5, (kHeight * 3 + 4) / 5}; // ceil(0.6 W) x ceil(0.6 H)
 constexpr uint32_t kImages = 2, kFrames = 5;
 
@@ -646,6 +647,50 @@ TEST_P(CompositorTest, DISABLED_Cost) {
     vkDestroyImage(d, small, nullptr);
     vkFreeMemory(d, image_memory, nullptr);
     vkFreeMemory(d, small_memory, nullptr);
+}
+
+// The blit's regions: around the tiles (shrunk to the scale's period) and each scaled exactly as
+// the whole image, or the whole image in one where the scale has no short period.
+TEST(BlitRegions, ScaleExactlyAndSkipTheTiles) {
+    const auto tile = [](int32_t x, int32_t y, uint32_t w, uint32_t h) {
+        VkBufferImageCopy c{};
+        c.imageOffset = {x, y, 0};
+        c.imageExtent = {w, h, 1};
+        return c;
+    };
+    const std::vector<VkBufferImageCopy> stereo = {tile(344, 360, 512, 360), tile(1544, 360, 512, 360)};
+    struct Case {
+        VkExtent2D image, periphery;
+        size_t regions;
+        uint64_t skipped; // pixels no region writes
+    };
+    const Case cases[] = {
+        // 344..856 shrinks to 345..855, 1544..2056 to 1545..2055; 360..720 stays.
+        {{2400, 1080}, {1440, 648}, 5, 2ull * 510 * 360},
+        {{2400, 1080}, {1441, 648}, 1, 0}, // no short period across
+    };
+    for (const Case &c : cases) {
+        const auto regions = blit_regions(c.image, c.periphery, stereo);
+        EXPECT_EQ(regions.size(), c.regions);
+        uint64_t written = 0;
+        for (const VkImageBlit &r : regions) {
+            const int64_t dw = r.dstOffsets[1].x - r.dstOffsets[0].x,
+                          dh = r.dstOffsets[1].y - r.dstOffsets[0].y;
+            const int64_t sw = r.srcOffsets[1].x - r.srcOffsets[0].x,
+                          sh = r.srcOffsets[1].y - r.srcOffsets[0].y;
+            ASSERT_GT(dw, 0);
+            ASSERT_GT(dh, 0);
+            // The region's scale and position are the whole image's.
+            EXPECT_EQ(sw * c.image.width, dw * c.periphery.width);
+            EXPECT_EQ(sh * c.image.height, dh * c.periphery.height);
+            EXPECT_EQ(int64_t{r.srcOffsets[0].x} * c.image.width,
+                      int64_t{r.dstOffsets[0].x} * c.periphery.width);
+            EXPECT_EQ(int64_t{r.srcOffsets[0].y} * c.image.height,
+                      int64_t{r.dstOffsets[0].y} * c.periphery.height);
+            written += uint64_t(dw) * uint64_t(dh);
+        }
+        EXPECT_EQ(written, uint64_t{c.image.width} * c.image.height - c.skipped);
+    }
 }
 
 INSTANTIATE_TEST_SUITE_P(Formats, CompositorTest,
