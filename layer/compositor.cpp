@@ -217,6 +217,10 @@ struct Compositor::Slot {
     VkExtent2D periphery_extent{};
     // Fovea tiles on their way to the image; grown as needed, mapped for the slot's lifetime.
     HostBuffer staging;
+    // Timed: the composite's two timestamps, copied by the GPU (gpu_timing.h).
+    HostBuffer timing;
+    bool timing_recorded = false; // by record()
+    bool timing_pending = false;  // submitted, not read yet
     // take_waits(): the empty submit that stands in for the application's semaphores.
     VkSemaphore taken = VK_NULL_HANDLE;
     VkFence taken_fence = VK_NULL_HANDLE;
@@ -480,6 +484,10 @@ bool Compositor::init_slot(Slot &s, uint32_t image_index, std::string *error) {
     if (k.CreateSemaphore(d, &semaphore_info, nullptr, &s.semaphore) != VK_SUCCESS) return fail("semaphore");
     if (k.CreateFence(d, &fence_info, nullptr, &s.taken_fence) != VK_SUCCESS) return fail("fence");
     if (k.CreateSemaphore(d, &semaphore_info, nullptr, &s.taken) != VK_SUCCESS) return fail("semaphore");
+    std::string untimed; // without this buffer the slot's composites are not timed
+    if (timed_)
+        create_host_buffer(device_, 2 * sizeof(uint64_t), VK_BUFFER_USAGE_TRANSFER_DST_BIT, HostAccess::Read,
+                           &s.timing, &untimed);
 
     // A view of the swapchain image in its own format (never another: the fovea goes in by copy).
     VkImageViewCreateInfo view_info{};
@@ -593,6 +601,7 @@ void Compositor::destroy_slot(Slot &s) {
     const auto &k = device_.dispatch;
     if (s.in_flight) k.WaitForFences(d, 1, &s.fence, VK_TRUE, kDestroyWaitNs);
     destroy_host_buffer(device_, s.staging);
+    destroy_host_buffer(device_, s.timing);
     if (s.periphery_view) k.DestroyImageView(d, s.periphery_view, nullptr);
     if (s.periphery) k.DestroyImage(d, s.periphery, nullptr);
     if (s.periphery_memory) k.FreeMemory(d, s.periphery_memory, nullptr);
@@ -635,7 +644,8 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
     begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
     begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
     k.BeginCommandBuffer(cb, &begin);
-    if (timed_) time_composite_begin(device_, cb);
+    s.timing_recorded = false;
+    if (timed_ && s.timing.buffer) time_composite_begin(device_, cb);
 
     // The submit waits on the application's semaphores at the TRANSFER stage; the first barrier's
     // source stage is TRANSFER too, so its layout transition happens after that wait (a semaphore
@@ -764,8 +774,22 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
         k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, 0, 0,
                              nullptr, 0, nullptr, 1, &b);
     }
-    if (timed_) time_composite_end(device_, cb);
+    if (timed_ && s.timing.buffer) s.timing_recorded = time_composite_end(device_, cb, s.timing.buffer);
     k.EndCommandBuffer(cb);
+}
+
+void Compositor::read_timing(Slot &s) {
+    if (!s.timing_pending) return;
+    s.timing_pending = false;
+    invalidate_host_buffer(device_, s.timing);
+    uint64_t stamps[2] = {};
+    std::memcpy(stamps, s.timing.mapped, sizeof(stamps));
+    if (const double ms = timestamps_ms(device_, stamps[0], stamps[1]); ms > 0) latest_gpu_ms_ = ms;
+}
+
+double Compositor::latest_gpu_ms() {
+    std::lock_guard lock(mutex_);
+    return latest_gpu_ms_;
 }
 
 Compositor::Slot *Compositor::ready_slot(uint32_t image_index, bool wait_taken, VkResult *result) {
@@ -798,6 +822,7 @@ Compositor::Slot *Compositor::ready_slot(uint32_t image_index, bool wait_taken, 
             return nullptr;
         }
         s.in_flight = false;
+        read_timing(s);
     }
     if (wait_taken && s.taken_in_flight) {
         const VkResult waited = k.WaitForFences(d, 1, &s.taken_fence, VK_TRUE, kSlotWaitNs);
@@ -916,6 +941,7 @@ VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<co
     if (result != VK_SUCCESS) return result;
     note_timed_submit(device_, 1, &s.command_buffer);
     s.in_flight = true;
+    s.timing_pending = s.timing_recorded;
     *signal = s.semaphore;
     return VK_SUCCESS;
 }

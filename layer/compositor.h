@@ -122,6 +122,10 @@ public:
 
     uint32_t queue_family() const { return queue_family_; }
 
+    // Created `timed`: GPU milliseconds of the latest composite whose fence the compositor has
+    // seen signalled (a few presents old), 0 before the first.
+    double latest_gpu_ms();
+
 private:
     struct Slot;
     Compositor(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family,
@@ -131,6 +135,7 @@ private:
     // Under mutex_: image `image_index`'s slot, made on first use, its previous submits finished
     // (bounded; take_waits()'s only when `wait_taken`); nullptr and *result when not.
     Slot *ready_slot(uint32_t image_index, bool wait_taken, VkResult *result);
+    void read_timing(Slot &slot); // after the slot's fence: its composite's GPU time
     bool ensure_periphery_image(Slot &slot, VkExtent2D periphery, std::string *error);
     bool ensure_staging(Slot &slot, VkDeviceSize bytes, std::string *error);
     void record(Slot &slot, uint32_t image_index, VkExtent2D periphery); // periphery {} = no upsample
@@ -146,6 +151,7 @@ private:
     UpsampleFilter filter_ = kDefaultUpsampleFilter;
     bool blit_ = false; // the upsample is a vkCmdBlitImage, not a draw
     bool timed_ = false;
+    double latest_gpu_ms_ = 0; // under mutex_
 
     VkCommandPool pool_ = VK_NULL_HANDLE;
     VkSampler sampler_ = VK_NULL_HANDLE;

@@ -18,8 +18,8 @@ struct DeviceTiming {
     uint32_t next_pair = 0;
     std::unordered_map<VkCommandBuffer, uint32_t> pairs; // command buffer -> its pair
     std::vector<bool> submitted = std::vector<bool>(kPairs);
-    std::vector<bool> composite = std::vector<bool>(kPairs); // the pair times a composite
-    GpuTimes latest;
+    std::vector<bool> composite = std::vector<bool>(kPairs); // the pair times a composite (read apart)
+    double latest_ms = 0;
     uint64_t calls = 0;
 };
 
@@ -87,8 +87,25 @@ void time_composite_begin(DeviceState &dev, VkCommandBuffer cb) {
     dev.dispatch.CmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, t->pool, 2 * *pair);
 }
 
-void time_composite_end(DeviceState &dev, VkCommandBuffer cb) {
-    time_split_pass_ended(dev, cb);
+bool time_composite_end(DeviceState &dev, VkCommandBuffer cb, VkBuffer results) {
+    std::lock_guard lock(g_mutex);
+    const auto it = g_recording.find(cb);
+    if (it == g_recording.end() || !it->second.begun || it->second.ended) return false;
+    it->second.ended = true;
+    const VkQueryPool pool = g_devices[&dev].pool;
+    const uint32_t first = 2 * it->second.pair;
+    dev.dispatch.CmdWriteTimestamp(cb, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, pool, first + 1);
+    // WAIT_BIT: the copy waits on the queue for both timestamps, not the host.
+    dev.dispatch.CmdCopyQueryPoolResults(cb, pool, first, 2, results, 0, sizeof(uint64_t),
+                                         VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
+    return true;
+}
+
+double timestamps_ms(DeviceState &dev, uint64_t begin, uint64_t end) {
+    std::lock_guard lock(g_mutex);
+    const auto found = g_devices.find(&dev);
+    if (found == g_devices.end() || begin == 0 || end <= begin) return 0;
+    return static_cast<double>(end - begin) * found->second.period_ns / 1e6;
 }
 
 void time_split_pass_begun(DeviceState &dev, VkCommandBuffer cb) {
@@ -124,27 +141,25 @@ void reset_split_pass_timing(VkCommandBuffer cb) {
     g_recording.erase(cb);
 }
 
-GpuTimes latest_gpu_times(DeviceState &dev) {
+double latest_periphery_ms(DeviceState &dev) {
     std::lock_guard lock(g_mutex);
     const auto found = g_devices.find(&dev);
-    if (found == g_devices.end() || !found->second.pool) return {};
+    if (found == g_devices.end() || !found->second.pool) return 0;
     DeviceTiming &t = found->second;
-    if (t.calls++ % kGpuTimesReadInterval != 0) return t.latest;
+    if (t.calls++ % kPeripheryReadInterval != 0) return t.latest_ms;
     // Both timestamps of each submitted pair with their availability, without waiting: the most
-    // recent completed measurement of each kind wins.
-    uint64_t latest_end[2] = {0, 0}; // periphery, composite
+    // recent completed measurement wins. Composites are read by the compositor itself.
+    uint64_t latest_end = 0;
     for (uint32_t pair = 0; pair < t.next_pair; ++pair) {
-        if (!t.submitted[pair]) continue;
+        if (!t.submitted[pair] || t.composite[pair]) continue;
         uint64_t v[4] = {}; // begin, available, end, available
         dev.dispatch.GetQueryPoolResults(dev.handle, t.pool, 2 * pair, 2, sizeof(v), v, 2 * sizeof(uint64_t),
                                          VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WITH_AVAILABILITY_BIT);
-        const size_t kind = t.composite[pair] ? 1 : 0;
-        if (!v[1] || !v[3] || v[2] < v[0] || v[2] <= latest_end[kind]) continue;
-        latest_end[kind] = v[2];
-        const double ms = static_cast<double>(v[2] - v[0]) * t.period_ns / 1e6;
-        (kind ? t.latest.composite_ms : t.latest.periphery_ms) = ms;
+        if (!v[1] || !v[3] || v[2] < v[0] || v[2] <= latest_end) continue;
+        latest_end = v[2];
+        t.latest_ms = static_cast<double>(v[2] - v[0]) * t.period_ns / 1e6;
     }
-    return t.latest;
+    return t.latest_ms;
 }
 
 void release_gpu_timing(DeviceState &dev) {

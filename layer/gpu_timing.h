@@ -31,21 +31,22 @@ void reset_split_pass_timing(VkCommandBuffer command_buffer);
 
 // compositor.cpp: the first and the last command of a composite. The begin timestamp is written
 // at the transfer stage, the stage the composite's semaphore waits block, so that it does not
-// count the wait for the application's rendering.
+// count the wait for the application's rendering. time_composite_end also records the copy of
+// both timestamps (two uint64_t) into `results`, which the compositor reads once the composite's
+// fence has signalled: it waits for that fence anyway before it reuses the image's slot, so
+// reading costs no stall (vkGetQueryPoolResults would make lavapipe wait for idle). False when
+// the composite is not timed.
 void time_composite_begin(DeviceState &device, VkCommandBuffer command_buffer);
-void time_composite_end(DeviceState &device, VkCommandBuffer command_buffer);
+bool time_composite_end(DeviceState &device, VkCommandBuffer command_buffer, VkBuffer results);
+// Milliseconds between two timestamps of this device; 0 when they make no sense.
+double timestamps_ms(DeviceState &device, uint64_t begin, uint64_t end);
 
-struct GpuTimes {
-    double periphery_ms = 0; // the latest split pass the GPU has completed
-    double composite_ms = 0; // the latest composite the GPU has completed
-};
-
-// The latest completed measurements, 0 where none has completed yet. Reads the query pool only
-// every kGpuTimesReadInterval calls and returns the last values in between: some drivers make
-// vkGetQueryPoolResults wait for the device to go idle even without WAIT_BIT (lavapipe does), and
-// the present thread must not pay that every frame.
-inline constexpr uint64_t kGpuTimesReadInterval = 16;
-GpuTimes latest_gpu_times(DeviceState &device);
+// Milliseconds of the latest split pass the GPU has completed, 0 when none has yet. Reads the
+// query pool only every kPeripheryReadInterval calls and returns the last value in between: some
+// drivers make vkGetQueryPoolResults wait for the device to go idle even without WAIT_BIT
+// (lavapipe does), and the present thread must not pay that every frame.
+inline constexpr uint64_t kPeripheryReadInterval = 16;
+double latest_periphery_ms(DeviceState &device);
 
 // vkDestroyDevice.
 void release_gpu_timing(DeviceState &device);

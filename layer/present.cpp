@@ -305,12 +305,11 @@ VkSemaphore composite_split_frame(DeviceState &dev, VkQueue queue, const VkPrese
         composited = taken; // VK_NULL_HANDLE unless take_waits() consumed the application's semaphores
     record.merge_ms = ms_between(waited, Clock::now());
     if (composited && composited != taken) session.composited_frames.fetch_add(1);
-    // After the composite: reading GPU timestamps may stall the present on some drivers
-    // (gpu_timing.h), and that must not count as tile wait or merge.
+    // After the composite: reading the periphery's timestamps may stall the present on some
+    // drivers (gpu_timing.h), and that must not count as tile wait or merge.
     if (stats) {
-        const GpuTimes gpu = latest_gpu_times(dev);
-        record.periphery_ms = gpu.periphery_ms;
-        record.merge_gpu_ms = gpu.composite_ms;
+        record.periphery_ms = latest_periphery_ms(dev);
+        if (compositor) record.merge_gpu_ms = compositor->latest_gpu_ms();
     }
     session.stats().record(record);
     return composited;
