@@ -3,10 +3,15 @@
 // One submit per present, on the present queue, in this order:
 //   1. wait on the application's present semaphores (at the transfer stage, the first use);
 //   2. copy the top-left periphery of the swapchain image into the slot's periphery image (an
-//      image of the swapchain's format: the draw below cannot sample the image it writes);
-//   3. draw one full-screen triangle into the swapchain image (a render pass on a view in its
-//      own format) that samples the periphery image: for sRGB formats the sampler decodes and
-//      the attachment encodes, so the filter blends linear values;
+//      image of the swapchain's format and the periphery's size: neither the blit nor the draw
+//      below may read the region it writes);
+//   3. by default (UpsampleFilter::BilinearBlit), blit the periphery image into the swapchain
+//      image with a linear filter, around the tiles where the scale allows (blit_regions); sRGB
+//      is decoded before filtering and encoded after. Otherwise draw a full-screen triangle into
+//      the swapchain image (a render pass on a view in its own format) that samples the
+//      periphery image, once per band around the tiles (scissored: periphery_bands), so no
+//      fragment is shaded where a tile goes: for sRGB formats the sampler decodes and the
+//      attachment encodes, so the filter blends linear values;
 //   4. copy the fovea tiles from the slot's host-visible staging buffer into the image with
 //      vkCmdCopyBufferToImage: bytes move unchanged, so the fovea is bit-exact in any format
 //      (a shader or a view of another format would re-encode sRGB);
@@ -15,6 +20,7 @@
 
 #include "compositor.h"
 
+#include "gpu_timing.h"
 #include "host_buffer.h"
 #include "instance.h"
 #include "log.h"
@@ -23,6 +29,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <numeric>
 #include <unordered_map>
 
 namespace splitvk {
@@ -41,6 +48,9 @@ struct PushConstants {
 constexpr VkFormatFeatureFlags kSwapchainFeatures = VK_FORMAT_FEATURE_TRANSFER_SRC_BIT |
                                                     VK_FORMAT_FEATURE_TRANSFER_DST_BIT |
                                                     VK_FORMAT_FEATURE_COLOR_ATTACHMENT_BIT;
+constexpr VkFormatFeatureFlags kBlitFeatures = VK_FORMAT_FEATURE_BLIT_SRC_BIT |
+                                               VK_FORMAT_FEATURE_BLIT_DST_BIT |
+                                               VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT;
 constexpr VkFormatFeatureFlags kPeripheryFeatures = VK_FORMAT_FEATURE_TRANSFER_DST_BIT |
                                                     VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT |
                                                     VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT;
@@ -114,6 +124,84 @@ bool overlaps(const ClippedTile &a, const ClippedTile &b) {
 
 } // namespace
 
+std::vector<VkRect2D> periphery_bands(VkExtent2D image, std::span<const VkBufferImageCopy> tiles) {
+    // Horizontal bands between the tiles' top and bottom edges: within one, every tile covers
+    // either all of it or none of it, so the gaps between the tiles it holds are whole rects.
+    std::vector<uint32_t> edges = {0, image.height};
+    for (const VkBufferImageCopy &t : tiles) {
+        edges.push_back(std::min<uint32_t>(uint32_t(t.imageOffset.y), image.height));
+        edges.push_back(std::min<uint32_t>(uint32_t(t.imageOffset.y) + t.imageExtent.height, image.height));
+    }
+    std::sort(edges.begin(), edges.end());
+    edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+    std::vector<VkRect2D> bands;
+    std::vector<std::pair<uint32_t, uint32_t>> covered; // x ranges of the tiles in a band
+    for (size_t i = 0; i + 1 < edges.size(); ++i) {
+        const uint32_t top = edges[i], bottom = edges[i + 1];
+        covered.clear();
+        for (const VkBufferImageCopy &t : tiles)
+            if (uint32_t(t.imageOffset.y) <= top &&
+                uint32_t(t.imageOffset.y) + t.imageExtent.height >= bottom)
+                covered.emplace_back(
+                    uint32_t(t.imageOffset.x),
+                    std::min<uint32_t>(uint32_t(t.imageOffset.x) + t.imageExtent.width, image.width));
+        std::sort(covered.begin(), covered.end());
+        uint32_t x = 0;
+        const auto gap = [&](uint32_t to) {
+            if (to > x) bands.push_back({{int32_t(x), int32_t(top)}, {to - x, bottom - top}});
+        };
+        for (const auto &[from, to] : covered) {
+            gap(from);
+            x = std::max(x, to);
+        }
+        gap(image.width);
+    }
+    return bands;
+}
+
+std::vector<VkImageBlit> blit_regions(VkExtent2D image, VkExtent2D periphery,
+                                      std::span<const VkBufferImageCopy> tiles) {
+    // A blit region maps integer rects onto integer rects, so a band's edges must be multiples of
+    // the period after which image and periphery pixels line up again (5 for a scale of 0.6);
+    // each tile shrinks to the largest such rect inside it, and the blit covers the rest of the
+    // tile too, which its copy then overwrites. A long period skips nothing.
+    constexpr uint32_t kMaxPeriod = 64;
+    const uint32_t px = image.width / std::gcd(image.width, periphery.width);
+    const uint32_t py = image.height / std::gcd(image.height, periphery.height);
+    std::vector<VkBufferImageCopy> inner;
+    if (px <= kMaxPeriod && py <= kMaxPeriod) {
+        for (const VkBufferImageCopy &t : tiles) {
+            const uint32_t x0 = (uint32_t(t.imageOffset.x) + px - 1) / px * px;
+            const uint32_t y0 = (uint32_t(t.imageOffset.y) + py - 1) / py * py;
+            const uint32_t x1 = (uint32_t(t.imageOffset.x) + t.imageExtent.width) / px * px;
+            const uint32_t y1 = (uint32_t(t.imageOffset.y) + t.imageExtent.height) / py * py;
+            if (x1 <= x0 || y1 <= y0) continue;
+            VkBufferImageCopy c{};
+            c.imageOffset = {int32_t(x0), int32_t(y0), 0};
+            c.imageExtent = {x1 - x0, y1 - y0, 1};
+            inner.push_back(c);
+        }
+    }
+    std::vector<VkImageBlit> regions;
+    for (const VkRect2D &band : periphery_bands(image, inner)) {
+        const auto src = [](uint32_t v, uint32_t from, uint32_t to) {
+            return int32_t(uint64_t{v} * to / from); // exact: v is a multiple of the period
+        };
+        const uint32_t x1 = uint32_t(band.offset.x) + band.extent.width;
+        const uint32_t y1 = uint32_t(band.offset.y) + band.extent.height;
+        VkImageBlit r{};
+        r.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        r.srcOffsets[0] = {src(uint32_t(band.offset.x), image.width, periphery.width),
+                           src(uint32_t(band.offset.y), image.height, periphery.height), 0};
+        r.srcOffsets[1] = {src(x1, image.width, periphery.width), src(y1, image.height, periphery.height), 1};
+        r.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        r.dstOffsets[0] = {band.offset.x, band.offset.y, 0};
+        r.dstOffsets[1] = {int32_t(x1), int32_t(y1), 1};
+        regions.push_back(r);
+    }
+    return regions;
+}
+
 struct Compositor::Slot {
     VkCommandBuffer command_buffer = VK_NULL_HANDLE;
     VkFence fence = VK_NULL_HANDLE;
@@ -129,6 +217,14 @@ struct Compositor::Slot {
     VkExtent2D periphery_extent{};
     // Fovea tiles on their way to the image; grown as needed, mapped for the slot's lifetime.
     HostBuffer staging;
+    // Timed: the composite's two timestamps, copied by the GPU (gpu_timing.h).
+    HostBuffer timing;
+    bool timing_recorded = false; // by record()
+    bool timing_pending = false;  // submitted, not read yet
+    // take_waits(): the empty submit that stands in for the application's semaphores.
+    VkSemaphore taken = VK_NULL_HANDLE;
+    VkFence taken_fence = VK_NULL_HANDLE;
+    bool taken_in_flight = false;
 };
 
 bool Compositor::supports(DeviceState &device, VkFormat format, std::string *why) {
@@ -147,14 +243,14 @@ bool Compositor::supports(DeviceState &device, VkFormat format, std::string *why
 }
 
 Compositor::Compositor(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family,
-                       UpsampleFilter filter)
+                       UpsampleFilter filter, bool timed)
     : device_(device), swapchain_(swapchain.handle), extent_(swapchain.extent), format_(swapchain.format),
       present_layout_(swapchain.present_layout), images_(swapchain.images), queue_family_(queue_family),
-      filter_(filter) {}
+      filter_(filter), blit_(filter == UpsampleFilter::BilinearBlit), timed_(timed) {}
 
 std::unique_ptr<Compositor> Compositor::create(DeviceState &device, const SwapchainState &swapchain,
                                                uint32_t queue_family, std::string *error,
-                                               UpsampleFilter filter) {
+                                               UpsampleFilter filter, bool timed) {
     if (!swapchain.composable) {
         *error = "the swapchain was created without the usage composition needs";
         return nullptr;
@@ -170,7 +266,13 @@ std::unique_ptr<Compositor> Compositor::create(DeviceState &device, const Swapch
         return nullptr;
     }
     if (!supports(device, swapchain.format, error)) return nullptr;
-    std::unique_ptr<Compositor> c(new Compositor(device, swapchain, queue_family, filter));
+    if (filter == UpsampleFilter::BilinearBlit) {
+        VkFormatProperties props{};
+        device.instance->dispatch.GetPhysicalDeviceFormatProperties(device.physical_device, swapchain.format,
+                                                                    &props);
+        if ((props.optimalTilingFeatures & kBlitFeatures) != kBlitFeatures) filter = UpsampleFilter::Bilinear;
+    }
+    std::unique_ptr<Compositor> c(new Compositor(device, swapchain, queue_family, filter, timed));
     if (!c->init(error)) return nullptr;
     return c;
 }
@@ -380,6 +482,12 @@ bool Compositor::init_slot(Slot &s, uint32_t image_index, std::string *error) {
     VkSemaphoreCreateInfo semaphore_info{};
     semaphore_info.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
     if (k.CreateSemaphore(d, &semaphore_info, nullptr, &s.semaphore) != VK_SUCCESS) return fail("semaphore");
+    if (k.CreateFence(d, &fence_info, nullptr, &s.taken_fence) != VK_SUCCESS) return fail("fence");
+    if (k.CreateSemaphore(d, &semaphore_info, nullptr, &s.taken) != VK_SUCCESS) return fail("semaphore");
+    std::string untimed; // without this buffer the slot's composites are not timed
+    if (timed_)
+        create_host_buffer(device_, 2 * sizeof(uint64_t), VK_BUFFER_USAGE_TRANSFER_DST_BIT, HostAccess::Read,
+                           &s.timing, &untimed);
 
     // A view of the swapchain image in its own format (never another: the fovea goes in by copy).
     VkImageViewCreateInfo view_info{};
@@ -411,8 +519,9 @@ bool Compositor::init_slot(Slot &s, uint32_t image_index, std::string *error) {
 
 // Called only while the slot is idle (its fence waited for), so the old image can go.
 bool Compositor::ensure_periphery_image(Slot &s, VkExtent2D periphery, std::string *error) {
-    if (s.periphery && s.periphery_extent.width >= periphery.width &&
-        s.periphery_extent.height >= periphery.height)
+    // Exactly the periphery's size: the blit clamps its filter to the image's edge.
+    if (s.periphery && s.periphery_extent.width == periphery.width &&
+        s.periphery_extent.height == periphery.height)
         return true;
     const VkDevice d = device_.handle;
     const auto &k = device_.dispatch;
@@ -434,7 +543,8 @@ bool Compositor::ensure_periphery_image(Slot &s, VkExtent2D periphery, std::stri
     image_info.arrayLayers = 1;
     image_info.samples = VK_SAMPLE_COUNT_1_BIT;
     image_info.tiling = VK_IMAGE_TILING_OPTIMAL;
-    image_info.usage = VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
+    image_info.usage =
+        VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
     image_info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
     image_info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
     if (k.CreateImage(d, &image_info, nullptr, &s.periphery) != VK_SUCCESS) {
@@ -491,6 +601,7 @@ void Compositor::destroy_slot(Slot &s) {
     const auto &k = device_.dispatch;
     if (s.in_flight) k.WaitForFences(d, 1, &s.fence, VK_TRUE, kDestroyWaitNs);
     destroy_host_buffer(device_, s.staging);
+    destroy_host_buffer(device_, s.timing);
     if (s.periphery_view) k.DestroyImageView(d, s.periphery_view, nullptr);
     if (s.periphery) k.DestroyImage(d, s.periphery, nullptr);
     if (s.periphery_memory) k.FreeMemory(d, s.periphery_memory, nullptr);
@@ -498,6 +609,9 @@ void Compositor::destroy_slot(Slot &s) {
     if (s.target_view) k.DestroyImageView(d, s.target_view, nullptr);
     if (s.semaphore) k.DestroySemaphore(d, s.semaphore, nullptr);
     if (s.fence) k.DestroyFence(d, s.fence, nullptr);
+    if (s.taken_in_flight) k.WaitForFences(d, 1, &s.taken_fence, VK_TRUE, kDestroyWaitNs);
+    if (s.taken) k.DestroySemaphore(d, s.taken, nullptr);
+    if (s.taken_fence) k.DestroyFence(d, s.taken_fence, nullptr);
     // The descriptor set and command buffer go with their pools.
     s = Slot{};
 }
@@ -530,6 +644,8 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
     begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
     begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
     k.BeginCommandBuffer(cb, &begin);
+    s.timing_recorded = false;
+    if (timed_ && s.timing.buffer) time_composite_begin(device_, cb);
 
     // The submit waits on the application's semaphores at the TRANSFER stage; the first barrier's
     // source stage is TRANSFER too, so its layout transition happens after that wait (a semaphore
@@ -556,54 +672,86 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
         k.CmdCopyImage(cb, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, s.periphery,
                        VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &copy);
 
-        // The copy's write of the periphery image before the fragment shader reads it; the
-        // copy's read of the swapchain image before the draw overwrites it (write-after-read:
-        // an execution dependency, plus the transition to the attachment layout).
-        VkImageMemoryBarrier to_draw[2] = {
-            image_barrier(s.periphery, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
-                          VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL),
-            image_barrier(image, 0, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
-                          VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL),
-        };
-        k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                             VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT |
-                                 VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
-                             0, 0, nullptr, 0, nullptr, 2, to_draw);
+        if (blit_) {
+            // The copy's write of the periphery image before the blit reads it; the copy's read of
+            // the swapchain image before the blit overwrites it (write-after-read).
+            VkImageMemoryBarrier to_blit[2] = {
+                image_barrier(s.periphery, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT,
+                              VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL),
+                image_barrier(image, 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                              VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL),
+            };
+            k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
+                                 nullptr, 0, nullptr, 2, to_blit);
+            // The periphery image is exactly the periphery's size, so the filter's clamp to its
+            // edge is the clamp to the periphery's edge that the shader does.
+            const std::vector<VkImageBlit> regions = blit_regions(extent_, periphery, copy_regions_);
+            k.CmdBlitImage(cb, s.periphery, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, image,
+                           VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, static_cast<uint32_t>(regions.size()),
+                           regions.data(), VK_FILTER_LINEAR);
+            // The blit's writes before the tile copies overwrite the fovea (write-after-write), or
+            // before the present.
+            VkImageMemoryBarrier after_blit = image_barrier(
+                image, VK_ACCESS_TRANSFER_WRITE_BIT, has_tiles ? VK_ACCESS_TRANSFER_WRITE_BIT : 0,
+                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
+            k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                                 has_tiles ? VK_PIPELINE_STAGE_TRANSFER_BIT
+                                           : VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT,
+                                 0, 0, nullptr, 0, nullptr, 1, &after_blit);
+        } else {
+            // The copy's write of the periphery image before the fragment shader reads it; the
+            // copy's read of the swapchain image before the draw overwrites it (write-after-read:
+            // an execution dependency, plus the transition to the attachment layout).
+            VkImageMemoryBarrier to_draw[2] = {
+                image_barrier(s.periphery, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
+                              VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL),
+                image_barrier(image, 0, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
+                              VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL),
+            };
+            k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                                 VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT |
+                                     VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
+                                 0, 0, nullptr, 0, nullptr, 2, to_draw);
 
-        VkRenderPassBeginInfo pass{};
-        pass.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
-        pass.renderPass = render_pass_;
-        pass.framebuffer = s.framebuffer;
-        pass.renderArea = {{0, 0}, extent_};
-        k.CmdBeginRenderPass(cb, &pass, VK_SUBPASS_CONTENTS_INLINE);
-        k.CmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_);
-        k.CmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout_, 0, 1, &s.set, 0,
-                                nullptr);
-        const VkViewport viewport{0.0f, 0.0f, float(extent_.width), float(extent_.height), 0.0f, 1.0f};
-        const VkRect2D scissor{{0, 0}, extent_};
-        k.CmdSetViewport(cb, 0, 1, &viewport);
-        k.CmdSetScissor(cb, 0, 1, &scissor);
-        PushConstants push{};
-        push.scale[0] = float(periphery.width) / float(extent_.width);
-        push.scale[1] = float(periphery.height) / float(extent_.height);
-        push.texel_size[0] = 1.0f / float(s.periphery_extent.width);
-        push.texel_size[1] = 1.0f / float(s.periphery_extent.height);
-        push.max_centre[0] = float(periphery.width) - 0.5f;
-        push.max_centre[1] = float(periphery.height) - 0.5f;
-        k.CmdPushConstants(cb, pipeline_layout_, VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
-        k.CmdDraw(cb, 3, 1, 0, 0);
-        k.CmdEndRenderPass(cb);
+            VkRenderPassBeginInfo pass{};
+            pass.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
+            pass.renderPass = render_pass_;
+            pass.framebuffer = s.framebuffer;
+            pass.renderArea = {{0, 0}, extent_};
+            k.CmdBeginRenderPass(cb, &pass, VK_SUBPASS_CONTENTS_INLINE);
+            k.CmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_);
+            k.CmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout_, 0, 1, &s.set, 0,
+                                    nullptr);
+            const VkViewport viewport{0.0f, 0.0f, float(extent_.width), float(extent_.height), 0.0f, 1.0f};
+            k.CmdSetViewport(cb, 0, 1, &viewport);
+            PushConstants push{};
+            push.scale[0] = float(periphery.width) / float(extent_.width);
+            push.scale[1] = float(periphery.height) / float(extent_.height);
+            push.texel_size[0] = 1.0f / float(s.periphery_extent.width);
+            push.texel_size[1] = 1.0f / float(s.periphery_extent.height);
+            push.max_centre[0] = float(periphery.width) - 0.5f;
+            push.max_centre[1] = float(periphery.height) - 0.5f;
+            k.CmdPushConstants(cb, pipeline_layout_, VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
+            // Only around the foveae: the tile copies below overwrite them, so what the pass leaves
+            // there (undefined: the attachment is not loaded) is never seen.
+            for (const VkRect2D &band : periphery_bands(extent_, copy_regions_)) {
+                k.CmdSetScissor(cb, 0, 1, &band);
+                k.CmdDraw(cb, 3, 1, 0, 0);
+            }
+            k.CmdEndRenderPass(cb);
 
-        // The draw's writes before the tile copies overwrite the fovea (write-after-write), or
-        // before the present.
-        VkImageMemoryBarrier after_draw = image_barrier(
-            image, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, has_tiles ? VK_ACCESS_TRANSFER_WRITE_BIT : 0,
-            VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
-            has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
-        k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
-                             has_tiles ? VK_PIPELINE_STAGE_TRANSFER_BIT
-                                       : VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT,
-                             0, 0, nullptr, 0, nullptr, 1, &after_draw);
+            // The draw's writes before the tile copies overwrite the fovea (write-after-write), or
+            // before the present.
+            VkImageMemoryBarrier after_draw = image_barrier(
+                image, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, has_tiles ? VK_ACCESS_TRANSFER_WRITE_BIT : 0,
+                VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
+            k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
+                                 has_tiles ? VK_PIPELINE_STAGE_TRANSFER_BIT
+                                           : VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT,
+                                 0, 0, nullptr, 0, nullptr, 1, &after_draw);
+        }
     } else if (has_tiles) {
         // Tiles over what the application rendered: keep the contents (old layout, not UNDEFINED).
         VkImageMemoryBarrier b = image_barrier(image, 0, VK_ACCESS_TRANSFER_WRITE_BIT, present_layout_,
@@ -626,13 +774,29 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
         k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, 0, 0,
                              nullptr, 0, nullptr, 1, &b);
     }
+    if (timed_ && s.timing.buffer) s.timing_recorded = time_composite_end(device_, cb, s.timing.buffer);
     k.EndCommandBuffer(cb);
 }
 
-VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<const VkSemaphore> waits,
-                               VkExtent2D periphery, std::span<const FoveaTile> tiles, VkSemaphore *signal) {
+void Compositor::read_timing(Slot &s) {
+    if (!s.timing_pending) return;
+    s.timing_pending = false;
+    invalidate_host_buffer(device_, s.timing);
+    uint64_t stamps[2] = {};
+    std::memcpy(stamps, s.timing.mapped, sizeof(stamps));
+    if (const double ms = timestamps_ms(device_, stamps[0], stamps[1]); ms > 0) latest_gpu_ms_ = ms;
+}
+
+double Compositor::latest_gpu_ms() {
     std::lock_guard lock(mutex_);
-    if (image_index >= images_.size()) return VK_ERROR_UNKNOWN;
+    return latest_gpu_ms_;
+}
+
+Compositor::Slot *Compositor::ready_slot(uint32_t image_index, bool wait_taken, VkResult *result) {
+    if (image_index >= images_.size()) {
+        *result = VK_ERROR_UNKNOWN;
+        return nullptr;
+    }
     std::string error;
     auto &slot_ptr = slots_[image_index];
     if (!slot_ptr) {
@@ -641,21 +805,73 @@ VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<co
             SPLITVK_WARN("compositor: %s", error.c_str());
             destroy_slot(*slot_ptr);
             slot_ptr.reset();
-            return VK_ERROR_OUT_OF_DEVICE_MEMORY;
+            *result = VK_ERROR_OUT_OF_DEVICE_MEMORY;
+            return nullptr;
         }
     }
     Slot &s = *slot_ptr;
     const VkDevice d = device_.handle;
     const auto &k = device_.dispatch;
-
-    // The slot's previous submit (of this image's previous present) must be done before its
-    // command buffer, staging buffer and periphery image are reused. Bounded: rather skip the
-    // composition of this frame than hang the application.
+    // The slot's previous submits (of this image's previous present) must be done before its
+    // command buffer, staging buffer, periphery image and fences are reused. Bounded: rather skip
+    // the composition of this frame than hang the application.
     if (s.in_flight) {
         const VkResult waited = k.WaitForFences(d, 1, &s.fence, VK_TRUE, kSlotWaitNs);
-        if (waited != VK_SUCCESS) return waited == VK_TIMEOUT ? VK_TIMEOUT : waited;
+        if (waited != VK_SUCCESS) {
+            *result = waited;
+            return nullptr;
+        }
         s.in_flight = false;
+        read_timing(s);
     }
+    if (wait_taken && s.taken_in_flight) {
+        const VkResult waited = k.WaitForFences(d, 1, &s.taken_fence, VK_TRUE, kSlotWaitNs);
+        if (waited != VK_SUCCESS) {
+            *result = waited;
+            return nullptr;
+        }
+        s.taken_in_flight = false;
+    }
+    *result = VK_SUCCESS;
+    return &s;
+}
+
+VkResult Compositor::take_waits(VkQueue queue, uint32_t image_index, std::span<const VkSemaphore> waits,
+                                VkSemaphore *taken, VkFence *done) {
+    std::lock_guard lock(mutex_);
+    VkResult result = VK_SUCCESS;
+    Slot *s = ready_slot(image_index, /*wait_taken=*/true, &result);
+    if (!s) return result;
+    const auto &k = device_.dispatch;
+    std::vector<VkPipelineStageFlags> stages(waits.size(), VK_PIPELINE_STAGE_ALL_COMMANDS_BIT);
+    VkSubmitInfo submit{};
+    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    submit.waitSemaphoreCount = static_cast<uint32_t>(waits.size());
+    submit.pWaitSemaphores = waits.data();
+    submit.pWaitDstStageMask = stages.data();
+    submit.signalSemaphoreCount = 1;
+    submit.pSignalSemaphores = &s->taken;
+    k.ResetFences(device_.handle, 1, &s->taken_fence);
+    result = k.QueueSubmit(queue, 1, &submit, s->taken_fence);
+    if (result != VK_SUCCESS) return result;
+    s->taken_in_flight = true;
+    *taken = s->taken;
+    *done = s->taken_fence;
+    return VK_SUCCESS;
+}
+
+VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<const VkSemaphore> waits,
+                               VkExtent2D periphery, std::span<const FoveaTile> tiles, VkSemaphore *signal) {
+    std::lock_guard lock(mutex_);
+    VkResult result = VK_SUCCESS;
+    std::string error;
+    // The slot's take_waits() batch of this frame is not waited for: it precedes this submit on
+    // the queue, and its semaphore is among `waits`.
+    Slot *slot = ready_slot(image_index, /*wait_taken=*/false, &result);
+    if (!slot) return result;
+    Slot &s = *slot;
+    const VkDevice d = device_.handle;
+    const auto &k = device_.dispatch;
 
     periphery.width = std::min(periphery.width, extent_.width);
     periphery.height = std::min(periphery.height, extent_.height);
@@ -721,9 +937,11 @@ VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<co
     submit.pSignalSemaphores = &s.semaphore;
     k.ResetFences(d, 1, &s.fence);
     // On failure the semaphores and the fence are left as they were (except after device loss).
-    const VkResult result = k.QueueSubmit(queue, 1, &submit, s.fence);
+    result = k.QueueSubmit(queue, 1, &submit, s.fence);
     if (result != VK_SUCCESS) return result;
+    note_timed_submit(device_, 1, &s.command_buffer);
     s.in_flight = true;
+    s.timing_pending = s.timing_recorded;
     *signal = s.semaphore;
     return VK_SUCCESS;
 }
@@ -743,7 +961,8 @@ std::unordered_map<VkSwapchainKHR, Entry> g_compositors;
 
 } // namespace
 
-Compositor *compositor_for(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family) {
+Compositor *compositor_for(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family,
+                           bool timed) {
     if (!swapchain.composable || queue_family == UINT32_MAX) return nullptr;
     std::lock_guard lock(g_mutex);
     Entry &e = g_compositors[swapchain.handle];
@@ -752,7 +971,7 @@ Compositor *compositor_for(DeviceState &device, const SwapchainState &swapchain,
     if (e.failed_family == queue_family) return nullptr;
     e.compositor.reset(); // made for another queue family: its command pool cannot serve this one
     std::string error;
-    e.compositor = Compositor::create(device, swapchain, queue_family, &error);
+    e.compositor = Compositor::create(device, swapchain, queue_family, &error, kDefaultUpsampleFilter, timed);
     if (!e.compositor) {
         e.failed_family = queue_family;
         SPLITVK_WARN("compositor: swapchain %dx%d presents uncomposited: %s", int(swapchain.extent.width),

@@ -58,14 +58,23 @@ struct FoveaTile {
 };
 
 // The periphery filter, a specialisation constant of shaders/upsample.frag.
-enum class UpsampleFilter : int { Bilinear = 0, CatmullRom = 1 };
-// What compositor_for() uses: bilinear. Catmull-Rom measured better against native on
-// splitvk-atrium at 2400x1080, scale 0.6 (whole-frame SSIM 0.9714 against 0.9682 in stereo, 0.9760
-// against 0.9736 mono, 0.9707 against 0.9673 sRGB; tests/e2e/suites/split_test.cpp), but its 9
-// bilinear taps per pixel cost the weak client far more than they give: in `scripts/bench paper
-// --quick` (client on one lavapipe thread) split/native was 1.197 with Catmull-Rom and 0.789 with
-// bilinear. A client with a real GPU can afford it: pass UpsampleFilter::CatmullRom to create().
-inline constexpr UpsampleFilter kDefaultUpsampleFilter = UpsampleFilter::Bilinear;
+// BilinearBlit is no shader's: the upsample is a vkCmdBlitImage with a linear filter (bilinear
+// too), where the format allows it (else Bilinear).
+enum class UpsampleFilter : int { Bilinear = 0, CatmullRom = 1, BilinearBlit = 2 };
+// What compositor_for() uses: bilinear, by vkCmdBlitImage. On lavapipe (one thread, best of 12,
+// tests/unit/compositor_test.cpp DISABLED_Cost) a composite with the stereo foveae costs 16.9 ms at
+// 2400x1080 and 2.1-2.2 ms at 960x432 with the blit, 19.6 ms and 2.6-2.9 ms with the bilinear
+// shader drawn only around the foveae; both give the same picture (whole-frame SSIM against native
+// on splitvk-atrium at 2400x1080: 0.9682 stereo, 0.9736 mono, 0.9673 sRGB). Catmull-Rom measured
+// better against native (0.9714, 0.9760, 0.9707) but its 9 bilinear taps per pixel cost the weak
+// client far more than they give (55.8 ms at 2400x1080 in the same measurement; in `scripts/bench
+// paper --quick`, split/native 1.197 against 0.789). A client with a real GPU can afford it: pass
+// UpsampleFilter::CatmullRom to create(). Catmull-Rom through 5 taps (the 9 less the corners,
+// renormalised; tried, not kept) scored as well as the 9 at 2400x1080 (0.9715 stereo, 0.9762 mono,
+// 0.9708 sRGB) and hardly better than bilinear at 960x432 (0.9017 against 0.9012 stereo, 0.9116
+// against 0.9116 mono, 0.8995 against 0.8992 sRGB), but cost 44-62 ms and 7.6-8.7 ms: 2.5 to 3.5
+// times the blit.
+inline constexpr UpsampleFilter kDefaultUpsampleFilter = UpsampleFilter::BilinearBlit;
 
 class Compositor {
 public:
@@ -80,34 +89,53 @@ public:
 
     // Everything composition needs that does not depend on a frame; per-image slots are made
     // on first use. nullptr and *error when the device cannot (queue_family without graphics,
-    // unsupported format, out of memory).
+    // unsupported format, out of memory). `timed`: each composite's GPU time is measured
+    // (gpu_timing.h; SPLITVK_STATS' merge_gpu_ms).
     static std::unique_ptr<Compositor> create(DeviceState &device, const SwapchainState &swapchain,
                                               uint32_t queue_family, std::string *error,
-                                              UpsampleFilter filter = kDefaultUpsampleFilter);
+                                              UpsampleFilter filter = kDefaultUpsampleFilter,
+                                              bool timed = false);
     ~Compositor(); // waits (bounded) for its submits, then frees everything
     Compositor(const Compositor &) = delete;
     Compositor &operator=(const Compositor &) = delete;
 
     // Submits to `queue` (of the family given at create()): waits on `waits` (the application's
     // present wait semaphores), upsamples the top-left `periphery` of image `image_index` to the
-    // whole image (skipped when `periphery` is empty or the whole image), writes `tiles` into it
-    // bit-exactly, and leaves it in the layout the present expects (PRESENT_SRC_KHR, or
-    // SHARED_PRESENT_KHR for shared present modes). On VK_SUCCESS, *signal is the compositor's
-    // semaphore that the present must wait on instead of `waits` (it stays the compositor's:
-    // do not destroy it). On any other result nothing was submitted, `waits` are untouched and
-    // *signal is unchanged: present as the application asked. VK_NOT_READY: nothing to do (no
-    // upsample, no tile); VK_TIMEOUT: this image's previous composition had not finished.
+    // whole image but where tiles go (skipped when `periphery` is empty or the whole image),
+    // writes `tiles` into it bit-exactly, and leaves it in the layout the present expects (PRESENT_SRC_KHR,
+    // or SHARED_PRESENT_KHR for shared present modes). On VK_SUCCESS, *signal is the compositor's semaphore
+    // that the present must wait on instead of `waits` (it stays the compositor's: do not destroy it). On any
+    // other result nothing was submitted, `waits` are untouched and *signal is unchanged: present as the
+    // application asked. VK_NOT_READY: nothing to do (no upsample, no tile); VK_TIMEOUT: this image's
+    // previous composition had not finished.
     VkResult composite(VkQueue queue, uint32_t image_index, std::span<const VkSemaphore> waits,
                        VkExtent2D periphery, std::span<const FoveaTile> tiles, VkSemaphore *signal);
 
+    // SPLITVK_STATS' exposed wait, before the tile wait: submits an empty batch to `queue` that
+    // waits on `waits` and signals *taken and *done. A fence signal covers every command submitted
+    // to the queue before it, so *done tells when the GPU has finished the application's frame.
+    // On VK_SUCCESS `waits` are consumed: pass {*taken} to composite() instead, and present with
+    // *taken if composite() then fails (both stay the compositor's). Otherwise nothing was
+    // submitted. VK_TIMEOUT: this image's previous composition had not finished.
+    VkResult take_waits(VkQueue queue, uint32_t image_index, std::span<const VkSemaphore> waits,
+                        VkSemaphore *taken, VkFence *done);
+
     uint32_t queue_family() const { return queue_family_; }
+
+    // Created `timed`: GPU milliseconds of the latest composite whose fence the compositor has
+    // seen signalled (a few presents old), 0 before the first.
+    double latest_gpu_ms();
 
 private:
     struct Slot;
     Compositor(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family,
-               UpsampleFilter filter);
+               UpsampleFilter filter, bool timed);
     bool init(std::string *error);
     bool init_slot(Slot &slot, uint32_t image_index, std::string *error);
+    // Under mutex_: image `image_index`'s slot, made on first use, its previous submits finished
+    // (bounded; take_waits()'s only when `wait_taken`); nullptr and *result when not.
+    Slot *ready_slot(uint32_t image_index, bool wait_taken, VkResult *result);
+    void read_timing(Slot &slot); // after the slot's fence: its composite's GPU time
     bool ensure_periphery_image(Slot &slot, VkExtent2D periphery, std::string *error);
     bool ensure_staging(Slot &slot, VkDeviceSize bytes, std::string *error);
     void record(Slot &slot, uint32_t image_index, VkExtent2D periphery); // periphery {} = no upsample
@@ -121,6 +149,9 @@ private:
     std::vector<VkImage> images_;
     uint32_t queue_family_ = 0;
     UpsampleFilter filter_ = kDefaultUpsampleFilter;
+    bool blit_ = false; // the upsample is a vkCmdBlitImage, not a draw
+    bool timed_ = false;
+    double latest_gpu_ms_ = 0; // under mutex_
 
     VkCommandPool pool_ = VK_NULL_HANDLE;
     VkSampler sampler_ = VK_NULL_HANDLE;
@@ -135,10 +166,21 @@ private:
     std::vector<VkBufferImageCopy> copy_regions_; // this frame's tiles, for record()
 };
 
+// The parts of an `image` that the upsample draws when `tiles` (non-overlapping, inside the
+// image) are copied over it afterwards: the rects around them, in horizontal bands, top to bottom.
+std::vector<VkRect2D> periphery_bands(VkExtent2D image, std::span<const VkBufferImageCopy> tiles);
+
+// The regions of the blit that upsamples `periphery` to `image` around `tiles` (the same kind):
+// bands whose edges map onto whole periphery texels, each scaled exactly as the whole image is.
+std::vector<VkImageBlit> blit_regions(VkExtent2D image, VkExtent2D periphery,
+                                      std::span<const VkBufferImageCopy> tiles);
+
 // The compositor of a swapchain, created on first use (for `queue_family`, the present queue's);
 // nullptr, with one log line per swapchain, when the swapchain is not composable or the
-// compositor cannot be made. A later call with another queue family replaces it.
-Compositor *compositor_for(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family);
+// compositor cannot be made. A later call with another queue family replaces it. `timed`: see
+// Compositor::create (the first call decides).
+Compositor *compositor_for(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family,
+                           bool timed = false);
 // vkDestroySwapchainKHR (swapchain.cpp): frees the swapchain's compositor.
 void release_compositor(DeviceState &device, VkSwapchainKHR swapchain);
 // vkDestroyDevice: frees the compositors of swapchains the application did not destroy.

@@ -18,6 +18,7 @@ struct DeviceTiming {
     uint32_t next_pair = 0;
     std::unordered_map<VkCommandBuffer, uint32_t> pairs; // command buffer -> its pair
     std::vector<bool> submitted = std::vector<bool>(kPairs);
+    std::vector<bool> composite = std::vector<bool>(kPairs); // the pair times a composite (read apart)
     double latest_ms = 0;
     uint64_t calls = 0;
 };
@@ -52,20 +53,59 @@ DeviceTiming *timing_locked(DeviceState &dev) {
     return &t;
 }
 
+// Under g_mutex: `cb`'s pair, given on first use; nullptr when there is none.
+const uint32_t *pair_locked(DeviceTiming &t, VkCommandBuffer cb) {
+    auto found = t.pairs.find(cb);
+    if (found == t.pairs.end()) {
+        if (t.next_pair == kPairs) return nullptr;
+        found = t.pairs.emplace(cb, t.next_pair++).first;
+    }
+    return &found->second;
+}
+
 } // namespace
 
 void time_before_split_pass(DeviceState &dev, VkCommandBuffer cb) {
     std::lock_guard lock(g_mutex);
     if (g_recording.count(cb)) return; // only the first split pass of a recording is timed
     DeviceTiming *t = timing_locked(dev);
-    if (!t) return;
-    auto found = t->pairs.find(cb);
-    if (found == t->pairs.end()) {
-        if (t->next_pair == kPairs) return;
-        found = t->pairs.emplace(cb, t->next_pair++).first;
-    }
-    g_recording[cb] = CommandTiming{found->second, false, false};
-    dev.dispatch.CmdResetQueryPool(cb, t->pool, 2 * found->second, 2);
+    const uint32_t *pair = t ? pair_locked(*t, cb) : nullptr;
+    if (!pair) return;
+    t->composite[*pair] = false; // a handle a freed compositor's command buffer once had
+    g_recording[cb] = CommandTiming{*pair, false, false};
+    dev.dispatch.CmdResetQueryPool(cb, t->pool, 2 * *pair, 2);
+}
+
+void time_composite_begin(DeviceState &dev, VkCommandBuffer cb) {
+    std::lock_guard lock(g_mutex);
+    DeviceTiming *t = timing_locked(dev);
+    const uint32_t *pair = t ? pair_locked(*t, cb) : nullptr;
+    if (!pair) return;
+    t->composite[*pair] = true;
+    g_recording[cb] = CommandTiming{*pair, true, false};
+    dev.dispatch.CmdResetQueryPool(cb, t->pool, 2 * *pair, 2);
+    dev.dispatch.CmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, t->pool, 2 * *pair);
+}
+
+bool time_composite_end(DeviceState &dev, VkCommandBuffer cb, VkBuffer results) {
+    std::lock_guard lock(g_mutex);
+    const auto it = g_recording.find(cb);
+    if (it == g_recording.end() || !it->second.begun || it->second.ended) return false;
+    it->second.ended = true;
+    const VkQueryPool pool = g_devices[&dev].pool;
+    const uint32_t first = 2 * it->second.pair;
+    dev.dispatch.CmdWriteTimestamp(cb, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, pool, first + 1);
+    // WAIT_BIT: the copy waits on the queue for both timestamps, not the host.
+    dev.dispatch.CmdCopyQueryPoolResults(cb, pool, first, 2, results, 0, sizeof(uint64_t),
+                                         VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
+    return true;
+}
+
+double timestamps_ms(DeviceState &dev, uint64_t begin, uint64_t end) {
+    std::lock_guard lock(g_mutex);
+    const auto found = g_devices.find(&dev);
+    if (found == g_devices.end() || begin == 0 || end <= begin) return 0;
+    return static_cast<double>(end - begin) * found->second.period_ns / 1e6;
 }
 
 void time_split_pass_begun(DeviceState &dev, VkCommandBuffer cb) {
@@ -108,10 +148,10 @@ double latest_periphery_ms(DeviceState &dev) {
     DeviceTiming &t = found->second;
     if (t.calls++ % kPeripheryReadInterval != 0) return t.latest_ms;
     // Both timestamps of each submitted pair with their availability, without waiting: the most
-    // recent completed measurement wins.
+    // recent completed measurement wins. Composites are read by the compositor itself.
     uint64_t latest_end = 0;
     for (uint32_t pair = 0; pair < t.next_pair; ++pair) {
-        if (!t.submitted[pair]) continue;
+        if (!t.submitted[pair] || t.composite[pair]) continue;
         uint64_t v[4] = {}; // begin, available, end, available
         dev.dispatch.GetQueryPoolResults(dev.handle, t.pool, 2 * pair, 2, sizeof(v), v, 2 * sizeof(uint64_t),
                                          VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WITH_AVAILABILITY_BIT);

@@ -1,6 +1,7 @@
 #pragma once
 
-// GPU time of the client's periphery render (SPLITVK_STATS' periphery_ms): on the GPU, not the
+// GPU time of the client's periphery render (SPLITVK_STATS' periphery_ms) and of the layer's
+// composite (merge_gpu_ms): on the GPU, not the
 // CPU, because the application records and submits long before the GPU runs the work, and a CPU
 // clock around vkQueueSubmit would measure the driver, not the rendering.
 //
@@ -9,7 +10,8 @@
 // command buffer is submitted again without being re-recorded), written at the top of the pipe
 // after that pass began and at the bottom of the pipe after it ended. Results are read without
 // waiting at present: a frame reports the latest completed measurement, one or two frames old,
-// which is what a median over a run needs. Secondary command buffers are not timed.
+// which is what a median over a run needs. Secondary command buffers are not timed. The
+// compositor's command buffer gets a pair the same way, around everything it records.
 
 #include "device.h"
 
@@ -26,6 +28,18 @@ void note_timed_submit(DeviceState &device, uint32_t count, const VkCommandBuffe
 
 // vkBeginCommandBuffer: a new recording has no split pass timed yet.
 void reset_split_pass_timing(VkCommandBuffer command_buffer);
+
+// compositor.cpp: the first and the last command of a composite. The begin timestamp is written
+// at the transfer stage, the stage the composite's semaphore waits block, so that it does not
+// count the wait for the application's rendering. time_composite_end also records the copy of
+// both timestamps (two uint64_t) into `results`, which the compositor reads once the composite's
+// fence has signalled: it waits for that fence anyway before it reuses the image's slot, so
+// reading costs no stall (vkGetQueryPoolResults would make lavapipe wait for idle). False when
+// the composite is not timed.
+void time_composite_begin(DeviceState &device, VkCommandBuffer command_buffer);
+bool time_composite_end(DeviceState &device, VkCommandBuffer command_buffer, VkBuffer results);
+// Milliseconds between two timestamps of this device; 0 when they make no sense.
+double timestamps_ms(DeviceState &device, uint64_t begin, uint64_t end);
 
 // Milliseconds of the latest split pass the GPU has completed, 0 when none has yet. Reads the
 // query pool only every kPeripheryReadInterval calls and returns the last value in between: some

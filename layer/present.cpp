@@ -31,6 +31,7 @@
 #include <cstring>
 #include <map>
 #include <mutex>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -211,16 +212,41 @@ void compare(DeviceState &dev, const PendingVerify &p) {
 // at 2400x1080 against 0.25 s; x264 12-71 ms against 0.5 ms. That frame waits this long, once.
 constexpr uint32_t kFirstSplitFrameWaitMs = 5000;
 
+// How often a tile wait looks whether the GPU has finished the application's frame (exposed_wait_ms).
+constexpr auto kExposurePoll = 1ms;
+
+// The part of a tile wait during which the GPU had finished the application's frame: `done` (a
+// fence of Compositor::take_waits) is looked at every kExposurePoll while the tiles are awaited.
+struct Exposure {
+    DeviceState *device = nullptr;
+    VkFence done = VK_NULL_HANDLE;
+    std::chrono::steady_clock::time_point since{}; // when `done` was first seen signalled
+    bool seen = false;
+
+    void look() {
+        if (seen || !done) return;
+        seen = device->dispatch.GetFenceStatus(device->handle, done) == VK_SUCCESS;
+        if (seen) since = std::chrono::steady_clock::now();
+    }
+};
+
 // Split mode: the frame's own tiles, waiting at most SPLITVK_TILE_WAIT (longer for the first split
 // frame after the agent joined). They must cover exactly the foveae the frame's split passes drew;
 // anything else counts as late.
-std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, const SplitFrame &split) {
+std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, const SplitFrame &split,
+                                              Exposure &exposure) {
     // No agent, or one that joined after this frame's submits: the periphery alone.
     if (!session.live() || !session.tiles() || frame < session.first_replayed_frame()) return nullptr;
     const uint32_t wait_ms = session.take_first_split_frame()
                                  ? std::max(session.settings().tile_wait_ms, kFirstSplitFrameWaitMs)
                                  : session.settings().tile_wait_ms;
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(wait_ms);
+    exposure.look();
+    while (!exposure.seen && exposure.done &&
+           !session.tiles()->wait_ready(
+               frame, std::min(deadline, std::chrono::steady_clock::now() + kExposurePoll)) &&
+           std::chrono::steady_clock::now() < deadline)
+        exposure.look();
     auto tiles = session.tiles()->take(frame, deadline);
     if (tiles && tiles->invalid) {
         // Never a wrong fovea on screen: the agent says its GPU could not draw this frame as the
@@ -261,7 +287,8 @@ double ms_between(std::chrono::steady_clock::time_point from, std::chrono::stead
 
 // Split mode, at present: waits for the frame's tiles and composites them over the upsampled
 // periphery on `queue`. Returns the semaphore the present must wait on instead of the app's, or
-// VK_NULL_HANDLE when nothing was composited (the present then goes ahead as the app asked).
+// VK_NULL_HANDLE when the application's semaphores are untouched (the present then goes ahead as
+// the app asked).
 VkSemaphore composite_split_frame(DeviceState &dev, VkQueue queue, const VkPresentInfoKHR &present,
                                   const SwapchainState &swapchain, const SplitFrame &split, uint64_t frame,
                                   std::chrono::steady_clock::time_point sent) {
@@ -270,14 +297,25 @@ VkSemaphore composite_split_frame(DeviceState &dev, VkQueue queue, const VkPrese
     FrameRecord record;
     record.frame = frame;
     record.frame_ms = session.frame_interval_ms();
-    // Only for the CSV: reading GPU timestamps may stall the present on some drivers (gpu_timing.h).
-    if (session.settings().stats_path.size()) record.periphery_ms = latest_periphery_ms(dev);
+    const bool stats = !session.settings().stats_path.empty();
+
+    Compositor *compositor = compositor_for(dev, swapchain, queue_family_of(queue), stats);
+    std::span<const VkSemaphore> waits{present.pWaitSemaphores, present.waitSemaphoreCount};
+    // Only for the CSV: the application's semaphores go to an empty submit of the compositor's,
+    // whose fence tells when the GPU has finished the frame (exposed_wait_ms).
+    Exposure exposure{&dev};
+    VkSemaphore taken = VK_NULL_HANDLE;
+    if (stats && compositor &&
+        compositor->take_waits(queue, present.pImageIndices[0], waits, &taken, &exposure.done) == VK_SUCCESS)
+        waits = {&taken, 1};
 
     const auto wait_start = Clock::now();
     const uint64_t invalid_before = session.invalid_frames.load();
-    const auto tiles = frame_tiles(session, frame, split); // keeps the pixels alive through composite()
+    // Keeps the pixels alive through composite().
+    const auto tiles = frame_tiles(session, frame, split, exposure);
     const auto waited = Clock::now();
     record.tile_wait_ms = ms_between(wait_start, waited);
+    if (exposure.seen) record.exposed_wait_ms = ms_between(std::max(wait_start, exposure.since), waited);
     std::vector<FoveaTile> foveae;
     if (tiles) {
         for (const DecodedTile &tile : tiles->tiles) {
@@ -300,13 +338,17 @@ VkSemaphore composite_split_frame(DeviceState &dev, VkQueue queue, const VkPrese
             static_cast<unsigned long long>(frame), ms_between(session.joined_agent_answered(), waited));
 
     VkSemaphore composited = VK_NULL_HANDLE;
-    Compositor *compositor = compositor_for(dev, swapchain, queue_family_of(queue));
-    if (compositor && compositor->composite(queue, present.pImageIndices[0],
-                                            {present.pWaitSemaphores, present.waitSemaphoreCount},
-                                            split.periphery, foveae, &composited) != VK_SUCCESS)
-        composited = VK_NULL_HANDLE;
+    if (compositor && compositor->composite(queue, present.pImageIndices[0], waits, split.periphery, foveae,
+                                            &composited) != VK_SUCCESS)
+        composited = taken; // VK_NULL_HANDLE unless take_waits() consumed the application's semaphores
     record.merge_ms = ms_between(waited, Clock::now());
-    if (composited) session.composited_frames.fetch_add(1);
+    if (composited && composited != taken) session.composited_frames.fetch_add(1);
+    // After the composite: reading the periphery's timestamps may stall the present on some
+    // drivers (gpu_timing.h), and that must not count as tile wait or merge.
+    if (stats) {
+        record.periphery_ms = latest_periphery_ms(dev);
+        if (compositor) record.merge_gpu_ms = compositor->latest_gpu_ms();
+    }
     session.stats().record(record);
     return composited;
 }

@@ -4,7 +4,11 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
+
+#include <fcntl.h>
+#include <unistd.h>
 
 namespace splitvk {
 
@@ -23,26 +27,40 @@ double quantile(const std::vector<double> &sorted, double q) {
 } // namespace
 
 const char *FrameStats::csv_header() {
-    return "frame,frame_ms,periphery_ms,tile_wait_ms,network_ms,decode_ms,merge_ms,tile_bytes,raw_bytes,"
-           "agent_draw_ms,"
-           "agent_readback_ms,agent_encode_ms,late";
+    return "frame,frame_ms,periphery_ms,tile_wait_ms,exposed_wait_ms,network_ms,decode_ms,merge_ms,"
+           "merge_gpu_ms,tile_bytes,raw_bytes,agent_draw_ms,agent_readback_ms,agent_encode_ms,late";
 }
 
 FrameStats::FrameStats(const std::string &path) {
     if (path.empty()) return;
-    file_ = std::fopen(path.c_str(), "w");
-    if (!file_) {
+    fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd_ < 0) {
         SPLITVK_WARN("SPLITVK_STATS: cannot write %s (%s); no per-frame statistics", path.c_str(),
                      std::strerror(errno));
         return;
     }
-    // A large buffer: rows reach the disk in a few writes, never one per frame.
-    std::setvbuf(file_, nullptr, _IOFBF, size_t{1} << 20);
-    std::fprintf(file_, "%s\n", csv_header());
+    append(std::string(csv_header()) + "\n");
 }
 
 FrameStats::~FrameStats() {
-    if (file_) std::fclose(file_);
+    if (fd_ >= 0) ::close(fd_);
+}
+
+bool FrameStats::append(const std::string &text) {
+    size_t done = 0;
+    while (done < text.size()) {
+        const ssize_t n = ::write(fd_, text.data() + done, text.size() - done);
+        if (n > 0) {
+            done += static_cast<size_t>(n);
+        } else if (n < 0 && errno != EINTR) {
+            SPLITVK_WARN("SPLITVK_STATS: writing failed (%s); no more per-frame statistics",
+                         std::strerror(errno));
+            ::close(fd_);
+            fd_ = -1;
+            return false;
+        }
+    }
+    return true;
 }
 
 void FrameStats::record(const FrameRecord &r) {
@@ -54,18 +72,21 @@ void FrameStats::record(const FrameRecord &r) {
     if (r.late) ++late_;
     tile_bytes_ += r.tile_bytes;
     if (r.frame_ms > 0) frame_ms_.push_back(r.frame_ms);
-    if (file_)
-        std::fprintf(file_, "%llu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%llu,%llu,%.3f,%.3f,%.3f,%d\n",
-                     static_cast<unsigned long long>(r.frame), r.frame_ms, r.periphery_ms, r.tile_wait_ms,
-                     r.network_ms, r.decode_ms, r.merge_ms, static_cast<unsigned long long>(r.tile_bytes),
-                     static_cast<unsigned long long>(r.raw_bytes), r.agent_draw_ms, r.agent_readback_ms,
-                     r.agent_encode_ms, r.late ? 1 : 0);
+    if (fd_ < 0) return;
+    char row[512];
+    const int length = std::snprintf(
+        row, sizeof(row), "%llu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%llu,%llu,%.3f,%.3f,%.3f,%d\n",
+        static_cast<unsigned long long>(r.frame), r.frame_ms, r.periphery_ms, r.tile_wait_ms,
+        r.exposed_wait_ms, r.network_ms, r.decode_ms, r.merge_ms, r.merge_gpu_ms,
+        static_cast<unsigned long long>(r.tile_bytes), static_cast<unsigned long long>(r.raw_bytes),
+        r.agent_draw_ms, r.agent_readback_ms, r.agent_encode_ms, r.late ? 1 : 0);
+    if (length > 0 && static_cast<size_t>(length) < sizeof(row))
+        append(std::string(row, static_cast<size_t>(length)));
 }
 
 std::string FrameStats::summary() {
     std::lock_guard lock(mutex_);
     if (frames_ == 0) return {};
-    if (file_) std::fflush(file_);
     auto sorted = frame_ms_;
     std::sort(sorted.begin(), sorted.end());
     const double seconds = std::chrono::duration<double>(last_ - first_).count();

@@ -2,12 +2,12 @@
 
 // Per-frame statistics of a split device (SPLITVK_STATS=path.csv): one CSV row per present, and
 // a one-line summary at vkDestroyDevice. Times are milliseconds; the agent's stages come with
-// its tiles (protocol::AgentTimings). Rows are written by the presenting thread, buffered, and
-// flushed at exit: a frame never waits for the disk.
+// its tiles (protocol::AgentTimings). Each row is formatted whole and handed to the kernel with one
+// write(2) by the presenting thread, so an application killed at any point (SIGTERM, SIGKILL)
+// leaves the header and whole rows only; a write into the page cache does not wait for the disk.
 
 #include <chrono>
 #include <cstdint>
-#include <cstdio>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -19,9 +19,13 @@ struct FrameRecord {
     double frame_ms = 0;     // this present to the previous one (0 for the first)
     double periphery_ms = 0; // GPU time of the latest completed split pass (gpu_timing.h)
     double tile_wait_ms = 0; // the present waited for this frame's tiles
+    // The part of tile_wait_ms after the GPU had finished everything submitted before this present
+    // (Compositor::take_waits): the client was done with its frame and only waited for tiles.
+    double exposed_wait_ms = 0;
     double network_ms = 0;   // FramePresent sent to Tiles received, less the agent's own time
     double decode_ms = 0;    // the slowest eye
     double merge_ms = 0;     // upload and composite, as recorded and submitted on this thread
+    double merge_gpu_ms = 0; // GPU time of the latest completed composite (gpu_timing.h)
     uint64_t tile_bytes = 0; // Tiles payload received
     uint64_t raw_bytes = 0;  // the same tiles uncompressed (4 bytes per pixel)
     double agent_draw_ms = 0;
@@ -49,7 +53,10 @@ public:
 
 private:
     std::mutex mutex_;
-    std::FILE *file_ = nullptr;
+    // Appends `text` with one write (a regular file takes it whole); false after an error.
+    bool append(const std::string &text);
+
+    int fd_ = -1;
     std::vector<double> frame_ms_;
     uint64_t frames_ = 0;
     uint64_t late_ = 0;

@@ -146,6 +146,15 @@ void TileStream::decode_tile(EyeDecoder &eye, const EyeJob &job) {
     if (complete) changed_.notify_all();
 }
 
+bool TileStream::wait_ready(uint64_t frame, Clock::time_point deadline) {
+    std::unique_lock lock(mutex_);
+    return changed_.wait_until(lock, deadline, [&] {
+        if (stopping_) return true;
+        const auto it = frames_.find(frame);
+        return it != frames_.end() && it->second->remaining == 0;
+    });
+}
+
 std::shared_ptr<const FrameTiles> TileStream::take(uint64_t frame, Clock::time_point deadline) {
     std::unique_lock lock(mutex_);
     oldest_wanted_ = std::max(oldest_wanted_, frame);

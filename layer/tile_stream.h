@@ -63,6 +63,10 @@ public:
     // are late, and then also when they failed to decode. Drops every older frame.
     std::shared_ptr<const FrameTiles> take(uint64_t frame, std::chrono::steady_clock::time_point deadline);
 
+    // Whether frame `frame`'s tiles are all decoded, waiting until `deadline`; unlike take() it
+    // gives up on nothing, so a present can wait in slices and look at other things in between.
+    bool wait_ready(uint64_t frame, std::chrono::steady_clock::time_point deadline);
+
     // Stops the decoder threads (also makes take() return at once).
     void stop();
     // The agent went away: take() returns at once from now on. Callable from any thread, also a

@@ -3,9 +3,11 @@
 
 SPLITVK_ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 
-# Everything splitvk builds, tests and demos with; all Debian 12 packages (DESIGN §1).
+# Everything splitvk builds, tests, demos and benchmarks with; all Debian 12 packages (DESIGN §1).
+# scripts/bench installs the same set (scripts/bench_lib/common.py): python3-matplotlib draws the
+# figures of `scripts/bench paper`.
 SPLITVK_PACKAGES=(
-  cmake make g++ pkg-config python3
+  cmake make g++ pkg-config python3 python3-matplotlib
   libvulkan-dev vulkan-validationlayers mesa-vulkan-drivers vulkan-tools
   glslang-tools spirv-tools mangohud gfxreconstruct
   libx264-dev libavcodec-dev libavutil-dev libasio-dev libglm-dev libzstd-dev libgtest-dev

@@ -23,6 +23,19 @@ class BenchError(Exception):
     """Something failed to run."""
 
 
+def ensure_packages():
+    """Installs what scripts/common.sh's SPLITVK_PACKAGES lacks, as scripts/demo and scripts/test do
+    (the bench imports and runs nothing outside that set). When it cannot (not root, no network)
+    it says so and the bench goes on: what is missing is then reported where it is needed."""
+    script = os.path.join(REPO, "scripts", "common.sh")
+    r = subprocess.run(["bash", "-c", 'source "$1" && ensure_packages', "bash", script],
+                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    if r.stdout.strip():
+        print(r.stdout.rstrip(), file=sys.stderr)
+    if r.returncode != 0:
+        print("bench: going on without the missing packages", file=sys.stderr)
+
+
 class MissingBuild(Exception):
     """No usable build tree."""
 

@@ -14,10 +14,12 @@ Prints median and IQR of the frame time (every frame of every run, after --warmu
 of native and split, the client's and the agent's per-stage medians, Mbit/s of tiles; draws the
 frame-time distributions and one typical frame's timeline (docs/figures/ with /usr/bin/python3
 and python3-matplotlib); with --write-docs (the default for a full run) replaces the paper section
-of docs/BENCHMARKS.md. The output ends with three lines, nothing after them:
-  split/native: R       split median frame time over native median frame time
-  tile-wait/frame: R    median tile wait over the split median frame time
-  tile-bytes/raw: R     compressed tile bytes over raw tile bytes
+of docs/BENCHMARKS.md. The output ends with four lines, nothing after them:
+  split/native: R        split median frame time over native median frame time
+  tile-wait/frame: R     median tile wait over the split median frame time
+  exposed-wait/frame: R  all exposed wait (the tile wait after the client's GPU had finished its
+                         frame, SPLITVK_STATS' exposed_wait_ms) over all split frame time
+  tile-bytes/raw: R      compressed tile bytes over raw tile bytes
 Timings never pass or fail."""
 import argparse
 import datetime
@@ -469,10 +471,13 @@ def tables_markdown(res):
         "",
         f"Client (Table 1), medians in ms; {periphery_note(c)}:",
         "",
-        f"| fovea per eye | periphery render ({periphery_label(c)}) | tile wait | network | decode | upload + merge | Mbit/s |",
-        "|---|---|---|---|---|---|---|",
-        f"| {c['fovea']} | {per_text} | {s['tile_wait']:.2f} | {s['network']:.2f} | {s['decode']:.2f} | "
-        f"{s['merge']:.2f} | {s['mbits']:.1f} |",
+        f"| fovea per eye | periphery render ({periphery_label(c)}) | tile wait | exposed wait | network | decode | upload + merge | merge (GPU) | Mbit/s |",
+        "|---|---|---|---|---|---|---|---|---|",
+        f"| {c['fovea']} | {per_text} | {s['tile_wait']:.2f} | {s.get('exposed_wait', 0.0):.2f} | {s['network']:.2f} | "
+        f"{s['decode']:.2f} | {s['merge']:.2f} | {s.get('merge_gpu', 0.0):.2f} | {s['mbits']:.1f} |",
+        "",
+        f"Exposed wait (the part of the tile wait after the client's GPU had finished its frame) is "
+        f"{s.get('exposed_share', 0.0):.3f} of all split frame time.",
         "",
         "Agent (Table 2), medians in ms:",
         "",
@@ -498,9 +503,11 @@ def print_tables(res):
     print(f"  native (client alone)     {n['median']:9.2f} {n['iqr']:8.2f} {n['n']:8d}")
     print(f"  split                     {sp['median']:9.2f} {sp['iqr']:8.2f} {sp['n']:8d}")
     label = "periphery(GPU)" if res["config"].get("periphery_source") == "gpu" else "periphery(est.)"
-    print(f"client (median ms)   {label:>15}  tile wait   network   decode  upload+merge   Mbit/s")
+    print(f"client (median ms)   {label:>15}  tile wait  exposed wait   network   decode  upload+merge  "
+          "merge(GPU)   Mbit/s")
     print(f"                     {per['median'] if per else float('nan'):15.2f} {s['tile_wait']:10.2f} "
-          f"{s['network']:9.2f} {s['decode']:8.2f} {s['merge']:13.2f} {s['mbits']:8.1f}")
+          f"{s.get('exposed_wait', 0.0):13.2f} {s['network']:9.2f} {s['decode']:8.2f} {s['merge']:13.2f} "
+          f"{s.get('merge_gpu', 0.0):11.2f} {s['mbits']:8.1f}")
     print("agent (median ms)         draw   readback   encode")
     print(f"                     {s['draw']:9.2f} {s['readback']:10.2f} {s['encode']:8.2f}")
     if res.get("client_cpu"):
@@ -714,6 +721,6 @@ def run(args):
         print("figures: " + "\n         ".join(figures.values()))
     print(f"per-frame data: {res['out_dir']}" + (f"; docs: {args.docs} (paper section replaced)" if write else ""))
     s = res["stages"]
-    split.print_final_lines(res["split"]["median"], res["native"]["median"], s["tile_wait"], s["tile_bytes"],
-                            s["raw_bytes"])
+    split.print_final_lines(res["split"]["median"], res["native"]["median"], s["tile_wait"],
+                            s.get("exposed_share", 0.0), s["tile_bytes"], s["raw_bytes"])
     return 0

@@ -3,11 +3,11 @@
 Starts splitvk-agent on a free loopback port and runs splitvk-atrium natively (no layer) and split
 (the layer, SPLITVK_STATS on), alternating, for --rounds pairs. From the layer's per-frame CSV it
 prints the paper's per-stage tables (Tables 1-2 of the paper):
-  client  network, decode, upload + merge, tile wait; Mbit/s of tiles
+  client  network, decode, upload + merge (CPU and GPU), tile wait, exposed wait; Mbit/s of tiles
   agent   draw, readback, encode (carried with the tiles)
-and end to end the frame time of native and split (median and IQR) with their ratio, and the
-compressed tile bytes over the raw tile bytes. The first --warmup frames of each run (scene upload,
-the first keyframes) are left out of the medians.
+and end to end the frame time of native and split (median and IQR) with their ratio, the
+compressed tile bytes over the raw tile bytes, and the exposed wait's share of all frame time. The
+first --warmup frames of each run (scene upload, the first keyframes) are left out of the medians.
 
 With --png-dir it also grabs what the X server shows for the last frame of one native and one split
 run (splitvk-atrium --hold), as PNGs.
@@ -116,6 +116,13 @@ def stage_medians(rows):
         "late": len(rows) - len(on_time), "frames": len(rows),
         # GPU time of the client's split pass (timestamp queries); 0 where the layer had none yet.
         "periphery": median([float(r["periphery_ms"]) for r in rows if float(r.get("periphery_ms") or 0) > 0] or [0.0]),
+        # GPU time of the composite (timestamp queries), next to merge (CPU time around its submit).
+        "merge_gpu": median([float(r["merge_gpu_ms"]) for r in rows if float(r.get("merge_gpu_ms") or 0) > 0] or [0.0]),
+        # The part of the tile wait after the client's GPU had finished the frame: the median, and
+        # all of it over all frame time (the share of the frame it costs).
+        "exposed_wait": col("exposed_wait_ms", rows),
+        "exposed_share": (sum(float(r.get("exposed_wait_ms") or 0) for r in rows) / (total_s * 1000)
+                          if total_s > 0 else 0.0),
     }
 
 
@@ -217,22 +224,27 @@ def measure(args):
 def print_tables(res):
     s = res["stages"]
     print()
-    print("client (median ms per frame)  periphery (GPU)   network   decode   upload+merge   tile wait     Mbit/s")
+    print("client (median ms per frame)  periphery (GPU)   network   decode   upload+merge  merge (GPU)   "
+          "tile wait  exposed wait     Mbit/s")
     print(f"                              {s['periphery']:15.2f} {s['network']:9.2f} {s['decode']:8.2f} "
-          f"{s['merge']:14.2f} {s['tile_wait']:11.2f} {s['mbits']:10.1f}")
+          f"{s['merge']:14.2f} {s['merge_gpu']:12.2f} {s['tile_wait']:11.2f} {s['exposed_wait']:13.2f} "
+          f"{s['mbits']:10.1f}")
     print("agent (median ms per frame)          draw   readback   encode")
     print(f"                                 {s['draw']:9.2f} {s['readback']:10.2f} {s['encode']:8.2f}")
     print("end to end (ms per frame)        median      IQR")
     print(f"  native                       {res['native_median']:9.2f} {res['native_iqr']:8.2f}")
     print(f"  split                        {res['split_median']:9.2f} {res['split_iqr']:8.2f}")
     print(f"late frames (centre from the periphery): {s['late']} of {s['frames']}")
-    print_final_lines(res["split_median"], res["native_median"], s["tile_wait"], s["tile_bytes"], s["raw_bytes"])
+    print_final_lines(res["split_median"], res["native_median"], s["tile_wait"], s["exposed_share"],
+                      s["tile_bytes"], s["raw_bytes"])
 
 
-def print_final_lines(split_median, native_median, tile_wait_median, tile_bytes, raw_bytes):
-    """The three lines every split-measuring bench ends with, for tools to read (nothing may follow)."""
+def print_final_lines(split_median, native_median, tile_wait_median, exposed_share, tile_bytes, raw_bytes):
+    """The lines every split-measuring bench ends with, for tools to read (nothing may follow): the
+    three ratios, and the exposed wait's share of the frame next to the tile wait's."""
     print(f"split/native: {split_median / native_median if native_median else 0.0:.3f}")
     print(f"tile-wait/frame: {tile_wait_median / split_median if split_median else 0.0:.3f}")
+    print(f"exposed-wait/frame: {exposed_share:.3f}")
     print(f"tile-bytes/raw: {tile_bytes / raw_bytes if raw_bytes else 0.0:.3f}")
 
 
@@ -240,5 +252,5 @@ def run(args):
     res = measure(args)
     if res["pngs"]:
         print(f"native frame: {res['pngs'][0]}\nsplit frame:  {res['pngs'][1]}")
-    print_tables(res)  # ends with the three ratio lines
+    print_tables(res)  # ends with the ratio lines
     return 0

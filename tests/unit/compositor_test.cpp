@@ -5,14 +5,19 @@
 // back after waiting on the compositor's semaphore, as the present would. Checks: the tiles are
 // bit-exact (UNORM and sRGB), the rest is the top-left periphery upsampled (bilinear and
 // Catmull-Rom against CPU references, within 2 of 255), slots are reused across frames, and the
-// Khronos validation layer with synchronization validation, when installed, says nothing.
+// Khronos validation layer with synchronization validation, when installed, says nothing. The
+// Timed variant goes the SPLITVK_STATS way: take_waits() first, and a measured composite GPU time.
 
 #include "compositor.h"
+#include "gpu_timing.h"
 #include "instance.h"
 #include "swapchain.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -26,7 +31,8 @@ class Session {};
 
 namespace {
 
-constexpr uint32_t kWidth = 64, kHeight = 48;
+// 0.6 of these is 48x27: image and periphery line up every 5 pixels, so the blit skips the tiles.
+constexpr uint32_t kWidth = 80, kHeight = 45;
 constexpr VkExtent2D kPeriphery{(kWidth * 3 + 4) / 5, (kHeight * 3 + 4) / 5}; // ceil(0.6 W) x ceil(0.6 H)
 constexpr uint32_t kImages = 2, kFrames = 5;
 
@@ -59,6 +65,9 @@ float linear_to_srgb(float l) {
 struct Param {
     VkFormat format;
     UpsampleFilter filter;
+    // SPLITVK_STATS' path: take_waits() stands in for the application's semaphores, and the
+    // composite's GPU time is measured.
+    bool timed = false;
 };
 
 class CompositorTest : public ::testing::TestWithParam<Param> {
@@ -183,7 +192,7 @@ uint8_t tile_byte(uint32_t x, uint32_t y, uint32_t c, uint32_t frame) {
 }
 
 TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
-    const auto [format, filter] = GetParam();
+    const auto [format, filter, timed] = GetParam();
     const bool srgb = format == VK_FORMAT_B8G8R8A8_SRGB;
     const VkDevice d = device_.handle;
     std::string why;
@@ -267,7 +276,7 @@ TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
     ASSERT_EQ(vkCreateFence(d, &fence_info, nullptr, &fence), VK_SUCCESS);
 
     std::string error;
-    auto compositor = Compositor::create(device_, sc, family_, &error, filter);
+    auto compositor = Compositor::create(device_, sc, family_, &error, filter, timed);
     ASSERT_TRUE(compositor) << error;
 
     const auto barrier = [&](VkImage image, VkImageLayout from, VkImageLayout to, VkAccessFlags src_access,
@@ -332,8 +341,17 @@ TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
                             tile_byte(x, y, c + 4 * t, frame);
             tiles[t] = {rects[t], tile_pixels[t].data()};
         }
+        VkSemaphore waits = rendered;
+        if (timed) {
+            VkFence done = VK_NULL_HANDLE;
+            ASSERT_EQ(compositor->take_waits(queue_, index, std::span(&rendered, 1), &waits, &done),
+                      VK_SUCCESS);
+            ASSERT_NE(waits, rendered);
+            // The fence says when the application's frame is done on the GPU: it is.
+            EXPECT_EQ(vkWaitForFences(d, 1, &done, VK_TRUE, 10'000'000'000ull), VK_SUCCESS);
+        }
         VkSemaphore signal = VK_NULL_HANDLE;
-        ASSERT_EQ(compositor->composite(queue_, index, std::span(&rendered, 1), kPeriphery, tiles, &signal),
+        ASSERT_EQ(compositor->composite(queue_, index, std::span(&waits, 1), kPeriphery, tiles, &signal),
                   VK_SUCCESS);
         ASSERT_NE(signal, VK_NULL_HANDLE);
 
@@ -394,7 +412,7 @@ TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
                 const float fx = px - 0.5f - ix, fy = py - 0.5f - iy;
                 for (uint32_t c = 0; c < 4; ++c) {
                     float v = 0.0f;
-                    if (filter == UpsampleFilter::CatmullRom) {
+                    if (filter == UpsampleFilter::CatmullRom) { // BilinearBlit: the bilinear reference
                         float wx[4], wy[4];
                         cubic(fx, wx);
                         cubic(fy, wy);
@@ -413,7 +431,14 @@ TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
         EXPECT_LE(worst, 2.0f) << "frame " << frame << ": the periphery differs from the reference";
     }
 
+    if (timed) {
+        // Frames 2 and up reused a slot after its fence: the earlier composites' times were read.
+        EXPECT_GT(compositor->latest_gpu_ms(), 0.0);
+        EXPECT_LT(compositor->latest_gpu_ms(), 10'000.0);
+        EXPECT_EQ(latest_periphery_ms(device_), 0.0) << "no split pass was timed";
+    }
     compositor.reset(); // waits for its submits
+    release_gpu_timing(device_);
     vkDestroyFence(d, fence, nullptr);
     vkDestroySemaphore(d, rendered, nullptr);
     vkDestroyCommandPool(d, pool, nullptr);
@@ -428,16 +453,260 @@ TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
     }
 }
 
+// The upsample's bands: together with the tiles they cover every pixel of the image exactly once.
+TEST(PeripheryBands, CoverTheImageAroundTheTilesExactlyOnce) {
+    const auto tile = [](int32_t x, int32_t y, uint32_t w, uint32_t h) {
+        VkBufferImageCopy c{};
+        c.imageOffset = {x, y, 0};
+        c.imageExtent = {w, h, 1};
+        return c;
+    };
+    struct Case {
+        VkExtent2D image;
+        std::vector<VkBufferImageCopy> tiles;
+        size_t bands; // the stereo layout needs 5: above, left, between, right, below
+    };
+    const Case cases[] = {
+        {{64, 48}, {}, 1},
+        {{2400, 1080}, {tile(344, 360, 512, 360), tile(1544, 360, 512, 360)}, 5},
+        {{2400, 1080}, {tile(944, 360, 512, 360)}, 4},
+        {{64, 48}, {tile(0, 0, 10, 10), tile(54, 38, 10, 10)}, 3}, // corners
+        {{64, 48}, {tile(5, 5, 10, 20), tile(20, 10, 10, 20), tile(40, 0, 24, 48)}, 0},
+        {{64, 48}, {tile(0, 0, 64, 48)}, 0}, // nothing left to draw
+    };
+    for (const Case &c : cases) {
+        const auto bands = periphery_bands(c.image, c.tiles);
+        if (c.bands) {
+            EXPECT_EQ(bands.size(), c.bands);
+        }
+        std::vector<int> hits(size_t{c.image.width} * c.image.height);
+        for (const VkRect2D &b : bands) {
+            ASSERT_GT(b.extent.width * b.extent.height, 0u);
+            ASSERT_LE(b.offset.x + b.extent.width, c.image.width);
+            ASSERT_LE(b.offset.y + b.extent.height, c.image.height);
+            for (uint32_t y = 0; y < b.extent.height; ++y)
+                for (uint32_t x = 0; x < b.extent.width; ++x)
+                    ++hits[size_t{b.offset.y + y} * c.image.width + b.offset.x + x];
+        }
+        for (const VkBufferImageCopy &t : c.tiles)
+            for (uint32_t y = 0; y < t.imageExtent.height; ++y)
+                for (uint32_t x = 0; x < t.imageExtent.width; ++x)
+                    ++hits[size_t(t.imageOffset.y + y) * c.image.width + t.imageOffset.x + x];
+        EXPECT_EQ(std::count(hits.begin(), hits.end(), 1), std::ptrdiff_t(hits.size()))
+            << c.tiles.size() << " tiles in " << c.image.width << "x" << c.image.height;
+    }
+}
+
+// Not a test: what a composite costs on this device, against vkCmdBlitImage with a linear filter
+// doing the same upsample, at SPLITVK_COST_SIZE (WxH, default 2400x1080) with the stereo foveae
+// (512x360 per 1200x1080 eye, scaled with the image). Run by hand:
+//   build/bin/splitvk_compositor_tests --gtest_also_run_disabled_tests --gtest_filter='*Cost*'
+// Prints the best of kRuns wall times from submit to fence (lavapipe: the GPU work itself).
+TEST_P(CompositorTest, DISABLED_Cost) {
+    const auto [format, filter, timed] = GetParam();
+    if (format != VK_FORMAT_B8G8R8A8_UNORM || timed) GTEST_SKIP() << "one format is enough";
+    uint32_t width = 2400, height = 1080;
+    if (const char *size = std::getenv("SPLITVK_COST_SIZE")) std::sscanf(size, "%ux%u", &width, &height);
+    const VkDevice d = device_.handle;
+    constexpr int kRuns = 12;
+    const VkExtent2D periphery{(width * 3 + 4) / 5, (height * 3 + 4) / 5};
+    const auto make_image = [&](VkExtent2D extent, VkImageUsageFlags usage, VkImage *image,
+                                VkDeviceMemory *memory) {
+        VkImageCreateInfo info{};
+        info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
+        info.imageType = VK_IMAGE_TYPE_2D;
+        info.format = format;
+        info.extent = {extent.width, extent.height, 1};
+        info.mipLevels = 1;
+        info.arrayLayers = 1;
+        info.samples = VK_SAMPLE_COUNT_1_BIT;
+        info.tiling = VK_IMAGE_TILING_OPTIMAL;
+        info.usage = usage;
+        ASSERT_EQ(vkCreateImage(d, &info, nullptr, image), VK_SUCCESS);
+        VkMemoryRequirements req;
+        vkGetImageMemoryRequirements(d, *image, &req);
+        VkMemoryAllocateInfo alloc{};
+        alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+        alloc.allocationSize = req.size;
+        alloc.memoryTypeIndex = memory_type(device_.memory_properties, req.memoryTypeBits, 0);
+        ASSERT_EQ(vkAllocateMemory(d, &alloc, nullptr, memory), VK_SUCCESS);
+        ASSERT_EQ(vkBindImageMemory(d, *image, *memory, 0), VK_SUCCESS);
+    };
+    SwapchainState sc;
+    sc.handle = reinterpret_cast<VkSwapchainKHR>(uintptr_t{0x5d});
+    sc.extent = {width, height};
+    sc.format = format;
+    sc.composable = true;
+    VkImage image = VK_NULL_HANDLE, small = VK_NULL_HANDLE;
+    VkDeviceMemory image_memory = VK_NULL_HANDLE, small_memory = VK_NULL_HANDLE;
+    ASSERT_NO_FATAL_FAILURE(make_image(sc.extent, Compositor::kSwapchainUsage, &image, &image_memory));
+    ASSERT_NO_FATAL_FAILURE(make_image(
+        periphery, VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, &small, &small_memory));
+    sc.images = {image};
+
+    VkCommandPoolCreateInfo pool_info{};
+    pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+    pool_info.queueFamilyIndex = family_;
+    VkCommandPool pool = VK_NULL_HANDLE;
+    ASSERT_EQ(vkCreateCommandPool(d, &pool_info, nullptr, &pool), VK_SUCCESS);
+    VkCommandBufferAllocateInfo cb_info{};
+    cb_info.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    cb_info.commandPool = pool;
+    cb_info.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    cb_info.commandBufferCount = 1;
+    VkCommandBuffer cb = VK_NULL_HANDLE;
+    ASSERT_EQ(vkAllocateCommandBuffers(d, &cb_info, &cb), VK_SUCCESS);
+    VkFenceCreateInfo fence_info{};
+    fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+    VkFence fence = VK_NULL_HANDLE;
+    ASSERT_EQ(vkCreateFence(d, &fence_info, nullptr, &fence), VK_SUCCESS);
+    const auto submit_and_wait = [&](VkSemaphore wait) {
+        const VkPipelineStageFlags stage = VK_PIPELINE_STAGE_ALL_COMMANDS_BIT;
+        VkSubmitInfo submit{};
+        submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+        submit.waitSemaphoreCount = wait ? 1 : 0;
+        submit.pWaitSemaphores = &wait;
+        submit.pWaitDstStageMask = &stage;
+        submit.commandBufferCount = wait ? 0 : 1;
+        submit.pCommandBuffers = &cb;
+        ASSERT_EQ(vkQueueSubmit(queue_, 1, &submit, fence), VK_SUCCESS);
+        ASSERT_EQ(vkWaitForFences(d, 1, &fence, VK_TRUE, 60'000'000'000ull), VK_SUCCESS);
+        vkResetFences(d, 1, &fence);
+    };
+    const auto barrier = [&](VkImage target, VkImageLayout from, VkImageLayout to) {
+        VkImageMemoryBarrier b{};
+        b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+        b.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+        b.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
+        b.oldLayout = from;
+        b.newLayout = to;
+        b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+        b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+        b.image = target;
+        b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+        vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
+                             nullptr, 0, nullptr, 1, &b);
+    };
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    vkBeginCommandBuffer(cb, &begin);
+    barrier(image, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR);
+    barrier(small, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+    vkEndCommandBuffer(cb);
+    ASSERT_NO_FATAL_FAILURE(submit_and_wait(VK_NULL_HANDLE));
+
+    std::string error;
+    auto compositor = Compositor::create(device_, sc, family_, &error, filter);
+    ASSERT_TRUE(compositor) << error;
+    // The default foveae: 512x360 centred in each half, scaled with the image.
+    const uint32_t fw = 512 * width / 2400, fh = 360 * height / 1080;
+    const VkRect2D rects[2] = {{{int32_t(width / 4 - fw / 2), int32_t(height / 2 - fh / 2)}, {fw, fh}},
+                               {{int32_t(3 * width / 4 - fw / 2), int32_t(height / 2 - fh / 2)}, {fw, fh}}};
+    std::vector<uint8_t> pixels(size_t{fw} * fh * 4, 0x7f);
+    const FoveaTile tiles[2] = {{rects[0], pixels.data()}, {rects[1], pixels.data()}};
+    using Clock = std::chrono::steady_clock;
+    const auto best = [&](auto &&run) {
+        double ms = 1e9;
+        for (int i = 0; i < kRuns; ++i) {
+            const auto start = Clock::now();
+            run();
+            ms = std::min(ms, std::chrono::duration<double, std::milli>(Clock::now() - start).count());
+        }
+        return ms;
+    };
+    const auto composite = [&](std::span<const FoveaTile> with) {
+        VkSemaphore signal = VK_NULL_HANDLE;
+        ASSERT_EQ(compositor->composite(queue_, 0, {}, periphery, with, &signal), VK_SUCCESS);
+        submit_and_wait(signal);
+    };
+    const double whole = best([&] { composite({}); });
+    const double around = best([&] { composite(tiles); });
+    const double blit = best([&] {
+        vkBeginCommandBuffer(cb, &begin);
+        barrier(image, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+        VkImageBlit region{};
+        region.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        region.srcOffsets[1] = {int32_t(periphery.width), int32_t(periphery.height), 1};
+        region.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        region.dstOffsets[1] = {int32_t(width), int32_t(height), 1};
+        vkCmdBlitImage(cb, small, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, image,
+                       VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region, VK_FILTER_LINEAR);
+        barrier(image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR);
+        vkEndCommandBuffer(cb);
+        submit_and_wait(VK_NULL_HANDLE);
+    });
+    std::printf("cost %ux%u filter %d: composite, whole image %.2f ms; around the foveae with tiles %.2f ms; "
+                "vkCmdBlitImage (linear) alone %.2f ms\n",
+                width, height, int(filter), whole, around, blit);
+    compositor.reset();
+    vkDestroyFence(d, fence, nullptr);
+    vkDestroyCommandPool(d, pool, nullptr);
+    vkDestroyImage(d, image, nullptr);
+    vkDestroyImage(d, small, nullptr);
+    vkFreeMemory(d, image_memory, nullptr);
+    vkFreeMemory(d, small_memory, nullptr);
+}
+
+// The blit's regions: around the tiles (shrunk to the scale's period) and each scaled exactly as
+// the whole image, or the whole image in one where the scale has no short period.
+TEST(BlitRegions, ScaleExactlyAndSkipTheTiles) {
+    const auto tile = [](int32_t x, int32_t y, uint32_t w, uint32_t h) {
+        VkBufferImageCopy c{};
+        c.imageOffset = {x, y, 0};
+        c.imageExtent = {w, h, 1};
+        return c;
+    };
+    const std::vector<VkBufferImageCopy> stereo = {tile(344, 360, 512, 360), tile(1544, 360, 512, 360)};
+    struct Case {
+        VkExtent2D image, periphery;
+        size_t regions;
+        uint64_t skipped; // pixels no region writes
+    };
+    const Case cases[] = {
+        // 344..856 shrinks to 345..855, 1544..2056 to 1545..2055; 360..720 stays.
+        {{2400, 1080}, {1440, 648}, 5, 2ull * 510 * 360},
+        {{2400, 1080}, {1441, 648}, 1, 0}, // no short period across
+    };
+    for (const Case &c : cases) {
+        const auto regions = blit_regions(c.image, c.periphery, stereo);
+        EXPECT_EQ(regions.size(), c.regions);
+        uint64_t written = 0;
+        for (const VkImageBlit &r : regions) {
+            const int64_t dw = r.dstOffsets[1].x - r.dstOffsets[0].x,
+                          dh = r.dstOffsets[1].y - r.dstOffsets[0].y;
+            const int64_t sw = r.srcOffsets[1].x - r.srcOffsets[0].x,
+                          sh = r.srcOffsets[1].y - r.srcOffsets[0].y;
+            ASSERT_GT(dw, 0);
+            ASSERT_GT(dh, 0);
+            // The region's scale and position are the whole image's.
+            EXPECT_EQ(sw * c.image.width, dw * c.periphery.width);
+            EXPECT_EQ(sh * c.image.height, dh * c.periphery.height);
+            EXPECT_EQ(int64_t{r.srcOffsets[0].x} * c.image.width,
+                      int64_t{r.dstOffsets[0].x} * c.periphery.width);
+            EXPECT_EQ(int64_t{r.srcOffsets[0].y} * c.image.height,
+                      int64_t{r.dstOffsets[0].y} * c.periphery.height);
+            written += uint64_t(dw) * uint64_t(dh);
+        }
+        EXPECT_EQ(written, uint64_t{c.image.width} * c.image.height - c.skipped);
+    }
+}
+
 INSTANTIATE_TEST_SUITE_P(Formats, CompositorTest,
                          ::testing::Values(Param{VK_FORMAT_B8G8R8A8_UNORM, UpsampleFilter::Bilinear},
                                            Param{VK_FORMAT_B8G8R8A8_SRGB, UpsampleFilter::Bilinear},
                                            Param{VK_FORMAT_B8G8R8A8_UNORM, UpsampleFilter::CatmullRom},
-                                           Param{VK_FORMAT_B8G8R8A8_SRGB, UpsampleFilter::CatmullRom}),
+                                           Param{VK_FORMAT_B8G8R8A8_SRGB, UpsampleFilter::CatmullRom},
+                                           Param{VK_FORMAT_B8G8R8A8_UNORM, UpsampleFilter::Bilinear, true},
+                                           Param{VK_FORMAT_B8G8R8A8_UNORM, UpsampleFilter::BilinearBlit},
+                                           Param{VK_FORMAT_B8G8R8A8_SRGB, UpsampleFilter::BilinearBlit}),
                          [](const auto &test) {
                              return std::string(test.param.format == VK_FORMAT_B8G8R8A8_SRGB ? "Srgb"
                                                                                              : "Unorm") +
-                                    (test.param.filter == UpsampleFilter::CatmullRom ? "CatmullRom"
-                                                                                     : "Bilinear");
+                                    (test.param.filter == UpsampleFilter::CatmullRom     ? "CatmullRom"
+                                     : test.param.filter == UpsampleFilter::BilinearBlit ? "BilinearBlit"
+                                                                                         : "Bilinear") +
+                                    (test.param.timed ? "Timed" : "");
                          });
 
 } // namespace

@@ -16,6 +16,7 @@
 #include <cmath>
 #include <csignal>
 #include <regex>
+#include <sstream>
 #include <thread>
 
 #include <sys/types.h>
@@ -197,6 +198,9 @@ TEST_P(SplitAtrium, FoveaEqualsNativeBitForBit) {
         run_and_grab(atrium_argv(v.eyes, kFrames, v.srgb), env(), "native", kFrames, &native));
     Env e = split_env();
     e["SPLITVK_CODEC"] = v.codec;
+    // Statistics on: their path (Compositor::take_waits, timed composites) must keep the foveae
+    // exact and validation silent too.
+    e["SPLITVK_STATS"] = (out_ / "stats.csv").string();
     ASSERT_NO_FATAL_FAILURE(run_and_grab(atrium_argv(v.eyes, kFrames, v.srgb), e, "split", kFrames, &split));
     const std::string &err = split.result.err();
     EXPECT_TRUE(grep(err, "running unsplit").empty()) << tail(err, 30);
@@ -404,6 +408,91 @@ TEST_F(Split, LooseEnvelopeNeverCompositesAWrongFovea) {
     std::cout << "  the flagged frame against native: SSIM " << s << "\n";
     EXPECT_GE(s, kMinSsim) << "a flagged frame must still be a complete picture";
     EXPECT_TRUE(client_validation_clean(validation_log_));
+}
+
+// SPLITVK_STATS survives the application's end: vkcube, which has no SIGTERM handler, is killed by
+// SIGTERM in the middle of a split run. Its statistics file must hold the header and whole rows
+// only, every one with the header's number of columns: nothing the layer wrote may be cut off.
+// The honest columns hold what they promise: exposed_wait_ms is a part of tile_wait_ms, and
+// merge_gpu_ms (GPU timestamps, read every 16th present) is measured.
+TEST_F(Split, StatsFileIsWholeAfterSigterm) {
+    ASSERT_TRUE(find_program("vkcube", env())) << "vkcube is not installed (vulkan-tools)";
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    Env e = env();
+    use_explicit_layers(e, {kLayerName});
+    e["SPLITVK_SERVER"] = agent_.address();
+    e["SPLITVK_EYES"] = "1";
+    e["SPLITVK_TILE_WAIT"] = "60000";
+    const auto stats_path = out_ / "stats.csv";
+    e["SPLITVK_STATS"] = stats_path.string();
+    ProcessSpec spec;
+    spec.argv = {"vkcube", "--width", "320", "--height", "320"};
+    spec.env = e;
+    spec.out_dir = out_;
+    spec.name = "vkcube-split";
+    Process p(spec);
+    ASSERT_TRUE(p.start()) << p.error();
+    // Rows must reach the file while the application runs, not only at its end.
+    constexpr size_t kRows = 30;
+    const auto deadline = Clock::now() + 180s;
+    auto count_lines = [&] {
+        const std::string text = read_file(stats_path);
+        return static_cast<size_t>(std::count(text.begin(), text.end(), '\n'));
+    };
+    while (count_lines() < kRows + 1 && p.running() && Clock::now() < deadline)
+        std::this_thread::sleep_for(50ms);
+    const ProcessResult r = p.terminate(10s);
+    ASSERT_FALSE(r.exited) << "vkcube ended before it was killed: " << r.describe() << "\n"
+                           << tail(r.err(), 30);
+    ASSERT_EQ(r.term_signal, SIGTERM) << r.describe();
+
+    const std::string text = read_file(stats_path);
+    ASSERT_FALSE(text.empty()) << "no statistics file";
+    EXPECT_EQ(text.back(), '\n') << "the last row is cut off: " << text.substr(text.rfind('\n') + 1);
+    const auto lines = split_lines(text);
+    ASSERT_GE(lines.size(), kRows + 1) << "rows were held back while the application ran:\n" << text;
+    const auto columns = [](const std::string &line) {
+        return std::count(line.begin(), line.end(), ',') + 1;
+    };
+    const std::string &header = lines.front();
+    EXPECT_EQ(header.rfind("frame,frame_ms,", 0), 0u) << header;
+    const auto want = columns(header);
+    const std::regex number(R"(-?[0-9]+(\.[0-9]+)?)");
+    const auto names = [&] {
+        std::vector<std::string> v;
+        std::stringstream fields(header);
+        for (std::string field; std::getline(fields, field, ',');)
+            v.push_back(field);
+        return v;
+    }();
+    const auto column = [&](const std::string &name) {
+        return static_cast<size_t>(std::find(names.begin(), names.end(), name) - names.begin());
+    };
+    const size_t tile_wait = column("tile_wait_ms"), exposed = column("exposed_wait_ms"),
+                 merge_gpu = column("merge_gpu_ms");
+    ASSERT_LT(std::max({tile_wait, exposed, merge_gpu}), names.size()) << header;
+    uint64_t previous = 0;
+    bool merge_measured = false;
+    for (size_t i = 1; i < lines.size(); ++i) {
+        ASSERT_EQ(columns(lines[i]), want) << "row " << i << " is not whole: '" << lines[i] << "'";
+        std::vector<double> values;
+        std::stringstream fields(lines[i]);
+        for (std::string field; std::getline(fields, field, ',');) {
+            ASSERT_TRUE(std::regex_match(field, number)) << "row " << i << ": '" << lines[i] << "'";
+            values.push_back(std::stod(field));
+        }
+        const auto frame = static_cast<uint64_t>(values[0]);
+        if (i > 1) {
+            EXPECT_GT(frame, previous) << "rows out of order at row " << i;
+        }
+        previous = frame;
+        // The exposed wait is a part of the tile wait (both rounded to 0.001 ms).
+        EXPECT_GE(values[exposed], 0.0) << lines[i];
+        EXPECT_LE(values[exposed], values[tile_wait] + 0.002) << lines[i];
+        merge_measured |= values[merge_gpu] > 0.0;
+    }
+    // Timestamps are read every 16th present; the run is longer than that.
+    EXPECT_TRUE(merge_measured) << "no composite GPU time in " << lines.size() - 1 << " rows";
 }
 
 } // namespace
