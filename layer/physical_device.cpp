@@ -121,6 +121,13 @@ const PhysicalDeviceState *enveloped(VkPhysicalDevice physical_device) {
     return state && state->envelope ? state : nullptr;
 }
 
+void narrow_features2(VkPhysicalDevice physical_device, VkPhysicalDeviceFeatures2 *features) {
+    if (const auto *state = enveloped(physical_device)) {
+        mask_core_features(features->features, *state);
+        mask_feature_chain(features->pNext, *state);
+    }
+}
+
 } // namespace
 
 const PhysicalDeviceState *physical_device_state(VkPhysicalDevice physical_device) {
@@ -161,19 +168,13 @@ VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceFeatures(VkPhysicalDevice physicalDe
 VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceFeatures2(VkPhysicalDevice physicalDevice,
                                                       VkPhysicalDeviceFeatures2 *pFeatures) {
     instance_dispatch(physicalDevice).GetPhysicalDeviceFeatures2(physicalDevice, pFeatures);
-    if (const auto *state = enveloped(physicalDevice)) {
-        mask_core_features(pFeatures->features, *state);
-        mask_feature_chain(pFeatures->pNext, *state);
-    }
+    narrow_features2(physicalDevice, pFeatures);
 }
 
 VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceFeatures2KHR(VkPhysicalDevice physicalDevice,
                                                          VkPhysicalDeviceFeatures2 *pFeatures) {
     instance_dispatch(physicalDevice).GetPhysicalDeviceFeatures2KHR(physicalDevice, pFeatures);
-    if (const auto *state = enveloped(physicalDevice)) {
-        mask_core_features(pFeatures->features, *state);
-        mask_feature_chain(pFeatures->pNext, *state);
-    }
+    narrow_features2(physicalDevice, pFeatures);
 }
 
 VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceFormatProperties(VkPhysicalDevice physicalDevice, VkFormat format,
