@@ -74,7 +74,6 @@ std::vector<uint8_t> encode_hello(const Hello &hello) {
     w.string(clean_text(hello.client_name, kMaxNameBytes));
     w.string(clean_text(hello.client_gpu_name, kMaxNameBytes));
     w.u64(hello.codec_fingerprint);
-    w.u32(hello.flags);
     w.blob(hello.device_envelope);
     return w.take();
 }
@@ -97,7 +96,6 @@ Result<Hello> decode_hello(std::span<const uint8_t> payload) {
     hello.client_gpu_name = read_text(r, kMaxNameBytes, "client_gpu_name");
     hello.codec_fingerprint = r.u64("codec_fingerprint");
     if (protocol_minor(hello.protocol_version) >= 1) {
-        hello.flags = r.u32("flags");
         const auto envelope = r.blob(kMaxDeviceBlobBytes, "device_envelope");
         hello.device_envelope.assign(envelope.begin(), envelope.end());
     }

@@ -25,7 +25,7 @@
 namespace splitvk::protocol {
 
 inline constexpr uint16_t kProtocolMajor = 1;
-// Minor 1: Hello carries flags and the device envelope, Welcome the agent's device (issue 10).
+// Minor 1: Hello carries the device envelope, Welcome the agent's device (issue 10).
 inline constexpr uint16_t kProtocolMinor = 1;
 
 constexpr uint32_t make_protocol_version(uint16_t major, uint16_t minor) {
@@ -59,9 +59,6 @@ inline constexpr uint32_t kMaxNameBytes = 256; // VK_MAX_PHYSICAL_DEVICE_NAME_SI
 inline constexpr uint32_t kMaxReasonBytes = 512;
 inline constexpr uint32_t kMaxDeviceBlobBytes = 64 * 1024; // an encoded DeviceDescription
 
-// Hello flags (minor 1).
-inline constexpr uint32_t kHelloProbe = 1u << 0; // only asking for the agent's device: Goodbye follows
-
 struct Hello {
     uint32_t protocol_version = kProtocolVersion;
     uint64_t capabilities = kSupportedCapabilities;
@@ -71,9 +68,9 @@ struct Hello {
     // kCodecFingerprint of the client's generated codec: both sides must be built from the same
     // vk.xml and allow-list, or their command encodings differ.
     uint64_t codec_fingerprint = 0;
-    uint32_t flags = 0; // kHelloProbe
     // The device envelope the application was told (protocol/device_envelope.h, encoded); empty
-    // when the client checks nothing (SPLITVK_ENVELOPE=client) or only probes.
+    // when the client checks nothing (SPLITVK_ENVELOPE=client) or greets the agent at
+    // vkCreateInstance, before it has told the application anything.
     std::vector<uint8_t> device_envelope;
 };
 

@@ -29,7 +29,7 @@ TEST(ProtocolHandshake, HelloRoundTripAndLayout) {
     ASSERT_GE(bytes.size(), 8u);
     EXPECT_EQ(std::string(bytes.begin(), bytes.begin() + 4), "SPVK");
     EXPECT_EQ(load_le32(bytes.data() + 4), kProtocolVersion);
-    EXPECT_EQ(kProtocolVersion, 0x00010000u);
+    EXPECT_EQ(kProtocolVersion, 0x00010001u);
 
     auto back = decode_hello(bytes);
     ASSERT_TRUE(back.ok()) << back.error();
@@ -42,7 +42,8 @@ TEST(ProtocolHandshake, HelloRoundTripAndLayout) {
 }
 
 TEST(ProtocolHandshake, WelcomeRejectGoodbyeRoundTrip) {
-    Welcome welcome{kProtocolVersion, capability::kZstdPayloads, 0x1122334455667788ull, "NVIDIA H200", {1, 2, 3}};
+    Welcome welcome{
+        kProtocolVersion, capability::kZstdPayloads, 0x1122334455667788ull, "NVIDIA H200", {1, 2, 3}};
     auto w = decode_welcome(encode_welcome(welcome));
     ASSERT_TRUE(w.ok()) << w.error();
     EXPECT_EQ(w->server_device, welcome.server_device);
@@ -51,9 +52,9 @@ TEST(ProtocolHandshake, WelcomeRejectGoodbyeRoundTrip) {
     EXPECT_EQ(w->session_id, welcome.session_id);
     EXPECT_EQ(w->server_gpu_name, "NVIDIA H200");
 
-    for (const auto reason : {RejectReason::VersionMismatch, RejectReason::BadToken, RejectReason::ServerFull,
-                              RejectReason::Malformed, RejectReason::NotAuthorised,
-                              RejectReason::DeviceMismatch}) {
+    for (const auto reason :
+         {RejectReason::VersionMismatch, RejectReason::BadToken, RejectReason::ServerFull,
+          RejectReason::Malformed, RejectReason::NotAuthorised, RejectReason::DeviceMismatch}) {
         auto r = decode_reject(encode_reject(Reject{reason, "why"}));
         ASSERT_TRUE(r.ok()) << r.error();
         EXPECT_EQ(r->reason, reason);
@@ -149,12 +150,62 @@ TEST(ProtocolHandshake, NewerMinorMayAppendFields) {
     w.blob({});
     w.string("app");
     w.string("gpu");
-    w.u64(0xFEEDu); // a field this version does not know
+    w.u64(0);                           // codec_fingerprint
+    w.blob(std::vector<uint8_t>{7, 7}); // device_envelope (minor 1)
+    w.u64(0xFEEDu);                     // a field this version does not know
     auto result = decode_hello(w.data());
     ASSERT_TRUE(result.ok()) << result.error();
     EXPECT_EQ(result->client_gpu_name, "gpu");
+    EXPECT_EQ(result->device_envelope, (std::vector<uint8_t>{7, 7}));
     auto decision = evaluate_hello(*result, ServerHandshakeConfig{});
     EXPECT_TRUE(std::holds_alternative<Welcome>(decision));
+}
+
+// A client of protocol 1.0 sends no device envelope: its Hello still decodes, unchecked, and a
+// Welcome for it decodes without the agent's device.
+TEST(ProtocolHandshake, MinorZeroPeersHaveNoEnvelope) {
+    WireWriter w;
+    w.bytes(kHelloMagic);
+    w.u32(make_protocol_version(kProtocolMajor, 0));
+    w.u64(1);
+    w.blob({});
+    w.string("app");
+    w.string("gpu");
+    w.u64(0);
+    auto hello = decode_hello(w.data());
+    ASSERT_TRUE(hello.ok()) << hello.error();
+    EXPECT_TRUE(hello->device_envelope.empty());
+    ServerHandshakeConfig config;
+    config.check_envelope = [](std::span<const uint8_t>) { return std::string("never asked"); };
+    EXPECT_TRUE(std::holds_alternative<Welcome>(evaluate_hello(*hello, config)));
+
+    WireWriter welcome;
+    welcome.u32(make_protocol_version(kProtocolMajor, 0));
+    welcome.u64(0);
+    welcome.u64(9);
+    welcome.string("gpu");
+    auto decoded = decode_welcome(welcome.data());
+    ASSERT_TRUE(decoded.ok()) << decoded.error();
+    EXPECT_TRUE(decoded->server_device.empty());
+}
+
+// An agent that cannot honour the envelope refuses with DeviceMismatch and says why.
+TEST(ProtocolHandshake, EnvelopeTheServerCannotHonourIsRefused) {
+    Hello hello = sample_hello();
+    hello.device_envelope = {1, 2, 3};
+    ServerHandshakeConfig config;
+    config.check_envelope = [](std::span<const uint8_t> blob) {
+        return blob.size() == 3 ? std::string("maxImageDimension2D: told 8192, this device 4096")
+                                : std::string();
+    };
+    const auto decision = evaluate_hello(hello, config);
+    const Reject *reject = std::get_if<Reject>(&decision);
+    ASSERT_NE(reject, nullptr);
+    EXPECT_EQ(reject->reason, RejectReason::DeviceMismatch);
+    EXPECT_EQ(reject->message, "maxImageDimension2D: told 8192, this device 4096");
+    auto back = decode_hello(encode_hello(hello));
+    ASSERT_TRUE(back.ok()) << back.error();
+    EXPECT_EQ(back->device_envelope, hello.device_envelope);
 }
 
 TEST(ProtocolHandshake, VersionMismatchIsRejectedAsSuch) {
@@ -170,7 +221,7 @@ TEST(ProtocolHandshake, VersionMismatchIsRejectedAsSuch) {
     const Reject *reject = std::get_if<Reject>(&decision);
     ASSERT_NE(reject, nullptr);
     EXPECT_EQ(reject->reason, RejectReason::VersionMismatch);
-    EXPECT_EQ(reject->message, "client speaks protocol 2.3, this server 1.0 (the major version must match)");
+    EXPECT_EQ(reject->message, "client speaks protocol 2.3, this server 1.1 (the major version must match)");
 
     // Older major too (0.x).
     Hello old = sample_hello();
