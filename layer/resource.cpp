@@ -11,6 +11,7 @@
 #include "vk_format_info.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstring>
 #include <mutex>
@@ -101,6 +102,59 @@ void bind_buffer(VkBuffer buffer, VkDeviceMemory memory, VkDeviceSize offset) {
 void bind_image(VkImage image) {
     std::lock_guard lock(g_mutex);
     if (const auto it = g_images.find(image); it != g_images.end()) it->second.bound = true;
+}
+
+// A linear image: what the host writes into its memory is laid out as this driver says, which the
+// agent needs to know to put the bytes where its own driver expects them (ImageLayouts). Formats
+// vk.xml describes as single-plane only: a multi-planar image's bytes reach the agent 1:1.
+void send_image_layouts(DeviceState &dev, VkImage image, const VkImageCreateInfo &info) {
+    const FormatInfo format = format_info(info.format);
+    if (format.block_bytes == 0) {
+        static std::atomic<bool> logged{false};
+        if (!logged.exchange(true))
+            SPLITVK_WARN(
+                "a linear image of multi-planar VkFormat %d: what the host writes into it reaches the "
+                "agent byte for byte, exact only when both drivers lay it out alike",
+                static_cast<int>(info.format));
+        return;
+    }
+    protocol::ImageLayouts message;
+    message.device_id = dev.session->device_id();
+    message.image_id = codec::handle_value(image);
+    message.format = static_cast<uint32_t>(info.format);
+    message.width = info.extent.width;
+    message.height = info.extent.height;
+    message.depth = info.extent.depth;
+    message.mip_levels = info.mipLevels;
+    message.array_layers = info.arrayLayers;
+    std::vector<VkImageAspectFlagBits> aspects;
+    if (format.depth) aspects.push_back(VK_IMAGE_ASPECT_DEPTH_BIT);
+    if (format.stencil) aspects.push_back(VK_IMAGE_ASPECT_STENCIL_BIT);
+    if (aspects.empty()) aspects.push_back(VK_IMAGE_ASPECT_COLOR_BIT);
+    using namespace protocol;
+    if (size_t{info.mipLevels} * info.arrayLayers * aspects.size() > kMaxImageSubresources ||
+        info.mipLevels > kMaxImageMipLevels || info.arrayLayers > kMaxImageArrayLayers ||
+        std::max({info.extent.width, info.extent.height, info.extent.depth}) > kMaxImageExtent) {
+        SPLITVK_WARN("a linear image of %ux%ux%u with %u mip levels and %u layers is larger than splitvk "
+                     "describes to the agent; what the host writes into it may differ there",
+                     info.extent.width, info.extent.height, info.extent.depth, info.mipLevels,
+                     info.arrayLayers);
+        return;
+    }
+    for (const VkImageAspectFlagBits aspect : aspects)
+        for (uint32_t mip = 0; mip < info.mipLevels; ++mip)
+            for (uint32_t layer = 0; layer < info.arrayLayers; ++layer) {
+                const VkImageSubresource sub{static_cast<VkImageAspectFlags>(aspect), mip, layer};
+                VkSubresourceLayout layout{};
+                dev.dispatch.GetImageSubresourceLayout(dev.handle, image, &sub, &layout);
+                message.subresources.push_back({static_cast<uint32_t>(aspect), mip, layer, layout.offset,
+                                                layout.size, layout.rowPitch, layout.arrayPitch,
+                                                layout.depthPitch});
+            }
+    const uint64_t id = codec::handle_value(image);
+    const uint64_t killers[] = {id};
+    dev.session->send_metadata_logged(protocol::MessageType::ImageLayouts, protocol::encode(message), id,
+                                      killers);
 }
 
 // Whether the implementation accepts the image with TRANSFER_SRC added to its usage.
@@ -315,6 +369,7 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateImage(VkDevice device, const VkImageCreateI
     record_global(dev, LiveChange::Created, codec::handle_value(*pImage), [&](codec::Encoder &e) {
         encode_vkCreateImage(e, device, pCreateInfo, pAllocator, pImage);
     });
+    if (pCreateInfo->tiling == VK_IMAGE_TILING_LINEAR) send_image_layouts(dev, *pImage, *pCreateInfo);
     return result;
 }
 

@@ -390,10 +390,10 @@ uint64_t Session::add_entry_locked(std::vector<uint8_t> &&bytes, std::span<const
 }
 
 void Session::send_metadata_logged(protocol::MessageType type, std::vector<uint8_t> &&payload,
-                                   uint64_t holder) {
+                                   uint64_t holder, std::span<const uint64_t> killers) {
     std::lock_guard lock(mutex_);
     const uint64_t ids[] = {holder};
-    const uint64_t seq = add_entry_locked(std::vector<uint8_t>(payload), ids, {});
+    const uint64_t seq = add_entry_locked(std::vector<uint8_t>(payload), ids, killers);
     if (seq != 0) log_[seq].type = type;
     flush_locked();
     send_locked(type, std::move(payload));
@@ -676,6 +676,13 @@ std::string check_replay(const LiveSnapshot &snapshot, uint64_t physical_device_
             if (!images) return "SwapchainImages: " + images.error();
             for (uint64_t id : images->image_ids)
                 if (!table.insert(id, VK_OBJECT_TYPE_IMAGE, id, 0, &replay.error)) return replay.error;
+            continue;
+        }
+        if (message.type == protocol::MessageType::ImageLayouts) {
+            auto layouts = protocol::decode_image_layouts(message.payload);
+            if (!layouts) return "ImageLayouts: " + layouts.error();
+            const auto *image = table.find(layouts->image_id);
+            if (!image || image->type != VK_OBJECT_TYPE_IMAGE) return "ImageLayouts before its image";
             continue;
         }
         codec::Arena arena;

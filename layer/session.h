@@ -40,6 +40,8 @@
 //    updates, re-encoded as one vkUpdateDescriptorSets per set in the snapshot; descriptors that
 //    name a destroyed object are left out.
 //  - Command buffers (command_buffer.cpp): the last recorded stream of each.
+//  - Linear images (resource.cpp): the ImageLayouts message sent after the creation, held by the
+//    image and dropped with it.
 // build_live_snapshot() turns it into messages in that order. Out of scope: memory contents.
 // Host-visible memory is shadowed only while mapped (memory.cpp); device-local buffers and
 // images are read back on the client by the reliability issue when it sends a snapshot.
@@ -77,7 +79,8 @@ struct DeviceState;
 // bytes replayed as its destroy (see the live-state log above).
 enum class LiveChange { Unchanged, Created, Destroyed, Retired };
 
-// One message of a snapshot: Commands, or the SwapchainImages metadata of a live swapchain.
+// One message of a snapshot: Commands, the SwapchainImages metadata of a live swapchain, or the
+// ImageLayouts of a live linear image.
 struct LiveMessage {
     protocol::MessageType type = protocol::MessageType::Commands;
     std::vector<uint8_t> payload;
@@ -163,7 +166,10 @@ public:
     std::vector<LiveMessage> object_log(size_t *entries, std::unordered_set<uint64_t> *live_ids);
 
     // send_metadata() for a message that is also a log entry held by `holder` (SwapchainImages).
-    void send_metadata_logged(protocol::MessageType type, std::vector<uint8_t> &&payload, uint64_t holder);
+    // With `killers` (as record_logged()), the entry is one more of an object that holds entries
+    // already (a linear image's ImageLayouts, after its vkCreateImage), not a new object.
+    void send_metadata_logged(protocol::MessageType type, std::vector<uint8_t> &&payload, uint64_t holder,
+                              std::span<const uint64_t> killers = {});
 
     // Sends the pending global batch, then `payload` as one Commands message.
     void send_commands(std::span<const uint8_t> payload);

@@ -2,6 +2,9 @@
 
 #include "wire.h"
 
+#include <algorithm>
+#include <tuple>
+
 namespace splitvk::protocol {
 namespace {
 
@@ -260,6 +263,90 @@ Result<Tiles> decode_tiles(std::span<const uint8_t> payload, uint32_t max_bytes)
         m.tiles.push_back(std::move(t));
     }
     return finish(r, std::move(m), "Tiles");
+}
+
+std::vector<uint8_t> encode(const ImageLayouts &m) {
+    WireWriter w(48 + 52 * m.subresources.size());
+    w.u64(m.device_id);
+    w.u64(m.image_id);
+    w.u32(m.format);
+    w.u32(m.width);
+    w.u32(m.height);
+    w.u32(m.depth);
+    w.u32(m.mip_levels);
+    w.u32(m.array_layers);
+    w.u32(static_cast<uint32_t>(m.subresources.size()));
+    for (const auto &s : m.subresources) {
+        w.u32(s.aspect);
+        w.u32(s.mip_level);
+        w.u32(s.array_layer);
+        w.u64(s.offset);
+        w.u64(s.size);
+        w.u64(s.row_pitch);
+        w.u64(s.array_pitch);
+        w.u64(s.depth_pitch);
+    }
+    return w.take();
+}
+
+Result<ImageLayouts> decode_image_layouts(std::span<const uint8_t> payload) {
+    // VK_IMAGE_ASPECT_COLOR/DEPTH/STENCIL_BIT and PLANE_0/1/2_BIT.
+    constexpr uint32_t kAspects = 0x1 | 0x2 | 0x4 | 0x10 | 0x20 | 0x40;
+    WireReader r(payload);
+    ImageLayouts m;
+    m.device_id = r.u64("device_id");
+    m.image_id = r.u64("image_id");
+    m.format = r.u32("format");
+    m.width = r.u32("width");
+    m.height = r.u32("height");
+    m.depth = r.u32("depth");
+    m.mip_levels = r.u32("mip_levels");
+    m.array_layers = r.u32("array_layers");
+    const uint32_t count = r.u32("subresource count");
+    if (r.ok() && (m.width == 0 || m.height == 0 || m.depth == 0 || m.width > kMaxImageExtent ||
+                   m.height > kMaxImageExtent || m.depth > kMaxImageExtent))
+        r.fail("extent " + std::to_string(m.width) + "x" + std::to_string(m.height) + "x" +
+               std::to_string(m.depth) + " outside 1.." + std::to_string(kMaxImageExtent));
+    if (r.ok() && (m.mip_levels == 0 || m.mip_levels > kMaxImageMipLevels || m.array_layers == 0 ||
+                   m.array_layers > kMaxImageArrayLayers))
+        r.fail("mip levels or array layers out of range");
+    if (r.ok() && (count == 0 || count > kMaxImageSubresources))
+        r.fail("subresource count " + std::to_string(count) + " outside 1.." +
+               std::to_string(kMaxImageSubresources));
+    for (uint32_t i = 0; r.ok() && i < count; ++i) {
+        SubresourceLayout s;
+        s.aspect = r.u32("aspect");
+        s.mip_level = r.u32("mip_level");
+        s.array_layer = r.u32("array_layer");
+        s.offset = r.u64("offset");
+        s.size = r.u64("size");
+        s.row_pitch = r.u64("row_pitch");
+        s.array_pitch = r.u64("array_pitch");
+        s.depth_pitch = r.u64("depth_pitch");
+        if (!r.ok()) break;
+        const std::string which = "subresource " + std::to_string(i);
+        if ((s.aspect & kAspects) != s.aspect || s.aspect == 0 || (s.aspect & (s.aspect - 1)) != 0)
+            r.fail(which + " aspect " + std::to_string(s.aspect) + " is not one known aspect");
+        else if (s.mip_level >= m.mip_levels || s.array_layer >= m.array_layers)
+            r.fail(which + " names mip " + std::to_string(s.mip_level) + ", layer " +
+                   std::to_string(s.array_layer) + " of an image with " + std::to_string(m.mip_levels) +
+                   " and " + std::to_string(m.array_layers));
+        else if (s.offset > kMaxLayoutBytes || s.size > kMaxLayoutBytes || s.row_pitch > kMaxLayoutBytes ||
+                 s.array_pitch > kMaxLayoutBytes || s.depth_pitch > kMaxLayoutBytes)
+            r.fail(which + " has an offset, size or pitch over " + std::to_string(kMaxLayoutBytes));
+        m.subresources.push_back(s);
+    }
+    if (r.ok()) {
+        auto keys = m.subresources;
+        const auto key = [](const SubresourceLayout &s) {
+            return std::tie(s.aspect, s.mip_level, s.array_layer);
+        };
+        std::sort(keys.begin(), keys.end(), [&](const auto &a, const auto &b) { return key(a) < key(b); });
+        if (std::adjacent_find(keys.begin(), keys.end(),
+                               [&](const auto &a, const auto &b) { return key(a) == key(b); }) != keys.end())
+            r.fail("a subresource is listed twice");
+    }
+    return finish(r, std::move(m), "ImageLayouts");
 }
 
 } // namespace splitvk::protocol

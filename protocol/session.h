@@ -13,6 +13,9 @@
 //   client -> server  SplitConfig       the split settings the agent must agree on (eyes, fovea,
 //                                       codec); sent once, before the first command
 //   server -> client  Tiles             the encoded fovea tiles of one presented frame (issue 4)
+//   client -> server  ImageLayouts      a linear image was created: where the client's driver puts
+//                                       each of its subresources, so that the agent can re-lay
+//                                       MemoryData into its own driver's layout (issue 10)
 
 #include "result.h"
 #include "settings.h"
@@ -28,6 +31,11 @@ inline constexpr uint32_t kMaxSwapchainImages = 16;
 inline constexpr uint32_t kMaxPresentedImages = 8;
 inline constexpr uint32_t kMaxVerifyExtent = 16384;
 inline constexpr uint32_t kMaxTilesPerFrame = 8;
+inline constexpr uint32_t kMaxImageSubresources = 4096; // ImageLayouts entries
+inline constexpr uint32_t kMaxImageExtent = 65536;      // ImageLayouts width, height, depth
+inline constexpr uint32_t kMaxImageMipLevels = 32;
+inline constexpr uint32_t kMaxImageArrayLayers = 2048;
+inline constexpr uint64_t kMaxLayoutBytes = uint64_t{1} << 40; // offsets, sizes and pitches
 
 struct MemoryData {
     uint64_t device_id = 0;
@@ -120,6 +128,31 @@ struct Tiles {
     std::vector<EncodedTile> tiles;
 };
 
+// One VkSubresourceLayout as vkGetImageSubresourceLayout returned it on the client. Offsets are
+// from the first byte the image is bound at; `array_layer`'s offset already counts its layer.
+struct SubresourceLayout {
+    uint32_t aspect = 1; // one VkImageAspectFlagBits: COLOR, DEPTH, STENCIL or PLANE_0..2
+    uint32_t mip_level = 0;
+    uint32_t array_layer = 0;
+    uint64_t offset = 0;
+    uint64_t size = 0;
+    uint64_t row_pitch = 0;
+    uint64_t array_pitch = 0;
+    uint64_t depth_pitch = 0;
+};
+
+// The client's layout of a VK_IMAGE_TILING_LINEAR image (sent after its vkCreateImage, before
+// its bind). The create parameters are repeated so the agent can check they describe its image.
+struct ImageLayouts {
+    uint64_t device_id = 0;
+    uint64_t image_id = 0;
+    uint32_t format = 0; // VkFormat
+    uint32_t width = 1, height = 1, depth = 1;
+    uint32_t mip_levels = 1;
+    uint32_t array_layers = 1;
+    std::vector<SubresourceLayout> subresources; // each (aspect, mip, layer) at most once
+};
+
 std::vector<uint8_t> encode(const MemoryData &m);
 std::vector<uint8_t> encode(const SwapchainImages &m);
 std::vector<uint8_t> encode(const SwapchainDestroyed &m);
@@ -128,6 +161,7 @@ std::vector<uint8_t> encode(const FramePresent &m);
 std::vector<uint8_t> encode(const VerifyFrame &m);
 std::vector<uint8_t> encode(const SplitConfig &m);
 std::vector<uint8_t> encode(const Tiles &m);
+std::vector<uint8_t> encode(const ImageLayouts &m);
 
 // Decoders check every length against the bytes present and the caps above, and reject trailing
 // bytes; errors are one line. `max_bytes` caps MemoryData and VerifyFrame payloads.
@@ -140,5 +174,6 @@ Result<VerifyFrame> decode_verify_frame(std::span<const uint8_t> payload, uint32
 Result<SplitConfig> decode_split_config(std::span<const uint8_t> payload);
 // `max_bytes` caps each tile's data.
 Result<Tiles> decode_tiles(std::span<const uint8_t> payload, uint32_t max_bytes);
+Result<ImageLayouts> decode_image_layouts(std::span<const uint8_t> payload);
 
 } // namespace splitvk::protocol

@@ -53,6 +53,8 @@ const char *message_type_name(uint16_t type) {
         return "SplitConfig";
     case MessageType::VerifyFrame:
         return "VerifyFrame";
+    case MessageType::ImageLayouts:
+        return "ImageLayouts";
     default:
         break;
     }
@@ -68,7 +70,7 @@ bool is_defined_type(uint16_t type) {
     case MessageClass::Control:
         return type >= to_wire(MessageType::Hello) && type <= to_wire(MessageType::Pong);
     case MessageClass::Metadata:
-        return type >= to_wire(MessageType::MemoryData) && type <= to_wire(MessageType::SplitConfig);
+        return type >= to_wire(MessageType::MemoryData) && type <= to_wire(MessageType::ImageLayouts);
     }
     return false;
 }

@@ -65,6 +65,7 @@ enum class MessageType : uint16_t {
     SwapchainDestroyed = 0x1005, // the client destroyed a swapchain
     VerifyFrame = 0x1006,        // a whole presented frame read back by the server (SPLITVK_VERIFY)
     SplitConfig = 0x1007,        // the client's split settings: eyes, fovea, codec (client -> server)
+    ImageLayouts = 0x1008,       // the client's VkSubresourceLayouts of a linear image (client -> server)
 };
 
 enum class MessageClass { Invalid, Control, Vulkan, Metadata };

@@ -35,6 +35,7 @@ bool client_type(uint16_t type) {
     case MessageType::SwapchainImages:
     case MessageType::SwapchainDestroyed:
     case MessageType::SplitConfig:
+    case MessageType::ImageLayouts:
         return true;
     default:
         return false;
@@ -201,6 +202,14 @@ bool Session::handle(protocol::Message &message, bool *done, std::string *error)
             return false;
         }
         return replayer_.split_config(*m, error);
+    }
+    case MessageType::ImageLayouts: {
+        auto m = protocol::decode_image_layouts(message.payload);
+        if (!m) {
+            *error = "ImageLayouts: " + m.error();
+            return false;
+        }
+        return replayer_.image_layouts(*m, error);
     }
     case MessageType::FrameBegin: {
         auto m = protocol::decode_frame_begin(message.payload);

@@ -1,10 +1,13 @@
 #include "memory_rebind.h"
 
 #include "vk_codec.h"
+#include "vk_format_info.h"
 
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
+#include <map>
+#include <tuple>
 
 namespace splitvk::agent {
 
@@ -70,7 +73,134 @@ void MemoryRebind::image_created(VkImage image, const VkImageCreateInfo &info) {
     Resource r;
     r.is_image = true;
     r.tiling = info.tiling;
+    r.image_type = info.imageType;
+    r.format = info.format;
+    r.extent = info.extent;
+    r.mip_levels = info.mipLevels;
+    r.array_layers = info.arrayLayers;
     resources_[codec::handle_value(image)] = r;
+}
+
+namespace {
+
+// Bytes of the client's range that reach the agent's allocation: copied 1:1, no more than it
+// holds; re-laid, every byte of the client's image (place() keeps to the agent's rows).
+template <class Resource>
+VkDeviceSize covered(const Resource &r) {
+    return r.relayout.empty() ? std::min(r.client_size, r.mapped_size) : r.client_size;
+}
+
+} // namespace
+
+bool MemoryRebind::image_layouts(VkImage image, const protocol::ImageLayouts &layouts, std::string *error,
+                                 std::string *warning) {
+    auto it = resources_.find(codec::handle_value(image));
+    if (it == resources_.end() || !it->second.is_image) {
+        *error = "image " + hex(codec::handle_value(image)) + " was not created through the stream";
+        return false;
+    }
+    Resource &r = it->second;
+    if (r.tiling != VK_IMAGE_TILING_LINEAR) {
+        *error = "the image's tiling is not VK_IMAGE_TILING_LINEAR";
+        return false;
+    }
+    if (r.has_layouts) {
+        *error = "the image's layouts came already";
+        return false;
+    }
+    if (layouts.format != static_cast<uint32_t>(r.format) || layouts.width != r.extent.width ||
+        layouts.height != r.extent.height || layouts.depth != r.extent.depth ||
+        layouts.mip_levels != r.mip_levels || layouts.array_layers != r.array_layers) {
+        *error = "format, extent, mip levels or array layers differ from the image's vkCreateImage";
+        return false;
+    }
+    r.has_layouts = true;
+    const FormatInfo format = format_info(r.format);
+    if (format.block_bytes == 0 || (format.depth && format.stencil)) {
+        *warning = "linear image of VkFormat " + std::to_string(r.format) +
+                   " (multi-planar or depth/stencil): its bytes are copied 1:1, exact only when the "
+                   "client's driver lays it out as the agent's does";
+        r.has_layouts = false;
+        return true;
+    }
+    const VkImageAspectFlagBits aspect = format.depth     ? VK_IMAGE_ASPECT_DEPTH_BIT
+                                         : format.stencil ? VK_IMAGE_ASPECT_STENCIL_BIT
+                                                          : VK_IMAGE_ASPECT_COLOR_BIT;
+    VkMemoryRequirements req{};
+    vkGetImageMemoryRequirements(context_.device, image, &req);
+    const bool is_3d = r.image_type == VK_IMAGE_TYPE_3D;
+    std::map<std::tuple<uint32_t, uint32_t>, const protocol::SubresourceLayout *> by_subresource;
+    for (const protocol::SubresourceLayout &sub : layouts.subresources)
+        if (sub.aspect == static_cast<uint32_t>(aspect))
+            by_subresource[{sub.mip_level, sub.array_layer}] = &sub;
+    std::vector<Relayout> relayout;
+    bool same = true;
+    VkDeviceSize client_end = 0;
+    for (uint32_t mip = 0; mip < r.mip_levels; ++mip) {
+        const auto at_mip = [mip](uint32_t v) { return std::max(v >> mip, 1u); };
+        RowShape shape;
+        shape.row_bytes =
+            VkDeviceSize{(at_mip(r.extent.width) + format.block_width - 1) / format.block_width} *
+            format.block_bytes;
+        shape.rows = (at_mip(r.extent.height) + format.block_height - 1) / format.block_height;
+        shape.slices = is_3d ? at_mip(r.extent.depth) : 1;
+        for (uint32_t layer = 0; layer < r.array_layers; ++layer) {
+            const std::string which = "mip " + std::to_string(mip) + ", layer " + std::to_string(layer);
+            const auto found = by_subresource.find({mip, layer});
+            if (found == by_subresource.end()) {
+                *error = "no layout for " + which;
+                return false;
+            }
+            const protocol::SubresourceLayout *client = found->second;
+            Relayout l;
+            l.shape = shape;
+            l.client = {client->offset, client->row_pitch, client->depth_pitch};
+            uint64_t client_span = 0;
+            if (!row_span(shape, l.client, &client_span) || client_span > client->size) {
+                *error = "the layout of " + which + " (row pitch " + std::to_string(client->row_pitch) +
+                         ", depth pitch " + std::to_string(client->depth_pitch) + ", size " +
+                         std::to_string(client->size) + ") cannot hold " + std::to_string(shape.rows) +
+                         " rows of " + std::to_string(shape.row_bytes) + " bytes";
+                return false;
+            }
+            const VkImageSubresource sub{static_cast<VkImageAspectFlags>(aspect), mip, layer};
+            VkSubresourceLayout agent{};
+            vkGetImageSubresourceLayout(context_.device, image, &sub, &agent);
+            l.agent = {agent.offset, agent.rowPitch, agent.depthPitch};
+            uint64_t agent_span = 0;
+            if (!row_span(shape, l.agent, &agent_span) || agent.offset > req.size ||
+                agent_span > req.size - agent.offset) {
+                *error = "the agent's own layout of " + which + " does not fit its memory requirements";
+                return false;
+            }
+            client_end = std::max(client_end, client->offset + client_span);
+            // Pitches that nothing steps over need not agree.
+            same = same && l.client.offset == l.agent.offset &&
+                   (shape.rows == 1 || l.client.row_pitch == l.agent.row_pitch) &&
+                   (shape.slices == 1 || l.client.depth_pitch == l.agent.depth_pitch);
+            relayout.push_back(l);
+        }
+    }
+    if (!same) r.relayout = std::move(relayout);
+    r.client_image_bytes = client_end;
+    if (r.memory) { // bound before its layouts came: lay the shadow out again
+        auto m = memories_.find(r.memory_id);
+        if (r.mapped) std::memset(r.mapped, 0, r.mapped_size);
+        if (m != memories_.end()) {
+            r.client_size = std::min(r.client_image_bytes, m->second.size - r.client_offset);
+            copy_shadow(m->second, r);
+        }
+    }
+    return true;
+}
+
+void MemoryRebind::place(const Resource &r, VkDeviceSize at, const uint8_t *src, VkDeviceSize n) {
+    if (r.relayout.empty()) {
+        std::memcpy(r.mapped + at, src, n);
+        return;
+    }
+    for (const Relayout &l : r.relayout)
+        relay_rows(l, r.mapped, at, src, n);
 }
 
 void MemoryRebind::release(Resource &resource) {
@@ -193,10 +323,9 @@ bool MemoryRebind::bind(uint64_t handle, uint64_t memory_id, VkDeviceSize offset
         }
     }
     if (resource.is_image && resource.tiling == VK_IMAGE_TILING_LINEAR) {
-        // The client wrote its linear image with ITS subresource layout, which the wire does not
-        // carry: bytes are copied 1:1, which is exact when both sides lay the image out alike
-        // (same driver); see the header.
-        resource.client_size = req.size;
+        // The client's image ends where its layouts say; without them (copied 1:1), where the
+        // agent's does.
+        resource.client_size = resource.has_layouts ? resource.client_image_bytes : req.size;
     }
     if (!resource.is_image || resource.tiling == VK_IMAGE_TILING_LINEAR) {
         resource.client_size = std::min(resource.client_size, m->second.size - offset);
@@ -208,13 +337,13 @@ bool MemoryRebind::bind(uint64_t handle, uint64_t memory_id, VkDeviceSize offset
 void MemoryRebind::copy_shadow(const ClientMemory &memory, Resource &resource) {
     if (!resource.mapped) return;
     const VkDeviceSize begin = resource.client_offset;
-    const VkDeviceSize end = begin + std::min(resource.client_size, resource.mapped_size);
+    const VkDeviceSize end = begin + covered(resource);
     for (auto it = memory.pages.lower_bound(begin / kPageSize); it != memory.pages.end(); ++it) {
         const VkDeviceSize page_begin = it->first * kPageSize;
         if (page_begin >= end) break;
         const VkDeviceSize from = std::max(begin, page_begin);
         const VkDeviceSize to = std::min(end, page_begin + kPageSize);
-        std::memcpy(resource.mapped + (from - begin), it->second.get() + (from - page_begin), to - from);
+        place(resource, from - begin, it->second.get() + (from - page_begin), to - from);
     }
 }
 
@@ -255,11 +384,11 @@ bool MemoryRebind::write(uint64_t memory_id, VkDeviceSize offset, std::span<cons
         const Resource &r = resources_.at(handle);
         if (!r.mapped || (r.is_image && r.tiling != VK_IMAGE_TILING_LINEAR)) continue;
         const VkDeviceSize r_begin = r.client_offset;
-        const VkDeviceSize r_end = r_begin + std::min(r.client_size, r.mapped_size);
+        const VkDeviceSize r_end = r_begin + covered(r);
         const VkDeviceSize from = std::max(offset, r_begin);
         const VkDeviceSize to = std::min(end, r_end);
         if (from >= to) continue;
-        std::memcpy(r.mapped + (from - r_begin), bytes.data() + (from - offset), to - from);
+        place(r, from - r_begin, bytes.data() + (from - offset), to - from);
     }
     return true;
 }

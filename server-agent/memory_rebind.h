@@ -8,11 +8,17 @@
 //
 // Buffers get host-visible coherent memory and receive MemoryData directly. Optimal-tiling images
 // get device-local memory and receive contents only through GPU copies, as applications do.
-// Linear images get host-visible memory and receive MemoryData 1:1 at the same offsets: exact when
-// the client's driver lays the image out as the agent's does (same driver); across drivers the
-// rows would have to be re-pitched from the client's VkSubresourceLayout, which the protocol does
-// not carry yet.
+// Linear images get host-visible memory, and the bytes the host wrote into them are laid out by
+// the client's driver, which need not place rows where the agent's does (lavapipe packs the rows
+// of a small RGBA8 image tightly; GPUs align row pitch and subresource offsets). The client sends
+// the VkSubresourceLayout of every subresource (ImageLayouts); MemoryData and the shadow applied at
+// bind time are then copied row by row, each byte of a row (in texel blocks, vk_format_info.h)
+// from the client's layout to the agent's own, and row padding is dropped. Without ImageLayouts
+// (a format whose aspects the agent does not re-lay: multi-planar or combined depth/stencil), or
+// when both layouts are the same, bytes are copied 1:1 at the same offsets.
 
+#include "linear_layout.h"
+#include "session.h"
 #include "vulkan_context.h"
 
 #include <vulkan/vulkan.h>
@@ -24,6 +30,7 @@
 #include <string>
 #include <unordered_map>
 #include <unordered_set>
+#include <vector>
 
 namespace splitvk::agent {
 
@@ -58,6 +65,12 @@ public:
     void buffer_destroyed(VkBuffer buffer);
     void image_destroyed(VkImage image);
 
+    // ImageLayouts for a linear image created through the stream (before or after its bind). An
+    // error ends the session (a layout that does not describe the image); `warning` gets one line
+    // when the image's bytes stay copied 1:1 (an aspect layout the agent does not re-lay).
+    bool image_layouts(VkImage image, const protocol::ImageLayouts &layouts, std::string *error,
+                       std::string *warning);
+
     // vkBind*Memory*: allocates the resource's own memory and binds it; applies the shadow.
     bool bind_buffer(VkBuffer buffer, uint64_t memory_id, VkDeviceSize offset, std::string *error);
     bool bind_image(VkImage image, uint64_t memory_id, VkDeviceSize offset, std::string *error);
@@ -83,7 +96,16 @@ private:
         bool is_image = false;
         VkDeviceSize client_size = 0; // bytes of client memory the resource covers (buffers)
         VkImageTiling tiling = VK_IMAGE_TILING_OPTIMAL;
-        uint64_t memory_id = 0; // 0 while unbound
+        // Linear images: what ImageLayouts is checked against, and what it gave.
+        VkImageType image_type = VK_IMAGE_TYPE_2D;
+        VkFormat format = VK_FORMAT_UNDEFINED;
+        VkExtent3D extent{};
+        uint32_t mip_levels = 1;
+        uint32_t array_layers = 1;
+        bool has_layouts = false;
+        VkDeviceSize client_image_bytes = 0; // the client's image: the end of its last subresource
+        std::vector<Relayout> relayout;      // per subresource; empty: bytes are copied 1:1
+        uint64_t memory_id = 0;              // 0 while unbound
         VkDeviceSize client_offset = 0;
         VkDeviceMemory memory = VK_NULL_HANDLE;
         uint8_t *mapped = nullptr; // host-visible buffers: written directly
@@ -94,6 +116,9 @@ private:
     bool bind(uint64_t handle, uint64_t memory_id, VkDeviceSize offset, const VkMemoryRequirements &req,
               std::string *error);
     void copy_shadow(const ClientMemory &memory, Resource &resource);
+    // `n` bytes at `src` that the client wrote at `at` bytes into the resource's range, into the
+    // agent's allocation: 1:1, or row by row through `relayout`.
+    static void place(const Resource &resource, VkDeviceSize at, const uint8_t *src, VkDeviceSize n);
     void release(Resource &resource);
 
     VulkanContext &context_;

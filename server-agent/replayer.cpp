@@ -320,6 +320,26 @@ bool Replayer::memory_data(const protocol::MemoryData &message, std::string *err
     return true;
 }
 
+bool Replayer::image_layouts(const protocol::ImageLayouts &message, std::string *error) {
+    const auto *entry = table_.find(message.image_id);
+    if (!entry || entry->type != VK_OBJECT_TYPE_IMAGE) {
+        *error = "ImageLayouts: unknown VkImage id " + hex(message.image_id);
+        return false;
+    }
+    quiesce(); // a bound image's contents are laid out again
+    std::string warning;
+    if (!memory_.image_layouts(codec::to_handle<VkImage>(entry->handle), message, error, &warning)) {
+        *error = "ImageLayouts: image " + hex(message.image_id) + ": " + *error;
+        return false;
+    }
+    if (!warning.empty() && !linear_copy_logged_) {
+        linear_copy_logged_ = true;
+        SPLITVK_WARN("session %llu: image %s: %s", static_cast<unsigned long long>(session_id_),
+                     hex(message.image_id).c_str(), warning.c_str());
+    }
+    return true;
+}
+
 bool Replayer::swapchain_images(const protocol::SwapchainImages &message, std::string *error) {
     if (!swapchains_.create(message, error)) {
         *error = "SwapchainImages: swapchain " + hex(message.swapchain_id) + ": " + *error;

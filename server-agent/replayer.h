@@ -40,6 +40,8 @@ public:
     bool memory_data(const protocol::MemoryData &message, std::string *error);
     bool swapchain_images(const protocol::SwapchainImages &message, std::string *error);
     bool swapchain_destroyed(const protocol::SwapchainDestroyed &message, std::string *error);
+    // The client's layout of a linear image, for MemoryData into it (memory_rebind.h).
+    bool image_layouts(const protocol::ImageLayouts &message, std::string *error);
     // FramePresent: hands the first presented image's fovea to the tile streamer (when tiles are
     // enabled); with kPresentVerify, also waits for the frame's work and reads each image back.
     bool frame_present(const protocol::FramePresent &message, std::vector<protocol::VerifyFrame> &verify,
@@ -124,6 +126,7 @@ private:
     std::string error_;
     bool gpu_busy_ = false;
     bool unsupported_format_logged_ = false;
+    bool linear_copy_logged_ = false;
     uint64_t commands_ = 0;
     uint64_t submits_ = 0;
 };

@@ -72,6 +72,9 @@ options:
                          (same picture)
   --dynamic-rendering    draw with VK_KHR_dynamic_rendering instead of a render pass (same picture)
                          (these three vary --path direct only)
+  --linear-textures      upload the textures through linear-tiling images that the host writes at
+                         the driver's row pitch, instead of a staging buffer (same picture, any
+                         --path)
   --screenshot N PATH    write frame N (0-based) as a PNG, read back from its swapchain image
                          before it is presented
   --resize-at N WxH      resize the window to WxH before frame N; the swapchain is recreated when
@@ -129,6 +132,8 @@ Options parse_options(int argc, char **argv) {
             o.clear_depth_per_eye = true;
         } else if (arg == "--dynamic-rendering") {
             o.dynamic_rendering = true;
+        } else if (arg == "--linear-textures") {
+            o.linear_textures = true;
         } else if (arg == "--path") {
             const std::string_view name = value();
             const auto known = std::find_if(std::begin(path_names), std::end(path_names),

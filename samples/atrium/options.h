@@ -23,6 +23,7 @@ struct Options {
     bool static_viewports = false;
     bool clear_depth_per_eye = false;
     bool dynamic_rendering = false;
+    bool linear_textures = false;
     PathKind path = PathKind::direct;
     bool hold = false;
     // --resize-at N WxH: before frame N, resize the window (the swapchain is then recreated).

@@ -18,6 +18,7 @@ struct RendererOptions {
     bool static_viewports = false;            // per-eye pipelines with static viewport/scissor
     bool clear_depth_per_eye = false;         // vkCmdClearAttachments on each eye's depth
     bool dynamic_rendering = false;           // vkCmdBeginRenderingKHR instead of a render pass
+    bool linear_textures = false;             // textures uploaded through linear images (any path)
     PathKind path = PathKind::direct;
 };
 

@@ -1,9 +1,11 @@
 #include "scene_gpu.h"
 
 #include "atrium_spirv.h"
+#include "linear_upload.h"
 #include "pipeline.h"
 
 #include <cstring>
+#include <optional>
 
 namespace atrium {
 
@@ -33,9 +35,10 @@ float eye_split(VkExtent2D extent, uint32_t eyes) {
     return eyes == 1 ? 1.0f : float(extent.width / eyes) / float(extent.width);
 }
 
-SceneGpu::SceneGpu(VkContext &context, const Scene &scene, const std::vector<Texture> &textures)
+SceneGpu::SceneGpu(VkContext &context, const Scene &scene, const std::vector<Texture> &textures,
+                   bool linear_textures)
     : context_(context), scene_(scene), device_(context.device()) {
-    upload(textures);
+    upload(textures, linear_textures);
     create_descriptors(textures.size());
     create_pipeline_layout();
 }
@@ -53,12 +56,16 @@ SceneGpu::~SceneGpu() {
     context_.destroy(vertices_);
 }
 
-void SceneGpu::upload(const std::vector<Texture> &textures) {
+void SceneGpu::upload(const std::vector<Texture> &textures, bool linear_textures) {
     const VkDeviceSize vertex_bytes = scene_.vertices.size() * sizeof(Vertex);
     const VkDeviceSize index_bytes = scene_.indices.size() * sizeof(uint32_t);
     VkDeviceSize staging_bytes = align_up(vertex_bytes, 16) + align_up(index_bytes, 16);
-    for (const Texture &t : textures)
-        staging_bytes += align_up(t.texels.size(), 16);
+    std::optional<LinearUpload> linear;
+    if (linear_textures)
+        linear.emplace(context_, textures, texture_format);
+    else
+        for (const Texture &t : textures)
+            staging_bytes += align_up(t.texels.size(), 16);
 
     Buffer staging =
         context_.create_buffer(staging_bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
@@ -136,7 +143,8 @@ void SceneGpu::upload(const std::vector<Texture> &textures) {
     }
     vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
                          nullptr, 0, nullptr, uint32_t(to_transfer.size()), to_transfer.data());
-    for (size_t i = 0; i < textures.size(); ++i) {
+    if (linear) linear->record(cmd, textures_);
+    for (size_t i = 0; i < textures.size() && !linear; ++i) {
         const Texture &t = textures[i];
         const VkDeviceSize base = stage(t.texels.data(), t.texels.size());
         std::vector<VkBufferImageCopy> regions;

@@ -57,7 +57,10 @@ struct ScenePipelineInfo {
 
 class SceneGpu {
 public:
-    SceneGpu(VkContext &context, const Scene &scene, const std::vector<Texture> &textures);
+    // With `linear_textures` the textures reach the device through linear images (linear_upload.h)
+    // instead of the staging buffer.
+    SceneGpu(VkContext &context, const Scene &scene, const std::vector<Texture> &textures,
+             bool linear_textures);
     ~SceneGpu();
     SceneGpu(const SceneGpu &) = delete;
     SceneGpu &operator=(const SceneGpu &) = delete;
@@ -78,7 +81,7 @@ public:
     VkContext &context() const { return context_; }
 
 private:
-    void upload(const std::vector<Texture> &textures);
+    void upload(const std::vector<Texture> &textures, bool linear_textures);
     void create_descriptors(size_t textures);
     void create_pipeline_layout();
 

@@ -399,6 +399,195 @@ void expect_good_session(Agent &agent, uint64_t session) {
     EXPECT_TRUE(agent.wait_for_end(session, "closed by the client")) << agent.log();
 }
 
+// --- linear images: the client's layout is not the agent's ------------------------------------
+
+// A 4x8 RGBA8 linear image with 2 layers, laid out as a driver with 80-byte rows and layers 1024
+// bytes apart would (lavapipe packs the 16-byte rows), bound at client offset 512.
+constexpr uint64_t kLinearImage = 0xa000, kLinearMemory = 0xb000;
+constexpr VkDeviceSize kLinearBind = 512, kClientRowPitch = 80, kClientArrayPitch = 1024;
+constexpr uint32_t kLinearLayers = 2;
+
+uint8_t texel_byte(uint32_t layer, uint32_t x, uint32_t y, uint32_t k) {
+    return static_cast<uint8_t>(layer * 97 + y * 31 + x * 7 + k * 3 + 1);
+}
+
+protocol::ImageLayouts client_layouts() {
+    protocol::ImageLayouts m;
+    m.device_id = kDevice;
+    m.image_id = kLinearImage;
+    m.format = VK_FORMAT_R8G8B8A8_UNORM;
+    m.width = kWidth;
+    m.height = kHeight;
+    m.mip_levels = 1;
+    m.array_layers = kLinearLayers;
+    for (uint32_t layer = 0; layer < kLinearLayers; ++layer)
+        m.subresources.push_back({VK_IMAGE_ASPECT_COLOR_BIT, 0, layer, layer * kClientArrayPitch,
+                                  kClientRowPitch * kHeight, kClientRowPitch, kClientArrayPitch, 0});
+    return m;
+}
+
+// The client's allocation as its host wrote it: texels in its layout, 0xee in the row padding.
+std::vector<uint8_t> client_linear_memory() {
+    std::vector<uint8_t> memory(4096, 0xee);
+    for (uint32_t layer = 0; layer < kLinearLayers; ++layer)
+        for (uint32_t y = 0; y < kHeight; ++y)
+            for (uint32_t x = 0; x < kWidth; ++x)
+                for (uint32_t k = 0; k < 4; ++k)
+                    memory[kLinearBind + layer * kClientArrayPitch + y * kClientRowPitch + x * 4 + k] =
+                        texel_byte(layer, x, y, k);
+    return memory;
+}
+
+// Rows 0-3 from layer 0, rows 4-7 from layer 1, as the stream below copies them.
+std::vector<uint8_t> expected_linear_pixels() {
+    std::vector<uint8_t> v;
+    for (uint32_t y = 0; y < kHeight; ++y)
+        for (uint32_t x = 0; x < kWidth; ++x)
+            for (uint32_t k = 0; k < 4; ++k)
+                v.push_back(texel_byte(y < kHeight / 2 ? 0 : 1, x, y, k));
+    return v;
+}
+
+// Sends [from, to) of `memory` as MemoryData blocks of `block` bytes: blocks that start and end
+// inside rows and padding, as the layer's diff blocks do.
+bool send_blocks(Client &client, const std::vector<uint8_t> &memory, size_t from, size_t to, size_t block) {
+    for (size_t at = from; at < to; at += block) {
+        const size_t n = std::min(block, to - at);
+        protocol::MemoryData m;
+        m.device_id = kDevice;
+        m.memory_id = kLinearMemory;
+        m.offset = at;
+        m.bytes.assign(memory.begin() + at, memory.begin() + at + n);
+        if (!client.send(MessageType::MemoryData, protocol::encode(m))) return false;
+    }
+    return true;
+}
+
+// The linear image, its layouts, its memory (part before the bind, the rest after), both layers
+// copied into the swapchain image, and a verified present. Returns the pixels the agent sent back.
+bool run_linear_stream(Client &client, const protocol::ImageLayouts &layouts, std::vector<uint8_t> *pixels,
+                       std::string *why, bool layouts_first = true) {
+    codec::Encoder e;
+    encode_setup(e);
+    VkDevice dev = id<VkDevice>(kDevice);
+    VkImageCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
+    info.imageType = VK_IMAGE_TYPE_2D;
+    info.format = VK_FORMAT_R8G8B8A8_UNORM;
+    info.extent = {kWidth, kHeight, 1};
+    info.mipLevels = 1;
+    info.arrayLayers = kLinearLayers;
+    info.samples = VK_SAMPLE_COUNT_1_BIT;
+    info.tiling = VK_IMAGE_TILING_LINEAR;
+    info.usage = VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+    info.initialLayout = VK_IMAGE_LAYOUT_PREINITIALIZED;
+    VkImage linear = id<VkImage>(kLinearImage);
+    codec::encode_vkCreateImage(e, dev, &info, nullptr, &linear);
+    VkMemoryAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    alloc.allocationSize = 4096;
+    VkDeviceMemory memory = id<VkDeviceMemory>(kLinearMemory);
+    codec::encode_vkAllocateMemory(e, dev, &alloc, nullptr, &memory);
+    if (!client.commands(e)) return *why = "send setup", false;
+    const auto send_layouts = [&] {
+        return client.send(MessageType::ImageLayouts, protocol::encode(layouts));
+    };
+    if (layouts_first && !send_layouts()) return *why = "send layouts", false;
+
+    const std::vector<uint8_t> bytes = client_linear_memory();
+    // Before the bind the bytes wait in the agent's shadow; after it they are routed at once.
+    if (!send_blocks(client, bytes, kLinearBind, kLinearBind + 150, 150)) return *why = "send", false;
+    codec::encode_vkBindImageMemory(e, dev, linear, memory, kLinearBind);
+    if (!client.commands(e)) return *why = "send bind", false;
+    if (!send_blocks(client, bytes, kLinearBind + 150, bytes.size(), 77)) return *why = "send", false;
+    // A client may also describe the image once its bytes are there: they are laid out again.
+    if (!layouts_first && !send_layouts()) return *why = "send layouts", false;
+
+    protocol::SwapchainImages sc;
+    sc.device_id = kDevice;
+    sc.swapchain_id = kSwapchain;
+    sc.width = kWidth;
+    sc.height = kHeight;
+    sc.format = VK_FORMAT_R8G8B8A8_UNORM;
+    sc.usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+    sc.image_ids = {kImage};
+    if (!client.send(MessageType::SwapchainImages, protocol::encode(sc))) return *why = "send", false;
+
+    VkCommandPoolCreateInfo pool{};
+    pool.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    VkCommandPool p = id<VkCommandPool>(kPool);
+    codec::encode_vkCreateCommandPool(e, dev, &pool, nullptr, &p);
+    VkCommandBufferAllocateInfo cba{};
+    cba.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    cba.commandPool = p;
+    cba.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    cba.commandBufferCount = 1;
+    VkCommandBuffer cb = id<VkCommandBuffer>(kCommandBuffer);
+    codec::encode_vkAllocateCommandBuffers(e, dev, &cba, &cb);
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    codec::encode_vkBeginCommandBuffer(e, cb, &begin, VK_COMMAND_BUFFER_LEVEL_PRIMARY);
+    VkImageMemoryBarrier barriers[2] = {};
+    for (VkImageMemoryBarrier &b : barriers) {
+        b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+        b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    }
+    barriers[0].srcAccessMask = VK_ACCESS_HOST_WRITE_BIT;
+    barriers[0].dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+    barriers[0].oldLayout = VK_IMAGE_LAYOUT_PREINITIALIZED;
+    barriers[0].newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    barriers[0].image = linear;
+    barriers[0].subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, kLinearLayers};
+    barriers[1].dstAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    barriers[1].oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    barriers[1].newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+    barriers[1].image = id<VkImage>(kImage);
+    barriers[1].subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    codec::encode_vkCmdPipelineBarrier(e, cb, VK_PIPELINE_STAGE_HOST_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0,
+                                       0, nullptr, 0, nullptr, 2, barriers);
+    VkImageCopy regions[2] = {};
+    for (uint32_t layer = 0; layer < kLinearLayers; ++layer) {
+        regions[layer].srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, layer, 1};
+        regions[layer].srcOffset = {0, static_cast<int32_t>(layer * kHeight / 2), 0};
+        regions[layer].dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        regions[layer].dstOffset = regions[layer].srcOffset;
+        regions[layer].extent = {kWidth, kHeight / 2, 1};
+    }
+    codec::encode_vkCmdCopyImage(e, cb, linear, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, id<VkImage>(kImage),
+                                 VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 2, regions);
+    barriers[1].srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    barriers[1].dstAccessMask = 0;
+    barriers[1].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+    barriers[1].newLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+    codec::encode_vkCmdPipelineBarrier(e, cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                                       VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, 0, 0, nullptr, 0, nullptr, 1,
+                                       &barriers[1]);
+    codec::encode_vkEndCommandBuffer(e, cb);
+    VkSubmitInfo submit{};
+    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    submit.commandBufferCount = 1;
+    submit.pCommandBuffers = &cb;
+    codec::encode_vkQueueSubmit(e, id<VkQueue>(kQueue), 1, &submit, VK_NULL_HANDLE);
+    if (!client.commands(e)) return *why = "send commands", false;
+
+    protocol::FramePresent present;
+    present.queue_id = kQueue;
+    present.flags = protocol::kPresentVerify;
+    present.images = {{kSwapchain, 0}};
+    if (!client.send(MessageType::FramePresent, protocol::encode(present)))
+        return *why = "send present", false;
+    auto reply = client.connection->receive(60s);
+    if (!reply) return *why = "no VerifyFrame: " + client.connection->close_reason(), false;
+    if (reply->type != protocol::to_wire(MessageType::VerifyFrame))
+        return *why = std::string("got ") + protocol::message_type_name(reply->type), false;
+    auto frame = protocol::decode_verify_frame(reply->payload, 1u << 20);
+    if (!frame) return *why = frame.error(), false;
+    *pixels = frame->pixels;
+    codec::encode_vkDestroyImage(e, dev, linear, nullptr);
+    codec::encode_vkFreeMemory(e, dev, memory, nullptr);
+    return client.commands(e) ? true : (*why = "send teardown", false);
+}
+
 // --- raw sockets for what the library refuses to send -------------------------------------------
 
 int raw_connect(const Agent &agent) {
@@ -464,6 +653,53 @@ TEST_F(AgentTest, GoodStreamReplaysAndVerifies) {
     EXPECT_TRUE(agent_.wait_for_log("session 1: closed after")) << agent_.log();
     // Two sessions one after the other each get their own device.
     expect_good_session(agent_, 2);
+}
+
+TEST_F(AgentTest, LinearImageIsRelaidFromTheClientsLayout) {
+    Client client;
+    ASSERT_TRUE(client.connect(agent_)) << client.error;
+    std::vector<uint8_t> pixels;
+    std::string why;
+    ASSERT_TRUE(run_linear_stream(client, client_layouts(), &pixels, &why)) << why << "\n" << agent_.log();
+    // Copied 1:1 at the client's offsets, rows 1-7 would read the client's padding and other rows.
+    EXPECT_EQ(pixels, expected_linear_pixels());
+    client.bye();
+    EXPECT_TRUE(agent_.wait_for_end(1, "closed by the client")) << agent_.log();
+}
+
+TEST_F(AgentTest, LinearImageLayoutsAfterItsBindLayTheBytesOutAgain) {
+    Client client;
+    ASSERT_TRUE(client.connect(agent_)) << client.error;
+    std::vector<uint8_t> pixels;
+    std::string why;
+    ASSERT_TRUE(run_linear_stream(client, client_layouts(), &pixels, &why, false)) << why << "\n"
+                                                                                   << agent_.log();
+    EXPECT_EQ(pixels, expected_linear_pixels());
+    client.bye();
+    EXPECT_TRUE(agent_.wait_for_end(1, "closed by the client")) << agent_.log();
+}
+
+TEST_F(AgentTest, LinearImageLayoutThatCannotHoldItsRowsEndsOnlyThatSession) {
+    Client client;
+    ASSERT_TRUE(client.connect(agent_)) << client.error;
+    auto layouts = client_layouts();
+    layouts.subresources[1].row_pitch = 8; // shorter than a 16-byte row
+    std::vector<uint8_t> pixels;
+    std::string why;
+    run_linear_stream(client, layouts, &pixels, &why);
+    expect_error_then_recovery(1, "ImageLayouts: image 0xa000: the layout of mip 0, layer 1 (row pitch 8");
+}
+
+TEST_F(AgentTest, LinearImageLayoutForAnotherFormatEndsOnlyThatSession) {
+    Client client;
+    ASSERT_TRUE(client.connect(agent_)) << client.error;
+    auto layouts = client_layouts();
+    layouts.format = VK_FORMAT_B8G8R8A8_UNORM;
+    std::vector<uint8_t> pixels;
+    std::string why;
+    run_linear_stream(client, layouts, &pixels, &why);
+    expect_error_then_recovery(
+        1, "ImageLayouts: image 0xa000: format, extent, mip levels or array layers differ");
 }
 
 TEST_F(AgentTest, TruncatedMessageEndsOnlyThatSession) {

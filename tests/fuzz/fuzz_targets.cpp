@@ -175,6 +175,14 @@ void decode_metadata(const protocol::Message &m, codec::HandleTable &table) {
     case MessageType::SplitConfig:
         if (auto d = protocol::decode_split_config(p)) touch(d->codec);
         break;
+    case MessageType::ImageLayouts:
+        if (auto d = protocol::decode_image_layouts(p)) {
+            // As the agent's ImageLayouts does: the id must name a live image.
+            if (const auto *image = table.find(d->image_id)) touch(image->type);
+            for (const auto &sub : d->subresources)
+                touch(sub);
+        }
+        break;
     default:
         break;
     }

@@ -82,6 +82,75 @@ TEST(ProtocolSession, VerifyFrameChecksPixelCount) {
     EXPECT_FALSE(decode_verify_frame(encode(m), 1 << 20).ok());
 }
 
+TEST(ProtocolSession, ImageLayoutsRoundTripAndRanges) {
+    ImageLayouts m;
+    m.device_id = 3;
+    m.image_id = 0xa000;
+    m.format = 37; // VK_FORMAT_R8G8B8A8_UNORM
+    m.width = 4;
+    m.height = 8;
+    m.mip_levels = 2;
+    m.array_layers = 2;
+    m.subresources = {{1, 0, 0, 0, 640, 80, 1024, 0},
+                      {1, 0, 1, 1024, 640, 80, 1024, 0},
+                      {1, 1, 0, 2048, 320, 80, 1024, 0},
+                      {1, 1, 1, 3072, 320, 80, 1024, 0}};
+    const auto bytes = encode(m);
+    const auto back = decode_image_layouts(bytes);
+    ASSERT_TRUE(back.ok()) << back.error();
+    EXPECT_EQ(back->image_id, m.image_id);
+    EXPECT_EQ(back->format, 37u);
+    EXPECT_EQ(back->height, 8u);
+    ASSERT_EQ(back->subresources.size(), 4u);
+    EXPECT_EQ(back->subresources[3].offset, 3072u);
+    EXPECT_EQ(back->subresources[3].row_pitch, 80u);
+    EXPECT_EQ(back->subresources[2].mip_level, 1u);
+    EXPECT_EQ(back->subresources[1].array_layer, 1u);
+    EXPECT_EQ(back->subresources[1].array_pitch, 1024u);
+    expect_truncations_refused(bytes, decode_image_layouts);
+
+    const auto refused = [](ImageLayouts bad, const char *why) {
+        const auto r = decode_image_layouts(encode(bad));
+        ASSERT_FALSE(r.ok()) << why;
+        EXPECT_EQ(r.error().find('\n'), std::string::npos);
+    };
+    auto bad = m;
+    bad.subresources[1] = bad.subresources[0];
+    refused(bad, "a subresource twice");
+    bad = m;
+    bad.subresources[0].aspect = 0x3; // COLOR | DEPTH: not one aspect
+    refused(bad, "two aspects");
+    bad.subresources[0].aspect = 0x8; // METADATA
+    refused(bad, "an aspect that has no layout");
+    bad = m;
+    bad.subresources[0].mip_level = 2;
+    refused(bad, "a mip the image lacks");
+    bad = m;
+    bad.subresources[0].array_layer = 2;
+    refused(bad, "a layer the image lacks");
+    bad = m;
+    bad.subresources[0].row_pitch = kMaxLayoutBytes + 1;
+    refused(bad, "a pitch over the cap");
+    bad = m;
+    bad.width = 0;
+    refused(bad, "width 0");
+    bad = m;
+    bad.depth = kMaxImageExtent + 1;
+    refused(bad, "depth over the cap");
+    bad = m;
+    bad.mip_levels = kMaxImageMipLevels + 1;
+    refused(bad, "mip levels over the cap");
+    bad = m;
+    bad.subresources.clear();
+    refused(bad, "no subresources");
+    bad = m;
+    bad.array_layers = kMaxImageArrayLayers;
+    bad.subresources.clear();
+    for (uint32_t i = 0; i <= kMaxImageSubresources; ++i)
+        bad.subresources.push_back({1, i % 2, i / 2, 0, 0, 0, 0, 0});
+    refused(bad, "more subresources than the cap");
+}
+
 TEST(ProtocolSession, SplitConfigRoundTripAndRanges) {
     SplitConfig m;
     m.eyes = EyeMode::Two;

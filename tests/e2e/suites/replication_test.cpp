@@ -105,6 +105,19 @@ TEST_F(Replication, AtriumMonoVerifies) {
     expect_verified(r, kFrames);
 }
 
+// The textures reach the GPU through linear images the host wrote at the client driver's row
+// pitch: the layer sends their layouts (ImageLayouts) and the agent lays the bytes out for its own
+// driver. Both are lavapipe here, so this proves the path end to end, not a re-pitch (the agent
+// test does that with a client layout lavapipe would not make).
+TEST_F(Replication, AtriumLinearTexturesVerifies) {
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    auto r = run_app({atrium_path().string(), "--width", "600", "--height", "270", "--eyes", "2", "--frames",
+                      std::to_string(kFrames), "--linear-textures"},
+                     split_env(), out_, "atrium-linear", 180s);
+    expect_verified(r, kFrames);
+    EXPECT_TRUE(grep(read_file(out_ / "splitvk-agent.stderr"), "copied 1:1").empty());
+}
+
 class ReplicationCube : public Replication, public ::testing::WithParamInterface<const char *> {};
 
 TEST_P(ReplicationCube, Verifies) {
