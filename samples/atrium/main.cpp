@@ -81,10 +81,11 @@ int run(const Options &options) {
     install_signal_handlers();
 
     XcbWindow window(options.width, options.height, "splitvk-atrium");
-    VkContext context(window, options.dynamic_rendering);
+    VkContext context(window, options.dynamic_rendering, options.path == PathKind::multiview);
     const Scene scene = options.model_path.empty() ? build_atrium() : load_obj(options.model_path);
     Swapchain swapchain(context, {options.srgb ? VK_FORMAT_B8G8R8A8_SRGB : VK_FORMAT_B8G8R8A8_UNORM,
-                                  options.present_mode, options.screenshot_frame.has_value()});
+                                  options.present_mode, options.screenshot_frame.has_value(),
+                                  options.path == PathKind::compute});
     const CameraPath camera = CameraPath::for_scene(scene);
     std::optional<Renderer> renderer;
     { // the CPU copy of the textures is dropped once they are uploaded
@@ -93,12 +94,12 @@ int run(const Options &options) {
         renderer.emplace(context, swapchain, scene, textures, camera,
                          RendererOptions{options.eyes, options.screenshot_frame, options.static_viewports,
                                          options.clear_depth_per_eye, options.dynamic_rendering,
-                                         options.linear_textures});
+                                         options.linear_textures, options.path});
     }
     const VkExtent2D extent = swapchain.extent();
-    std::printf("atrium: %s triangles, %u textures, %ux%u per eye\n",
+    std::printf("atrium: %s triangles, %u textures, %ux%u per eye, path %s\n",
                 with_thousands(scene.triangle_count()).c_str(), texture_count, extent.width / options.eyes,
-                extent.height);
+                extent.height, path_name(options.path));
     std::fflush(stdout);
 
     // Present-to-present CPU time; frame 0 is timed from the start of the loop.

@@ -1,6 +1,8 @@
 #include "options.h"
 
+#include <algorithm>
 #include <charconv>
+#include <iterator>
 #include <stdexcept>
 #include <string_view>
 
@@ -18,7 +20,23 @@ T parse_number(std::string_view option, std::string_view text, T min, T max) {
     return value;
 }
 
+struct PathName {
+    PathKind kind;
+    const char *name;
+};
+constexpr PathName path_names[] = {
+    {PathKind::direct, "direct"},       {PathKind::hdr, "hdr"},
+    {PathKind::deferred, "deferred"},   {PathKind::multiview, "multiview"},
+    {PathKind::secondary, "secondary"}, {PathKind::compute, "compute"},
+};
+
 } // namespace
+
+const char *path_name(PathKind kind) {
+    for (const PathName &p : path_names)
+        if (kind == p.kind) return p.name;
+    return "?";
+}
 
 const char *usage() {
     return R"(usage: splitvk-atrium [options]
@@ -26,12 +44,25 @@ const char *usage() {
 Renders a deterministic walk through a procedural atrium (columns, arches, drapes; about 300k
 triangles and 49 procedurally generated textures), the stand-in for the Sponza workload of the
 split-rendering paper: side-by-side stereo, both eyes in one render pass straight into the
-swapchain image. Frame N is a function of N only, so every run shows the same pictures.
+swapchain image, or through one of the render paths of real engines (--path). Frame N is a
+function of N only, so every run shows the same pictures.
 
 options:
   --width W, --height H  window size, both eyes together (default 2400x1080: 1200x1080 per eye)
   --eyes 1|2             mono, or side-by-side stereo with eye 0 on the left half (default 2)
   --frames N             number of frames to render, numbered 0..N-1 (default 300)
+  --path NAME            how a frame is drawn; all paths show the same moving atrium:
+                           direct     the scene straight into the swapchain image (default)
+                           hdr        into an RGBA16F target, bloom at 1/2, 1/4, 1/8 size,
+                                      tone mapping into the swapchain image
+                           deferred   G-buffer (albedo, normal, depth), full-screen lighting
+                                      with texelFetch, post pass (tone map, vignette)
+                           multiview  both eyes in one VK_KHR_multiview pass into a 2-layer
+                                      eye texture, composed side by side
+                           secondary  the direct pass recorded in secondary command buffers
+                                      by 4 threads
+                           compute    into an RGBA16F target, a compute pass (blur, tone map)
+                                      into a storage image, blitted into the swapchain image
   --present-mode MODE    fifo, mailbox or immediate (default mailbox: not throttled to the
                          display, no tearing); unsupported modes fall back to fifo with a note
   --srgb                 use a B8G8R8A8_SRGB swapchain instead of B8G8R8A8_UNORM (same picture)
@@ -40,8 +71,10 @@ options:
   --clear-depth-per-eye  clear each eye's depth with vkCmdClearAttachments before drawing it
                          (same picture)
   --dynamic-rendering    draw with VK_KHR_dynamic_rendering instead of a render pass (same picture)
+                         (these three vary --path direct only)
   --linear-textures      upload the textures through linear-tiling images that the host writes at
-                         the driver's row pitch, instead of a staging buffer (same picture)
+                         the driver's row pitch, instead of a staging buffer (same picture, any
+                         --path)
   --screenshot N PATH    write frame N (0-based) as a PNG, read back from its swapchain image
                          before it is presented
   --resize-at N WxH      resize the window to WxH before frame N; the swapchain is recreated when
@@ -56,7 +89,7 @@ options:
                          ('frame,ms', the same present-to-present times the summary uses)
   --help                 show this text
 
-On start it prints 'atrium: T triangles, 49 textures, WxH per eye'. When the last frame has been
+On start it prints 'atrium: T triangles, 49 textures, WxH per eye, path NAME'. When the last frame has been
 presented it prints 'frame-time: median M ms, IQR Q ms, N frames' (CPU time between successive
 presents; frame 0 counts from the start of the render loop).
 )";
@@ -101,6 +134,15 @@ Options parse_options(int argc, char **argv) {
             o.dynamic_rendering = true;
         } else if (arg == "--linear-textures") {
             o.linear_textures = true;
+        } else if (arg == "--path") {
+            const std::string_view name = value();
+            const auto known = std::find_if(std::begin(path_names), std::end(path_names),
+                                            [&](const PathName &p) { return name == p.name; });
+            if (known == std::end(path_names))
+                throw std::invalid_argument(
+                    "--path: expected direct, hdr, deferred, multiview, secondary or compute, got '" +
+                    std::string(name) + "'");
+            o.path = known->kind;
         } else if (arg == "--screenshot") {
             o.screenshot_frame = parse_number<uint64_t>(arg, value(), 0, uint64_t(1) << 40);
             o.screenshot_path = value();
@@ -129,6 +171,10 @@ Options parse_options(int argc, char **argv) {
         throw std::invalid_argument("--screenshot " + std::to_string(*o.screenshot_frame) +
                                     ": only frames 0.." + std::to_string(o.frames - 1) + " are rendered");
     if (o.width < o.eyes) throw std::invalid_argument("--width must be at least --eyes");
+    if (o.path != PathKind::direct && (o.static_viewports || o.clear_depth_per_eye || o.dynamic_rendering))
+        throw std::invalid_argument(
+            "--static-viewports, --clear-depth-per-eye and --dynamic-rendering go with "
+            "--path direct only");
     return o;
 }
 

@@ -9,6 +9,10 @@
 
 namespace atrium {
 
+// --path: how a frame is drawn (render_path.h).
+enum class PathKind { direct, hdr, deferred, multiview, secondary, compute };
+const char *path_name(PathKind kind);
+
 struct Options {
     uint32_t width = 2400;
     uint32_t height = 1080;
@@ -20,6 +24,7 @@ struct Options {
     bool clear_depth_per_eye = false;
     bool dynamic_rendering = false;
     bool linear_textures = false;
+    PathKind path = PathKind::direct;
     bool hold = false;
     // --resize-at N WxH: before frame N, resize the window (the swapchain is then recreated).
     std::optional<uint64_t> resize_frame;

@@ -44,7 +44,7 @@ int device_type_rank(VkPhysicalDeviceType type) {
 
 } // namespace
 
-VkContext::VkContext(const XcbWindow &window, bool dynamic_rendering) {
+VkContext::VkContext(const XcbWindow &window, bool dynamic_rendering, bool multiview) {
     uint32_t loader_version = VK_API_VERSION_1_0;
     if (vkEnumerateInstanceVersion(&loader_version) != VK_SUCCESS || loader_version < VK_API_VERSION_1_1)
         throw Error("the Vulkan loader does not support Vulkan 1.1");
@@ -133,9 +133,26 @@ VkContext::VkContext(const XcbWindow &window, bool dynamic_rendering) {
     VkPhysicalDeviceDynamicRenderingFeaturesKHR dynamic_rendering_features{};
     dynamic_rendering_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DYNAMIC_RENDERING_FEATURES_KHR;
     dynamic_rendering_features.dynamicRendering = VK_TRUE;
+    VkPhysicalDeviceMultiviewFeatures multiview_features{};
+    multiview_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MULTIVIEW_FEATURES;
+    if (multiview) {
+        VkPhysicalDeviceFeatures2 supported{};
+        supported.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+        supported.pNext = &multiview_features;
+        vkGetPhysicalDeviceFeatures2(physical_device_, &supported);
+        if (!multiview_features.multiview)
+            throw Error(std::string(properties_.deviceName) +
+                        " does not support multiview (--path multiview)");
+        multiview_features = {};
+        multiview_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MULTIVIEW_FEATURES;
+        multiview_features.multiview = VK_TRUE;
+        multiview_features.pNext = dynamic_rendering ? &dynamic_rendering_features : nullptr;
+    }
     VkDeviceCreateInfo device_info{};
     device_info.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
-    device_info.pNext = dynamic_rendering ? &dynamic_rendering_features : nullptr;
+    device_info.pNext = multiview           ? static_cast<void *>(&multiview_features)
+                        : dynamic_rendering ? &dynamic_rendering_features
+                                            : nullptr;
     device_info.queueCreateInfoCount = 1;
     device_info.pQueueCreateInfos = &queue_info;
     device_info.enabledExtensionCount = dynamic_rendering ? 4 : 1;
@@ -187,7 +204,8 @@ void VkContext::destroy(Buffer &b) {
     b = Buffer();
 }
 
-Image VkContext::create_image(const VkImageCreateInfo &info, VkImageAspectFlags aspect) {
+Image VkContext::create_image(const VkImageCreateInfo &info, VkImageAspectFlags aspect,
+                              VkImageViewType view_type) {
     Image img;
     ATRIUM_VK_CHECK(vkCreateImage(device_, &info, nullptr, &img.image));
     VkMemoryRequirements req;
@@ -201,9 +219,9 @@ Image VkContext::create_image(const VkImageCreateInfo &info, VkImageAspectFlags 
     VkImageViewCreateInfo view{};
     view.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO;
     view.image = img.image;
-    view.viewType = VK_IMAGE_VIEW_TYPE_2D;
+    view.viewType = view_type;
     view.format = info.format;
-    view.subresourceRange = {aspect, 0, info.mipLevels, 0, 1};
+    view.subresourceRange = {aspect, 0, info.mipLevels, 0, info.arrayLayers};
     ATRIUM_VK_CHECK(vkCreateImageView(device_, &view, nullptr, &img.view));
     return img;
 }
@@ -290,8 +308,11 @@ void Swapchain::create(VkSwapchainKHR old) {
 
     VkImageUsageFlags usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT;
     if (request_.transfer_src) usage |= VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+    if (request_.transfer_dst) usage |= VK_IMAGE_USAGE_TRANSFER_DST_BIT;
     if ((caps.supportedUsageFlags & usage) != usage)
-        throw Error("the swapchain cannot be read back (no TRANSFER_SRC usage) for --screenshot");
+        throw Error(request_.transfer_src && !(caps.supportedUsageFlags & VK_IMAGE_USAGE_TRANSFER_SRC_BIT)
+                        ? "the swapchain cannot be read back (no TRANSFER_SRC usage) for --screenshot"
+                        : "the swapchain cannot be blitted to (no TRANSFER_DST usage) for --path compute");
 
     uint32_t image_count = std::max(caps.minImageCount + 1, 3u);
     if (caps.maxImageCount != 0) image_count = std::min(image_count, caps.maxImageCount);

@@ -12,8 +12,9 @@ class XcbWindow;
 class VkContext {
 public:
     // Throws Error when there is no Vulkan driver or no device that can present to the window.
-    // dynamic_rendering: enable VK_KHR_dynamic_rendering (and what it requires).
-    VkContext(const XcbWindow &window, bool dynamic_rendering);
+    // dynamic_rendering: enable VK_KHR_dynamic_rendering (and what it requires); multiview: the
+    // core 1.1 multiview feature.
+    VkContext(const XcbWindow &window, bool dynamic_rendering, bool multiview = false);
     ~VkContext();
     VkContext(const VkContext &) = delete;
     VkContext &operator=(const VkContext &) = delete;
@@ -29,7 +30,9 @@ public:
     // Resources with dedicated allocations. Host-visible buffers are mapped for their lifetime.
     Buffer create_buffer(VkDeviceSize size, VkBufferUsageFlags usage, VkMemoryPropertyFlags properties);
     void destroy(Buffer &buffer);
-    Image create_image(const VkImageCreateInfo &info, VkImageAspectFlags aspect);
+    // The view covers every mip level and layer.
+    Image create_image(const VkImageCreateInfo &info, VkImageAspectFlags aspect,
+                       VkImageViewType view_type = VK_IMAGE_VIEW_TYPE_2D);
     void destroy(Image &image);
 
 private:
@@ -49,6 +52,7 @@ struct SwapchainRequest {
     VkFormat format = VK_FORMAT_B8G8R8A8_UNORM;
     VkPresentModeKHR present_mode = VK_PRESENT_MODE_MAILBOX_KHR;
     bool transfer_src = false; // for reading images back (screenshots)
+    bool transfer_dst = false; // for blitting into them (--path compute)
 };
 
 class Swapchain {

@@ -44,4 +44,18 @@ void vk_check(VkResult result, const char *call) {
     throw Error(name + " failed: " + vk_result_name(result) + " (" + std::to_string(int(result)) + ")");
 }
 
+bool is_srgb(VkFormat format) {
+    return format == VK_FORMAT_B8G8R8A8_SRGB || format == VK_FORMAT_R8G8B8A8_SRGB;
+}
+
+VkShaderModule create_shader(VkDevice device, const uint32_t *code, size_t bytes) {
+    VkShaderModuleCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
+    info.codeSize = bytes;
+    info.pCode = code;
+    VkShaderModule module;
+    ATRIUM_VK_CHECK(vkCreateShaderModule(device, &info, nullptr, &module));
+    return module;
+}
+
 } // namespace atrium

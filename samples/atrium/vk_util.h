@@ -14,6 +14,11 @@ void vk_check(VkResult result, const char *call);
 
 #define ATRIUM_VK_CHECK(call) ::atrium::vk_check((call), #call)
 
+bool is_srgb(VkFormat format);
+
+// Throws Error when the driver rejects the code.
+VkShaderModule create_shader(VkDevice device, const uint32_t *code, size_t bytes);
+
 struct Buffer {
     VkBuffer buffer = VK_NULL_HANDLE;
     VkDeviceMemory memory = VK_NULL_HANDLE;

@@ -141,5 +141,55 @@ INSTANTIATE_TEST_SUITE_P(Atrium, ValidationAtrium,
                              return std::string(p.param.name);
                          });
 
+// Every render path of the sample (--path, samples/README.md), natively: validation alone, no
+// splitvk, 10 frames at 2400x1080. Stereo with a UNORM swapchain, and mono with an sRGB swapchain
+// whose window is resized (to an odd size) mid-run, so each path rebuilds its offscreen targets.
+// Every path also in stereo with --linear-textures: the textures every path samples then come
+// from linear images the host wrote (PREINITIALIZED, a host-to-transfer barrier, image copies).
+struct PathVariant {
+    const char *path;
+    bool stereo_unorm;            // else mono, sRGB, resized
+    bool linear_textures = false; // --linear-textures
+};
+void PrintTo(const PathVariant &v, std::ostream *os) {
+    *os << v.path << (v.stereo_unorm ? "/stereo" : "/mono-srgb-resize")
+        << (v.linear_textures ? "/linear" : "");
+}
+
+class ValidationAtriumPath : public Validation, public ::testing::WithParamInterface<PathVariant> {};
+
+TEST_P(ValidationAtriumPath, NativeClean) {
+    ASSERT_TRUE(built(atrium_path()));
+    const PathVariant v = GetParam();
+    Env e = validation_env(false);
+    std::vector<std::string> argv = {
+        atrium_path().string(), "--width", "2400", "--height", "1080", "--frames", "10", "--path", v.path};
+    if (v.stereo_unorm)
+        argv.insert(argv.end(), {"--eyes", "2"});
+    else
+        argv.insert(argv.end(), {"--eyes", "1", "--srgb", "--resize-at", "4", "1601x901"});
+    if (v.linear_textures) argv.push_back("--linear-textures");
+    auto r = run_app(argv, e, out_, "splitvk-atrium", std::chrono::seconds(220));
+    ASSERT_TRUE(r.ok()) << r.describe() << "\n" << tail(r.err());
+    EXPECT_NE(r.out().find(std::string("path ") + v.path), std::string::npos) << r.out();
+    ASSERT_NO_FATAL_FAILURE(expect_stack(r, false, "splitvk-atrium"));
+    expect_no_messages(r);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Paths, ValidationAtriumPath,
+    ::testing::Values(PathVariant{"direct", false}, PathVariant{"hdr", true}, PathVariant{"hdr", false},
+                      PathVariant{"deferred", true}, PathVariant{"deferred", false},
+                      PathVariant{"multiview", true}, PathVariant{"multiview", false},
+                      PathVariant{"secondary", true}, PathVariant{"secondary", false},
+                      PathVariant{"compute", true}, PathVariant{"compute", false},
+                      PathVariant{"direct", true, true}, PathVariant{"hdr", true, true},
+                      PathVariant{"deferred", true, true}, PathVariant{"multiview", true, true},
+                      PathVariant{"secondary", true, true}, PathVariant{"compute", true, true}),
+    [](const ::testing::TestParamInfo<PathVariant> &p) {
+        return std::string(p.param.path) + (p.param.stereo_unorm ? "Stereo" : "MonoSrgbResize") +
+               (p.param.linear_textures ? "LinearTextures" : "");
+    });
+
 } // namespace
 } // namespace splitvk::e2e

@@ -1,0 +1,84 @@
+#include "offscreen_scene.h"
+
+#include "passes.h"
+
+namespace atrium {
+
+namespace {
+
+constexpr VkFormat depth_format = VK_FORMAT_D32_SFLOAT;
+
+} // namespace
+
+OffscreenScene::OffscreenScene(const SceneGpu &scene, const OffscreenSceneInfo &info)
+    : scene_(scene), info_(info), device_(scene.device()) {
+    RenderPassInfo pass;
+    for (VkFormat format : info.colors)
+        pass.colors.push_back({format});
+    pass.depth = Attachment{depth_format};
+    if (!info.sample_depth) {
+        pass.depth->store = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+        pass.depth->final = VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+    }
+    if (info.multiview) pass.view_mask = (1u << info.eyes) - 1;
+    pass_ = create_render_pass(device_, pass);
+    ScenePipelineInfo pipeline;
+    pipeline.render_pass = pass_;
+    pipeline.shading = info.shading;
+    pipeline_ = scene_.create_pipeline(pipeline);
+}
+
+OffscreenScene::~OffscreenScene() {
+    destroy_targets();
+    vkDestroyPipeline(device_, pipeline_, nullptr);
+    vkDestroyRenderPass(device_, pass_, nullptr);
+}
+
+void OffscreenScene::create_targets(VkExtent2D screen) {
+    screen_ = screen;
+    extent_ = info_.multiview ? eye_rect(screen, info_.eyes, 0).extent : screen;
+    const uint32_t layers = info_.multiview ? info_.eyes : 0;
+    for (VkFormat format : info_.colors)
+        colors_.push_back(create_target(scene_.context(), extent_, format,
+                                        VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
+                                        layers));
+    depth_ = create_target(scene_.context(), extent_, depth_format,
+                           VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT |
+                               (info_.sample_depth ? VK_IMAGE_USAGE_SAMPLED_BIT : 0),
+                           layers);
+    std::vector<VkImageView> views;
+    for (const Image &color : colors_)
+        views.push_back(color.view);
+    views.push_back(depth_.view);
+    framebuffer_ = create_framebuffer(device_, pass_, views, extent_);
+}
+
+void OffscreenScene::destroy_targets() {
+    vkDestroyFramebuffer(device_, framebuffer_, nullptr);
+    framebuffer_ = VK_NULL_HANDLE;
+    for (Image &color : colors_)
+        scene_.context().destroy(color);
+    colors_.clear();
+    scene_.context().destroy(depth_);
+}
+
+void OffscreenScene::record(VkCommandBuffer cmd, uint32_t slot) const {
+    std::vector<VkClearValue> clears;
+    for (const VkClearColorValue &color : info_.clears)
+        clears.push_back({.color = color});
+    clears.push_back({.depthStencil = {1.0f, 0}});
+    begin_pass(cmd, pass_, framebuffer_, extent_, clears);
+    scene_.bind(cmd, pipeline_, slot);
+    if (info_.multiview) {
+        set_viewport(cmd, {{0, 0}, extent_});
+        scene_.draw(cmd, 0);
+    } else {
+        for (uint32_t eye = 0; eye < info_.eyes; ++eye) {
+            set_viewport(cmd, eye_rect(screen_, info_.eyes, eye));
+            scene_.draw(cmd, eye);
+        }
+    }
+    vkCmdEndRenderPass(cmd);
+}
+
+} // namespace atrium

@@ -1,0 +1,50 @@
+// The scene drawn into offscreen targets instead of the swapchain image: an HDR colour buffer, a
+// G-buffer, or a layered eye texture drawn with multiview. Its depth buffer is its own.
+#pragma once
+
+#include "scene_gpu.h"
+
+#include <vector>
+
+namespace atrium {
+
+struct OffscreenSceneInfo {
+    std::vector<VkFormat> colors;          // one target per colour attachment, in order
+    std::vector<VkClearColorValue> clears; // one per colour
+    SceneShading shading = SceneShading::hdr;
+    uint32_t eyes = 2;
+    bool multiview = false;    // one layer per eye, one eye wide, drawn once with a view mask
+    bool sample_depth = false; // keep the depth buffer for a later pass to sample
+};
+
+class OffscreenScene {
+public:
+    OffscreenScene(const SceneGpu &scene, const OffscreenSceneInfo &info);
+    ~OffscreenScene();
+    OffscreenScene(const OffscreenScene &) = delete;
+    OffscreenScene &operator=(const OffscreenScene &) = delete;
+
+    // `screen`: the swapchain's extent. Side by side, the targets have that extent; with
+    // multiview, one eye's (the left eye's width) and a layer per eye.
+    void create_targets(VkExtent2D screen);
+    void destroy_targets();
+    // The pass, leaving every target in SHADER_READ_ONLY_OPTIMAL.
+    void record(VkCommandBuffer cmd, uint32_t slot) const;
+
+    VkImageView color(size_t i) const { return colors_[i].view; }
+    VkImageView depth() const { return depth_.view; }
+
+private:
+    const SceneGpu &scene_;
+    const OffscreenSceneInfo info_;
+    VkDevice device_;
+    VkRenderPass pass_ = VK_NULL_HANDLE;
+    VkPipeline pipeline_ = VK_NULL_HANDLE;
+
+    VkExtent2D screen_{}, extent_{};
+    std::vector<Image> colors_;
+    Image depth_;
+    VkFramebuffer framebuffer_ = VK_NULL_HANDLE;
+};
+
+} // namespace atrium
