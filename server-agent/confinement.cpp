@@ -334,6 +334,10 @@ std::vector<std::string> read_only_paths() {
         add_env_paths(variable, "", paths);
     for (const char *variable : {"XDG_DATA_DIRS", "XDG_CONFIG_DIRS"})
         add_env_paths(variable, "/vulkan", paths);
+    // A driver the loader opens after the confinement is searched for along LD_LIBRARY_PATH as
+    // well: an agent run from a bundle outside /usr (scripts/device-check) keeps its libraries
+    // there, a manifest's relative library_path included.
+    add_env_paths("LD_LIBRARY_PATH", "", paths);
     return paths;
 }
 

@@ -3,10 +3,12 @@
 does use names as DT_NEEDED: FFmpeg's libavcodec links every codec Debian enables (x265, AV1,
 codec2, ...) and libLLVM links libxml2 and z3, while splitvk needs only the H.264 decoder and
 lavapipe's code generator. The stand-in has the real library's SONAME and defines every dynamic
-symbol it exports, under the same symbol versions: functions that end the process with one line
-naming themselves if they are ever called, and zero-filled objects of the real sizes. So the
-dynamic loader binds libavcodec (linked with BIND_NOW) and libLLVM as before, and a device bundle
-leaves out tens of MiB.
+symbol it exports, under the same symbol versions: zero-filled objects of the real sizes, and
+functions that end the process with one line naming themselves if they are ever called. The
+exception are the queries FFmpeg's codec registration makes of every codec library it links
+(aom_codec_version, vpx_codec_vp9_cx, x265_api_get, ...): they return 0, which FFmpeg reads as a
+codec without capabilities. So the dynamic loader binds libavcodec (linked with BIND_NOW) and
+libLLVM as before, and a device bundle leaves out tens of MiB.
 
 Usage: stub_library.py REAL_LIBRARY OUT_DIRECTORY   (writes OUT_DIRECTORY/<SONAME>)
 """
@@ -51,6 +53,10 @@ def exported_symbols(path):
     return symbols
 
 
+# What codec registration asks of a library: its version, capabilities and interfaces.
+QUERY = re.compile(r"(version|caps|_cx$|_dx$|api_get|_iface)")
+
+
 def main():
     real, out_dir = sys.argv[1], sys.argv[2]
     name = soname(real)
@@ -71,6 +77,8 @@ def main():
         if kind in ("OBJECT", "TLS"):
             storage = "__thread " if kind == "TLS" else ""
             c.append(f"{storage}__attribute__((aligned(16))) char {ident}[{max(size, 1)}];")
+        elif QUERY.search(sym):
+            c.append(f"long {ident}(void) {{ return 0; }}")
         else:
             c.append(f'void {ident}(void) {{ called("{sym}", {len(sym)}); }}')
         if version:
