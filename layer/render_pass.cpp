@@ -116,14 +116,13 @@ void enter_split(DeviceState &dev, VkCommandBuffer cb, split::CommandTracker &tr
     tracker.begin_split(codec::handle_value(image), extent);
     emit_viewports(dev, cb, tracker);
     emit_scissors(dev, cb, tracker);
-    tracker.note_foveae(split_settings().eyes, split_settings().fovea);
 }
 
 void leave_split(DeviceState &dev, VkCommandBuffer cb) {
     split::CommandTracker *tracker = dev.session ? split_tracker(cb) : nullptr;
     if (!tracker || !tracker->in_split()) return;
     time_split_pass_ended(dev, cb);
-    tracker->end_split();
+    tracker->end_split(split_settings().eyes, split_settings().fovea);
     emit_viewports(dev, cb, *tracker);
     emit_scissors(dev, cb, *tracker);
 }

@@ -61,6 +61,7 @@ void CommandTracker::note_foveae(EyeMode mode, const FoveaSize &fovea) {
     for (size_t i = 0; i < viewport_count(); ++i)
         if (const VkViewport *v = viewport(i))
             add_fovea(it->foveae, fovea_for_viewport(*v, extent_, mode, fovea));
+    noted_in_pass_ = true;
 }
 
 namespace {

@@ -87,10 +87,18 @@ public:
 
     void begin_split(uint64_t image, VkExtent2D extent) {
         in_split_ = true;
+        noted_in_pass_ = false;
         image_ = image;
         extent_ = extent;
     }
-    void end_split() { in_split_ = false; }
+    // A pass that set no viewport of its own drew with the ones it inherited: their foveae are
+    // noted now. They are not noted at the pass's begin, because a pass that sets its own before
+    // drawing never draws the inherited ones, and a fovea noted but never shaded would be
+    // composited from pixels the agent left out (atrium --path hdr: the last bloom pass's viewport).
+    void end_split(EyeMode mode, const FoveaSize &fovea) {
+        if (in_split_ && !noted_in_pass_) note_foveae(mode, fovea);
+        in_split_ = false;
+    }
     bool in_split() const { return in_split_; }
     uint64_t image() const { return image_; }
     VkExtent2D extent() const { return extent_; }
@@ -106,7 +114,8 @@ public:
     size_t scissor_count() const;
 
     // Inside a split pass: adds the fovea of every viewport in effect to the pass's image record.
-    // Called whenever the viewports in effect may change (pass begin, viewport set, pipeline bind).
+    // Called whenever the pass changes the viewports in effect (viewport set, pipeline bind), and
+    // at the pass's end when it changed none (end_split).
     void note_foveae(EyeMode mode, const FoveaSize &fovea);
     const std::vector<DrawnImage> &drawn() const { return drawn_; }
 
@@ -115,6 +124,7 @@ private:
     StateArray<VkRect2D> scissors_;
     std::shared_ptr<const StaticViewportState> pipeline_;
     bool in_split_ = false;
+    bool noted_in_pass_ = false;
     uint64_t image_ = 0;
     VkExtent2D extent_{};
     std::vector<DrawnImage> drawn_;

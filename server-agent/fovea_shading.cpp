@@ -113,7 +113,6 @@ void FoveaShading::enter_split(VkCommandBuffer cb, split::CommandTracker &t, uin
                                VkExtent2D extent) {
     t.begin_split(image_id, extent);
     emit_scissors(cb, t);
-    t.note_foveae(eyes_, fovea_);
 }
 
 void FoveaShading::begin_render_pass(VkCommandBuffer cb, const VkRenderPassBeginInfo &begin, bool secondary) {
@@ -172,7 +171,7 @@ void FoveaShading::begin_rendering(VkCommandBuffer cb, const VkRenderingInfo &in
 void FoveaShading::end_pass(VkCommandBuffer cb) {
     split::CommandTracker *t = tracker(cb);
     if (!t || !t->in_split()) return;
-    t->end_split();
+    t->end_split(eyes_, fovea_);
     emit_scissors(cb, *t);
 }
 
