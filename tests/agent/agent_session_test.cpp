@@ -1183,6 +1183,43 @@ TEST(AgentToken, NonLoopbackWithoutTokenIsRefused) {
     EXPECT_EQ(log.find("listening on"), std::string::npos) << log;
 }
 
+// --emulate-limits with a file it cannot use: one line naming the file and what is wrong, exit
+// status 2, no listening. A typo in a limit's name must not pass as "no constraint".
+TEST(AgentEmulateLimits, UnusableProfileIsOneLineAndNoListening) {
+    char profile[] = "/tmp/splitvk-agent-profile-XXXXXX";
+    const int profile_fd = mkstemp(profile);
+    ASSERT_GE(profile_fd, 0);
+    const std::string bad =
+        R"({"capabilities":{"gpu":{"properties":{"VkPhysicalDeviceProperties":{"limits":{"maxImageDimensoin2D":4096}}}}}})";
+    ASSERT_EQ(write(profile_fd, bad.data(), bad.size()), static_cast<ssize_t>(bad.size()));
+    close(profile_fd);
+    for (const auto &[file, expected] :
+         {std::pair<std::string, std::string>{"/nonexistent/strict.json", "cannot read it"},
+          std::pair<std::string, std::string>{profile,
+                                              "capability gpu: unknown limit 'maxImageDimensoin2D'"}}) {
+        char path[] = "/tmp/splitvk-agent-log-XXXXXX";
+        const int fd = mkstemp(path);
+        ASSERT_GE(fd, 0);
+        const pid_t pid = fork();
+        if (pid == 0) {
+            dup2(fd, STDERR_FILENO);
+            execl(SPLITVK_AGENT_BINARY, SPLITVK_AGENT_BINARY, "--listen", "127.0.0.1:7449",
+                  "--emulate-limits", file.c_str(), static_cast<char *>(nullptr));
+            _exit(127);
+        }
+        close(fd);
+        int status = 0;
+        ASSERT_EQ(waitpid(pid, &status, 0), pid);
+        const std::string log = read_file(path);
+        std::remove(path);
+        EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << "wait status " << status << "\n" << log;
+        EXPECT_NE(log.find("--emulate-limits " + file + ": " + expected), std::string::npos) << log;
+        EXPECT_EQ(std::count(log.begin(), log.end(), '\n'), 1) << log;
+        EXPECT_EQ(log.find("listening on"), std::string::npos) << log;
+    }
+    std::remove(profile);
+}
+
 // --record-corpus: the seeds scripts/fuzz records. Every file is a stream that starts at
 // sequence 1, the Hello without its token, the stream of the session in order.
 TEST(AgentRecordCorpus, WritesSeedsWithoutTheToken) {
