@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iterator>
+#include <optional>
 
 namespace {
 
@@ -46,6 +47,24 @@ int main(int argc, char **argv) {
     }
     if (options.list_devices) return list_devices();
 
+    // The operator's profile first: a bad one is one line before any GPU is touched.
+    std::optional<splitvk::protocol::DeviceProfile> profile;
+    if (!options.emulate_limits.empty()) {
+        std::ifstream in(options.emulate_limits, std::ios::binary);
+        if (!in.is_open()) {
+            SPLITVK_ERROR("--emulate-limits %s: cannot read it", options.emulate_limits.c_str());
+            return 2;
+        }
+        const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        auto parsed_profile = splitvk::protocol::parse_profile(text, options.emulate_limits);
+        if (!parsed_profile) {
+            SPLITVK_ERROR("--emulate-limits %s: %s", options.emulate_limits.c_str(),
+                          parsed_profile.error().c_str());
+            return 2;
+        }
+        profile = std::move(parsed_profile).value();
+    }
+
     std::string error;
     const auto gpus = splitvk::agent::enumerate_gpus(&error);
     if (options.device_index >= gpus.size()) {
@@ -55,18 +74,7 @@ int main(int argc, char **argv) {
     }
     const auto &gpu = gpus[options.device_index];
     splitvk::protocol::DeviceDescription device = gpu.description;
-    if (!options.emulate_limits.empty()) {
-        std::ifstream in(options.emulate_limits, std::ios::binary);
-        if (!in.is_open()) {
-            SPLITVK_ERROR("--emulate-limits %s: cannot read it", options.emulate_limits.c_str());
-            return 2;
-        }
-        const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-        auto profile = splitvk::protocol::parse_profile(text, options.emulate_limits);
-        if (!profile) {
-            SPLITVK_ERROR("--emulate-limits %s: %s", options.emulate_limits.c_str(), profile.error().c_str());
-            return 2;
-        }
+    if (profile) {
         splitvk::protocol::apply(device, *profile);
         std::string changed;
         for (const auto &c : splitvk::protocol::limit_changes(gpu.description, device))
