@@ -66,12 +66,9 @@ std::string Session::early_link_mismatch(const AgentLink &link, const PhysicalDe
         return {};
     auto device = protocol::decode_device_description(link.welcome.server_device);
     if (!device) return {};
-    const auto problems = protocol::violations(*device, *physical->envelope);
-    if (problems.empty()) return {};
-    std::string why = std::string(protocol::to_string(protocol::RejectReason::DeviceMismatch)) + ": ";
-    for (size_t i = 0; i < problems.size() && i < 4; ++i)
-        why += (i ? "; " : "") + problems[i];
-    return why;
+    const std::string why = protocol::refusal(*device, *physical->envelope);
+    if (why.empty()) return {};
+    return std::string(protocol::to_string(protocol::RejectReason::DeviceMismatch)) + ": " + why;
 }
 
 void Session::watch_closure(AgentLink &link) {

@@ -435,6 +435,16 @@ std::vector<std::string> violations(const DeviceDescription &device, const Devic
     return out;
 }
 
+std::string refusal(const DeviceDescription &device, const DeviceDescription &envelope) {
+    constexpr size_t kMost = 4;
+    const auto problems = violations(device, envelope);
+    std::string why;
+    for (size_t i = 0; i < problems.size() && i < kMost; ++i)
+        why += (i ? "; " : "") + problems[i];
+    if (problems.size() > kMost) why += "; and " + std::to_string(problems.size() - kMost) + " more";
+    return why;
+}
+
 std::vector<VkFormat> format_gaps(const DeviceDescription &device, const DeviceDescription &envelope) {
     std::vector<VkFormat> out;
     for (size_t i = 0; i < device.formats.size() && i < envelope.formats.size(); ++i) {

@@ -80,6 +80,9 @@ size_t formats_narrowed(const DeviceDescription &device, const DeviceDescription
 // told), one short phrase each, "minUniformBufferOffsetAlignment: told 16, this device 256"; empty
 // when it honours them. A session is refused for these.
 std::vector<std::string> violations(const DeviceDescription &device, const DeviceDescription &envelope);
+// violations() as one line for a refusal, the first few and how many more; empty when `device`
+// honours `envelope`. What the agent's Reject and the layer's own check of an early agent say.
+std::string refusal(const DeviceDescription &device, const DeviceDescription &envelope);
 // The formats whose features the application was told but `device` lacks. Not a refusal: GPUs
 // differ in dozens of formats no application uses; the agent flags the images that use one.
 std::vector<VkFormat> format_gaps(const DeviceDescription &device, const DeviceDescription &envelope);

@@ -115,12 +115,7 @@ int Session::run() {
     handshake.check_envelope = [this](std::span<const uint8_t> blob) -> std::string {
         auto envelope = protocol::decode_device_description(blob);
         if (!envelope) return "unreadable device envelope: " + envelope.error();
-        const auto problems = protocol::violations(config_.device, *envelope);
-        std::string why;
-        for (size_t i = 0; i < problems.size() && i < 4; ++i)
-            why += (i ? "; " : "") + problems[i];
-        if (problems.size() > 4) why += "; and " + std::to_string(problems.size() - 4) + " more";
-        return why;
+        return protocol::refusal(config_.device, *envelope);
     };
     auto hs = protocol::server_handshake(*connection_, handshake, kHandshakeTimeout);
     if (!hs) {

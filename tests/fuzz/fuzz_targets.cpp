@@ -124,8 +124,7 @@ void decode_control(const protocol::Message &m) {
                 if (!envelope) return envelope.error();
                 protocol::DeviceDescription self = *envelope;
                 self.limits.minUniformBufferOffsetAlignment = 256;
-                const auto problems = protocol::violations(self, *envelope);
-                return problems.empty() ? std::string() : problems.front();
+                return protocol::refusal(self, *envelope);
             };
             const auto verdict = protocol::evaluate_hello(*hello, config);
             g_sink = g_sink + static_cast<unsigned>(verdict.index());

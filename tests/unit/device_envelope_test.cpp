@@ -124,6 +124,10 @@ TEST(DeviceEnvelope, ViolationsNameWhatTheDeviceCannotHonour) {
     EXPECT_TRUE(has("framebufferColorSampleCounts"));
     EXPECT_TRUE(has("feature multiview"));
     EXPECT_EQ(v.size(), 5u);
+    const std::string line = refusal(gpu, told);
+    EXPECT_EQ(line.rfind("maxImageDimension2D: told 16384, this device 8192", 0), 0u) << line;
+    EXPECT_NE(line.find("; and 1 more"), std::string::npos) << line;
+    EXPECT_TRUE(refusal(told, told).empty());
     EXPECT_EQ(format_gaps(gpu, told).size(), 1u) << "formats are reported, not refused";
     // Client-local limits are never the agent's to honour.
     gpu = device("NVIDIA");
