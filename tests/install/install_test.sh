@@ -15,7 +15,7 @@ for f in bin/splitvk-agent bin/splitvk-atrium share/vulkan/implicit_layer.d/VkLa
          share/vulkan/explicit_layer.d/VkLayer_splitvk.json; do
   [ -e "$prefix/$f" ] || { echo "FAIL: $f not installed"; exit 1; }
 done
-lib=$(find "$prefix" -name libVkLayer_splitvk.so | head -1)
+lib=$(find "$prefix" -name libVkLayer_splitvk.so -print -quit)
 [ -n "$lib" ] || { echo "FAIL: libVkLayer_splitvk.so not installed"; exit 1; }
 
 # In the ASan+UBSan build (scripts/test's build-asan/) the installed layer is instrumented and
@@ -23,7 +23,9 @@ lib=$(find "$prefix" -name libVkLayer_splitvk.so | head -1)
 # layer aborts at dlopen. LeakSanitizer stays off there: it would report lavapipe's and the
 # loader's allocations, not splitvk's (whose leaks the unit tests check).
 sanitizer_env=()
-asan=$(ldd "$lib" | awk '/libasan\.so/ {print $3; exit}')
+# awk reads all of ldd's output: an early exit would SIGPIPE ldd, and under pipefail that would end
+# this script silently, on some runs only.
+asan=$(ldd "$lib" | awk '/libasan\.so/ && !found {print $3; found = 1}')
 [ -n "$asan" ] && sanitizer_env=(LD_PRELOAD="$asan" ASAN_OPTIONS=detect_leaks=0)
 
 fifo=$(mktemp -u) && mkfifo "$fifo"
