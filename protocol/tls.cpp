@@ -295,6 +295,54 @@ Result<std::shared_ptr<TlsContext>> TlsContext::client(Verifier verify) {
     }
 }
 
+std::string tls_over_memory(const TlsContext &context, const uint8_t *peer, size_t peer_size,
+                            std::vector<uint8_t> *sent, std::vector<uint8_t> *received) {
+    using SslPtr = std::unique_ptr<SSL, Deleter<SSL, SSL_free>>;
+    SslPtr ssl(SSL_new(context.impl().context.native_handle()));
+    BIO *in = BIO_new(BIO_s_mem());
+    BIO *out = BIO_new(BIO_s_mem());
+    if (!ssl || !in || !out) {
+        BIO_free(in);
+        BIO_free(out);
+        return openssl_error("SSL_new");
+    }
+    if (peer_size) BIO_write(in, peer, static_cast<int>(std::min<size_t>(peer_size, INT32_MAX)));
+    BIO_set_mem_eof_return(in, -1); // no more bytes: "want read", as on a socket that waits
+    SSL_set_bio(ssl.get(), in, out);
+    TlsPeerCheck check;
+    if (context.is_server()) {
+        SSL_set_accept_state(ssl.get());
+    } else {
+        SSL_set_connect_state(ssl.get());
+        SSL_set_ex_data(ssl.get(), tls_peer_check_index(), &check);
+    }
+    std::string outcome;
+    int result = SSL_do_handshake(ssl.get());
+    if (result == 1) {
+        uint8_t buffer[16384];
+        int n = 0;
+        while ((n = SSL_read(ssl.get(), buffer, sizeof(buffer))) > 0)
+            received->insert(received->end(), buffer, buffer + n);
+        result = n;
+    }
+    const int error = SSL_get_error(ssl.get(), result);
+    if (!check.refusal.empty()) {
+        outcome = check.refusal;
+    } else if (error == SSL_ERROR_WANT_READ) {
+        outcome = SSL_is_init_finished(ssl.get()) ? "" : "incomplete";
+    } else if (error == SSL_ERROR_SSL) {
+        const asio::error_code ec(static_cast<int>(ERR_peek_last_error()), asio::error::get_ssl_category());
+        outcome = "TLS handshake failed: " + describe_tls_error(ec, context.is_server());
+    } else if (error != SSL_ERROR_NONE && error != SSL_ERROR_ZERO_RETURN) {
+        outcome = "TLS error " + std::to_string(error);
+    }
+    ERR_clear_error();
+    char *data = nullptr;
+    const long length = BIO_get_mem_data(out, &data);
+    if (length > 0) sent->insert(sent->end(), data, data + length);
+    return outcome;
+}
+
 FirstBytes classify_first_bytes(const uint8_t bytes[6]) {
     // A TLS record of type handshake (22), major version 3, whose first message is a ClientHello
     // (1). A plaintext Hello's header has type 0x0001 at offsets 4-5 little-endian: byte 5 is 0.

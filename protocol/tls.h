@@ -17,6 +17,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace splitvk::protocol {
 
@@ -79,6 +80,13 @@ private:
     explicit TlsContext(std::unique_ptr<Impl> impl);
     std::unique_ptr<Impl> impl_;
 };
+
+// One side of a TLS handshake over memory instead of a socket, for the fuzzer and its seeds: `peer`
+// is everything the other side sent; what this side answers is appended to *sent, and any
+// application data it could decrypt to *received. Returns "" when the handshake completed, else the
+// one line a connection would have failed with (or "incomplete" when `peer` simply ran out).
+std::string tls_over_memory(const TlsContext &context, const uint8_t *peer, size_t peer_size,
+                            std::vector<uint8_t> *sent, std::vector<uint8_t> *received);
 
 // What the agent's first bytes on a fresh connection are: a TLS ClientHello record, or anything
 // else (a plaintext splitvk Hello starts with its length and type 0x0001, which no TLS record
