@@ -49,10 +49,9 @@ int main(int argc, char **argv) {
     }
     if (options.list_devices) return list_devices();
 
-    // The TLS identity before any GPU: --print-fingerprint needs nothing else, and a listener
-    // forks its sessions with the identity already loaded (a confined session cannot read it).
-    auto identity = splitvk::agent::load_agent_identity(options);
+    // --print-fingerprint needs nothing but the identity (made now if there is none).
     if (options.print_fingerprint) {
+        auto identity = splitvk::agent::load_agent_identity(options);
         if (!identity) {
             SPLITVK_ERROR("%s", identity.error().c_str());
             return 2;
@@ -60,6 +59,28 @@ int main(int argc, char **argv) {
         std::printf("%s\n", identity->certificate.fingerprint.c_str());
         return 0;
     }
+
+    // The operator's profile first: a bad one is one line before any GPU is touched.
+    std::optional<splitvk::protocol::DeviceProfile> profile;
+    if (!options.emulate_limits.empty()) {
+        std::ifstream in(options.emulate_limits, std::ios::binary);
+        if (!in.is_open()) {
+            SPLITVK_ERROR("--emulate-limits %s: cannot read it", options.emulate_limits.c_str());
+            return 2;
+        }
+        const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        auto parsed_profile = splitvk::protocol::parse_profile(text, options.emulate_limits);
+        if (!parsed_profile) {
+            SPLITVK_ERROR("--emulate-limits %s: %s", options.emulate_limits.c_str(),
+                          parsed_profile.error().c_str());
+            return 2;
+        }
+        profile = std::move(parsed_profile).value();
+    }
+
+    // The TLS identity before any GPU, after the profile (whose error must be the only line): a
+    // listener forks its sessions with the identity loaded (a confined session cannot read it).
+    auto identity = splitvk::agent::load_agent_identity(options);
     std::shared_ptr<splitvk::protocol::TlsContext> tls;
     if (identity) {
         auto context = splitvk::protocol::TlsContext::server(identity->identity);
@@ -92,24 +113,6 @@ int main(int argc, char **argv) {
                              ? "remove agent.crt and agent.key from the state directory to "
                                "make a new one; clients then see a changed key"
                              : "renew --tls-cert");
-    }
-
-    // The operator's profile first: a bad one is one line before any GPU is touched.
-    std::optional<splitvk::protocol::DeviceProfile> profile;
-    if (!options.emulate_limits.empty()) {
-        std::ifstream in(options.emulate_limits, std::ios::binary);
-        if (!in.is_open()) {
-            SPLITVK_ERROR("--emulate-limits %s: cannot read it", options.emulate_limits.c_str());
-            return 2;
-        }
-        const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-        auto parsed_profile = splitvk::protocol::parse_profile(text, options.emulate_limits);
-        if (!parsed_profile) {
-            SPLITVK_ERROR("--emulate-limits %s: %s", options.emulate_limits.c_str(),
-                          parsed_profile.error().c_str());
-            return 2;
-        }
-        profile = std::move(parsed_profile).value();
     }
 
     std::string error;
