@@ -257,9 +257,12 @@ void Session::resync(DeviceState &device, VkQueue queue, uint64_t frame) {
 
     // Under the session lock nothing is logged or sent by other threads: the snapshot is exact.
     std::lock_guard lock(mutex_);
+    const auto idle = std::chrono::steady_clock::now();
     ContentSnapshot contents;
     std::string error;
-    if (!snapshot_contents(device, queue, queue_family_of(queue), &contents, &error))
+    const bool read_back = snapshot_contents(device, queue, queue_family_of(queue), &contents, &error);
+    const auto readback_done = std::chrono::steady_clock::now();
+    if (!read_back)
         SPLITVK_WARN(
             "cannot read back buffer and image contents for the new agent (%s); its frames may differ",
             error.c_str());
@@ -290,14 +293,19 @@ void Session::resync(DeviceState &device, VkQueue queue, uint64_t frame) {
     awaiting_first_tiles_.store(true);
     first_split_frame_pending_.store(true);
     const auto now = std::chrono::steady_clock::now();
+    const auto ms = [](auto from, auto to) {
+        return std::chrono::duration<double, std::milli>(to - from).count();
+    };
+    // Where the resync's time goes (issue 14, item 3): waiting for the next present, the queue to
+    // drain, the readback, and encoding and queueing the snapshot.
     SPLITVK_WARN("splitvk-agent at %s brought in at frame %llu: %zu objects, %llu buffers, %llu images, %zu "
-                 "descriptor sets, %zu command buffers, %.1f MiB in %.0f ms (%.0f ms after it answered)",
+                 "descriptor sets, %zu command buffers, %.1f MiB in %.0f ms (%.0f ms after it answered; "
+                 "%.0f ms to the present, %.0f idle, %.0f readback, %.0f encode and queue)",
                  address_.c_str(), static_cast<unsigned long long>(frame), entries,
                  static_cast<unsigned long long>(contents.buffers),
                  static_cast<unsigned long long>(contents.images), sets, streams.size(),
-                 static_cast<double>(bytes) / (1 << 20),
-                 std::chrono::duration<double, std::milli>(now - start).count(),
-                 std::chrono::duration<double, std::milli>(now - answered).count());
+                 static_cast<double>(bytes) / (1 << 20), ms(start, now), ms(answered, now),
+                 ms(answered, start), ms(start, idle), ms(idle, readback_done), ms(readback_done, now));
 }
 
 Session::~Session() {
