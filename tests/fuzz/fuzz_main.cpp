@@ -1,5 +1,6 @@
 // libFuzzer's entry point for one target; SPLITVK_FUZZ_ENTRY names it (fuzz_agent_messages,
-// fuzz_tile_decoder, fuzz_tls_handshake, fuzz_known_agents) and the function after the "fuzz_" prefix does the work.
+// fuzz_tile_decoder, fuzz_tls_handshake, fuzz_known_agents) and the function after the "fuzz_" prefix does
+// the work.
 
 #include "fuzz_targets.h"
 

@@ -307,14 +307,15 @@ void tls_handshake(const uint8_t *data, size_t size) {
     // Hello, refused for a non-loopback peer.
     if (peer_size >= 6) g_sink = g_sink + static_cast<unsigned>(protocol::classify_first_bytes(peer));
     if (peer_size > protocol::kHeaderSize) {
-        auto hello = protocol::decode_hello(std::span<const uint8_t>(peer + protocol::kHeaderSize,
-                                                                     peer_size - protocol::kHeaderSize));
+        auto hello = protocol::decode_hello(
+            std::span<const uint8_t>(peer + protocol::kHeaderSize, peer_size - protocol::kHeaderSize));
         if (hello) {
             protocol::ServerHandshakeConfig config;
             config.token = {'t', 'o', 'k'};
             config.require_tls = "use TLS";
             const auto decision = protocol::evaluate_hello(*hello, config);
-            if (!std::holds_alternative<protocol::Reject>(decision)) std::abort(); // plaintext must never pass
+            if (!std::holds_alternative<protocol::Reject>(decision))
+                std::abort(); // plaintext must never pass
             touch_bytes(protocol::encode_reject(std::get<protocol::Reject>(decision)));
         }
     }
@@ -333,7 +334,8 @@ void known_agents(const uint8_t *data, size_t size) {
     for (const auto &problem : known.problems)
         if (problem.find('\n') != std::string::npos) std::abort(); // one line each
     // The same text as one SPLITVK_AGENT_FINGERPRINT value.
-    if (const auto fingerprint = normalize_fingerprint(text); fingerprint && fingerprint->size() != 71) std::abort();
+    if (const auto fingerprint = normalize_fingerprint(text); fingerprint && fingerprint->size() != 71)
+        std::abort();
 }
 
 } // namespace splitvk::fuzz

@@ -42,7 +42,8 @@ int main(int argc, char **argv) {
     std::filesystem::create_directories(tls_dir);
     std::filesystem::create_directories(known_dir);
 
-    auto identity = generate_tls_identity("splitvk-agent seeds", std::chrono::hours(-1), std::chrono::hours(24));
+    auto identity =
+        generate_tls_identity("splitvk-agent seeds", std::chrono::hours(-1), std::chrono::hours(24));
     if (!identity) {
         std::fprintf(stderr, "%s\n", identity.error().c_str());
         return 1;
@@ -82,9 +83,11 @@ int main(int argc, char **argv) {
     write(tls_dir / "server-reads-plaintext-hello", 0, plain);
 
     const std::string a(64, 'a'), b(64, 'b');
-    write_text(known_dir / "recorded", "192.168.1.20:7447 sha256:" + a + "\n[fe80::1]:7447 sha256:" + b + "\n");
-    write_text(known_dir / "edited", "# agents of the lab\n\n  10.0.0.2:7447\tSHA256:" + std::string(64, 'C') +
-                                         "  \nbroken line here\n10.0.0.3:70000 sha256:" + a + "\nhost:1 sha256:xyz\n");
+    write_text(known_dir / "recorded",
+               "192.168.1.20:7447 sha256:" + a + "\n[fe80::1]:7447 sha256:" + b + "\n");
+    write_text(known_dir / "edited",
+               "# agents of the lab\n\n  10.0.0.2:7447\tSHA256:" + std::string(64, 'C') +
+                   "  \nbroken line here\n10.0.0.3:70000 sha256:" + a + "\nhost:1 sha256:xyz\n");
     std::string colons;
     for (int i = 0; i < 32; ++i)
         colons += std::string(i ? ":" : "") + "AB";
