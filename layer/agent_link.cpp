@@ -1,8 +1,13 @@
 #include "agent_link.h"
 
+#include "known_agents.h"
 #include "layer_settings.h"
 #include "log.h"
 #include "vk_codec.h"
+
+#include <cstdlib>
+#include <fstream>
+#include <iterator>
 
 namespace splitvk {
 namespace {
@@ -12,8 +17,62 @@ using namespace std::chrono_literals;
 // Never hang the application: a refused connection fails at once, a silent address after this.
 constexpr auto kConnectTimeout = 250ms;
 constexpr auto kHandshakeTimeout = 1000ms;
+// The TLS handshake: one round trip and an ECDHE on each side, but the agent's session process is
+// forked and confines itself first.
+constexpr auto kTlsHandshakeTimeout = 2000ms;
+
+std::string address_key(const ServerAddress &server) {
+    return server.host.find(':') != std::string::npos ? "[" + server.host + "]:" + std::to_string(server.port)
+                                                      : server.host + ":" + std::to_string(server.port);
+}
+
+// Serialises the known_agents read-check-append of this process's connections (the instance's
+// greeting and a device's session may meet a new agent at once).
+std::mutex g_known_agents_mutex;
 
 } // namespace
+
+std::string check_agent_certificate(const Settings &settings, const protocol::CertificateInfo &certificate) {
+    const std::string address = address_key(settings.server);
+    const std::string &seen = certificate.fingerprint;
+    if (!settings.agent_fingerprint.empty()) {
+        if (seen == settings.agent_fingerprint) return {};
+        return "the agent's certificate is " + seen + ", not the " + settings.agent_fingerprint +
+               " that SPLITVK_AGENT_FINGERPRINT pins; if the agent's identity changed on purpose, set "
+               "SPLITVK_AGENT_FINGERPRINT=" +
+               seen;
+    }
+    const std::string path = protocol::known_agents_path(std::getenv("XDG_CONFIG_HOME"), std::getenv("HOME"));
+    if (path.empty())
+        return "cannot check the agent's certificate " + seen +
+               ": neither XDG_CONFIG_HOME nor HOME is set, so there is no known_agents file; set "
+               "SPLITVK_AGENT_FINGERPRINT=" +
+               seen + " if it is the one `splitvk-agent --print-fingerprint` prints";
+    std::lock_guard lock(g_known_agents_mutex);
+    std::string text;
+    if (std::ifstream in(path, std::ios::binary); in)
+        text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    const protocol::KnownAgents known = protocol::parse_known_agents(text, path);
+    for (const auto &problem : known.problems)
+        SPLITVK_WARN("%s", problem.c_str());
+    if (const protocol::KnownAgent *entry = protocol::find_known_agent(known, address)) {
+        if (entry->fingerprint == seen) return {};
+        return "the agent's certificate changed: it is now " + seen + ", but " + path + ":" +
+               std::to_string(entry->line) + " records " + entry->fingerprint + " for " + address +
+               "; if the change is expected, delete line " + std::to_string(entry->line) + " of " + path +
+               " (or set SPLITVK_AGENT_FINGERPRINT=" + seen + ")";
+    }
+    const std::string failed = protocol::append_known_agent(path, address, seen);
+    if (!failed.empty())
+        SPLITVK_WARN("splitvk-agent at %s is new; trusting its certificate %s for this run only: %s",
+                     address.c_str(), seen.c_str(), failed.c_str());
+    else
+        SPLITVK_WARN(
+            "splitvk-agent at %s is new: trusting its certificate %s and recording it in %s (compare it "
+            "with `splitvk-agent --print-fingerprint` on the agent)",
+            address.c_str(), seen.c_str(), path.c_str());
+    return {};
+}
 
 void ClosedSlot::set(std::function<void(const std::string &)> target) {
     std::lock_guard lock(mutex_);
@@ -47,9 +106,26 @@ protocol::Result<AgentLink> connect_agent(const Settings &settings, const protoc
     *final = false;
     protocol::ConnectionOptions options;
     options.name = "splitvk-agent " + settings.server.host + ":" + std::to_string(settings.server.port);
+    // The verifier's verdict, kept so that a refused certificate counts as final: it stays refused.
+    auto refused = std::make_shared<std::string>();
+    if (settings.use_tls()) {
+        auto context =
+            protocol::TlsContext::client([settings, refused](const protocol::CertificateInfo &cert) {
+                *refused = check_agent_certificate(settings, cert);
+                return *refused;
+            });
+        if (!context) return protocol::Error{"TLS: " + context.error()};
+        options.tls = std::move(context).value();
+        options.tls_handshake_timeout = kTlsHandshakeTimeout;
+    }
     auto connected = protocol::Connection::connect(settings.server.host, settings.server.port,
                                                    kConnectTimeout, std::move(options));
-    if (!connected) return protocol::Error{connected.error()};
+    if (!connected) {
+        // An expired or unpinned certificate stays so however often it is tried.
+        const std::string &e = connected.error();
+        *final = !refused->empty() || e.starts_with("the agent's certificate");
+        return protocol::Error{e};
+    }
     AgentLink link;
     link.connection = std::move(connected.value());
     link.on_closed = std::make_shared<ClosedSlot>();

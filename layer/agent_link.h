@@ -44,8 +44,14 @@ struct AgentLink {
 // (the GPU's name, the device envelope).
 protocol::Hello base_hello(const Settings &settings, const std::string &client_name);
 
-// Connects and handshakes. *final when retrying cannot help: the agent answered and refused (a
-// wrong token, another protocol, a GPU that cannot honour the envelope), but not when it was full.
+// The client's verdict on the agent's certificate (tls.h's Verifier): SPLITVK_AGENT_FINGERPRINT
+// when set, else the known_agents file, where an agent met for the first time is recorded. Empty
+// to accept, else one line saying what changed and how to accept it.
+std::string check_agent_certificate(const Settings &settings, const protocol::CertificateInfo &certificate);
+
+// Connects (over TLS when settings.use_tls()) and handshakes. *final when retrying cannot help: the agent
+// answered and refused (a wrong token, another protocol, a GPU that cannot honour the envelope), but not when
+// it was full.
 protocol::Result<AgentLink> connect_agent(const Settings &settings, const protocol::Hello &hello,
                                           bool *final);
 

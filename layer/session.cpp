@@ -22,6 +22,17 @@ using namespace std::chrono_literals;
 constexpr auto kSendWait = 2000ms;
 constexpr auto kCloseFlush = 500ms;
 
+// The line for an agent that will not be used: it refused the session (its words start the
+// error), or this side refused its certificate (TLS: the error says what changed).
+void warn_refused(const std::string &address, const std::string &error) {
+    if (error.starts_with("server rejected the session"))
+        SPLITVK_WARN("splitvk-agent at %s refused the session (%s); running unsplit", address.c_str(),
+                     error.c_str());
+    else
+        SPLITVK_WARN("splitvk-agent at %s is not trusted (%s); running unsplit", address.c_str(),
+                     error.c_str());
+}
+
 } // namespace
 
 void CaptureHooks::skipped_structure(VkStructureType stype, const char *parent) {
@@ -111,9 +122,9 @@ void Session::adopt_locked(AgentLink &&agent) {
     }
     stop_receiver_.store(false);
     receiver_ = std::thread([this] { run_receiver(); });
-    SPLITVK_INFO("replicating to splitvk-agent at %s (%s, session %llu)", address_.c_str(),
+    SPLITVK_INFO("replicating to splitvk-agent at %s (%s, session %llu, %s)", address_.c_str(),
                  agent.welcome.server_gpu_name.c_str(),
-                 static_cast<unsigned long long>(agent.welcome.session_id));
+                 static_cast<unsigned long long>(agent.welcome.session_id), connection_->security().c_str());
 }
 
 std::unique_ptr<Session> Session::open(const DeviceState &device, const VkDeviceCreateInfo *create_info,
@@ -179,8 +190,7 @@ std::unique_ptr<Session> Session::open(const DeviceState &device, const VkDevice
         // An agent answered and refused (a wrong or missing token, another protocol): say so in the
         // words the reconnect path uses, not "no splitvk-agent", which sends the user looking for
         // a network problem.
-        SPLITVK_WARN("splitvk-agent at %s refused the session (%s); running unsplit",
-                     session->address_.c_str(), agent.error().c_str());
+        warn_refused(session->address_, agent.error());
         session->failure_logged_.store(true);
     } else {
         SPLITVK_WARN("no splitvk-agent at %s (%s); running unsplit until one answers",
@@ -216,8 +226,7 @@ void Session::run_reconnect() {
         if (closing_) break;
         if (!agent) {
             if (final) {
-                SPLITVK_WARN("splitvk-agent at %s refused the session (%s); running unsplit",
-                             address_.c_str(), agent.error().c_str());
+                warn_refused(address_, agent.error());
                 break;
             }
             backoff = std::min(backoff * 2, kLongestRetry);
@@ -248,9 +257,12 @@ void Session::resync(DeviceState &device, VkQueue queue, uint64_t frame) {
 
     // Under the session lock nothing is logged or sent by other threads: the snapshot is exact.
     std::lock_guard lock(mutex_);
+    const auto idle = std::chrono::steady_clock::now();
     ContentSnapshot contents;
     std::string error;
-    if (!snapshot_contents(device, queue, queue_family_of(queue), &contents, &error))
+    const bool read_back = snapshot_contents(device, queue, queue_family_of(queue), &contents, &error);
+    const auto readback_done = std::chrono::steady_clock::now();
+    if (!read_back)
         SPLITVK_WARN(
             "cannot read back buffer and image contents for the new agent (%s); its frames may differ",
             error.c_str());
@@ -281,14 +293,19 @@ void Session::resync(DeviceState &device, VkQueue queue, uint64_t frame) {
     awaiting_first_tiles_.store(true);
     first_split_frame_pending_.store(true);
     const auto now = std::chrono::steady_clock::now();
+    const auto ms = [](auto from, auto to) {
+        return std::chrono::duration<double, std::milli>(to - from).count();
+    };
+    // Where the resync's time goes (issue 14, item 3): waiting for the next present, the queue to
+    // drain, the readback, and encoding and queueing the snapshot.
     SPLITVK_WARN("splitvk-agent at %s brought in at frame %llu: %zu objects, %llu buffers, %llu images, %zu "
-                 "descriptor sets, %zu command buffers, %.1f MiB in %.0f ms (%.0f ms after it answered)",
+                 "descriptor sets, %zu command buffers, %.1f MiB in %.0f ms (%.0f ms after it answered; "
+                 "%.0f ms to the present, %.0f idle, %.0f readback, %.0f encode and queue)",
                  address_.c_str(), static_cast<unsigned long long>(frame), entries,
                  static_cast<unsigned long long>(contents.buffers),
                  static_cast<unsigned long long>(contents.images), sets, streams.size(),
-                 static_cast<double>(bytes) / (1 << 20),
-                 std::chrono::duration<double, std::milli>(now - start).count(),
-                 std::chrono::duration<double, std::milli>(now - answered).count());
+                 static_cast<double>(bytes) / (1 << 20), ms(start, now), ms(answered, now),
+                 ms(answered, start), ms(start, idle), ms(idle, readback_done), ms(readback_done, now));
 }
 
 Session::~Session() {

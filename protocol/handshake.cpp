@@ -61,6 +61,8 @@ const char *to_string(RejectReason reason) {
         return "not authorised";
     case RejectReason::DeviceMismatch:
         return "the agent's GPU cannot honour the application's device limits";
+    case RejectReason::TlsRequired:
+        return "TLS required";
     }
     return "unspecified";
 }
@@ -142,7 +144,7 @@ Result<Reject> decode_reject(std::span<const uint8_t> payload) {
     WireReader r(payload);
     Reject reject;
     const uint32_t reason = r.u32("reason");
-    reject.reason = reason <= static_cast<uint32_t>(RejectReason::DeviceMismatch)
+    reject.reason = reason <= static_cast<uint32_t>(RejectReason::TlsRequired)
                         ? static_cast<RejectReason>(reason)
                         : RejectReason::Unspecified;
     reject.message = read_text(r, kMaxReasonBytes, "message");
@@ -187,6 +189,7 @@ bool constant_time_equal(std::string_view a, std::string_view b) {
 }
 
 std::variant<Welcome, Reject> evaluate_hello(const Hello &hello, const ServerHandshakeConfig &config) {
+    if (!config.require_tls.empty()) return Reject{RejectReason::TlsRequired, config.require_tls};
     if (protocol_major(hello.protocol_version) != kProtocolMajor) {
         return Reject{RejectReason::VersionMismatch,
                       "client speaks protocol " + version_string(hello.protocol_version) + ", this server " +

@@ -90,6 +90,7 @@ enum class RejectReason : uint32_t {
     Malformed = 4,
     NotAuthorised = 5,
     DeviceMismatch = 6, // the agent's GPU cannot honour the device envelope the app was told
+    TlsRequired = 7,    // plaintext from a peer that must use TLS (a non-loopback address)
 };
 const char *to_string(RejectReason reason);
 
@@ -138,6 +139,10 @@ struct ServerHandshakeConfig {
     // Whether this server can honour a client's device envelope: empty when it can, else one line
     // saying why not. Unset: not checked.
     std::function<std::string(std::span<const uint8_t> envelope)> check_envelope;
+    // Non-empty: this client must not be served over this connection (plaintext from a
+    // non-loopback peer); every Hello is refused as TlsRequired with this line, before its token
+    // is looked at, so that a plaintext peer learns nothing about the token either.
+    std::string require_tls;
 };
 std::variant<Welcome, Reject> evaluate_hello(const Hello &hello, const ServerHandshakeConfig &config);
 

@@ -8,6 +8,8 @@
 #include <optional>
 #include <sstream>
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -40,6 +42,12 @@ const SettingInfo kSettings[] = {
     {"TOKEN_FILE", "a readable file holding the token", "(none)", "file holding the shared secret"},
     {"VERIFY", "off or full", "off",
      "full: the agent returns every presented frame and the layer compares it pixel by pixel"},
+    {"TLS", "auto, on or off", "auto",
+     "TLS 1.3 on the link; auto: on for every agent address but loopback (the agent refuses plaintext from "
+     "other addresses)"},
+    {"AGENT_FINGERPRINT", "sha256: and 64 hex digits (splitvk-agent --print-fingerprint)", "(none)",
+     "the agent's certificate to accept; unset: trust it on first use and record it in "
+     "$XDG_CONFIG_HOME/splitvk/known_agents"},
     {"ENVELOPE", "auto or client", "auto",
      "auto: the app sees limits, features and formats that the client and every agent honour; client: the "
      "client's own, unchecked (agents then flag frames they cannot render)"},
@@ -237,6 +245,23 @@ bool apply(std::string_view name, std::string_view raw, Settings &s) {
             return false;
         return true;
     }
+    if (name == "TLS") {
+        if (v == "auto")
+            s.tls = TlsMode::Auto;
+        else if (v == "on")
+            s.tls = TlsMode::On;
+        else if (v == "off")
+            s.tls = TlsMode::Off;
+        else
+            return false;
+        return true;
+    }
+    if (name == "AGENT_FINGERPRINT") {
+        const auto fingerprint = normalize_fingerprint(value);
+        if (!fingerprint) return false;
+        s.agent_fingerprint = *fingerprint;
+        return true;
+    }
     if (name == "TOKEN") {
         if (value.empty() || std::any_of(value.begin(), value.end(),
                                          [](unsigned char c) { return std::isspace(c) || !std::isprint(c); }))
@@ -288,6 +313,40 @@ std::pair<uint32_t, uint32_t> FoveaSize::pixels_for_eye(uint32_t eye_width, uint
         return static_cast<uint32_t>(std::clamp(std::lround(v), 1L, static_cast<long>(std::max(limit, 1u))));
     };
     return {clamp(w, eye_width), clamp(h, eye_height)};
+}
+
+std::optional<std::string> normalize_fingerprint(std::string_view text) {
+    while (!text.empty() && std::isspace(static_cast<unsigned char>(text.front())))
+        text.remove_prefix(1);
+    while (!text.empty() && std::isspace(static_cast<unsigned char>(text.back())))
+        text.remove_suffix(1);
+    if (text.size() >= 7) {
+        std::string prefix(text.substr(0, 7));
+        std::transform(prefix.begin(), prefix.end(), prefix.begin(),
+                       [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+        if (prefix == "sha256:" || prefix == "sha256=") text.remove_prefix(7);
+    }
+    std::string hex;
+    for (char c : text) {
+        if (c == ':') continue;
+        if (!std::isxdigit(static_cast<unsigned char>(c))) return std::nullopt;
+        hex += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    }
+    if (hex.size() != 64) return std::nullopt;
+    return "sha256:" + hex;
+}
+
+bool is_loopback_host(const std::string &host) {
+    in_addr v4{};
+    if (inet_pton(AF_INET, host.c_str(), &v4) == 1) return (ntohl(v4.s_addr) >> 24) == 127;
+    in6_addr v6{};
+    if (inet_pton(AF_INET6, host.c_str(), &v6) == 1)
+        return IN6_IS_ADDR_LOOPBACK(&v6) || (IN6_IS_ADDR_V4MAPPED(&v6) && v6.s6_addr[12] == 127);
+    return host == "localhost";
+}
+
+bool Settings::use_tls() const {
+    return tls == TlsMode::On || (tls == TlsMode::Auto && !is_loopback_host(server.host));
 }
 
 std::span<const SettingInfo> setting_table() {

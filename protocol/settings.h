@@ -9,14 +9,18 @@
 #include "log.h"
 
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
 namespace splitvk {
 
 enum class EyeMode { Auto, One, Two };
+// SPLITVK_TLS (issue 14): auto is TLS for every address but loopback.
+enum class TlsMode { Auto, On, Off };
 enum class TileCodec { X264, Zstd, Raw };
 
 struct ServerAddress {
@@ -52,7 +56,22 @@ struct Settings {
     // SPLITVK_ENVELOPE (issue 10): auto tells the application limits both sides honour; client
     // tells it the client's own, unchecked, which only a diagnosis should want.
     bool envelope = true;
+    TlsMode tls = TlsMode::Auto;
+    // SPLITVK_AGENT_FINGERPRINT: the agent's certificate, canonical "sha256:<hex>"; empty: trust
+    // on first use through known_agents (known_agents.h).
+    std::string agent_fingerprint;
+
+    // Whether the link to `server` runs TLS: on, off, or (auto) unless its host is loopback.
+    bool use_tls() const;
 };
+
+// "sha256:ab01...", "SHA256:AB:01:...", "ab01..." (what `openssl x509 -fingerprint -sha256`
+// prints, too): the canonical "sha256:<64 lowercase hex>", or nothing when it is not a SHA-256.
+std::optional<std::string> normalize_fingerprint(std::string_view text);
+
+// Numeric loopback addresses (127.0.0.0/8, ::1, ::ffff:127.x) and "localhost". A name such as
+// "127.example.com" resolves to whatever its DNS says, so no textual prefix test.
+bool is_loopback_host(const std::string &host);
 
 // One row of the settings table: what the docs list and the parser accepts.
 struct SettingInfo {

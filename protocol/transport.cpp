@@ -1,6 +1,7 @@
 #include "transport.h"
 
 #include "log.h"
+#include "tls_internal.h"
 
 #include <algorithm>
 #include <atomic>
@@ -19,6 +20,8 @@
 #include <asio/io_context.hpp>
 #include <asio/ip/tcp.hpp>
 #include <asio/post.hpp>
+#include <asio/ssl/error.hpp>
+#include <asio/ssl/stream.hpp>
 #include <asio/steady_timer.hpp>
 #include <asio/write.hpp>
 #include <fcntl.h>
@@ -38,6 +41,9 @@ using asio::ip::tcp;
 
 constexpr size_t kReadBufferSize = 64 * 1024;
 constexpr size_t kMaxWriteBatch = 64; // messages gathered into one write
+// Over TLS, Asio encrypts one buffer per SSL_write, so small messages are copied together into
+// one buffer of at most this size rather than becoming a record and a system call each.
+constexpr size_t kTlsStageBytes = size_t{1} << 20;
 
 std::string format_endpoint(const tcp::endpoint &endpoint) {
     const std::string address = endpoint.address().to_string();
@@ -204,8 +210,11 @@ struct Connection::Impl : std::enable_shared_from_this<Connection::Impl> {
             if (closed || read_paused) return;
         }
         read_in_flight = true;
-        socket.async_read_some(asio::buffer(read_buffer),
-                               [this](const asio::error_code &ec, size_t n) { on_read(ec, n); });
+        const auto on_done = [this](const asio::error_code &ec, size_t n) { on_read(ec, n); };
+        if (tls)
+            tls->async_read_some(asio::buffer(read_buffer), on_done);
+        else
+            socket.async_read_some(asio::buffer(read_buffer), on_done);
     }
 
     void on_read(const asio::error_code &ec, size_t n) {
@@ -234,13 +243,17 @@ struct Connection::Impl : std::enable_shared_from_this<Connection::Impl> {
     }
 
     std::string describe_receive_error(const asio::error_code &ec) const {
-        if (ec == asio::error::eof) {
+        // A TLS peer that closes its socket without a close_notify: the framing, not TLS, tells
+        // whether a message was cut short.
+        if (ec == asio::error::eof || (tls && ec == asio::ssl::error::stream_truncated)) {
             if (!decoder.at_message_boundary())
                 return "peer closed the connection in the middle of a message (stream offset " +
                        std::to_string(decoder.stream_offset()) + ")";
             return "peer closed the connection";
         }
         if (ec == asio::error::connection_reset) return "connection reset by peer";
+        if (tls && ec.category() == asio::error::get_ssl_category())
+            return "receive failed: TLS: " + describe_tls_error(ec, tls_server);
         return "receive failed: " + ec.message();
     }
 
@@ -362,14 +375,43 @@ struct Connection::Impl : std::enable_shared_from_this<Connection::Impl> {
             // valid while send() keeps queueing.
             writing = std::min(send_queue.size(), kMaxWriteBatch);
             write_buffers.clear();
-            for (size_t i = 0; i < writing; ++i) {
-                const Outgoing &out = send_queue[i];
-                write_buffers.push_back(asio::buffer(out.header));
-                if (!out.payload.empty()) write_buffers.push_back(asio::buffer(out.payload));
+            if (tls) {
+                stage_for_tls();
+            } else {
+                for (size_t i = 0; i < writing; ++i) {
+                    const Outgoing &out = send_queue[i];
+                    write_buffers.push_back(asio::buffer(out.header));
+                    if (!out.payload.empty()) write_buffers.push_back(asio::buffer(out.payload));
+                }
             }
         }
-        asio::async_write(socket, write_buffers,
-                          [this](const asio::error_code &ec, size_t n) { on_written(ec, n); });
+        const auto on_done = [this](const asio::error_code &ec, size_t n) { on_written(ec, n); };
+        if (tls)
+            asio::async_write(*tls, write_buffers, on_done);
+        else
+            asio::async_write(socket, write_buffers, on_done);
+    }
+
+    // Under `mutex`: the first of `writing` messages that fit kTlsStageBytes, copied into one
+    // buffer; a larger first message goes alone and uncopied. Sets `writing` to what was taken.
+    void stage_for_tls() {
+        const Outgoing &first = send_queue.front();
+        if (first.bytes > kTlsStageBytes) {
+            writing = 1;
+            write_buffers.push_back(asio::buffer(first.header));
+            if (!first.payload.empty()) write_buffers.push_back(asio::buffer(first.payload));
+            return;
+        }
+        tls_staging.clear();
+        size_t taken = 0;
+        for (; taken < writing; ++taken) {
+            const Outgoing &out = send_queue[taken];
+            if (tls_staging.size() + out.bytes > kTlsStageBytes) break;
+            tls_staging.insert(tls_staging.end(), out.header.begin(), out.header.end());
+            tls_staging.insert(tls_staging.end(), out.payload.begin(), out.payload.end());
+        }
+        writing = taken;
+        write_buffers.push_back(asio::buffer(tls_staging));
     }
 
     void on_written(const asio::error_code &ec, size_t n) {
@@ -398,6 +440,59 @@ struct Connection::Impl : std::enable_shared_from_this<Connection::Impl> {
         return closed;
     }
 
+    // --- TLS ----------------------------------------------------------------------------------
+
+    // Shakes hands over the connected socket, on the I/O thread, and waits at most `timeout` for
+    // it. Empty when TLS 1.3 is up; else one line (the client's own refusal of the agent's
+    // certificate, when that is what failed). Before start(): nothing else runs on the socket.
+    std::string handshake(std::shared_ptr<TlsContext> context, std::chrono::milliseconds timeout) {
+        struct Attempt {
+            explicit Attempt(asio::io_context &io) : timer(io) {}
+            std::promise<std::string> done;
+            asio::steady_timer timer;
+            bool timed_out = false;
+            bool finished = false;
+        };
+        auto attempt = std::make_shared<Attempt>(io);
+        auto outcome = attempt->done.get_future();
+        tls_context = std::move(context);
+        tls_server = tls_context->is_server();
+        asio::post(io, [this, attempt, timeout] {
+            tls.emplace(socket, tls_context->impl().context);
+            if (!tls_server) SSL_set_ex_data(tls->native_handle(), tls_peer_check_index(), &peer_check);
+            attempt->timer.expires_after(timeout);
+            attempt->timer.async_wait([this, attempt](const asio::error_code &ec) {
+                if (ec || attempt->finished) return;
+                attempt->timed_out = true;
+                asio::error_code ignored;
+                socket.close(ignored); // aborts the handshake in progress
+            });
+            tls->async_handshake(
+                tls_server ? asio::ssl::stream_base::server : asio::ssl::stream_base::client,
+                [this, attempt, timeout](const asio::error_code &ec) {
+                    attempt->finished = true;
+                    attempt->timer.cancel();
+                    std::string result;
+                    if (attempt->timed_out) {
+                        result = "the TLS handshake did not finish within " +
+                                 std::to_string(timeout.count()) + " ms";
+                    } else if (!tls_server && peer_check.decided && !peer_check.refusal.empty()) {
+                        result = peer_check.refusal;
+                    } else if (ec) {
+                        result = "TLS handshake failed: " + describe_tls_error(ec, tls_server);
+                    } else if (SSL_version(tls->native_handle()) != TLS1_3_VERSION) {
+                        result = std::string("TLS handshake failed: negotiated ") +
+                                 SSL_get_version(tls->native_handle()) + ", not TLS 1.3";
+                    } else {
+                        std::lock_guard lock(mutex);
+                        security = std::string("TLS 1.3 (") + SSL_get_cipher_name(tls->native_handle()) + ")";
+                    }
+                    attempt->done.set_value(std::move(result));
+                });
+        });
+        return outcome.get();
+    }
+
     // --- state --------------------------------------------------------------------------------
 
     ConnectionOptions options;
@@ -414,6 +509,13 @@ struct Connection::Impl : std::enable_shared_from_this<Connection::Impl> {
     bool read_in_flight = false;
     std::vector<asio::const_buffer> write_buffers;
     size_t writing = 0; // messages at the queue's front in the write in flight
+    // TLS: set up by handshake() before start(), then used by the I/O thread only. The stream
+    // refers to `socket`, declared above it, so it goes first.
+    std::shared_ptr<TlsContext> tls_context; // keeps the SSL_CTX and its verifier alive
+    bool tls_server = false;
+    std::optional<asio::ssl::stream<tcp::socket &>> tls;
+    TlsPeerCheck peer_check;
+    std::vector<uint8_t> tls_staging;
 
     // Guarded by mutex.
     mutable std::mutex mutex;
@@ -435,6 +537,7 @@ struct Connection::Impl : std::enable_shared_from_this<Connection::Impl> {
     ConnectionStats stats;
     std::string peer;
     std::string local;
+    std::string security = "plaintext";
     int native_fd = -1; // set once before the I/O thread runs the socket; diagnostics only
     const pid_t owner_pid = ::getpid();
     bool abandoned = false; // in a forked child only
@@ -531,6 +634,17 @@ Result<std::unique_ptr<Connection>> Connection::connect(const std::string &host,
                          " ms"};
         return Error{"cannot connect to " + target + ": " + ec.message()};
     }
+    if (impl->options.tls) {
+        if (impl->options.tls->is_server()) {
+            impl->close("TLS context of the wrong side");
+            return Error{"connect: a server TLS context"};
+        }
+        const std::string failed = impl->handshake(impl->options.tls, impl->options.tls_handshake_timeout);
+        if (!failed.empty()) {
+            impl->close("TLS handshake failed");
+            return Error{failed};
+        }
+    }
     return std::unique_ptr<Connection>(new Connection(std::move(impl)));
 }
 
@@ -558,6 +672,17 @@ Result<std::unique_ptr<Connection>> Connection::adopt(UniqueFd socket, Connectio
     if (ec) impl->peer = "?";
     impl->local = format_endpoint(impl->socket.local_endpoint(ec));
     impl->start_thread();
+    if (impl->options.tls) {
+        if (!impl->options.tls->is_server()) {
+            impl->close("TLS context of the wrong side");
+            return Error{"adopt: a client TLS context"};
+        }
+        const std::string failed = impl->handshake(impl->options.tls, impl->options.tls_handshake_timeout);
+        if (!failed.empty()) {
+            impl->close("TLS handshake failed");
+            return Error{failed};
+        }
+    }
     return std::unique_ptr<Connection>(new Connection(std::move(impl)));
 }
 
@@ -632,6 +757,11 @@ std::string Connection::peer_address() const {
 std::string Connection::local_address() const {
     std::lock_guard lock(impl_->mutex);
     return impl_->local;
+}
+
+std::string Connection::security() const {
+    std::lock_guard lock(impl_->mutex);
+    return impl_->security;
 }
 
 ConnectionStats Connection::stats() const {

@@ -44,6 +44,7 @@
 #include "compression.h"
 #include "handshake.h"
 #include "result.h"
+#include "tls.h"
 #include "wire.h"
 
 #include <chrono>
@@ -100,6 +101,11 @@ struct ConnectionOptions {
     CompressionPolicy compression;                 // set enabled = false unless the peer has kZstdPayloads
     UnknownTypePolicy unknown_types = UnknownTypePolicy::Reject;
     std::function<bool(uint16_t)> is_known_type; // empty: is_defined_type()
+    // Set: the connection runs TLS 1.3 over its socket (tls.h). connect() shakes hands as the
+    // client (the context must be a client one) and adopt() as the server, each within
+    // tls_handshake_timeout, before they return; a failed handshake is their one-line error.
+    std::shared_ptr<TlsContext> tls;
+    std::chrono::milliseconds tls_handshake_timeout{5000};
 };
 
 enum class SendResult {
@@ -192,6 +198,8 @@ public:
     std::string close_reason() const; // empty while open
     std::string peer_address() const; // "127.0.0.1:7447", "[::1]:7447"
     std::string local_address() const;
+    // "TLS 1.3 (TLS_AES_256_GCM_SHA384)" or "plaintext", for logs.
+    std::string security() const;
     ConnectionStats stats() const;
     // The socket, for getsockopt() and diagnostics only, and only while open: never read, write
     // or close it.

@@ -10,7 +10,7 @@ SPLITVK_PACKAGES=(
   cmake make g++ pkg-config python3 python3-matplotlib
   libvulkan-dev vulkan-validationlayers mesa-vulkan-drivers vulkan-tools
   glslang-tools spirv-tools mangohud gfxreconstruct
-  libx264-dev libavcodec-dev libavutil-dev libasio-dev libglm-dev libzstd-dev libgtest-dev
+  libx264-dev libavcodec-dev libavutil-dev libasio-dev libglm-dev libzstd-dev libssl-dev libgtest-dev
   libxcb1-dev libx11-dev xvfb xauth x11-utils ffmpeg
   systemd
 )

@@ -58,8 +58,10 @@ const char *agent_usage() {
     return "usage: splitvk-agent [--listen ADDR:PORT] [--device N] [--token-file FILE] [--validate]\n"
            "                     [--max-sessions N] [--max-message-bytes SIZE] [--max-host-memory SIZE]\n"
            "                     [--max-gpu-memory SIZE] [--record-corpus DIR] [--emulate-limits FILE]\n"
-           "                     [--user NAME] [--no-confine]\n"
+           "                     [--user NAME] [--no-confine] [--tls-cert FILE --tls-key FILE]\n"
+           "                     [--state-dir DIR]\n"
            "       splitvk-agent --list-devices\n"
+           "       splitvk-agent --print-fingerprint [--state-dir DIR | --tls-cert FILE --tls-key FILE]\n"
            "\n"
            "The splitvk server agent: replays the command stream of applications running the\n"
            "VK_LAYER_SPLITVK_split_render layer on this machine's GPU and streams the fovea back.\n"
@@ -93,18 +95,21 @@ const char *agent_usage() {
            "                      (default nobody); it also gets the groups of the GPU device files\n"
            "  --no-confine        debugging only: sessions keep the agent's user and rights, without\n"
            "                      no_new_privs or Landlock (docs/security.md)\n"
+           "  --tls-cert FILE, --tls-key FILE\n"
+           "                      the agent's TLS certificate (PEM, itself first, then any chain) and\n"
+           "                      its key (PEM, no passphrase); default: a P-256 key and a self-signed\n"
+           "                      certificate made on first start in the state directory\n"
+           "  --state-dir DIR     where the generated identity is kept (default $STATE_DIRECTORY, else\n"
+           "                      $XDG_STATE_HOME/splitvk-agent or ~/.local/state/splitvk-agent)\n"
+           "  --print-fingerprint print the SHA-256 of the agent's certificate (creating the identity\n"
+           "                      if there is none yet) and exit; clients pin it with\n"
+           "                      SPLITVK_AGENT_FINGERPRINT or record it on first use\n"
            "  --list-devices      print the GPUs this agent can use and exit\n"
            "  --help              print this help and exit\n";
 }
 
 bool is_loopback_host(const std::string &host) {
-    // Numeric addresses only (and "localhost"): a name such as "127.example.com" resolves to
-    // whatever its DNS says, so a textual prefix test would let it through.
-    in_addr v4{};
-    if (inet_pton(AF_INET, host.c_str(), &v4) == 1) return (ntohl(v4.s_addr) >> 24) == 127;
-    in6_addr v6{};
-    if (inet_pton(AF_INET6, host.c_str(), &v6) == 1) return IN6_IS_ADDR_LOOPBACK(&v6);
-    return host == "localhost";
+    return splitvk::is_loopback_host(host);
 }
 
 ParsedOptions parse_agent_options(const std::vector<std::string> &arguments) {
@@ -197,12 +202,28 @@ ParsedOptions parse_agent_options(const std::vector<std::string> &arguments) {
             o.user_given = true;
         } else if (arg == "--no-confine") {
             o.confine = false;
+        } else if (arg == "--tls-cert" || arg == "--tls-key" || arg == "--state-dir") {
+            const auto v = value(arg == "--state-dir" ? "a directory" : "a PEM file");
+            if (!v) return parsed;
+            if (v->empty()) {
+                parsed.error = arg + " '' is invalid: expected a path";
+                return parsed;
+            }
+            (arg == "--tls-cert" ? o.tls_cert : arg == "--tls-key" ? o.tls_key : o.state_dir) = *v;
+        } else if (arg == "--print-fingerprint") {
+            o.print_fingerprint = true;
         } else {
             parsed.error = "unknown option '" + arg + "' (see --help)";
             return parsed;
         }
     }
-    if (!o.help && !o.list_devices && !is_loopback_host(o.listen_host) && o.token_file.empty()) {
+    if (o.tls_cert.empty() != o.tls_key.empty()) {
+        parsed.error = o.tls_cert.empty() ? "--tls-key needs --tls-cert (the certificate of that key)"
+                                          : "--tls-cert needs --tls-key (the certificate's private key)";
+        return parsed;
+    }
+    if (!o.help && !o.list_devices && !o.print_fingerprint && !is_loopback_host(o.listen_host) &&
+        o.token_file.empty()) {
         parsed.error = "refusing to listen on non-loopback address " + o.listen_host +
                        " without --token-file: anyone on the network could drive this GPU";
     }

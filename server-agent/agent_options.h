@@ -37,6 +37,13 @@ struct AgentOptions {
     std::string user = "nobody";
     bool user_given = false;
     bool confine = true;
+    // The agent's TLS identity (identity.h): --tls-cert/--tls-key, or a key and self-signed
+    // certificate generated on first start in --state-dir (default $STATE_DIRECTORY, which
+    // systemd sets, else $XDG_STATE_HOME/splitvk-agent or ~/.local/state/splitvk-agent).
+    std::string tls_cert;
+    std::string tls_key;
+    std::string state_dir;
+    bool print_fingerprint = false;
     bool list_devices = false;
     bool help = false;
 };

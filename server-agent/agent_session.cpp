@@ -46,8 +46,9 @@ bool client_type(uint16_t type) {
 
 class Session {
 public:
-    Session(std::unique_ptr<protocol::Connection> connection, const SessionConfig &config)
-        : connection_(std::move(connection)), config_(config),
+    Session(std::unique_ptr<protocol::Connection> connection, const SessionConfig &config,
+            std::string require_tls)
+        : connection_(std::move(connection)), config_(config), require_tls_(std::move(require_tls)),
           replayer_(config.session_id, {config.max_host_memory, config.max_gpu_memory}, config.device) {
         if (!config.record_corpus.empty())
             recorder_ = std::make_unique<CorpusRecorder>(config.record_corpus, config.session_id);
@@ -65,6 +66,7 @@ private:
 
     std::unique_ptr<protocol::Connection> connection_;
     SessionConfig config_;
+    std::string require_tls_; // plaintext from a non-loopback peer: refuse its Hello with this
     Replayer replayer_;
     std::unique_ptr<CorpusRecorder> recorder_;
     std::unordered_map<uint64_t, uint64_t> swapchain_bytes_; // by swapchain id
@@ -110,6 +112,7 @@ int Session::run() {
     handshake.server_gpu_name = config_.gpu_name;
     handshake.session_id = config_.session_id;
     handshake.full = config_.full;
+    handshake.require_tls = require_tls_;
     handshake.codec_fingerprint = codec::kCodecFingerprint;
     handshake.server_device = protocol::encode(config_.device);
     handshake.check_envelope = [this](std::span<const uint8_t> blob) -> std::string {
@@ -130,9 +133,9 @@ int Session::run() {
         off.enabled = false;
         connection_->set_compression(off);
     }
-    SPLITVK_INFO("session %llu: %s (%s) from %s", static_cast<unsigned long long>(config_.session_id),
+    SPLITVK_INFO("session %llu: %s (%s) from %s, %s", static_cast<unsigned long long>(config_.session_id),
                  hs->hello.client_name.c_str(), hs->hello.client_gpu_name.c_str(),
-                 connection_->peer_address().c_str());
+                 connection_->peer_address().c_str(), connection_->security().c_str());
     if (!hs->hello.device_envelope.empty()) {
         if (auto envelope = protocol::decode_device_description(hs->hello.device_envelope)) {
             const auto gaps = protocol::format_gaps(config_.device, *envelope);
@@ -307,13 +310,38 @@ int run_session(protocol::UniqueFd socket, const SessionConfig &config) {
     options.max_receive_payload_name = "--max-message-bytes";
     options.unknown_types = protocol::UnknownTypePolicy::Reject;
     options.is_known_type = client_type;
+    const unsigned long long id = config.session_id;
+    // TLS or plaintext, from the client's first bytes: the agent serves both on one port, and
+    // refuses plaintext from anywhere but this machine (docs/security.md, "The link").
+    const bool loopback = protocol::peer_is_loopback(socket.get());
+    const std::string peer = protocol::peer_address_of(socket.get());
+    auto first = protocol::sniff_first_bytes(socket.get(), kHandshakeTimeout);
+    if (!first) {
+        SPLITVK_ERROR("session %llu: handshake failed: %s (from %s); closing", id, first.error().c_str(),
+                      peer.c_str());
+        return kSessionHandshake;
+    }
+    std::string require_tls;
+    if (*first == protocol::FirstBytes::Tls) {
+        if (!config.tls) {
+            SPLITVK_ERROR(
+                "session %llu: a TLS client, but this agent has no TLS identity (see its first lines); "
+                "closing",
+                id);
+            return kSessionHandshake;
+        }
+        options.tls = config.tls;
+        options.tls_handshake_timeout = kHandshakeTimeout;
+    } else if (!loopback) {
+        require_tls =
+            "this agent takes plaintext only from its own machine; use TLS (SPLITVK_TLS=auto or on)";
+    }
     auto connection = protocol::Connection::adopt(std::move(socket), options);
     if (!connection) {
-        SPLITVK_ERROR("session %llu: %s", static_cast<unsigned long long>(config.session_id),
-                      connection.error().c_str());
-        return kSessionError;
+        SPLITVK_ERROR("session %llu: %s (from %s); closing", id, connection.error().c_str(), peer.c_str());
+        return options.tls ? kSessionHandshake : kSessionError;
     }
-    Session session(std::move(connection.value()), config);
+    Session session(std::move(connection.value()), config, std::move(require_tls));
     return session.run();
 }
 

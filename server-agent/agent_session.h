@@ -9,6 +9,7 @@
 #include "transport.h"
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -29,6 +30,8 @@ struct SessionConfig {
     // The GPU as clients are told it is (--emulate-limits included): sent in Welcome, checked
     // against each client's device envelope, and what replayed commands are checked against.
     protocol::DeviceDescription device;
+    // The agent's TLS identity; null: TLS clients are turned away (a loopback agent without one).
+    std::shared_ptr<protocol::TlsContext> tls;
 };
 
 // Exit statuses of a session process (the listener logs them).

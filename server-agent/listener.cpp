@@ -80,7 +80,7 @@ bool read_token(const std::string &path, std::vector<uint8_t> *token, std::strin
 } // namespace
 
 int run_listener(const AgentOptions &options, const std::string &gpu_name,
-                 const protocol::DeviceDescription &device) {
+                 const protocol::DeviceDescription &device, std::shared_ptr<protocol::TlsContext> tls) {
     std::vector<uint8_t> token;
     std::string error;
     if (!options.token_file.empty() && !read_token(options.token_file, &token, &error)) {
@@ -142,6 +142,7 @@ int run_listener(const AgentOptions &options, const std::string &gpu_name,
         config.max_gpu_memory = options.max_gpu_memory;
         config.record_corpus = options.record_corpus;
         config.device = device;
+        config.tls = tls;
         std::string dir;
         if (plan->enabled) {
             dir = dirs.create(config.session_id, &error);

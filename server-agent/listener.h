@@ -7,14 +7,17 @@
 
 #include "agent_options.h"
 #include "device_envelope.h"
+#include "tls.h"
 
+#include <memory>
 #include <string>
 
 namespace splitvk::agent {
 
 // Serves until SIGTERM or SIGINT; returns the process exit status. `device` is the GPU as sessions
-// present it to clients: the real one, narrowed by --emulate-limits.
+// present it to clients: the real one, narrowed by --emulate-limits. `tls` is the agent's TLS
+// identity (null when it has none, which only a loopback agent may run without).
 int run_listener(const AgentOptions &options, const std::string &gpu_name,
-                 const protocol::DeviceDescription &device);
+                 const protocol::DeviceDescription &device, std::shared_ptr<protocol::TlsContext> tls);
 
 } // namespace splitvk::agent

@@ -2,12 +2,14 @@
 
 #include "agent_options.h"
 #include "devices.h"
+#include "identity.h"
 #include "listener.h"
 #include "log.h"
 
 #include <vulkan/vulkan.h>
 
 #include <cstdio>
+#include <ctime>
 #include <fstream>
 #include <iterator>
 #include <optional>
@@ -47,6 +49,17 @@ int main(int argc, char **argv) {
     }
     if (options.list_devices) return list_devices();
 
+    // --print-fingerprint needs nothing but the identity (made now if there is none).
+    if (options.print_fingerprint) {
+        auto identity = splitvk::agent::load_agent_identity(options);
+        if (!identity) {
+            SPLITVK_ERROR("%s", identity.error().c_str());
+            return 2;
+        }
+        std::printf("%s\n", identity->certificate.fingerprint.c_str());
+        return 0;
+    }
+
     // The operator's profile first: a bad one is one line before any GPU is touched.
     std::optional<splitvk::protocol::DeviceProfile> profile;
     if (!options.emulate_limits.empty()) {
@@ -63,6 +76,43 @@ int main(int argc, char **argv) {
             return 2;
         }
         profile = std::move(parsed_profile).value();
+    }
+
+    // The TLS identity before any GPU, after the profile (whose error must be the only line): a
+    // listener forks its sessions with the identity loaded (a confined session cannot read it).
+    auto identity = splitvk::agent::load_agent_identity(options);
+    std::shared_ptr<splitvk::protocol::TlsContext> tls;
+    if (identity) {
+        auto context = splitvk::protocol::TlsContext::server(identity->identity);
+        if (context)
+            tls = std::move(context).value();
+        else
+            identity = splitvk::protocol::Error{identity->source + ": " + context.error()};
+    }
+    const bool loopback = splitvk::agent::is_loopback_host(options.listen_host);
+    if (!identity) {
+        // A loopback agent can serve plaintext clients without one; any other must speak TLS.
+        if (!loopback) {
+            SPLITVK_ERROR("TLS identity: %s; an agent on %s needs one", identity.error().c_str(),
+                          options.listen_host.c_str());
+            return 2;
+        }
+        SPLITVK_WARN("TLS identity: %s; TLS clients (SPLITVK_TLS=on) will be turned away",
+                     identity.error().c_str());
+    } else {
+        const auto &cert = identity->certificate;
+        SPLITVK_INFO(
+            "TLS identity %s (%s, %s), valid until %s", cert.fingerprint.c_str(), cert.subject.c_str(),
+            identity->generated ? ("made now in " + identity->source).c_str() : identity->source.c_str(),
+            splitvk::protocol::format_utc(cert.not_after).c_str());
+        const std::string problem =
+            splitvk::protocol::validity_problem(cert, static_cast<int64_t>(std::time(nullptr)));
+        if (!problem.empty())
+            SPLITVK_WARN("the TLS certificate %s: clients will refuse it (%s)", problem.c_str(),
+                         options.tls_cert.empty()
+                             ? "remove agent.crt and agent.key from the state directory to "
+                               "make a new one; clients then see a changed key"
+                             : "renew --tls-cert");
     }
 
     std::string error;
@@ -84,5 +134,5 @@ int main(int argc, char **argv) {
                      options.emulate_limits.c_str(), changed.empty() ? "the same limits" : changed.c_str(),
                      hidden.size());
     }
-    return splitvk::agent::run_listener(options, gpu.name, device);
+    return splitvk::agent::run_listener(options, gpu.name, device, std::move(tls));
 }

@@ -9,6 +9,10 @@ and end to end the frame time of native and split (median and IQR) with their ra
 compressed tile bytes over the raw tile bytes, and the exposed wait's share of all frame time. The
 first --warmup frames of each run (scene upload, the first keyframes) are left out of the medians.
 
+With --tls each round also runs the split with SPLITVK_TLS=on (TLS 1.3 on loopback, as on a LAN
+but for the network itself) and it reports the TLS split's frame time over the plaintext split's,
+measured in the same run (split-tls/split).
+
 With --png-dir it also grabs what the X server shows for the last frame of one native and one split
 run (splitvk-atrium --hold), as PNGs.
 
@@ -45,6 +49,8 @@ def add_arguments(p, frames=200, rounds=2):
     p.add_argument("--codec", choices=("x264", "zstd", "raw"), default="x264", help="default: %(default)s")
     p.add_argument("--scale", default="0.6", help="SPLITVK_SCALE (default: %(default)s)")
     p.add_argument("--png-dir", help="save PNGs of the last native and split frame there")
+    p.add_argument("--tls", action="store_true",
+                   help="also run each round's split over TLS 1.3 (SPLITVK_TLS=on) and report split-tls/split")
     p.add_argument("--out-dir", help="keep the per-frame CSVs and logs there (default: a temporary folder)")
     common.add_build_argument(p)
     common.add_driver_argument(p)
@@ -54,7 +60,9 @@ def add_arguments(p, frames=200, rounds=2):
 def started_agent(agent, port, env, log_path, prefix=()):
     """Runs `prefix + splitvk-agent --listen 127.0.0.1:port` (its log in log_path) while the block runs."""
     with open(log_path, "w") as log:
-        proc = subprocess.Popen(list(prefix) + [agent, "--listen", f"127.0.0.1:{port}"], env=env,
+        # Its TLS identity beside its log, not in the user's state directory.
+        state = os.path.join(os.path.dirname(log_path), "agent-state")
+        proc = subprocess.Popen(list(prefix) + [agent, "--listen", f"127.0.0.1:{port}", "--state-dir", state], env=env,
                                 stdout=subprocess.DEVNULL, stderr=log, start_new_session=True)
         try:
             time.sleep(0.5)
@@ -173,7 +181,7 @@ def measure(args):
     print(f"split: {APP_NAME} {args.width}x{args.height}, {args.eyes} eye(s), {args.frames} frames per run, "
           f"{args.rounds} rounds, scale {args.scale}, codec {args.codec}, agent on 127.0.0.1:{port}", flush=True)
 
-    natives, splits = [], []
+    natives, splits, tls_splits = [], [], []
     with common.display() as disp:
         base = common.clean_env(args.icd)
         base["DISPLAY"] = disp
@@ -197,6 +205,15 @@ def measure(args):
                         splits.append((r, read_stats(stats, args.warmup)))
                         m, iqr, _ = r.frame_time()
                         line.append(f"split {m:7.2f} ms/frame (IQR {iqr:.2f})")
+                if getattr(args, "tls", False):
+                    # The same split over TLS; the client records the agent in a known_agents of its own.
+                    tls_env = dict(split_env, SPLITVK_TLS="on", XDG_CONFIG_HOME=os.path.join(out_dir, "tls-config"))
+                    r = common.run(argv(args.frames), tls_env, timeout_s)
+                    if "[splitvk] split:" not in r.stderr or "TLS 1.3" not in r.stderr:
+                        raise common.BenchError("the TLS split run did not split over TLS 1.3:\n" + common.tail(r.stderr))
+                    tls_splits.append(r)
+                    m, iqr, _ = r.frame_time()
+                    line.append(f"split+TLS {m:7.2f} ms/frame (IQR {iqr:.2f})")
                 print(f"  round {i + 1}/{args.rounds}: " + "   ".join(line), flush=True)
             pngs = None
             if args.png_dir:
@@ -218,6 +235,7 @@ def measure(args):
         "native_iqr": median([iqr for _, iqr, _ in native_all]),
         "split_median": median([m for m, _, _ in split_all]),
         "split_iqr": median([iqr for _, iqr, _ in split_all]),
+        "split_tls_median": median([r.frame_time()[0] for r in tls_splits]) if tls_splits else None,
     }
 
 
@@ -235,6 +253,9 @@ def print_tables(res):
     print(f"  native                       {res['native_median']:9.2f} {res['native_iqr']:8.2f}")
     print(f"  split                        {res['split_median']:9.2f} {res['split_iqr']:8.2f}")
     print(f"late frames (centre from the periphery): {s['late']} of {s['frames']}")
+    if res.get("split_tls_median"):
+        print(f"  split over TLS 1.3           {res['split_tls_median']:9.2f}")
+        print(f"split-tls/split: {res['split_tls_median'] / res['split_median'] if res['split_median'] else 0.0:.3f}")
     print_final_lines(res["split_median"], res["native_median"], s["tile_wait"], s["exposed_share"],
                       s["tile_bytes"], s["raw_bytes"])
 

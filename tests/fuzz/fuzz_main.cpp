@@ -1,5 +1,6 @@
 // libFuzzer's entry point for one target; SPLITVK_FUZZ_ENTRY names it (fuzz_agent_messages,
-// fuzz_tile_decoder) and the function after the "fuzz_" prefix does the work.
+// fuzz_tile_decoder, fuzz_tls_handshake, fuzz_known_agents) and the function after the "fuzz_" prefix does
+// the work.
 
 #include "fuzz_targets.h"
 
@@ -12,6 +13,12 @@ namespace {
 }
 [[maybe_unused]] void call_fuzz_tile_decoder(const uint8_t *data, size_t size) {
     splitvk::fuzz::tile_decoder(data, size);
+}
+[[maybe_unused]] void call_fuzz_tls_handshake(const uint8_t *data, size_t size) {
+    splitvk::fuzz::tls_handshake(data, size);
+}
+[[maybe_unused]] void call_fuzz_known_agents(const uint8_t *data, size_t size) {
+    splitvk::fuzz::known_agents(data, size);
 }
 } // namespace
 

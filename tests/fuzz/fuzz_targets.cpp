@@ -2,8 +2,11 @@
 
 #include "device_envelope.h"
 #include "handshake.h"
+#include "known_agents.h"
 #include "session.h"
+#include "settings.h"
 #include "tile_codec.h"
+#include "tls.h"
 #include "vk_codec.h"
 #include "wire.h"
 
@@ -253,6 +256,86 @@ void tile_decoder(const uint8_t *data, size_t size) {
         rest = rest.subspan(4 + length);
         if (decoder->decode(encoded, pixels.data(), &error)) touch_bytes(pixels);
     }
+}
+
+namespace {
+
+// One identity and both contexts for the whole run: making a key per input would be most of the
+// work, and a session's contexts are made once too.
+struct TlsContexts {
+    std::shared_ptr<protocol::TlsContext> server;
+    std::shared_ptr<protocol::TlsContext> client;
+};
+
+const TlsContexts &tls_contexts() {
+    static const TlsContexts contexts = [] {
+        TlsContexts made;
+        auto identity = protocol::generate_tls_identity("splitvk-agent fuzz", std::chrono::hours(-1),
+                                                        std::chrono::hours(24));
+        if (!identity) std::abort();
+        auto server = protocol::TlsContext::server(*identity);
+        // The layer's verdict depends on the certificate only; refuse every other one, as a
+        // changed key would be.
+        auto client = protocol::TlsContext::client([](const protocol::CertificateInfo &cert) {
+            return cert.fingerprint.back() < '8' ? std::string() : "changed: " + cert.fingerprint;
+        });
+        if (!server || !client) std::abort();
+        made.server = std::move(server).value();
+        made.client = std::move(client).value();
+        return made;
+    }();
+    return contexts;
+}
+
+} // namespace
+
+void tls_handshake(const uint8_t *data, size_t size) {
+    if (size == 0) return;
+    const bool client = data[0] & 1;
+    const uint8_t *peer = data + 1;
+    const size_t peer_size = size - 1;
+    const TlsContexts &contexts = tls_contexts();
+    std::vector<uint8_t> sent;
+    std::vector<uint8_t> received;
+    const std::string outcome = protocol::tls_over_memory(client ? *contexts.client : *contexts.server, peer,
+                                                          peer_size, &sent, &received);
+    touch_bytes(std::span<const uint8_t>(reinterpret_cast<const uint8_t *>(outcome.data()), outcome.size()));
+    touch_bytes(sent);
+    touch_bytes(received);
+    if (client) return;
+    // The agent's plaintext path: its first-bytes check, then the first message's payload as a
+    // Hello, refused for a non-loopback peer.
+    if (peer_size >= 6) g_sink = g_sink + static_cast<unsigned>(protocol::classify_first_bytes(peer));
+    if (peer_size > protocol::kHeaderSize) {
+        auto hello = protocol::decode_hello(
+            std::span<const uint8_t>(peer + protocol::kHeaderSize, peer_size - protocol::kHeaderSize));
+        if (hello) {
+            protocol::ServerHandshakeConfig config;
+            config.token = {'t', 'o', 'k'};
+            config.require_tls = "use TLS";
+            const auto decision = protocol::evaluate_hello(*hello, config);
+            if (!std::holds_alternative<protocol::Reject>(decision))
+                std::abort(); // plaintext must never pass
+            touch_bytes(protocol::encode_reject(std::get<protocol::Reject>(decision)));
+        }
+    }
+}
+
+void known_agents(const uint8_t *data, size_t size) {
+    const std::string_view text(reinterpret_cast<const char *>(data), size);
+    const protocol::KnownAgents known = protocol::parse_known_agents(text, "known_agents");
+    for (const auto &entry : known.entries) {
+        const protocol::KnownAgent *found = protocol::find_known_agent(known, entry.address);
+        if (!found || found->line > entry.line) std::abort(); // the first entry for an address
+        if (normalize_fingerprint(entry.fingerprint) != entry.fingerprint) std::abort();
+        touch_bytes(std::span<const uint8_t>(reinterpret_cast<const uint8_t *>(entry.address.data()),
+                                             entry.address.size()));
+    }
+    for (const auto &problem : known.problems)
+        if (problem.find('\n') != std::string::npos) std::abort(); // one line each
+    // The same text as one SPLITVK_AGENT_FINGERPRINT value.
+    if (const auto fingerprint = normalize_fingerprint(text); fingerprint && fingerprint->size() != 71)
+        std::abort();
 }
 
 } // namespace splitvk::fuzz

@@ -22,6 +22,17 @@ void agent_messages(const uint8_t *data, size_t size);
 // when its length runs past the end). Every tile goes through one TileDecoder, in order.
 void tile_decoder(const uint8_t *data, size_t size);
 
+// The TLS and handshake paths a client (or a man in the middle) reaches before any session exists
+// (issue 14). Byte 0 picks the side: even, the agent's TLS server reading a client's bytes; odd,
+// the layer's TLS client (with its certificate verifier) reading an agent's. The rest is that
+// peer's byte stream, run through OpenSSL with splitvk's own contexts over memory (tls.h), and,
+// as the agent's plaintext path sees it, through the first-bytes check and the Hello decoder with
+// the plaintext refusal. Seeds: splitvk-fuzz-tls-seeds.
+void tls_handshake(const uint8_t *data, size_t size);
+
+// A known_agents file (known_agents.h): parsed, every entry looked up, fingerprints normalised.
+void known_agents(const uint8_t *data, size_t size);
+
 // The tile sizes byte 1 chooses from (modulo the count), so seed writers agree with the target.
 struct TileSize {
     uint32_t width, height;

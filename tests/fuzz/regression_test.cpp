@@ -41,12 +41,22 @@ TEST(FuzzRegressions, TileDecoder) {
     replay_all("fuzz_tile_decoder", tile_decoder);
 }
 
+TEST(FuzzRegressions, TlsHandshake) {
+    replay_all("fuzz_tls_handshake", tls_handshake);
+}
+
+TEST(FuzzRegressions, KnownAgents) {
+    replay_all("fuzz_known_agents", known_agents);
+}
+
 // The entry functions take empty and tiny inputs (libFuzzer starts with them).
 TEST(FuzzRegressions, TinyInputs) {
     const uint8_t bytes[17] = {};
     for (size_t n = 0; n <= sizeof(bytes); ++n) {
         agent_messages(bytes, n);
         tile_decoder(bytes, n);
+        tls_handshake(bytes, n);
+        known_agents(bytes, n);
     }
 }
 

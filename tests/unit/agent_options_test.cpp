@@ -71,6 +71,24 @@ TEST(AgentOptions, NonLoopbackNeedsAToken) {
     EXPECT_TRUE(is_loopback_host("127.255.0.9"));
 }
 
+TEST(AgentOptions, TlsIdentityOptions) {
+    const auto parsed = parse_agent_options({"--tls-cert", "/etc/a.crt", "--tls-key", "/etc/a.key",
+                                             "--state-dir", "/var/lib/x", "--print-fingerprint"});
+    ASSERT_TRUE(parsed.error.empty()) << parsed.error;
+    EXPECT_EQ(parsed.options.tls_cert, "/etc/a.crt");
+    EXPECT_EQ(parsed.options.tls_key, "/etc/a.key");
+    EXPECT_EQ(parsed.options.state_dir, "/var/lib/x");
+    EXPECT_TRUE(parsed.options.print_fingerprint);
+    EXPECT_NE(parse_agent_options({"--tls-cert", "/etc/a.crt"}).error.find("needs --tls-key"),
+              std::string::npos);
+    EXPECT_NE(parse_agent_options({"--tls-key", "/etc/a.key"}).error.find("needs --tls-cert"),
+              std::string::npos);
+    EXPECT_NE(parse_agent_options({"--state-dir"}).error.find("--state-dir"), std::string::npos);
+    // Printing the fingerprint serves nobody: a LAN --listen needs no token for it.
+    EXPECT_TRUE(parse_agent_options({"--listen", "10.0.0.2:7447", "--print-fingerprint"}).error.empty());
+    EXPECT_NE(std::string(agent_usage()).find("--print-fingerprint"), std::string::npos);
+}
+
 TEST(AgentOptions, ByteSizes) {
     EXPECT_EQ(parse_byte_size("4096"), 4096u);
     EXPECT_EQ(parse_byte_size("512K"), 512u << 10);

@@ -116,6 +116,10 @@ TEST_F(SettingsTest, InvalidValuesAreOneLineErrorsNamingTheSetting) {
         {"TOKEN_FILE", {"", "/nonexistent/token", "/"}},
         {"VERIFY", {"", "on", "1", "partial"}},
         {"ENVELOPE", {"", "on", "agent", "strict"}},
+        {"TLS", {"", "yes", "1", "tls13", "required"}},
+        {"AGENT_FINGERPRINT",
+         {"", "sha256:", "sha1:" + std::string(40, 'a'), "sha256:" + std::string(63, 'a'),
+          "sha256:" + std::string(63, 'a') + "z", std::string(66, 'a')}},
     };
     ASSERT_EQ(table.size(), setting_table().size()) << "every setting in the table has invalid cases";
     for (const auto &[name, values] : table) {

@@ -1,5 +1,6 @@
 #include "agent.h"
 
+#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <thread>
@@ -40,8 +41,15 @@ bool Agent::start(const Env &env, const std::filesystem::path &out_dir,
         return false;
     }
     ProcessSpec spec;
-    spec.argv = {agent_path().string(), "--listen", address()};
+    spec.argv = wrapper_;
+    spec.argv.insert(spec.argv.end(), {agent_path().string(), "--listen", address()});
     spec.argv.insert(spec.argv.end(), extra_args.begin(), extra_args.end());
+    const auto given = [&](const char *flag) {
+        return std::find(extra_args.begin(), extra_args.end(), flag) != extra_args.end();
+    };
+    // Never the user's own state directory.
+    if (!given("--state-dir") && !given("--tls-cert"))
+        spec.argv.insert(spec.argv.end(), {"--state-dir", (out_dir / (name + "-state")).string()});
     spec.env = env;
     spec.env["SPLITVK_LOG_LEVEL"] = "info";
     spec.out_dir = out_dir;

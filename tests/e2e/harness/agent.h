@@ -28,7 +28,8 @@ uint16_t free_loopback_port();
 
 class Agent {
 public:
-    // Starts `splitvk-agent --listen 127.0.0.1:<free port> <extra_args>` with SPLITVK_LOG_LEVEL=info,
+    // Starts `splitvk-agent --listen 127.0.0.1:<free port> <extra_args>` with SPLITVK_LOG_LEVEL=info
+    // and its TLS identity in out_dir/<name>-state (unless extra_args name --state-dir or --tls-cert),
     // its output in out_dir/splitvk-agent.{stdout,stderr}, and waits until it listens. On failure
     // returns false and error() says why (with the agent's last words).
     // `port` 0 picks a free one; `name` is the stem of its output files.
@@ -39,10 +40,17 @@ public:
     // would end them: no Goodbye, no FIN from a clean exit. Waits until they are gone.
     void kill();
 
+    // Before start(): listen on `host` (default 127.0.0.1) and run the agent under `wrapper`
+    // (e.g. {"ip", "netns", "exec", NS}, which execs it: the pid and its group stay the agent's).
+    void set_host(std::string host, std::vector<std::string> wrapper = {}) {
+        host_ = std::move(host);
+        wrapper_ = std::move(wrapper);
+    }
+
     uint16_t port() const { return port_; }
     // The listener's pid, which is also its process group (sessions are its forked children).
     int pid() const;
-    std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
+    std::string address() const { return host_ + ":" + std::to_string(port_); }
     std::string log() const; // what it wrote on stderr so far
     const std::string &error() const { return error_; }
 
@@ -50,6 +58,8 @@ private:
     std::unique_ptr<Process> process_;
     std::filesystem::path log_path_;
     uint16_t port_ = 0;
+    std::string host_ = "127.0.0.1";
+    std::vector<std::string> wrapper_;
     std::string error_;
 };
 
