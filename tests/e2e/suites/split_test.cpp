@@ -211,6 +211,21 @@ TEST_P(SplitAtrium, FoveaEqualsNativeBitForBit) {
     ASSERT_NO_FATAL_FAILURE(
         expect_split_frame(native.image, split.image, default_foveae(kWidth, kHeight, v.eyes)));
     expect_clean_validation();
+    // Issue 12, item 3: the agent replayed every frame without waiting for its queue to go idle
+    // before the frame's memory updates (atrium writes its uniforms each frame): they were queued
+    // behind the GPU's work, and the frames above are exact all the same.
+    const std::regex memory(
+        R"(memory data while the GPU worked: (\d+) queued behind it, (\d+) after waiting)");
+    std::smatch m;
+    const auto deadline = Clock::now() + 20s;
+    std::string log = agent_.log();
+    while (!std::regex_search(log, m, memory) && Clock::now() < deadline) {
+        std::this_thread::sleep_for(100ms);
+        log = agent_.log();
+    }
+    ASSERT_TRUE(std::regex_search(log, m, memory)) << tail(log, 30);
+    EXPECT_GT(std::stoull(m[1]), 0u) << m[0];
+    EXPECT_EQ(std::stoull(m[2]), 0u) << m[0];
 }
 
 INSTANTIATE_TEST_SUITE_P(
