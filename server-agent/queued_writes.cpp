@@ -62,10 +62,11 @@ bool QueuedWrites::open(std::string *error) {
 bool QueuedWrites::stage(VkBuffer dst, VkDeviceSize offset, const uint8_t *src, VkDeviceSize n,
                          std::string *error) {
     if (n == 0) return true;
-    if (!fits(n)) {
+    if (n > kBatchBytes) {
         *error = "memory upload: more than a batch";
         return false;
     }
+    if (!fits(n) && !flush(error)) return false; // a full batch goes ahead of this one
     if (copies_.empty() && !open(error)) return false;
     Batch &b = batches_[current_];
     std::memcpy(b.staging.mapped + used_, src, n);

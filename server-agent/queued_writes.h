@@ -34,8 +34,9 @@ public:
 
     // Whether `bytes` more fit into the open batch.
     bool fits(VkDeviceSize bytes) const { return used_ + bytes <= kBatchBytes; }
-    // Copies `n` bytes at `src` into the open batch, for `dst` at `offset`. False with one line in
-    // `error` (the staging buffer could not be made, or a batch's previous copies never finished).
+    // Copies `n` bytes (at most kBatchBytes) at `src` into the open batch, for `dst` at `offset`,
+    // submitting the open batch first when they do not fit. False with one line in `error` (the
+    // staging buffer could not be made, or a batch's previous copies never finished).
     bool stage(VkBuffer dst, VkDeviceSize offset, const uint8_t *src, VkDeviceSize n, std::string *error);
     // Submits the open batch, if any, on the replay queue. False with one line in `error`.
     bool flush(std::string *error);
