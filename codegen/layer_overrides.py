@@ -55,11 +55,18 @@ MANUAL_COMMANDS = {
     "vkUnmapMemory",
     "vkFlushMappedMemoryRanges",
     # queue.cpp: queues (their family, for the layer's own submits) and submits (dirty memory first, then the submit).
+    # Every queue operation takes the queue's lock: the layer's present thread uses the app's queues too.
     "vkGetDeviceQueue",
     "vkGetDeviceQueue2",
     "vkQueueSubmit",
     "vkQueueSubmit2",
     "vkQueueSubmit2KHR",
+    "vkQueueBindSparse",
+    "vkQueueWaitIdle",
+    "vkDeviceWaitIdle",
+    "vkQueueBeginDebugUtilsLabelEXT",
+    "vkQueueEndDebugUtilsLabelEXT",
+    "vkQueueInsertDebugUtilsLabelEXT",
     # swapchain.cpp / present.cpp: swapchain images and frame marks.
     "vkCreateSwapchainKHR",
     "vkDestroySwapchainKHR",

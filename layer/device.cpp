@@ -42,14 +42,17 @@ DeviceState &device_state_by_key(DispatchKey key) {
 void forget_command_buffers(DeviceState &device); // command_buffer.cpp
 void forget_memory(DeviceState &device);          // memory.cpp
 void forget_resources(DeviceState &device);       // resource.cpp
+void forget_queues(DeviceState &device);          // queue.cpp
 
 void forget_device_objects(DeviceState &device) {
     if (!device.session) return;
+    stop_presents(device);       // its frames use the compositors and the queues
     release_compositors(device); // of swapchains the application left alive
     forget_command_buffers(device);
     forget_memory(device);
     forget_resources(device);
     release_gpu_timing(device);
+    forget_queues(device);
 }
 
 DeviceState &device_state(VkDevice device) {

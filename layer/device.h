@@ -5,6 +5,7 @@
 #include <vulkan/vk_layer.h>
 
 #include <memory>
+#include <mutex>
 
 namespace splitvk {
 
@@ -37,6 +38,16 @@ DeviceState &device_state(VkCommandBuffer command_buffer);
 void forget_device_objects(DeviceState &device);
 // The queue family a queue was got from (queue.cpp); UINT32_MAX if unknown.
 uint32_t queue_family_of(VkQueue queue);
+// The lock of a queue (queue.cpp): Vulkan requires a queue's operations to be externally
+// synchronised, and the layer's present thread (present.cpp) uses the application's queues, so the
+// layer takes it around every queue operation it makes or passes down. Not owning (no lock) for a
+// queue got without a session. Never held while waiting for the present thread.
+std::unique_lock<std::mutex> lock_queue(VkQueue queue);
+// Split mode's asynchronous presents (present.cpp): waits until the present thread has presented
+// every frame handed to it (each bounded by SPLITVK_TILE_WAIT); stop_presents() then ends the
+// thread (vkDestroyDevice).
+void drain_presents(DeviceState &device);
+void stop_presents(DeviceState &device);
 // SPLITVK_VERIFY=full: the one summary line at vkDestroyDevice (present.cpp).
 void report_verify_summary(DeviceState &device);
 // Split mode: the one summary line at vkDestroyDevice (present.cpp).

@@ -1,7 +1,37 @@
-// Acquire and present: frame marks (DESIGN §2), and SPLITVK_VERIFY=full.
+// Acquire and present: frame marks (DESIGN §2), split mode's composite (DESIGN §4) and
+// SPLITVK_VERIFY=full.
 //
 // vkAcquireNextImageKHR/2KHR -> FrameBegin{frame, swapchain, image}; vkQueuePresentKHR ->
 // FramePresent{frame, queue, flags, images}, frames counted from 0 per device in present order.
+//
+// Overlap (DESIGN §4). A split frame needs the agent's tiles of that same frame before it can be
+// composited and shown, and waiting for them on the application's thread would stall the
+// application for the agent's whole path. So vkQueuePresentKHR only takes the frame: it sends
+// FramePresent, submits an empty batch on the present queue that waits on the application's
+// present semaphores and signals a semaphore of the compositor's for that swapchain image
+// (Compositor::take_waits; per-image objects, the Mesa overlay's scheme), hands the frame to the
+// device's present thread and returns. The present thread waits for the frame's own tiles
+// (lockstep: frame N is composited with frame N's tiles or, late, with the periphery alone, never
+// with older tiles), composites on the same queue (the submit waits on the taken semaphore) and
+// presents. The application meanwhile records and submits frame N+1.
+//  - Depth: at most SPLITVK_PRESENT_DEPTH frames (default 1) are in the layer; a present beyond
+//    that waits for room. 0 keeps everything on the application's thread, as do presents with
+//    pNext, of several swapchains, unsplit frames and verification (each first drains the thread,
+//    so presents reach the driver in the application's order).
+//  - Queues: the thread uses the application's queue, so every queue operation takes the queue's
+//    lock (queue.cpp, lock_queue()); the thread holds it only to submit and to present, never
+//    while it waits for tiles.
+//  - Images: a frame in the thread holds its image past the application's present, so the layer
+//    adds that many images to the swapchain (swapchain.cpp) and vkAcquireNextImageKHR waits for the
+//    thread when an acquire would otherwise hold more images than the surface allows.
+//  - Results: the thread's real present result (VK_SUBOPTIMAL_KHR, VK_ERROR_OUT_OF_DATE_KHR,
+//    surface or device lost) is kept per swapchain, worst first, and returned by the
+//    application's next present or acquire of that swapchain (an error at acquire is returned
+//    without acquiring).
+//  - Draining: vkQueueWaitIdle, vkDeviceWaitIdle, swapchain recreation and destruction wait for
+//    the thread's frames; vkDestroyDevice ends the thread. Each frame is bounded by
+//    SPLITVK_TILE_WAIT, and an agent that goes away ends the wait at once (TileStream::abandon),
+//    so none of this can hang: the frame shows the periphery.
 //
 // Verification. At present the layer reads the presented image back with a copy of its own,
 // submitted on the present queue: it waits on the application's wait semaphores and signals a
@@ -27,12 +57,16 @@
 
 #include <algorithm>
 #include <chrono>
+#include <condition_variable>
 #include <cstdlib>
 #include <cstring>
+#include <deque>
 #include <map>
 #include <mutex>
 #include <span>
 #include <string>
+#include <thread>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -285,34 +319,52 @@ double ms_between(std::chrono::steady_clock::time_point from, std::chrono::stead
     return std::max(0.0, std::chrono::duration<double, std::milli>(to - from).count());
 }
 
-// Split mode, at present: waits for the frame's tiles and composites them over the upsampled
-// periphery on `queue`. Returns the semaphore the present must wait on instead of the app's, or
-// VK_NULL_HANDLE when the application's semaphores are untouched (the present then goes ahead as
-// the app asked).
-VkSemaphore composite_split_frame(DeviceState &dev, VkQueue queue, const VkPresentInfoKHR &present,
-                                  const SwapchainState &swapchain, const SplitFrame &split, uint64_t frame,
-                                  std::chrono::steady_clock::time_point sent) {
+// A split frame on its way from the application's present to the driver's.
+struct SplitPresent {
+    VkQueue queue = VK_NULL_HANDLE;
+    const SwapchainState *swapchain = nullptr;
+    uint32_t image_index = 0;
+    SplitFrame split;
+    uint64_t frame = 0;
+    std::chrono::steady_clock::time_point sent{}; // FramePresent
+    double frame_ms = 0;                          // Session::frame_interval_ms() at the app's present
+    double present_call_ms = 0;                   // the app's present, when the thread has the frame
+    // Asynchronous: take_waits() has consumed the application's semaphores into `taken`, whose
+    // batch signals `done`.
+    Compositor *compositor = nullptr;
+    VkSemaphore taken = VK_NULL_HANDLE;
+    VkFence done = VK_NULL_HANDLE;
+};
+
+// Split mode: waits for the frame's tiles and composites them over the upsampled periphery on
+// `p.queue`. `waits`: the application's present semaphores (synchronous) or {p.taken}. Returns
+// the semaphore the present must wait on instead of `waits`, or VK_NULL_HANDLE when `waits` are
+// untouched (the present then goes ahead as the app asked). `lock`: take the queue's lock around
+// the submits (the present thread; the application's thread holds it already).
+VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<const VkSemaphore> waits,
+                                  bool lock, std::chrono::steady_clock::time_point called) {
     using Clock = std::chrono::steady_clock;
     Session &session = *dev.session;
     FrameRecord record;
-    record.frame = frame;
-    record.frame_ms = session.frame_interval_ms();
+    record.frame = p.frame;
+    record.frame_ms = p.frame_ms;
     const bool stats = !session.settings().stats_path.empty();
 
-    Compositor *compositor = compositor_for(dev, swapchain, queue_family_of(queue), stats);
-    std::span<const VkSemaphore> waits{present.pWaitSemaphores, present.waitSemaphoreCount};
-    // Only for the CSV: the application's semaphores go to an empty submit of the compositor's,
-    // whose fence tells when the GPU has finished the frame (exposed_wait_ms).
+    Compositor *compositor = p.compositor;
+    if (!compositor) compositor = compositor_for(dev, *p.swapchain, queue_family_of(p.queue), stats);
+    // Synchronous, only for the CSV: the application's semaphores go to an empty submit of the
+    // compositor's, whose fence tells when the GPU has finished the frame (exposed_wait_ms).
     Exposure exposure{&dev};
-    VkSemaphore taken = VK_NULL_HANDLE;
-    if (stats && compositor &&
-        compositor->take_waits(queue, present.pImageIndices[0], waits, &taken, &exposure.done) == VK_SUCCESS)
+    VkSemaphore taken = p.taken;
+    if (stats) exposure.done = p.done;
+    if (!taken && stats && compositor &&
+        compositor->take_waits(p.queue, p.image_index, waits, &taken, &exposure.done) == VK_SUCCESS)
         waits = {&taken, 1};
 
     const auto wait_start = Clock::now();
     const uint64_t invalid_before = session.invalid_frames.load();
     // Keeps the pixels alive through composite().
-    const auto tiles = frame_tiles(session, frame, split, exposure);
+    const auto tiles = frame_tiles(session, p.frame, p.split, exposure);
     const auto waited = Clock::now();
     record.tile_wait_ms = ms_between(wait_start, waited);
     if (exposure.seen) record.exposed_wait_ms = ms_between(std::max(wait_start, exposure.since), waited);
@@ -328,20 +380,26 @@ VkSemaphore composite_split_frame(DeviceState &dev, VkQueue queue, const VkPrese
         record.agent_readback_ms = tiles->agent.readback_us / 1000.0;
         record.agent_encode_ms = tiles->agent.encode_us / 1000.0;
         record.network_ms =
-            std::max(0.0, ms_between(sent, tiles->received) - tiles->agent.present_to_send_us / 1000.0);
+            std::max(0.0, ms_between(p.sent, tiles->received) - tiles->agent.present_to_send_us / 1000.0);
     }
     // A frame the agent flagged came on time; it is not late, only not usable.
     record.late = !tiles && session.invalid_frames.load() == invalid_before;
     if (tiles && session.take_first_tiles_after_resync())
         SPLITVK_INFO(
             "frame %llu: the first split frame from the agent that joined, %.0f ms after it answered",
-            static_cast<unsigned long long>(frame), ms_between(session.joined_agent_answered(), waited));
+            static_cast<unsigned long long>(p.frame), ms_between(session.joined_agent_answered(), waited));
 
     VkSemaphore composited = VK_NULL_HANDLE;
-    if (compositor && compositor->composite(queue, present.pImageIndices[0], waits, split.periphery, foveae,
-                                            &composited) != VK_SUCCESS)
-        composited = taken; // VK_NULL_HANDLE unless take_waits() consumed the application's semaphores
+    if (compositor) {
+        auto queue_lock = lock ? lock_queue(p.queue) : std::unique_lock<std::mutex>();
+        if (compositor->composite(p.queue, p.image_index, waits, p.split.periphery, foveae, &composited) !=
+            VK_SUCCESS)
+            composited = taken; // VK_NULL_HANDLE unless take_waits() consumed the application's semaphores
+    } else {
+        composited = taken;
+    }
     record.merge_ms = ms_between(waited, Clock::now());
+    record.present_call_ms = p.taken ? p.present_call_ms : ms_between(called, Clock::now());
     if (composited && composited != taken) session.composited_frames.fetch_add(1);
     // After the composite: reading the periphery's timestamps may stall the present on some
     // drivers (gpu_timing.h), and that must not count as tile wait or merge.
@@ -351,6 +409,197 @@ VkSemaphore composite_split_frame(DeviceState &dev, VkQueue queue, const VkPrese
     }
     session.stats().record(record);
     return composited;
+}
+
+// ---------------------------------------------------------------------------- asynchronous presents
+
+// VK_SUCCESS < VK_SUBOPTIMAL_KHR < other errors < out of date < surface lost < device lost: what the
+// application must hear first when several presents answered before it asked again.
+int severity(VkResult r) {
+    switch (r) {
+    case VK_SUCCESS:
+        return 0;
+    case VK_SUBOPTIMAL_KHR:
+        return 1;
+    case VK_ERROR_OUT_OF_DATE_KHR:
+        return 3;
+    case VK_ERROR_SURFACE_LOST_KHR:
+        return 4;
+    case VK_ERROR_DEVICE_LOST:
+        return 5;
+    default:
+        return r < 0 ? 2 : 0;
+    }
+}
+
+const char *present_result_name(VkResult r) {
+    switch (r) {
+    case VK_SUBOPTIMAL_KHR:
+        return "VK_SUBOPTIMAL_KHR";
+    case VK_ERROR_OUT_OF_DATE_KHR:
+        return "VK_ERROR_OUT_OF_DATE_KHR";
+    case VK_ERROR_SURFACE_LOST_KHR:
+        return "VK_ERROR_SURFACE_LOST_KHR";
+    case VK_ERROR_DEVICE_LOST:
+        return "VK_ERROR_DEVICE_LOST";
+    default:
+        return r < 0 ? "an error" : "success";
+    }
+}
+
+VkResult worse(VkResult a, VkResult b) {
+    return severity(b) > severity(a) ? b : a;
+}
+
+// What the asynchronous present knows of a swapchain, under g_async_mutex.
+struct SwapchainPresents {
+    const DeviceState *device = nullptr;
+    uint32_t app_held = 0;          // acquired by the application, not presented by it yet
+    uint32_t pending = 0;           // presented by the application, not by the present thread yet
+    VkResult deferred = VK_SUCCESS; // the worst result of the thread's presents the app has not had
+};
+
+struct PresentThread {
+    std::thread thread;
+    std::deque<SplitPresent> frames;
+    uint32_t in_layer = 0; // frames reserved, queued or being presented
+    bool stopping = false;
+};
+
+std::mutex g_async_mutex;
+std::condition_variable g_async_changed;
+std::map<const DeviceState *, std::unique_ptr<PresentThread>> g_present_threads;
+std::unordered_map<VkSwapchainKHR, SwapchainPresents> g_swapchain_presents;
+
+// The present thread's half of a frame: its tiles, the composite and the real present.
+VkResult present_split_frame(DeviceState &dev, SplitPresent &p) {
+    const VkSemaphore taken = p.taken;
+    VkSemaphore wait = composite_split_frame(dev, p, {&taken, 1}, /*lock=*/true, {});
+    if (!wait) wait = taken;
+    VkPresentInfoKHR present{};
+    present.sType = VK_STRUCTURE_TYPE_PRESENT_INFO_KHR;
+    present.waitSemaphoreCount = 1;
+    present.pWaitSemaphores = &wait;
+    present.swapchainCount = 1;
+    const VkSwapchainKHR swapchain = p.swapchain->handle;
+    present.pSwapchains = &swapchain;
+    present.pImageIndices = &p.image_index;
+    const auto lock = lock_queue(p.queue);
+    return dev.dispatch.QueuePresentKHR(p.queue, &present);
+}
+
+void run_present_thread(DeviceState &dev, PresentThread &t) {
+    std::unique_lock lock(g_async_mutex);
+    for (;;) {
+        g_async_changed.wait(lock, [&] { return t.stopping || !t.frames.empty(); });
+        if (t.frames.empty()) return; // stopping, and every frame presented
+        SplitPresent p = std::move(t.frames.front());
+        t.frames.pop_front();
+        lock.unlock();
+        const VkResult result = present_split_frame(dev, p);
+        if (result != VK_SUCCESS)
+            SPLITVK_INFO(
+                "present thread: frame %llu: vkQueuePresentKHR answered %s; the application hears it "
+                "at its next present or acquire",
+                static_cast<unsigned long long>(p.frame), present_result_name(result));
+        lock.lock();
+        SwapchainPresents &sc = g_swapchain_presents[p.swapchain->handle];
+        --sc.pending;
+        sc.deferred = worse(sc.deferred, result);
+        --t.in_layer;
+        g_async_changed.notify_all();
+    }
+}
+
+// The application's half: takes the frame (its semaphores) and queues it for the present thread,
+// after waiting for room. The result for the application: what the thread's earlier presents of
+// this swapchain answered. std::nullopt: nothing was taken, present synchronously.
+std::optional<VkResult> present_async(DeviceState &dev, SplitPresent &p, std::span<const VkSemaphore> waits,
+                                      std::chrono::steady_clock::time_point called) {
+    Session &session = *dev.session;
+    p.compositor =
+        compositor_for(dev, *p.swapchain, queue_family_of(p.queue), !session.settings().stats_path.empty());
+    if (!p.compositor) return std::nullopt;
+    PresentThread *t = nullptr;
+    {
+        std::unique_lock lock(g_async_mutex);
+        auto &slot = g_present_threads[&dev];
+        if (!slot) {
+            slot = std::make_unique<PresentThread>();
+            slot->thread = std::thread([&dev, thread = slot.get()] { run_present_thread(dev, *thread); });
+        }
+        t = slot.get();
+        const uint32_t depth = session.settings().present_depth;
+        g_async_changed.wait(lock, [&] { return t->in_layer < depth; });
+        ++t->in_layer;
+    }
+    VkResult taken;
+    {
+        const auto queue_lock = lock_queue(p.queue);
+        taken = p.compositor->take_waits(p.queue, p.image_index, waits, &p.taken, &p.done);
+    }
+    std::lock_guard lock(g_async_mutex);
+    if (taken != VK_SUCCESS) {
+        --t->in_layer;
+        g_async_changed.notify_all();
+        return std::nullopt;
+    }
+    SwapchainPresents &sc = g_swapchain_presents[p.swapchain->handle];
+    sc.device = &dev;
+    ++sc.pending;
+    if (sc.app_held) --sc.app_held;
+    const VkResult result = sc.deferred;
+    sc.deferred = VK_SUCCESS;
+    p.present_call_ms = ms_between(called, std::chrono::steady_clock::now());
+    t->frames.push_back(std::move(p));
+    g_async_changed.notify_all();
+    return result;
+}
+
+// Before the driver's acquire: an error a present thread's present answered, returned instead of
+// acquiring; else waits until one more acquired image stays within the surface's allowance.
+VkResult before_acquire(const DeviceState &dev, VkSwapchainKHR swapchain) {
+    if (!dev.session) return VK_SUCCESS;
+    const SwapchainState *state = find_swapchain(swapchain);
+    const uint32_t allowance = state ? state->acquire_allowance : 0;
+    std::unique_lock lock(g_async_mutex);
+    const auto it = g_swapchain_presents.find(swapchain);
+    if (it == g_swapchain_presents.end()) return VK_SUCCESS;
+    SwapchainPresents &sc = it->second;
+    if (sc.deferred < 0) return std::exchange(sc.deferred, VK_SUCCESS);
+    g_async_changed.wait(lock, [&] { return sc.pending == 0 || sc.app_held + sc.pending < allowance; });
+    if (sc.deferred < 0) return std::exchange(sc.deferred, VK_SUCCESS);
+    return VK_SUCCESS;
+}
+
+// After the driver's acquire: the image counts as the application's, and a suboptimal answer of
+// the thread's reaches it here if its acquire succeeded.
+VkResult after_acquire(const DeviceState &dev, VkSwapchainKHR swapchain, VkResult result) {
+    if (!dev.session || (result != VK_SUCCESS && result != VK_SUBOPTIMAL_KHR)) return result;
+    std::lock_guard lock(g_async_mutex);
+    SwapchainPresents &sc = g_swapchain_presents[swapchain];
+    sc.device = &dev;
+    ++sc.app_held;
+    if (sc.deferred == VK_SUBOPTIMAL_KHR) {
+        sc.deferred = VK_SUCCESS;
+        return VK_SUBOPTIMAL_KHR;
+    }
+    return result;
+}
+
+// The application presented these images synchronously: they are no longer its own, and what the
+// present thread's earlier presents of the same swapchains answered joins the driver's answers.
+VkResult note_presented(const VkPresentInfoKHR &info, VkResult result) {
+    std::lock_guard lock(g_async_mutex);
+    for (uint32_t i = 0; i < info.swapchainCount; ++i) {
+        const auto it = g_swapchain_presents.find(info.pSwapchains[i]);
+        if (it == g_swapchain_presents.end()) continue;
+        if (it->second.app_held) --it->second.app_held;
+        const VkResult deferred = std::exchange(it->second.deferred, VK_SUCCESS);
+        if (info.pResults) info.pResults[i] = worse(info.pResults[i], deferred);
+        result = worse(result, deferred);
+    }
+    return result;
 }
 
 // Frames replayed with no split pass before the warning: an application may present a few copied
@@ -379,7 +628,36 @@ void note_split_or_not(Session &session, uint64_t frame, bool split) {
 
 } // namespace
 
+void drain_presents(DeviceState &device) {
+    std::unique_lock lock(g_async_mutex);
+    const auto it = g_present_threads.find(&device);
+    if (it == g_present_threads.end()) return;
+    PresentThread &t = *it->second;
+    g_async_changed.wait(lock, [&] { return t.in_layer == 0; });
+}
+
+void stop_presents(DeviceState &device) {
+    PresentThread *t = nullptr;
+    {
+        std::lock_guard lock(g_async_mutex);
+        const auto it = g_present_threads.find(&device);
+        if (it == g_present_threads.end()) return;
+        t = it->second.get();
+        t->stopping = true;
+        g_async_changed.notify_all();
+    }
+    // It presents what it holds first: each frame bounded by SPLITVK_TILE_WAIT.
+    t->thread.join();
+    std::lock_guard lock(g_async_mutex);
+    g_present_threads.erase(&device);
+    std::erase_if(g_swapchain_presents, [&](const auto &entry) { return entry.second.device == &device; });
+}
+
 void release_present_resources(DeviceState &device, VkSwapchainKHR swapchain) {
+    {
+        std::lock_guard lock(g_async_mutex);
+        g_swapchain_presents.erase(swapchain);
+    }
     std::lock_guard lock(g_mutex);
     for (auto it = g_readbacks.begin(); it != g_readbacks.end();) {
         if (it->first.first == swapchain) {
@@ -423,8 +701,10 @@ VKAPI_ATTR VkResult VKAPI_CALL AcquireNextImageKHR(VkDevice device, VkSwapchainK
                                                    uint64_t timeout, VkSemaphore semaphore, VkFence fence,
                                                    uint32_t *pImageIndex) {
     DeviceState &dev = device_state(device);
-    const VkResult result =
-        dev.dispatch.AcquireNextImageKHR(device, swapchain, timeout, semaphore, fence, pImageIndex);
+    if (const VkResult deferred = before_acquire(dev, swapchain); deferred != VK_SUCCESS) return deferred;
+    const VkResult result = after_acquire(
+        dev, swapchain,
+        dev.dispatch.AcquireNextImageKHR(device, swapchain, timeout, semaphore, fence, pImageIndex));
     if ((result == VK_SUCCESS || result == VK_SUBOPTIMAL_KHR) && capturing(dev)) {
         protocol::FrameBegin message{dev.session->current_frame(), codec::handle_value(swapchain),
                                      *pImageIndex};
@@ -437,7 +717,10 @@ VKAPI_ATTR VkResult VKAPI_CALL AcquireNextImage2KHR(VkDevice device,
                                                     const VkAcquireNextImageInfoKHR *pAcquireInfo,
                                                     uint32_t *pImageIndex) {
     DeviceState &dev = device_state(device);
-    const VkResult result = dev.dispatch.AcquireNextImage2KHR(device, pAcquireInfo, pImageIndex);
+    if (const VkResult deferred = before_acquire(dev, pAcquireInfo->swapchain); deferred != VK_SUCCESS)
+        return deferred;
+    const VkResult result = after_acquire(
+        dev, pAcquireInfo->swapchain, dev.dispatch.AcquireNextImage2KHR(device, pAcquireInfo, pImageIndex));
     if ((result == VK_SUCCESS || result == VK_SUBOPTIMAL_KHR) && capturing(dev)) {
         protocol::FrameBegin message{dev.session->current_frame(),
                                      codec::handle_value(pAcquireInfo->swapchain), *pImageIndex};
@@ -450,10 +733,16 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
     DeviceState &dev = device_state(queue);
     if (!dev.session) return dev.dispatch.QueuePresentKHR(queue, pPresentInfo);
 
+    const auto called = std::chrono::steady_clock::now();
     Session &session = *dev.session;
     const uint64_t frame = session.take_frame();
-    // A new agent joins here, where this thread owns the queue (session.h).
-    if (session.resync_pending()) session.resync(dev, queue, frame);
+    // A new agent joins here, where this thread owns the queue (session.h); the present thread's
+    // frames use the tile stream that the new agent replaces.
+    if (session.resync_pending()) {
+        drain_presents(dev);
+        const auto queue_lock = lock_queue(queue);
+        session.resync(dev, queue, frame);
+    }
     if (frame == 1) log_live_state(dev, "at frame 1"); // SPLITVK_LOG_LEVEL=debug
     protocol::FramePresent message;
     message.frame = frame;
@@ -474,6 +763,16 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         if (split_swapchain && index < split_swapchain->images.size())
             split = take_split_frame(dev, split_swapchain->images[index]);
         note_split_or_not(session, frame, split.split);
+    }
+    const double frame_ms = split.split ? session.frame_interval_ms() : 0;
+    // The present thread's case (see the top of this file); everything else happens here, after
+    // the thread's frames, with the queue this thread's for the rest of the call.
+    const bool async = split.split && session.settings().present_depth > 0 && !session.verify() &&
+                       pPresentInfo->swapchainCount == 1 && !pPresentInfo->pNext;
+    std::unique_lock<std::mutex> queue_lock;
+    if (!async) {
+        drain_presents(dev);
+        queue_lock = lock_queue(queue);
     }
     std::unique_lock lock(g_mutex, std::defer_lock);
     if (session.verify() && pPresentInfo->swapchainCount > 0) {
@@ -520,14 +819,31 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
 
     VkSemaphore composited = VK_NULL_HANDLE;
     if (split.split) {
-        composited = composite_split_frame(dev, queue, present, *split_swapchain, split, frame,
-                                           std::chrono::steady_clock::now());
+        SplitPresent p;
+        p.queue = queue;
+        p.swapchain = split_swapchain;
+        p.image_index = pPresentInfo->pImageIndices[0];
+        p.split = std::move(split);
+        p.frame = frame;
+        p.sent = std::chrono::steady_clock::now();
+        p.frame_ms = frame_ms;
+        const std::span<const VkSemaphore> waits{present.pWaitSemaphores, present.waitSemaphoreCount};
+        if (async) {
+            if (const auto result = present_async(dev, p, waits, called)) {
+                if (pPresentInfo->pResults) pPresentInfo->pResults[0] = *result;
+                return *result;
+            }
+            drain_presents(dev); // nothing taken: this frame goes here, after the thread's
+            queue_lock = lock_queue(queue);
+        }
+        composited = composite_split_frame(dev, p, waits, /*lock=*/false, called);
         if (composited) {
             present.waitSemaphoreCount = 1;
             present.pWaitSemaphores = &composited;
         }
     }
-    const VkResult result = dev.dispatch.QueuePresentKHR(queue, &present);
+    const VkResult result = note_presented(*pPresentInfo, dev.dispatch.QueuePresentKHR(queue, &present));
+    queue_lock = {};
     if (pending) compare(dev, *pending);
     return result;
 }

@@ -1,5 +1,11 @@
 // VkQueue submits (DESIGN §2): dirty mapped memory first, then the submit itself.
 //
+// Every queue operation the layer passes down or makes takes the queue's lock (lock_queue()):
+// split mode presents from a thread of the layer's (present.cpp) on the application's queue, and
+// Vulkan requires the operations of one queue to be externally synchronised. vkQueueWaitIdle and
+// vkDeviceWaitIdle first wait for the frames the present thread holds, so that "idle" includes
+// the presents the application has already made.
+//
 // The agent executes every submit in order on one queue, so the wait and signal semaphores of
 // the client's submits mean nothing there (and acquire/present, which signal and consume them
 // on the client, are frame marks on the agent): the layer sends each submit with its
@@ -13,6 +19,9 @@
 #include "split.h"
 #include "submit_rules.h"
 
+#include <algorithm>
+#include <map>
+#include <mutex>
 #include <vector>
 
 namespace splitvk {
@@ -39,14 +48,37 @@ void capture_submit2(DeviceState &dev, VkQueue queue, uint32_t submitCount, cons
 
 struct QueueInfo {
     uint32_t family = UINT32_MAX;
+    std::mutex mutex; // lock_queue()
 };
 ObjectMap<VkQueue, QueueInfo> g_queues;
 
+// The queues of each device, for vkDeviceWaitIdle (which needs all of them). A queue lives as long
+// as its device, and vkGetDeviceQueue returns the same handle every time.
+std::mutex g_device_queues_mutex;
+std::map<const DeviceState *, std::vector<VkQueue>> g_device_queues;
+
 void note_queue(DeviceState &dev, VkQueue queue, uint32_t family) {
     if (!dev.session || queue == VK_NULL_HANDLE) return;
+    if (g_queues.find(queue)) return; // keeps the mutex another thread may hold
     auto info = std::make_unique<QueueInfo>();
     info->family = family;
     g_queues.insert(queue, std::move(info));
+    std::lock_guard lock(g_device_queues_mutex);
+    g_device_queues[&dev].push_back(queue);
+}
+
+// Every queue of `dev`, locked in one order (by handle) so that two callers cannot deadlock.
+std::vector<std::unique_lock<std::mutex>> lock_device_queues(const DeviceState &dev) {
+    std::vector<VkQueue> queues;
+    {
+        std::lock_guard lock(g_device_queues_mutex);
+        if (const auto it = g_device_queues.find(&dev); it != g_device_queues.end()) queues = it->second;
+    }
+    std::sort(queues.begin(), queues.end());
+    std::vector<std::unique_lock<std::mutex>> locks;
+    for (VkQueue q : queues)
+        locks.push_back(lock_queue(q));
+    return locks;
 }
 
 // What the submitted command buffers recorded, in submission order: split passes (split.h),
@@ -71,6 +103,24 @@ void note_submit(DeviceState &dev, uint32_t count, const VkSubmitInfo2 *submits)
 uint32_t queue_family_of(VkQueue queue) {
     const QueueInfo *info = g_queues.find(queue);
     return info ? info->family : UINT32_MAX;
+}
+
+std::unique_lock<std::mutex> lock_queue(VkQueue queue) {
+    QueueInfo *info = g_queues.find(queue);
+    return info ? std::unique_lock(info->mutex) : std::unique_lock<std::mutex>();
+}
+
+void forget_queues(DeviceState &device) {
+    std::vector<VkQueue> queues;
+    {
+        std::lock_guard lock(g_device_queues_mutex);
+        if (const auto it = g_device_queues.find(&device); it != g_device_queues.end()) {
+            queues = std::move(it->second);
+            g_device_queues.erase(it);
+        }
+    }
+    for (VkQueue q : queues)
+        g_queues.remove(q);
 }
 
 namespace entry {
@@ -101,6 +151,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit(VkQueue queue, uint32_t submitCount, 
     DeviceState &dev = device_state(queue);
     if (capturing(dev)) [[unlikely]]
         capture_submit(dev, queue, submitCount, pSubmits, fence);
+    const auto lock = lock_queue(queue);
     if (dev.session) note_submit(dev, submitCount, pSubmits);
     return dev.dispatch.QueueSubmit(queue, submitCount, pSubmits, fence);
 }
@@ -110,6 +161,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit2(VkQueue queue, uint32_t submitCount,
     DeviceState &dev = device_state(queue);
     if (capturing(dev)) [[unlikely]]
         capture_submit2(dev, queue, submitCount, pSubmits, fence);
+    const auto lock = lock_queue(queue);
     if (dev.session) note_submit(dev, submitCount, pSubmits);
     return dev.dispatch.QueueSubmit2(queue, submitCount, pSubmits, fence);
 }
@@ -119,8 +171,52 @@ VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit2KHR(VkQueue queue, uint32_t submitCou
     DeviceState &dev = device_state(queue);
     if (capturing(dev)) [[unlikely]]
         capture_submit2(dev, queue, submitCount, pSubmits, fence);
+    const auto lock = lock_queue(queue);
     if (dev.session) note_submit(dev, submitCount, pSubmits);
     return dev.dispatch.QueueSubmit2KHR(queue, submitCount, pSubmits, fence);
+}
+
+// Sparse binding is not forwarded to the agent (codegen/codec_policy.py); it is a queue operation.
+VKAPI_ATTR VkResult VKAPI_CALL QueueBindSparse(VkQueue queue, uint32_t bindInfoCount,
+                                               const VkBindSparseInfo *pBindInfo, VkFence fence) {
+    DeviceState &dev = device_state(queue);
+    const auto lock = lock_queue(queue);
+    return dev.dispatch.QueueBindSparse(queue, bindInfoCount, pBindInfo, fence);
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL QueueWaitIdle(VkQueue queue) {
+    DeviceState &dev = device_state(queue);
+    if (dev.session) drain_presents(dev);
+    const auto lock = lock_queue(queue);
+    return dev.dispatch.QueueWaitIdle(queue);
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL DeviceWaitIdle(VkDevice device) {
+    DeviceState &dev = device_state(device);
+    if (!dev.session) return dev.dispatch.DeviceWaitIdle(device);
+    drain_presents(dev);
+    const auto locks = lock_device_queues(dev);
+    return dev.dispatch.DeviceWaitIdle(device);
+}
+
+VKAPI_ATTR void VKAPI_CALL QueueBeginDebugUtilsLabelEXT(VkQueue queue,
+                                                        const VkDebugUtilsLabelEXT *pLabelInfo) {
+    DeviceState &dev = device_state(queue);
+    const auto lock = lock_queue(queue);
+    dev.dispatch.QueueBeginDebugUtilsLabelEXT(queue, pLabelInfo);
+}
+
+VKAPI_ATTR void VKAPI_CALL QueueEndDebugUtilsLabelEXT(VkQueue queue) {
+    DeviceState &dev = device_state(queue);
+    const auto lock = lock_queue(queue);
+    dev.dispatch.QueueEndDebugUtilsLabelEXT(queue);
+}
+
+VKAPI_ATTR void VKAPI_CALL QueueInsertDebugUtilsLabelEXT(VkQueue queue,
+                                                         const VkDebugUtilsLabelEXT *pLabelInfo) {
+    DeviceState &dev = device_state(queue);
+    const auto lock = lock_queue(queue);
+    dev.dispatch.QueueInsertDebugUtilsLabelEXT(queue, pLabelInfo);
 }
 
 } // namespace entry

@@ -28,7 +28,9 @@ double quantile(const std::vector<double> &sorted, double q) {
 
 const char *FrameStats::csv_header() {
     return "frame,frame_ms,periphery_ms,tile_wait_ms,exposed_wait_ms,network_ms,decode_ms,merge_ms,"
-           "merge_gpu_ms,tile_bytes,raw_bytes,agent_draw_ms,agent_readback_ms,agent_encode_ms,late";
+           "merge_gpu_ms,tile_bytes,raw_bytes,agent_draw_ms,agent_readback_ms,agent_encode_ms,present_call_"
+           "ms,"
+           "late";
 }
 
 FrameStats::FrameStats(const std::string &path) {
@@ -75,11 +77,11 @@ void FrameStats::record(const FrameRecord &r) {
     if (fd_ < 0) return;
     char row[512];
     const int length = std::snprintf(
-        row, sizeof(row), "%llu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%llu,%llu,%.3f,%.3f,%.3f,%d\n",
+        row, sizeof(row), "%llu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%llu,%llu,%.3f,%.3f,%.3f,%.3f,%d\n",
         static_cast<unsigned long long>(r.frame), r.frame_ms, r.periphery_ms, r.tile_wait_ms,
         r.exposed_wait_ms, r.network_ms, r.decode_ms, r.merge_ms, r.merge_gpu_ms,
         static_cast<unsigned long long>(r.tile_bytes), static_cast<unsigned long long>(r.raw_bytes),
-        r.agent_draw_ms, r.agent_readback_ms, r.agent_encode_ms, r.late ? 1 : 0);
+        r.agent_draw_ms, r.agent_readback_ms, r.agent_encode_ms, r.present_call_ms, r.late ? 1 : 0);
     if (length > 0 && static_cast<size_t>(length) < sizeof(row))
         append(std::string(row, static_cast<size_t>(length)));
 }

@@ -31,6 +31,9 @@ struct FrameRecord {
     double agent_draw_ms = 0;
     double agent_readback_ms = 0;
     double agent_encode_ms = 0;
+    // How long the application's vkQueuePresentKHR of this frame took: with the present thread
+    // (SPLITVK_PRESENT_DEPTH > 0) only the wait for room in it, not this frame's tiles.
+    double present_call_ms = 0;
     bool late = false; // composited from the periphery alone
 };
 

@@ -10,6 +10,13 @@
 // and marks the swapchain not composable. The application never sees the added bits: the state
 // and the agent get its own usage, and no query returns a swapchain's usage. (What can leak: a
 // driver may pick a slower image layout or drop compression for the wider usage.)
+//
+// Images the layer adds: split mode's present thread (present.cpp) holds up to
+// SPLITVK_PRESENT_DEPTH images the application has presented but the driver has not been given yet.
+// So that the application can still acquire as many images as it asked for meanwhile, a composable
+// swapchain gets that many more images where the surface allows (the application sees them in
+// vkGetSwapchainImagesKHR). Where it does not, vkAcquireNextImageKHR waits for the present thread
+// rather than acquire more images than the surface allows at once.
 #include "swapchain.h"
 
 #include "capture.h"
@@ -20,13 +27,16 @@
 #include "object_map.h"
 #include "session.h"
 
+#include <algorithm>
+
 namespace splitvk {
 namespace {
 
 ObjectMap<VkSwapchainKHR, SwapchainState> g_swapchains;
 
 // Whether the compositor could work on this swapchain if the layer adds kSwapchainUsage.
-bool can_compose(DeviceState &dev, const VkSwapchainCreateInfoKHR &info, std::string *why) {
+bool can_compose(DeviceState &dev, const VkSwapchainCreateInfoKHR &info, VkSurfaceCapabilitiesKHR &caps,
+                 std::string *why) {
     if (info.imageArrayLayers != 1) {
         *why = std::to_string(info.imageArrayLayers) + " array layers";
         return false;
@@ -35,7 +45,6 @@ bool can_compose(DeviceState &dev, const VkSwapchainCreateInfoKHR &info, std::st
         *why = "protected images";
         return false;
     }
-    VkSurfaceCapabilitiesKHR caps{};
     if (!dev.instance->dispatch.GetPhysicalDeviceSurfaceCapabilitiesKHR ||
         dev.instance->dispatch.GetPhysicalDeviceSurfaceCapabilitiesKHR(dev.physical_device, info.surface,
                                                                        &caps) != VK_SUCCESS) {
@@ -63,10 +72,13 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateSwapchainKHR(VkDevice device,
                                                   VkSwapchainKHR *pSwapchain) {
     DeviceState &dev = device_state(device);
     if (!capturing(dev)) return dev.dispatch.CreateSwapchainKHR(device, pCreateInfo, pAllocator, pSwapchain);
+    // The retired swapchain's frames still in the present thread go to it before it is retired.
+    if (pCreateInfo->oldSwapchain) drain_presents(dev);
 
     const VkImageUsageFlags app_usage = pCreateInfo->imageUsage;
     std::string why;
-    const bool compose = can_compose(dev, *pCreateInfo, &why);
+    VkSurfaceCapabilitiesKHR caps{};
+    const bool compose = can_compose(dev, *pCreateInfo, caps, &why);
     const VkImageUsageFlags verify_usage = dev.session->verify() ? VK_IMAGE_USAGE_TRANSFER_SRC_BIT : 0;
     // Most usage first; each attempt that adds nothing new over the next one is skipped.
     const VkImageUsageFlags attempts[] = {
@@ -75,6 +87,11 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateSwapchainKHR(VkDevice device,
         app_usage,
     };
     VkSwapchainCreateInfoKHR info = *pCreateInfo;
+    const uint32_t depth = dev.session->settings().present_depth;
+    if (compose && depth > 0 && !dev.session->settings().verify) {
+        const uint32_t most = caps.maxImageCount ? caps.maxImageCount : UINT32_MAX;
+        info.minImageCount = std::min(most, std::max(info.minImageCount, caps.minImageCount) + depth);
+    }
     VkResult result = VK_ERROR_INITIALIZATION_FAILED;
     for (size_t i = 0; i < std::size(attempts); ++i) {
         if (i > 0 && attempts[i] == attempts[i - 1]) continue;
@@ -117,6 +134,9 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateSwapchainKHR(VkDevice device,
             count = 0;
         state->images.resize(count);
     }
+    // Unknown capabilities (compose false): the application's own count is all that is known.
+    const uint32_t surface_min = compose ? caps.minImageCount : pCreateInfo->minImageCount;
+    state->acquire_allowance = count > surface_min ? count - surface_min : 0;
 
     protocol::SwapchainImages message;
     message.device_id = dev.session->device_id();
@@ -138,6 +158,7 @@ VKAPI_ATTR void VKAPI_CALL DestroySwapchainKHR(VkDevice device, VkSwapchainKHR s
                                                const VkAllocationCallbacks *pAllocator) {
     DeviceState &dev = device_state(device);
     if (dev.session && swapchain != VK_NULL_HANDLE) {
+        drain_presents(dev); // its frames still in the present thread
         release_present_resources(dev, swapchain);
         release_compositor(dev, swapchain);
         if (g_swapchains.remove(swapchain)) {

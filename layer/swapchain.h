@@ -25,6 +25,9 @@ struct SwapchainState {
     // SHARED_PRESENT_KHR for the shared present modes, PRESENT_SRC_KHR otherwise.
     VkImageLayout present_layout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
     std::vector<VkImage> images;
+    // How many images may be acquired and not yet handed to the driver's present at once: the
+    // image count less the surface's minImageCount (present.cpp keeps acquires within it).
+    uint32_t acquire_allowance = 0;
 };
 
 // nullptr when the swapchain was created without a session.
@@ -33,6 +36,7 @@ SwapchainState *find_swapchain(VkSwapchainKHR swapchain);
 } // namespace splitvk
 
 namespace splitvk {
-// present.cpp: frees the readback resources verification keeps for a swapchain's images.
+// present.cpp: frees the readback resources verification keeps for a swapchain's images, and what
+// the asynchronous present knows of the swapchain (after drain_presents()).
 void release_present_resources(DeviceState &device, VkSwapchainKHR swapchain);
 } // namespace splitvk

@@ -36,6 +36,9 @@ const SettingInfo kSettings[] = {
     {"CODEC", "x264, zstd or raw", "x264", "lossless codec for the fovea tiles"},
     {"TILE_WAIT", "milliseconds, 1 to 60000", "250",
      "longest a present waits for its frame's tiles; later, the centre comes from the periphery"},
+    {"PRESENT_DEPTH", "0, 1 or 2", "1",
+     "split frames a present may leave to the layer's present thread while the application goes on; 0: "
+     "the application's present waits for the tiles itself"},
     {"STATS", "a file path in an existing directory", "(none)", "write per-frame statistics as CSV"},
     {"LOG_LEVEL", "off, error, warn, info or debug", "warn", "what splitvk writes to stderr"},
     {"TOKEN", "a non-empty string without whitespace", "(none)", "shared secret the agent requires"},
@@ -201,6 +204,12 @@ bool apply(std::string_view name, std::string_view raw, Settings &s) {
         const auto ms = parse_uint(value);
         if (!ms || *ms == 0 || *ms > 60000) return false;
         s.tile_wait_ms = *ms;
+        return true;
+    }
+    if (name == "PRESENT_DEPTH") {
+        const auto depth = parse_uint(value);
+        if (!depth || *depth > 2) return false;
+        s.present_depth = *depth;
         return true;
     }
     if (name == "STATS") {

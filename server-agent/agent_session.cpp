@@ -180,11 +180,13 @@ int Session::run() {
     const auto validation = replayer_.context().validation_messages();
     SPLITVK_INFO(
         "session %llu: closed after %llu messages, %llu commands, %llu submits, %llu frames; %llu validation "
-        "messages",
+        "messages; memory data while the GPU worked: %llu queued behind it, %llu after waiting for it",
         static_cast<unsigned long long>(config_.session_id), static_cast<unsigned long long>(messages_),
         static_cast<unsigned long long>(replayer_.commands_replayed()),
         static_cast<unsigned long long>(replayer_.submits()), static_cast<unsigned long long>(frames_),
-        static_cast<unsigned long long>(validation));
+        static_cast<unsigned long long>(validation),
+        static_cast<unsigned long long>(replayer_.memory_queued()),
+        static_cast<unsigned long long>(replayer_.memory_waited()));
     return validation ? kSessionValidation : kSessionClosed;
 }
 

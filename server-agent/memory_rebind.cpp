@@ -1,5 +1,6 @@
 #include "memory_rebind.h"
 
+#include "queued_writes.h"
 #include "vk_codec.h"
 #include "vk_format_info.h"
 
@@ -347,8 +348,27 @@ void MemoryRebind::copy_shadow(const ClientMemory &memory, Resource &resource) {
     }
 }
 
+MemoryRebind::WritePlan MemoryRebind::plan_write(uint64_t memory_id, VkDeviceSize offset,
+                                                 VkDeviceSize size) const {
+    WritePlan plan;
+    const auto m = memories_.find(memory_id);
+    if (m == memories_.end()) return plan;
+    for (uint64_t handle : m->second.bound) {
+        const Resource &r = resources_.at(handle);
+        if (!r.mapped || (r.is_image && r.tiling != VK_IMAGE_TILING_LINEAR)) continue;
+        const VkDeviceSize from = std::max(offset, r.client_offset);
+        const VkDeviceSize to = std::min(offset + size, r.client_offset + covered(r));
+        if (from >= to) continue;
+        if (r.is_image)
+            plan.linear_images = true;
+        else
+            plan.buffer_bytes += to - from;
+    }
+    return plan;
+}
+
 bool MemoryRebind::write(uint64_t memory_id, VkDeviceSize offset, std::span<const uint8_t> bytes,
-                         std::string *error) {
+                         std::string *error, QueuedWrites *queued) {
     auto m = memories_.find(memory_id);
     if (m == memories_.end()) {
         *error = "unknown VkDeviceMemory id " + hex(memory_id);
@@ -388,6 +408,12 @@ bool MemoryRebind::write(uint64_t memory_id, VkDeviceSize offset, std::span<cons
         const VkDeviceSize from = std::max(offset, r_begin);
         const VkDeviceSize to = std::min(end, r_end);
         if (from >= to) continue;
+        if (queued && !r.is_image) {
+            if (!queued->stage(codec::to_handle<VkBuffer>(handle), from - r_begin,
+                               bytes.data() + (from - offset), to - from, error))
+                return false;
+            continue;
+        }
         place(r, from - r_begin, bytes.data() + (from - offset), to - from);
     }
     return true;

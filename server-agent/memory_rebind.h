@@ -34,6 +34,8 @@
 
 namespace splitvk::agent {
 
+class QueuedWrites;
+
 // Per-session caps (splitvk-agent --max-host-memory, --max-gpu-memory; docs/security.md). Going
 // over one is an error like any other: the session ends with one line naming the cap.
 struct MemoryLimits {
@@ -75,8 +77,17 @@ public:
     bool bind_buffer(VkBuffer buffer, uint64_t memory_id, VkDeviceSize offset, std::string *error);
     bool bind_image(VkImage image, uint64_t memory_id, VkDeviceSize offset, std::string *error);
 
-    // MemoryData: into the shadow and into every host-visible resource bound in the range.
-    bool write(uint64_t memory_id, VkDeviceSize offset, std::span<const uint8_t> bytes, std::string *error);
+    // MemoryData: into the shadow and into every host-visible resource bound in the range. With
+    // `queued`, bytes for buffers are staged there (queued_writes.h) instead of written by the host.
+    bool write(uint64_t memory_id, VkDeviceSize offset, std::span<const uint8_t> bytes, std::string *error,
+               QueuedWrites *queued = nullptr);
+    // What write() of `size` bytes at `offset` would do: bytes it would stage for buffers, and
+    // whether a linear image (written by the host, row by row) lies in the range.
+    struct WritePlan {
+        VkDeviceSize buffer_bytes = 0;
+        bool linear_images = false;
+    };
+    WritePlan plan_write(uint64_t memory_id, VkDeviceSize offset, VkDeviceSize size) const;
 
     size_t bound_resources() const { return resources_.size(); }
 

@@ -29,7 +29,83 @@ Replayer::Replayer(uint64_t session_id, const MemoryLimits &limits, protocol::De
 }
 
 Replayer::~Replayer() {
-    if (context_.device) vkDeviceWaitIdle(context_.device);
+    if (!context_.device) return;
+    vkDeviceWaitIdle(context_.device);
+    for (const auto &[serial, fence] : in_flight_)
+        ::vkDestroyFence(context_.device, fence, nullptr);
+    for (VkFence fence : free_fences_)
+        ::vkDestroyFence(context_.device, fence, nullptr);
+}
+
+VkFence Replayer::submit_fence() {
+    while (!in_flight_.empty() &&
+           vkGetFenceStatus(context_.device, in_flight_.front().second) == VK_SUCCESS) {
+        free_fences_.push_back(in_flight_.front().second);
+        in_flight_.pop_front();
+    }
+    if (!free_fences_.empty()) {
+        const VkFence fence = free_fences_.back();
+        free_fences_.pop_back();
+        ::vkResetFences(context_.device, 1, &fence);
+        return fence;
+    }
+    VkFenceCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+    VkFence fence = VK_NULL_HANDLE;
+    return ::vkCreateFence(context_.device, &info, nullptr, &fence) == VK_SUCCESS ? fence : VK_NULL_HANDLE;
+}
+
+void Replayer::reclaim_fences(uint64_t up_to) {
+    constexpr uint64_t kWaitNs = 30'000'000'000; // a submit that long is a lost GPU
+    while (!in_flight_.empty() && in_flight_.front().first <= up_to) {
+        if (vkWaitForFences(context_.device, 1, &in_flight_.front().second, VK_TRUE, kWaitNs) != VK_SUCCESS) {
+            quiesce(); // no answer from the fence: the queue, as before
+            return;
+        }
+        free_fences_.push_back(in_flight_.front().second);
+        in_flight_.pop_front();
+    }
+}
+
+void Replayer::wait_for_command_pool(std::span<const uint8_t> payload, size_t offset) {
+    if (!gpu_busy_) return;
+    // Encoded: u16 command id, u64 device id, u64 commandPool id.
+    if (payload.size() - offset < 18) return quiesce(); // the decoder reports the truncation
+    const auto *entry = table_.find(protocol::load_le64(payload.data() + offset + 10));
+    if (!entry) return quiesce();
+    const auto pool = codec::to_handle<VkCommandPool>(entry->handle);
+    // Secondaries of the pool may be inside pending primaries of any pool.
+    if (pools_with_secondaries_.count(pool)) return quiesce();
+    const auto last = pool_last_submit_.find(pool);
+    if (last == pool_last_submit_.end()) return; // nothing of it ever submitted
+    if (!flush_writes()) return;
+    reclaim_fences(last->second);
+}
+
+bool Replayer::vkAllocateCommandBuffers(const codec::Decoded_vkAllocateCommandBuffers &c) {
+    if (!ReplayVisitorBase::vkAllocateCommandBuffers(c)) return false;
+    const VkCommandPool pool = c.pAllocateInfo->commandPool;
+    if (c.pAllocateInfo->level == VK_COMMAND_BUFFER_LEVEL_SECONDARY) pools_with_secondaries_.insert(pool);
+    for (uint32_t i = 0; i < c.pCommandBuffers_count; ++i)
+        pool_of_[c.pCommandBuffers[i]] = pool;
+    return true;
+}
+
+void Replayer::note_submitted(VkCommandBuffer cb) {
+    last_submit_[cb] = submit_serial_;
+    if (const auto pool = pool_of_.find(cb); pool != pool_of_.end())
+        pool_last_submit_[pool->second] = submit_serial_;
+}
+
+void Replayer::wait_for_command_buffer(std::span<const uint8_t> payload, size_t offset) {
+    if (!gpu_busy_) return;
+    if (payload.size() - offset < 10) return quiesce(); // the decoder reports the truncation
+    const auto *entry = table_.find(protocol::load_le64(payload.data() + offset + 2));
+    const auto last =
+        entry ? last_submit_.find(codec::to_handle<VkCommandBuffer>(entry->handle)) : last_submit_.end();
+    if (last == last_submit_.end()) return quiesce();
+    if (!flush_writes()) return;
+    reclaim_fences(last->second);
 }
 
 bool Replayer::init(uint32_t device_index, bool validate, std::string *error) {
@@ -49,16 +125,29 @@ bool Replayer::unhandled(VkCommandId id) {
                   "not replayed by the agent (the layer must not send it)");
 }
 
+bool Replayer::flush_writes() {
+    if (!writes_.pending()) return true;
+    std::string error;
+    if (!writes_.flush(&error)) return failed("MemoryData", VK_SUCCESS, error);
+    gpu_busy_ = true;
+    return true;
+}
+
 void Replayer::quiesce() {
+    flush_writes(); // a failure is the session's error (failed())
     if (!gpu_busy_ || !context_.queue) return;
     vkQueueWaitIdle(context_.queue);
     gpu_busy_ = false;
+    for (const auto &[serial, fence] : in_flight_)
+        free_fences_.push_back(fence);
+    in_flight_.clear();
 }
 
 bool Replayer::needs_quiesce(VkCommandId id) const {
     const std::string_view name = codec::command_name(id);
-    for (std::string_view safe :
-         {"vkCmd", "vkCreate", "vkAllocate", "vkGet", "vkQueueSubmit", "vkEndCommandBuffer", "vkBind"})
+    // vkResetFences: the client's fences are its own; the agent's handler does nothing.
+    for (std::string_view safe : {"vkCmd", "vkCreate", "vkAllocate", "vkGet", "vkQueueSubmit",
+                                  "vkEndCommandBuffer", "vkBind", "vkResetFences"})
         if (name.substr(0, safe.size()) == safe) return false;
     return true;
 }
@@ -88,7 +177,20 @@ bool Replayer::replay(std::span<const uint8_t> payload, std::string *error) {
                 ok = false;
                 break;
             }
-            if (codec::is_command_id(static_cast<uint16_t>(id)) && needs_quiesce(id)) quiesce();
+            if (id == VkCommandId::vkBeginCommandBuffer || id == VkCommandId::vkResetCommandBuffer)
+                wait_for_command_buffer(payload, offset);
+            else if (id == VkCommandId::vkResetCommandPool)
+                wait_for_command_pool(payload, offset);
+            else if (codec::is_command_id(static_cast<uint16_t>(id)) && needs_quiesce(id)) {
+                quiesce();
+                // Freed command buffers: a later one (a secondary) may get the same handle value.
+                if (id == VkCommandId::vkFreeCommandBuffers || id == VkCommandId::vkDestroyCommandPool) {
+                    last_submit_.clear();
+                    pool_of_.clear();
+                    pool_last_submit_.clear();
+                    pools_with_secondaries_.clear();
+                }
+            }
         }
         ok = codec::dispatch_decoded(d, *this);
         if (ok) ++commands_;
@@ -161,14 +263,22 @@ bool Replayer::vkGetDeviceQueue2(const codec::Decoded_vkGetDeviceQueue2 &c) {
 
 bool Replayer::vkQueueSubmit(const codec::Decoded_vkQueueSubmit &c) {
     const auto submits = codec::without_synchronization(c.pSubmits, c.submitCount);
-    const VkResult r = ::vkQueueSubmit(context_.queue, static_cast<uint32_t>(submits.size()), submits.data(),
-                                       VK_NULL_HANDLE);
+    if (!flush_writes()) return false; // the memory data the client wrote before this submit
+    note_frame_submit();
+    const VkFence fence = submit_fence();
+    const VkResult r =
+        ::vkQueueSubmit(context_.queue, static_cast<uint32_t>(submits.size()), submits.data(), fence);
     if (r != VK_SUCCESS) return failed("vkQueueSubmit", r);
+    if (fence) {
+        in_flight_.emplace_back(++submit_serial_, fence);
+        for (const VkSubmitInfo &s : submits)
+            for (uint32_t i = 0; i < s.commandBufferCount; ++i)
+                note_submitted(s.pCommandBuffers[i]);
+    }
     for (const VkSubmitInfo &s : submits) {
         fovea_.submitted(s.commandBufferCount, s.pCommandBuffers);
         guard_.submitted(s.commandBufferCount, s.pCommandBuffers);
     }
-    note_frame_submit();
     gpu_busy_ = true;
     ++submits_;
     return true;
@@ -177,15 +287,23 @@ bool Replayer::vkQueueSubmit(const codec::Decoded_vkQueueSubmit &c) {
 bool Replayer::vkQueueSubmit2(const codec::Decoded_vkQueueSubmit2 &c) {
     if (!vk.QueueSubmit2) return missing("vkQueueSubmit2");
     const auto submits = codec::without_synchronization(c.pSubmits, c.submitCount);
-    const VkResult r = vk.QueueSubmit2(context_.queue, static_cast<uint32_t>(submits.size()), submits.data(),
-                                       VK_NULL_HANDLE);
+    if (!flush_writes()) return false;
+    note_frame_submit();
+    const VkFence fence = submit_fence();
+    const VkResult r =
+        vk.QueueSubmit2(context_.queue, static_cast<uint32_t>(submits.size()), submits.data(), fence);
     if (r != VK_SUCCESS) return failed("vkQueueSubmit2", r);
+    if (fence) {
+        in_flight_.emplace_back(++submit_serial_, fence);
+        for (const VkSubmitInfo2 &s : submits)
+            for (uint32_t i = 0; i < s.commandBufferInfoCount; ++i)
+                note_submitted(s.pCommandBufferInfos[i].commandBuffer);
+    }
     for (const VkSubmitInfo2 &s : submits)
         for (uint32_t i = 0; i < s.commandBufferInfoCount; ++i) {
             fovea_.submitted(1, &s.pCommandBufferInfos[i].commandBuffer);
             guard_.submitted(1, &s.pCommandBufferInfos[i].commandBuffer);
         }
-    note_frame_submit();
     gpu_busy_ = true;
     ++submits_;
     return true;
@@ -268,7 +386,12 @@ bool Replayer::vkBindImageMemory2(const codec::Decoded_vkBindImageMemory2 &c) {
 }
 
 bool Replayer::vkCreateBuffer(const codec::Decoded_vkCreateBuffer &c) {
-    if (!ReplayVisitorBase::vkCreateBuffer(c)) return false;
+    // MemoryData reaches buffers by GPU copies when the GPU is busy (queued_writes.h).
+    VkBufferCreateInfo info = *c.pCreateInfo;
+    info.usage |= VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    auto copy = c;
+    copy.pCreateInfo = &info;
+    if (!ReplayVisitorBase::vkCreateBuffer(copy)) return false;
     memory_.buffer_created(c.pBuffer[0], *c.pCreateInfo);
     return true;
 }
@@ -317,8 +440,27 @@ bool Replayer::memory_data(const protocol::MemoryData &message, std::string *err
         *error = "MemoryData: unknown VkDeviceMemory id " + hex(message.memory_id);
         return false;
     }
-    quiesce(); // the bytes may land in a buffer the GPU is still reading
-    if (!memory_.write(message.memory_id, message.offset, message.bytes, error)) {
+    // Bytes for buffers go through the queue behind the work in flight (queued_writes.h); the host
+    // writes what has no resource yet (the shadow) at once, and linear images after a wait.
+    const auto plan = memory_.plan_write(message.memory_id, message.offset, message.bytes.size());
+    QueuedWrites *queued = nullptr;
+    if (gpu_busy_ && !plan.linear_images && plan.buffer_bytes > 0 &&
+        plan.buffer_bytes <= QueuedWrites::kBatchBytes) {
+        if (!writes_.fits(plan.buffer_bytes) && !flush_writes()) {
+            *error = error_;
+            return false;
+        }
+        queued = &writes_;
+        ++memory_queued_;
+    } else if (plan.buffer_bytes > 0 || plan.linear_images) {
+        if (gpu_busy_) ++memory_waited_;
+        quiesce(); // the bytes may land in a resource the GPU is still reading
+        if (!error_.empty()) {
+            *error = error_;
+            return false;
+        }
+    }
+    if (!memory_.write(message.memory_id, message.offset, message.bytes, error, queued)) {
         *error = "MemoryData: memory " + hex(message.memory_id) + ": " + *error;
         return false;
     }
@@ -375,8 +517,9 @@ bool Replayer::split_config(const protocol::SplitConfig &message, std::string *e
 }
 
 void Replayer::note_frame_submit() {
-    if (frame_first_submit_ == std::chrono::steady_clock::time_point{})
-        frame_first_submit_ = std::chrono::steady_clock::now();
+    if (frame_first_submit_ != std::chrono::steady_clock::time_point{}) return;
+    frame_first_submit_ = std::chrono::steady_clock::now();
+    if (tiles_) tiles_->frame_started(); // the GPU draw time starts ahead of this submit
 }
 
 bool Replayer::frame_present(const protocol::FramePresent &message,

@@ -9,6 +9,7 @@
 #include "fovea_shading.h"
 #include "limit_guard.h"
 #include "memory_rebind.h"
+#include "queued_writes.h"
 #include "session.h"
 #include "swapchain_images.h"
 #include "tile_streamer.h"
@@ -18,9 +19,12 @@
 
 #include <chrono>
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <span>
 #include <string>
+#include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 namespace splitvk::agent {
@@ -59,6 +63,9 @@ public:
 
     uint64_t commands_replayed() const { return commands_; }
     uint64_t submits() const { return submits_; }
+    // MemoryData while the GPU was busy: queued behind its work, or written after waiting for it.
+    uint64_t memory_queued() const { return memory_queued_; }
+    uint64_t memory_waited() const { return memory_waited_; }
 
     bool failed(const char *command, VkResult result, const std::string &detail = {}) override;
     bool unhandled(codec::VkCommandId id) override;
@@ -71,6 +78,7 @@ public:
     bool vkGetDeviceQueue2(const codec::Decoded_vkGetDeviceQueue2 &c) override;
     bool vkQueueSubmit(const codec::Decoded_vkQueueSubmit &c) override;
     bool vkQueueSubmit2(const codec::Decoded_vkQueueSubmit2 &c) override;
+    bool vkAllocateCommandBuffers(const codec::Decoded_vkAllocateCommandBuffers &c) override;
     bool vkAllocateMemory(const codec::Decoded_vkAllocateMemory &c) override;
     bool vkFreeMemory(const codec::Decoded_vkFreeMemory &c) override;
     bool vkMapMemory(const codec::Decoded_vkMapMemory &c) override;
@@ -115,8 +123,20 @@ public:
 
 private:
     // Waits for the GPU when work is in flight: the client destroys, frees, re-records and
-    // rewrites memory after waiting on its own fences, which the agent does not replay.
+    // rewrites memory after waiting on its own fences, which the agent does not replay. MemoryData
+    // for buffers does not wait: it is queued (queued_writes.h).
     void quiesce();
+    // Submits the MemoryData copies staged since the last submit (before anything else uses the queue).
+    bool flush_writes();
+    // Per command buffer instead of the whole queue: re-recording one waits for its own last submit
+    // only (each submit has a fence); a command buffer never submitted as a primary (a secondary
+    // may be inside a pending primary) still waits for the queue.
+    void wait_for_command_buffer(std::span<const uint8_t> payload, size_t offset);
+    // vkResetCommandPool: waits for the pool's last submit (the queue when it has secondaries).
+    void wait_for_command_pool(std::span<const uint8_t> payload, size_t offset);
+    void note_submitted(VkCommandBuffer command_buffer); // under submit_serial_
+    VkFence submit_fence();              // a fence for the next submit, reclaiming those signalled
+    void reclaim_fences(uint64_t up_to); // waits (bounded) for the submits up to serial `up_to`
     bool needs_quiesce(codec::VkCommandId id) const;
     void note_frame_submit();
     bool peek_create_device(std::span<const uint8_t> payload, size_t offset, std::string *error);
@@ -138,6 +158,17 @@ private:
     bool linear_copy_logged_ = false;
     uint64_t commands_ = 0;
     uint64_t submits_ = 0;
+    uint64_t memory_queued_ = 0;
+    uint64_t memory_waited_ = 0;
+    // Submits in flight with their fences, in submission order, and fences free for reuse.
+    std::deque<std::pair<uint64_t, VkFence>> in_flight_;
+    std::vector<VkFence> free_fences_;
+    uint64_t submit_serial_ = 0;
+    std::unordered_map<VkCommandBuffer, uint64_t> last_submit_; // by primary command buffer
+    std::unordered_map<VkCommandBuffer, VkCommandPool> pool_of_;
+    std::unordered_map<VkCommandPool, uint64_t> pool_last_submit_;
+    std::unordered_set<VkCommandPool> pools_with_secondaries_;
+    QueuedWrites writes_{context_}; // last: destroyed first, with the device still there
 };
 
 } // namespace splitvk::agent

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <utility>
 
 namespace splitvk::agent {
 
@@ -34,21 +35,101 @@ TileStreamer::~TileStreamer() {
     if (!context_.device) return;
     for (Slot &slot : slots_)
         destroy_slot(slot);
+    if (queries_) vkDestroyQueryPool(context_.device, queries_, nullptr);
     if (pool_) vkDestroyCommandPool(context_.device, pool_, nullptr);
+}
+
+bool TileStreamer::create_timing() {
+    const VkDevice device = context_.device;
+    uint32_t families = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(context_.physical_device, &families, nullptr);
+    std::vector<VkQueueFamilyProperties> properties(families);
+    vkGetPhysicalDeviceQueueFamilyProperties(context_.physical_device, &families, properties.data());
+    VkPhysicalDeviceProperties device_properties{};
+    vkGetPhysicalDeviceProperties(context_.physical_device, &device_properties);
+    const uint32_t bits =
+        context_.queue_family < families ? properties[context_.queue_family].timestampValidBits : 0;
+    if (bits == 0 || device_properties.limits.timestampPeriod <= 0) return false;
+    timestamp_period_ns_ = device_properties.limits.timestampPeriod;
+    timestamp_mask_ = bits >= 64 ? ~uint64_t{0} : (uint64_t{1} << bits) - 1;
+    std::string error;
+    if (!ensure_pool(&error)) return false;
+    VkQueryPoolCreateInfo query_info{};
+    query_info.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO;
+    query_info.queryType = VK_QUERY_TYPE_TIMESTAMP;
+    query_info.queryCount = 2 * kTimedFrames;
+    if (vkCreateQueryPool(device, &query_info, nullptr, &queries_) != VK_SUCCESS) return false;
+    VkCommandBufferAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    alloc.commandPool = pool_;
+    alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    alloc.commandBufferCount = 1;
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    // Recorded once: a pair is submitted again only after the worker has read it (kTimedFrames).
+    for (uint32_t i = 0; i < kTimedFrames; ++i) {
+        TimedFrame &t = timed_[i];
+        if (vkAllocateCommandBuffers(device, &alloc, &t.begin) != VK_SUCCESS ||
+            vkAllocateCommandBuffers(device, &alloc, &t.end) != VK_SUCCESS)
+            return false;
+        vkBeginCommandBuffer(t.begin, &begin);
+        vkCmdResetQueryPool(t.begin, queries_, 2 * i, 2);
+        vkCmdWriteTimestamp(t.begin, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queries_, 2 * i);
+        vkEndCommandBuffer(t.begin);
+        vkBeginCommandBuffer(t.end, &begin);
+        vkCmdWriteTimestamp(t.end, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries_, 2 * i + 1);
+        vkEndCommandBuffer(t.end);
+    }
+    return true;
+}
+
+void TileStreamer::frame_started() {
+    if (!timing_tried_) {
+        timing_tried_ = true;
+        if (!create_timing()) {
+            if (queries_) vkDestroyQueryPool(context_.device, queries_, nullptr);
+            queries_ = VK_NULL_HANDLE;
+            SPLITVK_INFO("tiles: no timestamps on the agent's queue; the draw time is wall time");
+        }
+    }
+    if (!queries_) return;
+    const uint32_t pair = next_timed_;
+    VkSubmitInfo submit{};
+    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    submit.commandBufferCount = 1;
+    submit.pCommandBuffers = &timed_[pair].begin;
+    if (vkQueueSubmit(context_.queue, 1, &submit, VK_NULL_HANDLE) != VK_SUCCESS) return;
+    next_timed_ = (next_timed_ + 1) % kTimedFrames;
+    started_ = static_cast<int32_t>(pair);
+}
+
+uint32_t TileStreamer::timed_draw_us(uint32_t pair) {
+    uint64_t stamps[2] = {};
+    // After the frame's `drawn` fence: both are written (no wait bit needed).
+    if (vkGetQueryPoolResults(context_.device, queries_, 2 * pair, 2, sizeof(stamps), stamps,
+                              sizeof(uint64_t), VK_QUERY_RESULT_64_BIT) != VK_SUCCESS)
+        return 0;
+    const uint64_t ticks = ((stamps[1] & timestamp_mask_) - (stamps[0] & timestamp_mask_)) & timestamp_mask_;
+    return static_cast<uint32_t>(std::min<double>(ticks * timestamp_period_ns_ / 1000.0, UINT32_MAX));
+}
+
+bool TileStreamer::ensure_pool(std::string *error) {
+    if (pool_) return true;
+    VkCommandPoolCreateInfo pool_info{};
+    pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+    pool_info.queueFamilyIndex = context_.queue_family;
+    if (const VkResult r = vkCreateCommandPool(context_.device, &pool_info, nullptr, &pool_);
+        r != VK_SUCCESS) {
+        *error = std::string("tile command pool: ") + vk_result_name(r);
+        return false;
+    }
+    return true;
 }
 
 bool TileStreamer::create_slot(Slot &slot, std::string *error) {
     const VkDevice device = context_.device;
-    if (!pool_) {
-        VkCommandPoolCreateInfo pool_info{};
-        pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
-        pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-        pool_info.queueFamilyIndex = context_.queue_family;
-        if (const VkResult r = vkCreateCommandPool(device, &pool_info, nullptr, &pool_); r != VK_SUCCESS) {
-            *error = std::string("tile command pool: ") + vk_result_name(r);
-            return false;
-        }
-    }
+    if (!ensure_pool(error)) return false;
     VkCommandBufferAllocateInfo alloc{};
     alloc.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
     alloc.commandPool = pool_;
@@ -118,10 +199,17 @@ bool TileStreamer::present(Frame frame, std::string *error) {
     slot.frame = std::move(frame);
     VkFence fences[] = {slot.drawn, slot.copied};
     vkResetFences(context_.device, 2, fences);
+    slot.timed = std::exchange(started_, -1);
 
-    // An empty submit signals `drawn` when everything before it on the queue, the frame's own
-    // work, has completed: the draw time the client's statistics show.
-    VkResult r = vkQueueSubmit(context_.queue, 0, nullptr, slot.drawn);
+    // A submit signals `drawn` when everything before it on the queue, the frame's own work, has
+    // completed; with timestamps it writes the end of the frame's GPU draw time.
+    VkSubmitInfo drawn{};
+    drawn.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    if (slot.timed >= 0) {
+        drawn.commandBufferCount = 1;
+        drawn.pCommandBuffers = &timed_[static_cast<uint32_t>(slot.timed)].end;
+    }
+    VkResult r = vkQueueSubmit(context_.queue, 1, &drawn, slot.drawn);
     if (r == VK_SUCCESS && bytes > 0) {
         if (!ensure_buffer(slot, bytes, error)) return false;
         record_copy(slot);
@@ -243,8 +331,10 @@ bool TileStreamer::encode_and_send(Slot &slot, std::string *error) {
             return false;
         }
 
-    message.timings.draw_us =
-        frame.first_submit == Clock::time_point{} ? 0 : micros(drawn - frame.first_submit);
+    message.timings.draw_us = slot.timed >= 0 ? timed_draw_us(static_cast<uint32_t>(slot.timed))
+                              : frame.first_submit == Clock::time_point{}
+                                  ? 0
+                                  : micros(drawn - frame.first_submit);
     message.timings.readback_us = micros(copied - drawn);
     message.timings.encode_us = micros(encoded - copied);
     message.timings.present_to_send_us = micros(Clock::now() - frame.present);

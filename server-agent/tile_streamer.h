@@ -55,9 +55,14 @@ public:
         VkFormat format = VK_FORMAT_UNDEFINED;
         std::vector<VkRect2D> foveae; // may be empty: an empty Tiles message
         bool invalid = false;         // limit_guard.h: sent as kTilesInvalid, with no tiles
-        std::chrono::steady_clock::time_point first_submit{}; // of the frame, for draw time
+        std::chrono::steady_clock::time_point first_submit{}; // of the frame: draw time without timestamps
         std::chrono::steady_clock::time_point present{};      // FramePresent received
     };
+
+    // Replay thread, before the first submit of a frame: submits a timestamp the frame's draw time
+    // starts at (the end is written ahead of the fovea copy in present()). The draw time in Tiles is
+    // then GPU time: from the GPU starting the frame's first submit to finishing its last.
+    void frame_started();
 
     // Replay thread: submits the frame's fovea copy and hands it to the worker. False with one line
     // in `error` when the copy cannot be submitted, or the worker has failed.
@@ -65,6 +70,14 @@ public:
 
 private:
     static constexpr size_t kSlots = 3;
+    // Timestamp pairs (begin, end) of frames, used in turn: more than the frames the replay thread
+    // can be ahead of the worker that reads them (kSlots and the one being replayed).
+    static constexpr uint32_t kTimedFrames = 8;
+
+    struct TimedFrame {
+        VkCommandBuffer begin = VK_NULL_HANDLE; // resets the pair, writes the first timestamp
+        VkCommandBuffer end = VK_NULL_HANDLE;   // writes the second when the frame's work is done
+    };
 
     struct Slot {
         VkCommandBuffer command_buffer = VK_NULL_HANDLE;
@@ -73,6 +86,7 @@ private:
         HostBuffer staging;
         bool busy = false; // owned by the worker until it has sent the frame
         Frame frame;
+        int32_t timed = -1; // the frame's timestamp pair, -1 without one
     };
 
     // One eye's stream: encoders are stateful, so an eye keeps its encoder while its size and the
@@ -83,6 +97,7 @@ private:
         std::unique_ptr<tiles::TileEncoder> encoder;
     };
 
+    bool ensure_pool(std::string *error);
     bool create_slot(Slot &slot, std::string *error);
     bool ensure_buffer(Slot &slot, VkDeviceSize bytes, std::string *error);
     void destroy_slot(Slot &slot);
@@ -90,6 +105,8 @@ private:
     void run_worker();
     bool encode_and_send(Slot &slot, std::string *error);
     bool wait_fence(VkFence fence);
+    bool create_timing(); // false: no timestamps on this queue, the draw time stays wall time
+    uint32_t timed_draw_us(uint32_t pair);
 
     VulkanContext &context_;
     Send send_;
@@ -98,6 +115,15 @@ private:
     std::array<Slot, kSlots> slots_{};
     size_t next_slot_ = 0;
     std::vector<EyeStream> eyes_; // worker thread only
+
+    // GPU draw time (frame_started()); made at the first frame, replay thread.
+    bool timing_tried_ = false;
+    VkQueryPool queries_ = VK_NULL_HANDLE;
+    double timestamp_period_ns_ = 0;
+    uint64_t timestamp_mask_ = 0;
+    std::array<TimedFrame, kTimedFrames> timed_{};
+    uint32_t next_timed_ = 0;
+    int32_t started_ = -1; // frame_started()'s pair, for the next present()
 
     std::mutex mutex_;
     std::condition_variable changed_;

@@ -340,23 +340,35 @@ int32_t VulkanContext::find_memory_type(uint32_t type_bits, VkMemoryPropertyFlag
 }
 
 bool VulkanContext::create_readback_buffer(VkDeviceSize size, HostBuffer *out, std::string *error) const {
+    // Cached: the host reads every byte (uncached reads are slow on a discrete GPU).
+    return create_host_buffer(size, VK_BUFFER_USAGE_TRANSFER_DST_BIT, VK_MEMORY_PROPERTY_HOST_CACHED_BIT, out,
+                              error);
+}
+
+bool VulkanContext::create_upload_buffer(VkDeviceSize size, HostBuffer *out, std::string *error) const {
+    // Coherent: the host only writes, and a submit makes coherent writes visible to the GPU.
+    return create_host_buffer(size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                              out, error);
+}
+
+bool VulkanContext::create_host_buffer(VkDeviceSize size, VkBufferUsageFlags usage,
+                                       VkMemoryPropertyFlags preferred, HostBuffer *out,
+                                       std::string *error) const {
     HostBuffer b;
     VkBufferCreateInfo info{};
     info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
     info.size = size;
-    info.usage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    info.usage = usage;
     VkResult r = vkCreateBuffer(device, &info, nullptr, &b.buffer);
     if (r != VK_SUCCESS) {
-        *error = std::string("readback buffer: ") + vk_result_name(r);
+        *error = std::string("host buffer: ") + vk_result_name(r);
         return false;
     }
     VkMemoryRequirements req{};
     vkGetBufferMemoryRequirements(device, b.buffer, &req);
-    // Cached: the host reads every byte (uncached reads are slow on a discrete GPU).
-    const int32_t type = find_memory_type(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT,
-                                          VK_MEMORY_PROPERTY_HOST_CACHED_BIT);
+    const int32_t type = find_memory_type(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT, preferred);
     if (type < 0) {
-        *error = "no host-visible memory for a readback buffer";
+        *error = "no host-visible memory for a host buffer";
         destroy(b);
         return false;
     }
@@ -369,7 +381,7 @@ bool VulkanContext::create_readback_buffer(VkDeviceSize size, HostBuffer *out, s
     if (r == VK_SUCCESS) r = vkBindBufferMemory(device, b.buffer, b.memory, 0);
     if (r == VK_SUCCESS) r = vkMapMemory(device, b.memory, 0, VK_WHOLE_SIZE, 0, &mapped);
     if (r != VK_SUCCESS) {
-        *error = std::string("readback memory: ") + vk_result_name(r);
+        *error = std::string("host buffer memory: ") + vk_result_name(r);
         destroy(b);
         return false;
     }

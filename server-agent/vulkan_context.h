@@ -52,6 +52,8 @@ public:
     // A host-visible TRANSFER_DST buffer of `size` bytes the host reads (cached memory preferred).
     // False with one line in `error`; `out` is then empty.
     bool create_readback_buffer(VkDeviceSize size, HostBuffer *out, std::string *error) const;
+    // A host-visible TRANSFER_SRC buffer of `size` bytes the host writes (queued_writes.h).
+    bool create_upload_buffer(VkDeviceSize size, HostBuffer *out, std::string *error) const;
     void destroy(HostBuffer &buffer) const;
     // Makes the GPU's writes visible to the host (non-coherent memory only).
     void invalidate(const HostBuffer &buffer) const;
@@ -67,6 +69,8 @@ public:
                              VkMemoryPropertyFlags preferred = 0) const;
 
 private:
+    bool create_host_buffer(VkDeviceSize size, VkBufferUsageFlags usage, VkMemoryPropertyFlags preferred,
+                            HostBuffer *out, std::string *error) const;
     static VKAPI_ATTR VkBool32 VKAPI_CALL on_message(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
                                                      VkDebugUtilsMessageTypeFlagsEXT types,
                                                      const VkDebugUtilsMessengerCallbackDataEXT *data,

@@ -1,5 +1,8 @@
 #include "renderer.h"
 
+#include "vk_util.h"
+
+#include <cstdio>
 #include <cstring>
 
 namespace atrium {
@@ -162,6 +165,9 @@ void Renderer::draw_frame(uint64_t frame) {
         const VkResult r = vkAcquireNextImageKHR(device_, swapchain_.handle(), UINT64_MAX, slot.acquired,
                                                  VK_NULL_HANDLE, &image);
         if (r == VK_ERROR_OUT_OF_DATE_KHR) {
+            std::fprintf(stderr,
+                         "atrium: frame %llu: vkAcquireNextImageKHR returned %s; recreating the swapchain\n",
+                         static_cast<unsigned long long>(frame), vk_result_name(r));
             recreate_swapchain(); // nothing was signalled: slot.acquired is still unsignalled
             continue;
         }
@@ -208,10 +214,16 @@ void Renderer::draw_frame(uint64_t frame) {
     present.pSwapchains = &handle;
     present.pImageIndices = &image;
     const VkResult r = vkQueuePresentKHR(context_.queue(), &present);
-    if (r == VK_ERROR_OUT_OF_DATE_KHR || r == VK_SUBOPTIMAL_KHR || stale)
+    if (r == VK_ERROR_OUT_OF_DATE_KHR || r == VK_SUBOPTIMAL_KHR || stale) {
+        // Which call said so: a layer that presents later (splitvk) must still tell the truth.
+        std::fprintf(stderr, "atrium: frame %llu: %s returned %s; recreating the swapchain\n",
+                     static_cast<unsigned long long>(frame),
+                     r != VK_SUCCESS ? "vkQueuePresentKHR" : "vkAcquireNextImageKHR",
+                     vk_result_name(r != VK_SUCCESS ? r : VK_SUBOPTIMAL_KHR));
         recreate_swapchain();
-    else
+    } else {
         ATRIUM_VK_CHECK(r);
+    }
     slot_index_ = (slot_index_ + 1) % frames_in_flight;
 }
 

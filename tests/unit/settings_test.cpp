@@ -58,6 +58,7 @@ TEST_F(SettingsTest, ValidEnvironmentValues) {
                               {"SPLITVK_EYES", "2"},
                               {"SPLITVK_CODEC", "zstd"},
                               {"SPLITVK_TILE_WAIT", "40"},
+                              {"SPLITVK_PRESENT_DEPTH", "2"},
                               {"SPLITVK_STATS", (dir_ / "stats.csv").string()},
                               {"SPLITVK_LOG_LEVEL", "DEBUG"},
                               {"SPLITVK_TOKEN_FILE", token_file}});
@@ -72,6 +73,7 @@ TEST_F(SettingsTest, ValidEnvironmentValues) {
     EXPECT_EQ(s.eyes, EyeMode::Two);
     EXPECT_EQ(s.codec, TileCodec::Zstd);
     EXPECT_EQ(s.tile_wait_ms, 40u);
+    EXPECT_EQ(s.present_depth, 2u);
     EXPECT_EQ(s.log_level, LogLevel::Debug);
     EXPECT_EQ(s.token, "s3cret");
 }
@@ -110,6 +112,7 @@ TEST_F(SettingsTest, InvalidValuesAreOneLineErrorsNamingTheSetting) {
         {"EYES", {"", "0", "3", "both", "two"}},
         {"CODEC", {"", "h264", "x265", "lz4"}},
         {"TILE_WAIT", {"", "0", "-5", "60001", "1.5", "soon"}},
+        {"PRESENT_DEPTH", {"", "3", "-1", "1.5", "two"}},
         {"STATS", {"", "/nonexistent-dir/stats.csv", "/tmp/"}},
         {"LOG_LEVEL", {"", "verbose", "5", "trace"}},
         {"TOKEN", {"", "two words", "tab\there"}},

@@ -112,6 +112,7 @@ const std::map<std::string, std::string> &bad_values() {
         {"EYES", "3"},                                    // auto, 1 or 2
         {"CODEC", "h265"},                                // not a codec splitvk has
         {"TILE_WAIT", "0"},                               // 1 to 60000
+        {"PRESENT_DEPTH", "3"},                           // 0, 1 or 2
         {"STATS", "/nonexistent-splitvk-dir/stats.csv"},  // directory missing
         {"LOG_LEVEL", "verbose"},                         // not a level
         {"TOKEN", "two words"},                           // whitespace

@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cmath>
 #include <csignal>
+#include <map>
 #include <regex>
 #include <sstream>
 #include <thread>
@@ -210,6 +211,21 @@ TEST_P(SplitAtrium, FoveaEqualsNativeBitForBit) {
     ASSERT_NO_FATAL_FAILURE(
         expect_split_frame(native.image, split.image, default_foveae(kWidth, kHeight, v.eyes)));
     expect_clean_validation();
+    // Issue 12, item 3: the agent replayed every frame without waiting for its queue to go idle
+    // before the frame's memory updates (atrium writes its uniforms each frame): they were queued
+    // behind the GPU's work, and the frames above are exact all the same.
+    const std::regex memory(
+        R"(memory data while the GPU worked: (\d+) queued behind it, (\d+) after waiting)");
+    std::smatch m;
+    const auto deadline = Clock::now() + 20s;
+    std::string log = agent_.log();
+    while (!std::regex_search(log, m, memory) && Clock::now() < deadline) {
+        std::this_thread::sleep_for(100ms);
+        log = agent_.log();
+    }
+    ASSERT_TRUE(std::regex_search(log, m, memory)) << tail(log, 30);
+    EXPECT_GT(std::stoull(m[1]), 0u) << m[0];
+    EXPECT_EQ(std::stoull(m[2]), 0u) << m[0];
 }
 
 INSTANTIATE_TEST_SUITE_P(
@@ -234,6 +250,12 @@ TEST_F(Split, ResizeKeepsFoveaeExact) {
     ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, split_env(), "split", kResizeFrames, &split));
     const std::string &err = split.result.err();
     EXPECT_EQ(split_summary(err).late, 0u) << tail(err, 30);
+    // The resize reached the application as a result of its own calls (issue 12: the layer's
+    // present thread presents later, and hands what the real present answered to the app's next
+    // present or acquire): it recreated its swapchain, as natively.
+    EXPECT_GE(grep(err, "recreating the swapchain").size(), 1u) << tail(err, 30);
+    EXPECT_GE(grep(native.result.err(), "recreating the swapchain").size(), 1u)
+        << tail(native.result.err(), 30);
     EXPECT_FALSE(grep(err, "1200x540 swapchain images").empty()) << "the first swapchain was not split\n"
                                                                  << tail(err, 30);
     // The split line is given again for the new size (issue 13, point 6).
@@ -390,6 +412,134 @@ TEST_F(Split, LateAgentLeavesCompleteFrames) {
     EXPECT_GE(s, kMinSsim) << save_mismatch_artefacts(out_, "late", native.image, grabbed);
     EXPECT_TRUE(client_validation_clean(validation_log_));
 }
+
+// A CSV of SPLITVK_STATS as rows of named numbers.
+std::vector<std::map<std::string, double>> stats_rows(const std::string &text) {
+    std::vector<std::map<std::string, double>> rows;
+    const auto lines = split_lines(text);
+    if (lines.empty()) return rows;
+    std::vector<std::string> names;
+    std::stringstream header(lines[0]);
+    for (std::string field; std::getline(header, field, ',');)
+        names.push_back(field);
+    for (size_t i = 1; i < lines.size(); ++i) {
+        std::map<std::string, double> row;
+        std::stringstream fields(lines[i]);
+        size_t column = 0;
+        for (std::string field; std::getline(fields, field, ',') && column < names.size(); ++column)
+            row[names[column]] = std::stod(field);
+        rows.push_back(std::move(row));
+    }
+    return rows;
+}
+
+// Issue 12, item 1: the application's vkQueuePresentKHR returns once the layer has taken the frame;
+// the layer's present thread waits for that frame's tiles. The agent is stopped after a few
+// composited frames, so every later frame waits the whole SPLITVK_TILE_WAIT in the layer. The
+// frames that found room in the layer must have returned to the application long before their
+// tile wait ended (a present that waited for its own tiles takes at least the tile wait), and no
+// more than SPLITVK_PRESENT_DEPTH of them (and the one in flight when the agent stopped) may have:
+// once the layer holds DEPTH frames, a present waits for room. The app then ends normally and
+// validation (synchronization included) stays clean, with the agent resumed.
+class SplitPresentDepth : public Split, public ::testing::WithParamInterface<int> {};
+
+TEST_P(SplitPresentDepth, PresentReturnsBeforeItsTiles) {
+    const int depth = GetParam();
+    constexpr int kTileWaitMs = 1500;
+    constexpr int kDepthFrames = 12;
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    auto argv = atrium_argv(2, kDepthFrames, false);
+    argv[2] = "1200"; // --width
+    argv[4] = "540";  // --height
+    Env e = split_env(std::to_string(kTileWaitMs));
+    e["SPLITVK_PRESENT_DEPTH"] = std::to_string(depth);
+    const auto stats_path = out_ / "stats.csv";
+    e["SPLITVK_STATS"] = stats_path.string();
+    ProcessSpec spec;
+    spec.argv = argv;
+    spec.env = e;
+    spec.out_dir = out_;
+    spec.name = "split-depth";
+    Process p(spec);
+    ASSERT_TRUE(p.start()) << p.error();
+    // Three frames composited with tiles, then the agent stops.
+    const auto deadline = Clock::now() + 120s;
+    while (stats_rows(read_file(stats_path)).size() < 3 && p.running() && Clock::now() < deadline)
+        std::this_thread::sleep_for(20ms);
+    ASSERT_EQ(::kill(-agent_.pid(), SIGSTOP), 0);
+    const bool held = p.wait_for_line("holding frame " + std::to_string(kDepthFrames - 1), 240s);
+    ::kill(-agent_.pid(), SIGCONT);
+    auto r = p.terminate(10s);
+    ASSERT_TRUE(held) << r.describe() << "\n" << tail(r.err(), 30);
+    ASSERT_TRUE(r.ok()) << r.describe() << "\n" << tail(r.err(), 30);
+
+    const auto rows = stats_rows(read_file(stats_path));
+    ASSERT_EQ(rows.size(), static_cast<size_t>(kDepthFrames)) << read_file(stats_path);
+    int waited = 0, returned_early = 0;
+    for (const auto &row : rows) {
+        if (row.at("late") == 0 || row.at("tile_wait_ms") < kTileWaitMs * 0.9) continue;
+        ++waited;
+        const double call = row.at("present_call_ms");
+        std::cout << "  frame " << row.at("frame") << ": tile wait " << row.at("tile_wait_ms")
+                  << " ms, the app's present " << call << " ms\n";
+        if (call < kTileWaitMs / 3.0) ++returned_early;
+    }
+    ASSERT_GE(waited, depth + 3) << "too few frames waited for the stopped agent:\n" << read_file(stats_path);
+    EXPECT_GE(returned_early, depth) << "the application's present waited for its own frame's tiles";
+    EXPECT_LE(returned_early, depth + 1) << "more than SPLITVK_PRESENT_DEPTH frames waited in the layer";
+    expect_clean_validation();
+}
+
+INSTANTIATE_TEST_SUITE_P(Depth, SplitPresentDepth, ::testing::Values(1, 2),
+                         [](const ::testing::TestParamInfo<int> &p) {
+                             return "Depth" + std::to_string(p.param);
+                         });
+
+// The application ends while its frames wait in the layer for a stopped agent (SIGTERM: atrium
+// leaves its loop and calls vkDeviceWaitIdle, destroys its swapchain and device): the present
+// thread presents them with the periphery once the tile wait runs out, the application exits 0
+// well within the tile wait of the frames it has (not hung), and validation, synchronization
+// included, saw no object destroyed while the layer still used it. SPLITVK_PRESENT_DEPTH=0 is the
+// synchronous path of before, here for contrast: the same end.
+class SplitShutdown : public Split, public ::testing::WithParamInterface<int> {};
+
+TEST_P(SplitShutdown, WhileAFrameWaitsIsClean) {
+    constexpr int kTileWaitMs = 3000;
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    auto argv = atrium_argv(2, 1000, false);
+    argv[2] = "1200"; // --width
+    argv[4] = "540";  // --height
+    Env e = split_env(std::to_string(kTileWaitMs));
+    e["SPLITVK_PRESENT_DEPTH"] = std::to_string(GetParam());
+    const auto stats_path = out_ / "stats.csv";
+    e["SPLITVK_STATS"] = stats_path.string();
+    ProcessSpec spec;
+    spec.argv = argv;
+    spec.env = e;
+    spec.out_dir = out_;
+    spec.name = "split-shutdown";
+    Process p(spec);
+    ASSERT_TRUE(p.start()) << p.error();
+    const auto deadline = Clock::now() + 120s;
+    while (stats_rows(read_file(stats_path)).size() < 3 && p.running() && Clock::now() < deadline)
+        std::this_thread::sleep_for(20ms);
+    ASSERT_EQ(::kill(-agent_.pid(), SIGSTOP), 0);
+    std::this_thread::sleep_for(500ms); // frames now wait in the layer
+    const auto stop = Clock::now();
+    auto r = p.terminate(30s);
+    const double took = std::chrono::duration<double>(Clock::now() - stop).count();
+    ::kill(-agent_.pid(), SIGCONT);
+    ASSERT_TRUE(r.ok()) << r.describe() << "\n" << tail(r.err(), 30);
+    std::cout << "  the application ended " << took << " s after SIGTERM\n";
+    EXPECT_LT(took, 3.0 * kTileWaitMs / 1000 + 5) << "the end waited for more than the frames it had";
+    EXPECT_GT(split_summary(r.err()).late, 0u) << tail(r.err(), 30);
+    EXPECT_TRUE(client_validation_clean(validation_log_));
+}
+
+INSTANTIATE_TEST_SUITE_P(Depth, SplitShutdown, ::testing::Values(0, 1, 2),
+                         [](const ::testing::TestParamInfo<int> &p) {
+                             return "Depth" + std::to_string(p.param);
+                         });
 
 // Issue 10: the agent behaves as a GPU with 256-byte buffer alignments (--emulate-limits), the
 // client is lavapipe (16). The application is told 256 (the device envelope), so the foveae stay
