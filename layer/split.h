@@ -40,6 +40,11 @@ bool swapchain_composable(const SwapchainState &swapchain);
 
 const Settings &split_settings();
 
+// render_pass.cpp: the image a view was created for (null if unknown), and whether `image` is an
+// image of a live composable swapchain (with its extent).
+VkImage image_of_view(VkImageView view);
+bool swapchain_image_extent(VkImage image, VkExtent2D *extent);
+
 // The split tracker of a command buffer allocated while the device had a session (reset at
 // vkBeginCommandBuffer); nullptr otherwise (command_buffer.cpp).
 split::CommandTracker *split_tracker(VkCommandBuffer command_buffer);
