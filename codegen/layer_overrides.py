@@ -147,6 +147,8 @@ OBSERVED_COMMANDS = {
     "vkDestroyRenderPass",
     # transfer.cpp: the compute descriptor sets bound, for dispatches over screen-space targets.
     "vkCmdBindDescriptorSets",
+    # render_pass.cpp: the foveae of the viewports that executed secondaries drew with.
+    "vkCmdExecuteCommands",
 }
 
 # Global commands are answered by the loader from the manifest for interface version 2 layers;

@@ -20,6 +20,7 @@
 #include <atomic>
 #include <mutex>
 #include <set>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -71,8 +72,8 @@ bool find_target(uint32_t count, const VkImageView *views, VkImage *image, VkExt
 
 void log_secondary_once() {
     if (!g_secondary_logged.exchange(true))
-        SPLITVK_WARN("a pass into a swapchain image records its contents in secondary command buffers: "
-                     "not split (rendered at full resolution)");
+        SPLITVK_WARN("a dynamic rendering into a swapchain image records its contents in secondary command "
+                     "buffers: not split (rendered at full resolution)");
 }
 
 bool any_screen_space(std::span<const VkImageView> views) {
@@ -205,36 +206,38 @@ void end_render_pass(DeviceState &dev, VkCommandBuffer cb) {
     leave_split(dev, cb);
 }
 
-// A pass whose contents are recorded in secondary command buffers: the secondaries set their own
-// viewports, which the layer does not rewrite (secondary command buffers are not split). A pass into
-// a swapchain image then renders unsplit; a pass into a screen-space target cannot, since the target
-// is scaled, so it runs with its render area scaled and the secondaries' full-size viewports clipped
-// to it: a periphery artefact (the agent's fovea is unaffected).
-bool secondary_contents(const PassTarget &target) {
-    if (target.scaled)
-        log_unscalable_once("a pass into a screen-space target records its contents in secondary command "
-                            "buffers: their viewports are not scaled, so the client's periphery of that "
-                            "target is cropped (the foveae stay exact)");
-    else
-        log_secondary_once();
-    return target.scaled;
-}
+// The target each render pass was last begun on: a secondary that continues a pass without
+// naming its framebuffer (engines record them before they know the swapchain image) is recorded
+// for that target's scaling. Engines begin the pass before recording its secondaries for the frame.
+std::mutex g_pass_targets_mutex;
+std::unordered_map<VkRenderPass, PassTarget> g_pass_targets;
 
 template <class Down>
 void begin_render_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassBeginInfo *begin,
                        bool secondary, Down &&down) {
     note_attachments(dev, cb, begin);
     PassTarget target = dev.session ? pass_target(dev, begin) : PassTarget{};
+    if (dev.session) {
+        std::lock_guard lock(g_pass_targets_mutex);
+        g_pass_targets[begin->renderPass] = target;
+    }
     split::CommandTracker *tracker = target.split() ? split_tracker(cb) : nullptr;
     if (!tracker && !target.scaled) return down(begin);
-    if (secondary && !secondary_contents(target)) return down(begin);
     VkRenderPassBeginInfo scaled = *begin;
     scaled.renderArea = scaled_area(begin->renderArea, target.extent);
-    if (!tracker || secondary) return down(&scaled);
-    time_before_split_pass(dev, cb);
+    if (!tracker) return down(&scaled);
+    if (!secondary) {
+        time_before_split_pass(dev, cb);
+        down(&scaled);
+        time_split_pass_begun(dev, cb);
+        return enter_split(dev, cb, *tracker, target);
+    }
     down(&scaled);
-    time_split_pass_begun(dev, cb);
-    enter_split(dev, cb, *tracker, target);
+    // Only vkCmdExecuteCommands may follow (no state to set, no timestamp to write: secondaries are
+    // not timed), and its foveae come from the secondaries it executes.
+    if (target.swapchain) log_split_extent_once(target.extent);
+    tracker->begin_split(codec::handle_value(target.image), target.extent, target.swapchain);
+    tracker->contents_in_secondaries();
 }
 
 template <class Down>
@@ -243,7 +246,16 @@ void begin_rendering(DeviceState &dev, VkCommandBuffer cb, const VkRenderingInfo
     split::CommandTracker *tracker = target.split() ? split_tracker(cb) : nullptr;
     if (!tracker && !target.scaled) return down(info);
     const bool secondary = info->flags & VK_RENDERING_CONTENTS_SECONDARY_COMMAND_BUFFERS_BIT;
-    if (secondary && !secondary_contents(target)) return down(info);
+    if (secondary) {
+        // Their inheritance names no images: not split (the agent does the same).
+        if (!target.scaled) {
+            log_secondary_once();
+            return down(info);
+        }
+        log_unscalable_once("a dynamic rendering into a screen-space target records its contents in secondary "
+                            "command buffers: their viewports are not scaled, so the client's periphery of that "
+                            "target is cropped (the foveae stay exact)");
+    }
     VkRenderingInfo scaled = *info;
     scaled.renderArea = scaled_area(info->renderArea, target.extent);
     // A resumed rendering continues the suspended one, which was scaled alike.
@@ -273,6 +285,47 @@ bool swapchain_image_extent(VkImage image, VkExtent2D *extent) {
         }
     return false;
 }
+
+void begin_secondary(DeviceState &dev, VkCommandBuffer cb, const VkCommandBufferBeginInfo &begin) {
+    if (!(begin.flags & VK_COMMAND_BUFFER_USAGE_RENDER_PASS_CONTINUE_BIT) || !begin.pInheritanceInfo) return;
+    split::CommandTracker *tracker = split_tracker(cb);
+    if (!tracker) return;
+    tracker->begin_secondary();
+    const VkCommandBufferInheritanceInfo &inheritance = *begin.pInheritanceInfo;
+    if (inheritance.renderPass == VK_NULL_HANDLE) return; // dynamic rendering: not split
+    PassTarget target;
+    if (inheritance.framebuffer != VK_NULL_HANDLE) {
+        VkRenderPassBeginInfo info{};
+        info.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
+        info.renderPass = inheritance.renderPass;
+        info.framebuffer = inheritance.framebuffer;
+        target = pass_target(dev, &info);
+    } else {
+        std::lock_guard lock(g_pass_targets_mutex);
+        const auto it = g_pass_targets.find(inheritance.renderPass);
+        if (it != g_pass_targets.end()) target = it->second;
+    }
+    // Scaled like the pass it continues; its viewports are kept for the executing pass's foveae.
+    if (target.split()) tracker->begin_split(0, target.extent, false);
+}
+
+namespace observe {
+
+void CmdExecuteCommands(DeviceState &, VkCommandBuffer cb, uint32_t count, const VkCommandBuffer *secondaries) {
+    split::CommandTracker *tracker = split_tracker(cb);
+    if (!tracker) return;
+    for (uint32_t i = 0; i < count; ++i) {
+        const split::CommandTracker *secondary = split_tracker(secondaries[i]);
+        if (!secondary) continue;
+        if (secondary->secondary() && secondary->in_split() != tracker->in_split())
+            log_unscalable_once("a secondary command buffer was recorded for a pass scaled otherwise than the one "
+                                "that executes it: the client's periphery of that pass is wrong (the foveae stay "
+                                "exact only where the agent's tiles cover them)");
+        tracker->merge_executed(*secondary, split_settings().eyes, split_settings().fovea);
+    }
+}
+
+} // namespace observe
 
 namespace entry {
 

@@ -77,13 +77,11 @@ template <class Region>
 bool scale_copies(DeviceState &dev, VkCommandBuffer cb, VkImage src, VkImage dst, uint32_t count,
                   const Region *regions, std::vector<Region> &out) {
     const Side s = side_of(dev, src, false), d = side_of(dev, dst, true);
-    if (s.kind != Kind::Scaled && d.kind != Kind::Scaled) {
-        if (d.kind == Kind::Swapchain)
-            log_unscalable_once("a copy or resolve into a swapchain image from a full-size image: that frame "
-                                "runs unsplit (whole, exact)");
-        return false;
-    }
-    if (s.kind != Kind::Scaled || d.kind == Kind::Plain)
+    if (s.kind != Kind::Scaled && d.kind != Kind::Scaled && d.kind != Kind::Swapchain) return false;
+    if (s.kind == Kind::Plain && d.kind == Kind::Swapchain)
+        log_unscalable_once("a resolve into a swapchain image from a full-size image: the client's periphery "
+                            "shows its top-left part (the foveae stay exact)");
+    else if (s.kind != Kind::Scaled || d.kind == Kind::Plain)
         log_unscalable_once("a copy between a screen-space target and a full-size image: the full-size one "
                             "holds the scaled picture in its top-left on the client (periphery only)");
     out.assign(regions, regions + count);
@@ -120,6 +118,36 @@ void scale_corners(const Side &s, uint32_t mip, VkOffset3D corners[2]) {
     corners[1].x = flip_x ? r.offset.x : nx1;
     corners[0].y = flip_y ? ny1 : r.offset.y;
     corners[1].y = flip_y ? r.offset.y : ny1;
+}
+
+// A copy into a swapchain image from a full-size image cannot keep one extent for both sides: it
+// goes down as a nearest-filtered blit of the whole region into the scaled top-left (the periphery
+// only; the agent replays the copy). Same format on both sides, so the blit converts nothing.
+template <class Region>
+bool copy_as_blit(DeviceState &dev, VkCommandBuffer cb, VkImage src, VkImageLayout src_layout, VkImage dst,
+                  VkImageLayout dst_layout, uint32_t count, const Region *regions) {
+    const Side s = side_of(dev, src, false), d = side_of(dev, dst, true);
+    if (s.kind != Kind::Plain || d.kind != Kind::Swapchain) return false;
+    std::vector<VkImageBlit> blits;
+    for (uint32_t i = 0; i < count; ++i) {
+        const Region &r = regions[i];
+        VkImageBlit b{};
+        b.srcSubresource = r.srcSubresource;
+        b.dstSubresource = r.dstSubresource;
+        b.srcOffsets[0] = r.srcOffset;
+        b.srcOffsets[1] = {r.srcOffset.x + static_cast<int32_t>(r.extent.width),
+                           r.srcOffset.y + static_cast<int32_t>(r.extent.height), r.srcOffset.z + 1};
+        b.dstOffsets[0] = r.dstOffset;
+        b.dstOffsets[1] = {r.dstOffset.x + static_cast<int32_t>(r.extent.width),
+                           r.dstOffset.y + static_cast<int32_t>(r.extent.height), r.dstOffset.z + 1};
+        scale_corners(d, r.dstSubresource.mipLevel, b.dstOffsets);
+        note_swapchain_write(cb, d, rect_of(r.dstOffset, r.extent));
+        if (b.dstOffsets[0].x != b.dstOffsets[1].x && b.dstOffsets[0].y != b.dstOffsets[1].y) blits.push_back(b);
+    }
+    if (!blits.empty())
+        dev.dispatch.CmdBlitImage(cb, src, src_layout, dst, dst_layout, static_cast<uint32_t>(blits.size()),
+                                  blits.data(), VK_FILTER_NEAREST);
+    return true;
 }
 
 template <class Region>
@@ -211,6 +239,9 @@ VKAPI_ATTR void VKAPI_CALL CmdCopyImage(VkCommandBuffer commandBuffer, VkImage s
         encode_vkCmdCopyImage(e, commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout, regionCount,
                               pRegions);
     });
+    if (dev.session && copy_as_blit(dev, commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
+                                    regionCount, pRegions))
+        return;
     std::vector<VkImageCopy> out;
     if (!dev.session || !scale_copies(dev, commandBuffer, srcImage, dstImage, regionCount, pRegions, out))
         return dev.dispatch.CmdCopyImage(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
@@ -223,6 +254,9 @@ VKAPI_ATTR void VKAPI_CALL CmdCopyImage(VkCommandBuffer commandBuffer, VkImage s
 template <class Next>
 void copy_image2(DeviceState &dev, VkCommandBuffer cb, const VkCopyImageInfo2 *info, Next next) {
     capture_command(dev, cb, [&](codec::Encoder &e) { encode_vkCmdCopyImage2(e, cb, info); });
+    if (dev.session && copy_as_blit(dev, cb, info->srcImage, info->srcImageLayout, info->dstImage,
+                                    info->dstImageLayout, info->regionCount, info->pRegions))
+        return;
     std::vector<VkImageCopy2> out;
     if (!dev.session ||
         !scale_copies(dev, cb, info->srcImage, info->dstImage, info->regionCount, info->pRegions, out))

@@ -49,7 +49,33 @@ size_t CommandTracker::scissor_count() const {
     return static_scissors() ? pipeline_->scissors.size() : scissors_.values.size();
 }
 
+void CommandTracker::merge_executed(const CommandTracker &secondary, EyeMode mode, const FoveaSize &fovea) {
+    merge_drawn(drawn_, secondary.drawn_);
+    if (!in_split_ || !swapchain_) return;
+    auto it =
+        std::find_if(drawn_.begin(), drawn_.end(), [&](const DrawnImage &x) { return x.image == image_; });
+    if (it == drawn_.end()) {
+        drawn_.push_back({image_, extent_, {}});
+        it = drawn_.end() - 1;
+    }
+    for (const VkViewport &v : secondary.secondary_viewports_)
+        add_fovea(it->foveae, fovea_for_viewport(v, extent_, mode, fovea));
+    noted_in_pass_ = true;
+}
+
 void CommandTracker::note_foveae(EyeMode mode, const FoveaSize &fovea) {
+    if (secondary_) {
+        for (size_t i = 0; i < viewport_count(); ++i)
+            if (const VkViewport *v = viewport(i)) {
+                const bool known = std::any_of(secondary_viewports_.begin(), secondary_viewports_.end(),
+                                               [&](const VkViewport &k) {
+                                                   return k.x == v->x && k.y == v->y && k.width == v->width &&
+                                                          k.height == v->height;
+                                               });
+                if (!known) secondary_viewports_.push_back(*v);
+            }
+        return;
+    }
     if (!in_split_ || !swapchain_) return;
     auto it =
         std::find_if(drawn_.begin(), drawn_.end(), [&](const DrawnImage &x) { return x.image == image_; });

@@ -127,8 +127,16 @@ public:
     // rectangle would have; EyeMode::Two: every half it touches).
     void note_transfer(uint64_t image, VkExtent2D extent, const VkRect2D &region, EyeMode mode,
                        const FoveaSize &fovea);
-    // vkCmdExecuteCommands: what the executed secondaries drew counts for this command buffer.
-    void merge_executed(const CommandTracker &secondary) { merge_drawn(drawn_, secondary.drawn_); }
+    // Secondary command buffers (issue 11, item 4). A secondary that continues a render pass
+    // (RENDER_PASS_CONTINUE) does not know the image it will draw into, so it keeps the viewports it
+    // draws with as recorded; they become foveae when a primary executes it inside a split pass into
+    // a swapchain image, from that image's extent. Both sides do this, so they agree on the foveae.
+    void begin_secondary() { secondary_ = true; }
+    bool secondary() const { return secondary_; }
+    // A primary's pass whose contents come from secondaries: it draws nothing with its own viewports.
+    void contents_in_secondaries() { noted_in_pass_ = true; }
+    // vkCmdExecuteCommands: what the executed secondary drew counts for this command buffer.
+    void merge_executed(const CommandTracker &secondary, EyeMode mode, const FoveaSize &fovea);
     const std::vector<DrawnImage> &drawn() const { return drawn_; }
 
 private:
@@ -138,6 +146,8 @@ private:
     bool in_split_ = false;
     bool noted_in_pass_ = false;
     bool swapchain_ = false;
+    bool secondary_ = false;
+    std::vector<VkViewport> secondary_viewports_; // a secondary's, as recorded
     uint64_t image_ = 0;
     VkExtent2D extent_{};
     std::vector<DrawnImage> drawn_;
