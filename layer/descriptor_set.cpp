@@ -210,7 +210,8 @@ bool set_writes_screen_space(VkDescriptorSet set) {
         const auto it = g_sets.find(set);
         if (it == g_sets.end()) return false;
         for (const auto &[key, d] : it->second.contents)
-            if (d.type == VK_DESCRIPTOR_TYPE_STORAGE_IMAGE && d.image.imageView) views.push_back(d.image.imageView);
+            if (d.type == VK_DESCRIPTOR_TYPE_STORAGE_IMAGE && d.image.imageView)
+                views.push_back(d.image.imageView);
     }
     for (VkImageView view : views)
         if (is_screen_space(image_of_view(view))) return true;

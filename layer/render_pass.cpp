@@ -160,7 +160,8 @@ void log_split_extent_once(VkExtent2D extent) {
                  extent.height, periphery.width, periphery.height);
 }
 
-void enter_split(DeviceState &dev, VkCommandBuffer cb, split::CommandTracker &tracker, const PassTarget &target) {
+void enter_split(DeviceState &dev, VkCommandBuffer cb, split::CommandTracker &tracker,
+                 const PassTarget &target) {
     if (target.swapchain) log_split_extent_once(target.extent);
     tracker.begin_split(codec::handle_value(target.image), target.extent, target.swapchain);
     emit_viewports(dev, cb, tracker);
@@ -252,9 +253,10 @@ void begin_rendering(DeviceState &dev, VkCommandBuffer cb, const VkRenderingInfo
             log_secondary_once();
             return down(info);
         }
-        log_unscalable_once("a dynamic rendering into a screen-space target records its contents in secondary "
-                            "command buffers: their viewports are not scaled, so the client's periphery of that "
-                            "target is cropped (the foveae stay exact)");
+        log_unscalable_once(
+            "a dynamic rendering into a screen-space target records its contents in secondary "
+            "command buffers: their viewports are not scaled, so the client's periphery of that "
+            "target is cropped (the foveae stay exact)");
     }
     VkRenderingInfo scaled = *info;
     scaled.renderArea = scaled_area(info->renderArea, target.extent);
@@ -311,16 +313,18 @@ void begin_secondary(DeviceState &dev, VkCommandBuffer cb, const VkCommandBuffer
 
 namespace observe {
 
-void CmdExecuteCommands(DeviceState &, VkCommandBuffer cb, uint32_t count, const VkCommandBuffer *secondaries) {
+void CmdExecuteCommands(DeviceState &, VkCommandBuffer cb, uint32_t count,
+                        const VkCommandBuffer *secondaries) {
     split::CommandTracker *tracker = split_tracker(cb);
     if (!tracker) return;
     for (uint32_t i = 0; i < count; ++i) {
         const split::CommandTracker *secondary = split_tracker(secondaries[i]);
         if (!secondary) continue;
         if (secondary->secondary() && secondary->in_split() != tracker->in_split())
-            log_unscalable_once("a secondary command buffer was recorded for a pass scaled otherwise than the one "
-                                "that executes it: the client's periphery of that pass is wrong (the foveae stay "
-                                "exact only where the agent's tiles cover them)");
+            log_unscalable_once(
+                "a secondary command buffer was recorded for a pass scaled otherwise than the one "
+                "that executes it: the client's periphery of that pass is wrong (the foveae stay "
+                "exact only where the agent's tiles cover them)");
         tracker->merge_executed(*secondary, split_settings().eyes, split_settings().fovea);
     }
 }
@@ -392,7 +396,8 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateFramebuffer(VkDevice device, const VkFrameb
                                info->pAttachmentImageInfos + info->attachmentImageInfoCount);
             for (VkFramebufferAttachmentImageInfo &image : image_infos)
                 if (screen_space_attachment(dev, image)) {
-                    const VkExtent2D e = split::scaled_extent({image.width, image.height}, split_settings().scale);
+                    const VkExtent2D e =
+                        split::scaled_extent({image.width, image.height}, split_settings().scale);
                     image.width = e.width;
                     image.height = e.height;
                     scaled = true;
@@ -402,7 +407,8 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateFramebuffer(VkDevice device, const VkFrameb
             down.pNext = &attachments_down;
         }
         if (scaled) {
-            const VkExtent2D e = split::scaled_extent({pCreateInfo->width, pCreateInfo->height}, split_settings().scale);
+            const VkExtent2D e =
+                split::scaled_extent({pCreateInfo->width, pCreateInfo->height}, split_settings().scale);
             down.width = e.width;
             down.height = e.height;
         }

@@ -47,7 +47,8 @@ bool swapchain_image_extent(VkImage image, VkExtent2D *extent);
 // vkBeginCommandBuffer of a secondary that continues a render pass: scaled like that pass's target
 // (its inheritance's framebuffer, or the render pass's latest instance), its viewports kept for
 // the foveae of the pass that executes it (split_tracker.h).
-void begin_secondary(DeviceState &device, VkCommandBuffer command_buffer, const VkCommandBufferBeginInfo &begin);
+void begin_secondary(DeviceState &device, VkCommandBuffer command_buffer,
+                     const VkCommandBufferBeginInfo &begin);
 
 // The split tracker of a command buffer allocated while the device had a session (reset at
 // vkBeginCommandBuffer); nullptr otherwise (command_buffer.cpp).

@@ -142,7 +142,8 @@ bool copy_as_blit(DeviceState &dev, VkCommandBuffer cb, VkImage src, VkImageLayo
                            r.dstOffset.y + static_cast<int32_t>(r.extent.height), r.dstOffset.z + 1};
         scale_corners(d, r.dstSubresource.mipLevel, b.dstOffsets);
         note_swapchain_write(cb, d, rect_of(r.dstOffset, r.extent));
-        if (b.dstOffsets[0].x != b.dstOffsets[1].x && b.dstOffsets[0].y != b.dstOffsets[1].y) blits.push_back(b);
+        if (b.dstOffsets[0].x != b.dstOffsets[1].x && b.dstOffsets[0].y != b.dstOffsets[1].y)
+            blits.push_back(b);
     }
     if (!blits.empty())
         dev.dispatch.CmdBlitImage(cb, src, src_layout, dst, dst_layout, static_cast<uint32_t>(blits.size()),
@@ -218,8 +219,9 @@ bool dispatch_writes_screen_space(VkCommandBuffer cb) {
 
 namespace observe {
 
-void CmdBindDescriptorSets(DeviceState &, VkCommandBuffer cb, VkPipelineBindPoint bind_point, VkPipelineLayout,
-                           uint32_t first, uint32_t count, const VkDescriptorSet *sets, uint32_t, const uint32_t *) {
+void CmdBindDescriptorSets(DeviceState &, VkCommandBuffer cb, VkPipelineBindPoint bind_point,
+                           VkPipelineLayout, uint32_t first, uint32_t count, const VkDescriptorSet *sets,
+                           uint32_t, const uint32_t *) {
     if (bind_point != VK_PIPELINE_BIND_POINT_COMPUTE) return;
     std::lock_guard lock(g_mutex);
     auto &bound = g_compute_sets[cb];
@@ -231,13 +233,14 @@ void CmdBindDescriptorSets(DeviceState &, VkCommandBuffer cb, VkPipelineBindPoin
 
 namespace entry {
 
-VKAPI_ATTR void VKAPI_CALL CmdCopyImage(VkCommandBuffer commandBuffer, VkImage srcImage, VkImageLayout srcImageLayout,
-                                        VkImage dstImage, VkImageLayout dstImageLayout, uint32_t regionCount,
+VKAPI_ATTR void VKAPI_CALL CmdCopyImage(VkCommandBuffer commandBuffer, VkImage srcImage,
+                                        VkImageLayout srcImageLayout, VkImage dstImage,
+                                        VkImageLayout dstImageLayout, uint32_t regionCount,
                                         const VkImageCopy *pRegions) {
     DeviceState &dev = device_state(commandBuffer);
     capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdCopyImage(e, commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout, regionCount,
-                              pRegions);
+        encode_vkCmdCopyImage(e, commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
+                              regionCount, pRegions);
     });
     if (dev.session && copy_as_blit(dev, commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
                                     regionCount, pRegions))
@@ -268,12 +271,14 @@ void copy_image2(DeviceState &dev, VkCommandBuffer cb, const VkCopyImageInfo2 *i
     next(cb, &scaled);
 }
 
-VKAPI_ATTR void VKAPI_CALL CmdCopyImage2(VkCommandBuffer commandBuffer, const VkCopyImageInfo2 *pCopyImageInfo) {
+VKAPI_ATTR void VKAPI_CALL CmdCopyImage2(VkCommandBuffer commandBuffer,
+                                         const VkCopyImageInfo2 *pCopyImageInfo) {
     DeviceState &dev = device_state(commandBuffer);
     copy_image2(dev, commandBuffer, pCopyImageInfo, dev.dispatch.CmdCopyImage2);
 }
 
-VKAPI_ATTR void VKAPI_CALL CmdCopyImage2KHR(VkCommandBuffer commandBuffer, const VkCopyImageInfo2 *pCopyImageInfo) {
+VKAPI_ATTR void VKAPI_CALL CmdCopyImage2KHR(VkCommandBuffer commandBuffer,
+                                            const VkCopyImageInfo2 *pCopyImageInfo) {
     DeviceState &dev = device_state(commandBuffer);
     copy_image2(dev, commandBuffer, pCopyImageInfo, dev.dispatch.CmdCopyImage2KHR);
 }
@@ -284,8 +289,8 @@ VKAPI_ATTR void VKAPI_CALL CmdResolveImage(VkCommandBuffer commandBuffer, VkImag
                                            const VkImageResolve *pRegions) {
     DeviceState &dev = device_state(commandBuffer);
     capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdResolveImage(e, commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout, regionCount,
-                                 pRegions);
+        encode_vkCmdResolveImage(e, commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
+                                 regionCount, pRegions);
     });
     std::vector<VkImageResolve> out;
     if (!dev.session || !scale_copies(dev, commandBuffer, srcImage, dstImage, regionCount, pRegions, out))
@@ -315,18 +320,20 @@ VKAPI_ATTR void VKAPI_CALL CmdResolveImage2(VkCommandBuffer commandBuffer, const
     resolve_image2(dev, commandBuffer, pInfo, dev.dispatch.CmdResolveImage2);
 }
 
-VKAPI_ATTR void VKAPI_CALL CmdResolveImage2KHR(VkCommandBuffer commandBuffer, const VkResolveImageInfo2 *pInfo) {
+VKAPI_ATTR void VKAPI_CALL CmdResolveImage2KHR(VkCommandBuffer commandBuffer,
+                                               const VkResolveImageInfo2 *pInfo) {
     DeviceState &dev = device_state(commandBuffer);
     resolve_image2(dev, commandBuffer, pInfo, dev.dispatch.CmdResolveImage2KHR);
 }
 
-VKAPI_ATTR void VKAPI_CALL CmdBlitImage(VkCommandBuffer commandBuffer, VkImage srcImage, VkImageLayout srcImageLayout,
-                                        VkImage dstImage, VkImageLayout dstImageLayout, uint32_t regionCount,
+VKAPI_ATTR void VKAPI_CALL CmdBlitImage(VkCommandBuffer commandBuffer, VkImage srcImage,
+                                        VkImageLayout srcImageLayout, VkImage dstImage,
+                                        VkImageLayout dstImageLayout, uint32_t regionCount,
                                         const VkImageBlit *pRegions, VkFilter filter) {
     DeviceState &dev = device_state(commandBuffer);
     capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdBlitImage(e, commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout, regionCount,
-                              pRegions, filter);
+        encode_vkCmdBlitImage(e, commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
+                              regionCount, pRegions, filter);
     });
     std::vector<VkImageBlit> out;
     if (!dev.session || !scale_blits(dev, commandBuffer, srcImage, dstImage, regionCount, pRegions, out))
@@ -351,34 +358,38 @@ void blit_image2(DeviceState &dev, VkCommandBuffer cb, const VkBlitImageInfo2 *i
     next(cb, &scaled);
 }
 
-VKAPI_ATTR void VKAPI_CALL CmdBlitImage2(VkCommandBuffer commandBuffer, const VkBlitImageInfo2 *pBlitImageInfo) {
+VKAPI_ATTR void VKAPI_CALL CmdBlitImage2(VkCommandBuffer commandBuffer,
+                                         const VkBlitImageInfo2 *pBlitImageInfo) {
     DeviceState &dev = device_state(commandBuffer);
     blit_image2(dev, commandBuffer, pBlitImageInfo, dev.dispatch.CmdBlitImage2);
 }
 
-VKAPI_ATTR void VKAPI_CALL CmdBlitImage2KHR(VkCommandBuffer commandBuffer, const VkBlitImageInfo2 *pBlitImageInfo) {
+VKAPI_ATTR void VKAPI_CALL CmdBlitImage2KHR(VkCommandBuffer commandBuffer,
+                                            const VkBlitImageInfo2 *pBlitImageInfo) {
     DeviceState &dev = device_state(commandBuffer);
     blit_image2(dev, commandBuffer, pBlitImageInfo, dev.dispatch.CmdBlitImage2KHR);
 }
 
-VKAPI_ATTR void VKAPI_CALL CmdCopyBufferToImage(VkCommandBuffer commandBuffer, VkBuffer srcBuffer, VkImage dstImage,
-                                                VkImageLayout dstImageLayout, uint32_t regionCount,
-                                                const VkBufferImageCopy *pRegions) {
+VKAPI_ATTR void VKAPI_CALL CmdCopyBufferToImage(VkCommandBuffer commandBuffer, VkBuffer srcBuffer,
+                                                VkImage dstImage, VkImageLayout dstImageLayout,
+                                                uint32_t regionCount, const VkBufferImageCopy *pRegions) {
     DeviceState &dev = device_state(commandBuffer);
     capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdCopyBufferToImage(e, commandBuffer, srcBuffer, dstImage, dstImageLayout, regionCount, pRegions);
+        encode_vkCmdCopyBufferToImage(e, commandBuffer, srcBuffer, dstImage, dstImageLayout, regionCount,
+                                      pRegions);
     });
     std::vector<VkBufferImageCopy> out;
     if (!dev.session || !scale_buffer_copies(dstImage, regionCount, pRegions, out))
-        return dev.dispatch.CmdCopyBufferToImage(commandBuffer, srcBuffer, dstImage, dstImageLayout, regionCount,
-                                                 pRegions);
+        return dev.dispatch.CmdCopyBufferToImage(commandBuffer, srcBuffer, dstImage, dstImageLayout,
+                                                 regionCount, pRegions);
     if (!out.empty())
         dev.dispatch.CmdCopyBufferToImage(commandBuffer, srcBuffer, dstImage, dstImageLayout,
                                           static_cast<uint32_t>(out.size()), out.data());
 }
 
 template <class Next>
-void copy_buffer_to_image2(DeviceState &dev, VkCommandBuffer cb, const VkCopyBufferToImageInfo2 *info, Next next) {
+void copy_buffer_to_image2(DeviceState &dev, VkCommandBuffer cb, const VkCopyBufferToImageInfo2 *info,
+                           Next next) {
     capture_command(dev, cb, [&](codec::Encoder &e) { encode_vkCmdCopyBufferToImage2(e, cb, info); });
     std::vector<VkBufferImageCopy2> out;
     if (!dev.session || !scale_buffer_copies(info->dstImage, info->regionCount, info->pRegions, out))
@@ -403,23 +414,25 @@ VKAPI_ATTR void VKAPI_CALL CmdCopyBufferToImage2KHR(VkCommandBuffer commandBuffe
 }
 
 VKAPI_ATTR void VKAPI_CALL CmdCopyImageToBuffer(VkCommandBuffer commandBuffer, VkImage srcImage,
-                                                VkImageLayout srcImageLayout, VkBuffer dstBuffer, uint32_t regionCount,
-                                                const VkBufferImageCopy *pRegions) {
+                                                VkImageLayout srcImageLayout, VkBuffer dstBuffer,
+                                                uint32_t regionCount, const VkBufferImageCopy *pRegions) {
     DeviceState &dev = device_state(commandBuffer);
     capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdCopyImageToBuffer(e, commandBuffer, srcImage, srcImageLayout, dstBuffer, regionCount, pRegions);
+        encode_vkCmdCopyImageToBuffer(e, commandBuffer, srcImage, srcImageLayout, dstBuffer, regionCount,
+                                      pRegions);
     });
     std::vector<VkBufferImageCopy> out;
     if (!dev.session || !scale_buffer_copies(srcImage, regionCount, pRegions, out))
-        return dev.dispatch.CmdCopyImageToBuffer(commandBuffer, srcImage, srcImageLayout, dstBuffer, regionCount,
-                                                 pRegions);
+        return dev.dispatch.CmdCopyImageToBuffer(commandBuffer, srcImage, srcImageLayout, dstBuffer,
+                                                 regionCount, pRegions);
     if (!out.empty())
         dev.dispatch.CmdCopyImageToBuffer(commandBuffer, srcImage, srcImageLayout, dstBuffer,
                                           static_cast<uint32_t>(out.size()), out.data());
 }
 
 template <class Next>
-void copy_image_to_buffer2(DeviceState &dev, VkCommandBuffer cb, const VkCopyImageToBufferInfo2 *info, Next next) {
+void copy_image_to_buffer2(DeviceState &dev, VkCommandBuffer cb, const VkCopyImageToBufferInfo2 *info,
+                           Next next) {
     capture_command(dev, cb, [&](codec::Encoder &e) { encode_vkCmdCopyImageToBuffer2(e, cb, info); });
     std::vector<VkBufferImageCopy2> out;
     if (!dev.session || !scale_buffer_copies(info->srcImage, info->regionCount, info->pRegions, out))
@@ -447,8 +460,8 @@ VKAPI_ATTR void VKAPI_CALL CmdCopyImageToBuffer2KHR(VkCommandBuffer commandBuffe
 // groups. Shaders that bound-check against imageSize() then shade exactly the scaled target; a
 // shader that takes the extent from a uniform shades the scaled image's top-left part of it (a
 // periphery artefact; DESIGN §4, the agent replays it full size).
-VKAPI_ATTR void VKAPI_CALL CmdDispatch(VkCommandBuffer commandBuffer, uint32_t groupCountX, uint32_t groupCountY,
-                                       uint32_t groupCountZ) {
+VKAPI_ATTR void VKAPI_CALL CmdDispatch(VkCommandBuffer commandBuffer, uint32_t groupCountX,
+                                       uint32_t groupCountY, uint32_t groupCountZ) {
     DeviceState &dev = device_state(commandBuffer);
     capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
         encode_vkCmdDispatch(e, commandBuffer, groupCountX, groupCountY, groupCountZ);

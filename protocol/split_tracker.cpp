@@ -67,11 +67,10 @@ void CommandTracker::note_foveae(EyeMode mode, const FoveaSize &fovea) {
     if (secondary_) {
         for (size_t i = 0; i < viewport_count(); ++i)
             if (const VkViewport *v = viewport(i)) {
-                const bool known = std::any_of(secondary_viewports_.begin(), secondary_viewports_.end(),
-                                               [&](const VkViewport &k) {
-                                                   return k.x == v->x && k.y == v->y && k.width == v->width &&
-                                                          k.height == v->height;
-                                               });
+                const bool known = std::any_of(
+                    secondary_viewports_.begin(), secondary_viewports_.end(), [&](const VkViewport &k) {
+                        return k.x == v->x && k.y == v->y && k.width == v->width && k.height == v->height;
+                    });
                 if (!known) secondary_viewports_.push_back(*v);
             }
         return;
@@ -93,15 +92,19 @@ void CommandTracker::note_foveae(EyeMode mode, const FoveaSize &fovea) {
 void CommandTracker::note_transfer(uint64_t image, VkExtent2D extent, const VkRect2D &region, EyeMode mode,
                                    const FoveaSize &fovea) {
     if (region.extent.width == 0 || region.extent.height == 0) return;
-    auto it = std::find_if(drawn_.begin(), drawn_.end(), [&](const DrawnImage &x) { return x.image == image; });
+    auto it =
+        std::find_if(drawn_.begin(), drawn_.end(), [&](const DrawnImage &x) { return x.image == image; });
     if (it == drawn_.end()) {
         drawn_.push_back({image, extent, {}});
         it = drawn_.end() - 1;
     }
     it->extent = extent;
-    const VkViewport as_viewport{static_cast<float>(region.offset.x), static_cast<float>(region.offset.y),
-                                 static_cast<float>(region.extent.width), static_cast<float>(region.extent.height),
-                                 0.f, 1.f};
+    const VkViewport as_viewport{static_cast<float>(region.offset.x),
+                                 static_cast<float>(region.offset.y),
+                                 static_cast<float>(region.extent.width),
+                                 static_cast<float>(region.extent.height),
+                                 0.f,
+                                 1.f};
     if (mode != EyeMode::Two) {
         add_fovea(it->foveae, fovea_for_viewport(as_viewport, extent, mode, fovea));
         return;

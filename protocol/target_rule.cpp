@@ -44,20 +44,24 @@ TargetClass no(const char *reason) {
 
 TargetClass classify_target(const VkImageCreateInfo &info, VkExtent2D screen, EyeMode eyes) {
     if (info.imageType != VK_IMAGE_TYPE_2D || info.extent.depth != 1) return no("not a 2D image");
-    if (info.tiling != VK_IMAGE_TILING_OPTIMAL) return no("not optimal tiling (the host may address its texels)");
-    if (!(info.usage & kWrittenByPasses)) return no("no attachment or storage usage (a texture, not a target)");
+    if (info.tiling != VK_IMAGE_TILING_OPTIMAL)
+        return no("not optimal tiling (the host may address its texels)");
+    if (!(info.usage & kWrittenByPasses))
+        return no("no attachment or storage usage (a texture, not a target)");
     if (info.flags & (VK_IMAGE_CREATE_SPARSE_BINDING_BIT | VK_IMAGE_CREATE_ALIAS_BIT))
         return no("sparse or aliased");
     if (chained(info.pNext, VK_STRUCTURE_TYPE_EXTERNAL_MEMORY_IMAGE_CREATE_INFO))
         return no("external memory (shared beyond this process)");
     const VkExtent2D e{info.extent.width, info.extent.height};
-    if (e.width < kMinTargetSide || e.height < kMinTargetSide) return no("smaller than a screen-space target");
+    if (e.width < kMinTargetSide || e.height < kMinTargetSide)
+        return no("smaller than a screen-space target");
     TargetClass c;
     const char *of = "the swapchain's extent";
     bool found = halved(e, screen, &c.divisor);
     if (!found && eyes != EyeMode::One) {
         // eye_for_viewport's eyes: the left one W/2 wide, the right one W - W/2.
-        const VkExtent2D left{screen.width / 2, screen.height}, right{screen.width - screen.width / 2, screen.height};
+        const VkExtent2D left{screen.width / 2, screen.height},
+            right{screen.width - screen.width / 2, screen.height};
         found = halved(e, left, &c.divisor) || halved(e, right, &c.divisor);
         c.eye = found;
         of = "one eye's extent";
@@ -86,7 +90,8 @@ VkRect2D scale_target_rect(const VkRect2D &rect, VkExtent2D full, uint32_t mip, 
 
 uint32_t scaled_group_count(uint32_t groups, double scale) {
     if (groups == 0) return 0;
-    return std::max<uint32_t>(1, static_cast<uint32_t>(std::ceil(static_cast<double>(groups) * scale - 1e-6)));
+    return std::max<uint32_t>(1,
+                              static_cast<uint32_t>(std::ceil(static_cast<double>(groups) * scale - 1e-6)));
 }
 
 } // namespace splitvk::split

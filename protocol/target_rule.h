@@ -27,9 +27,9 @@ constexpr uint32_t kMinTargetSide = 16;
 
 struct TargetClass {
     bool screen_space = false;
-    bool eye = false;      // sized after one eye (half the swapchain's width), not the whole screen
-    uint32_t divisor = 1;  // 1, 2, 4, ...: the screen (or eye) extent halved log2(divisor) times
-    std::string reason;    // why, for the info line: "the swapchain's extent / 2", "no attachment usage"
+    bool eye = false;     // sized after one eye (half the swapchain's width), not the whole screen
+    uint32_t divisor = 1; // 1, 2, 4, ...: the screen (or eye) extent halved log2(divisor) times
+    std::string reason;   // why, for the info line: "the swapchain's extent / 2", "no attachment usage"
 };
 
 // `screen`: the extent of the device's newest swapchain; `eyes`: SPLITVK_EYES (Two and Auto also

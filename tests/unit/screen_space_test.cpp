@@ -1,8 +1,8 @@
 // The screen-space target rule (protocol/screen_space.h): which images the client renders at
 // SPLITVK_SCALE, and how their regions round. The layer classifies every image with it.
 
-#include "target_rule.h"
 #include "split_geometry.h"
+#include "target_rule.h"
 
 #include <gtest/gtest.h>
 
@@ -11,8 +11,9 @@ namespace {
 
 constexpr VkExtent2D kScreen{2400, 1080};
 
-VkImageCreateInfo image(uint32_t w, uint32_t h, VkImageUsageFlags usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT |
-                                                                         VK_IMAGE_USAGE_SAMPLED_BIT,
+VkImageCreateInfo image(uint32_t w, uint32_t h,
+                        VkImageUsageFlags usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT |
+                                                  VK_IMAGE_USAGE_SAMPLED_BIT,
                         uint32_t layers = 1) {
     VkImageCreateInfo info{};
     info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
@@ -53,7 +54,7 @@ TEST(ScreenSpace, AspectRatioMustBeKept) {
     EXPECT_FALSE(qualifies(image(1200, 1080 / 4))); // half width, quarter height
     EXPECT_FALSE(qualifies(image(2400, 540)));
     EXPECT_FALSE(qualifies(image(2401, 1080)));
-    EXPECT_FALSE(qualifies(image(1024, 1024)));     // a shadow map
+    EXPECT_FALSE(qualifies(image(1024, 1024))); // a shadow map
 }
 
 TEST(ScreenSpace, EyesAndLayers) {
@@ -64,8 +65,8 @@ TEST(ScreenSpace, EyesAndLayers) {
     EXPECT_EQ(eye.reason, "one eye's extent");
     EXPECT_TRUE(qualifies(image(300, 270), EyeMode::Two));
     // A multiview eye texture qualifies per layer.
-    const TargetClass layered = classify_target(image(1200, 1080, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT, 2), kScreen,
-                                                EyeMode::Two);
+    const TargetClass layered =
+        classify_target(image(1200, 1080, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT, 2), kScreen, EyeMode::Two);
     EXPECT_TRUE(layered.screen_space);
     EXPECT_EQ(layered.reason, "one eye's extent, per layer");
     // With one eye there is no eye-sized target: 1200x1080 is then just another size.

@@ -286,9 +286,9 @@ TEST_F(Split, FirstSplitFrameWaitsForTheAgent) {
 // same frame with black foveae (tiles missing) falls below it.
 struct PathCase {
     const char *path;
-    int eyes;       // of the foveae the layer composites
+    int eyes;        // of the foveae the layer composites
     double min_ssim; // the path's floor (above)
-    bool offscreen; // has screen-space targets besides the swapchain image
+    bool offscreen;  // has screen-space targets besides the swapchain image
 };
 void PrintTo(const PathCase &c, std::ostream *os) {
     *os << c.path;
@@ -313,9 +313,9 @@ TEST_P(SplitAtriumPath, WholeFrameSplit) {
     EXPECT_TRUE(grep(err, "do not match the frame's foveae").empty()) << tail(err, 30);
     // The depth buffer (and, off the direct paths, every target) is rendered scaled.
     const auto depth = grep(err, "depth/stencil image x");
-    EXPECT_TRUE(std::any_of(depth.begin(), depth.end(),
-                            [](const std::string &l) { return l.find("is screen-space") != std::string::npos; }))
-        << tail(err, 30);
+    EXPECT_TRUE(std::any_of(depth.begin(), depth.end(), [](const std::string &l) {
+        return l.find("is screen-space") != std::string::npos;
+    })) << tail(err, 30);
     if (c.offscreen) {
         EXPECT_GE(grep(err, "is screen-space").size(), 2u) << tail(err, 30);
     }
@@ -341,15 +341,12 @@ TEST_P(SplitAtriumPath, WholeFrameSplit) {
     expect_clean_validation();
 }
 
-INSTANTIATE_TEST_SUITE_P(Paths, SplitAtriumPath,
-                         ::testing::Values(PathCase{"direct", 2, 0.953, false}, PathCase{"hdr", 1, 0.95, true},
-                                           PathCase{"deferred", 1, 0.951, true},
-                                           PathCase{"multiview", 1, 0.945, true},
-                                           PathCase{"secondary", 2, 0.953, false},
-                                           PathCase{"compute", 1, 0.957, true}),
-                         [](const ::testing::TestParamInfo<PathCase> &p) {
-                             return std::string(p.param.path);
-                         });
+INSTANTIATE_TEST_SUITE_P(
+    Paths, SplitAtriumPath,
+    ::testing::Values(PathCase{"direct", 2, 0.953, false}, PathCase{"hdr", 1, 0.95, true},
+                      PathCase{"deferred", 1, 0.951, true}, PathCase{"multiview", 1, 0.945, true},
+                      PathCase{"secondary", 2, 0.953, false}, PathCase{"compute", 1, 0.957, true}),
+    [](const ::testing::TestParamInfo<PathCase> &p) { return std::string(p.param.path); });
 
 // SPLITVK_TARGETS=swapchain keeps the first version's behaviour: only the pass into the swapchain
 // image is scaled, every offscreen target stays full size, and the foveae are still exact.
@@ -367,7 +364,8 @@ TEST_F(Split, TargetsSwapchainScalesOnlyTheSwapchainPass) {
     EXPECT_TRUE(grep(err, "is screen-space").empty()) << tail(err, 30);
     for (const Rect &f : default_foveae(kWidth, kHeight, 1)) {
         const auto cmp = compare_exact(native.image, split.image, f.x, f.y, f.w, f.h);
-        EXPECT_TRUE(cmp.equal()) << cmp.summary() << save_mismatch_artefacts(out_, "fovea", native.image, split.image);
+        EXPECT_TRUE(cmp.equal()) << cmp.summary()
+                                 << save_mismatch_artefacts(out_, "fovea", native.image, split.image);
     }
     std::cout << "  hdr, SPLITVK_TARGETS=swapchain: SSIM " << ssim(native.image, split.image) << "\n";
     expect_clean_validation();
