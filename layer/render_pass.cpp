@@ -260,7 +260,8 @@ void begin_rendering(DeviceState &dev, VkCommandBuffer cb, const VkRenderingInfo
     }
     VkRenderingInfo scaled = *info;
     scaled.renderArea = scaled_area(info->renderArea, target.extent);
-    // A resumed rendering continues the suspended one, which was scaled alike.
+    // A resumed rendering continues the suspended one, which was scaled alike. With secondary
+    // contents only vkCmdExecuteCommands may follow: no state to set.
     if (!tracker || secondary) return down(&scaled);
     time_before_split_pass(dev, cb);
     down(&scaled);

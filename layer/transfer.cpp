@@ -9,6 +9,7 @@
 // periphery holds the scaled picture in the other image's top-left (one info line): a copy into a
 // swapchain image from a full-size image is left whole and unsplit instead, which is exact.
 
+#include "gpu_timing.h"
 #include "layer_entry_points.h"
 #include "screen_space.h"
 #include "split.h"
@@ -215,6 +216,13 @@ bool dispatch_writes_screen_space(VkCommandBuffer cb) {
     return false;
 }
 
+// The periphery's GPU time (SPLITVK_STATS) ends with the write into the swapchain image when that is
+// a copy or blit rather than a pass (atrium --path compute).
+void after_transfer(DeviceState &dev, VkCommandBuffer cb, VkImage dst) {
+    VkExtent2D extent{};
+    if (split_enabled(dev) && swapchain_image_extent(dst, &extent)) time_split_pass_ended(dev, cb);
+}
+
 } // namespace
 
 namespace observe {
@@ -244,7 +252,7 @@ VKAPI_ATTR void VKAPI_CALL CmdCopyImage(VkCommandBuffer commandBuffer, VkImage s
     });
     if (dev.session && copy_as_blit(dev, commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
                                     regionCount, pRegions))
-        return;
+        return after_transfer(dev, commandBuffer, dstImage);
     std::vector<VkImageCopy> out;
     if (!dev.session || !scale_copies(dev, commandBuffer, srcImage, dstImage, regionCount, pRegions, out))
         return dev.dispatch.CmdCopyImage(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
@@ -252,6 +260,7 @@ VKAPI_ATTR void VKAPI_CALL CmdCopyImage(VkCommandBuffer commandBuffer, VkImage s
     if (!out.empty())
         dev.dispatch.CmdCopyImage(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
                                   static_cast<uint32_t>(out.size()), out.data());
+    after_transfer(dev, commandBuffer, dstImage);
 }
 
 template <class Next>
@@ -342,6 +351,7 @@ VKAPI_ATTR void VKAPI_CALL CmdBlitImage(VkCommandBuffer commandBuffer, VkImage s
     if (!out.empty())
         dev.dispatch.CmdBlitImage(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
                                   static_cast<uint32_t>(out.size()), out.data(), filter);
+    after_transfer(dev, commandBuffer, dstImage);
 }
 
 template <class Next>
