@@ -107,6 +107,24 @@ MANUAL_COMMANDS = {
     "vkCmdSetScissor",
     "vkCmdSetScissorWithCount",
     "vkCmdSetScissorWithCountEXT",
+    # transfer.cpp: regions of screen-space targets scaled, copies and blits into swapchain images
+    # drawn into the scaled top-left, dispatches over scaled storage images scaled.
+    "vkCmdCopyImage",
+    "vkCmdCopyImage2",
+    "vkCmdCopyImage2KHR",
+    "vkCmdResolveImage",
+    "vkCmdResolveImage2",
+    "vkCmdResolveImage2KHR",
+    "vkCmdBlitImage",
+    "vkCmdBlitImage2",
+    "vkCmdBlitImage2KHR",
+    "vkCmdCopyBufferToImage",
+    "vkCmdCopyBufferToImage2",
+    "vkCmdCopyBufferToImage2KHR",
+    "vkCmdCopyImageToBuffer",
+    "vkCmdCopyImageToBuffer2",
+    "vkCmdCopyImageToBuffer2KHR",
+    "vkCmdDispatch",
 }
 
 # Commands whose generated entry point also tells a hand-written observer, after the call went down
@@ -134,6 +152,10 @@ OBSERVED_COMMANDS = {
     "vkCreateRenderPass2",
     "vkCreateRenderPass2KHR",
     "vkDestroyRenderPass",
+    # transfer.cpp: the compute descriptor sets bound, for dispatches over screen-space targets.
+    "vkCmdBindDescriptorSets",
+    # render_pass.cpp: the foveae of the viewports that executed secondaries drew with.
+    "vkCmdExecuteCommands",
 }
 
 # Global commands are answered by the loader from the manifest for interface version 2 layers;

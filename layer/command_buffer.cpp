@@ -157,6 +157,8 @@ VKAPI_ATTR VkResult VKAPI_CALL BeginCommandBuffer(VkCommandBuffer commandBuffer,
     if (!state) return result;
     discard_stream(*state);
     state->split.reset();
+    if (state->level == VK_COMMAND_BUFFER_LEVEL_SECONDARY && result == VK_SUCCESS && split_enabled(dev))
+        begin_secondary(dev, commandBuffer, *pBeginInfo);
     state->layouts = {};
     reset_split_pass_timing(commandBuffer);
     if (result == VK_SUCCESS && capturing(dev)) {

@@ -11,6 +11,8 @@
 
 #include "capture.h"
 #include "layer_entry_points.h"
+#include "screen_space.h"
+#include "split.h"
 
 #include <cstring>
 #include <map>
@@ -199,6 +201,21 @@ void note_descriptor_template_update(VkDescriptorSet set, const codec::Descripto
             store_inline_locked(it->second, entry.dstBinding, entry.dstArrayElement, entry.descriptorCount,
                                 at);
     }
+}
+
+bool set_writes_screen_space(VkDescriptorSet set) {
+    std::vector<VkImageView> views;
+    {
+        std::shared_lock lock(g_mutex);
+        const auto it = g_sets.find(set);
+        if (it == g_sets.end()) return false;
+        for (const auto &[key, d] : it->second.contents)
+            if (d.type == VK_DESCRIPTOR_TYPE_STORAGE_IMAGE && d.image.imageView)
+                views.push_back(d.image.imageView);
+    }
+    for (VkImageView view : views)
+        if (is_screen_space(image_of_view(view))) return true;
+    return false;
 }
 
 void snapshot_descriptor_contents(DeviceState &device, const std::unordered_set<uint64_t> &live,

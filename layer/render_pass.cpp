@@ -2,7 +2,9 @@
 // rewrite. A split pass draws into a swapchain image, found through the image views of its
 // framebuffer (or of its VkRenderPassAttachmentBeginInfo when imageless, or of its dynamic
 // rendering attachments); the layer tracks views -> images, framebuffers -> views, and swapchain
-// images -> their swapchain (vkGetSwapchainImagesKHR). Inside a split pass the render area and
+// images -> their swapchain (vkGetSwapchainImagesKHR). A pass whose attachments include a
+// screen-space target (screen_space.h) is scaled the same way, without foveae of its own: its
+// framebuffer was created at the scaled size. Inside a split or scaled pass the render area and
 // clear rects are scaled, and the viewports/scissors in effect are re-emitted scaled at its begin
 // and unscaled at its end, because dynamic state outlives the pass (viewport.cpp).
 
@@ -10,6 +12,7 @@
 #include "layer_entry_points.h"
 #include "object_map.h"
 #include "resource.h"
+#include "screen_space.h"
 #include "split.h"
 #include "split_geometry.h"
 #include "swapchain.h"
@@ -17,6 +20,7 @@
 #include <atomic>
 #include <mutex>
 #include <set>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -29,6 +33,8 @@ struct ImageViewState {
 };
 struct FramebufferState {
     std::vector<VkImageView> attachments; // empty when imageless
+    VkExtent2D extent{};                  // the app's
+    bool scaled = false;                  // created at the scaled size: it holds a screen-space target
 };
 struct SwapchainImageState {
     VkSwapchainKHR swapchain = VK_NULL_HANDLE;
@@ -66,33 +72,77 @@ bool find_target(uint32_t count, const VkImageView *views, VkImage *image, VkExt
 
 void log_secondary_once() {
     if (!g_secondary_logged.exchange(true))
-        SPLITVK_WARN("a pass into a swapchain image records its contents in secondary command buffers: "
-                     "not split (rendered at full resolution)");
+        SPLITVK_WARN("a dynamic rendering into a swapchain image records its contents in secondary command "
+                     "buffers: not split (rendered at full resolution)");
 }
 
-// The split tracker when `begin` starts a split pass, with its target; nullptr otherwise.
-split::CommandTracker *split_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassBeginInfo *begin,
-                                  bool secondary, VkImage *image, VkExtent2D *extent) {
-    if (!split_enabled(dev)) return nullptr;
-    split::CommandTracker *tracker = split_tracker(cb);
-    if (!tracker) return nullptr;
-    const auto *attachments = static_cast<const VkRenderPassAttachmentBeginInfo *>(nullptr);
+bool any_screen_space(std::span<const VkImageView> views) {
+    for (VkImageView view : views) {
+        const ImageViewState *v = view ? g_views.find(view) : nullptr;
+        if (v && is_screen_space(v->image)) return true;
+    }
+    return false;
+}
+
+// What a render pass instance or dynamic rendering draws into, as the split sees it.
+struct PassTarget {
+    bool swapchain = false; // a swapchain image of a composable swapchain, while splitting
+    bool scaled = false;    // a screen-space target among its attachments
+    VkImage image = VK_NULL_HANDLE;
+    VkExtent2D extent{}; // the swapchain's, else the full extent its scaled areas are relative to
+    bool split() const { return swapchain || scaled; }
+};
+
+std::span<const VkImageView> begin_views(const VkRenderPassBeginInfo *begin, const FramebufferState *fb) {
     for (auto *p = static_cast<const VkBaseInStructure *>(begin->pNext); p; p = p->pNext)
-        if (p->sType == VK_STRUCTURE_TYPE_RENDER_PASS_ATTACHMENT_BEGIN_INFO)
-            attachments = reinterpret_cast<const VkRenderPassAttachmentBeginInfo *>(p);
-    bool found = false;
-    if (attachments) {
-        found = find_target(attachments->attachmentCount, attachments->pAttachments, image, extent);
-    } else if (const FramebufferState *fb = g_framebuffers.find(begin->framebuffer)) {
-        found =
-            find_target(static_cast<uint32_t>(fb->attachments.size()), fb->attachments.data(), image, extent);
+        if (p->sType == VK_STRUCTURE_TYPE_RENDER_PASS_ATTACHMENT_BEGIN_INFO) {
+            const auto *info = reinterpret_cast<const VkRenderPassAttachmentBeginInfo *>(p);
+            return {info->pAttachments, info->attachmentCount};
+        }
+    if (fb) return fb->attachments;
+    return {};
+}
+
+PassTarget pass_target(DeviceState &dev, const VkRenderPassBeginInfo *begin) {
+    PassTarget t;
+    const FramebufferState *fb = g_framebuffers.find(begin->framebuffer);
+    if (!fb) return t;
+    const std::span<const VkImageView> views = begin_views(begin, fb);
+    t.swapchain = split_enabled(dev) &&
+                  find_target(static_cast<uint32_t>(views.size()), views.data(), &t.image, &t.extent);
+    t.scaled = fb->scaled;
+    if (!t.swapchain) t.extent = fb->extent;
+    return t;
+}
+
+PassTarget rendering_target(DeviceState &dev, const VkRenderingInfo *info) {
+    PassTarget t;
+    const bool splitting = split_enabled(dev);
+    const auto consider = [&](VkImageView view) {
+        if (!view) return;
+        if (splitting && !t.swapchain && split_target(view, &t.image, &t.extent)) t.swapchain = true;
+        const ImageViewState *v = g_views.find(view);
+        VkExtent2D full{};
+        if (v && screen_space_extent(v->image, &full)) {
+            if (!t.scaled && !t.swapchain) t.extent = full;
+            t.scaled = true;
+        }
+    };
+    const auto attachment = [&](const VkRenderingAttachmentInfo *a) {
+        if (!a) return;
+        consider(a->imageView);
+        if (a->resolveMode != VK_RESOLVE_MODE_NONE) consider(a->resolveImageView);
+    };
+    for (uint32_t i = 0; i < info->colorAttachmentCount; ++i)
+        attachment(&info->pColorAttachments[i]);
+    attachment(info->pDepthAttachment);
+    attachment(info->pStencilAttachment);
+    if (!t.swapchain && t.scaled) {
+        // The render area's own full extent: a pass into a half-size target names a half-size area.
+        t.extent.width = std::max(t.extent.width, info->renderArea.extent.width);
+        t.extent.height = std::max(t.extent.height, info->renderArea.extent.height);
     }
-    if (!found) return nullptr;
-    if (secondary) {
-        log_secondary_once();
-        return nullptr;
-    }
-    return tracker;
+    return t;
 }
 
 // The swapchain sizes the split line was given for: once per size, so that a resize says what the
@@ -110,10 +160,10 @@ void log_split_extent_once(VkExtent2D extent) {
                  extent.height, periphery.width, periphery.height);
 }
 
-void enter_split(DeviceState &dev, VkCommandBuffer cb, split::CommandTracker &tracker, VkImage image,
-                 VkExtent2D extent) {
-    log_split_extent_once(extent);
-    tracker.begin_split(codec::handle_value(image), extent);
+void enter_split(DeviceState &dev, VkCommandBuffer cb, split::CommandTracker &tracker,
+                 const PassTarget &target) {
+    if (target.swapchain) log_split_extent_once(target.extent);
+    tracker.begin_split(codec::handle_value(target.image), target.extent, target.swapchain);
     emit_viewports(dev, cb, tracker);
     emit_scissors(dev, cb, tracker);
 }
@@ -121,7 +171,8 @@ void enter_split(DeviceState &dev, VkCommandBuffer cb, split::CommandTracker &tr
 void leave_split(DeviceState &dev, VkCommandBuffer cb) {
     split::CommandTracker *tracker = dev.session ? split_tracker(cb) : nullptr;
     if (!tracker || !tracker->in_split()) return;
-    time_split_pass_ended(dev, cb);
+    // The periphery's GPU time runs from the first scaled pass to the end of the swapchain's.
+    if (tracker->swapchain_pass()) time_split_pass_ended(dev, cb);
     tracker->end_split(split_settings().eyes, split_settings().fovea);
     emit_viewports(dev, cb, *tracker);
     emit_scissors(dev, cb, *tracker);
@@ -156,47 +207,130 @@ void end_render_pass(DeviceState &dev, VkCommandBuffer cb) {
     leave_split(dev, cb);
 }
 
+// The target each render pass was last begun on: a secondary that continues a pass without
+// naming its framebuffer (engines record them before they know the swapchain image) is recorded
+// for that target's scaling. Engines begin the pass before recording its secondaries for the frame.
+std::mutex g_pass_targets_mutex;
+std::unordered_map<VkRenderPass, PassTarget> g_pass_targets;
+
 template <class Down>
 void begin_render_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassBeginInfo *begin,
                        bool secondary, Down &&down) {
     note_attachments(dev, cb, begin);
-    VkImage image = VK_NULL_HANDLE;
-    VkExtent2D extent{};
-    split::CommandTracker *tracker = split_pass(dev, cb, begin, secondary, &image, &extent);
-    if (!tracker) return down(begin);
+    PassTarget target = dev.session ? pass_target(dev, begin) : PassTarget{};
+    if (dev.session) {
+        std::lock_guard lock(g_pass_targets_mutex);
+        g_pass_targets[begin->renderPass] = target;
+    }
+    split::CommandTracker *tracker = target.split() ? split_tracker(cb) : nullptr;
+    if (!tracker && !target.scaled) return down(begin);
     VkRenderPassBeginInfo scaled = *begin;
-    scaled.renderArea = scaled_area(begin->renderArea, extent);
-    time_before_split_pass(dev, cb);
+    scaled.renderArea = scaled_area(begin->renderArea, target.extent);
+    if (!tracker) return down(&scaled);
+    if (!secondary) {
+        time_before_split_pass(dev, cb);
+        down(&scaled);
+        time_split_pass_begun(dev, cb);
+        return enter_split(dev, cb, *tracker, target);
+    }
     down(&scaled);
-    time_split_pass_begun(dev, cb);
-    enter_split(dev, cb, *tracker, image, extent);
+    // Only vkCmdExecuteCommands may follow (no state to set, no timestamp to write: secondaries are
+    // not timed), and its foveae come from the secondaries it executes.
+    if (target.swapchain) log_split_extent_once(target.extent);
+    tracker->begin_split(codec::handle_value(target.image), target.extent, target.swapchain);
+    tracker->contents_in_secondaries();
 }
 
 template <class Down>
 void begin_rendering(DeviceState &dev, VkCommandBuffer cb, const VkRenderingInfo *info, Down &&down) {
-    split::CommandTracker *tracker = split_enabled(dev) ? split_tracker(cb) : nullptr;
-    VkImage image = VK_NULL_HANDLE;
-    VkExtent2D extent{};
-    bool found = false;
-    for (uint32_t i = 0; tracker && !found && i < info->colorAttachmentCount; ++i) {
-        const VkRenderingAttachmentInfo &a = info->pColorAttachments[i];
-        found = split_target(a.imageView, &image, &extent) ||
-                (a.resolveMode != VK_RESOLVE_MODE_NONE && split_target(a.resolveImageView, &image, &extent));
+    PassTarget target = dev.session ? rendering_target(dev, info) : PassTarget{};
+    split::CommandTracker *tracker = target.split() ? split_tracker(cb) : nullptr;
+    if (!tracker && !target.scaled) return down(info);
+    const bool secondary = info->flags & VK_RENDERING_CONTENTS_SECONDARY_COMMAND_BUFFERS_BIT;
+    if (secondary) {
+        // Their inheritance names no images: not split (the agent does the same).
+        if (!target.scaled) {
+            log_secondary_once();
+            return down(info);
+        }
+        log_unscalable_once(
+            "a dynamic rendering into a screen-space target records its contents in secondary "
+            "command buffers: their viewports are not scaled, so the client's periphery of that "
+            "target is cropped (the foveae stay exact)");
     }
-    if (found && (info->flags & VK_RENDERING_CONTENTS_SECONDARY_COMMAND_BUFFERS_BIT)) {
-        log_secondary_once();
-        found = false;
-    }
-    if (!found) return down(info);
     VkRenderingInfo scaled = *info;
-    scaled.renderArea = scaled_area(info->renderArea, extent);
+    scaled.renderArea = scaled_area(info->renderArea, target.extent);
+    // A resumed rendering continues the suspended one, which was scaled alike. With secondary
+    // contents only vkCmdExecuteCommands may follow: no state to set.
+    if (!tracker || secondary) return down(&scaled);
     time_before_split_pass(dev, cb);
     down(&scaled);
     time_split_pass_begun(dev, cb);
-    enter_split(dev, cb, *tracker, image, extent);
+    enter_split(dev, cb, *tracker, target);
 }
 
 } // namespace
+
+VkImage image_of_view(VkImageView view) {
+    const ImageViewState *v = view ? g_views.find(view) : nullptr;
+    return v ? v->image : VK_NULL_HANDLE;
+}
+
+bool swapchain_image_extent(VkImage image, VkExtent2D *extent) {
+    const SwapchainImageState *s = image ? g_swapchain_images.find(image) : nullptr;
+    if (!s) return false;
+    const SwapchainState *swapchain = find_swapchain(s->swapchain);
+    if (!swapchain || !swapchain_composable(*swapchain)) return false;
+    for (VkImage i : swapchain->images)
+        if (i == image) {
+            *extent = swapchain->extent;
+            return true;
+        }
+    return false;
+}
+
+void begin_secondary(DeviceState &dev, VkCommandBuffer cb, const VkCommandBufferBeginInfo &begin) {
+    if (!(begin.flags & VK_COMMAND_BUFFER_USAGE_RENDER_PASS_CONTINUE_BIT) || !begin.pInheritanceInfo) return;
+    split::CommandTracker *tracker = split_tracker(cb);
+    if (!tracker) return;
+    tracker->begin_secondary();
+    const VkCommandBufferInheritanceInfo &inheritance = *begin.pInheritanceInfo;
+    if (inheritance.renderPass == VK_NULL_HANDLE) return; // dynamic rendering: not split
+    PassTarget target;
+    if (inheritance.framebuffer != VK_NULL_HANDLE) {
+        VkRenderPassBeginInfo info{};
+        info.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
+        info.renderPass = inheritance.renderPass;
+        info.framebuffer = inheritance.framebuffer;
+        target = pass_target(dev, &info);
+    } else {
+        std::lock_guard lock(g_pass_targets_mutex);
+        const auto it = g_pass_targets.find(inheritance.renderPass);
+        if (it != g_pass_targets.end()) target = it->second;
+    }
+    // Scaled like the pass it continues; its viewports are kept for the executing pass's foveae.
+    if (target.split()) tracker->begin_split(0, target.extent, false);
+}
+
+namespace observe {
+
+void CmdExecuteCommands(DeviceState &, VkCommandBuffer cb, uint32_t count,
+                        const VkCommandBuffer *secondaries) {
+    split::CommandTracker *tracker = split_tracker(cb);
+    if (!tracker) return;
+    for (uint32_t i = 0; i < count; ++i) {
+        const split::CommandTracker *secondary = split_tracker(secondaries[i]);
+        if (!secondary) continue;
+        if (secondary->secondary() && secondary->in_split() != tracker->in_split())
+            log_unscalable_once(
+                "a secondary command buffer was recorded for a pass scaled otherwise than the one "
+                "that executes it: the client's periphery of that pass is wrong (the foveae stay "
+                "exact only where the agent's tiles cover them)");
+        tracker->merge_executed(*secondary, split_settings().eyes, split_settings().fovea);
+    }
+}
+
+} // namespace observe
 
 namespace entry {
 
@@ -247,12 +381,47 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateFramebuffer(VkDevice device, const VkFrameb
                                                  const VkAllocationCallbacks *pAllocator,
                                                  VkFramebuffer *pFramebuffer) {
     DeviceState &dev = device_state(device);
-    const VkResult result = dev.dispatch.CreateFramebuffer(device, pCreateInfo, pAllocator, pFramebuffer);
+    // A framebuffer holding a screen-space target is created at the scaled size, which every
+    // attachment then covers (the others are at least that large).
+    VkFramebufferCreateInfo down = *pCreateInfo;
+    VkFramebufferAttachmentsCreateInfo attachments_down{};
+    std::vector<VkFramebufferAttachmentImageInfo> image_infos;
+    bool scaled = false;
+    if (dev.session) {
+        if (!(pCreateInfo->flags & VK_FRAMEBUFFER_CREATE_IMAGELESS_BIT) && pCreateInfo->pAttachments) {
+            scaled = any_screen_space({pCreateInfo->pAttachments, pCreateInfo->attachmentCount});
+        } else if (auto *info = static_cast<const VkFramebufferAttachmentsCreateInfo *>(pCreateInfo->pNext);
+                   info && info->sType == VK_STRUCTURE_TYPE_FRAMEBUFFER_ATTACHMENTS_CREATE_INFO) {
+            // Imageless: the attachment infos describe the images, which the rule scaled alike.
+            image_infos.assign(info->pAttachmentImageInfos,
+                               info->pAttachmentImageInfos + info->attachmentImageInfoCount);
+            for (VkFramebufferAttachmentImageInfo &image : image_infos)
+                if (screen_space_attachment(dev, image)) {
+                    const VkExtent2D e =
+                        split::scaled_extent({image.width, image.height}, split_settings().scale);
+                    image.width = e.width;
+                    image.height = e.height;
+                    scaled = true;
+                }
+            attachments_down = *info;
+            attachments_down.pAttachmentImageInfos = image_infos.data();
+            down.pNext = &attachments_down;
+        }
+        if (scaled) {
+            const VkExtent2D e =
+                split::scaled_extent({pCreateInfo->width, pCreateInfo->height}, split_settings().scale);
+            down.width = e.width;
+            down.height = e.height;
+        }
+    }
+    const VkResult result = dev.dispatch.CreateFramebuffer(device, &down, pAllocator, pFramebuffer);
     if (dev.session && result == VK_SUCCESS) {
         auto state = std::make_unique<FramebufferState>();
         if (!(pCreateInfo->flags & VK_FRAMEBUFFER_CREATE_IMAGELESS_BIT) && pCreateInfo->pAttachments)
             state->attachments.assign(pCreateInfo->pAttachments,
                                       pCreateInfo->pAttachments + pCreateInfo->attachmentCount);
+        state->extent = {pCreateInfo->width, pCreateInfo->height};
+        state->scaled = scaled;
         g_framebuffers.insert(*pFramebuffer, std::move(state));
     }
     if (capturing(dev) && result >= 0) [[unlikely]]

@@ -8,6 +8,7 @@
 #include "instance.h"
 #include "layer_entry_points.h"
 #include "log.h"
+#include "screen_space.h"
 #include "vk_format_info.h"
 
 #include <algorithm>
@@ -39,6 +40,9 @@ struct ImageState {
     VkSampleCountFlagBits samples = VK_SAMPLE_COUNT_1_BIT;
     bool readable = false; // created with TRANSFER_SRC
     bool bound = false;
+    // Rendered scaled on the client (screen_space.h): its contents are not the agent's image's, and
+    // every frame rewrites them, so a snapshot leaves them out.
+    bool screen_space = false;
     std::vector<VkImageLayout> layouts; // [layer * mips + mip], as the GPU will have them
 
     VkImageLayout &layout(uint32_t mip, uint32_t layer) { return layouts[size_t{layer} * mips + mip]; }
@@ -209,6 +213,7 @@ void forget_resources(DeviceState &device) {
     std::lock_guard lock(g_mutex);
     std::erase_if(g_buffers, [&](const auto &entry) { return entry.second.device == &device; });
     std::erase_if(g_images, [&](const auto &entry) { return entry.second.device == &device; });
+    forget_screen_space(device);
 }
 
 namespace observe {
@@ -219,6 +224,7 @@ void DestroyBuffer(DeviceState &, VkDevice, VkBuffer buffer, const VkAllocationC
 }
 
 void DestroyImage(DeviceState &, VkDevice, VkImage image, const VkAllocationCallbacks *) {
+    screen_space_image_destroyed(image);
     std::lock_guard lock(g_mutex);
     g_images.erase(image);
 }
@@ -344,14 +350,16 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateImage(VkDevice device, const VkImageCreateI
     DeviceState &dev = device_state(device);
     if (!dev.session) return dev.dispatch.CreateImage(device, pCreateInfo, pAllocator, pImage);
     VkImageCreateInfo info = *pCreateInfo;
+    const bool screen_space = screen_space_create_info(dev, *pCreateInfo, &info);
     const bool add = can_add_transfer_src(dev, info);
     if (add) info.usage |= VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
     VkResult result = dev.dispatch.CreateImage(device, &info, pAllocator, pImage);
     if (result != VK_SUCCESS && add) {
         info.usage = pCreateInfo->usage;
-        result = dev.dispatch.CreateImage(device, pCreateInfo, pAllocator, pImage);
+        result = dev.dispatch.CreateImage(device, &info, pAllocator, pImage);
     }
     if (result != VK_SUCCESS) return result;
+    if (screen_space) screen_space_image_created(dev, *pImage, *pCreateInfo);
     {
         ImageState state;
         state.device = &dev;
@@ -362,6 +370,7 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateImage(VkDevice device, const VkImageCreateI
         state.layers = std::max(info.arrayLayers, 1u);
         state.samples = info.samples;
         state.readable = info.usage & VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+        state.screen_space = screen_space;
         state.layouts.assign(size_t{state.mips} * state.layers, info.initialLayout);
         std::lock_guard lock(g_mutex);
         g_images[*pImage] = std::move(state);
@@ -700,6 +709,10 @@ bool snapshot_contents(DeviceState &dev, VkQueue queue, uint32_t family, Content
         }
         for (const auto &[image, state] : g_images) {
             if (state.device != &dev || !state.bound) continue;
+            if (state.screen_space) {
+                ++out->screen_space_images;
+                continue;
+            }
             const FormatInfo format = format_info(state.format);
             if (!state.readable || state.samples != VK_SAMPLE_COUNT_1_BIT || format.block_bytes == 0 ||
                 format.depth || format.stencil) {

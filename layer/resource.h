@@ -56,12 +56,14 @@ void forget_resources(DeviceState &device);
 // object log: MemoryData for buffers, and for images a staging buffer with the bytes plus a
 // command buffer that copies them in and leaves each subresource in its tracked layout. Images the
 // layer cannot read back (no TRANSFER_SRC, multisampled, depth/stencil, a format vk.xml does not
-// describe as single-plane, or no known layout) are counted in `skipped_images`.
+// describe as single-plane, or no known layout) are counted in `skipped_images`; screen-space
+// targets (screen_space.h) in `screen_space_images`.
 struct ContentSnapshot {
     std::vector<LiveMessage> messages;
     uint64_t buffers = 0;
     uint64_t images = 0;
     uint64_t skipped_images = 0;
+    uint64_t screen_space_images = 0; // left out: scaled on the client, rewritten every frame
     uint64_t bytes = 0;
 };
 bool snapshot_contents(DeviceState &device, VkQueue queue, uint32_t family, ContentSnapshot *out,

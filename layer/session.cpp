@@ -266,6 +266,10 @@ void Session::resync(DeviceState &device, VkQueue queue, uint64_t frame) {
         SPLITVK_WARN(
             "cannot read back buffer and image contents for the new agent (%s); its frames may differ",
             error.c_str());
+    if (contents.screen_space_images)
+        SPLITVK_INFO("snapshot: %llu screen-space targets left out (every frame rewrites them, and here they "
+                     "are scaled)",
+                     static_cast<unsigned long long>(contents.screen_space_images));
     adopt_locked(std::move(*agent));
     (void)encoder_.take(); // already in the log, and so in the snapshot
     size_t entries = 0;

@@ -40,6 +40,16 @@ bool swapchain_composable(const SwapchainState &swapchain);
 
 const Settings &split_settings();
 
+// render_pass.cpp: the image a view was created for (null if unknown), and whether `image` is an
+// image of a live composable swapchain (with its extent).
+VkImage image_of_view(VkImageView view);
+bool swapchain_image_extent(VkImage image, VkExtent2D *extent);
+// vkBeginCommandBuffer of a secondary that continues a render pass: scaled like that pass's target
+// (its inheritance's framebuffer, or the render pass's latest instance), its viewports kept for
+// the foveae of the pass that executes it (split_tracker.h).
+void begin_secondary(DeviceState &device, VkCommandBuffer command_buffer,
+                     const VkCommandBufferBeginInfo &begin);
+
 // The split tracker of a command buffer allocated while the device had a session (reset at
 // vkBeginCommandBuffer); nullptr otherwise (command_buffer.cpp).
 split::CommandTracker *split_tracker(VkCommandBuffer command_buffer);

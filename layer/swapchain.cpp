@@ -25,6 +25,7 @@
 #include "layer_entry_points.h"
 #include "log.h"
 #include "object_map.h"
+#include "screen_space.h"
 #include "session.h"
 
 #include <algorithm>
@@ -148,6 +149,7 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateSwapchainKHR(VkDevice device,
     message.array_layers = state->array_layers;
     for (VkImage image : state->images)
         message.image_ids.push_back(codec::handle_value(image));
+    if (composable) note_screen_extent(dev, pCreateInfo->imageExtent);
     g_swapchains.insert(*pSwapchain, std::move(state));
     dev.session->send_metadata_logged(protocol::MessageType::SwapchainImages, protocol::encode(message),
                                       message.swapchain_id);

@@ -33,6 +33,8 @@ const SettingInfo kSettings[] = {
     {"FOVEA", "WxH in pixels (512x360) or as fractions of the eye (0.43x0.33)", "512x360 of a 1200x1080 eye",
      "size of the fovea the agent renders in each eye"},
     {"EYES", "auto, 1 or 2", "auto", "eyes side by side in the swapchain image; auto reads the viewports"},
+    {"TARGETS", "auto or swapchain", "auto",
+     "auto: the client scales every screen-space target; swapchain: only passes into the swapchain image"},
     {"CODEC", "x264, zstd or raw", "x264", "lossless codec for the fovea tiles"},
     {"TILE_WAIT", "milliseconds, 1 to 60000", "250",
      "longest a present waits for its frame's tiles; later, the centre comes from the periphery"},
@@ -185,6 +187,15 @@ bool apply(std::string_view name, std::string_view raw, Settings &s) {
             s.eyes = EyeMode::One;
         else if (v == "2")
             s.eyes = EyeMode::Two;
+        else
+            return false;
+        return true;
+    }
+    if (name == "TARGETS") {
+        if (v == "auto")
+            s.targets = TargetMode::Auto;
+        else if (v == "swapchain")
+            s.targets = TargetMode::Swapchain;
         else
             return false;
         return true;

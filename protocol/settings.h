@@ -22,6 +22,9 @@ enum class EyeMode { Auto, One, Two };
 // SPLITVK_TLS (issue 14): auto is TLS for every address but loopback.
 enum class TlsMode { Auto, On, Off };
 enum class TileCodec { X264, Zstd, Raw };
+// SPLITVK_TARGETS (issue 11): Auto scales every screen-space target on the client; Swapchain only
+// the passes into the swapchain image, as the first version did.
+enum class TargetMode { Auto, Swapchain };
 
 struct ServerAddress {
     std::string host = "127.0.0.1";
@@ -44,6 +47,7 @@ struct Settings {
     double scale = 0.6;
     FoveaSize fovea;
     EyeMode eyes = EyeMode::Auto;
+    TargetMode targets = TargetMode::Auto;
     TileCodec codec = TileCodec::X264;
     // Lockstep bound: a present waits at most this long for its own frame's tiles. Generous for a
     // LAN (a frame is ~10-20 ms), short enough that a stalled agent costs seconds, not a hang.

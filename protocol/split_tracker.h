@@ -85,9 +85,12 @@ public:
     bool static_viewports() const { return pipeline_ && pipeline_->has_viewports; }
     bool static_scissors() const { return pipeline_ && pipeline_->has_scissors; }
 
-    void begin_split(uint64_t image, VkExtent2D extent) {
+    // `swapchain`: the pass draws into swapchain image `image`, whose foveae are noted; otherwise it
+    // draws only into screen-space targets (issue 11), scaled alike but with no fovea of its own.
+    void begin_split(uint64_t image, VkExtent2D extent, bool swapchain = true) {
         in_split_ = true;
         noted_in_pass_ = false;
+        swapchain_ = swapchain;
         image_ = image;
         extent_ = extent;
     }
@@ -98,8 +101,10 @@ public:
     void end_split(EyeMode mode, const FoveaSize &fovea) {
         if (in_split_ && !noted_in_pass_) note_foveae(mode, fovea);
         in_split_ = false;
+        swapchain_ = false;
     }
     bool in_split() const { return in_split_; }
+    bool swapchain_pass() const { return in_split_ && swapchain_; }
     uint64_t image() const { return image_; }
     VkExtent2D extent() const { return extent_; }
 
@@ -117,6 +122,21 @@ public:
     // Called whenever the pass changes the viewports in effect (viewport set, pipeline bind), and
     // at the pass's end when it changed none (end_split).
     void note_foveae(EyeMode mode, const FoveaSize &fovea);
+    // A copy or blit into swapchain image `image` (of `extent`) wrote `region`: it counts as drawing
+    // there (issue 11), with the fovea of each eye the region covers (as a viewport of that
+    // rectangle would have; EyeMode::Two: every half it touches).
+    void note_transfer(uint64_t image, VkExtent2D extent, const VkRect2D &region, EyeMode mode,
+                       const FoveaSize &fovea);
+    // Secondary command buffers (issue 11, item 4). A secondary that continues a render pass
+    // (RENDER_PASS_CONTINUE) does not know the image it will draw into, so it keeps the viewports it
+    // draws with as recorded; they become foveae when a primary executes it inside a split pass into
+    // a swapchain image, from that image's extent. Both sides do this, so they agree on the foveae.
+    void begin_secondary() { secondary_ = true; }
+    bool secondary() const { return secondary_; }
+    // A primary's pass whose contents come from secondaries: it draws nothing with its own viewports.
+    void contents_in_secondaries() { noted_in_pass_ = true; }
+    // vkCmdExecuteCommands: what the executed secondary drew counts for this command buffer.
+    void merge_executed(const CommandTracker &secondary, EyeMode mode, const FoveaSize &fovea);
     const std::vector<DrawnImage> &drawn() const { return drawn_; }
 
 private:
@@ -125,6 +145,9 @@ private:
     std::shared_ptr<const StaticViewportState> pipeline_;
     bool in_split_ = false;
     bool noted_in_pass_ = false;
+    bool swapchain_ = false;
+    bool secondary_ = false;
+    std::vector<VkViewport> secondary_viewports_; // a secondary's, as recorded
     uint64_t image_ = 0;
     VkExtent2D extent_{};
     std::vector<DrawnImage> drawn_;

@@ -65,8 +65,31 @@ split::CommandTracker *FoveaShading::tracker(VkCommandBuffer cb) {
     return &command_buffers_[cb];
 }
 
-void FoveaShading::begin_command_buffer(VkCommandBuffer cb) {
-    if (split::CommandTracker *t = tracker(cb)) t->reset();
+void FoveaShading::begin_command_buffer(VkCommandBuffer cb, const VkCommandBufferBeginInfo *info) {
+    split::CommandTracker *t = tracker(cb);
+    if (!t) return;
+    t->reset();
+    // Shaded whole (its image is unknown until executed); its viewports become foveae then.
+    if (info && (info->flags & VK_COMMAND_BUFFER_USAGE_RENDER_PASS_CONTINUE_BIT) && info->pInheritanceInfo)
+        t->begin_secondary();
+}
+
+void FoveaShading::transfer_into(VkCommandBuffer cb, VkImage image, uint32_t count, const VkRect2D *rects) {
+    split::CommandTracker *t = tracker(cb);
+    uint64_t image_id = 0;
+    VkExtent2D extent{};
+    if (!t || !swapchains_.find_image(image, &image_id, &extent)) return;
+    for (uint32_t i = 0; i < count; ++i)
+        t->note_transfer(image_id, extent, rects[i], eyes_, fovea_);
+}
+
+void FoveaShading::execute_commands(VkCommandBuffer cb, uint32_t count, const VkCommandBuffer *secondaries) {
+    split::CommandTracker *t = tracker(cb);
+    if (!t) return;
+    for (uint32_t i = 0; i < count; ++i) {
+        const auto it = command_buffers_.find(secondaries[i]);
+        if (it != command_buffers_.end()) t->merge_executed(it->second, eyes_, fovea_);
+    }
 }
 
 void FoveaShading::bind_pipeline(VkCommandBuffer cb, VkPipelineBindPoint bind_point, VkPipeline pipeline) {
@@ -86,6 +109,7 @@ void FoveaShading::set_viewports(VkCommandBuffer cb, uint32_t first, uint32_t co
     split::CommandTracker *t = tracker(cb);
     if (!t) return;
     t->set_viewports(first, count, viewports, with_count);
+    if (!t->static_viewports() && t->secondary()) t->note_foveae(eyes_, fovea_);
     if (t->static_viewports() || !t->in_split()) return;
     t->note_foveae(eyes_, fovea_);
     emit_scissors(cb, *t);
@@ -135,15 +159,12 @@ void FoveaShading::begin_render_pass(VkCommandBuffer cb, const VkRenderPassBegin
     VkExtent2D extent{};
     for (size_t i = 0; i < count; ++i)
         if (target(views[i], &image_id, &extent)) {
-            if (secondary) {
-                // As on the client (layer/render_pass.cpp): not split.
-                if (!secondary_logged_)
-                    SPLITVK_WARN(
-                        "a split pass records its contents in secondary command buffers: shaded whole");
-                secondary_logged_ = true;
-                return;
-            }
-            return enter_split(cb, *t, image_id, extent);
+            if (!secondary) return enter_split(cb, *t, image_id, extent);
+            // Its secondaries are shaded whole; the viewports they draw with give the foveae. Only
+            // vkCmdExecuteCommands may follow in the primary: no scissors to set.
+            t->begin_split(image_id, extent);
+            t->contents_in_secondaries();
+            return;
         }
 }
 

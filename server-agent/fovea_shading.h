@@ -59,7 +59,12 @@ public:
 
     // Command buffer commands, after the recorded call was replayed (except set_scissors, which
     // replays it).
-    void begin_command_buffer(VkCommandBuffer cb);
+    void begin_command_buffer(VkCommandBuffer cb, const VkCommandBufferBeginInfo *info);
+    // A copy or blit into a swapchain image counts as drawing into it (issue 11): the foveae of the
+    // eyes each destination rectangle covers, as the client notes them (layer/transfer.cpp).
+    void transfer_into(VkCommandBuffer cb, VkImage image, uint32_t count, const VkRect2D *rects);
+    // Secondaries executed inside a split pass: the foveae of the viewports they drew with.
+    void execute_commands(VkCommandBuffer cb, uint32_t count, const VkCommandBuffer *secondaries);
     void bind_pipeline(VkCommandBuffer cb, VkPipelineBindPoint bind_point, VkPipeline pipeline);
     void set_viewports(VkCommandBuffer cb, uint32_t first, uint32_t count, const VkViewport *viewports,
                        bool with_count);

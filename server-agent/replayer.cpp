@@ -3,6 +3,7 @@
 #include "log.h"
 #include "submit_rules.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <string_view>
@@ -614,7 +615,7 @@ bool Replayer::vkDestroyPipeline(const codec::Decoded_vkDestroyPipeline &c) {
 
 bool Replayer::vkBeginCommandBuffer(const codec::Decoded_vkBeginCommandBuffer &c) {
     if (!ReplayVisitorBase::vkBeginCommandBuffer(c)) return false;
-    fovea_.begin_command_buffer(c.commandBuffer);
+    fovea_.begin_command_buffer(c.commandBuffer, c.pBeginInfo);
     guard_.command_buffer_begun(c.commandBuffer);
     return true;
 }
@@ -640,6 +641,85 @@ bool Replayer::vkCmdBindDescriptorSets(const codec::Decoded_vkCmdBindDescriptorS
     if (!ReplayVisitorBase::vkCmdBindDescriptorSets(c)) return false;
     guard_.sets_bound(c.commandBuffer, c.descriptorSetCount, c.pDescriptorSets, c.dynamicOffsetCount,
                       c.pDynamicOffsets);
+    return true;
+}
+
+namespace {
+
+VkRect2D blit_rect(const VkOffset3D corners[2]) {
+    const int32_t x0 = std::min(corners[0].x, corners[1].x), y0 = std::min(corners[0].y, corners[1].y);
+    return {{x0, y0},
+            {static_cast<uint32_t>(std::max(corners[0].x, corners[1].x) - x0),
+             static_cast<uint32_t>(std::max(corners[0].y, corners[1].y) - y0)}};
+}
+
+template <class Region>
+std::vector<VkRect2D> copy_rects(uint32_t count, const Region *regions) {
+    std::vector<VkRect2D> rects;
+    for (uint32_t i = 0; i < count; ++i)
+        rects.push_back({{regions[i].dstOffset.x, regions[i].dstOffset.y},
+                         {regions[i].extent.width, regions[i].extent.height}});
+    return rects;
+}
+
+template <class Region>
+std::vector<VkRect2D> blit_rects(uint32_t count, const Region *regions) {
+    std::vector<VkRect2D> rects;
+    for (uint32_t i = 0; i < count; ++i)
+        rects.push_back(blit_rect(regions[i].dstOffsets));
+    return rects;
+}
+
+} // namespace
+
+bool Replayer::vkCmdBlitImage(const codec::Decoded_vkCmdBlitImage &c) {
+    if (!ReplayVisitorBase::vkCmdBlitImage(c)) return false;
+    const auto rects = blit_rects(c.regionCount, c.pRegions);
+    fovea_.transfer_into(c.commandBuffer, c.dstImage, static_cast<uint32_t>(rects.size()), rects.data());
+    return true;
+}
+
+bool Replayer::vkCmdBlitImage2(const codec::Decoded_vkCmdBlitImage2 &c) {
+    if (!ReplayVisitorBase::vkCmdBlitImage2(c)) return false;
+    const auto rects = blit_rects(c.pBlitImageInfo->regionCount, c.pBlitImageInfo->pRegions);
+    fovea_.transfer_into(c.commandBuffer, c.pBlitImageInfo->dstImage, static_cast<uint32_t>(rects.size()),
+                         rects.data());
+    return true;
+}
+
+bool Replayer::vkCmdCopyImage(const codec::Decoded_vkCmdCopyImage &c) {
+    if (!ReplayVisitorBase::vkCmdCopyImage(c)) return false;
+    const auto rects = copy_rects(c.regionCount, c.pRegions);
+    fovea_.transfer_into(c.commandBuffer, c.dstImage, static_cast<uint32_t>(rects.size()), rects.data());
+    return true;
+}
+
+bool Replayer::vkCmdCopyImage2(const codec::Decoded_vkCmdCopyImage2 &c) {
+    if (!ReplayVisitorBase::vkCmdCopyImage2(c)) return false;
+    const auto rects = copy_rects(c.pCopyImageInfo->regionCount, c.pCopyImageInfo->pRegions);
+    fovea_.transfer_into(c.commandBuffer, c.pCopyImageInfo->dstImage, static_cast<uint32_t>(rects.size()),
+                         rects.data());
+    return true;
+}
+
+bool Replayer::vkCmdResolveImage(const codec::Decoded_vkCmdResolveImage &c) {
+    if (!ReplayVisitorBase::vkCmdResolveImage(c)) return false;
+    const auto rects = copy_rects(c.regionCount, c.pRegions);
+    fovea_.transfer_into(c.commandBuffer, c.dstImage, static_cast<uint32_t>(rects.size()), rects.data());
+    return true;
+}
+
+bool Replayer::vkCmdResolveImage2(const codec::Decoded_vkCmdResolveImage2 &c) {
+    if (!ReplayVisitorBase::vkCmdResolveImage2(c)) return false;
+    const auto rects = copy_rects(c.pResolveImageInfo->regionCount, c.pResolveImageInfo->pRegions);
+    fovea_.transfer_into(c.commandBuffer, c.pResolveImageInfo->dstImage, static_cast<uint32_t>(rects.size()),
+                         rects.data());
+    return true;
+}
+
+bool Replayer::vkCmdExecuteCommands(const codec::Decoded_vkCmdExecuteCommands &c) {
+    if (!ReplayVisitorBase::vkCmdExecuteCommands(c)) return false;
+    fovea_.execute_commands(c.commandBuffer, c.commandBufferCount, c.pCommandBuffers);
     return true;
 }
 

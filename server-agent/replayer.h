@@ -110,6 +110,13 @@ public:
     bool vkDestroyPipeline(const codec::Decoded_vkDestroyPipeline &c) override;
     bool vkBeginCommandBuffer(const codec::Decoded_vkBeginCommandBuffer &c) override;
     bool vkCmdBindPipeline(const codec::Decoded_vkCmdBindPipeline &c) override;
+    bool vkCmdBlitImage(const codec::Decoded_vkCmdBlitImage &c) override;
+    bool vkCmdBlitImage2(const codec::Decoded_vkCmdBlitImage2 &c) override;
+    bool vkCmdCopyImage(const codec::Decoded_vkCmdCopyImage &c) override;
+    bool vkCmdCopyImage2(const codec::Decoded_vkCmdCopyImage2 &c) override;
+    bool vkCmdExecuteCommands(const codec::Decoded_vkCmdExecuteCommands &c) override;
+    bool vkCmdResolveImage(const codec::Decoded_vkCmdResolveImage &c) override;
+    bool vkCmdResolveImage2(const codec::Decoded_vkCmdResolveImage2 &c) override;
     bool vkCmdSetViewport(const codec::Decoded_vkCmdSetViewport &c) override;
     bool vkCmdSetViewportWithCount(const codec::Decoded_vkCmdSetViewportWithCount &c) override;
     bool vkCmdSetScissor(const codec::Decoded_vkCmdSetScissor &c) override;

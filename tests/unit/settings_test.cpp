@@ -110,6 +110,7 @@ TEST_F(SettingsTest, InvalidValuesAreOneLineErrorsNamingTheSetting) {
         {"FOVEA",
          {"", "512", "512x", "x360", "0x360", "512x0", "0.5x360", "1.5x0.5", "-1x-1", "axb", "99999x1"}},
         {"EYES", {"", "0", "3", "both", "two"}},
+        {"TARGETS", {"", "all", "offscreen", "1"}},
         {"CODEC", {"", "h264", "x265", "lz4"}},
         {"TILE_WAIT", {"", "0", "-5", "60001", "1.5", "soon"}},
         {"PRESENT_DEPTH", {"", "3", "-1", "1.5", "two"}},

@@ -232,5 +232,63 @@ TEST(SplitTracker, StaticStateFromCreateInfo) {
     EXPECT_EQ(static_viewport_state(info), nullptr);
 }
 
+// Issue 11: a pass into screen-space targets only is scaled but draws no fovea; a copy or blit into
+// a swapchain image counts as drawing there; secondaries give the foveae of the executing pass.
+TEST(SplitTracker, OffscreenPassesDrawNoFovea) {
+    CommandTracker t;
+    t.begin_split(0, {2400, 1080}, false);
+    const VkViewport whole{0.f, 0.f, 2400.f, 1080.f, 0.f, 1.f};
+    t.set_viewports(0, 1, &whole, false);
+    t.note_foveae(EyeMode::Auto, FoveaSize{});
+    EXPECT_TRUE(t.in_split());
+    EXPECT_FALSE(t.swapchain_pass());
+    t.end_split(EyeMode::Auto, FoveaSize{});
+    EXPECT_TRUE(t.drawn().empty());
+}
+
+TEST(SplitTracker, TransfersIntoTheSwapchainImageAreDrawing) {
+    CommandTracker t;
+    const VkRect2D whole{{0, 0}, {2400, 1080}};
+    t.note_transfer(7, {2400, 1080}, whole, EyeMode::Auto, FoveaSize{});
+    ASSERT_EQ(t.drawn().size(), 1u);
+    ASSERT_EQ(t.drawn()[0].foveae.size(), 1u); // one viewport-like rectangle over both halves
+    EXPECT_RECT(t.drawn()[0].foveae[0], 688, 360, 1024u, 360u);
+    CommandTracker two;
+    two.note_transfer(7, {2400, 1080}, whole, EyeMode::Two, FoveaSize{});
+    ASSERT_EQ(two.drawn()[0].foveae.size(), 2u); // both eyes it covers
+    EXPECT_RECT(two.drawn()[0].foveae[0], 344, 360, 512u, 360u);
+    EXPECT_RECT(two.drawn()[0].foveae[1], 1544, 360, 512u, 360u);
+    CommandTracker empty;
+    empty.note_transfer(7, {2400, 1080}, {{0, 0}, {0, 10}}, EyeMode::Auto, FoveaSize{});
+    EXPECT_TRUE(empty.drawn().empty());
+}
+
+TEST(SplitTracker, SecondariesGiveTheExecutingPassItsFoveae) {
+    CommandTracker secondary;
+    secondary.begin_secondary();
+    const VkViewport left{0.f, 0.f, 1200.f, 1080.f, 0.f, 1.f}, right{1200.f, 0.f, 1200.f, 1080.f, 0.f, 1.f};
+    secondary.set_viewports(0, 1, &left, false);
+    secondary.note_foveae(EyeMode::Auto, FoveaSize{});
+    secondary.set_viewports(0, 1, &right, false);
+    secondary.note_foveae(EyeMode::Auto, FoveaSize{});
+    EXPECT_TRUE(secondary.drawn().empty()); // its image is unknown until executed
+    CommandTracker primary;
+    const VkViewport stale{0.f, 0.f, 2400.f, 1080.f, 0.f, 1.f};
+    primary.set_viewports(0, 1, &stale, false);
+    primary.begin_split(9, {2400, 1080});
+    primary.contents_in_secondaries();
+    primary.merge_executed(secondary, EyeMode::Auto, FoveaSize{});
+    primary.end_split(EyeMode::Auto, FoveaSize{}); // the stale viewport adds nothing
+    ASSERT_EQ(primary.drawn().size(), 1u);
+    EXPECT_EQ(primary.drawn()[0].image, 9u);
+    ASSERT_EQ(primary.drawn()[0].foveae.size(), 2u);
+    EXPECT_RECT(primary.drawn()[0].foveae[0], 344, 360, 512u, 360u);
+    EXPECT_RECT(primary.drawn()[0].foveae[1], 1544, 360, 512u, 360u);
+    // Executed outside a split pass, it notes nothing.
+    CommandTracker outside;
+    outside.merge_executed(secondary, EyeMode::Auto, FoveaSize{});
+    EXPECT_TRUE(outside.drawn().empty());
+}
+
 } // namespace
 } // namespace splitvk::split

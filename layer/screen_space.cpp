@@ -1,0 +1,130 @@
+// Screen-space targets on the client (screen_space.h).
+
+#include "screen_space.h"
+
+#include "log.h"
+#include "object_map.h"
+#include "split.h"
+#include "split_geometry.h"
+
+#include <mutex>
+#include <set>
+#include <string>
+#include <unordered_map>
+
+namespace splitvk {
+namespace {
+
+struct TargetState {
+    DeviceState *device = nullptr;
+    VkExtent2D full{}; // what the app asked for
+};
+
+ObjectMap<VkImage, TargetState> g_targets;
+
+std::mutex g_mutex;
+std::unordered_map<const DeviceState *, VkExtent2D> g_screens; // newest composable swapchain
+
+bool screen_of(const DeviceState &device, VkExtent2D *screen) {
+    std::lock_guard lock(g_mutex);
+    const auto it = g_screens.find(&device);
+    if (it == g_screens.end()) return false;
+    *screen = it->second;
+    return true;
+}
+
+const char *aspect_of(const VkImageCreateInfo &info) {
+    if (info.usage & VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT) return "depth/stencil";
+    if (info.usage & VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT) return "colour";
+    return "storage";
+}
+
+} // namespace
+
+void note_screen_extent(DeviceState &device, VkExtent2D extent) {
+    std::lock_guard lock(g_mutex);
+    g_screens[&device] = extent;
+}
+
+bool screen_space_create_info(DeviceState &device, const VkImageCreateInfo &app, VkImageCreateInfo *down) {
+    const Settings &settings = split_settings();
+    if (settings.targets != TargetMode::Auto || !split_enabled(device)) return false;
+    VkExtent2D screen{};
+    if (!screen_of(device, &screen)) return false; // before the first swapchain: full size
+    const split::TargetClass c = split::classify_target(app, screen, settings.eyes);
+    if (!c.screen_space) {
+        // Only images that could have been targets are worth a line: a texture of any size is not.
+        if (app.imageType == VK_IMAGE_TYPE_2D &&
+            (app.usage & (VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT |
+                          VK_IMAGE_USAGE_STORAGE_BIT)))
+            SPLITVK_INFO("targets: %ux%u %s image stays full size: %s", app.extent.width, app.extent.height,
+                         aspect_of(app), c.reason.c_str());
+        return false;
+    }
+    *down = app;
+    down->extent = split::scaled_target_extent(app.extent, settings.scale);
+    SPLITVK_INFO("targets: %ux%u %s image x%u is screen-space (%s of %ux%u): rendered at %ux%u",
+                 app.extent.width, app.extent.height, aspect_of(app), app.arrayLayers, c.reason.c_str(),
+                 screen.width, screen.height, down->extent.width, down->extent.height);
+    return true;
+}
+
+void screen_space_image_created(DeviceState &device, VkImage image, const VkImageCreateInfo &app) {
+    auto state = std::make_unique<TargetState>();
+    state->device = &device;
+    state->full = {app.extent.width, app.extent.height};
+    g_targets.insert(image, std::move(state));
+}
+
+void screen_space_image_destroyed(VkImage image) {
+    if (image != VK_NULL_HANDLE) g_targets.remove(image);
+}
+
+void forget_screen_space(DeviceState &device) {
+    std::lock_guard lock(g_mutex);
+    g_screens.erase(&device);
+    // Images outlive nothing past vkDestroyDevice; their handles are removed as the app destroys them.
+}
+
+bool screen_space_extent(VkImage image, VkExtent2D *full) {
+    const TargetState *state = g_targets.find(image);
+    if (!state) return false;
+    *full = state->full;
+    return true;
+}
+
+VkRect2D scale_image_rect(VkImage image, uint32_t mip, const VkRect2D &rect) {
+    VkExtent2D full{};
+    if (!screen_space_extent(image, &full)) return rect;
+    return split::scale_target_rect(rect, full, mip, split_settings().scale);
+}
+
+bool screen_space_attachment(const DeviceState &device, const VkFramebufferAttachmentImageInfo &info) {
+    const Settings &settings = split_settings();
+    if (settings.targets != TargetMode::Auto) return false;
+    VkExtent2D screen{};
+    if (!screen_of(device, &screen)) return false;
+    VkImageCreateInfo image{};
+    image.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
+    image.flags = info.flags;
+    image.imageType = VK_IMAGE_TYPE_2D;
+    image.extent = {info.width, info.height, 1};
+    image.mipLevels = 1;
+    image.arrayLayers = info.layerCount;
+    image.samples = VK_SAMPLE_COUNT_1_BIT;
+    image.tiling = VK_IMAGE_TILING_OPTIMAL;
+    image.usage = info.usage;
+    return split::classify_target(image, screen, settings.eyes).screen_space;
+}
+
+void log_unscalable_once(const char *reason) {
+    static std::mutex mutex;
+    static std::set<std::string> logged;
+    {
+        std::lock_guard lock(mutex);
+        if (!logged.emplace(reason).second) return;
+    }
+    SPLITVK_INFO("targets: %s", reason);
+}
+
+} // namespace splitvk

@@ -1,0 +1,61 @@
+#pragma once
+
+// Screen-space targets on the client (DESIGN §4, issue 11). At vkCreateImage, once the device has
+// a composable swapchain and splits, each image is classified by protocol/target_rule.h's rule; a
+// screen-space target is created down the chain at SPLITVK_SCALE (the capture keeps the app's create
+// info: the agent replays it full size), and every command that names a region of one scales that
+// region through this file's table, looked up by image handle:
+//
+//   framebuffers and imageless attachment infos   extent scaled (render_pass.cpp)
+//   render pass / dynamic rendering areas          scale_rect, viewports/scissors/clear rects
+//                                                  through the split tracker (render_pass.cpp)
+//   copy, blit, resolve, buffer<->image regions    scale_image_rect per side (transfer.cpp)
+//   dispatches with a scaled storage image bound   group counts scaled (transfer.cpp)
+//
+// A pass into a swapchain image is drawn into its top-left ceil(s·W) x ceil(s·H) as before, and so
+// is a copy or blit into one. What the app is told about the image (its extent in every call it
+// makes) stays what it asked for; only vkGetImageMemoryRequirements reports the smaller image's
+// needs, which the app then allocates (the agent allocates its own memory: memory_rebind.h).
+//
+// An image stays screen-space for its lifetime: Session::splitting() never turns off again once on
+// (a lost agent leaves the periphery filling the frames), so every pass into one stays scaled.
+
+#include "device.h"
+#include "target_rule.h"
+
+#include <vulkan/vulkan.h>
+
+namespace splitvk {
+
+// swapchain.cpp: the device's newest composable swapchain has this extent (what targets are
+// classified against from now on).
+void note_screen_extent(DeviceState &device, VkExtent2D extent);
+
+// vkCreateImage: whether `app` is a screen-space target; if so `*down` (a copy of it) gets the
+// scaled extent. Logs the classification at info level.
+bool screen_space_create_info(DeviceState &device, const VkImageCreateInfo &app, VkImageCreateInfo *down);
+// After the driver created it.
+void screen_space_image_created(DeviceState &device, VkImage image, const VkImageCreateInfo &app);
+void screen_space_image_destroyed(VkImage image);
+void forget_screen_space(DeviceState &device);
+
+// The app-visible extent of a screen-space target (its mip 0); false for any other image.
+bool screen_space_extent(VkImage image, VkExtent2D *full);
+inline bool is_screen_space(VkImage image) {
+    VkExtent2D e;
+    return image != VK_NULL_HANDLE && screen_space_extent(image, &e);
+}
+
+// A rectangle of mip `mip` of `image` as the driver must see it: scaled for a screen-space target,
+// unchanged otherwise.
+VkRect2D scale_image_rect(VkImage image, uint32_t mip, const VkRect2D &rect);
+
+// Imageless framebuffers: the attachment info of an image the rule classifies as screen-space
+// describes the scaled image.
+bool screen_space_attachment(const DeviceState &device, const VkFramebufferAttachmentImageInfo &info);
+
+// One info line per reason the layer met a structure it cannot scale consistently (issue 11,
+// item 5): what runs unsplit or with which periphery artefact.
+void log_unscalable_once(const char *reason);
+
+} // namespace splitvk

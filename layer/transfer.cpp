@@ -1,0 +1,488 @@
+// Copies, blits, resolves and dispatches that name regions of screen-space targets (screen_space.h)
+// or write a swapchain image. Each side of a transfer is one of three kinds, looked up by handle:
+// a screen-space target (its regions scale into the scaled image), a swapchain image written while
+// splitting (the region lands in the scaled top-left, like a split pass, and the foveae of the eyes
+// it covers are noted, as the agent notes them: fovea_shading.cpp), or any other image (unchanged).
+// The capture keeps the application's call.
+//
+// Copies and resolves need the same extent on both sides; where only one side is scaled the
+// periphery holds the scaled picture in the other image's top-left (one info line): a copy into a
+// swapchain image from a full-size image is left whole and unsplit instead, which is exact.
+
+#include "gpu_timing.h"
+#include "layer_entry_points.h"
+#include "screen_space.h"
+#include "split.h"
+#include "split_geometry.h"
+
+#include <algorithm>
+#include <mutex>
+#include <unordered_map>
+#include <vector>
+
+namespace splitvk {
+
+bool set_writes_screen_space(VkDescriptorSet set); // descriptor_set.cpp
+
+namespace {
+
+enum class Kind { Plain, Scaled, Swapchain };
+
+struct Side {
+    Kind kind = Kind::Plain;
+    VkImage image = VK_NULL_HANDLE;
+    VkExtent2D extent{}; // the swapchain's
+};
+
+Side side_of(DeviceState &dev, VkImage image, bool destination) {
+    Side s;
+    s.image = image;
+    if (is_screen_space(image)) {
+        s.kind = Kind::Scaled;
+    } else if (destination && split_enabled(dev) && swapchain_image_extent(image, &s.extent)) {
+        s.kind = Kind::Swapchain;
+    } else if (!destination && split_enabled(dev) && swapchain_image_extent(image, &s.extent)) {
+        log_unscalable_once("a copy out of a swapchain image reads what the client drew: its periphery "
+                            "part is scaled into the top-left (the app's own read-back, not the display)");
+    }
+    return s;
+}
+
+VkRect2D scale_side(const Side &s, uint32_t mip, const VkRect2D &r) {
+    const double scale = split_settings().scale;
+    switch (s.kind) {
+    case Kind::Scaled:
+        return scale_image_rect(s.image, mip, r);
+    case Kind::Swapchain:
+        return split::scale_rect(r, scale, split::scaled_extent(s.extent, scale));
+    case Kind::Plain:
+        break;
+    }
+    return r;
+}
+
+VkRect2D rect_of(VkOffset3D o, VkExtent3D e) {
+    return {{o.x, o.y}, {e.width, e.height}};
+}
+
+void note_swapchain_write(VkCommandBuffer cb, const Side &dst, const VkRect2D &region) {
+    split::CommandTracker *tracker = split_tracker(cb);
+    if (!tracker) return;
+    tracker->note_transfer(codec::handle_value(dst.image), dst.extent, region, split_settings().eyes,
+                           split_settings().fovea);
+}
+
+// Copies and resolves: one extent for both sides. Returns false when the command goes down as
+// recorded (nothing to scale, or a full-size image copied into a swapchain image: unsplit).
+template <class Region>
+bool scale_copies(DeviceState &dev, VkCommandBuffer cb, VkImage src, VkImage dst, uint32_t count,
+                  const Region *regions, std::vector<Region> &out) {
+    const Side s = side_of(dev, src, false), d = side_of(dev, dst, true);
+    if (s.kind != Kind::Scaled && d.kind != Kind::Scaled && d.kind != Kind::Swapchain) return false;
+    if (s.kind == Kind::Plain && d.kind == Kind::Swapchain)
+        log_unscalable_once("a resolve into a swapchain image from a full-size image: the client's periphery "
+                            "shows its top-left part (the foveae stay exact)");
+    else if (s.kind != Kind::Scaled || d.kind == Kind::Plain)
+        log_unscalable_once("a copy between a screen-space target and a full-size image: the full-size one "
+                            "holds the scaled picture in its top-left on the client (periphery only)");
+    out.assign(regions, regions + count);
+    for (Region &r : out) {
+        const VkRect2D sr = scale_side(s, r.srcSubresource.mipLevel, rect_of(r.srcOffset, r.extent));
+        const VkRect2D dr = scale_side(d, r.dstSubresource.mipLevel, rect_of(r.dstOffset, r.extent));
+        // Offsets scale on their own side; the shared extent is what both sides can hold.
+        r.srcOffset.x = sr.offset.x;
+        r.srcOffset.y = sr.offset.y;
+        r.dstOffset.x = dr.offset.x;
+        r.dstOffset.y = dr.offset.y;
+        r.extent.width = std::min(s.kind == Kind::Plain ? dr.extent.width : sr.extent.width,
+                                  d.kind == Kind::Plain ? sr.extent.width : dr.extent.width);
+        r.extent.height = std::min(s.kind == Kind::Plain ? dr.extent.height : sr.extent.height,
+                                   d.kind == Kind::Plain ? sr.extent.height : dr.extent.height);
+    }
+    if (d.kind == Kind::Swapchain)
+        for (uint32_t i = 0; i < count; ++i)
+            note_swapchain_write(cb, d, rect_of(regions[i].dstOffset, regions[i].extent));
+    std::erase_if(out, [](const Region &r) { return r.extent.width == 0 || r.extent.height == 0; });
+    return true;
+}
+
+// A blit's two corners (either order: a blit may mirror) scaled as a rectangle, order kept.
+void scale_corners(const Side &s, uint32_t mip, VkOffset3D corners[2]) {
+    const int32_t x0 = std::min(corners[0].x, corners[1].x), x1 = std::max(corners[0].x, corners[1].x);
+    const int32_t y0 = std::min(corners[0].y, corners[1].y), y1 = std::max(corners[0].y, corners[1].y);
+    const VkRect2D r =
+        scale_side(s, mip, {{x0, y0}, {static_cast<uint32_t>(x1 - x0), static_cast<uint32_t>(y1 - y0)}});
+    const int32_t nx1 = r.offset.x + static_cast<int32_t>(r.extent.width);
+    const int32_t ny1 = r.offset.y + static_cast<int32_t>(r.extent.height);
+    const bool flip_x = corners[0].x > corners[1].x, flip_y = corners[0].y > corners[1].y;
+    corners[0].x = flip_x ? nx1 : r.offset.x;
+    corners[1].x = flip_x ? r.offset.x : nx1;
+    corners[0].y = flip_y ? ny1 : r.offset.y;
+    corners[1].y = flip_y ? r.offset.y : ny1;
+}
+
+// A copy into a swapchain image from a full-size image cannot keep one extent for both sides: it
+// goes down as a nearest-filtered blit of the whole region into the scaled top-left (the periphery
+// only; the agent replays the copy). Same format on both sides, so the blit converts nothing.
+template <class Region>
+bool copy_as_blit(DeviceState &dev, VkCommandBuffer cb, VkImage src, VkImageLayout src_layout, VkImage dst,
+                  VkImageLayout dst_layout, uint32_t count, const Region *regions) {
+    const Side s = side_of(dev, src, false), d = side_of(dev, dst, true);
+    if (s.kind != Kind::Plain || d.kind != Kind::Swapchain) return false;
+    std::vector<VkImageBlit> blits;
+    for (uint32_t i = 0; i < count; ++i) {
+        const Region &r = regions[i];
+        VkImageBlit b{};
+        b.srcSubresource = r.srcSubresource;
+        b.dstSubresource = r.dstSubresource;
+        b.srcOffsets[0] = r.srcOffset;
+        b.srcOffsets[1] = {r.srcOffset.x + static_cast<int32_t>(r.extent.width),
+                           r.srcOffset.y + static_cast<int32_t>(r.extent.height), r.srcOffset.z + 1};
+        b.dstOffsets[0] = r.dstOffset;
+        b.dstOffsets[1] = {r.dstOffset.x + static_cast<int32_t>(r.extent.width),
+                           r.dstOffset.y + static_cast<int32_t>(r.extent.height), r.dstOffset.z + 1};
+        scale_corners(d, r.dstSubresource.mipLevel, b.dstOffsets);
+        note_swapchain_write(cb, d, rect_of(r.dstOffset, r.extent));
+        if (b.dstOffsets[0].x != b.dstOffsets[1].x && b.dstOffsets[0].y != b.dstOffsets[1].y)
+            blits.push_back(b);
+    }
+    if (!blits.empty())
+        dev.dispatch.CmdBlitImage(cb, src, src_layout, dst, dst_layout, static_cast<uint32_t>(blits.size()),
+                                  blits.data(), VK_FILTER_NEAREST);
+    return true;
+}
+
+template <class Region>
+bool scale_blits(DeviceState &dev, VkCommandBuffer cb, VkImage src, VkImage dst, uint32_t count,
+                 const Region *regions, std::vector<Region> &out) {
+    const Side s = side_of(dev, src, false), d = side_of(dev, dst, true);
+    if (s.kind == Kind::Plain && d.kind == Kind::Plain) return false;
+    out.assign(regions, regions + count);
+    for (uint32_t i = 0; i < count; ++i) {
+        scale_corners(s, out[i].srcSubresource.mipLevel, out[i].srcOffsets);
+        scale_corners(d, out[i].dstSubresource.mipLevel, out[i].dstOffsets);
+        if (d.kind == Kind::Swapchain) {
+            const VkOffset3D *c = regions[i].dstOffsets;
+            const int32_t x0 = std::min(c[0].x, c[1].x), y0 = std::min(c[0].y, c[1].y);
+            note_swapchain_write(cb, d,
+                                 {{x0, y0},
+                                  {static_cast<uint32_t>(std::max(c[0].x, c[1].x) - x0),
+                                   static_cast<uint32_t>(std::max(c[0].y, c[1].y) - y0)}});
+        }
+    }
+    std::erase_if(out, [](const Region &r) {
+        return r.srcOffsets[0].x == r.srcOffsets[1].x || r.srcOffsets[0].y == r.srcOffsets[1].y ||
+               r.dstOffsets[0].x == r.dstOffsets[1].x || r.dstOffsets[0].y == r.dstOffsets[1].y;
+    });
+    return true;
+}
+
+// Buffer <-> image: the image region scales; the buffer keeps the app's addressing (its row length
+// and image height made explicit), so the scaled texels land within what the app's region spans.
+template <class Region>
+bool scale_buffer_copies(VkImage image, uint32_t count, const Region *regions, std::vector<Region> &out) {
+    if (!is_screen_space(image)) return false;
+    log_unscalable_once("a buffer copy to or from a screen-space target moves the scaled picture (periphery "
+                        "only: the agent replays it full size)");
+    out.assign(regions, regions + count);
+    for (Region &r : out) {
+        if (r.bufferRowLength == 0) r.bufferRowLength = r.imageExtent.width;
+        if (r.bufferImageHeight == 0) r.bufferImageHeight = r.imageExtent.height;
+        const VkRect2D rect =
+            scale_image_rect(image, r.imageSubresource.mipLevel, rect_of(r.imageOffset, r.imageExtent));
+        r.imageOffset.x = rect.offset.x;
+        r.imageOffset.y = rect.offset.y;
+        r.imageExtent.width = rect.extent.width;
+        r.imageExtent.height = rect.extent.height;
+    }
+    std::erase_if(out, [](const Region &r) { return r.imageExtent.width == 0 || r.imageExtent.height == 0; });
+    return true;
+}
+
+// The compute descriptor sets bound per command buffer, for dispatches.
+std::mutex g_mutex;
+std::unordered_map<VkCommandBuffer, std::vector<VkDescriptorSet>> g_compute_sets;
+
+bool dispatch_writes_screen_space(VkCommandBuffer cb) {
+    std::vector<VkDescriptorSet> sets;
+    {
+        std::lock_guard lock(g_mutex);
+        const auto it = g_compute_sets.find(cb);
+        if (it == g_compute_sets.end()) return false;
+        sets = it->second;
+    }
+    for (VkDescriptorSet set : sets)
+        if (set && set_writes_screen_space(set)) return true;
+    return false;
+}
+
+// The periphery's GPU time (SPLITVK_STATS) ends with the write into the swapchain image when that is
+// a copy or blit rather than a pass (atrium --path compute).
+void after_transfer(DeviceState &dev, VkCommandBuffer cb, VkImage dst) {
+    VkExtent2D extent{};
+    if (split_enabled(dev) && swapchain_image_extent(dst, &extent)) time_split_pass_ended(dev, cb);
+}
+
+} // namespace
+
+namespace observe {
+
+void CmdBindDescriptorSets(DeviceState &, VkCommandBuffer cb, VkPipelineBindPoint bind_point,
+                           VkPipelineLayout, uint32_t first, uint32_t count, const VkDescriptorSet *sets,
+                           uint32_t, const uint32_t *) {
+    if (bind_point != VK_PIPELINE_BIND_POINT_COMPUTE) return;
+    std::lock_guard lock(g_mutex);
+    auto &bound = g_compute_sets[cb];
+    if (bound.size() < first + count) bound.resize(first + count);
+    std::copy(sets, sets + count, bound.begin() + first);
+}
+
+} // namespace observe
+
+namespace entry {
+
+VKAPI_ATTR void VKAPI_CALL CmdCopyImage(VkCommandBuffer commandBuffer, VkImage srcImage,
+                                        VkImageLayout srcImageLayout, VkImage dstImage,
+                                        VkImageLayout dstImageLayout, uint32_t regionCount,
+                                        const VkImageCopy *pRegions) {
+    DeviceState &dev = device_state(commandBuffer);
+    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
+        encode_vkCmdCopyImage(e, commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
+                              regionCount, pRegions);
+    });
+    if (dev.session && copy_as_blit(dev, commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
+                                    regionCount, pRegions))
+        return after_transfer(dev, commandBuffer, dstImage);
+    std::vector<VkImageCopy> out;
+    if (!dev.session || !scale_copies(dev, commandBuffer, srcImage, dstImage, regionCount, pRegions, out))
+        return dev.dispatch.CmdCopyImage(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
+                                         regionCount, pRegions);
+    if (!out.empty())
+        dev.dispatch.CmdCopyImage(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
+                                  static_cast<uint32_t>(out.size()), out.data());
+    after_transfer(dev, commandBuffer, dstImage);
+}
+
+template <class Next>
+void copy_image2(DeviceState &dev, VkCommandBuffer cb, const VkCopyImageInfo2 *info, Next next) {
+    capture_command(dev, cb, [&](codec::Encoder &e) { encode_vkCmdCopyImage2(e, cb, info); });
+    if (dev.session && copy_as_blit(dev, cb, info->srcImage, info->srcImageLayout, info->dstImage,
+                                    info->dstImageLayout, info->regionCount, info->pRegions))
+        return;
+    std::vector<VkImageCopy2> out;
+    if (!dev.session ||
+        !scale_copies(dev, cb, info->srcImage, info->dstImage, info->regionCount, info->pRegions, out))
+        return next(cb, info);
+    if (out.empty()) return;
+    VkCopyImageInfo2 scaled = *info;
+    scaled.regionCount = static_cast<uint32_t>(out.size());
+    scaled.pRegions = out.data();
+    next(cb, &scaled);
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdCopyImage2(VkCommandBuffer commandBuffer,
+                                         const VkCopyImageInfo2 *pCopyImageInfo) {
+    DeviceState &dev = device_state(commandBuffer);
+    copy_image2(dev, commandBuffer, pCopyImageInfo, dev.dispatch.CmdCopyImage2);
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdCopyImage2KHR(VkCommandBuffer commandBuffer,
+                                            const VkCopyImageInfo2 *pCopyImageInfo) {
+    DeviceState &dev = device_state(commandBuffer);
+    copy_image2(dev, commandBuffer, pCopyImageInfo, dev.dispatch.CmdCopyImage2KHR);
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdResolveImage(VkCommandBuffer commandBuffer, VkImage srcImage,
+                                           VkImageLayout srcImageLayout, VkImage dstImage,
+                                           VkImageLayout dstImageLayout, uint32_t regionCount,
+                                           const VkImageResolve *pRegions) {
+    DeviceState &dev = device_state(commandBuffer);
+    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
+        encode_vkCmdResolveImage(e, commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
+                                 regionCount, pRegions);
+    });
+    std::vector<VkImageResolve> out;
+    if (!dev.session || !scale_copies(dev, commandBuffer, srcImage, dstImage, regionCount, pRegions, out))
+        return dev.dispatch.CmdResolveImage(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
+                                            regionCount, pRegions);
+    if (!out.empty())
+        dev.dispatch.CmdResolveImage(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
+                                     static_cast<uint32_t>(out.size()), out.data());
+}
+
+template <class Next>
+void resolve_image2(DeviceState &dev, VkCommandBuffer cb, const VkResolveImageInfo2 *info, Next next) {
+    capture_command(dev, cb, [&](codec::Encoder &e) { encode_vkCmdResolveImage2(e, cb, info); });
+    std::vector<VkImageResolve2> out;
+    if (!dev.session ||
+        !scale_copies(dev, cb, info->srcImage, info->dstImage, info->regionCount, info->pRegions, out))
+        return next(cb, info);
+    if (out.empty()) return;
+    VkResolveImageInfo2 scaled = *info;
+    scaled.regionCount = static_cast<uint32_t>(out.size());
+    scaled.pRegions = out.data();
+    next(cb, &scaled);
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdResolveImage2(VkCommandBuffer commandBuffer, const VkResolveImageInfo2 *pInfo) {
+    DeviceState &dev = device_state(commandBuffer);
+    resolve_image2(dev, commandBuffer, pInfo, dev.dispatch.CmdResolveImage2);
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdResolveImage2KHR(VkCommandBuffer commandBuffer,
+                                               const VkResolveImageInfo2 *pInfo) {
+    DeviceState &dev = device_state(commandBuffer);
+    resolve_image2(dev, commandBuffer, pInfo, dev.dispatch.CmdResolveImage2KHR);
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdBlitImage(VkCommandBuffer commandBuffer, VkImage srcImage,
+                                        VkImageLayout srcImageLayout, VkImage dstImage,
+                                        VkImageLayout dstImageLayout, uint32_t regionCount,
+                                        const VkImageBlit *pRegions, VkFilter filter) {
+    DeviceState &dev = device_state(commandBuffer);
+    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
+        encode_vkCmdBlitImage(e, commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
+                              regionCount, pRegions, filter);
+    });
+    std::vector<VkImageBlit> out;
+    if (!dev.session || !scale_blits(dev, commandBuffer, srcImage, dstImage, regionCount, pRegions, out))
+        return dev.dispatch.CmdBlitImage(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
+                                         regionCount, pRegions, filter);
+    if (!out.empty())
+        dev.dispatch.CmdBlitImage(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
+                                  static_cast<uint32_t>(out.size()), out.data(), filter);
+    after_transfer(dev, commandBuffer, dstImage);
+}
+
+template <class Next>
+void blit_image2(DeviceState &dev, VkCommandBuffer cb, const VkBlitImageInfo2 *info, Next next) {
+    capture_command(dev, cb, [&](codec::Encoder &e) { encode_vkCmdBlitImage2(e, cb, info); });
+    std::vector<VkImageBlit2> out;
+    if (!dev.session ||
+        !scale_blits(dev, cb, info->srcImage, info->dstImage, info->regionCount, info->pRegions, out))
+        return next(cb, info);
+    if (out.empty()) return;
+    VkBlitImageInfo2 scaled = *info;
+    scaled.regionCount = static_cast<uint32_t>(out.size());
+    scaled.pRegions = out.data();
+    next(cb, &scaled);
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdBlitImage2(VkCommandBuffer commandBuffer,
+                                         const VkBlitImageInfo2 *pBlitImageInfo) {
+    DeviceState &dev = device_state(commandBuffer);
+    blit_image2(dev, commandBuffer, pBlitImageInfo, dev.dispatch.CmdBlitImage2);
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdBlitImage2KHR(VkCommandBuffer commandBuffer,
+                                            const VkBlitImageInfo2 *pBlitImageInfo) {
+    DeviceState &dev = device_state(commandBuffer);
+    blit_image2(dev, commandBuffer, pBlitImageInfo, dev.dispatch.CmdBlitImage2KHR);
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdCopyBufferToImage(VkCommandBuffer commandBuffer, VkBuffer srcBuffer,
+                                                VkImage dstImage, VkImageLayout dstImageLayout,
+                                                uint32_t regionCount, const VkBufferImageCopy *pRegions) {
+    DeviceState &dev = device_state(commandBuffer);
+    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
+        encode_vkCmdCopyBufferToImage(e, commandBuffer, srcBuffer, dstImage, dstImageLayout, regionCount,
+                                      pRegions);
+    });
+    std::vector<VkBufferImageCopy> out;
+    if (!dev.session || !scale_buffer_copies(dstImage, regionCount, pRegions, out))
+        return dev.dispatch.CmdCopyBufferToImage(commandBuffer, srcBuffer, dstImage, dstImageLayout,
+                                                 regionCount, pRegions);
+    if (!out.empty())
+        dev.dispatch.CmdCopyBufferToImage(commandBuffer, srcBuffer, dstImage, dstImageLayout,
+                                          static_cast<uint32_t>(out.size()), out.data());
+}
+
+template <class Next>
+void copy_buffer_to_image2(DeviceState &dev, VkCommandBuffer cb, const VkCopyBufferToImageInfo2 *info,
+                           Next next) {
+    capture_command(dev, cb, [&](codec::Encoder &e) { encode_vkCmdCopyBufferToImage2(e, cb, info); });
+    std::vector<VkBufferImageCopy2> out;
+    if (!dev.session || !scale_buffer_copies(info->dstImage, info->regionCount, info->pRegions, out))
+        return next(cb, info);
+    if (out.empty()) return;
+    VkCopyBufferToImageInfo2 scaled = *info;
+    scaled.regionCount = static_cast<uint32_t>(out.size());
+    scaled.pRegions = out.data();
+    next(cb, &scaled);
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdCopyBufferToImage2(VkCommandBuffer commandBuffer,
+                                                 const VkCopyBufferToImageInfo2 *pInfo) {
+    DeviceState &dev = device_state(commandBuffer);
+    copy_buffer_to_image2(dev, commandBuffer, pInfo, dev.dispatch.CmdCopyBufferToImage2);
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdCopyBufferToImage2KHR(VkCommandBuffer commandBuffer,
+                                                    const VkCopyBufferToImageInfo2 *pInfo) {
+    DeviceState &dev = device_state(commandBuffer);
+    copy_buffer_to_image2(dev, commandBuffer, pInfo, dev.dispatch.CmdCopyBufferToImage2KHR);
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdCopyImageToBuffer(VkCommandBuffer commandBuffer, VkImage srcImage,
+                                                VkImageLayout srcImageLayout, VkBuffer dstBuffer,
+                                                uint32_t regionCount, const VkBufferImageCopy *pRegions) {
+    DeviceState &dev = device_state(commandBuffer);
+    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
+        encode_vkCmdCopyImageToBuffer(e, commandBuffer, srcImage, srcImageLayout, dstBuffer, regionCount,
+                                      pRegions);
+    });
+    std::vector<VkBufferImageCopy> out;
+    if (!dev.session || !scale_buffer_copies(srcImage, regionCount, pRegions, out))
+        return dev.dispatch.CmdCopyImageToBuffer(commandBuffer, srcImage, srcImageLayout, dstBuffer,
+                                                 regionCount, pRegions);
+    if (!out.empty())
+        dev.dispatch.CmdCopyImageToBuffer(commandBuffer, srcImage, srcImageLayout, dstBuffer,
+                                          static_cast<uint32_t>(out.size()), out.data());
+}
+
+template <class Next>
+void copy_image_to_buffer2(DeviceState &dev, VkCommandBuffer cb, const VkCopyImageToBufferInfo2 *info,
+                           Next next) {
+    capture_command(dev, cb, [&](codec::Encoder &e) { encode_vkCmdCopyImageToBuffer2(e, cb, info); });
+    std::vector<VkBufferImageCopy2> out;
+    if (!dev.session || !scale_buffer_copies(info->srcImage, info->regionCount, info->pRegions, out))
+        return next(cb, info);
+    if (out.empty()) return;
+    VkCopyImageToBufferInfo2 scaled = *info;
+    scaled.regionCount = static_cast<uint32_t>(out.size());
+    scaled.pRegions = out.data();
+    next(cb, &scaled);
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdCopyImageToBuffer2(VkCommandBuffer commandBuffer,
+                                                 const VkCopyImageToBufferInfo2 *pInfo) {
+    DeviceState &dev = device_state(commandBuffer);
+    copy_image_to_buffer2(dev, commandBuffer, pInfo, dev.dispatch.CmdCopyImageToBuffer2);
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdCopyImageToBuffer2KHR(VkCommandBuffer commandBuffer,
+                                                    const VkCopyImageToBufferInfo2 *pInfo) {
+    DeviceState &dev = device_state(commandBuffer);
+    copy_image_to_buffer2(dev, commandBuffer, pInfo, dev.dispatch.CmdCopyImageToBuffer2KHR);
+}
+
+// A dispatch with a screen-space storage image bound covers the scaled image with ceil(n·s)
+// groups. Shaders that bound-check against imageSize() then shade exactly the scaled target; a
+// shader that takes the extent from a uniform shades the scaled image's top-left part of it (a
+// periphery artefact; DESIGN §4, the agent replays it full size).
+VKAPI_ATTR void VKAPI_CALL CmdDispatch(VkCommandBuffer commandBuffer, uint32_t groupCountX,
+                                       uint32_t groupCountY, uint32_t groupCountZ) {
+    DeviceState &dev = device_state(commandBuffer);
+    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
+        encode_vkCmdDispatch(e, commandBuffer, groupCountX, groupCountY, groupCountZ);
+    });
+    if (dev.session && dispatch_writes_screen_space(commandBuffer)) {
+        const double s = split_settings().scale;
+        groupCountX = split::scaled_group_count(groupCountX, s);
+        groupCountY = split::scaled_group_count(groupCountY, s);
+    }
+    dev.dispatch.CmdDispatch(commandBuffer, groupCountX, groupCountY, groupCountZ);
+}
+
+} // namespace entry
+} // namespace splitvk

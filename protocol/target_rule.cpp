@@ -1,0 +1,97 @@
+#include "target_rule.h"
+
+#include "split_geometry.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace splitvk::split {
+namespace {
+
+constexpr VkImageUsageFlags kWrittenByPasses = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT |
+                                               VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT |
+                                               VK_IMAGE_USAGE_STORAGE_BIT;
+
+// Whether `e` is `base` halved k times (each axis rounded down or up); sets *divisor = 2^k.
+bool halved(VkExtent2D e, VkExtent2D base, uint32_t *divisor) {
+    if (base.width == 0 || base.height == 0) return false;
+    for (uint32_t k = 0; k < 31; ++k) {
+        const uint32_t d = 1u << k;
+        const uint32_t w_lo = base.width / d, w_hi = (base.width + d - 1) / d;
+        const uint32_t h_lo = base.height / d, h_hi = (base.height + d - 1) / d;
+        if (w_hi < kMinTargetSide || h_hi < kMinTargetSide) return false;
+        if ((e.width == w_lo || e.width == w_hi) && (e.height == h_lo || e.height == h_hi)) {
+            *divisor = d;
+            return true;
+        }
+    }
+    return false;
+}
+
+bool chained(const void *next, VkStructureType type) {
+    for (auto *p = static_cast<const VkBaseInStructure *>(next); p; p = p->pNext)
+        if (p->sType == type) return true;
+    return false;
+}
+
+TargetClass no(const char *reason) {
+    TargetClass c;
+    c.reason = reason;
+    return c;
+}
+
+} // namespace
+
+TargetClass classify_target(const VkImageCreateInfo &info, VkExtent2D screen, EyeMode eyes) {
+    if (info.imageType != VK_IMAGE_TYPE_2D || info.extent.depth != 1) return no("not a 2D image");
+    if (info.tiling != VK_IMAGE_TILING_OPTIMAL)
+        return no("not optimal tiling (the host may address its texels)");
+    if (!(info.usage & kWrittenByPasses))
+        return no("no attachment or storage usage (a texture, not a target)");
+    if (info.flags & (VK_IMAGE_CREATE_SPARSE_BINDING_BIT | VK_IMAGE_CREATE_ALIAS_BIT))
+        return no("sparse or aliased");
+    if (chained(info.pNext, VK_STRUCTURE_TYPE_EXTERNAL_MEMORY_IMAGE_CREATE_INFO))
+        return no("external memory (shared beyond this process)");
+    const VkExtent2D e{info.extent.width, info.extent.height};
+    if (e.width < kMinTargetSide || e.height < kMinTargetSide)
+        return no("smaller than a screen-space target");
+    TargetClass c;
+    const char *of = "the swapchain's extent";
+    bool found = halved(e, screen, &c.divisor);
+    if (!found && eyes != EyeMode::One) {
+        // eye_for_viewport's eyes: the left one W/2 wide, the right one W - W/2.
+        const VkExtent2D left{screen.width / 2, screen.height},
+            right{screen.width - screen.width / 2, screen.height};
+        found = halved(e, left, &c.divisor) || halved(e, right, &c.divisor);
+        c.eye = found;
+        of = "one eye's extent";
+    }
+    if (!found) return no("not the swapchain's or an eye's extent, nor either halved on both axes");
+    c.screen_space = true;
+    c.reason = of;
+    if (c.divisor > 1) c.reason += " / " + std::to_string(c.divisor);
+    if (info.arrayLayers > 1) c.reason += ", per layer";
+    return c;
+}
+
+VkExtent3D scaled_target_extent(VkExtent3D full, double scale) {
+    const VkExtent2D s = scaled_extent({full.width, full.height}, scale);
+    return {s.width, s.height, full.depth};
+}
+
+VkExtent2D mip_extent(VkExtent2D base, uint32_t mip) {
+    if (mip >= 32) return {1, 1};
+    return {std::max(1u, base.width >> mip), std::max(1u, base.height >> mip)};
+}
+
+VkRect2D scale_target_rect(const VkRect2D &rect, VkExtent2D full, uint32_t mip, double scale) {
+    return scale_rect(rect, scale, mip_extent(scaled_extent(full, scale), mip));
+}
+
+uint32_t scaled_group_count(uint32_t groups, double scale) {
+    if (groups == 0) return 0;
+    return std::max<uint32_t>(1,
+                              static_cast<uint32_t>(std::ceil(static_cast<double>(groups) * scale - 1e-6)));
+}
+
+} // namespace splitvk::split

@@ -1,0 +1,55 @@
+#pragma once
+
+// Screen-space targets (DESIGN §4, issue 11): the rule that decides, when an image is created,
+// whether the client renders it at SPLITVK_SCALE, and how the regions that commands name in such an
+// image map into the scaled one. Pure functions, so that one table holds the rule and a unit test
+// pins it (tests/unit/screen_space_test.cpp); layer/screen_space.h applies it.
+//
+// A screen-space target is an image a frame renders into at a size tied to the screen: a 2D,
+// optimal-tiling colour, depth/stencil or storage image whose extent (per layer: layered eye
+// textures qualify layer by layer) is the swapchain's, one eye's, or either halved k times on both
+// axes (rounded down or up, so 2400x1080 / 16 = 150x67 or 150x68), with both sides at least
+// kMinTargetSide. Smaller images, textures that no pass writes (no attachment or storage usage),
+// aliased, sparse and external images stay full size.
+
+#include "settings.h"
+
+#include <vulkan/vulkan.h>
+
+#include <cstdint>
+#include <string>
+
+namespace splitvk::split {
+
+// Reductions (1x1 exposure, 4x4 luminance) and tiny lookup images are not screen-space: their texels
+// are not pixels of the screen, and scaling them would change what the frame computes.
+constexpr uint32_t kMinTargetSide = 16;
+
+struct TargetClass {
+    bool screen_space = false;
+    bool eye = false;     // sized after one eye (half the swapchain's width), not the whole screen
+    uint32_t divisor = 1; // 1, 2, 4, ...: the screen (or eye) extent halved log2(divisor) times
+    std::string reason;   // why, for the info line: "the swapchain's extent / 2", "no attachment usage"
+};
+
+// `screen`: the extent of the device's newest swapchain; `eyes`: SPLITVK_EYES (Two and Auto also
+// accept one eye's extent, since Auto may find eyes side by side).
+TargetClass classify_target(const VkImageCreateInfo &info, VkExtent2D screen, EyeMode eyes);
+
+// The extent a screen-space target is created with: width and height as split::scaled_extent
+// rounds them (ceil, at least 1), depth unchanged.
+VkExtent3D scaled_target_extent(VkExtent3D full, double scale);
+
+// The extent of mip `mip` of an image of extent `base`.
+VkExtent2D mip_extent(VkExtent2D base, uint32_t mip);
+
+// A region (copy, blit, resolve, clear) of mip `mip` of a screen-space target whose app-visible
+// extent is `full`, mapped into the scaled image: offsets and ends times s, rounded outwards as
+// scale_rect does and clamped to the scaled mip.
+VkRect2D scale_target_rect(const VkRect2D &rect, VkExtent2D full, uint32_t mip, double scale);
+
+// The group count of a dispatch over a scaled target: ceil(n·s), at least 1 (covers every scaled
+// pixel whenever n groups covered every full one).
+uint32_t scaled_group_count(uint32_t groups, double scale);
+
+} // namespace splitvk::split

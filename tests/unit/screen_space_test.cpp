@@ -1,0 +1,143 @@
+// The screen-space target rule (protocol/screen_space.h): which images the client renders at
+// SPLITVK_SCALE, and how their regions round. The layer classifies every image with it.
+
+#include "split_geometry.h"
+#include "target_rule.h"
+
+#include <gtest/gtest.h>
+
+namespace splitvk::split {
+namespace {
+
+constexpr VkExtent2D kScreen{2400, 1080};
+
+VkImageCreateInfo image(uint32_t w, uint32_t h,
+                        VkImageUsageFlags usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT |
+                                                  VK_IMAGE_USAGE_SAMPLED_BIT,
+                        uint32_t layers = 1) {
+    VkImageCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
+    info.imageType = VK_IMAGE_TYPE_2D;
+    info.format = VK_FORMAT_R16G16B16A16_SFLOAT;
+    info.extent = {w, h, 1};
+    info.mipLevels = 1;
+    info.arrayLayers = layers;
+    info.samples = VK_SAMPLE_COUNT_1_BIT;
+    info.tiling = VK_IMAGE_TILING_OPTIMAL;
+    info.usage = usage;
+    return info;
+}
+
+bool qualifies(const VkImageCreateInfo &info, EyeMode eyes = EyeMode::Auto) {
+    return classify_target(info, kScreen, eyes).screen_space;
+}
+
+TEST(ScreenSpace, SwapchainExtentAndItsHalvings) {
+    const TargetClass full = classify_target(image(2400, 1080), kScreen, EyeMode::Auto);
+    EXPECT_TRUE(full.screen_space);
+    EXPECT_EQ(full.divisor, 1u);
+    EXPECT_EQ(full.reason, "the swapchain's extent");
+    // A bloom chain: half, quarter, eighth.
+    for (uint32_t d : {2u, 4u, 8u}) {
+        const TargetClass c = classify_target(image(2400 / d, 1080 / d), kScreen, EyeMode::Auto);
+        EXPECT_TRUE(c.screen_space) << d;
+        EXPECT_EQ(c.divisor, d);
+        EXPECT_FALSE(c.eye);
+    }
+    // Halving an odd side rounds either way: 1080 / 16 = 67.5.
+    EXPECT_TRUE(qualifies(image(150, 67)));
+    EXPECT_TRUE(qualifies(image(150, 68)));
+    EXPECT_FALSE(qualifies(image(150, 66)));
+}
+
+TEST(ScreenSpace, AspectRatioMustBeKept) {
+    EXPECT_FALSE(qualifies(image(1200, 1080 / 4))); // half width, quarter height
+    EXPECT_FALSE(qualifies(image(2400, 540)));
+    EXPECT_FALSE(qualifies(image(2401, 1080)));
+    EXPECT_FALSE(qualifies(image(1024, 1024))); // a shadow map
+}
+
+TEST(ScreenSpace, EyesAndLayers) {
+    // One eye of 2400x1080 side by side: 1200x1080, and its halvings.
+    const TargetClass eye = classify_target(image(1200, 1080), kScreen, EyeMode::Auto);
+    EXPECT_TRUE(eye.screen_space);
+    EXPECT_TRUE(eye.eye);
+    EXPECT_EQ(eye.reason, "one eye's extent");
+    EXPECT_TRUE(qualifies(image(300, 270), EyeMode::Two));
+    // A multiview eye texture qualifies per layer.
+    const TargetClass layered =
+        classify_target(image(1200, 1080, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT, 2), kScreen, EyeMode::Two);
+    EXPECT_TRUE(layered.screen_space);
+    EXPECT_EQ(layered.reason, "one eye's extent, per layer");
+    // With one eye there is no eye-sized target: 1200x1080 is then just another size.
+    EXPECT_FALSE(qualifies(image(1200, 1080), EyeMode::One));
+    // An odd swapchain width: the right eye is the wider one.
+    EXPECT_TRUE(classify_target(image(1201, 1080), {2401, 1080}, EyeMode::Two).screen_space);
+}
+
+TEST(ScreenSpace, OnlyTargetsThatPassesWrite) {
+    EXPECT_TRUE(qualifies(image(2400, 1080, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT)));
+    EXPECT_TRUE(qualifies(image(2400, 1080, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT)));
+    // A screen-sized texture the app uploads (sampled, transfer dst) is content, not a target.
+    EXPECT_FALSE(qualifies(image(2400, 1080, VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT)));
+    VkImageCreateInfo linear = image(2400, 1080);
+    linear.tiling = VK_IMAGE_TILING_LINEAR;
+    EXPECT_FALSE(qualifies(linear));
+    VkImageCreateInfo volume = image(2400, 1080);
+    volume.imageType = VK_IMAGE_TYPE_3D;
+    EXPECT_FALSE(qualifies(volume));
+    VkImageCreateInfo aliased = image(2400, 1080);
+    aliased.flags = VK_IMAGE_CREATE_ALIAS_BIT;
+    EXPECT_FALSE(qualifies(aliased));
+    VkExternalMemoryImageCreateInfo external{};
+    external.sType = VK_STRUCTURE_TYPE_EXTERNAL_MEMORY_IMAGE_CREATE_INFO;
+    VkImageCreateInfo shared = image(2400, 1080);
+    shared.pNext = &external;
+    EXPECT_FALSE(qualifies(shared));
+    // Reductions end before they reach exposure-sized images.
+    EXPECT_FALSE(qualifies(image(2400 / 256, 1080 / 256)));
+    EXPECT_FALSE(qualifies(image(1, 1)));
+}
+
+TEST(ScreenSpace, ScaledExtentRoundsLikeTheSwapchainPass) {
+    for (uint32_t d : {1u, 2u, 4u, 8u}) {
+        const VkExtent3D e = scaled_target_extent({2400 / d, 1080 / d, 1}, 0.6);
+        const VkExtent2D pass = scaled_extent({2400 / d, 1080 / d}, 0.6);
+        EXPECT_EQ(e.width, pass.width);
+        EXPECT_EQ(e.height, pass.height);
+        EXPECT_EQ(e.depth, 1u);
+    }
+    const VkExtent3D full = scaled_target_extent({2400, 1080, 1}, 0.6);
+    EXPECT_EQ(full.width, 1440u);
+    EXPECT_EQ(full.height, 648u);
+    const VkExtent3D eighth = scaled_target_extent({300, 135, 1}, 0.6);
+    EXPECT_EQ(eighth.width, 180u);
+    EXPECT_EQ(eighth.height, 81u);
+    const VkExtent3D odd = scaled_target_extent({150, 67, 1}, 0.6); // 90 x 40.2
+    EXPECT_EQ(odd.width, 90u);
+    EXPECT_EQ(odd.height, 41u);
+}
+
+TEST(ScreenSpace, RegionsScaleIntoTheScaledMip) {
+    const VkRect2D whole = scale_target_rect({{0, 0}, {2400, 1080}}, {2400, 1080}, 0, 0.6);
+    EXPECT_EQ(whole.extent.width, 1440u);
+    EXPECT_EQ(whole.extent.height, 648u);
+    // Mip 1 of the scaled image is 720x324: the region of full mip 1 (1200x540) fills it.
+    const VkRect2D mip1 = scale_target_rect({{0, 0}, {1200, 540}}, {2400, 1080}, 1, 0.6);
+    EXPECT_EQ(mip1.extent.width, 720u);
+    EXPECT_EQ(mip1.extent.height, 324u);
+    // Rounded outwards, clamped to the scaled mip.
+    const VkRect2D part = scale_target_rect({{1, 1}, {2, 2}}, {2400, 1080}, 0, 0.6);
+    EXPECT_EQ(part.offset.x, 0);
+    EXPECT_EQ(part.extent.width, 2u);
+    EXPECT_EQ(scaled_group_count(300, 0.6), 180u); // ceil(2400 / 8) groups of 8 -> 1440 pixels
+    EXPECT_EQ(scaled_group_count(135, 0.6), 81u);
+    EXPECT_EQ(scaled_group_count(1, 0.6), 1u);
+    EXPECT_EQ(scaled_group_count(0, 0.6), 0u);
+    // ceil(ceil(W / 8) s) groups always cover ceil(W s) pixels.
+    for (uint32_t w = 1; w < 3000; w += 7)
+        EXPECT_GE(scaled_group_count((w + 7) / 8, 0.6) * 8, scaled_extent({w, 1}, 0.6).width) << w;
+}
+
+} // namespace
+} // namespace splitvk::split
