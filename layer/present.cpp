@@ -609,10 +609,10 @@ constexpr uint64_t kUnsplitFramesBeforeWarning = 100;
 void warn_unsplit(Session &session) {
     if (session.split_frames.load() > 0 || session.unsplit_warned.exchange(true)) return;
     SPLITVK_WARN(
-        "split: %llu frames forwarded to the agent, none split: no render pass drew into a presented "
-        "swapchain image (the application copies or blits its frames into the swapchain; "
-        "gfxrecon-replay does unless given --use-captured-swapchain-indices), so the agent "
-        "replays every frame and the frames shown are the application's own",
+        "split: %llu frames forwarded to the agent, none split: nothing the layer can scale drew into a "
+        "presented swapchain image (no render pass with inline contents or secondaries it could "
+        "predict, no copy, blit or resolve; a compute shader writing the swapchain image is not "
+        "scaled), so the agent replays every frame and the frames shown are the application's own",
         static_cast<unsigned long long>(session.unsplit_frames.load()));
 }
 
