@@ -632,8 +632,8 @@ def path_ratios(p):
             "split-tls/split": tls["median"] / sp if tls and sp else None}
 
 
-def fmt_ratio(value):
-    return "-" if value is None else f"{value:.3f}"
+def fmt_ratio(value, missing="-"):
+    return missing if value is None else f"{value:.3f}"
 
 
 def print_ratio_lines(res):
@@ -793,11 +793,12 @@ def paths_markdown(res):
         if tls:
             t = p.get("split_tls")
             row.append(f"{t['median']:.2f} ({t['iqr']:.2f})" if t else "n/a")
-        row += [f"{p['periphery']['median']:.2f}" if p.get("periphery") else "n/a",
-                fmt_ratio(r["periphery/native"]), f"{s['tile_wait']:.2f}", f"{s.get('exposed_share', 0.0):.3f}",
+        estimated = " (est.)" if p.get("periphery_source") == "estimate" else ""
+        row += [f"{p['periphery']['median']:.2f}{estimated}" if p.get("periphery") else "n/a",
+                fmt_ratio(r["periphery/native"], "n/a"), f"{s['tile_wait']:.2f}", f"{s.get('exposed_share', 0.0):.3f}",
                 f"**{fmt_ratio(r['split/native'])}**"]
         if tls:
-            row.append(fmt_ratio(r["split-tls/split"]))
+            row.append(fmt_ratio(r["split-tls/split"], "n/a"))
         row += [f"{s['tile_bytes'] / s['raw_bytes']:.3f}" if s["raw_bytes"] else "n/a",
                 f"{cpu['split'] / cpu['native']:.3f}" if cpu.get("native") and cpu.get("split") else "n/a",
                 f"{s['late']} of {s['frames']}"]
@@ -807,7 +808,7 @@ def paths_markdown(res):
         "## The paper's experiment on each render path (`scripts/bench paper --path`)",
         "",
         "What it measures: the experiment above with splitvk-atrium drawing each frame through one of its "
-        "render paths (`--path`; docs/user-guide.md lists what each does). "
+        "render paths (`--path`; docs/user-guide.md, \"The workload\", says what each does). "
         f"{c['width']}x{c['height']} stereo, fovea {c['fovea']} per eye, periphery at scale {c['scale']} "
         f"({c['periphery']}), codec {c['codec']}; client on CPU {c['client_cpus']} with `LP_NUM_THREADS="
         f"{c['client_threads']}`, agent on CPU {c['agent_cpus']}; link: {c['link']}; `SPLITVK_TILE_WAIT="
@@ -817,7 +818,9 @@ def paths_markdown(res):
         + f"; {c['rounds']} rounds of {c['frames']} frames, the first {c['warmup']} of each run left out. "
         "Frame times are medians (IQR) over every remaining frame; periphery is the client's periphery "
         "render on its GPU (`SPLITVK_STATS`' `periphery_ms`, timestamp queries), and periphery/native that "
-        "over the native median frame: the share of a native frame the client still renders itself.",
+        "over the native median frame: the share of a native frame the client still renders itself. "
+        "The layer does not time a pass whose contents are in secondary command buffers (`secondary`): "
+        "n/a there, or (est.) from a native run at the periphery's size with `--periphery-frames N`.",
         "",
         f"- date: {res['date']}",
         f"- machine: {describe_machine(m)}; Xvfb display",
