@@ -172,6 +172,37 @@ def run(argv, env, timeout_s):
     return r
 
 
+def agent_state_dir(out_dir):
+    """Where a bench's splitvk-agent keeps its TLS identity (--state-dir): in the bench's own output
+    folder, never the user's state directory."""
+    return os.path.join(out_dir, "agent-state")
+
+
+# `sha256:` and 64 hex digits, as splitvk-agent --print-fingerprint prints it
+FINGERPRINT_RE = re.compile(r"\bsha256:[0-9a-f]{64}\b")
+
+
+def tls_split_env(split_env, agent, out_dir, env):
+    """split_env over TLS 1.3 (SPLITVK_TLS=on, also on loopback) to the agent whose identity is in
+    agent_state_dir(out_dir), pinned by its fingerprint: a known_agents entry left by an earlier run
+    at a reused port cannot refuse it. XDG_CONFIG_HOME points into out_dir so that the user's own
+    ~/.config/splitvk/known_agents is neither read nor written."""
+    state = agent_state_dir(out_dir)
+    r = subprocess.run([agent, "--print-fingerprint", "--state-dir", state], env=env, stdin=subprocess.DEVNULL,
+                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=60)
+    m = FINGERPRINT_RE.search(r.stdout)
+    if r.returncode != 0 or not m:
+        raise BenchError(f"{agent} --print-fingerprint --state-dir {state} failed:\n" + tail(r.stdout))
+    return dict(split_env, SPLITVK_TLS="on", SPLITVK_AGENT_FINGERPRINT=m.group(0),
+                XDG_CONFIG_HOME=os.path.join(out_dir, "tls-config"))
+
+
+def check_tls_split(r):
+    """Raises unless the run r (with tls_split_env) split over TLS 1.3."""
+    if "running unsplit" in r.stderr or "[splitvk] split:" not in r.stderr or "TLS 1.3" not in r.stderr:
+        raise BenchError("the TLS split run did not split over TLS 1.3:\n" + tail(r.stderr))
+
+
 def layer_active_line(app_name):
     return f"[splitvk] info: {LAYER_NAME} active in '{app_name}'"
 

@@ -10,11 +10,20 @@ Each round also renders the scene natively at the periphery's size (scale x the 
 by default) on the client's cores: the client's periphery render, estimated, since the layer does
 not time the app's own rendering.
 
+--path NAME (or --paths A,B,... or --path all) draws the frames through one or more of atrium's
+render paths (splitvk-atrium --path: direct, hdr, deferred, multiview, secondary, compute); each
+round runs every path in turn, each path's native and split alternating as for one path. --tls adds
+a split over TLS 1.3 (SPLITVK_TLS=on, the agent pinned by its fingerprint) to every round and path.
+
 Prints median and IQR of the frame time (every frame of every run, after --warmup frames per run)
 of native and split, the client's and the agent's per-stage medians, Mbit/s of tiles; draws the
 frame-time distributions and one typical frame's timeline (docs/figures/ with /usr/bin/python3
 and python3-matplotlib); with --write-docs (the default for a full run) replaces the paper section
-of docs/BENCHMARKS.md. The output ends with four lines, nothing after them:
+of docs/BENCHMARKS.md (with any path but direct, or several, its per-path section instead, and the
+figures stay in --out-dir). Per path it prints split/native, periphery/native (the client's
+periphery render, SPLITVK_STATS' periphery_ms, over the native median frame time) and with --tls
+split-tls/split, as `NAME[PATH]: R` lines when there are several paths; then the first path's
+periphery/native and split-tls/split, and it ends with four lines for the first path, nothing after them:
   split/native: R        split median frame time over native median frame time
   tile-wait/frame: R     median tile wait over the split median frame time
   exposed-wait/frame: R  all exposed wait (the tile wait after the client's GPU had finished its
@@ -46,6 +55,11 @@ PLOT_SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "paper_pl
 PLOT_PYTHON = "/usr/bin/python3"
 DOC_BEGIN = "<!-- bench paper: begin (scripts/bench paper --write-docs replaces this section) -->"
 DOC_END = "<!-- bench paper: end -->"
+# Runs with other render paths than direct, or several, write their per-path table here instead, so
+# that the direct path's full section (and its figures) stays what its own run measured.
+PATHS_BEGIN = "<!-- bench paper paths: begin (scripts/bench paper --path/--paths --write-docs replaces this section) -->"
+PATHS_END = "<!-- bench paper paths: end -->"
+RENDER_PATHS = ("direct", "hdr", "deferred", "multiview", "secondary", "compute")  # splitvk-atrium --path
 # The periphery render is measured by the layer (SPLITVK_STATS' periphery_ms, GPU timestamps);
 # --periphery-frames N adds the older estimate, a native run at the periphery's size.
 FULL = {"frames": 350, "rounds": 3, "periphery_frames": 0}
@@ -65,6 +79,23 @@ def cpu_list(text):
     if not cpus:
         raise ValueError(f"empty CPU list '{text}'")
     return sorted(cpus)
+
+
+def path_names(text):
+    """'hdr', 'all', 'direct,hdr' -> list of atrium render paths, in the order given, once each."""
+    names = []
+    for name in text.split(","):
+        name = name.strip()
+        if name == "all":
+            wanted = list(RENDER_PATHS)
+        elif name in RENDER_PATHS:
+            wanted = [name]
+        else:
+            raise argparse.ArgumentTypeError(f"unknown render path '{name}' (expected {', '.join(RENDER_PATHS)} or all)")
+        names += [n for n in wanted if n not in names]
+    if not names:
+        raise argparse.ArgumentTypeError("no render path given")
+    return names
 
 
 def cpu_text(cpus):
@@ -112,6 +143,13 @@ def register(subparsers):
                    help="put splitvk-link with this profile between layer and agent: gige, wifi5 (the paper's "
                         "client link), wifi6, or none (forwarding only); direct: no proxy (default: %(default)s)")
     p.add_argument("--link-bin", help="splitvk-link to use (default: BUILD/bin/splitvk-link)")
+    paths = p.add_mutually_exclusive_group()
+    paths.add_argument("--path", dest="paths", type=path_names, metavar="NAME|all",
+                       help=f"splitvk-atrium --path: {', '.join(RENDER_PATHS)}, or all of them (default: direct)")
+    paths.add_argument("--paths", dest="paths", type=path_names, metavar="A,B,...",
+                       help="several render paths, run in this order in every round")
+    p.add_argument("--tls", action="store_true",
+                   help="also run each round's split over TLS 1.3 (SPLITVK_TLS=on) and report split-tls/split")
     p.add_argument("--out-dir", help="per-frame CSVs, logs, results.json (default: BUILD/bench-paper)")
     p.add_argument("--figures-dir", help="where the PNGs go (default: docs/figures with --write-docs, else --out-dir)")
     docs = p.add_mutually_exclusive_group()
@@ -274,9 +312,10 @@ def measure(args):
     client_prefix = ["taskset", "-c", cpu_text(client_cpus)]
     agent_prefix = ["taskset", "-c", cpu_text(agent_cpus)]
 
-    def argv(width, height, frames, times_path):
-        return client_prefix + [build.atrium, "--width", str(width), "--height", str(height), "--eyes", "2",
-                                "--frames", str(frames), "--present-mode", "immediate", "--frame-times", times_path]
+    def argv(path, width, height, frames, times_path):
+        return client_prefix + [build.atrium, "--path", path, "--width", str(width), "--height", str(height),
+                                "--eyes", "2", "--frames", str(frames), "--present-mode", "immediate",
+                                "--frame-times", times_path]
 
     timeout_s = 300 + 3 * args.frames
     agent_port = split.free_port()
@@ -284,6 +323,7 @@ def measure(args):
     print(f"paper: {APP_NAME} {args.width}x{args.height} stereo, fovea {args.fovea} per eye, scale {args.scale} "
           f"(periphery {pw}x{ph}), codec {args.codec}, moving camera; {args.frames} frames per run "
           f"({args.warmup} warm-up left out), {args.rounds} rounds native/split alternating"
+          + (" with a split over TLS 1.3" if args.tls else "") + f"; render path(s): {', '.join(args.paths)}"
           + (f", periphery-size native runs of {args.periphery_frames} frames" if args.periphery_frames else ""),
           flush=True)
     print(f"paper: weak client on CPU {cpu_text(client_cpus)} with LP_NUM_THREADS={args.client_threads}; "
@@ -294,8 +334,9 @@ def measure(args):
         print(f"paper: --quick: {args.frames} frames x {args.rounds} rounds, a sketch of the full run "
               f"(scripts/bench paper: {FULL['frames']} x {FULL['rounds']}); its numbers are noisier", flush=True)
 
-    native_runs, split_runs, periphery_runs = [], [], []
-    cpu = {"native": [], "split": []}
+    # Per path: frame times of each run (after the warm-up), the split runs' stats rows, CPU per frame.
+    runs = {path: {"native": [], "split": [], "split-tls": [], "periphery": [],
+                   "cpu": {"native": [], "split": [], "split-tls": []}} for path in args.paths}
     start = time.monotonic()
     with common.display() as disp:
         base = common.clean_env(args.icd)
@@ -311,36 +352,50 @@ def measure(args):
                              SPLITVK_LOG_LEVEL="info", SPLITVK_SCALE=args.scale, SPLITVK_CODEC=args.codec,
                              SPLITVK_EYES="2", SPLITVK_FOVEA=args.fovea,
                              SPLITVK_TILE_WAIT=str(args.tile_wait))
+            # The same split over TLS to the same agent (it serves both on one port), through the link too.
+            tls_env = common.tls_split_env(split_env, agent, out_dir, base) if args.tls else None
             for i in range(args.rounds):
-                order = ("native", "split") if i % 2 == 0 else ("split", "native")
-                line = []
-                for mode in order:
-                    times = os.path.join(out_dir, f"{mode}-round{i + 1}-frames.csv")
-                    if mode == "native":
-                        r = cpu_run(argv(args.width, args.height, args.frames, times), client_env, timeout_s,
-                                    args.frames, cpu["native"])
-                        native_runs.append(read_frame_times(times, args.warmup))
-                    else:
-                        stats = os.path.join(out_dir, f"split-round{i + 1}.csv")
-                        r = cpu_run(argv(args.width, args.height, args.frames, times),
-                                    dict(split_env, SPLITVK_STATS=stats), timeout_s, args.frames, cpu["split"])
-                        if "running unsplit" in r.stderr or "[splitvk] split:" not in r.stderr:
-                            raise common.BenchError("the split run did not split:\n" + common.tail(r.stderr))
-                        split_runs.append((read_frame_times(times, args.warmup), split.read_stats(stats, args.warmup)))
-                    m, iqr, _ = r.frame_time()
-                    line.append(f"{mode} {m:7.2f} ms/frame (IQR {iqr:.2f})")
-                if args.periphery_frames:
-                    times = os.path.join(out_dir, f"periphery-round{i + 1}-frames.csv")
-                    common.run(argv(pw, ph, args.periphery_frames, times), client_env, timeout_s)
-                    periphery_runs.append(read_frame_times(times, args.warmup))
-                    line.append(f"periphery {split.median(periphery_runs[-1]):6.2f}")
-                print(f"  round {i + 1}/{args.rounds}: " + "   ".join(line)
-                      + f"   [{time.monotonic() - start:5.0f} s, load {os.getloadavg()[0]:.2f}]", flush=True)
+                # Native and split alternate their order every round; the TLS split, when there is
+                # one, trades ends with native, so the plain split sits between them in every round.
+                order = ("native", "split", "split-tls") if tls_env else ("native", "split")
+                if i % 2:
+                    order = order[::-1]
+                for path in args.paths:
+                    got, line = runs[path], []
+                    prefix = "" if path == "direct" else f"{path}-"  # a direct run's files keep their names
+                    for mode in order:
+                        times = os.path.join(out_dir, f"{prefix}{mode}-round{i + 1}-frames.csv")
+                        if mode == "native":
+                            r = cpu_run(argv(path, args.width, args.height, args.frames, times), client_env,
+                                        timeout_s, args.frames, got["cpu"]["native"])
+                            got["native"].append(read_frame_times(times, args.warmup))
+                        elif mode == "split":
+                            stats = os.path.join(out_dir, f"{prefix}split-round{i + 1}.csv")
+                            r = cpu_run(argv(path, args.width, args.height, args.frames, times),
+                                        dict(split_env, SPLITVK_STATS=stats), timeout_s, args.frames,
+                                        got["cpu"]["split"])
+                            if "running unsplit" in r.stderr or "[splitvk] split:" not in r.stderr:
+                                raise common.BenchError(f"the split run (--path {path}) did not split:\n"
+                                                        + common.tail(r.stderr))
+                            got["split"].append((read_frame_times(times, args.warmup),
+                                                 split.read_stats(stats, args.warmup)))
+                        else:
+                            r = cpu_run(argv(path, args.width, args.height, args.frames, times), tls_env,
+                                        timeout_s, args.frames, got["cpu"]["split-tls"])
+                            common.check_tls_split(r)
+                            got["split-tls"].append(read_frame_times(times, args.warmup))
+                        m, iqr, _ = r.frame_time()
+                        line.append(f"{mode} {m:7.2f} ms/frame (IQR {iqr:.2f})")
+                    if args.periphery_frames:
+                        times = os.path.join(out_dir, f"{prefix}periphery-round{i + 1}-frames.csv")
+                        common.run(argv(path, pw, ph, args.periphery_frames, times), client_env, timeout_s)
+                        got["periphery"].append(read_frame_times(times, args.warmup))
+                        line.append(f"periphery {split.median(got['periphery'][-1]):6.2f}")
+                    label = f" {path}" if len(args.paths) > 1 or path != "direct" else ""
+                    print(f"  round {i + 1}/{args.rounds}{label}: " + "   ".join(line)
+                          + f"   [{time.monotonic() - start:5.0f} s, load {os.getloadavg()[0]:.2f}]", flush=True)
     machine["load_after"] = os.getloadavg()
-    res = summarize(args, machine, native_runs, split_runs, periphery_runs, (pw, ph), out_dir,
-                    time.monotonic() - start)
-    res["client_cpu"] = {k: split.median(v) for k, v in cpu.items()}
-    return res
+    return summarize(args, machine, runs, (pw, ph), out_dir, time.monotonic() - start)
 
 
 # --- numbers ---------------------------------------------------------------------------------------
@@ -421,17 +476,38 @@ def periphery_note(config):
     return f"periphery render estimated by a native run at {config['periphery']}"
 
 
-def summarize(args, machine, native_runs, split_runs, periphery_runs, periphery_size, out_dir, wall_s):
-    native = [v for run in native_runs for v in run]
-    split_times = [v for run, _ in split_runs for v in run]
-    rows = [r for _, rows in split_runs for r in rows]
+def path_summary(path, runs):
+    """One render path's numbers from its runs (see measure), without the per-frame lists."""
+    native = [v for run in runs["native"] for v in run]
+    split_times = [v for run, _ in runs["split"] for v in run]
+    tls_times = [v for run in runs["split-tls"] for v in run]
+    rows = [r for _, rows in runs["split"] for r in rows]
     stages = split.stage_medians(rows)
     stages["frame"] = split.median([float(r["frame_ms"]) for r in rows if float(r["frame_ms"]) > 0])
     # Measured on the client's GPU when the layer wrote it; else the periphery-size native estimate.
     measured = [float(r["periphery_ms"]) for r in rows if float(r.get("periphery_ms") or 0) > 0]
-    periphery = measured or [v for run in periphery_runs for v in run]
-    source = "gpu" if measured else ("estimate" if periphery else None)
-    typical = typical_frame(rows, stages)
+    periphery = measured or [v for run in runs["periphery"] for v in run]
+    return {
+        "path": path, "native": q3(native), "split": q3(split_times),
+        "split_tls": q3(tls_times) if tls_times else None,
+        "native_rounds": [split.median(r) for r in runs["native"]],
+        "split_rounds": [split.median(r) for r, _ in runs["split"]],
+        "split_tls_rounds": [split.median(r) for r in runs["split-tls"]],
+        "periphery": q3(periphery) if periphery else None,
+        "periphery_source": "gpu" if measured else ("estimate" if periphery else None),
+        "stages": stages,
+        "client_cpu": {k: split.median(v) for k, v in runs["cpu"].items() if v},
+    }
+
+
+def summarize(args, machine, runs, periphery_size, out_dir, wall_s):
+    """The first path's numbers as the single-path report has them (tables, figures, docs), and
+    every path's in per_path."""
+    first = args.paths[0]
+    per_path = [path_summary(path, runs[path]) for path in args.paths]
+    p = per_path[0]
+    rows = [r for _, rows in runs[first]["split"] for r in rows]
+    typical = typical_frame(rows, p["stages"])
     res = {
         "date": datetime.date.today().isoformat(),
         "command": " ".join(["scripts/bench", "paper"] + [shlex.quote(a) for a in sys.argv[2:]])
@@ -442,19 +518,32 @@ def summarize(args, machine, native_runs, split_runs, periphery_runs, periphery_
                    "frames": args.frames, "rounds": args.rounds, "warmup": args.warmup,
                    "periphery_frames": args.periphery_frames, "client_cpus": args.client_cpus,
                    "client_threads": args.client_threads, "tile_wait": args.tile_wait, "agent_cpus": args.agent_cpus, "link": args.link,
-                   "quick": args.quick, "periphery_source": source},
-        "native": q3(native), "split": q3(split_times),
-        "native_rounds": [split.median(r) for r in native_runs],
-        "split_rounds": [split.median(r) for r, _ in split_runs],
-        "periphery": q3(periphery) if periphery else None,
-        "stages": stages,
+                   "quick": args.quick, "periphery_source": p["periphery_source"],
+                   "paths": list(args.paths), "tls": args.tls},
+        "native": p["native"], "split": p["split"],
+        "native_rounds": p["native_rounds"], "split_rounds": p["split_rounds"],
+        "periphery": p["periphery"],
+        "stages": p["stages"],
+        "client_cpu": {k: v for k, v in p["client_cpu"].items() if k in ("native", "split")},
         "typical_rows": list(typical) if typical else None,
-        "native_frames": native, "split_frames": split_times,
+        "native_frames": [v for run in runs[first]["native"] for v in run],
+        "split_frames": [v for run, _ in runs[first]["split"] for v in run],
+        "per_path": per_path,
     }
     return res
 
 
 # --- output ----------------------------------------------------------------------------------------
+
+def tls_rows_markdown(res):
+    """The split over TLS 1.3 and split-tls/split under the end-to-end table, when the run had --tls."""
+    t = (res.get("per_path") or [{}])[0].get("split_tls")
+    if not t:
+        return []
+    rounds = ", ".join(f"{v:.1f}" for v in res["per_path"][0].get("split_tls_rounds", []))
+    return [f"| split over TLS 1.3 | {t['median']:.2f} | {t['iqr']:.2f} | {t['n']} | {rounds} |",
+            f"| **split-tls / split** | **{t['median'] / res['split']['median']:.3f}** | | | |"]
+
 
 def tables_markdown(res):
     s, n, sp, per = res["stages"], res["native"], res["split"], res["periphery"]
@@ -468,6 +557,7 @@ def tables_markdown(res):
         f"| split | {sp['median']:.2f} | {sp['iqr']:.2f} | {sp['n']} | "
         + ", ".join(f"{v:.1f}" for v in res["split_rounds"]) + " |",
         f"| **split / native** | **{sp['median'] / n['median']:.3f}** | | | |",
+    ] + tls_rows_markdown(res) + [
         "",
         f"Client (Table 1), medians in ms; {periphery_note(c)}:",
         "",
@@ -517,6 +607,49 @@ def print_tables(res):
     print(f"late frames (centre from the periphery): {s['late']} of {s['frames']}")
     print("paper (Snapdragon 865 + GTX 1080): native 32.2 ms, split 26.17 ms (0.813); draw 4.42, encode 15.33, "
           "network 4.99, decode 18.64, merge 0.96 ms; 707.83 Mbit/s")
+    per_path = res.get("per_path") or []
+    if len(per_path) > 1 or res["config"].get("tls") or res["config"].get("paths", ["direct"]) != ["direct"]:
+        print(f"render paths (ms per frame, medians; the tables above are --path {per_path[0]['path']}'s)")
+        print("  path           native (IQR)      split (IQR)  split-tls (IQR)  periphery(GPU)  periphery/native  "
+              "split/native  split-tls/split  late")
+        for p in per_path:
+            r = path_ratios(p)
+            tls = f"{p['split_tls']['median']:8.2f} ({p['split_tls']['iqr']:5.2f})" if p.get("split_tls") else f"{'-':>16}"
+            per = f"{p['periphery']['median']:15.2f}" if p.get("periphery") else f"{'-':>15}"
+            print(f"  {p['path']:<10} {p['native']['median']:8.2f} ({p['native']['iqr']:5.2f}) "
+                  f"{p['split']['median']:8.2f} ({p['split']['iqr']:5.2f}) {tls} {per} "
+                  f"{fmt_ratio(r['periphery/native']):>17} {fmt_ratio(r['split/native']):>13} "
+                  f"{fmt_ratio(r['split-tls/split']):>16} {p['stages']['late']:5d}")
+
+
+def path_ratios(p):
+    """split/native, periphery/native (the client's periphery render over the native median frame
+    time, as the analysis compares them) and split-tls/split of one path_summary; None where not measured."""
+    n, sp = p["native"]["median"], p["split"]["median"]
+    per, tls = p.get("periphery"), p.get("split_tls")
+    return {"split/native": sp / n if n else None,
+            "periphery/native": per["median"] / n if per and n else None,
+            "split-tls/split": tls["median"] / sp if tls and sp else None}
+
+
+def fmt_ratio(value, missing="-"):
+    return missing if value is None else f"{value:.3f}"
+
+
+def print_ratio_lines(res):
+    """The per-path ratio lines (NAME[PATH]: R) when there are several paths, then the first path's
+    periphery/native and split-tls/split; the four final lines follow them."""
+    per_path = res.get("per_path") or []
+    if len(per_path) > 1:
+        for p in per_path:
+            for name, value in path_ratios(p).items():
+                if value is not None:
+                    print(f"{name}[{p['path']}]: {value:.3f}")
+    if per_path:
+        r = path_ratios(per_path[0])
+        for name in ("periphery/native", "split-tls/split"):
+            if r[name] is not None:
+                print(f"{name}: {r[name]:.3f}")
 
 
 def plot(res, figures_dir, out_dir):
@@ -619,16 +752,90 @@ def section_markdown(res, figures, docs_path, analysis):
     return "\n".join(out)
 
 
-def write_docs(path, section):
+def write_docs(path, section, begin=DOC_BEGIN, end=DOC_END):
+    """Replaces the section between begin and end in path. A new per-path section goes after the
+    paper's section and the subsections that follow it (before the next `## ` heading)."""
     text = open(path).read() if os.path.exists(path) else "# Benchmarks\n"
-    if DOC_BEGIN in text and DOC_END in text:
-        head, rest = text.split(DOC_BEGIN, 1)
-        _, tail = rest.split(DOC_END, 1)
+    if begin in text and end in text:
+        head, rest = text.split(begin, 1)
+        _, tail = rest.split(end, 1)
         text = head + section + tail
+    elif begin == PATHS_BEGIN and DOC_END in text and "\n## " in text.split(DOC_END, 1)[1]:
+        head, rest = text.split(DOC_END, 1)
+        before, after = rest.split("\n## ", 1)
+        text = head + DOC_END + before.rstrip("\n") + "\n\n" + section + "\n\n## " + after
     else:
         text = text.rstrip("\n") + "\n\n" + section + "\n"
     with open(path, "w") as f:
         f.write(text)
+
+
+def writes_paths_section(config):
+    """Whether a run's docs are the per-path section (any path but direct, or several) rather than
+    the direct path's full section."""
+    return config.get("paths", ["direct"]) != ["direct"]
+
+
+def paths_markdown(res):
+    """The per-path section: one row per render path, the ratios measured in the same run."""
+    m, c = res["machine"], res["config"]
+    lb = " ".join(f"{x:.2f}" for x in m["load_before"])
+    la = " ".join(f"{x:.2f}" for x in m["load_after"])
+    tls = c.get("tls")
+    head = ["path", "native, ms (IQR)", "split, ms (IQR)"] + (["split over TLS, ms (IQR)"] if tls else []) + \
+        ["periphery (GPU), ms", "periphery/native", "tile wait", "exposed wait / frame", "split/native"] + \
+        (["split-tls/split"] if tls else []) + ["tile-bytes/raw", "client CPU split/native", "late frames"]
+    rows = []
+    for p in res["per_path"]:
+        s, r, cpu = p["stages"], path_ratios(p), p.get("client_cpu", {})
+        row = [f"`{p['path']}`", f"{p['native']['median']:.2f} ({p['native']['iqr']:.2f})",
+               f"{p['split']['median']:.2f} ({p['split']['iqr']:.2f})"]
+        if tls:
+            t = p.get("split_tls")
+            row.append(f"{t['median']:.2f} ({t['iqr']:.2f})" if t else "n/a")
+        estimated = " (est.)" if p.get("periphery_source") == "estimate" else ""
+        row += [f"{p['periphery']['median']:.2f}{estimated}" if p.get("periphery") else "n/a",
+                fmt_ratio(r["periphery/native"], "n/a"), f"{s['tile_wait']:.2f}", f"{s.get('exposed_share', 0.0):.3f}",
+                f"**{fmt_ratio(r['split/native'])}**"]
+        if tls:
+            row.append(fmt_ratio(r["split-tls/split"], "n/a"))
+        row += [f"{s['tile_bytes'] / s['raw_bytes']:.3f}" if s["raw_bytes"] else "n/a",
+                f"{cpu['split'] / cpu['native']:.3f}" if cpu.get("native") and cpu.get("split") else "n/a",
+                f"{s['late']} of {s['frames']}"]
+        rows.append("| " + " | ".join(row) + " |")
+    out = [
+        PATHS_BEGIN,
+        "## The paper's experiment on each render path (`scripts/bench paper --path`)",
+        "",
+        "What it measures: the experiment above with splitvk-atrium drawing each frame through one of its "
+        "render paths (`--path`; docs/user-guide.md, \"The workload\", says what each does). "
+        f"{c['width']}x{c['height']} stereo, fovea {c['fovea']} per eye, periphery at scale {c['scale']} "
+        f"({c['periphery']}), codec {c['codec']}; client on CPU {c['client_cpus']} with `LP_NUM_THREADS="
+        f"{c['client_threads']}`, agent on CPU {c['agent_cpus']}; link: {c['link']}; `SPLITVK_TILE_WAIT="
+        f"{c.get('tile_wait', 250)}`. Every round runs each path in turn, native and split alternating"
+        + (" and a split over TLS 1.3 (`SPLITVK_TLS=on` on loopback, the agent pinned by its fingerprint) "
+           "at the other end of the round from native" if tls else "")
+        + f"; {c['rounds']} rounds of {c['frames']} frames, the first {c['warmup']} of each run left out. "
+        "Frame times are medians (IQR) over every remaining frame; periphery is the client's periphery "
+        "render on its GPU (`SPLITVK_STATS`' `periphery_ms`, timestamp queries), and periphery/native that "
+        "over the native median frame: the share of a native frame the client still renders itself. "
+        "The layer does not time a pass whose contents are in secondary command buffers (`secondary`): "
+        "n/a there, or (est.) from a native run at the periphery's size with `--periphery-frames N`.",
+        "",
+        f"- date: {res['date']}",
+        f"- machine: {describe_machine(m)}; Xvfb display",
+        f"- load average (1, 5, 15 min) before: {lb}; after: {la}",
+        f"- command: `{res['command']}` ({res['wall_s'] / 60:.1f} minutes)"
+        + (f"; this section written from its results.json by `{res['rendered_by']}`"
+           if res.get("rendered_by") else ""),
+        "",
+        "| " + " | ".join(head) + " |",
+        "|" + "---|" * len(head),
+        *rows,
+        "",
+        PATHS_END,
+    ]
+    return "\n".join(out)
 
 
 def analysis_text(res):
@@ -706,20 +913,29 @@ def run(args):
         args.quick = res["config"]["quick"]
         write = args.write_docs if args.write_docs is not None else not args.quick
     else:
+        if args.paths is None:
+            args.paths = ["direct"]
         res = measure(args)
     per = res["periphery"]
     res["typical"] = (timeline(*res["typical_rows"], per["median"] if per else None, periphery_label(res["config"]))
                       if res["typical_rows"] else None)
-    figures_dir = args.figures_dir or (os.path.join(common.REPO, "docs", "figures") if write else res["out_dir"])
+    paths_section = writes_paths_section(res["config"])
+    # The figures in docs/ belong to the direct path's section: a per-path run keeps its own in out_dir.
+    figures_dir = args.figures_dir or (os.path.join(common.REPO, "docs", "figures") if write and not paths_section
+                                       else res["out_dir"])
     figures = None if args.no_plots else plot(res, figures_dir, res["out_dir"])
     with open(os.path.join(res["out_dir"], "results.json"), "w") as f:
         json.dump(res, f)
-    if write:
+    if write and paths_section:
+        write_docs(args.docs, paths_markdown(res), PATHS_BEGIN, PATHS_END)
+    elif write:
         write_docs(args.docs, section_markdown(res, figures, args.docs, analysis_text(res)))
     print_tables(res)
     if figures:
         print("figures: " + "\n         ".join(figures.values()))
-    print(f"per-frame data: {res['out_dir']}" + (f"; docs: {args.docs} (paper section replaced)" if write else ""))
+    print(f"per-frame data: {res['out_dir']}" + (f"; docs: {args.docs} ({'per-path' if paths_section else 'paper'} "
+                                                  "section replaced)" if write else ""))
+    print_ratio_lines(res)
     s = res["stages"]
     split.print_final_lines(res["split"]["median"], res["native"]["median"], s["tile_wait"],
                             s.get("exposed_share", 0.0), s["tile_bytes"], s["raw_bytes"])

@@ -60,8 +60,8 @@ def add_arguments(p, frames=200, rounds=2):
 def started_agent(agent, port, env, log_path, prefix=()):
     """Runs `prefix + splitvk-agent --listen 127.0.0.1:port` (its log in log_path) while the block runs."""
     with open(log_path, "w") as log:
-        # Its TLS identity beside its log, not in the user's state directory.
-        state = os.path.join(os.path.dirname(log_path), "agent-state")
+        # Its TLS identity beside its log, where common.tls_split_env finds it.
+        state = common.agent_state_dir(os.path.dirname(log_path))
         proc = subprocess.Popen(list(prefix) + [agent, "--listen", f"127.0.0.1:{port}", "--state-dir", state], env=env,
                                 stdout=subprocess.DEVNULL, stderr=log, start_new_session=True)
         try:
@@ -188,6 +188,8 @@ def measure(args):
         split_env = dict(common.layer_env(base, build), SPLITVK_SERVER=f"127.0.0.1:{port}", SPLITVK_LOG_LEVEL="info",
                          SPLITVK_SCALE=args.scale, SPLITVK_CODEC=args.codec, SPLITVK_EYES=str(args.eyes))
         with started_agent(agent, port, base, os.path.join(out_dir, "agent.log")):
+            # The same split over TLS, to the same agent (it serves both on one port).
+            tls_env = common.tls_split_env(split_env, agent, out_dir, base) if getattr(args, "tls", False) else None
             for i in range(args.rounds):
                 order = ("native", "split") if i % 2 == 0 else ("split", "native")
                 line = []
@@ -205,12 +207,9 @@ def measure(args):
                         splits.append((r, read_stats(stats, args.warmup)))
                         m, iqr, _ = r.frame_time()
                         line.append(f"split {m:7.2f} ms/frame (IQR {iqr:.2f})")
-                if getattr(args, "tls", False):
-                    # The same split over TLS; the client records the agent in a known_agents of its own.
-                    tls_env = dict(split_env, SPLITVK_TLS="on", XDG_CONFIG_HOME=os.path.join(out_dir, "tls-config"))
+                if tls_env:
                     r = common.run(argv(args.frames), tls_env, timeout_s)
-                    if "[splitvk] split:" not in r.stderr or "TLS 1.3" not in r.stderr:
-                        raise common.BenchError("the TLS split run did not split over TLS 1.3:\n" + common.tail(r.stderr))
+                    common.check_tls_split(r)
                     tls_splits.append(r)
                     m, iqr, _ = r.frame_time()
                     line.append(f"split+TLS {m:7.2f} ms/frame (IQR {iqr:.2f})")
