@@ -96,8 +96,9 @@ protocol::Hello base_hello(const Settings &settings, const std::string &client_n
     hello.capabilities = protocol::capability::kZstdPayloads;
     // SPLITVK_VERIFY compares whole frames with the agent's replay, which only an unsplit frame
     // can match: verification and the split exclude each other.
-    hello.capabilities |=
-        settings.verify ? protocol::capability::kVerifyFrames : protocol::capability::kFoveaTiles;
+    hello.capabilities |= settings.verify
+                              ? protocol::capability::kVerifyFrames
+                              : protocol::capability::kFoveaTiles | protocol::capability::kAgentScissor;
     return hello;
 }
 

@@ -117,7 +117,14 @@ void Session::adopt_locked(AgentLink &&agent) {
     failure_logged_.store(false);
     live_.store(true);
     if (splitting()) {
-        protocol::SplitConfig config{settings_.eyes, settings_.fovea, settings_.codec};
+        protocol::SplitConfig config{settings_.eyes, settings_.fovea, settings_.codec, {}};
+        if (capabilities & protocol::capability::kAgentScissor) {
+            config.agent_scissor = settings_.agent_scissor;
+        } else if (settings_.agent_scissor.guard) {
+            SPLITVK_WARN("splitvk-agent at %s cannot scissor offscreen passes; SPLITVK_AGENT_SCISSOR ignored "
+                         "(it replays them in full)",
+                         address_.c_str());
+        }
         send_locked(protocol::MessageType::SplitConfig, protocol::encode(config));
     }
     stop_receiver_.store(false);

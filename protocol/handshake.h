@@ -49,9 +49,12 @@ inline constexpr uint64_t kZstdPayloads = 1ull << 0; // compressed payloads (kFl
 inline constexpr uint64_t kVerifyFrames = 1ull
                                           << 1; // the server returns whole presented frames (SPLITVK_VERIFY)
 inline constexpr uint64_t kFoveaTiles = 1ull << 2; // the split: SplitConfig, fovea shading, Tiles (issue 4)
+// SplitConfig may carry SPLITVK_AGENT_SCISSOR (issue 11); an agent without it refuses the longer
+// message, so the client sends it only when this bit was granted.
+inline constexpr uint64_t kAgentScissor = 1ull << 3;
 } // namespace capability
-inline constexpr uint64_t kSupportedCapabilities =
-    capability::kZstdPayloads | capability::kVerifyFrames | capability::kFoveaTiles;
+inline constexpr uint64_t kSupportedCapabilities = capability::kZstdPayloads | capability::kVerifyFrames |
+                                                   capability::kFoveaTiles | capability::kAgentScissor;
 
 // Field caps, enforced by the decoders (and by the encoders, which clamp text to them).
 inline constexpr uint32_t kMaxTokenBytes = 256;

@@ -174,6 +174,10 @@ std::vector<uint8_t> encode(const SplitConfig &m) {
     w.f64(m.fovea.width);
     w.f64(m.fovea.height);
     w.u32(static_cast<uint32_t>(m.codec));
+    if (m.agent_scissor.guard) {
+        w.u32(1);
+        w.u32(m.agent_scissor.pixels);
+    }
     return w.take();
 }
 
@@ -185,6 +189,14 @@ Result<SplitConfig> decode_split_config(std::span<const uint8_t> payload) {
     m.fovea.width = r.f64("fovea width");
     m.fovea.height = r.f64("fovea height");
     const uint32_t codec = r.u32("codec");
+    if (!r.at_end()) {
+        const uint32_t guard = r.u32("agent scissor");
+        m.agent_scissor.pixels = r.u32("agent scissor guard");
+        if (r.ok() && guard != 1) r.fail("agent scissor " + std::to_string(guard) + " unknown");
+        if (r.ok() && m.agent_scissor.pixels > kMaxAgentScissorGuard)
+            r.fail("agent scissor guard out of range");
+        m.agent_scissor.guard = true;
+    }
     if (r.ok() && eyes > static_cast<uint32_t>(EyeMode::Two))
         r.fail("eyes " + std::to_string(eyes) + " unknown");
     if (r.ok() && codec > static_cast<uint32_t>(TileCodec::Raw))

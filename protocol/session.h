@@ -97,6 +97,8 @@ struct SplitConfig {
     EyeMode eyes = EyeMode::Auto;
     FoveaSize fovea;
     TileCodec codec = TileCodec::X264;
+    // A trailer, encoded only when guard is on (capability::kAgentScissor); absent: off.
+    AgentScissor agent_scissor;
 };
 
 inline constexpr uint32_t kTileKeyframe = 1u << 0; // decodable alone (an IDR for x264)

@@ -35,6 +35,9 @@ const SettingInfo kSettings[] = {
     {"EYES", "auto, 1 or 2", "auto", "eyes side by side in the swapchain image; auto reads the viewports"},
     {"TARGETS", "auto or swapchain", "auto",
      "auto: the client scales every screen-space target; swapchain: only passes into the swapchain image"},
+    {"AGENT_SCISSOR", "off or guard:N (N pixels, 0 to 4096)", "off",
+     "guard:N: the agent also scissors its passes into screen-space targets to the foveae grown by N "
+     "pixels of each target; exact only if N covers the reach of every blur or filter"},
     {"CODEC", "x264, zstd or raw", "x264", "lossless codec for the fovea tiles"},
     {"TILE_WAIT", "milliseconds, 1 to 60000", "250",
      "longest a present waits for its frame's tiles; later, the centre comes from the periphery"},
@@ -198,6 +201,17 @@ bool apply(std::string_view name, std::string_view raw, Settings &s) {
             s.targets = TargetMode::Swapchain;
         else
             return false;
+        return true;
+    }
+    if (name == "AGENT_SCISSOR") {
+        if (v == "off") {
+            s.agent_scissor = {};
+            return true;
+        }
+        if (!v.starts_with("guard:")) return false;
+        const auto pixels = parse_uint(std::string_view(v).substr(6));
+        if (!pixels || *pixels > kMaxAgentScissorGuard) return false;
+        s.agent_scissor = {true, *pixels};
         return true;
     }
     if (name == "CODEC") {
@@ -480,6 +494,10 @@ const char *to_string(TileCodec codec) {
         return "raw";
     }
     return "?";
+}
+
+std::string to_string(const AgentScissor &scissor) {
+    return scissor.guard ? "guard:" + std::to_string(scissor.pixels) : "off";
 }
 
 const char *to_string(LogLevel level) {

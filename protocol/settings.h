@@ -26,6 +26,14 @@ enum class TileCodec { X264, Zstd, Raw };
 // the passes into the swapchain image, as the first version did.
 enum class TargetMode { Auto, Swapchain };
 
+// SPLITVK_AGENT_SCISSOR (issue 11): off replays the agent's offscreen passes in full; guard:N also
+// scissors its passes into screen-space targets to the foveae grown by N pixels of each target.
+struct AgentScissor {
+    bool guard = false;
+    uint32_t pixels = 0; // N; at most kMaxAgentScissorGuard
+};
+inline constexpr uint32_t kMaxAgentScissorGuard = 4096;
+
 struct ServerAddress {
     std::string host = "127.0.0.1";
     uint16_t port = 7447;
@@ -48,6 +56,7 @@ struct Settings {
     FoveaSize fovea;
     EyeMode eyes = EyeMode::Auto;
     TargetMode targets = TargetMode::Auto;
+    AgentScissor agent_scissor;
     TileCodec codec = TileCodec::X264;
     // Lockstep bound: a present waits at most this long for its own frame's tiles. Generous for a
     // LAN (a frame is ~10-20 ms), short enough that a stalled agent costs seconds, not a hang.
@@ -111,6 +120,7 @@ LoadedSettings load_process_settings();
 
 const char *to_string(EyeMode mode);
 const char *to_string(TileCodec codec);
+std::string to_string(const AgentScissor &scissor); // "off", "guard:64"
 const char *to_string(LogLevel level);
 
 } // namespace splitvk

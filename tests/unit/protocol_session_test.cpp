@@ -174,6 +174,27 @@ TEST(ProtocolSession, SplitConfigRoundTripAndRanges) {
     EXPECT_FALSE(decode_split_config(bad).ok());
 }
 
+// SPLITVK_AGENT_SCISSOR rides as a trailer: off encodes exactly the older message (which older
+// agents accept), and a message without it decodes as off.
+TEST(ProtocolSession, SplitConfigAgentScissorTrailer) {
+    SplitConfig m;
+    const auto off = encode(m);
+    EXPECT_EQ(off.size(), 28u) << "off must stay the message older agents decode";
+    ASSERT_TRUE(decode_split_config(off).ok());
+    EXPECT_FALSE(decode_split_config(off)->agent_scissor.guard);
+    m.agent_scissor = {true, 64};
+    const auto on = encode(m);
+    const auto back = decode_split_config(on);
+    ASSERT_TRUE(back.ok()) << back.error();
+    EXPECT_TRUE(back->agent_scissor.guard);
+    EXPECT_EQ(back->agent_scissor.pixels, 64u);
+    m.agent_scissor = {true, kMaxAgentScissorGuard + 1};
+    EXPECT_FALSE(decode_split_config(encode(m)).ok()) << "a guard over the cap";
+    auto truncated = on;
+    truncated.resize(on.size() - 2);
+    EXPECT_FALSE(decode_split_config(truncated).ok()) << "half a trailer";
+}
+
 TEST(ProtocolSession, TilesRoundTripAndLimits) {
     Tiles m;
     m.frame = 42;

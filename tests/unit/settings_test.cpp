@@ -94,6 +94,16 @@ TEST_F(SettingsTest, ServerForms) {
     }
 }
 
+TEST_F(SettingsTest, AgentScissorGuard) {
+    EXPECT_FALSE(load({}).settings.agent_scissor.guard) << "off by default";
+    const auto loaded = load({{"SPLITVK_AGENT_SCISSOR", "Guard:64"}});
+    ASSERT_TRUE(loaded.valid());
+    EXPECT_TRUE(loaded.settings.agent_scissor.guard);
+    EXPECT_EQ(loaded.settings.agent_scissor.pixels, 64u);
+    EXPECT_EQ(to_string(loaded.settings.agent_scissor), "guard:64");
+    EXPECT_EQ(load({{"SPLITVK_AGENT_SCISSOR", "guard:0"}}).settings.agent_scissor.pixels, 0u);
+}
+
 TEST_F(SettingsTest, FractionalFovea) {
     const auto loaded = load({{"SPLITVK_FOVEA", "0.5x0.25"}});
     ASSERT_TRUE(loaded.valid());
@@ -111,6 +121,7 @@ TEST_F(SettingsTest, InvalidValuesAreOneLineErrorsNamingTheSetting) {
          {"", "512", "512x", "x360", "0x360", "512x0", "0.5x360", "1.5x0.5", "-1x-1", "axb", "99999x1"}},
         {"EYES", {"", "0", "3", "both", "two"}},
         {"TARGETS", {"", "all", "offscreen", "1"}},
+        {"AGENT_SCISSOR", {"", "on", "guard", "guard:", "guard:-1", "guard:4097", "guard:1.5", "64"}},
         {"CODEC", {"", "h264", "x265", "lz4"}},
         {"TILE_WAIT", {"", "0", "-5", "60001", "1.5", "soon"}},
         {"PRESENT_DEPTH", {"", "3", "-1", "1.5", "two"}},
