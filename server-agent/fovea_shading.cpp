@@ -3,6 +3,8 @@
 #include "log.h"
 #include "split_geometry.h"
 
+#include <algorithm>
+
 namespace splitvk::agent {
 
 std::vector<VkRect2D> FoveaShading::take_drawn_foveae(uint64_t image_id) {
@@ -13,8 +15,20 @@ std::vector<VkRect2D> FoveaShading::take_drawn_foveae(uint64_t image_id) {
     return foveae;
 }
 
-void FoveaShading::image_view_created(VkImageView view, VkImage image) {
-    if (enabled_ && view) views_[view] = image;
+void FoveaShading::image_created(VkImage image, const VkImageCreateInfo &info) {
+    const VkExtent2D screen = swapchains_.newest_extent();
+    if (!enabled_ || !image || screen.width == 0) return; // before the first swapchain: not a target
+    split::TargetClass kind = split::classify_target(info, screen, eyes_);
+    if (kind.screen_space)
+        targets_[image] = {screen, {info.extent.width, info.extent.height}, std::move(kind)};
+}
+
+void FoveaShading::image_destroyed(VkImage image) {
+    targets_.erase(image);
+}
+
+void FoveaShading::image_view_created(VkImageView view, const VkImageViewCreateInfo &info) {
+    if (enabled_ && view) views_[view] = {info.image, info.subresourceRange.baseMipLevel};
 }
 
 void FoveaShading::image_view_destroyed(VkImageView view) {
@@ -130,7 +144,91 @@ void FoveaShading::set_scissors(VkCommandBuffer cb, uint32_t first, uint32_t cou
 
 bool FoveaShading::target(VkImageView view, uint64_t *image_id, VkExtent2D *extent) const {
     const auto it = views_.find(view);
-    return it != views_.end() && swapchains_.find_image(it->second, image_id, extent);
+    return it != views_.end() && swapchains_.find_image(it->second.image, image_id, extent);
+}
+
+bool FoveaShading::guard_rect(const std::vector<VkImageView> &views, VkExtent2D *extent,
+                              VkRect2D *rect) const {
+    bool any = false;
+    int64_t x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+    for (VkImageView view : views) {
+        if (!view) continue;
+        const auto v = views_.find(view);
+        if (v == views_.end()) return false;
+        const auto it = targets_.find(v->second.image);
+        if (it == targets_.end()) return false; // not screen-space: its texels are not the screen's
+        const Target &target = it->second;
+        const VkExtent2D e = split::mip_extent(target.extent, v->second.mip);
+        const uint32_t shift = std::min(v->second.mip, 31u);
+        const int64_t divisor = int64_t{target.kind.divisor} << shift;
+        const VkExtent2D s = target.screen;
+        // Every place a fovea can be (split::eye_for_viewport's eyes) in the screen; an eye-sized
+        // target (a layer of an eye texture) holds either eye, so what of them lies in each eye,
+        // in that eye's coordinates (a centred fovea straddles both eyes).
+        const uint32_t left = s.width / 2;
+        std::vector<VkRect2D> screen;
+        if (eyes_ != EyeMode::Two) screen.push_back(split::fovea_of_eye({{0, 0}, s}, fovea_));
+        if (eyes_ != EyeMode::One) {
+            screen.push_back(split::fovea_of_eye({{0, 0}, {left, s.height}}, fovea_));
+            screen.push_back(
+                split::fovea_of_eye({{static_cast<int32_t>(left), 0}, {s.width - left, s.height}}, fovea_));
+        }
+        std::vector<VkRect2D> foveae;
+        for (const VkRect2D &f : screen) {
+            if (!target.kind.eye) {
+                foveae.push_back(f);
+                continue;
+            }
+            const VkRect2D in_left = split::intersect(f, {{0, 0}, {left, s.height}});
+            VkRect2D in_right =
+                split::intersect(f, {{static_cast<int32_t>(left), 0}, {s.width - left, s.height}});
+            in_right.offset.x -= static_cast<int32_t>(left);
+            for (const VkRect2D &r : {in_left, in_right})
+                if (r.extent.width && r.extent.height) foveae.push_back(r);
+        }
+        if (foveae.empty()) return false;
+        int64_t fx0 = INT64_MAX, fy0 = INT64_MAX, fx1 = 0, fy1 = 0;
+        for (const VkRect2D &f : foveae) {
+            fx0 = std::min<int64_t>(fx0, f.offset.x);
+            fy0 = std::min<int64_t>(fy0, f.offset.y);
+            fx1 = std::max<int64_t>(fx1, int64_t{f.offset.x} + f.extent.width);
+            fy1 = std::max<int64_t>(fy1, int64_t{f.offset.y} + f.extent.height);
+        }
+        // Into the target's pixels, rounded outwards, then N of them on every side.
+        const int64_t n = scissor_.pixels;
+        const int64_t tx0 = std::max<int64_t>(0, fx0 / divisor - n);
+        const int64_t ty0 = std::max<int64_t>(0, fy0 / divisor - n);
+        const int64_t tx1 = std::min<int64_t>(e.width, (fx1 + divisor - 1) / divisor + n);
+        const int64_t ty1 = std::min<int64_t>(e.height, (fy1 + divisor - 1) / divisor + n);
+        if (!any) {
+            *extent = e;
+            x0 = tx0, y0 = ty0, x1 = tx1, y1 = ty1;
+        } else {
+            x0 = std::min(x0, tx0), y0 = std::min(y0, ty0), x1 = std::max(x1, tx1), y1 = std::max(y1, ty1);
+        }
+        any = true;
+    }
+    if (!any || x1 <= x0 || y1 <= y0) return false;
+    *rect = {{static_cast<int32_t>(x0), static_cast<int32_t>(y0)},
+             {static_cast<uint32_t>(x1 - x0), static_cast<uint32_t>(y1 - y0)}};
+    return true;
+}
+
+void FoveaShading::enter_guarded(VkCommandBuffer cb, split::CommandTracker &t,
+                                 const std::vector<VkImageView> &views) {
+    VkExtent2D extent{};
+    VkRect2D rect{};
+    if (!scissor_.guard || !guard_rect(views, &extent, &rect)) return;
+    if (!guard_logged_)
+        SPLITVK_INFO(
+            "SPLITVK_AGENT_SCISSOR=guard:%u: scissoring passes into screen-space targets; the first, "
+            "%ux%u, to %d,%d %ux%u",
+            scissor_.pixels, extent.width, extent.height, rect.offset.x, rect.offset.y, rect.extent.width,
+            rect.extent.height);
+    guard_logged_ = true;
+    guard_rects_[cb] = rect;
+    t.begin_split(0, extent, false);
+    emit_scissors(cb, t);
 }
 
 void FoveaShading::enter_split(VkCommandBuffer cb, split::CommandTracker &t, uint64_t image_id,
@@ -166,6 +264,7 @@ void FoveaShading::begin_render_pass(VkCommandBuffer cb, const VkRenderPassBegin
             t->contents_in_secondaries();
             return;
         }
+    if (!secondary && count) enter_guarded(cb, *t, std::vector<VkImageView>(views, views + count));
 }
 
 void FoveaShading::begin_rendering(VkCommandBuffer cb, const VkRenderingInfo &info) {
@@ -187,6 +286,19 @@ void FoveaShading::begin_rendering(VkCommandBuffer cb, const VkRenderingInfo &in
             return enter_split(cb, *t, image_id, extent);
         }
     }
+    if (info.flags & VK_RENDERING_CONTENTS_SECONDARY_COMMAND_BUFFERS_BIT) return;
+    std::vector<VkImageView> views;
+    for (uint32_t i = 0; i < info.colorAttachmentCount; ++i) {
+        views.push_back(info.pColorAttachments[i].imageView);
+        if (info.pColorAttachments[i].resolveMode != VK_RESOLVE_MODE_NONE)
+            views.push_back(info.pColorAttachments[i].resolveImageView);
+    }
+    for (const VkRenderingAttachmentInfo *a : {info.pDepthAttachment, info.pStencilAttachment})
+        if (a) {
+            views.push_back(a->imageView);
+            if (a->resolveMode != VK_RESOLVE_MODE_NONE) views.push_back(a->resolveImageView);
+        }
+    enter_guarded(cb, *t, views);
 }
 
 void FoveaShading::end_pass(VkCommandBuffer cb) {
@@ -197,8 +309,10 @@ void FoveaShading::end_pass(VkCommandBuffer cb) {
 }
 
 void FoveaShading::emit_scissors(VkCommandBuffer cb, const split::CommandTracker &t) {
+    const auto guard = t.in_split() && !t.swapchain_pass() ? guard_rects_.find(cb) : guard_rects_.end();
     const auto out = [&](size_t i, const VkRect2D &r) {
         if (!t.in_split()) return r;
+        if (guard != guard_rects_.end()) return split::intersect(r, guard->second);
         const VkViewport *v = t.viewport(i);
         // Without viewport i the eye is unknown; the scissor is narrowed once the viewport is set.
         return v ? split::intersect(r, split::fovea_for_viewport(*v, t.extent(), eyes_, fovea_)) : r;

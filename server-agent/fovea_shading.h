@@ -12,10 +12,24 @@
 // outlives the pass). Pipelines with a static scissor get VK_DYNAMIC_STATE_SCISSOR at creation,
 // with their static values set at bind. Clear rects are left as recorded: clears shade nothing,
 // and only the fovea rects are read back.
+//
+// SPLITVK_AGENT_SCISSOR=guard:N (issue 11) extends the same scissoring to passes that draw only
+// into screen-space targets (classified at creation by protocol/target_rule.h against the newest
+// swapchain, as on the client). Such a pass is recorded before the frame's pass into the swapchain
+// image, so its viewports do not say where the foveae will be: every place a fovea can be for
+// SPLITVK_EYES (one: the centre; two: both eyes; auto: all three) is taken, as one bounding
+// rectangle (a scissor is one rectangle per viewport), mapped into the target (divided by its
+// divisor, rounded outwards; an eye-sized target is taken to hold either eye 1:1, so it gets what
+// of those foveae lies in each eye) and grown by N of the target's pixels. Pixels outside it keep
+// stale contents; the foveae stay exact only while N covers the reach of every filter that carries
+// them towards the foveae (a bloom chain compounds: each halving doubles what it reads in its
+// source's pixels), and a pass whose shaders also write storage (a histogram) sees only the guarded
+// pixels. Passes with any other attachment, or with their contents in secondaries, run in full.
 
 #include "settings.h"
 #include "split_tracker.h"
 #include "swapchain_images.h"
+#include "target_rule.h"
 #include "vk_replay.h"
 
 #include <vulkan/vulkan.h>
@@ -32,9 +46,10 @@ public:
     FoveaShading(ReplayDispatch &vk, SwapchainImages &swapchains) : vk_(vk), swapchains_(swapchains) {}
 
     // The client's eye layout and fovea size; Settings' defaults until called.
-    void configure(EyeMode eyes, const FoveaSize &fovea) {
+    void configure(EyeMode eyes, const FoveaSize &fovea, const AgentScissor &scissor = {}) {
         eyes_ = eyes;
         fovea_ = fovea;
+        scissor_ = scissor;
     }
     // Off: everything replays as recorded (SPLITVK_VERIFY compares whole frames, and the client
     // does not split then). Set before the first command.
@@ -47,7 +62,9 @@ public:
     std::vector<VkRect2D> take_drawn_foveae(uint64_t image_id);
 
     // Object tracking (after the driver call; destroys before it).
-    void image_view_created(VkImageView view, VkImage image);
+    void image_created(VkImage image, const VkImageCreateInfo &info);
+    void image_destroyed(VkImage image);
+    void image_view_created(VkImageView view, const VkImageViewCreateInfo &info);
     void image_view_destroyed(VkImageView view);
     void framebuffer_created(VkFramebuffer framebuffer, const VkFramebufferCreateInfo &info);
     void framebuffer_destroyed(VkFramebuffer framebuffer);
@@ -79,6 +96,9 @@ public:
 
 private:
     bool target(VkImageView view, uint64_t *image_id, VkExtent2D *extent) const;
+    // guard:N: the scissor of a pass whose attachments are all screen-space targets.
+    bool guard_rect(const std::vector<VkImageView> &views, VkExtent2D *extent, VkRect2D *rect) const;
+    void enter_guarded(VkCommandBuffer cb, split::CommandTracker &t, const std::vector<VkImageView> &views);
     void enter_split(VkCommandBuffer cb, split::CommandTracker &tracker, uint64_t image_id,
                      VkExtent2D extent);
     void emit_scissors(VkCommandBuffer cb, const split::CommandTracker &tracker);
@@ -89,7 +109,20 @@ private:
     bool enabled_ = true;
     EyeMode eyes_ = Settings{}.eyes;
     FoveaSize fovea_ = Settings{}.fovea;
-    std::unordered_map<VkImageView, VkImage> views_;
+    AgentScissor scissor_;
+    struct View {
+        VkImage image = VK_NULL_HANDLE;
+        uint32_t mip = 0;
+    };
+    std::unordered_map<VkImageView, View> views_;
+    struct Target {
+        VkExtent2D screen{}; // the swapchain extent it was classified against
+        VkExtent2D extent{}; // mip 0, per layer
+        split::TargetClass kind;
+    };
+    std::unordered_map<VkImage, Target> targets_;               // screen-space targets only
+    std::unordered_map<VkCommandBuffer, VkRect2D> guard_rects_; // of the guarded pass in progress
+    bool guard_logged_ = false;
     std::unordered_map<VkFramebuffer, std::vector<VkImageView>> framebuffers_;
     std::unordered_map<VkPipeline, std::shared_ptr<const split::StaticViewportState>> pipelines_;
     std::unordered_map<VkCommandBuffer, split::CommandTracker> command_buffers_;

@@ -407,12 +407,14 @@ bool Replayer::vkCreateImage(const codec::Decoded_vkCreateImage &c) {
     guard_.image_created(*c.pCreateInfo);
     if (!ReplayVisitorBase::vkCreateImage(c)) return false;
     memory_.image_created(c.pImage[0], *c.pCreateInfo);
+    fovea_.image_created(c.pImage[0], *c.pCreateInfo);
     return true;
 }
 
 bool Replayer::vkDestroyImage(const codec::Decoded_vkDestroyImage &c) {
     if (!ReplayVisitorBase::vkDestroyImage(c)) return false;
     memory_.image_destroyed(c.image);
+    fovea_.image_destroyed(c.image);
     return true;
 }
 
@@ -511,7 +513,7 @@ bool Replayer::split_config(const protocol::SplitConfig &message, std::string *e
         return false;
     }
     if (!tiles_) tiles_ = std::make_unique<TileStreamer>(context_, tile_sender_);
-    fovea_.configure(message.eyes, message.fovea);
+    fovea_.configure(message.eyes, message.fovea, message.agent_scissor);
     fovea_.set_enabled(true);
     tiles_->set_codec(message.codec);
     return true;
@@ -588,7 +590,7 @@ bool Replayer::frame_present(const protocol::FramePresent &message,
 
 bool Replayer::vkCreateImageView(const codec::Decoded_vkCreateImageView &c) {
     if (!ReplayVisitorBase::vkCreateImageView(c)) return false;
-    fovea_.image_view_created(c.pView[0], c.pCreateInfo->image);
+    fovea_.image_view_created(c.pView[0], *c.pCreateInfo);
     return true;
 }
 

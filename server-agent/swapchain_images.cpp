@@ -90,6 +90,7 @@ bool SwapchainImages::create(const protocol::SwapchainImages &message, std::stri
         swapchain.info.image_ids.push_back(id);
     }
     swapchains_.emplace(message.swapchain_id, std::move(swapchain));
+    newest_ = {message.width, message.height};
     return true;
 }
 

@@ -31,6 +31,9 @@ public:
     // Whether `image` (the agent's handle) is a swapchain image; if so its client id and extent
     // (fovea_shading.h: split passes are the ones drawing into these).
     bool find_image(VkImage image, uint64_t *image_id, VkExtent2D *extent) const;
+    // The extent of the newest swapchain, {0, 0} before the first: what screen-space targets are
+    // classified against, as the client does (protocol/target_rule.h).
+    VkExtent2D newest_extent() const { return newest_; }
 
     // A rectangle of a presented image (left in VK_IMAGE_LAYOUT_PRESENT_SRC_KHR by the app), read
     // back tightly packed, 4 bytes per pixel. The caller has made the frame's submits complete.
@@ -63,6 +66,7 @@ private:
     VulkanContext &context_;
     codec::HandleTable &table_;
     std::unordered_map<uint64_t, Swapchain> swapchains_;
+    VkExtent2D newest_{};
     VkCommandPool pool_ = VK_NULL_HANDLE;
     VkCommandBuffer command_buffer_ = VK_NULL_HANDLE;
     VkFence fence_ = VK_NULL_HANDLE;
