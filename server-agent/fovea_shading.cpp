@@ -158,6 +158,9 @@ bool FoveaShading::guard_rect(const std::vector<VkImageView> &views, VkExtent2D 
         const auto it = targets_.find(v->second.image);
         if (it == targets_.end()) return false; // not screen-space: its texels are not the screen's
         const Target &target = it->second;
+        // Kept across a resize, it no longer says where the new swapchain's foveae are.
+        const VkExtent2D newest = swapchains_.newest_extent();
+        if (newest.width != target.screen.width || newest.height != target.screen.height) return false;
         const VkExtent2D e = split::mip_extent(target.extent, v->second.mip);
         const uint32_t shift = std::min(v->second.mip, 31u);
         const int64_t divisor = int64_t{target.kind.divisor} << shift;
