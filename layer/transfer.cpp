@@ -223,6 +223,19 @@ void after_transfer(DeviceState &dev, VkCommandBuffer cb, VkImage dst) {
     if (split_enabled(dev) && swapchain_image_extent(dst, &extent)) time_split_pass_ended(dev, cb);
 }
 
+// A *2 region command goes down as the application recorded it when `scaled` is false; otherwise
+// with `regions` (the scaled ones; none left means nothing to do) in a copy of its info.
+template <class Info, class Region, class Next>
+void pass_down_regions2(VkCommandBuffer cb, const Info *info, bool scaled, const std::vector<Region> &regions,
+                        Next next) {
+    if (!scaled) return next(cb, info);
+    if (regions.empty()) return;
+    Info copy = *info;
+    copy.regionCount = static_cast<uint32_t>(regions.size());
+    copy.pRegions = regions.data();
+    next(cb, &copy);
+}
+
 } // namespace
 
 namespace observe {
@@ -268,16 +281,12 @@ void copy_image2(DeviceState &dev, VkCommandBuffer cb, const VkCopyImageInfo2 *i
     capture_command(dev, cb, [&](codec::Encoder &e) { encode_vkCmdCopyImage2(e, cb, info); });
     if (dev.session && copy_as_blit(dev, cb, info->srcImage, info->srcImageLayout, info->dstImage,
                                     info->dstImageLayout, info->regionCount, info->pRegions))
-        return;
+        return after_transfer(dev, cb, info->dstImage);
     std::vector<VkImageCopy2> out;
-    if (!dev.session ||
-        !scale_copies(dev, cb, info->srcImage, info->dstImage, info->regionCount, info->pRegions, out))
-        return next(cb, info);
-    if (out.empty()) return;
-    VkCopyImageInfo2 scaled = *info;
-    scaled.regionCount = static_cast<uint32_t>(out.size());
-    scaled.pRegions = out.data();
-    next(cb, &scaled);
+    const bool scaled = dev.session && scale_copies(dev, cb, info->srcImage, info->dstImage,
+                                                    info->regionCount, info->pRegions, out);
+    pass_down_regions2(cb, info, scaled, out, next);
+    after_transfer(dev, cb, info->dstImage);
 }
 
 VKAPI_ATTR void VKAPI_CALL CmdCopyImage2(VkCommandBuffer commandBuffer,
@@ -308,20 +317,17 @@ VKAPI_ATTR void VKAPI_CALL CmdResolveImage(VkCommandBuffer commandBuffer, VkImag
     if (!out.empty())
         dev.dispatch.CmdResolveImage(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
                                      static_cast<uint32_t>(out.size()), out.data());
+    after_transfer(dev, commandBuffer, dstImage);
 }
 
 template <class Next>
 void resolve_image2(DeviceState &dev, VkCommandBuffer cb, const VkResolveImageInfo2 *info, Next next) {
     capture_command(dev, cb, [&](codec::Encoder &e) { encode_vkCmdResolveImage2(e, cb, info); });
     std::vector<VkImageResolve2> out;
-    if (!dev.session ||
-        !scale_copies(dev, cb, info->srcImage, info->dstImage, info->regionCount, info->pRegions, out))
-        return next(cb, info);
-    if (out.empty()) return;
-    VkResolveImageInfo2 scaled = *info;
-    scaled.regionCount = static_cast<uint32_t>(out.size());
-    scaled.pRegions = out.data();
-    next(cb, &scaled);
+    const bool scaled = dev.session && scale_copies(dev, cb, info->srcImage, info->dstImage,
+                                                    info->regionCount, info->pRegions, out);
+    pass_down_regions2(cb, info, scaled, out, next);
+    after_transfer(dev, cb, info->dstImage);
 }
 
 VKAPI_ATTR void VKAPI_CALL CmdResolveImage2(VkCommandBuffer commandBuffer, const VkResolveImageInfo2 *pInfo) {
@@ -358,14 +364,10 @@ template <class Next>
 void blit_image2(DeviceState &dev, VkCommandBuffer cb, const VkBlitImageInfo2 *info, Next next) {
     capture_command(dev, cb, [&](codec::Encoder &e) { encode_vkCmdBlitImage2(e, cb, info); });
     std::vector<VkImageBlit2> out;
-    if (!dev.session ||
-        !scale_blits(dev, cb, info->srcImage, info->dstImage, info->regionCount, info->pRegions, out))
-        return next(cb, info);
-    if (out.empty()) return;
-    VkBlitImageInfo2 scaled = *info;
-    scaled.regionCount = static_cast<uint32_t>(out.size());
-    scaled.pRegions = out.data();
-    next(cb, &scaled);
+    const bool scaled = dev.session && scale_blits(dev, cb, info->srcImage, info->dstImage, info->regionCount,
+                                                   info->pRegions, out);
+    pass_down_regions2(cb, info, scaled, out, next);
+    after_transfer(dev, cb, info->dstImage);
 }
 
 VKAPI_ATTR void VKAPI_CALL CmdBlitImage2(VkCommandBuffer commandBuffer,
@@ -402,13 +404,9 @@ void copy_buffer_to_image2(DeviceState &dev, VkCommandBuffer cb, const VkCopyBuf
                            Next next) {
     capture_command(dev, cb, [&](codec::Encoder &e) { encode_vkCmdCopyBufferToImage2(e, cb, info); });
     std::vector<VkBufferImageCopy2> out;
-    if (!dev.session || !scale_buffer_copies(info->dstImage, info->regionCount, info->pRegions, out))
-        return next(cb, info);
-    if (out.empty()) return;
-    VkCopyBufferToImageInfo2 scaled = *info;
-    scaled.regionCount = static_cast<uint32_t>(out.size());
-    scaled.pRegions = out.data();
-    next(cb, &scaled);
+    const bool scaled =
+        dev.session && scale_buffer_copies(info->dstImage, info->regionCount, info->pRegions, out);
+    pass_down_regions2(cb, info, scaled, out, next);
 }
 
 VKAPI_ATTR void VKAPI_CALL CmdCopyBufferToImage2(VkCommandBuffer commandBuffer,
@@ -445,13 +443,9 @@ void copy_image_to_buffer2(DeviceState &dev, VkCommandBuffer cb, const VkCopyIma
                            Next next) {
     capture_command(dev, cb, [&](codec::Encoder &e) { encode_vkCmdCopyImageToBuffer2(e, cb, info); });
     std::vector<VkBufferImageCopy2> out;
-    if (!dev.session || !scale_buffer_copies(info->srcImage, info->regionCount, info->pRegions, out))
-        return next(cb, info);
-    if (out.empty()) return;
-    VkCopyImageToBufferInfo2 scaled = *info;
-    scaled.regionCount = static_cast<uint32_t>(out.size());
-    scaled.pRegions = out.data();
-    next(cb, &scaled);
+    const bool scaled =
+        dev.session && scale_buffer_copies(info->srcImage, info->regionCount, info->pRegions, out);
+    pass_down_regions2(cb, info, scaled, out, next);
 }
 
 VKAPI_ATTR void VKAPI_CALL CmdCopyImageToBuffer2(VkCommandBuffer commandBuffer,
