@@ -402,7 +402,10 @@ def measure(args):
 
 def q3(values):
     q1, m, q3_ = common.quartiles(values)
-    return {"median": m, "iqr": q3_ - q1, "q1": q1, "q3": q3_, "n": len(values)}
+    # The mean too: lockstep frames behind a slower agent alternate between two times (one waits,
+    # the next does not), and the median then picks one mode rather than the rate frames come at.
+    mean = sum(values) / len(values) if values else 0.0
+    return {"median": m, "mean": mean, "iqr": q3_ - q1, "q1": q1, "q3": q3_, "n": len(values)}
 
 
 def typical_frame(rows, stages):
@@ -611,7 +614,7 @@ def print_tables(res):
     if len(per_path) > 1 or res["config"].get("tls") or res["config"].get("paths", ["direct"]) != ["direct"]:
         print(f"render paths (ms per frame, medians; the tables above are --path {per_path[0]['path']}'s)")
         print("  path           native (IQR)      split (IQR)  split-tls (IQR)  periphery(GPU)  periphery/native  "
-              "split/native  split-tls/split  late")
+              "split/native  by means  split-tls/split  late")
         for p in per_path:
             r = path_ratios(p)
             tls = f"{p['split_tls']['median']:8.2f} ({p['split_tls']['iqr']:5.2f})" if p.get("split_tls") else f"{'-':>16}"
@@ -619,6 +622,7 @@ def print_tables(res):
             print(f"  {p['path']:<10} {p['native']['median']:8.2f} ({p['native']['iqr']:5.2f}) "
                   f"{p['split']['median']:8.2f} ({p['split']['iqr']:5.2f}) {tls} {per} "
                   f"{fmt_ratio(r['periphery/native']):>17} {fmt_ratio(r['split/native']):>13} "
+                  f"{fmt_ratio(r['split/native by means']):>9} "
                   f"{fmt_ratio(r['split-tls/split']):>16} {p['stages']['late']:5d}")
 
 
@@ -627,7 +631,9 @@ def path_ratios(p):
     time, as the analysis compares them) and split-tls/split of one path_summary; None where not measured."""
     n, sp = p["native"]["median"], p["split"]["median"]
     per, tls = p.get("periphery"), p.get("split_tls")
+    n_mean, sp_mean = p["native"].get("mean"), p["split"].get("mean")
     return {"split/native": sp / n if n else None,
+            "split/native by means": sp_mean / n_mean if n_mean and sp_mean else None,
             "periphery/native": per["median"] / n if per and n else None,
             "split-tls/split": tls["median"] / sp if tls and sp else None}
 
@@ -783,7 +789,8 @@ def paths_markdown(res):
     la = " ".join(f"{x:.2f}" for x in m["load_after"])
     tls = c.get("tls")
     head = ["path", "native, ms (IQR)", "split, ms (IQR)"] + (["split over TLS, ms (IQR)"] if tls else []) + \
-        ["periphery (GPU), ms", "periphery/native", "tile wait", "exposed wait / frame", "split/native"] + \
+        ["periphery (GPU), ms", "periphery/native", "tile wait", "exposed wait / frame", "split/native",
+         "split/native by means"] + \
         (["split-tls/split"] if tls else []) + ["tile-bytes/raw", "client CPU split/native", "late frames"]
     rows = []
     for p in res["per_path"]:
@@ -796,7 +803,7 @@ def paths_markdown(res):
         estimated = " (est.)" if p.get("periphery_source") == "estimate" else ""
         row += [f"{p['periphery']['median']:.2f}{estimated}" if p.get("periphery") else "n/a",
                 fmt_ratio(r["periphery/native"], "n/a"), f"{s['tile_wait']:.2f}", f"{s.get('exposed_share', 0.0):.3f}",
-                f"**{fmt_ratio(r['split/native'])}**"]
+                f"**{fmt_ratio(r['split/native'])}**", fmt_ratio(r["split/native by means"], "n/a")]
         if tls:
             row.append(fmt_ratio(r["split-tls/split"], "n/a"))
         row += [f"{s['tile_bytes'] / s['raw_bytes']:.3f}" if s["raw_bytes"] else "n/a",
@@ -819,6 +826,9 @@ def paths_markdown(res):
         "Frame times are medians (IQR) over every remaining frame; periphery is the client's periphery "
         "render on its GPU (`SPLITVK_STATS`' `periphery_ms`, timestamp queries), and periphery/native that "
         "over the native median frame: the share of a native frame the client still renders itself. "
+        "split/native by means compares mean frame times: where the agent is slower than the client, "
+        "lockstep frames alternate between a short and a long time and the median is one of the two, "
+        "so the means say how fast frames really come (n/a for runs recorded before means were kept). "
         "The layer does not time a pass whose contents are in secondary command buffers (`secondary`): "
         "n/a there, or (est.) from a native run at the periphery's size with `--periphery-frames N`.",
         "",
