@@ -33,8 +33,8 @@ def distribution(res, path):
                 rotation=90, va="bottom", ha="right", fontsize=8)
     c = res["config"]
     ratio = res["split"]["median"] / res["native"]["median"]
-    path = c.get("paths", ["direct"])[0]
-    ax.set_title(f"splitvk-atrium {'' if path == 'direct' else f'--path {path} '}{c['width']}x{c['height']}, fovea {c['fovea']}/eye, scale {c['scale']}: "
+    render_path = c.get("paths", ["direct"])[0]
+    ax.set_title(f"splitvk-atrium {'' if render_path == 'direct' else f'--path {render_path} '}{c['width']}x{c['height']}, fovea {c['fovea']}/eye, scale {c['scale']}: "
                  f"split/native {ratio:.3f}", fontsize=10)
     ax.set_xlabel("frame time, ms (present to present; the top 1 % clipped into the last bin)")
     ax.set_ylabel("frames")
