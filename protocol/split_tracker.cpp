@@ -49,17 +49,21 @@ size_t CommandTracker::scissor_count() const {
     return static_scissors() ? pipeline_->scissors.size() : scissors_.values.size();
 }
 
+// The record of `image` among those drawn, added on first use; it takes the extent drawn at.
+DrawnImage &CommandTracker::drawn_entry(uint64_t image, VkExtent2D extent) {
+    auto it =
+        std::find_if(drawn_.begin(), drawn_.end(), [&](const DrawnImage &x) { return x.image == image; });
+    if (it == drawn_.end()) return drawn_.emplace_back(DrawnImage{image, extent, {}});
+    it->extent = extent;
+    return *it;
+}
+
 void CommandTracker::merge_executed(const CommandTracker &secondary, EyeMode mode, const FoveaSize &fovea) {
     merge_drawn(drawn_, secondary.drawn_);
     if (!in_split_ || !swapchain_) return;
-    auto it =
-        std::find_if(drawn_.begin(), drawn_.end(), [&](const DrawnImage &x) { return x.image == image_; });
-    if (it == drawn_.end()) {
-        drawn_.push_back({image_, extent_, {}});
-        it = drawn_.end() - 1;
-    }
+    DrawnImage &entry = drawn_entry(image_, extent_);
     for (const VkViewport &v : secondary.secondary_viewports_)
-        add_fovea(it->foveae, fovea_for_viewport(v, extent_, mode, fovea));
+        add_fovea(entry.foveae, fovea_for_viewport(v, extent_, mode, fovea));
     noted_in_pass_ = true;
 }
 
@@ -76,29 +80,17 @@ void CommandTracker::note_foveae(EyeMode mode, const FoveaSize &fovea) {
         return;
     }
     if (!in_split_ || !swapchain_) return;
-    auto it =
-        std::find_if(drawn_.begin(), drawn_.end(), [&](const DrawnImage &x) { return x.image == image_; });
-    if (it == drawn_.end()) {
-        drawn_.push_back({image_, extent_, {}});
-        it = drawn_.end() - 1;
-    }
-    it->extent = extent_;
+    DrawnImage &entry = drawn_entry(image_, extent_);
     for (size_t i = 0; i < viewport_count(); ++i)
         if (const VkViewport *v = viewport(i))
-            add_fovea(it->foveae, fovea_for_viewport(*v, extent_, mode, fovea));
+            add_fovea(entry.foveae, fovea_for_viewport(*v, extent_, mode, fovea));
     noted_in_pass_ = true;
 }
 
 void CommandTracker::note_transfer(uint64_t image, VkExtent2D extent, const VkRect2D &region, EyeMode mode,
                                    const FoveaSize &fovea) {
     if (region.extent.width == 0 || region.extent.height == 0) return;
-    auto it =
-        std::find_if(drawn_.begin(), drawn_.end(), [&](const DrawnImage &x) { return x.image == image; });
-    if (it == drawn_.end()) {
-        drawn_.push_back({image, extent, {}});
-        it = drawn_.end() - 1;
-    }
-    it->extent = extent;
+    DrawnImage &entry = drawn_entry(image, extent);
     const VkViewport as_viewport{static_cast<float>(region.offset.x),
                                  static_cast<float>(region.offset.y),
                                  static_cast<float>(region.extent.width),
@@ -106,14 +98,14 @@ void CommandTracker::note_transfer(uint64_t image, VkExtent2D extent, const VkRe
                                  0.f,
                                  1.f};
     if (mode != EyeMode::Two) {
-        add_fovea(it->foveae, fovea_for_viewport(as_viewport, extent, mode, fovea));
+        add_fovea(entry.foveae, fovea_for_viewport(as_viewport, extent, mode, fovea));
         return;
     }
     const uint32_t half = extent.width / 2;
     const VkRect2D eyes[] = {{{0, 0}, {half, extent.height}},
                              {{static_cast<int32_t>(half), 0}, {extent.width - half, extent.height}}};
     for (const VkRect2D &eye : eyes)
-        if (intersect(eye, region).extent.width > 0) add_fovea(it->foveae, fovea_of_eye(eye, fovea));
+        if (intersect(eye, region).extent.width > 0) add_fovea(entry.foveae, fovea_of_eye(eye, fovea));
 }
 
 namespace {

@@ -140,6 +140,8 @@ public:
     const std::vector<DrawnImage> &drawn() const { return drawn_; }
 
 private:
+    DrawnImage &drawn_entry(uint64_t image, VkExtent2D extent);
+
     StateArray<VkViewport> viewports_;
     StateArray<VkRect2D> scissors_;
     std::shared_ptr<const StaticViewportState> pipeline_;
