@@ -281,24 +281,22 @@ void Session::resync(DeviceState &device, VkQueue queue, uint64_t frame) {
     (void)encoder_.take(); // already in the log, and so in the snapshot
     size_t entries = 0;
     std::unordered_set<uint64_t> live_ids;
-    size_t bytes = 0;
-    auto send = [&](protocol::MessageType type, std::vector<uint8_t> &&payload) {
-        bytes += payload.size();
-        send_locked(type, std::move(payload));
-    };
-    for (auto &message : object_log_locked(&entries, &live_ids))
-        send(message.type, std::move(message.payload));
+    std::vector<LiveMessage> snapshot = object_log_locked(&entries, &live_ids);
     for (auto &message : contents.messages)
-        send(message.type, std::move(message.payload));
+        snapshot.push_back(std::move(message));
     codec::Encoder descriptors;
     descriptors.set_hooks(&hooks_);
     size_t sets = 0;
     snapshot_descriptor_contents(device, live_ids, descriptors, &sets);
-    if (descriptors.size() != 0) send(protocol::MessageType::Commands, descriptors.take());
+    if (descriptors.size() != 0) snapshot.push_back({protocol::MessageType::Commands, descriptors.take()});
     std::vector<std::vector<uint8_t>> streams;
     snapshot_command_buffers(device, live_ids, streams);
     for (auto &stream : streams)
-        send(protocol::MessageType::Commands, std::move(stream));
+        snapshot.push_back({protocol::MessageType::Commands, std::move(stream)});
+    size_t bytes = 0;
+    for (const LiveMessage &message : snapshot)
+        bytes += message.payload.size();
+    send_all_locked(std::move(snapshot));
     first_replayed_frame_.store(frame + 1);
     joined_agent_answered_ = answered;
     awaiting_first_tiles_.store(true);
@@ -560,7 +558,18 @@ size_t Session::live_object_count() {
 
 void Session::send_locked(protocol::MessageType type, std::vector<uint8_t> &&payload) {
     if (!live()) return;
-    const protocol::SendResult result = connection_->send_owned(type, std::move(payload), kSendWait);
+    note_send_locked(connection_->send_owned(type, std::move(payload), kSendWait));
+}
+
+void Session::send_all_locked(std::vector<LiveMessage> &&messages) {
+    if (!live()) return;
+    // Every core the client has: the app is held at this present until the snapshot is queued.
+    const unsigned workers = std::clamp(std::thread::hardware_concurrency(), 1u, 4u);
+    note_send_locked(connection_->send_all(std::move(messages), kSendWait, workers));
+}
+
+// A message the link would not take ends the session: the agent would replay a stream with a hole.
+void Session::note_send_locked(protocol::SendResult result) {
     if (result == protocol::SendResult::Queued) return;
     std::string reason = protocol::to_string(result);
     if (result == protocol::SendResult::Closed) reason = connection_->close_reason();

@@ -83,10 +83,7 @@ enum class LiveChange { Unchanged, Created, Destroyed, Retired };
 
 // One message of a snapshot: Commands, the SwapchainImages metadata of a live swapchain, or the
 // ImageLayouts of a live linear image.
-struct LiveMessage {
-    protocol::MessageType type = protocol::MessageType::Commands;
-    std::vector<uint8_t> payload;
-};
+using LiveMessage = protocol::OutboundMessage;
 
 // A snapshot of the live-state log: the messages to replay in order (objects in creation order,
 // descriptor contents, then one Commands message per command buffer stream).
@@ -275,6 +272,8 @@ private:
     // receive_verify_frame(), Goodbye ends the session.
     void run_receiver();
     void send_locked(protocol::MessageType type, std::vector<uint8_t> &&payload);
+    void send_all_locked(std::vector<LiveMessage> &&messages); // a snapshot: compressed on every core
+    void note_send_locked(protocol::SendResult result);
     void note_live_change(LiveChange change, uint64_t id, size_t start);
 
     struct LogEntry {

@@ -305,31 +305,98 @@ struct Connection::Impl : std::enable_shared_from_this<Connection::Impl> {
 
     // --- sending ------------------------------------------------------------------------------
 
+    // A payload made ready for the queue: compressed when that pays, else moved (or copied) as is.
+    struct Prepared {
+        Outgoing out;
+        bool compressed = false;
+        size_t raw_size = 0;
+    };
+
+    std::shared_ptr<Compressor> current_compressor() {
+        std::lock_guard lock(mutex);
+        return closed ? nullptr : compressor;
+    }
+
     // `owned`, when given, holds the payload and may be moved from (no copy when sent raw).
+    static Prepared prepare(Compressor &active, std::span<const uint8_t> payload,
+                            std::vector<uint8_t> *owned) {
+        Prepared prepared;
+        prepared.raw_size = payload.size();
+        prepared.compressed = active.compress_if_pays(payload, prepared.out.payload);
+        if (!prepared.compressed) {
+            if (owned)
+                prepared.out.payload = std::move(*owned);
+            else
+                prepared.out.payload.assign(payload.begin(), payload.end());
+        }
+        prepared.out.bytes = kHeaderSize + prepared.out.payload.size();
+        return prepared;
+    }
+
     SendResult send(uint16_t type, std::span<const uint8_t> payload, std::vector<uint8_t> *owned,
                     std::chrono::milliseconds wait) {
         if (payload.size() > options.max_payload) return SendResult::TooLarge;
-        std::shared_ptr<Compressor> active_compressor;
-        {
-            std::lock_guard lock(mutex);
-            if (closed) return SendResult::Closed;
-            active_compressor = compressor;
+        const std::shared_ptr<Compressor> active = current_compressor();
+        if (!active) return SendResult::Closed;
+        Prepared prepared = prepare(*active, payload, owned);
+        return enqueue(type, prepared, owned, wait);
+    }
+
+    // Compresses on `workers` threads while this thread queues the results in their order, so the
+    // I/O thread writes the first messages while later ones are still being compressed. Worth it
+    // for a resync's snapshot (tens of MiB, DESIGN §6), where one thread's zstd was most of the
+    // time to the new agent's first frame.
+    SendResult send_all(std::vector<OutboundMessage> &messages, std::chrono::milliseconds wait,
+                        unsigned workers) {
+        for (const OutboundMessage &message : messages)
+            if (message.payload.size() > options.max_payload) return SendResult::TooLarge;
+        const std::shared_ptr<Compressor> active = current_compressor();
+        if (!active) return SendResult::Closed;
+
+        std::vector<Prepared> prepared(messages.size());
+        std::vector<char> ready(messages.size(), 0);
+        std::mutex ready_mutex;
+        std::condition_variable ready_cv;
+        std::atomic<size_t> next{0};
+        std::atomic<bool> abandon{false};
+        const auto compress_next = [&] {
+            for (size_t i = next.fetch_add(1); i < messages.size() && !abandon.load();
+                 i = next.fetch_add(1)) {
+                Prepared done = prepare(*active, messages[i].payload, &messages[i].payload);
+                std::lock_guard lock(ready_mutex);
+                prepared[i] = std::move(done);
+                ready[i] = 1;
+                ready_cv.notify_all();
+            }
+        };
+        std::vector<std::thread> threads;
+        workers =
+            std::clamp<unsigned>(workers, 1, static_cast<unsigned>(std::max<size_t>(messages.size(), 1)));
+        for (unsigned t = 0; t < workers; ++t)
+            threads.emplace_back(compress_next);
+
+        SendResult result = SendResult::Queued;
+        for (size_t i = 0; i < messages.size() && result == SendResult::Queued; ++i) {
+            {
+                std::unique_lock lock(ready_mutex);
+                ready_cv.wait(lock, [&] { return ready[i] != 0; });
+            }
+            result = enqueue(to_wire(messages[i].type), prepared[i], nullptr, wait);
         }
-        const size_t raw_size = payload.size();
-        Outgoing out;
-        const bool compressed = active_compressor->compress_if_pays(payload, out.payload);
-        if (!compressed) {
-            if (owned)
-                out.payload = std::move(*owned);
-            else
-                out.payload.assign(payload.begin(), payload.end());
-        }
-        out.bytes = kHeaderSize + out.payload.size();
+        abandon.store(true);
+        for (std::thread &worker : threads)
+            worker.join();
+        return result;
+    }
+
+    // On refusal the caller keeps its data: a raw payload goes back into `owned`.
+    SendResult enqueue(uint16_t type, Prepared &prepared, std::vector<uint8_t> *owned,
+                       std::chrono::milliseconds wait) {
+        Outgoing &out = prepared.out;
         // The I/O thread drains the queue: waiting on it from a handler would only time out.
         if (on_io_thread()) wait = std::chrono::milliseconds(0);
-        // On refusal the caller keeps its data.
         const auto give_back = [&] {
-            if (owned && !compressed) *owned = std::move(out.payload);
+            if (owned && !prepared.compressed) *owned = std::move(out.payload);
         };
 
         std::unique_lock lock(mutex);
@@ -349,13 +416,13 @@ struct Connection::Impl : std::enable_shared_from_this<Connection::Impl> {
         MessageHeader header;
         header.payload_length = static_cast<uint32_t>(out.payload.size());
         header.type = type;
-        header.flags = compressed ? kFlagCompressed : 0;
+        header.flags = prepared.compressed ? kFlagCompressed : 0;
         header.sequence = next_sequence++;
         out.header = encode_header(header);
         send_bytes += out.bytes;
         stats.messages_sent += 1;
-        stats.payload_bytes_sent += raw_size;
-        if (compressed) stats.compressed_messages_sent += 1;
+        stats.payload_bytes_sent += prepared.raw_size;
+        if (prepared.compressed) stats.compressed_messages_sent += 1;
         send_queue.push_back(std::move(out));
         if (!write_scheduled) {
             write_scheduled = true;
@@ -713,6 +780,11 @@ SendResult Connection::send_owned(uint16_t type, std::vector<uint8_t> &&payload,
                                   std::chrono::milliseconds wait_for_space) {
     const std::span<const uint8_t> view(payload);
     return impl_->send(type, view, &payload, wait_for_space);
+}
+
+SendResult Connection::send_all(std::vector<OutboundMessage> &&messages,
+                                std::chrono::milliseconds wait_for_space, unsigned workers) {
+    return impl_->send_all(messages, wait_for_space, workers);
 }
 
 std::optional<Message> Connection::try_receive() {

@@ -108,6 +108,12 @@ struct ConnectionOptions {
     std::chrono::milliseconds tls_handshake_timeout{5000};
 };
 
+// One message to queue with Connection::send_all.
+struct OutboundMessage {
+    MessageType type = MessageType::Commands;
+    std::vector<uint8_t> payload;
+};
+
 enum class SendResult {
     Queued,    // accepted; it will be written in order
     QueueFull, // back-pressure: not queued (the peer or the network is not keeping up)
@@ -176,6 +182,14 @@ public:
                           std::chrono::milliseconds wait_for_space = std::chrono::milliseconds(0)) {
         return send_owned(to_wire(type), std::move(payload), wait_for_space);
     }
+
+    // Queues `messages` in order, as send_owned() would one by one, but compresses them on
+    // `workers` threads at once while the first ones are already being written. For a large batch
+    // that must reach the peer quickly: a resync's snapshot. Stops at the first message that is not
+    // Queued and returns its result; the messages before it are queued, the rest are dropped.
+    SendResult send_all(std::vector<OutboundMessage> &&messages,
+                        std::chrono::milliseconds wait_for_space = std::chrono::milliseconds(0),
+                        unsigned workers = 2);
 
     // Queue mode. try_receive never blocks; receive waits at most `timeout`. Both return nothing
     // when no message is waiting (receive: also at once when closed and empty).

@@ -221,6 +221,70 @@ TEST(ProtocolTransport, LargeMessagesCompressedWhenItPays) {
     EXPECT_EQ(closed.count(), 0u);
 }
 
+// A resync's snapshot: many messages, large and small, compressible and not, compressed on several
+// threads at once. They must arrive exactly as sent and in order, with the sequence unbroken.
+TEST(ProtocolTransport, SendAllKeepsOrderWhileCompressingInParallel) {
+    CloseWatch closed;
+    Pair pair = make_pair();
+    ASSERT_TRUE(pair.client && pair.server);
+    pair.client->start(closed.handler());
+    pair.server->start(closed.handler());
+
+    std::mt19937 engine(11);
+    std::vector<OutboundMessage> batch;
+    std::vector<std::vector<uint8_t>> expected;
+    for (uint32_t i = 0; i < 64; ++i) {
+        std::vector<uint8_t> payload = numbered_payload(i);
+        if (i % 3 == 0) payload.resize(payload.size() + (256u << 10) * (1 + i % 5), static_cast<uint8_t>(i));
+        if (i % 7 == 0)
+            for (size_t k = 0; k < (64u << 10); ++k)
+                payload.push_back(static_cast<uint8_t>(engine()));
+        expected.push_back(payload);
+        batch.push_back({i % 2 ? MessageType::MemoryData : MessageType::Commands, std::move(payload)});
+    }
+    ASSERT_EQ(pair.client->send(MessageType::Commands, numbered_payload(1000)), SendResult::Queued);
+    ASSERT_EQ(pair.client->send_all(std::move(batch), kPatience, 4), SendResult::Queued);
+    ASSERT_EQ(pair.client->send(MessageType::Commands, numbered_payload(1001)), SendResult::Queued);
+
+    auto first = pair.server->receive(kPatience);
+    ASSERT_TRUE(first) << pair.server->close_reason();
+    EXPECT_EQ(first->payload, numbered_payload(1000));
+    size_t compressed = 0;
+    for (uint32_t i = 0; i < expected.size(); ++i) {
+        auto message = pair.server->receive(kPatience);
+        ASSERT_TRUE(message) << "message " << i << ": " << pair.server->close_reason();
+        EXPECT_EQ(message->type, to_wire(i % 2 ? MessageType::MemoryData : MessageType::Commands));
+        EXPECT_EQ(message->sequence, first->sequence + 1 + i);
+        ASSERT_EQ(message->payload, expected[i]) << "message " << i;
+        compressed += message->was_compressed ? 1 : 0;
+    }
+    EXPECT_GT(compressed, 0u) << "the large runs compress";
+    auto last = pair.server->receive(kPatience);
+    ASSERT_TRUE(last);
+    EXPECT_EQ(last->payload, numbered_payload(1001));
+    EXPECT_EQ(closed.count(), 0u);
+}
+
+// A batch stops at the first message the link will not take; it never queues past a hole.
+TEST(ProtocolTransport, SendAllStopsAtTheFirstRefusal) {
+    Pair pair = make_pair();
+    ASSERT_TRUE(pair.client && pair.server);
+    std::vector<OutboundMessage> batch;
+    batch.push_back({MessageType::Commands, numbered_payload(1)});
+    pair.client->close();
+    EXPECT_EQ(pair.client->send_all(std::move(batch)), SendResult::Closed);
+
+    ConnectionOptions options;
+    options.max_payload = 1000;
+    Pair second = make_pair(options);
+    ASSERT_TRUE(second.client && second.server);
+    std::vector<OutboundMessage> oversized;
+    oversized.push_back({MessageType::Commands, numbered_payload(2)});
+    oversized.push_back({MessageType::Commands, std::vector<uint8_t>(1001)});
+    EXPECT_EQ(second.client->send_all(std::move(oversized)), SendResult::TooLarge);
+    EXPECT_EQ(second.client->stats().messages_sent, 0u) << "an oversized message refuses the whole batch";
+}
+
 TEST(ProtocolTransport, PeerCloseReportedOnce) {
     CloseWatch client_closed, server_closed;
     Pair pair = make_pair();
