@@ -12,8 +12,11 @@ not time the app's own rendering.
 
 --path NAME (or --paths A,B,... or --path all) draws the frames through one or more of atrium's
 render paths (splitvk-atrium --path: direct, hdr, deferred, multiview, secondary, compute); each
-round runs every path in turn, each path's native and split alternating as for one path. --tls adds
-a split over TLS 1.3 (SPLITVK_TLS=on, the agent pinned by its fingerprint) to every round and path.
+round runs every path in turn, each path's native and split alternating as for one path. Variants of
+the split run beside the plain one in every round and path, each reported as VARIANT/split: --tls adds
+a split over TLS 1.3 (split-tls: SPLITVK_TLS=on, the agent pinned by its fingerprint), and
+--agent-scissor guard:N a split whose agent also cuts offscreen screen-space passes to the fovea
+(split-guard: SPLITVK_AGENT_SCISSOR=guard:N).
 
 Prints median and IQR of the frame time (every frame of every run, after --warmup frames per run)
 of native and split, the client's and the agent's per-stage medians, Mbit/s of tiles; draws the
@@ -21,9 +24,9 @@ frame-time distributions and one typical frame's timeline (docs/figures/ with /u
 and python3-matplotlib); with --write-docs (the default for a full run) replaces the paper section
 of docs/BENCHMARKS.md (with any path but direct, or several, its per-path section instead, and the
 figures stay in --out-dir). Per path it prints split/native, periphery/native (the client's
-periphery render, SPLITVK_STATS' periphery_ms, over the native median frame time) and with --tls
-split-tls/split, as `NAME[PATH]: R` lines when there are several paths; then the first path's
-periphery/native and split-tls/split, and it ends with four lines for the first path, nothing after them:
+periphery render, SPLITVK_STATS' periphery_ms, over the native median frame time) and each variant's
+VARIANT/split, as `NAME[PATH]: R` lines when there are several paths; then the first path's
+periphery/native and VARIANT/split, and it ends with four lines for the first path, nothing after them:
   split/native: R        split median frame time over native median frame time
   tile-wait/frame: R     median tile wait over the split median frame time
   exposed-wait/frame: R  all exposed wait (the tile wait after the client's GPU had finished its
@@ -62,6 +65,8 @@ PATHS_END = "<!-- bench paper paths: end -->"
 RENDER_PATHS = ("direct", "hdr", "deferred", "multiview", "secondary", "compute")  # splitvk-atrium --path
 # The periphery render is measured by the layer (SPLITVK_STATS' periphery_ms, GPU timestamps);
 # --periphery-frames N adds the older estimate, a native run at the periphery's size.
+# Variants of the split measured beside it (see measure): name -> how the tables call it.
+VARIANTS = {"split-tls": "split over TLS 1.3", "split-guard": "split, agent scissor"}
 FULL = {"frames": 350, "rounds": 3, "periphery_frames": 0}
 QUICK = {"frames": 40, "rounds": 2, "periphery_frames": 0}
 
@@ -96,6 +101,14 @@ def path_names(text):
     if not names:
         raise argparse.ArgumentTypeError("no render path given")
     return names
+
+
+def guard_setting(text):
+    """'guard:64' -> itself; anything else is a usage error (off is the plain split)."""
+    head, _, n = text.partition(":")
+    if head != "guard" or not n.isdigit():
+        raise argparse.ArgumentTypeError(f"--agent-scissor '{text}': expected guard:N, N pixels (e.g. guard:64)")
+    return text
 
 
 def cpu_text(cpus):
@@ -150,6 +163,8 @@ def register(subparsers):
                        help="several render paths, run in this order in every round")
     p.add_argument("--tls", action="store_true",
                    help="also run each round's split over TLS 1.3 (SPLITVK_TLS=on) and report split-tls/split")
+    p.add_argument("--agent-scissor", type=guard_setting, metavar="guard:N",
+                   help="also run each round's split with SPLITVK_AGENT_SCISSOR=guard:N and report split-guard/split")
     p.add_argument("--out-dir", help="per-frame CSVs, logs, results.json (default: BUILD/bench-paper)")
     p.add_argument("--figures-dir", help="where the PNGs go (default: docs/figures with --write-docs, else --out-dir)")
     docs = p.add_mutually_exclusive_group()
@@ -323,7 +338,9 @@ def measure(args):
     print(f"paper: {APP_NAME} {args.width}x{args.height} stereo, fovea {args.fovea} per eye, scale {args.scale} "
           f"(periphery {pw}x{ph}), codec {args.codec}, moving camera; {args.frames} frames per run "
           f"({args.warmup} warm-up left out), {args.rounds} rounds native/split alternating"
-          + (" with a split over TLS 1.3" if args.tls else "") + f"; render path(s): {', '.join(args.paths)}"
+          + (" with a split over TLS 1.3" if args.tls else "")
+          + (f" with a split at SPLITVK_AGENT_SCISSOR={args.agent_scissor}" if args.agent_scissor else "")
+          + f"; render path(s): {', '.join(args.paths)}"
           + (f", periphery-size native runs of {args.periphery_frames} frames" if args.periphery_frames else ""),
           flush=True)
     print(f"paper: weak client on CPU {cpu_text(client_cpus)} with LP_NUM_THREADS={args.client_threads}; "
@@ -335,8 +352,8 @@ def measure(args):
               f"(scripts/bench paper: {FULL['frames']} x {FULL['rounds']}); its numbers are noisier", flush=True)
 
     # Per path: frame times of each run (after the warm-up), the split runs' stats rows, CPU per frame.
-    runs = {path: {"native": [], "split": [], "split-tls": [], "periphery": [],
-                   "cpu": {"native": [], "split": [], "split-tls": []}} for path in args.paths}
+    modes = ["native", "split"] + [v for v, on in (("split-tls", args.tls), ("split-guard", args.agent_scissor)) if on]
+    runs = {path: dict({m: [] for m in modes}, periphery=[], cpu={m: [] for m in modes}) for path in args.paths}
     start = time.monotonic()
     with common.display() as disp:
         base = common.clean_env(args.icd)
@@ -352,12 +369,15 @@ def measure(args):
                              SPLITVK_LOG_LEVEL="info", SPLITVK_SCALE=args.scale, SPLITVK_CODEC=args.codec,
                              SPLITVK_EYES="2", SPLITVK_FOVEA=args.fovea,
                              SPLITVK_TILE_WAIT=str(args.tile_wait))
-            # The same split over TLS to the same agent (it serves both on one port), through the link too.
-            tls_env = common.tls_split_env(split_env, agent, out_dir, base) if args.tls else None
+            variant_env = {}
+            if args.tls:  # to the same agent (it serves both on one port), through the link too
+                variant_env["split-tls"] = common.tls_split_env(split_env, agent, out_dir, base)
+            if args.agent_scissor:
+                variant_env["split-guard"] = dict(split_env, SPLITVK_AGENT_SCISSOR=args.agent_scissor)
             for i in range(args.rounds):
-                # Native and split alternate their order every round; the TLS split, when there is
-                # one, trades ends with native, so the plain split sits between them in every round.
-                order = ("native", "split", "split-tls") if tls_env else ("native", "split")
+                # Native and split alternate their order every round; the variants trade ends with
+                # native, so the plain split sits next to native in one round and to them in the next.
+                order = tuple(modes)
                 if i % 2:
                     order = order[::-1]
                 for path in args.paths:
@@ -380,10 +400,14 @@ def measure(args):
                             got["split"].append((read_frame_times(times, args.warmup),
                                                  split.read_stats(stats, args.warmup)))
                         else:
-                            r = cpu_run(argv(path, args.width, args.height, args.frames, times), tls_env,
-                                        timeout_s, args.frames, got["cpu"]["split-tls"])
-                            common.check_tls_split(r)
-                            got["split-tls"].append(read_frame_times(times, args.warmup))
+                            r = cpu_run(argv(path, args.width, args.height, args.frames, times), variant_env[mode],
+                                        timeout_s, args.frames, got["cpu"][mode])
+                            if mode == "split-tls":
+                                common.check_tls_split(r)
+                            elif "running unsplit" in r.stderr or "[splitvk] split:" not in r.stderr:
+                                raise common.BenchError(f"the {mode} run (--path {path}) did not split:\n"
+                                                        + common.tail(r.stderr))
+                            got[mode].append(read_frame_times(times, args.warmup))
                         m, iqr, _ = r.frame_time()
                         line.append(f"{mode} {m:7.2f} ms/frame (IQR {iqr:.2f})")
                     if args.periphery_frames:
@@ -483,7 +507,6 @@ def path_summary(path, runs):
     """One render path's numbers from its runs (see measure), without the per-frame lists."""
     native = [v for run in runs["native"] for v in run]
     split_times = [v for run, _ in runs["split"] for v in run]
-    tls_times = [v for run in runs["split-tls"] for v in run]
     rows = [r for _, rows in runs["split"] for r in rows]
     stages = split.stage_medians(rows)
     stages["frame"] = split.median([float(r["frame_ms"]) for r in rows if float(r["frame_ms"]) > 0])
@@ -492,10 +515,10 @@ def path_summary(path, runs):
     periphery = measured or [v for run in runs["periphery"] for v in run]
     return {
         "path": path, "native": q3(native), "split": q3(split_times),
-        "split_tls": q3(tls_times) if tls_times else None,
+        "variants": {v: dict(q3([t for run in runs[v] for t in run]), rounds=[split.median(r) for r in runs[v]])
+                     for v in VARIANTS if runs.get(v)},
         "native_rounds": [split.median(r) for r in runs["native"]],
         "split_rounds": [split.median(r) for r, _ in runs["split"]],
-        "split_tls_rounds": [split.median(r) for r in runs["split-tls"]],
         "periphery": q3(periphery) if periphery else None,
         "periphery_source": "gpu" if measured else ("estimate" if periphery else None),
         "stages": stages,
@@ -522,7 +545,8 @@ def summarize(args, machine, runs, periphery_size, out_dir, wall_s):
                    "periphery_frames": args.periphery_frames, "client_cpus": args.client_cpus,
                    "client_threads": args.client_threads, "tile_wait": args.tile_wait, "agent_cpus": args.agent_cpus, "link": args.link,
                    "quick": args.quick, "periphery_source": p["periphery_source"],
-                   "paths": list(args.paths), "tls": args.tls},
+                   "paths": list(args.paths), "tls": args.tls,
+                   "agent_scissor": args.agent_scissor},
         "native": p["native"], "split": p["split"],
         "native_rounds": p["native_rounds"], "split_rounds": p["split_rounds"],
         "periphery": p["periphery"],
@@ -538,14 +562,34 @@ def summarize(args, machine, runs, periphery_size, out_dir, wall_s):
 
 # --- output ----------------------------------------------------------------------------------------
 
-def tls_rows_markdown(res):
-    """The split over TLS 1.3 and split-tls/split under the end-to-end table, when the run had --tls."""
-    t = (res.get("per_path") or [{}])[0].get("split_tls")
-    if not t:
-        return []
-    rounds = ", ".join(f"{v:.1f}" for v in res["per_path"][0].get("split_tls_rounds", []))
-    return [f"| split over TLS 1.3 | {t['median']:.2f} | {t['iqr']:.2f} | {t['n']} | {rounds} |",
-            f"| **split-tls / split** | **{t['median'] / res['split']['median']:.3f}** | | | |"]
+def variants_of(p):
+    """A path_summary's split variants, name -> quartiles and rounds (results.json of runs from before
+    the variants table kept the TLS split as split_tls)."""
+    if "variants" in p:
+        return p["variants"]
+    return {"split-tls": dict(p["split_tls"], rounds=p.get("split_tls_rounds", []))} if p.get("split_tls") else {}
+
+
+def run_variants(res):
+    """The variants the run measured, in VARIANTS order."""
+    config = res["config"]
+    on = {"split-tls": config.get("tls"), "split-guard": config.get("agent_scissor")}
+    return [v for v in VARIANTS if on[v]]
+
+
+def variant_label(res, name):
+    setting = res["config"].get("agent_scissor")
+    return f"{VARIANTS[name]} ({setting})" if name == "split-guard" and setting else VARIANTS[name]
+
+
+def variant_rows_markdown(res):
+    """Each split variant and VARIANT/split under the end-to-end table."""
+    rows = []
+    for name, t in variants_of((res.get("per_path") or [{}])[0]).items():
+        rounds = ", ".join(f"{v:.1f}" for v in t.get("rounds", []))
+        rows += [f"| {variant_label(res, name)} | {t['median']:.2f} | {t['iqr']:.2f} | {t['n']} | {rounds} |",
+                 f"| **{name} / split** | **{t['median'] / res['split']['median']:.3f}** | | | |"]
+    return rows
 
 
 def tables_markdown(res):
@@ -560,7 +604,7 @@ def tables_markdown(res):
         f"| split | {sp['median']:.2f} | {sp['iqr']:.2f} | {sp['n']} | "
         + ", ".join(f"{v:.1f}" for v in res["split_rounds"]) + " |",
         f"| **split / native** | **{sp['median'] / n['median']:.3f}** | | | |",
-    ] + tls_rows_markdown(res) + [
+    ] + variant_rows_markdown(res) + [
         "",
         f"Client (Table 1), medians in ms; {periphery_note(c)}:",
         "",
@@ -611,31 +655,38 @@ def print_tables(res):
     print("paper (Snapdragon 865 + GTX 1080): native 32.2 ms, split 26.17 ms (0.813); draw 4.42, encode 15.33, "
           "network 4.99, decode 18.64, merge 0.96 ms; 707.83 Mbit/s")
     per_path = res.get("per_path") or []
-    if len(per_path) > 1 or res["config"].get("tls") or res["config"].get("paths", ["direct"]) != ["direct"]:
+    variants = run_variants(res)
+    if len(per_path) > 1 or variants or res["config"].get("paths", ["direct"]) != ["direct"]:
         print(f"render paths (ms per frame, medians; the tables above are --path {per_path[0]['path']}'s)")
-        print("  path           native (IQR)      split (IQR)  split-tls (IQR)  periphery(GPU)  periphery/native  "
-              "split/native  by means  split-tls/split  late")
+        print("  path           native (IQR)      split (IQR) " + "".join(f"{v + ' (IQR)':>18}" for v in variants)
+              + "  periphery(GPU)  periphery/native  split/native  by means"
+              + "".join(f"{v + '/split':>18}" for v in variants) + "  late")
         for p in per_path:
-            r = path_ratios(p)
-            tls = f"{p['split_tls']['median']:8.2f} ({p['split_tls']['iqr']:5.2f})" if p.get("split_tls") else f"{'-':>16}"
+            r, measured = path_ratios(p), variants_of(p)
+            cells = "".join(f"  {measured[v]['median']:8.2f} ({measured[v]['iqr']:5.2f})" if v in measured
+                            else f"{'-':>18}" for v in variants)
             per = f"{p['periphery']['median']:15.2f}" if p.get("periphery") else f"{'-':>15}"
             print(f"  {p['path']:<10} {p['native']['median']:8.2f} ({p['native']['iqr']:5.2f}) "
-                  f"{p['split']['median']:8.2f} ({p['split']['iqr']:5.2f}) {tls} {per} "
+                  f"{p['split']['median']:8.2f} ({p['split']['iqr']:5.2f}){cells} {per} "
                   f"{fmt_ratio(r['periphery/native']):>17} {fmt_ratio(r['split/native']):>13} "
-                  f"{fmt_ratio(r['split/native by means']):>9} "
-                  f"{fmt_ratio(r['split-tls/split']):>16} {p['stages']['late']:5d}")
+                  f"{fmt_ratio(r['split/native by means']):>9}"
+                  + "".join(f"{fmt_ratio(r.get(v + '/split')):>18}" for v in variants)
+                  + f" {p['stages']['late']:5d}")
 
 
 def path_ratios(p):
     """split/native, periphery/native (the client's periphery render over the native median frame
-    time, as the analysis compares them) and split-tls/split of one path_summary; None where not measured."""
+    time, as the analysis compares them) and VARIANT/split for each variant of one path_summary; None
+    where not measured."""
     n, sp = p["native"]["median"], p["split"]["median"]
-    per, tls = p.get("periphery"), p.get("split_tls")
+    per = p.get("periphery")
     n_mean, sp_mean = p["native"].get("mean"), p["split"].get("mean")
-    return {"split/native": sp / n if n else None,
-            "split/native by means": sp_mean / n_mean if n_mean and sp_mean else None,
-            "periphery/native": per["median"] / n if per and n else None,
-            "split-tls/split": tls["median"] / sp if tls and sp else None}
+    ratios = {"split/native": sp / n if n else None,
+              "split/native by means": sp_mean / n_mean if n_mean and sp_mean else None,
+              "periphery/native": per["median"] / n if per and n else None}
+    for name, t in variants_of(p).items():
+        ratios[f"{name}/split"] = t["median"] / sp if sp else None
+    return ratios
 
 
 def fmt_ratio(value, missing="-"):
@@ -644,7 +695,7 @@ def fmt_ratio(value, missing="-"):
 
 def print_ratio_lines(res):
     """The per-path ratio lines (NAME[PATH]: R) when there are several paths, then the first path's
-    periphery/native and split-tls/split; the four final lines follow them."""
+    periphery/native and VARIANT/split; the four final lines follow them."""
     per_path = res.get("per_path") or []
     if len(per_path) > 1:
         for p in per_path:
@@ -652,10 +703,9 @@ def print_ratio_lines(res):
                 if value is not None:
                     print(f"{name}[{p['path']}]: {value:.3f}")
     if per_path:
-        r = path_ratios(per_path[0])
-        for name in ("periphery/native", "split-tls/split"):
-            if r[name] is not None:
-                print(f"{name}: {r[name]:.3f}")
+        for name, value in path_ratios(per_path[0]).items():
+            if name not in ("split/native", "split/native by means") and value is not None:
+                print(f"{name}: {value:.3f}")
 
 
 def plot(res, figures_dir, out_dir):
@@ -787,25 +837,25 @@ def paths_markdown(res):
     m, c = res["machine"], res["config"]
     lb = " ".join(f"{x:.2f}" for x in m["load_before"])
     la = " ".join(f"{x:.2f}" for x in m["load_after"])
-    tls = c.get("tls")
-    head = ["path", "native, ms (IQR)", "split, ms (IQR)"] + (["split over TLS, ms (IQR)"] if tls else []) + \
+    variants = run_variants(res)
+    tls = "split-tls" in variants
+    head = ["path", "native, ms (IQR)", "split, ms (IQR)"] + [f"{variant_label(res, v)}, ms (IQR)" for v in variants] + \
         ["periphery (GPU), ms", "periphery/native", "tile wait", "exposed wait / frame", "split/native",
          "split/native by means"] + \
-        (["split-tls/split"] if tls else []) + ["tile-bytes/raw", "client CPU split/native", "late frames"]
+        [f"{v}/split" for v in variants] + ["tile-bytes/raw", "client CPU split/native", "late frames"]
     rows = []
     for p in res["per_path"]:
         s, r, cpu = p["stages"], path_ratios(p), p.get("client_cpu", {})
         row = [f"`{p['path']}`", f"{p['native']['median']:.2f} ({p['native']['iqr']:.2f})",
                f"{p['split']['median']:.2f} ({p['split']['iqr']:.2f})"]
-        if tls:
-            t = p.get("split_tls")
-            row.append(f"{t['median']:.2f} ({t['iqr']:.2f})" if t else "n/a")
+        measured = variants_of(p)
+        row += [f"{measured[v]['median']:.2f} ({measured[v]['iqr']:.2f})" if v in measured else "n/a"
+                for v in variants]
         estimated = " (est.)" if p.get("periphery_source") == "estimate" else ""
         row += [f"{p['periphery']['median']:.2f}{estimated}" if p.get("periphery") else "n/a",
                 fmt_ratio(r["periphery/native"], "n/a"), f"{s['tile_wait']:.2f}", f"{s.get('exposed_share', 0.0):.3f}",
                 f"**{fmt_ratio(r['split/native'])}**", fmt_ratio(r["split/native by means"], "n/a")]
-        if tls:
-            row.append(fmt_ratio(r["split-tls/split"], "n/a"))
+        row += [fmt_ratio(r.get(f"{v}/split"), "n/a") for v in variants]
         row += [f"{s['tile_bytes'] / s['raw_bytes']:.3f}" if s["raw_bytes"] else "n/a",
                 f"{cpu['split'] / cpu['native']:.3f}" if cpu.get("native") and cpu.get("split") else "n/a",
                 f"{s['late']} of {s['frames']}"]
@@ -820,8 +870,11 @@ def paths_markdown(res):
         f"({c['periphery']}), codec {c['codec']}; client on CPU {c['client_cpus']} with `LP_NUM_THREADS="
         f"{c['client_threads']}`, agent on CPU {c['agent_cpus']}; link: {c['link']}; `SPLITVK_TILE_WAIT="
         f"{c.get('tile_wait', 250)}`. Every round runs each path in turn, native and split alternating"
-        + (" and a split over TLS 1.3 (`SPLITVK_TLS=on` on loopback, the agent pinned by its fingerprint) "
-           "at the other end of the round from native" if tls else "")
+        + (" and a split over TLS 1.3 (`SPLITVK_TLS=on` on loopback, the agent pinned by its fingerprint)"
+           if tls else "")
+        + (f" and a split whose agent also cuts offscreen screen-space passes to the fovea "
+           f"(`SPLITVK_AGENT_SCISSOR={c['agent_scissor']}`)" if "split-guard" in variants else "")
+        + (" at the other end of the round from native" if len(variants) else "")
         + f"; {c['rounds']} rounds of {c['frames']} frames, the first {c['warmup']} of each run left out. "
         "Frame times are medians (IQR) over every remaining frame; periphery is the client's periphery "
         "render on its GPU (`SPLITVK_STATS`' `periphery_ms`, timestamp queries), and periphery/native that "
