@@ -10,7 +10,9 @@
 // command buffer is submitted again without being re-recorded), written at the top of the pipe
 // after that pass began and at the bottom of the pipe after it ended. Results are read without
 // waiting at present: a frame reports the latest completed measurement, one or two frames old,
-// which is what a median over a run needs. Secondary command buffers are not timed. The
+// which is what a median over a run needs. A pass whose contents are secondary command buffers is
+// timed from its primary: the first timestamp then goes just before the pass begins, since nothing
+// but vkCmdExecuteCommands may be recorded inside it; the secondaries themselves get no queries. The
 // compositor's command buffer gets a pair the same way, around everything it records.
 
 #include "device.h"

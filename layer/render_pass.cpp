@@ -233,9 +233,12 @@ void begin_render_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassB
         time_split_pass_begun(dev, cb);
         return enter_split(dev, cb, *tracker, target);
     }
+    // Only vkCmdExecuteCommands may follow inside the pass, so its periphery is timed from just
+    // before the pass begins (top of pipe; the reset is outside it as for any pass) to its end.
+    time_before_split_pass(dev, cb);
+    time_split_pass_begun(dev, cb);
     down(&scaled);
-    // Only vkCmdExecuteCommands may follow (no state to set, no timestamp to write: secondaries are
-    // not timed), and its foveae come from the secondaries it executes.
+    // No state to set either: the foveae come from the secondaries the pass executes.
     if (target.swapchain) log_split_extent_once(target.extent);
     tracker->begin_split(codec::handle_value(target.image), target.extent, target.swapchain);
     tracker->contents_in_secondaries();

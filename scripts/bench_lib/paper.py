@@ -882,8 +882,8 @@ def paths_markdown(res):
         "split/native by means compares mean frame times: where the agent is slower than the client, "
         "lockstep frames alternate between a short and a long time and the median is one of the two, "
         "so the means say how fast frames really come (n/a for runs recorded before means were kept). "
-        "The layer does not time a pass whose contents are in secondary command buffers (`secondary`): "
-        "n/a there, or (est.) from a native run at the periphery's size with `--periphery-frames N`.",
+        "Where the layer wrote no periphery time (`secondary` before it timed passes with secondary "
+        "contents): n/a, or (est.) from a native run at the periphery's size with `--periphery-frames N`.",
         "",
         f"- date: {res['date']}",
         f"- machine: {describe_machine(m)}; Xvfb display",
