@@ -20,7 +20,6 @@
 #include <atomic>
 #include <mutex>
 #include <set>
-#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -210,18 +209,17 @@ void end_render_pass(DeviceState &dev, VkCommandBuffer cb) {
 // The target each render pass was last begun on: a secondary that continues a pass without
 // naming its framebuffer (engines record them before they know the swapchain image) is recorded
 // for that target's scaling. Engines begin the pass before recording its secondaries for the frame.
-std::mutex g_pass_targets_mutex;
-std::unordered_map<VkRenderPass, PassTarget> g_pass_targets;
+// Forgotten when the render pass is destroyed or its handle value created anew (forget_render_pass).
+split::PassPredictions g_pass_predictions;
 
 template <class Down>
 void begin_render_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassBeginInfo *begin,
                        bool secondary, Down &&down) {
     note_attachments(dev, cb, begin);
     PassTarget target = dev.session ? pass_target(dev, begin) : PassTarget{};
-    if (dev.session) {
-        std::lock_guard lock(g_pass_targets_mutex);
-        g_pass_targets[begin->renderPass] = target;
-    }
+    if (dev.session)
+        g_pass_predictions.note_begin(codec::handle_value(begin->renderPass),
+                                      {target.split(), target.extent});
     split::CommandTracker *tracker = target.split() ? split_tracker(cb) : nullptr;
     if (!tracker && !target.scaled) return down(begin);
     VkRenderPassBeginInfo scaled = *begin;
@@ -296,20 +294,24 @@ void begin_secondary(DeviceState &dev, VkCommandBuffer cb, const VkCommandBuffer
     tracker->begin_secondary();
     const VkCommandBufferInheritanceInfo &inheritance = *begin.pInheritanceInfo;
     if (inheritance.renderPass == VK_NULL_HANDLE) return; // dynamic rendering: not split
-    PassTarget target;
+    split::PassPrediction target;
     if (inheritance.framebuffer != VK_NULL_HANDLE) {
         VkRenderPassBeginInfo info{};
         info.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
         info.renderPass = inheritance.renderPass;
         info.framebuffer = inheritance.framebuffer;
-        target = pass_target(dev, &info);
-    } else {
-        std::lock_guard lock(g_pass_targets_mutex);
-        const auto it = g_pass_targets.find(inheritance.renderPass);
-        if (it != g_pass_targets.end()) target = it->second;
+        const PassTarget t = pass_target(dev, &info);
+        target = {t.split(), t.extent};
+    } else if (const auto predicted =
+                   g_pass_predictions.predict(codec::handle_value(inheritance.renderPass))) {
+        target = *predicted;
     }
     // Scaled like the pass it continues; its viewports are kept for the executing pass's foveae.
-    if (target.split()) tracker->begin_split(0, target.extent, false);
+    if (target.scaled) tracker->begin_split(0, target.extent, false);
+}
+
+void forget_render_pass(VkRenderPass render_pass) {
+    if (render_pass != VK_NULL_HANDLE) g_pass_predictions.forget(codec::handle_value(render_pass));
 }
 
 namespace observe {
@@ -369,8 +371,10 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateImageView(VkDevice device, const VkImageVie
 VKAPI_ATTR void VKAPI_CALL DestroyImageView(VkDevice device, VkImageView imageView,
                                             const VkAllocationCallbacks *pAllocator) {
     DeviceState &dev = device_state(device);
-    dev.dispatch.DestroyImageView(device, imageView, pAllocator);
+    // Forgotten before the driver may hand the value out again: a view created meanwhile on another
+    // thread must not lose its state to this removal.
     if (dev.session && imageView != VK_NULL_HANDLE) g_views.remove(imageView);
+    dev.dispatch.DestroyImageView(device, imageView, pAllocator);
     if (capturing(dev)) [[unlikely]]
         record_global(dev, LiveChange::Destroyed, codec::handle_value(imageView), [&](codec::Encoder &e) {
             encode_vkDestroyImageView(e, device, imageView, pAllocator);
@@ -434,8 +438,11 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateFramebuffer(VkDevice device, const VkFrameb
 VKAPI_ATTR void VKAPI_CALL DestroyFramebuffer(VkDevice device, VkFramebuffer framebuffer,
                                               const VkAllocationCallbacks *pAllocator) {
     DeviceState &dev = device_state(device);
-    dev.dispatch.DestroyFramebuffer(device, framebuffer, pAllocator);
+    // Forgotten before the driver may hand the value out again: a framebuffer created meanwhile on
+    // another thread at the scaled size would otherwise lose its state, and its passes would go down
+    // with unscaled render areas.
     if (dev.session && framebuffer != VK_NULL_HANDLE) g_framebuffers.remove(framebuffer);
+    dev.dispatch.DestroyFramebuffer(device, framebuffer, pAllocator);
     if (capturing(dev)) [[unlikely]]
         record_global(dev, LiveChange::Destroyed, codec::handle_value(framebuffer), [&](codec::Encoder &e) {
             encode_vkDestroyFramebuffer(e, device, framebuffer, pAllocator);

@@ -49,6 +49,9 @@ bool swapchain_image_extent(VkImage image, VkExtent2D *extent);
 // the foveae of the pass that executes it (split_tracker.h).
 void begin_secondary(DeviceState &device, VkCommandBuffer command_buffer,
                      const VkCommandBufferBeginInfo &begin);
+// vkCreateRenderPass* and vkDestroyRenderPass (resource.cpp): the handle value's prediction for
+// secondaries is dropped, since a driver may reuse the value for an unrelated render pass.
+void forget_render_pass(VkRenderPass render_pass);
 
 // The split tracker of a command buffer allocated while the device had a session (reset at
 // vkBeginCommandBuffer); nullptr otherwise (command_buffer.cpp).

@@ -108,6 +108,23 @@ void CommandTracker::note_transfer(uint64_t image, VkExtent2D extent, const VkRe
         if (intersect(eye, region).extent.width > 0) add_fovea(entry.foveae, fovea_of_eye(eye, fovea));
 }
 
+void PassPredictions::note_begin(uint64_t render_pass, const PassPrediction &prediction) {
+    std::lock_guard lock(mutex_);
+    latest_[render_pass] = prediction;
+}
+
+std::optional<PassPrediction> PassPredictions::predict(uint64_t render_pass) const {
+    std::lock_guard lock(mutex_);
+    const auto it = latest_.find(render_pass);
+    if (it == latest_.end()) return std::nullopt;
+    return it->second;
+}
+
+void PassPredictions::forget(uint64_t render_pass) {
+    std::lock_guard lock(mutex_);
+    latest_.erase(render_pass);
+}
+
 namespace {
 
 bool has_state(const VkPipelineDynamicStateCreateInfo *dynamic, VkDynamicState state) {

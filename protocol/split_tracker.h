@@ -16,6 +16,9 @@
 
 #include <cstdint>
 #include <memory>
+#include <mutex>
+#include <optional>
+#include <unordered_map>
 #include <vector>
 
 namespace splitvk::split {
@@ -153,6 +156,29 @@ private:
     uint64_t image_ = 0;
     VkExtent2D extent_{};
     std::vector<DrawnImage> drawn_;
+};
+
+// How a render pass's latest instance was scaled (client, issue 11 item 4): a secondary that
+// continues the pass without naming its framebuffer is recorded for that prediction. Keyed by the
+// render pass's handle value, which a driver may hand out again once the pass is destroyed: the
+// layer forgets the value at vkDestroyRenderPass and again at vkCreateRenderPass (a new pass has no
+// instance yet), so a new render pass never inherits a dead one's target. Thread-safe: passes are
+// begun and secondaries begun from any thread.
+struct PassPrediction {
+    bool scaled = false; // the pass's target is scaled (a swapchain image or a screen-space target)
+    VkExtent2D extent{}; // the full extent its scaled areas are relative to
+};
+
+class PassPredictions {
+public:
+    void note_begin(uint64_t render_pass, const PassPrediction &prediction);
+    // The latest instance's target; none when the pass was never begun since it was created.
+    std::optional<PassPrediction> predict(uint64_t render_pass) const;
+    void forget(uint64_t render_pass);
+
+private:
+    mutable std::mutex mutex_;
+    std::unordered_map<uint64_t, PassPrediction> latest_;
 };
 
 // Reads a pipeline's static viewport/scissor state from its create info. Returns null when both

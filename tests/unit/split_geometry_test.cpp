@@ -290,5 +290,28 @@ TEST(SplitTracker, SecondariesGiveTheExecutingPassItsFoveae) {
     EXPECT_TRUE(outside.drawn().empty());
 }
 
+// Issue 11 gap: a render pass handle value reused by the driver after vkDestroyRenderPass must not
+// hand the new pass the dead one's target (its secondaries would be recorded scaled for a pass
+// that is not, or the other way round). The layer forgets the value at destroy and at create.
+TEST(SplitTracker, ARenderPassForgottenPredictsNothing) {
+    PassPredictions predictions;
+    constexpr uint64_t pass = 0x5a00, other = 0x5b00;
+    EXPECT_FALSE(predictions.predict(pass).has_value()); // never begun: no prediction
+    predictions.note_begin(pass, {true, {2400, 1080}});
+    predictions.note_begin(other, {false, {800, 600}});
+    auto p = predictions.predict(pass);
+    ASSERT_TRUE(p.has_value());
+    EXPECT_TRUE(p->scaled);
+    EXPECT_EQ(p->extent.width, 2400u);
+    predictions.note_begin(pass, {true, {1200, 540}}); // the latest instance wins
+    EXPECT_EQ(predictions.predict(pass)->extent.width, 1200u);
+    predictions.forget(pass); // vkDestroyRenderPass; the driver may now reuse 0x5a00
+    EXPECT_FALSE(predictions.predict(pass).has_value());
+    ASSERT_TRUE(predictions.predict(other).has_value()); // other passes keep theirs
+    EXPECT_FALSE(predictions.predict(other)->scaled);
+    predictions.forget(pass); // forgetting twice (destroy, then the reused value's create) is harmless
+    EXPECT_FALSE(predictions.predict(pass).has_value());
+}
+
 } // namespace
 } // namespace splitvk::split
