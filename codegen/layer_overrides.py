@@ -125,6 +125,7 @@ MANUAL_COMMANDS = {
     "vkCmdCopyImageToBuffer2",
     "vkCmdCopyImageToBuffer2KHR",
     "vkCmdDispatch",
+    "vkCmdDispatchBase",
 }
 
 # Commands whose generated entry point also tells a hand-written observer, after the call went down
@@ -154,6 +155,8 @@ OBSERVED_COMMANDS = {
     "vkDestroyRenderPass",
     # transfer.cpp: the compute descriptor sets bound, for dispatches over screen-space targets.
     "vkCmdBindDescriptorSets",
+    # transfer.cpp: an indirect dispatch over a screen-space target, said once (not scaled).
+    "vkCmdDispatchIndirect",
     # render_pass.cpp: the foveae of the viewports that executed secondaries drew with.
     "vkCmdExecuteCommands",
 }
