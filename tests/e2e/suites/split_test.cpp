@@ -306,14 +306,23 @@ TEST_F(Split, FirstSplitFrameWaitsForTheAgent) {
 // eye texture is upsampled twice: by the compose pass's sampling and by the compositor). Each floor
 // sits 0.015 below its measurement, room for another CPU's rounding, and the test checks that the
 // same frame with black foveae (tiles missing) falls below it.
+//
+// direct_dynamic_rendering: the direct path drawn with vkCmdBeginRendering, whose one rendering
+// writes the swapchain image and the screen-space depth buffer together. Both are scaled on the
+// client: the render area is scaled against the swapchain's extent and the depth buffer was created
+// at the same scaled extent, so one area fits both (validation would flag an area beyond the depth
+// attachment, and a depth buffer at full size would leave the pass unscaled and the frame equal to
+// native). Floor as direct's.
 struct PathCase {
     const char *path;
-    int eyes;        // of the foveae the layer composites
-    double min_ssim; // the path's floor (above)
-    bool offscreen;  // has screen-space targets besides the swapchain image
+    int eyes;                     // of the foveae the layer composites
+    double min_ssim;              // the path's floor (above)
+    bool offscreen;               // has screen-space targets besides the swapchain image
+    const char *option = nullptr; // an atrium option beside --path
+    const char *name = nullptr;   // the test's name when not the path's
 };
 void PrintTo(const PathCase &c, std::ostream *os) {
-    *os << c.path;
+    *os << (c.name ? c.name : c.path);
 }
 
 class SplitAtriumPath : public Split, public ::testing::WithParamInterface<PathCase> {};
@@ -323,6 +332,7 @@ TEST_P(SplitAtriumPath, WholeFrameSplit) {
     ASSERT_NO_FATAL_FAILURE(start_agent());
     auto argv = atrium_argv(2, kFrames, false);
     argv.insert(argv.end(), {"--path", c.path});
+    if (c.option) argv.push_back(c.option);
     Grab native, split;
     ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, env(), "native", kFrames, &native));
     Env e = split_env();
@@ -367,8 +377,11 @@ INSTANTIATE_TEST_SUITE_P(
     Paths, SplitAtriumPath,
     ::testing::Values(PathCase{"direct", 2, 0.953, false}, PathCase{"hdr", 1, 0.95, true},
                       PathCase{"deferred", 1, 0.951, true}, PathCase{"multiview", 1, 0.945, true},
-                      PathCase{"secondary", 2, 0.953, false}, PathCase{"compute", 1, 0.957, true}),
-    [](const ::testing::TestParamInfo<PathCase> &p) { return std::string(p.param.path); });
+                      PathCase{"secondary", 2, 0.953, false}, PathCase{"compute", 1, 0.957, true},
+                      PathCase{"direct", 2, 0.953, false, "--dynamic-rendering", "direct_dynamic_rendering"}),
+    [](const ::testing::TestParamInfo<PathCase> &p) {
+        return std::string(p.param.name ? p.param.name : p.param.path);
+    });
 
 // SPLITVK_TARGETS=swapchain keeps the first version's behaviour: only the pass into the swapchain
 // image is scaled, every offscreen target stays full size, and the foveae are still exact.
