@@ -627,6 +627,34 @@ TEST_F(Split, StricterAgentKeepsFoveaeExact) {
     EXPECT_TRUE(grep(agent_.log(), "flagged invalid").empty()) << tail(agent_.log(), 30);
 }
 
+// The same stricter agent on an offscreen path (atrium --path hdr): the agent replays the HDR
+// scene, the bloom chain at 1/2, 1/4 and 1/8 and the tone-mapping pass full size with its 256-byte
+// alignments while the client renders every screen-space target scaled. The one fovea (the last
+// pass spans the image) equals native bit for bit, the frame stays above hdr's floor
+// (SplitAtriumPath), and neither side's validation nor the agent's limit checks say anything.
+TEST_F(Split, StricterAgentKeepsOffscreenPathFoveaeExact) {
+    const auto strict = (source_dir() / "tests/e2e/profiles/strict_alignment.json").string();
+    ASSERT_TRUE(agent_.start(env(), out_, {"--validate", "--emulate-limits", strict})) << agent_.error();
+    auto argv = atrium_argv(2, kFrames, false);
+    argv.insert(argv.end(), {"--path", "hdr"});
+    Grab native, split;
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, env(), "native", kFrames, &native));
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, split_env(), "split", kFrames, &split));
+    const std::string &err = split.result.err();
+    EXPECT_FALSE(grep(err, "minUniformBufferOffsetAlignment 16 -> 256").empty()) << tail(err, 30);
+    EXPECT_GE(grep(err, "is screen-space").size(), 2u) << tail(err, 30);
+    EXPECT_TRUE(grep(err, "flagged invalid").empty()) << tail(err, 30);
+    EXPECT_TRUE(grep(err, "do not match the frame's foveae").empty()) << tail(err, 30);
+    const SplitSummary summary = split_summary(err);
+    EXPECT_TRUE(summary.found) << tail(err, 30);
+    EXPECT_EQ(summary.late, 0u) << tail(err, 30);
+    ASSERT_NO_FATAL_FAILURE(expect_split_frame(native.image, split.image, default_foveae(kWidth, kHeight, 1),
+                                               /*quality=*/false));
+    EXPECT_GE(ssim(native.image, split.image), 0.95) << "hdr's floor (SplitAtriumPath)";
+    expect_clean_validation();
+    EXPECT_TRUE(grep(agent_.log(), "flagged invalid").empty()) << tail(agent_.log(), 30);
+}
+
 // The envelope made too loose on purpose (SPLITVK_ENVELOPE=client: the app is told lavapipe's 16)
 // against the same stricter agent: atrium's second uniform slot sits at 0x110, which the agent's
 // GPU cannot bind. The agent says so once and flags every frame that uses it; the layer shows
