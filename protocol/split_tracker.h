@@ -181,6 +181,15 @@ private:
     std::unordered_map<uint64_t, PassPrediction> latest_;
 };
 
+// The same prediction for dynamic renderings whose contents are in secondaries: a secondary's
+// inheritance names no image and no render pass, only the rendering's attachment formats and view
+// mask (VkCommandBufferInheritanceRenderingInfo), so those are the key. Renderings that differ in
+// none of them are predicted alike; the layer says once when a secondary is executed in a rendering
+// scaled otherwise than predicted. VK_FORMAT_UNDEFINED stands for an absent attachment, as in the
+// inheritance info.
+uint64_t rendering_key(const VkFormat *colours, uint32_t colour_count, VkFormat depth, VkFormat stencil,
+                       uint32_t view_mask);
+
 // Reads a pipeline's static viewport/scissor state from its create info. Returns null when both
 // are dynamic (or absent); `*add_viewport` / `*add_scissor` say which dynamic states the caller
 // must add to make the rest dynamic (the caller decides whether it needs viewports dynamic).

@@ -313,5 +313,25 @@ TEST(SplitTracker, ARenderPassForgottenPredictsNothing) {
     EXPECT_FALSE(predictions.predict(pass).has_value());
 }
 
+// Dynamic renderings with secondary contents are predicted by what the secondaries' inheritance
+// can name: attachment formats (in order) and the view mask.
+TEST(SplitTracker, RenderingKeyIsWhatTheInheritanceNames) {
+    const VkFormat bgra = VK_FORMAT_B8G8R8A8_UNORM, rgba16 = VK_FORMAT_R16G16B16A16_SFLOAT;
+    const VkFormat one[] = {bgra}, two[] = {bgra, rgba16}, swapped[] = {rgba16, bgra};
+    const VkFormat depth = VK_FORMAT_D32_SFLOAT, none = VK_FORMAT_UNDEFINED;
+    const uint64_t base = rendering_key(one, 1, depth, none, 0);
+    EXPECT_EQ(base, rendering_key(one, 1, depth, none, 0));
+    EXPECT_NE(base, rendering_key(one, 1, none, none, 0));  // no depth
+    EXPECT_NE(base, rendering_key(one, 1, depth, none, 3)); // multiview
+    EXPECT_NE(base, rendering_key(two, 2, depth, none, 0));
+    EXPECT_NE(rendering_key(two, 2, depth, none, 0), rendering_key(swapped, 2, depth, none, 0));
+    const VkFormat with_hole[] = {bgra, none};
+    EXPECT_NE(base, rendering_key(with_hole, 2, depth, none, 0)); // an unused second location
+    PassPredictions renderings;
+    renderings.note_begin(base, {true, {2400, 1080}});
+    EXPECT_TRUE(renderings.predict(base).has_value());
+    EXPECT_FALSE(renderings.predict(rendering_key(one, 1, none, none, 0)).has_value());
+}
+
 } // namespace
 } // namespace splitvk::split

@@ -378,7 +378,9 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(PathCase{"direct", 2, 0.953, false}, PathCase{"hdr", 1, 0.95, true},
                       PathCase{"deferred", 1, 0.951, true}, PathCase{"multiview", 1, 0.945, true},
                       PathCase{"secondary", 2, 0.953, false}, PathCase{"compute", 1, 0.957, true},
-                      PathCase{"direct", 2, 0.953, false, "--dynamic-rendering", "direct_dynamic_rendering"}),
+                      PathCase{"direct", 2, 0.953, false, "--dynamic-rendering", "direct_dynamic_rendering"},
+                      PathCase{"secondary", 2, 0.953, false, "--dynamic-rendering",
+                               "secondary_dynamic_rendering"}),
     [](const ::testing::TestParamInfo<PathCase> &p) {
         return std::string(p.param.name ? p.param.name : p.param.path);
     });
@@ -403,6 +405,33 @@ TEST_F(Split, TargetsSwapchainScalesOnlyTheSwapchainPass) {
                                  << save_mismatch_artefacts(out_, "fovea", native.image, split.image);
     }
     std::cout << "  hdr, SPLITVK_TARGETS=swapchain: SSIM " << ssim(native.image, split.image) << "\n";
+    expect_clean_validation();
+}
+
+// A dynamic rendering into the swapchain image whose contents are in secondaries (atrium --path
+// secondary --dynamic-rendering), with SPLITVK_TARGETS=swapchain so that its depth buffer stays
+// full size: the secondaries inherit only formats, and are recorded for the latest rendering with
+// those formats, scaled; their viewports give the foveae on both sides. Before, such a rendering
+// ran unsplit (and, with a scaled depth buffer, showed a cropped, uncomposited frame: the Paths
+// case secondary_dynamic_rendering).
+TEST_F(Split, SecondariesOfADynamicRenderingSplit) {
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    auto argv = atrium_argv(2, kFrames, false);
+    argv.insert(argv.end(), {"--path", "secondary", "--dynamic-rendering"});
+    Grab native, split;
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, env(), "native", kFrames, &native));
+    Env e = split_env();
+    e["SPLITVK_TARGETS"] = "swapchain";
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, e, "split", kFrames, &split));
+    const std::string &err = split.result.err();
+    EXPECT_TRUE(grep(err, "is screen-space").empty()) << tail(err, 30);
+    EXPECT_TRUE(grep(err, "scaled otherwise").empty()) << tail(err, 30);
+    EXPECT_TRUE(grep(err, "do not match the frame's foveae").empty()) << tail(err, 30);
+    const SplitSummary summary = split_summary(err);
+    EXPECT_TRUE(summary.found) << tail(err, 30);
+    EXPECT_EQ(summary.late, 0u) << tail(err, 30);
+    ASSERT_NO_FATAL_FAILURE(
+        expect_split_frame(native.image, split.image, default_foveae(kWidth, kHeight, 2)));
     expect_clean_validation();
 }
 
