@@ -316,9 +316,6 @@ void CreateRenderPass2KHR(DeviceState &dev, VkDevice device, const VkRenderPassC
 }
 
 void DestroyRenderPass(DeviceState &, VkDevice, VkRenderPass render_pass, const VkAllocationCallbacks *) {
-    // This runs after the driver destroyed it, so another thread may already hold the value anew
-    // (then its first prediction is dropped here and its secondaries run unscaled, with the one
-    // line of a mismatch); forgetting at create is what keeps a new pass from a stale target.
     forget_render_pass(render_pass);
     std::lock_guard lock(g_mutex);
     g_final_layouts.erase(render_pass);

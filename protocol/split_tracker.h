@@ -161,8 +161,9 @@ private:
 // How a render pass's latest instance was scaled (client, issue 11 item 4): a secondary that
 // continues the pass without naming its framebuffer is recorded for that prediction. Keyed by the
 // render pass's handle value, which a driver may hand out again once the pass is destroyed: the
-// layer forgets the value at vkDestroyRenderPass and again at vkCreateRenderPass (a new pass has no
-// instance yet), so a new render pass never inherits a dead one's target. Thread-safe: passes are
+// layer forgets the value at vkDestroyRenderPass (before the driver call) and again at
+// vkCreateRenderPass (a new pass has no instance yet, whatever the layer saw of the old one's
+// end), so a new render pass never inherits a dead one's target. Thread-safe: passes are
 // begun and secondaries begun from any thread.
 struct PassPrediction {
     bool scaled = false; // the pass's target is scaled (a swapchain image or a screen-space target)
