@@ -84,14 +84,21 @@ def _forward_body(c, by_name, handle_types):
     call = f"dev.dispatch.{c.short_name}({c.arguments})"
     encode = f"encode_{canon.name}(e, {c.arguments});"
     lines = [f"    DeviceState &dev = device_state({handle.name});"]
+    observe = f"observe::{c.short_name}(dev, {c.arguments});"
+    # A destroy's observer runs before the driver call: once the driver has destroyed the object it
+    # may hand the handle value to an object another thread creates, whose state the observer would
+    # then remove.
+    observe_first = c.name in OBSERVED_COMMANDS and ret == "void" and _destroyed_handle(c) is not None
+    if observe_first:
+        lines.append(f"    if (dev.session) [[unlikely]] {observe}")
     if ret == "void":
         lines.append(f"    {call};")
         ok = ""
     else:
         lines.append(f"    const {ret} result = {call};")
         ok = " && result >= 0" if ret == "VkResult" else ""
-    if c.name in OBSERVED_COMMANDS:
-        lines.append(f"    if (dev.session{ok}) [[unlikely]] observe::{c.short_name}(dev, {c.arguments});")
+    if c.name in OBSERVED_COMMANDS and not observe_first:
+        lines.append(f"    if (dev.session{ok}) [[unlikely]] {observe}")
     if handle.type == "VkCommandBuffer":
         lines += [f"    if (capturing(dev){ok}) [[unlikely]] {{",
                   f"        if (codec::Encoder *enc = command_buffer_encoder({handle.name})) {{",

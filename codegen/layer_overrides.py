@@ -125,10 +125,13 @@ MANUAL_COMMANDS = {
     "vkCmdCopyImageToBuffer2",
     "vkCmdCopyImageToBuffer2KHR",
     "vkCmdDispatch",
+    "vkCmdDispatchBase",
 }
 
 # Commands whose generated entry point also tells a hand-written observer, after the call went down
-# and was captured: observe::<Name>(DeviceState &, <the command's parameters>) in the namespace
+# and was captured (a destroy's observer: before the call goes down, so that the driver cannot have
+# reused the handle value for a new object whose state the observer would remove):
+# observe::<Name>(DeviceState &, <the command's parameters>) in the namespace
 # splitvk::observe, called only on a device with a session and, for VkResult commands, on success.
 # For state the layer tracks but does not change (DESIGN §3, the reliability issue's resync).
 OBSERVED_COMMANDS = {
@@ -154,6 +157,8 @@ OBSERVED_COMMANDS = {
     "vkDestroyRenderPass",
     # transfer.cpp: the compute descriptor sets bound, for dispatches over screen-space targets.
     "vkCmdBindDescriptorSets",
+    # transfer.cpp: an indirect dispatch over a screen-space target, said once (not scaled).
+    "vkCmdDispatchIndirect",
     # render_pass.cpp: the foveae of the viewports that executed secondaries drew with.
     "vkCmdExecuteCommands",
 }

@@ -17,10 +17,8 @@
 #include "split_geometry.h"
 #include "swapchain.h"
 
-#include <atomic>
 #include <mutex>
 #include <set>
-#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -29,7 +27,8 @@ namespace {
 
 struct ImageViewState {
     VkImage image = VK_NULL_HANDLE;
-    VkImageSubresourceRange range{}; // what a render pass's final layout applies to
+    VkImageSubresourceRange range{};       // what a render pass's final layout applies to
+    VkFormat format = VK_FORMAT_UNDEFINED; // what a dynamic rendering's secondaries inherit
 };
 struct FramebufferState {
     std::vector<VkImageView> attachments; // empty when imageless
@@ -43,8 +42,6 @@ struct SwapchainImageState {
 ObjectMap<VkImageView, ImageViewState> g_views;
 ObjectMap<VkFramebuffer, FramebufferState> g_framebuffers;
 ObjectMap<VkImage, SwapchainImageState> g_swapchain_images;
-
-std::atomic<bool> g_secondary_logged{false};
 
 // The extent of `view`'s image when it is an image of a live composable swapchain.
 bool split_target(VkImageView view, VkImage *image, VkExtent2D *extent) {
@@ -68,12 +65,6 @@ bool find_target(uint32_t count, const VkImageView *views, VkImage *image, VkExt
     for (uint32_t i = 0; i < count; ++i)
         if (split_target(views[i], image, extent)) return true;
     return false;
-}
-
-void log_secondary_once() {
-    if (!g_secondary_logged.exchange(true))
-        SPLITVK_WARN("a dynamic rendering into a swapchain image records its contents in secondary command "
-                     "buffers: not split (rendered at full resolution)");
 }
 
 bool any_screen_space(std::span<const VkImageView> views) {
@@ -210,18 +201,17 @@ void end_render_pass(DeviceState &dev, VkCommandBuffer cb) {
 // The target each render pass was last begun on: a secondary that continues a pass without
 // naming its framebuffer (engines record them before they know the swapchain image) is recorded
 // for that target's scaling. Engines begin the pass before recording its secondaries for the frame.
-std::mutex g_pass_targets_mutex;
-std::unordered_map<VkRenderPass, PassTarget> g_pass_targets;
+// Forgotten when the render pass is destroyed or its handle value created anew (forget_render_pass).
+split::PassPredictions g_pass_predictions;
 
 template <class Down>
 void begin_render_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassBeginInfo *begin,
                        bool secondary, Down &&down) {
     note_attachments(dev, cb, begin);
     PassTarget target = dev.session ? pass_target(dev, begin) : PassTarget{};
-    if (dev.session) {
-        std::lock_guard lock(g_pass_targets_mutex);
-        g_pass_targets[begin->renderPass] = target;
-    }
+    if (dev.session)
+        g_pass_predictions.note_begin(codec::handle_value(begin->renderPass),
+                                      {target.split(), target.extent});
     split::CommandTracker *tracker = target.split() ? split_tracker(cb) : nullptr;
     if (!tracker && !target.scaled) return down(begin);
     VkRenderPassBeginInfo scaled = *begin;
@@ -244,28 +234,50 @@ void begin_render_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassB
     tracker->contents_in_secondaries();
 }
 
+// The latest target of each kind of dynamic rendering with secondary contents (split::rendering_key):
+// their secondaries name only the formats and view mask they inherit.
+split::PassPredictions g_rendering_predictions;
+
+VkFormat view_format(VkImageView view) {
+    const ImageViewState *v = view ? g_views.find(view) : nullptr;
+    return v ? v->format : VK_FORMAT_UNDEFINED;
+}
+
+uint64_t rendering_key(const VkRenderingInfo &info) {
+    std::vector<VkFormat> colours;
+    for (uint32_t i = 0; i < info.colorAttachmentCount; ++i)
+        colours.push_back(view_format(info.pColorAttachments[i].imageView));
+    return split::rendering_key(
+        colours.data(), info.colorAttachmentCount,
+        info.pDepthAttachment ? view_format(info.pDepthAttachment->imageView) : VK_FORMAT_UNDEFINED,
+        info.pStencilAttachment ? view_format(info.pStencilAttachment->imageView) : VK_FORMAT_UNDEFINED,
+        info.viewMask);
+}
+
 template <class Down>
 void begin_rendering(DeviceState &dev, VkCommandBuffer cb, const VkRenderingInfo *info, Down &&down) {
     PassTarget target = dev.session ? rendering_target(dev, info) : PassTarget{};
+    const bool secondary = info->flags & VK_RENDERING_CONTENTS_SECONDARY_COMMAND_BUFFERS_BIT;
+    // Noted unscaled too, so that a kind of rendering that stops being scaled predicts so.
+    if (dev.session && secondary)
+        g_rendering_predictions.note_begin(rendering_key(*info), {target.split(), target.extent});
     split::CommandTracker *tracker = target.split() ? split_tracker(cb) : nullptr;
     if (!tracker && !target.scaled) return down(info);
-    const bool secondary = info->flags & VK_RENDERING_CONTENTS_SECONDARY_COMMAND_BUFFERS_BIT;
-    if (secondary) {
-        // Their inheritance names no images: not split (the agent does the same).
-        if (!target.scaled) {
-            log_secondary_once();
-            return down(info);
-        }
-        log_unscalable_once(
-            "a dynamic rendering into a screen-space target records its contents in secondary "
-            "command buffers: their viewports are not scaled, so the client's periphery of that "
-            "target is cropped (the foveae stay exact)");
-    }
     VkRenderingInfo scaled = *info;
     scaled.renderArea = scaled_area(info->renderArea, target.extent);
-    // A resumed rendering continues the suspended one, which was scaled alike. With secondary
-    // contents only vkCmdExecuteCommands may follow: no state to set.
-    if (!tracker || secondary) return down(&scaled);
+    // A resumed rendering continues the suspended one, which was scaled alike.
+    if (!tracker) return down(&scaled);
+    if (secondary) {
+        // As a render pass with secondary contents: its secondaries were recorded for this kind of
+        // rendering's latest target (begin_secondary), and their viewports give its foveae, on the
+        // agent alike (server-agent/fovea_shading.cpp). Only vkCmdExecuteCommands may follow: no
+        // state to set, no timestamp to write.
+        down(&scaled);
+        if (target.swapchain) log_split_extent_once(target.extent);
+        tracker->begin_split(codec::handle_value(target.image), target.extent, target.swapchain);
+        tracker->contents_in_secondaries();
+        return;
+    }
     time_before_split_pass(dev, cb);
     down(&scaled);
     time_split_pass_begun(dev, cb);
@@ -298,21 +310,35 @@ void begin_secondary(DeviceState &dev, VkCommandBuffer cb, const VkCommandBuffer
     if (!tracker) return;
     tracker->begin_secondary();
     const VkCommandBufferInheritanceInfo &inheritance = *begin.pInheritanceInfo;
-    if (inheritance.renderPass == VK_NULL_HANDLE) return; // dynamic rendering: not split
-    PassTarget target;
-    if (inheritance.framebuffer != VK_NULL_HANDLE) {
+    split::PassPrediction target;
+    if (inheritance.renderPass == VK_NULL_HANDLE) {
+        // Dynamic rendering: predicted from the formats and view mask it inherits.
+        const VkCommandBufferInheritanceRenderingInfo *rendering = nullptr;
+        for (auto *p = static_cast<const VkBaseInStructure *>(inheritance.pNext); p; p = p->pNext)
+            if (p->sType == VK_STRUCTURE_TYPE_COMMAND_BUFFER_INHERITANCE_RENDERING_INFO)
+                rendering = reinterpret_cast<const VkCommandBufferInheritanceRenderingInfo *>(p);
+        if (!rendering) return;
+        const auto predicted = g_rendering_predictions.predict(split::rendering_key(
+            rendering->pColorAttachmentFormats, rendering->colorAttachmentCount,
+            rendering->depthAttachmentFormat, rendering->stencilAttachmentFormat, rendering->viewMask));
+        if (predicted) target = *predicted;
+    } else if (inheritance.framebuffer != VK_NULL_HANDLE) {
         VkRenderPassBeginInfo info{};
         info.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
         info.renderPass = inheritance.renderPass;
         info.framebuffer = inheritance.framebuffer;
-        target = pass_target(dev, &info);
-    } else {
-        std::lock_guard lock(g_pass_targets_mutex);
-        const auto it = g_pass_targets.find(inheritance.renderPass);
-        if (it != g_pass_targets.end()) target = it->second;
+        const PassTarget t = pass_target(dev, &info);
+        target = {t.split(), t.extent};
+    } else if (const auto predicted =
+                   g_pass_predictions.predict(codec::handle_value(inheritance.renderPass))) {
+        target = *predicted;
     }
     // Scaled like the pass it continues; its viewports are kept for the executing pass's foveae.
-    if (target.split()) tracker->begin_split(0, target.extent, false);
+    if (target.scaled) tracker->begin_split(0, target.extent, false);
+}
+
+void forget_render_pass(VkRenderPass render_pass) {
+    if (render_pass != VK_NULL_HANDLE) g_pass_predictions.forget(codec::handle_value(render_pass));
 }
 
 namespace observe {
@@ -360,6 +386,7 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateImageView(VkDevice device, const VkImageVie
         auto state = std::make_unique<ImageViewState>();
         state->image = pCreateInfo->image;
         state->range = pCreateInfo->subresourceRange;
+        state->format = pCreateInfo->format;
         g_views.insert(*pView, std::move(state));
     }
     if (capturing(dev) && result >= 0) [[unlikely]]
@@ -372,8 +399,10 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateImageView(VkDevice device, const VkImageVie
 VKAPI_ATTR void VKAPI_CALL DestroyImageView(VkDevice device, VkImageView imageView,
                                             const VkAllocationCallbacks *pAllocator) {
     DeviceState &dev = device_state(device);
-    dev.dispatch.DestroyImageView(device, imageView, pAllocator);
+    // Forgotten before the driver may hand the value out again: a view created meanwhile on another
+    // thread must not lose its state to this removal.
     if (dev.session && imageView != VK_NULL_HANDLE) g_views.remove(imageView);
+    dev.dispatch.DestroyImageView(device, imageView, pAllocator);
     if (capturing(dev)) [[unlikely]]
         record_global(dev, LiveChange::Destroyed, codec::handle_value(imageView), [&](codec::Encoder &e) {
             encode_vkDestroyImageView(e, device, imageView, pAllocator);
@@ -437,8 +466,11 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateFramebuffer(VkDevice device, const VkFrameb
 VKAPI_ATTR void VKAPI_CALL DestroyFramebuffer(VkDevice device, VkFramebuffer framebuffer,
                                               const VkAllocationCallbacks *pAllocator) {
     DeviceState &dev = device_state(device);
-    dev.dispatch.DestroyFramebuffer(device, framebuffer, pAllocator);
+    // Forgotten before the driver may hand the value out again: a framebuffer created meanwhile on
+    // another thread at the scaled size would otherwise lose its state, and its passes would go down
+    // with unscaled render areas.
     if (dev.session && framebuffer != VK_NULL_HANDLE) g_framebuffers.remove(framebuffer);
+    dev.dispatch.DestroyFramebuffer(device, framebuffer, pAllocator);
     if (capturing(dev)) [[unlikely]]
         record_global(dev, LiveChange::Destroyed, codec::handle_value(framebuffer), [&](codec::Encoder &e) {
             encode_vkDestroyFramebuffer(e, device, framebuffer, pAllocator);

@@ -9,6 +9,7 @@
 #include "layer_entry_points.h"
 #include "log.h"
 #include "screen_space.h"
+#include "split.h"
 #include "vk_format_info.h"
 
 #include <algorithm>
@@ -291,6 +292,7 @@ void CmdWaitEvents2KHR(DeviceState &dev, VkCommandBuffer cb, uint32_t count, con
 
 void CreateRenderPass(DeviceState &, VkDevice, const VkRenderPassCreateInfo *info,
                       const VkAllocationCallbacks *, VkRenderPass *render_pass) {
+    forget_render_pass(*render_pass);
     std::vector<VkImageLayout> finals;
     for (uint32_t i = 0; i < info->attachmentCount; ++i)
         finals.push_back(info->pAttachments[i].finalLayout);
@@ -300,6 +302,7 @@ void CreateRenderPass(DeviceState &, VkDevice, const VkRenderPassCreateInfo *inf
 
 void CreateRenderPass2(DeviceState &, VkDevice, const VkRenderPassCreateInfo2 *info,
                        const VkAllocationCallbacks *, VkRenderPass *render_pass) {
+    forget_render_pass(*render_pass);
     std::vector<VkImageLayout> finals;
     for (uint32_t i = 0; i < info->attachmentCount; ++i)
         finals.push_back(info->pAttachments[i].finalLayout);
@@ -313,6 +316,7 @@ void CreateRenderPass2KHR(DeviceState &dev, VkDevice device, const VkRenderPassC
 }
 
 void DestroyRenderPass(DeviceState &, VkDevice, VkRenderPass render_pass, const VkAllocationCallbacks *) {
+    forget_render_pass(render_pass);
     std::lock_guard lock(g_mutex);
     g_final_layouts.erase(render_pass);
 }

@@ -10,7 +10,7 @@
 //   render pass / dynamic rendering areas          scale_rect, viewports/scissors/clear rects
 //                                                  through the split tracker (render_pass.cpp)
 //   copy, blit, resolve, buffer<->image regions    scale_image_rect per side (transfer.cpp)
-//   dispatches with a scaled storage image bound   group counts scaled (transfer.cpp)
+//   dispatches with a scaled storage image bound   group counts (and bases) scaled (transfer.cpp)
 //
 // A pass into a swapchain image is drawn into its top-left ceil(s·W) x ceil(s·H) as before, and so
 // is a copy or blit into one. What the app is told about the image (its extent in every call it

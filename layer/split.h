@@ -45,10 +45,14 @@ const Settings &split_settings();
 VkImage image_of_view(VkImageView view);
 bool swapchain_image_extent(VkImage image, VkExtent2D *extent);
 // vkBeginCommandBuffer of a secondary that continues a render pass: scaled like that pass's target
-// (its inheritance's framebuffer, or the render pass's latest instance), its viewports kept for
-// the foveae of the pass that executes it (split_tracker.h).
+// (its inheritance's framebuffer, or the render pass's latest instance, or for a dynamic rendering
+// the latest one with the formats and view mask it inherits), its viewports kept for the foveae of
+// the pass that executes it (split_tracker.h).
 void begin_secondary(DeviceState &device, VkCommandBuffer command_buffer,
                      const VkCommandBufferBeginInfo &begin);
+// vkCreateRenderPass* and vkDestroyRenderPass (resource.cpp): the handle value's prediction for
+// secondaries is dropped, since a driver may reuse the value for an unrelated render pass.
+void forget_render_pass(VkRenderPass render_pass);
 
 // The split tracker of a command buffer allocated while the device had a session (reset at
 // vkBeginCommandBuffer); nullptr otherwise (command_buffer.cpp).

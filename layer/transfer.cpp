@@ -250,6 +250,16 @@ void CmdBindDescriptorSets(DeviceState &, VkCommandBuffer cb, VkPipelineBindPoin
     std::copy(sets, sets + count, bound.begin() + first);
 }
 
+// Its group counts live in GPU memory, written by earlier GPU work the layer cannot see finish at
+// record time, so they cannot be scaled: the dispatch covers the full extent, which a shader
+// bound-checked with imageSize() clips to the scaled image (correct, as costly as native).
+void CmdDispatchIndirect(DeviceState &, VkCommandBuffer cb, VkBuffer, VkDeviceSize) {
+    if (dispatch_writes_screen_space(cb))
+        log_unscalable_once("an indirect dispatch writes a screen-space target: its group counts are in "
+                            "GPU memory, so it runs unscaled (correct where the shader bound-checks "
+                            "with imageSize(), at native cost)");
+}
+
 } // namespace observe
 
 namespace entry {
@@ -476,6 +486,29 @@ VKAPI_ATTR void VKAPI_CALL CmdDispatch(VkCommandBuffer commandBuffer, uint32_t g
         groupCountY = split::scaled_group_count(groupCountY, s);
     }
     dev.dispatch.CmdDispatch(commandBuffer, groupCountX, groupCountY, groupCountZ);
+}
+
+// Base and counts scale together (split::scaled_group_range), so that a dispatch split in parts
+// over a scaled target still covers all of it; Z, like vkCmdDispatch's, is layers, not pixels.
+VKAPI_ATTR void VKAPI_CALL CmdDispatchBase(VkCommandBuffer commandBuffer, uint32_t baseGroupX,
+                                           uint32_t baseGroupY, uint32_t baseGroupZ, uint32_t groupCountX,
+                                           uint32_t groupCountY, uint32_t groupCountZ) {
+    DeviceState &dev = device_state(commandBuffer);
+    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
+        encode_vkCmdDispatchBase(e, commandBuffer, baseGroupX, baseGroupY, baseGroupZ, groupCountX,
+                                 groupCountY, groupCountZ);
+    });
+    if (dev.session && dispatch_writes_screen_space(commandBuffer)) {
+        const double s = split_settings().scale;
+        const split::GroupRange x = split::scaled_group_range(baseGroupX, groupCountX, s);
+        const split::GroupRange y = split::scaled_group_range(baseGroupY, groupCountY, s);
+        baseGroupX = x.base;
+        groupCountX = x.count;
+        baseGroupY = y.base;
+        groupCountY = y.count;
+    }
+    dev.dispatch.CmdDispatchBase(commandBuffer, baseGroupX, baseGroupY, baseGroupZ, groupCountX, groupCountY,
+                                 groupCountZ);
 }
 
 } // namespace entry

@@ -108,6 +108,42 @@ void CommandTracker::note_transfer(uint64_t image, VkExtent2D extent, const VkRe
         if (intersect(eye, region).extent.width > 0) add_fovea(entry.foveae, fovea_of_eye(eye, fovea));
 }
 
+void PassPredictions::note_begin(uint64_t render_pass, const PassPrediction &prediction) {
+    std::lock_guard lock(mutex_);
+    latest_[render_pass] = prediction;
+}
+
+std::optional<PassPrediction> PassPredictions::predict(uint64_t render_pass) const {
+    std::lock_guard lock(mutex_);
+    const auto it = latest_.find(render_pass);
+    if (it == latest_.end()) return std::nullopt;
+    return it->second;
+}
+
+void PassPredictions::forget(uint64_t render_pass) {
+    std::lock_guard lock(mutex_);
+    latest_.erase(render_pass);
+}
+
+uint64_t rendering_key(const VkFormat *colours, uint32_t colour_count, VkFormat depth, VkFormat stencil,
+                       uint32_t view_mask) {
+    // FNV-1a over the fields in order; the count is hashed too, so trailing UNDEFINED colours count.
+    uint64_t h = 0xcbf29ce484222325ull;
+    const auto mix = [&](uint64_t v) {
+        for (int i = 0; i < 8; ++i) {
+            h ^= (v >> (8 * i)) & 0xff;
+            h *= 0x100000001b3ull;
+        }
+    };
+    mix(colour_count);
+    for (uint32_t i = 0; i < colour_count; ++i)
+        mix(static_cast<uint64_t>(colours[i]));
+    mix(static_cast<uint64_t>(depth));
+    mix(static_cast<uint64_t>(stencil));
+    mix(view_mask);
+    return h;
+}
+
 namespace {
 
 bool has_state(const VkPipelineDynamicStateCreateInfo *dynamic, VkDynamicState state) {

@@ -16,6 +16,9 @@
 
 #include <cstdint>
 #include <memory>
+#include <mutex>
+#include <optional>
+#include <unordered_map>
 #include <vector>
 
 namespace splitvk::split {
@@ -154,6 +157,39 @@ private:
     VkExtent2D extent_{};
     std::vector<DrawnImage> drawn_;
 };
+
+// How a render pass's latest instance was scaled (client, issue 11 item 4): a secondary that
+// continues the pass without naming its framebuffer is recorded for that prediction. Keyed by the
+// render pass's handle value, which a driver may hand out again once the pass is destroyed: the
+// layer forgets the value at vkDestroyRenderPass (before the driver call) and again at
+// vkCreateRenderPass (a new pass has no instance yet, whatever the layer saw of the old one's
+// end), so a new render pass never inherits a dead one's target. Thread-safe: passes are
+// begun and secondaries begun from any thread.
+struct PassPrediction {
+    bool scaled = false; // the pass's target is scaled (a swapchain image or a screen-space target)
+    VkExtent2D extent{}; // the full extent its scaled areas are relative to
+};
+
+class PassPredictions {
+public:
+    void note_begin(uint64_t render_pass, const PassPrediction &prediction);
+    // The latest instance's target; none when the pass was never begun since it was created.
+    std::optional<PassPrediction> predict(uint64_t render_pass) const;
+    void forget(uint64_t render_pass);
+
+private:
+    mutable std::mutex mutex_;
+    std::unordered_map<uint64_t, PassPrediction> latest_;
+};
+
+// The same prediction for dynamic renderings whose contents are in secondaries: a secondary's
+// inheritance names no image and no render pass, only the rendering's attachment formats and view
+// mask (VkCommandBufferInheritanceRenderingInfo), so those are the key. Renderings that differ in
+// none of them are predicted alike; the layer says once when a secondary is executed in a rendering
+// scaled otherwise than predicted. VK_FORMAT_UNDEFINED stands for an absent attachment, as in the
+// inheritance info.
+uint64_t rendering_key(const VkFormat *colours, uint32_t colour_count, VkFormat depth, VkFormat stencil,
+                       uint32_t view_mask);
 
 // Reads a pipeline's static viewport/scissor state from its create info. Returns null when both
 // are dynamic (or absent); `*add_viewport` / `*add_scissor` say which dynamic states the caller

@@ -94,4 +94,14 @@ uint32_t scaled_group_count(uint32_t groups, double scale) {
                               static_cast<uint32_t>(std::ceil(static_cast<double>(groups) * scale - 1e-6)));
 }
 
+GroupRange scaled_group_range(uint32_t base, uint32_t count, double scale) {
+    // The same tolerance as split_geometry's rounding: a product off by float noise does not step.
+    const auto first = static_cast<uint64_t>(std::floor(static_cast<double>(base) * scale + 1e-6));
+    if (count == 0) return {static_cast<uint32_t>(first), 0};
+    const auto end = static_cast<uint64_t>(
+        std::ceil((static_cast<double>(base) + static_cast<double>(count)) * scale - 1e-6));
+    return {static_cast<uint32_t>(first),
+            static_cast<uint32_t>(std::max<uint64_t>(1, end - std::min(end, first)))};
+}
+
 } // namespace splitvk::split

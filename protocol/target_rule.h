@@ -52,4 +52,15 @@ VkRect2D scale_target_rect(const VkRect2D &rect, VkExtent2D full, uint32_t mip, 
 // pixel whenever n groups covered every full one).
 uint32_t scaled_group_count(uint32_t groups, double scale);
 
+// The groups of a vkCmdDispatchBase over a scaled target: groups [base, base + count) on one axis
+// become [floor(base·s), ceil((base + count)·s)), at least one group when count is not 0. With base 0
+// this is scaled_group_count; dispatches that tile an image in parts (base 0, then base n, ...)
+// leave no scaled group out, since each part's end rounds up exactly where the next part's start
+// rounds down.
+struct GroupRange {
+    uint32_t base = 0;
+    uint32_t count = 0;
+};
+GroupRange scaled_group_range(uint32_t base, uint32_t count, double scale);
+
 } // namespace splitvk::split

@@ -280,10 +280,10 @@ void FoveaShading::begin_rendering(VkCommandBuffer cb, const VkRenderingInfo &in
         if (target(a.imageView, &image_id, &extent) ||
             (a.resolveMode != VK_RESOLVE_MODE_NONE && target(a.resolveImageView, &image_id, &extent))) {
             if (info.flags & VK_RENDERING_CONTENTS_SECONDARY_COMMAND_BUFFERS_BIT) {
-                if (!secondary_logged_)
-                    SPLITVK_WARN(
-                        "a split pass records its contents in secondary command buffers: shaded whole");
-                secondary_logged_ = true;
+                // As begin_render_pass's: its secondaries are shaded whole, the viewports they draw
+                // with give the foveae (the client's layer notes the same ones).
+                t->begin_split(image_id, extent);
+                t->contents_in_secondaries();
                 return;
             }
             return enter_split(cb, *t, image_id, extent);

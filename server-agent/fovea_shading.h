@@ -131,7 +131,6 @@ private:
     std::vector<std::shared_ptr<split::StaticViewportState>> pending_;
     std::vector<VkGraphicsPipelineCreateInfo> infos_;
     std::vector<split::DynamicStateStorage> storage_;
-    bool secondary_logged_ = false;
 };
 
 } // namespace splitvk::agent

@@ -70,8 +70,9 @@ options:
                          extent) instead of dynamic state (same picture)
   --clear-depth-per-eye  clear each eye's depth with vkCmdClearAttachments before drawing it
                          (same picture)
-  --dynamic-rendering    draw with VK_KHR_dynamic_rendering instead of a render pass (same picture)
-                         (these three vary --path direct only)
+  --dynamic-rendering    draw with VK_KHR_dynamic_rendering instead of a render pass (same picture;
+                         with --path secondary, its secondaries inherit the rendering's formats)
+                         (the first two vary --path direct only, this one direct or secondary)
   --linear-textures      upload the textures through linear-tiling images that the host writes at
                          the driver's row pitch, instead of a staging buffer (same picture, any
                          --path)
@@ -171,10 +172,11 @@ Options parse_options(int argc, char **argv) {
         throw std::invalid_argument("--screenshot " + std::to_string(*o.screenshot_frame) +
                                     ": only frames 0.." + std::to_string(o.frames - 1) + " are rendered");
     if (o.width < o.eyes) throw std::invalid_argument("--width must be at least --eyes");
-    if (o.path != PathKind::direct && (o.static_viewports || o.clear_depth_per_eye || o.dynamic_rendering))
+    if (o.path != PathKind::direct && (o.static_viewports || o.clear_depth_per_eye))
         throw std::invalid_argument(
-            "--static-viewports, --clear-depth-per-eye and --dynamic-rendering go with "
-            "--path direct only");
+            "--static-viewports and --clear-depth-per-eye go with --path direct only");
+    if (o.path != PathKind::direct && o.path != PathKind::secondary && o.dynamic_rendering)
+        throw std::invalid_argument("--dynamic-rendering goes with --path direct or secondary only");
     return o;
 }
 

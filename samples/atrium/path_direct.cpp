@@ -4,12 +4,6 @@
 
 namespace atrium {
 
-namespace {
-
-constexpr VkFormat depth_format = VK_FORMAT_D32_SFLOAT;
-
-} // namespace
-
 DirectPath::DirectPath(const SceneGpu &scene, const Swapchain &swapchain, const RendererOptions &options)
     : scene_(scene), swapchain_(swapchain), options_(options), device_(scene.device()) {
     if (options_.dynamic_rendering) {
@@ -147,6 +141,8 @@ void DirectPath::begin_rendering(VkCommandBuffer cmd, uint32_t image, VkExtent2D
     VkRenderingInfoKHR info{};
     info.sType = VK_STRUCTURE_TYPE_RENDERING_INFO_KHR;
     info.renderArea = {{0, 0}, extent};
+    if (contents() == VK_SUBPASS_CONTENTS_SECONDARY_COMMAND_BUFFERS)
+        info.flags = VK_RENDERING_CONTENTS_SECONDARY_COMMAND_BUFFERS_BIT_KHR;
     info.layerCount = 1;
     info.colorAttachmentCount = 1;
     info.pColorAttachments = &color;

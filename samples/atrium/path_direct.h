@@ -18,6 +18,8 @@ public:
     void record(const FrameContext &frame) override;
 
 protected:
+    static constexpr VkFormat depth_format = VK_FORMAT_D32_SFLOAT;
+
     // What the pass holds: the eyes' draws, recorded inline here.
     virtual VkSubpassContents contents() const { return VK_SUBPASS_CONTENTS_INLINE; }
     virtual void record_contents(const FrameContext &frame);

@@ -83,6 +83,18 @@ private:
         inheritance.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_INHERITANCE_INFO;
         inheritance.renderPass = present_pass_; // compatible with the readback pass
         inheritance.subpass = 0;
+        // --dynamic-rendering: no render pass, only the formats of the rendering that executes them.
+        const VkFormat color_format = swapchain_.format();
+        VkCommandBufferInheritanceRenderingInfoKHR rendering{};
+        rendering.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_INHERITANCE_RENDERING_INFO_KHR;
+        rendering.colorAttachmentCount = 1;
+        rendering.pColorAttachmentFormats = &color_format;
+        rendering.depthAttachmentFormat = depth_format;
+        rendering.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+        if (options_.dynamic_rendering) {
+            inheritance.pNext = &rendering;
+            inheritance.renderPass = VK_NULL_HANDLE;
+        }
         VkCommandBufferBeginInfo begin{};
         begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
         begin.flags =

@@ -139,5 +139,27 @@ TEST(ScreenSpace, RegionsScaleIntoTheScaledMip) {
         EXPECT_GE(scaled_group_count((w + 7) / 8, 0.6) * 8, scaled_extent({w, 1}, 0.6).width) << w;
 }
 
+// vkCmdDispatchBase over a scaled storage image: base and count scale together, base 0 as
+// vkCmdDispatch does, and a dispatch split in parts still covers every scaled group.
+TEST(ScreenSpace, DispatchBaseGroupsScaleLikeTheirRange) {
+    for (uint32_t n : {1u, 2u, 81u, 135u, 300u}) {
+        const GroupRange whole = scaled_group_range(0, n, 0.6);
+        EXPECT_EQ(whole.base, 0u);
+        EXPECT_EQ(whole.count, scaled_group_count(n, 0.6)) << n;
+    }
+    const GroupRange right = scaled_group_range(150, 150, 0.6); // the right half of 300 groups
+    EXPECT_EQ(right.base, 90u);
+    EXPECT_EQ(right.count, 90u);
+    EXPECT_EQ(scaled_group_range(5, 0, 0.6).count, 0u);
+    EXPECT_EQ(scaled_group_range(7, 1, 0.6).count, 1u); // never empty: [4.2, 4.8) rounds to [4, 5)
+    // Any cut of [0, n) into two parts leaves no scaled group uncovered.
+    for (uint32_t n : {17u, 135u, 300u})
+        for (uint32_t cut = 1; cut < n; ++cut) {
+            const GroupRange a = scaled_group_range(0, cut, 0.6), b = scaled_group_range(cut, n - cut, 0.6);
+            EXPECT_GE(a.base + a.count, b.base) << n << " cut at " << cut;
+            EXPECT_EQ(b.base + b.count, scaled_group_count(n, 0.6)) << n << " cut at " << cut;
+        }
+}
+
 } // namespace
 } // namespace splitvk::split

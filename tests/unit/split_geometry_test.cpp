@@ -290,5 +290,48 @@ TEST(SplitTracker, SecondariesGiveTheExecutingPassItsFoveae) {
     EXPECT_TRUE(outside.drawn().empty());
 }
 
+// Issue 11 gap: a render pass handle value reused by the driver after vkDestroyRenderPass must not
+// hand the new pass the dead one's target (its secondaries would be recorded scaled for a pass
+// that is not, or the other way round). The layer forgets the value at destroy and at create.
+TEST(SplitTracker, ARenderPassForgottenPredictsNothing) {
+    PassPredictions predictions;
+    constexpr uint64_t pass = 0x5a00, other = 0x5b00;
+    EXPECT_FALSE(predictions.predict(pass).has_value()); // never begun: no prediction
+    predictions.note_begin(pass, {true, {2400, 1080}});
+    predictions.note_begin(other, {false, {800, 600}});
+    auto p = predictions.predict(pass);
+    ASSERT_TRUE(p.has_value());
+    EXPECT_TRUE(p->scaled);
+    EXPECT_EQ(p->extent.width, 2400u);
+    predictions.note_begin(pass, {true, {1200, 540}}); // the latest instance wins
+    EXPECT_EQ(predictions.predict(pass)->extent.width, 1200u);
+    predictions.forget(pass); // vkDestroyRenderPass; the driver may now reuse 0x5a00
+    EXPECT_FALSE(predictions.predict(pass).has_value());
+    ASSERT_TRUE(predictions.predict(other).has_value()); // other passes keep theirs
+    EXPECT_FALSE(predictions.predict(other)->scaled);
+    predictions.forget(pass); // forgetting twice (destroy, then the reused value's create) is harmless
+    EXPECT_FALSE(predictions.predict(pass).has_value());
+}
+
+// Dynamic renderings with secondary contents are predicted by what the secondaries' inheritance
+// can name: attachment formats (in order) and the view mask.
+TEST(SplitTracker, RenderingKeyIsWhatTheInheritanceNames) {
+    const VkFormat bgra = VK_FORMAT_B8G8R8A8_UNORM, rgba16 = VK_FORMAT_R16G16B16A16_SFLOAT;
+    const VkFormat one[] = {bgra}, two[] = {bgra, rgba16}, swapped[] = {rgba16, bgra};
+    const VkFormat depth = VK_FORMAT_D32_SFLOAT, none = VK_FORMAT_UNDEFINED;
+    const uint64_t base = rendering_key(one, 1, depth, none, 0);
+    EXPECT_EQ(base, rendering_key(one, 1, depth, none, 0));
+    EXPECT_NE(base, rendering_key(one, 1, none, none, 0));  // no depth
+    EXPECT_NE(base, rendering_key(one, 1, depth, none, 3)); // multiview
+    EXPECT_NE(base, rendering_key(two, 2, depth, none, 0));
+    EXPECT_NE(rendering_key(two, 2, depth, none, 0), rendering_key(swapped, 2, depth, none, 0));
+    const VkFormat with_hole[] = {bgra, none};
+    EXPECT_NE(base, rendering_key(with_hole, 2, depth, none, 0)); // an unused second location
+    PassPredictions renderings;
+    renderings.note_begin(base, {true, {2400, 1080}});
+    EXPECT_TRUE(renderings.predict(base).has_value());
+    EXPECT_FALSE(renderings.predict(rendering_key(one, 1, none, none, 0)).has_value());
+}
+
 } // namespace
 } // namespace splitvk::split

@@ -308,14 +308,23 @@ TEST_F(Split, FirstSplitFrameWaitsForTheAgent) {
 // eye texture is upsampled twice: by the compose pass's sampling and by the compositor). Each floor
 // sits 0.015 below its measurement, room for another CPU's rounding, and the test checks that the
 // same frame with black foveae (tiles missing) falls below it.
+//
+// direct_dynamic_rendering: the direct path drawn with vkCmdBeginRendering, whose one rendering
+// writes the swapchain image and the screen-space depth buffer together. Both are scaled on the
+// client: the render area is scaled against the swapchain's extent and the depth buffer was created
+// at the same scaled extent, so one area fits both (validation would flag an area beyond the depth
+// attachment, and a depth buffer at full size would leave the pass unscaled and the frame equal to
+// native). Floor as direct's.
 struct PathCase {
     const char *path;
-    int eyes;        // of the foveae the layer composites
-    double min_ssim; // the path's floor (above)
-    bool offscreen;  // has screen-space targets besides the swapchain image
+    int eyes;                     // of the foveae the layer composites
+    double min_ssim;              // the path's floor (above)
+    bool offscreen;               // has screen-space targets besides the swapchain image
+    const char *option = nullptr; // an atrium option beside --path
+    const char *name = nullptr;   // the test's name when not the path's
 };
 void PrintTo(const PathCase &c, std::ostream *os) {
-    *os << c.path;
+    *os << (c.name ? c.name : c.path);
 }
 
 class SplitAtriumPath : public Split, public ::testing::WithParamInterface<PathCase> {};
@@ -325,6 +334,7 @@ TEST_P(SplitAtriumPath, WholeFrameSplit) {
     ASSERT_NO_FATAL_FAILURE(start_agent());
     auto argv = atrium_argv(2, kFrames, false);
     argv.insert(argv.end(), {"--path", c.path});
+    if (c.option) argv.push_back(c.option);
     Grab native, split;
     ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, env(), "native", kFrames, &native));
     Env e = split_env();
@@ -375,8 +385,13 @@ INSTANTIATE_TEST_SUITE_P(
     Paths, SplitAtriumPath,
     ::testing::Values(PathCase{"direct", 2, 0.953, false}, PathCase{"hdr", 1, 0.95, true},
                       PathCase{"deferred", 1, 0.951, true}, PathCase{"multiview", 1, 0.945, true},
-                      PathCase{"secondary", 2, 0.953, false}, PathCase{"compute", 1, 0.957, true}),
-    [](const ::testing::TestParamInfo<PathCase> &p) { return std::string(p.param.path); });
+                      PathCase{"secondary", 2, 0.953, false}, PathCase{"compute", 1, 0.957, true},
+                      PathCase{"direct", 2, 0.953, false, "--dynamic-rendering", "direct_dynamic_rendering"},
+                      PathCase{"secondary", 2, 0.953, false, "--dynamic-rendering",
+                               "secondary_dynamic_rendering"}),
+    [](const ::testing::TestParamInfo<PathCase> &p) {
+        return std::string(p.param.name ? p.param.name : p.param.path);
+    });
 
 // SPLITVK_TARGETS=swapchain keeps the first version's behaviour: only the pass into the swapchain
 // image is scaled, every offscreen target stays full size, and the foveae are still exact.
@@ -398,6 +413,33 @@ TEST_F(Split, TargetsSwapchainScalesOnlyTheSwapchainPass) {
                                  << save_mismatch_artefacts(out_, "fovea", native.image, split.image);
     }
     std::cout << "  hdr, SPLITVK_TARGETS=swapchain: SSIM " << ssim(native.image, split.image) << "\n";
+    expect_clean_validation();
+}
+
+// A dynamic rendering into the swapchain image whose contents are in secondaries (atrium --path
+// secondary --dynamic-rendering), with SPLITVK_TARGETS=swapchain so that its depth buffer stays
+// full size: the secondaries inherit only formats, and are recorded for the latest rendering with
+// those formats, scaled; their viewports give the foveae on both sides. Before, such a rendering
+// ran unsplit (and, with a scaled depth buffer, showed a cropped, uncomposited frame: the Paths
+// case secondary_dynamic_rendering).
+TEST_F(Split, SecondariesOfADynamicRenderingSplit) {
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    auto argv = atrium_argv(2, kFrames, false);
+    argv.insert(argv.end(), {"--path", "secondary", "--dynamic-rendering"});
+    Grab native, split;
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, env(), "native", kFrames, &native));
+    Env e = split_env();
+    e["SPLITVK_TARGETS"] = "swapchain";
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, e, "split", kFrames, &split));
+    const std::string &err = split.result.err();
+    EXPECT_TRUE(grep(err, "is screen-space").empty()) << tail(err, 30);
+    EXPECT_TRUE(grep(err, "scaled otherwise").empty()) << tail(err, 30);
+    EXPECT_TRUE(grep(err, "do not match the frame's foveae").empty()) << tail(err, 30);
+    const SplitSummary summary = split_summary(err);
+    EXPECT_TRUE(summary.found) << tail(err, 30);
+    EXPECT_EQ(summary.late, 0u) << tail(err, 30);
+    ASSERT_NO_FATAL_FAILURE(
+        expect_split_frame(native.image, split.image, default_foveae(kWidth, kHeight, 2)));
     expect_clean_validation();
 }
 
@@ -618,6 +660,34 @@ TEST_F(Split, StricterAgentKeepsFoveaeExact) {
     EXPECT_EQ(split_summary(err).late, 0u) << tail(err, 30);
     ASSERT_NO_FATAL_FAILURE(
         expect_split_frame(native.image, split.image, default_foveae(kWidth, kHeight, 2)));
+    expect_clean_validation();
+    EXPECT_TRUE(grep(agent_.log(), "flagged invalid").empty()) << tail(agent_.log(), 30);
+}
+
+// The same stricter agent on an offscreen path (atrium --path hdr): the agent replays the HDR
+// scene, the bloom chain at 1/2, 1/4 and 1/8 and the tone-mapping pass full size with its 256-byte
+// alignments while the client renders every screen-space target scaled. The one fovea (the last
+// pass spans the image) equals native bit for bit, the frame stays above hdr's floor
+// (SplitAtriumPath), and neither side's validation nor the agent's limit checks say anything.
+TEST_F(Split, StricterAgentKeepsOffscreenPathFoveaeExact) {
+    const auto strict = (source_dir() / "tests/e2e/profiles/strict_alignment.json").string();
+    ASSERT_TRUE(agent_.start(env(), out_, {"--validate", "--emulate-limits", strict})) << agent_.error();
+    auto argv = atrium_argv(2, kFrames, false);
+    argv.insert(argv.end(), {"--path", "hdr"});
+    Grab native, split;
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, env(), "native", kFrames, &native));
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, split_env(), "split", kFrames, &split));
+    const std::string &err = split.result.err();
+    EXPECT_FALSE(grep(err, "minUniformBufferOffsetAlignment 16 -> 256").empty()) << tail(err, 30);
+    EXPECT_GE(grep(err, "is screen-space").size(), 2u) << tail(err, 30);
+    EXPECT_TRUE(grep(err, "flagged invalid").empty()) << tail(err, 30);
+    EXPECT_TRUE(grep(err, "do not match the frame's foveae").empty()) << tail(err, 30);
+    const SplitSummary summary = split_summary(err);
+    EXPECT_TRUE(summary.found) << tail(err, 30);
+    EXPECT_EQ(summary.late, 0u) << tail(err, 30);
+    ASSERT_NO_FATAL_FAILURE(expect_split_frame(native.image, split.image, default_foveae(kWidth, kHeight, 1),
+                                               /*quality=*/false));
+    EXPECT_GE(ssim(native.image, split.image), 0.95) << "hdr's floor (SplitAtriumPath)";
     expect_clean_validation();
     EXPECT_TRUE(grep(agent_.log(), "flagged invalid").empty()) << tail(agent_.log(), 30);
 }
