@@ -204,6 +204,22 @@ void end_render_pass(DeviceState &dev, VkCommandBuffer cb) {
 // Forgotten when the render pass is destroyed or its handle value created anew (forget_render_pass).
 split::PassPredictions g_pass_predictions;
 
+// A split pass or rendering whose contents are secondary command buffers. Its secondaries were
+// recorded for the latest target of its render pass or kind of rendering (begin_secondary), and
+// their viewports give its foveae, on the agent alike (server-agent/fovea_shading.cpp). Only
+// vkCmdExecuteCommands may follow inside it: no state to set, and its periphery is timed from just
+// before it begins (top of pipe; the reset is outside it as for any pass) to its end.
+template <class Begin>
+void begin_split_of_secondaries(DeviceState &dev, VkCommandBuffer cb, split::CommandTracker &tracker,
+                                const PassTarget &target, Begin &&begin) {
+    time_before_split_pass(dev, cb);
+    time_split_pass_begun(dev, cb);
+    begin();
+    if (target.swapchain) log_split_extent_once(target.extent);
+    tracker.begin_split(codec::handle_value(target.image), target.extent, target.swapchain);
+    tracker.contents_in_secondaries();
+}
+
 template <class Down>
 void begin_render_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassBeginInfo *begin,
                        bool secondary, Down &&down) {
@@ -223,15 +239,7 @@ void begin_render_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassB
         time_split_pass_begun(dev, cb);
         return enter_split(dev, cb, *tracker, target);
     }
-    // Only vkCmdExecuteCommands may follow inside the pass, so its periphery is timed from just
-    // before the pass begins (top of pipe; the reset is outside it as for any pass) to its end.
-    time_before_split_pass(dev, cb);
-    time_split_pass_begun(dev, cb);
-    down(&scaled);
-    // No state to set either: the foveae come from the secondaries the pass executes.
-    if (target.swapchain) log_split_extent_once(target.extent);
-    tracker->begin_split(codec::handle_value(target.image), target.extent, target.swapchain);
-    tracker->contents_in_secondaries();
+    begin_split_of_secondaries(dev, cb, *tracker, target, [&] { down(&scaled); });
 }
 
 // The latest target of each kind of dynamic rendering with secondary contents (split::rendering_key):
@@ -267,17 +275,7 @@ void begin_rendering(DeviceState &dev, VkCommandBuffer cb, const VkRenderingInfo
     scaled.renderArea = scaled_area(info->renderArea, target.extent);
     // A resumed rendering continues the suspended one, which was scaled alike.
     if (!tracker) return down(&scaled);
-    if (secondary) {
-        // As a render pass with secondary contents: its secondaries were recorded for this kind of
-        // rendering's latest target (begin_secondary), and their viewports give its foveae, on the
-        // agent alike (server-agent/fovea_shading.cpp). Only vkCmdExecuteCommands may follow: no
-        // state to set, no timestamp to write.
-        down(&scaled);
-        if (target.swapchain) log_split_extent_once(target.extent);
-        tracker->begin_split(codec::handle_value(target.image), target.extent, target.swapchain);
-        tracker->contents_in_secondaries();
-        return;
-    }
+    if (secondary) return begin_split_of_secondaries(dev, cb, *tracker, target, [&] { down(&scaled); });
     time_before_split_pass(dev, cb);
     down(&scaled);
     time_split_pass_begun(dev, cb);
