@@ -125,6 +125,18 @@ void use_hold_layer(Env &env, int frame) {
     env["TEST_HOLD_FRAME"] = std::to_string(frame);
 }
 
+void use_present_fault_layer(Env &env, const std::string &fault) {
+    const auto layers = env.find("VK_INSTANCE_LAYERS");
+    env["VK_INSTANCE_LAYERS"] = layers == env.end() || layers->second.empty()
+                                    ? std::string(kPresentFaultLayerName)
+                                    : layers->second + ":" + kPresentFaultLayerName;
+    const auto path = env.find("VK_ADD_LAYER_PATH");
+    env["VK_ADD_LAYER_PATH"] = path == env.end() || path->second.empty()
+                                   ? std::string(SPLITVK_E2E_PRESENT_FAULT_LAYER_DIR)
+                                   : path->second + ":" + SPLITVK_E2E_PRESENT_FAULT_LAYER_DIR;
+    env["TEST_PRESENT_FAULT"] = fault;
+}
+
 void make_implicit_layer_visible(Env &env) {
     env["XDG_DATA_DIRS"] = implicit_data_dir().string() + ":/usr/share";
 }
