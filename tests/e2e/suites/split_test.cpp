@@ -595,9 +595,9 @@ INSTANTIATE_TEST_SUITE_P(Depth, SplitShutdown, ::testing::Values(0, 1, 2),
                          });
 
 // Issue 12: what the driver's present answered the layer's present thread reaches the application.
-// VK_LAYER_SPLITVK_test_present_fault sits below splitvk (and above validation, found in the
-// system's folder) and makes the driver's present of frame kFaultFrame answer OUT_OF_DATE (the
-// present rejected, its semaphore waits consumed, as Mesa's WSI does) or SUBOPTIMAL (presented).
+// VK_LAYER_SPLITVK_test_present_fault sits below splitvk and validation, next to the driver, and
+// makes the driver's present of frame kFaultFrame answer OUT_OF_DATE (the present rejected, its
+// semaphore waits consumed, as Mesa's WSI does) or SUBOPTIMAL (presented).
 // The application must hear it: synchronously at that frame's own present (depth 0), from the
 // present thread at its next present or acquire (depth 1, one frame later: the frame was in the
 // layer when the application went on). It recreates its swapchain, nothing hangs, validation
@@ -633,10 +633,13 @@ TEST_P(SplitPresentFault, ReachesTheAppWhichRecreatesItsSwapchain) {
     ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, e, "split", kFaultFrames, &split));
     const std::string &err = split.result.err();
 
-    // The fault layer is where it must be: below splitvk, so that it answers the layer's presents.
+    // The layers are where they must be: the fault layer below splitvk, so that it answers the
+    // layer's presents, and below validation, which so checks what follows from that answer.
     const auto stack = instance_layer_stack(err);
     ASSERT_GE(stack_index(stack, kLayerName), 0) << tail(err, 60);
-    EXPECT_GT(stack_index(stack, kPresentFaultLayerName), stack_index(stack, kLayerName)) << tail(err, 60);
+    EXPECT_GT(stack_index(stack, kValidationLayerName), stack_index(stack, kLayerName)) << tail(err, 60);
+    EXPECT_GT(stack_index(stack, kPresentFaultLayerName), stack_index(stack, kValidationLayerName))
+        << tail(err, 60);
     const std::string injected =
         "present fault: present " + std::to_string(kFaultFrame) + " answered " + f.result;
     ASSERT_EQ(grep(err, injected).size(), 1u) << tail(err, 30);
