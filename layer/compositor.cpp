@@ -12,9 +12,10 @@
 //      periphery image, once per band around the tiles (scissored: periphery_bands), so no
 //      fragment is shaded where a tile goes: for sRGB formats the sampler decodes and the
 //      attachment encodes, so the filter blends linear values;
-//   4. copy the fovea tiles from the slot's host-visible staging buffer into the image with
-//      vkCmdCopyBufferToImage: bytes move unchanged, so the fovea is bit-exact in any format
-//      (a shader or a view of another format would re-encode sRGB);
+//   4. copy the fovea tiles' rects from the host-visible buffers they were decoded into
+//      (UploadPool) into the image with vkCmdCopyBufferToImage, one command per tile: bytes move
+//      unchanged, so the fovea is bit-exact in any format (a shader or a view of another format
+//      would re-encode sRGB), and the CPU copies nothing;
 //   5. leave the image in the present layout and signal the slot's semaphore, which the present
 //      waits on instead of the application's.
 
@@ -37,7 +38,6 @@ namespace {
 
 constexpr uint64_t kSlotWaitNs = 1'000'000'000;    // a slot's previous submit, before reuse
 constexpr uint64_t kDestroyWaitNs = 5'000'000'000; // at destroy, per slot
-constexpr VkDeviceSize kStagingGranule = 256 * 1024;
 
 struct PushConstants {
     float scale[2];
@@ -94,7 +94,7 @@ VkImageMemoryBarrier image_barrier(VkImage image, VkAccessFlags src, VkAccessFla
     return b;
 }
 
-// A tile clipped to the image, as a copy region into a staging buffer at `offset`.
+// A tile clipped to the image.
 struct ClippedTile {
     const FoveaTile *tile = nullptr;
     VkOffset2D offset{};  // in the image
@@ -107,7 +107,7 @@ bool clip(const FoveaTile &t, VkExtent2D image, ClippedTile *out) {
     const int64_t y0 = std::max<int64_t>(t.rect.offset.y, 0);
     const int64_t x1 = std::min<int64_t>(int64_t{t.rect.offset.x} + t.rect.extent.width, image.width);
     const int64_t y1 = std::min<int64_t>(int64_t{t.rect.offset.y} + t.rect.extent.height, image.height);
-    if (!t.pixels || x1 <= x0 || y1 <= y0) return false;
+    if (!t.buffer || x1 <= x0 || y1 <= y0) return false;
     out->tile = &t;
     out->offset = {static_cast<int32_t>(x0), static_cast<int32_t>(y0)};
     out->extent = {static_cast<uint32_t>(x1 - x0), static_cast<uint32_t>(y1 - y0)};
@@ -215,8 +215,8 @@ struct Compositor::Slot {
     VkDeviceMemory periphery_memory = VK_NULL_HANDLE;
     VkImageView periphery_view = VK_NULL_HANDLE;
     VkExtent2D periphery_extent{};
-    // Fovea tiles on their way to the image; grown as needed, mapped for the slot's lifetime.
-    HostBuffer staging;
+    // The buffers of the tiles the slot's submit copies from: held until its fence has signalled.
+    std::vector<std::shared_ptr<const void>> tiles_in_use;
     // Timed: the composite's two timestamps, copied by the GPU (gpu_timing.h).
     HostBuffer timing;
     bool timing_recorded = false; // by record()
@@ -587,20 +587,11 @@ bool Compositor::ensure_periphery_image(Slot &s, VkExtent2D periphery, std::stri
     return true;
 }
 
-// Called only while the slot is idle.
-bool Compositor::ensure_staging(Slot &s, VkDeviceSize bytes, std::string *error) {
-    if (s.staging.buffer && s.staging.size >= bytes) return true;
-    destroy_host_buffer(device_, s.staging);
-    const VkDeviceSize size = (bytes + kStagingGranule - 1) / kStagingGranule * kStagingGranule;
-    return create_host_buffer(device_, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, HostAccess::Write, &s.staging,
-                              error);
-}
-
 void Compositor::destroy_slot(Slot &s) {
     const VkDevice d = device_.handle;
     const auto &k = device_.dispatch;
     if (s.in_flight) k.WaitForFences(d, 1, &s.fence, VK_TRUE, kDestroyWaitNs);
-    destroy_host_buffer(device_, s.staging);
+    s.tiles_in_use.clear();
     destroy_host_buffer(device_, s.timing);
     if (s.periphery_view) k.DestroyImageView(d, s.periphery_view, nullptr);
     if (s.periphery) k.DestroyImage(d, s.periphery, nullptr);
@@ -761,11 +752,12 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
     }
 
     if (has_tiles) {
-        // The staging buffer was written by the host before vkQueueSubmit, which makes host
-        // writes visible to the device (no host barrier needed). Tiles do not overlap (composite
-        // drops those that would), so one copy command carries them all.
-        k.CmdCopyBufferToImage(cb, s.staging.buffer, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                               static_cast<uint32_t>(copy_regions_.size()), copy_regions_.data());
+        // The tiles' buffers were written (and flushed) by the host before vkQueueSubmit, which
+        // makes host writes visible to the device (no host barrier needed). Tiles do not overlap
+        // (composite drops those that would), so their copies need no barrier between them.
+        for (size_t i = 0; i < copy_regions_.size(); ++i)
+            k.CmdCopyBufferToImage(cb, copy_buffers_[i], image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1,
+                                   &copy_regions_[i]);
         // Back to the present layout. The present waits on our semaphore, whose signal makes
         // these writes available and visible to the presentation engine: no destination stage
         // or access beyond the end of the pipe.
@@ -813,7 +805,7 @@ Compositor::Slot *Compositor::ready_slot(uint32_t image_index, bool wait_taken, 
     const VkDevice d = device_.handle;
     const auto &k = device_.dispatch;
     // The slot's previous submits (of this image's previous present) must be done before its
-    // command buffer, staging buffer, periphery image and fences are reused. Bounded: rather skip
+    // command buffer, tiles' buffers, periphery image and fences are reused. Bounded: rather skip
     // the composition of this frame than hang the application.
     if (s.in_flight) {
         const VkResult waited = k.WaitForFences(d, 1, &s.fence, VK_TRUE, kSlotWaitNs);
@@ -822,6 +814,7 @@ Compositor::Slot *Compositor::ready_slot(uint32_t image_index, bool wait_taken, 
             return nullptr;
         }
         s.in_flight = false;
+        s.tiles_in_use.clear(); // the copies from them are done
         read_timing(s);
     }
     if (wait_taken && s.taken_in_flight) {
@@ -878,10 +871,9 @@ VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<co
     const bool upsample = periphery.width > 0 && periphery.height > 0 &&
                           (periphery.width != extent_.width || periphery.height != extent_.height);
 
-    // Tiles: clipped to the image, overlapping ones dropped (one copy command must not write a
-    // texel twice), packed one after another into the staging buffer.
+    // Tiles: clipped to the image, overlapping ones dropped (a composite must not write a texel
+    // twice). Each is copied from where it was decoded: its clipped rect, rows of its own width.
     std::vector<ClippedTile> clipped;
-    VkDeviceSize bytes = 0;
     for (const FoveaTile &t : tiles) {
         ClippedTile c;
         if (!clip(t, extent_, &c)) continue;
@@ -891,7 +883,6 @@ VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<co
             continue;
         }
         clipped.push_back(c);
-        bytes += VkDeviceSize{c.extent.width} * c.extent.height * 4;
     }
     if (!upsample && clipped.empty()) return VK_NOT_READY; // nothing to do: present as asked
 
@@ -900,27 +891,22 @@ VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<co
         return VK_ERROR_OUT_OF_DEVICE_MEMORY;
     }
     copy_regions_.clear();
-    if (!clipped.empty()) {
-        if (!ensure_staging(s, bytes, &error)) {
-            SPLITVK_WARN("compositor: %s", error.c_str());
-            return VK_ERROR_OUT_OF_DEVICE_MEMORY;
-        }
-        VkDeviceSize offset = 0;
-        for (const ClippedTile &c : clipped) {
-            const size_t row = size_t{c.extent.width} * 4;
-            const size_t stride = size_t{c.tile->rect.extent.width} * 4;
-            const uint8_t *src = c.tile->pixels + size_t(c.skipped.y) * stride + size_t(c.skipped.x) * 4;
-            for (uint32_t y = 0; y < c.extent.height; ++y)
-                std::memcpy(s.staging.mapped + offset + y * row, src + y * stride, row);
-            VkBufferImageCopy region{};
-            region.bufferOffset = offset; // a multiple of 4, the texel size
-            region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-            region.imageOffset = {c.offset.x, c.offset.y, 0};
-            region.imageExtent = {c.extent.width, c.extent.height, 1};
-            copy_regions_.push_back(region);
-            offset += row * c.extent.height;
-        }
-        flush_host_buffer(device_, s.staging);
+    copy_buffers_.clear();
+    s.tiles_in_use.clear(); // ready_slot(): the slot's previous copies are done
+    for (const ClippedTile &c : clipped) {
+        const FoveaTile &t = *c.tile;
+        VkBufferImageCopy region{};
+        // A multiple of 4, the texel size, as t.offset is.
+        region.bufferOffset =
+            t.offset +
+            (VkDeviceSize{uint32_t(c.skipped.y)} * t.rect.extent.width + uint32_t(c.skipped.x)) * 4;
+        region.bufferRowLength = t.rect.extent.width;
+        region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        region.imageOffset = {c.offset.x, c.offset.y, 0};
+        region.imageExtent = {c.extent.width, c.extent.height, 1};
+        copy_regions_.push_back(region);
+        copy_buffers_.push_back(t.buffer);
+        if (t.keep) s.tiles_in_use.push_back(t.keep);
     }
 
     record(s, image_index, upsample ? periphery : VkExtent2D{});

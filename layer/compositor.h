@@ -30,7 +30,7 @@
 // composite() submits one command buffer on the present queue that waits on the application's
 // present semaphores (and so consumes them, as the present would have), and signals a semaphore
 // of the compositor's that the present must wait on instead. Every swapchain image has its own
-// slot (command buffer, fence, semaphore, periphery copy, tile staging buffer), so a frame never
+// slot (command buffer, fence, semaphore, periphery copy, the tiles' buffers), so a frame never
 // overwrites resources a previous frame's submit still reads (the Mesa overlay's bug of one slot
 // per submit index). A slot's previous submit is waited for before reuse, for at most one
 // second (kSlotWaitNs); if it has not finished by then, composite() gives up for this frame
@@ -50,11 +50,16 @@ namespace splitvk {
 struct SwapchainState;
 
 // A fovea tile: rect.extent.width * height pixels, 4 bytes each, rows tightly packed, in the
-// swapchain format's byte order (what vkCmdCopyImageToBuffer of that image gives). The pointer
-// stays valid until composite() returns. A tile reaching past the image is clipped to it.
+// swapchain format's byte order (what vkCmdCopyImageToBuffer of that image gives), at `offset` in
+// `buffer` (TRANSFER_SRC usage, written by the host and flushed before composite(): the decoder
+// writes them there, UploadPool). The GPU copies the tile's rect straight from it; the compositor
+// holds `keep` until that copy has finished, so the memory is not rewritten while the GPU reads
+// it. A tile reaching past the image is clipped to it (only the clipped rect is copied).
 struct FoveaTile {
     VkRect2D rect{};
-    const uint8_t *pixels = nullptr;
+    VkBuffer buffer = VK_NULL_HANDLE;
+    VkDeviceSize offset = 0; // a multiple of 4, the texel size
+    std::shared_ptr<const void> keep;
 };
 
 // The periphery filter, a specialisation constant of shaders/upsample.frag.
@@ -137,7 +142,6 @@ private:
     Slot *ready_slot(uint32_t image_index, bool wait_taken, VkResult *result);
     void read_timing(Slot &slot); // after the slot's fence: its composite's GPU time
     bool ensure_periphery_image(Slot &slot, VkExtent2D periphery, std::string *error);
-    bool ensure_staging(Slot &slot, VkDeviceSize bytes, std::string *error);
     void record(Slot &slot, uint32_t image_index, VkExtent2D periphery); // periphery {} = no upsample
     void destroy_slot(Slot &slot);
 
@@ -164,6 +168,7 @@ private:
     std::mutex mutex_;                            // one present at a time per swapchain; guards the slots
     std::vector<std::unique_ptr<Slot>> slots_;    // by image index, made on first use
     std::vector<VkBufferImageCopy> copy_regions_; // this frame's tiles, for record()
+    std::vector<VkBuffer> copy_buffers_;          // the buffer of each of copy_regions_
 };
 
 // The parts of an `image` that the upsample draws when `tiles` (non-overlapping, inside the

@@ -1,5 +1,9 @@
 #include "host_buffer.h"
 
+#include "log.h"
+
+#include <algorithm>
+
 namespace splitvk {
 namespace {
 
@@ -20,8 +24,8 @@ VkMappedMemoryRange whole(const HostBuffer &buffer) {
 
 } // namespace
 
-bool create_host_buffer(DeviceState &dev, VkDeviceSize size, VkBufferUsageFlags usage, HostAccess access,
-                        HostBuffer *out, std::string *error) {
+bool create_host_buffer(const DeviceState &dev, VkDeviceSize size, VkBufferUsageFlags usage,
+                        HostAccess access, HostBuffer *out, std::string *error) {
     const VkDevice d = dev.handle;
     const auto &k = dev.dispatch;
     HostBuffer b;
@@ -58,22 +62,92 @@ bool create_host_buffer(DeviceState &dev, VkDeviceSize size, VkBufferUsageFlags 
     return true;
 }
 
-void destroy_host_buffer(DeviceState &dev, HostBuffer &b) {
+void destroy_host_buffer(const DeviceState &dev, HostBuffer &b) {
     if (b.buffer) dev.dispatch.DestroyBuffer(dev.handle, b.buffer, nullptr);
     if (b.memory) dev.dispatch.FreeMemory(dev.handle, b.memory, nullptr); // unmaps
     b = HostBuffer{};
 }
 
-void invalidate_host_buffer(DeviceState &dev, const HostBuffer &b) {
+void invalidate_host_buffer(const DeviceState &dev, const HostBuffer &b) {
     if (b.coherent || !b.memory) return;
     const VkMappedMemoryRange range = whole(b);
     dev.dispatch.InvalidateMappedMemoryRanges(dev.handle, 1, &range);
 }
 
-void flush_host_buffer(DeviceState &dev, const HostBuffer &b) {
+void flush_host_buffer(const DeviceState &dev, const HostBuffer &b) {
     if (b.coherent || !b.memory) return;
     const VkMappedMemoryRange range = whole(b);
     dev.dispatch.FlushMappedMemoryRanges(dev.handle, 1, &range);
+}
+
+// ---------------------------------------------------------------------------- upload pool
+
+namespace {
+// Buffers kept for reuse beyond those in use: two eyes times the frames that can be in flight at
+// once (decoded ahead, in the present thread, in the compositor's slots) is well below this.
+constexpr size_t kMaxFreeUploads = 32;
+} // namespace
+
+UploadPool::UploadPool(const DeviceState &device) : state_(std::make_shared<State>()) {
+    state_->device = &device;
+}
+
+UploadPool::~UploadPool() {
+    close();
+}
+
+std::shared_ptr<const HostBuffer> UploadPool::take(VkDeviceSize bytes, std::string *error) {
+    HostBuffer buffer;
+    {
+        std::lock_guard lock(state_->mutex);
+        if (state_->closed) {
+            *error = "the device is being destroyed";
+            return nullptr;
+        }
+        auto &free = state_->free;
+        const auto fits =
+            std::find_if(free.begin(), free.end(), [&](const HostBuffer &b) { return b.size >= bytes; });
+        if (fits != free.end()) {
+            buffer = *fits;
+            free.erase(fits);
+        }
+        ++state_->taken;
+    }
+    // The host reads the tile back once to check its checksum (tile_codec.h): cached memory.
+    if (!buffer.buffer && !create_host_buffer(*state_->device, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                              HostAccess::Read, &buffer, error)) {
+        std::lock_guard lock(state_->mutex);
+        --state_->taken;
+        return nullptr;
+    }
+    std::shared_ptr<State> state = state_;
+    return std::shared_ptr<const HostBuffer>(new HostBuffer(buffer), [state](const HostBuffer *b) {
+        HostBuffer back = *b;
+        delete b;
+        std::lock_guard lock(state->mutex);
+        --state->taken;
+        if (state->closed) {
+            SPLITVK_DEBUG("upload pool: a tile buffer returned after the pool closed is leaked");
+        } else if (state->free.size() < kMaxFreeUploads) {
+            state->free.push_back(back);
+        } else {
+            destroy_host_buffer(*state->device, back);
+        }
+    });
+}
+
+void UploadPool::flush(const HostBuffer &buffer) const {
+    flush_host_buffer(*state_->device, buffer);
+}
+
+void UploadPool::close() {
+    std::lock_guard lock(state_->mutex);
+    if (state_->closed) return;
+    state_->closed = true;
+    if (state_->taken) SPLITVK_DEBUG("upload pool: %zu tile buffers still held at close", state_->taken);
+    for (HostBuffer &b : state_->free)
+        destroy_host_buffer(*state_->device, b);
+    state_->free.clear();
 }
 
 } // namespace splitvk

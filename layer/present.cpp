@@ -371,7 +371,10 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
     std::vector<FoveaTile> foveae;
     if (tiles) {
         for (const DecodedTile &tile : tiles->tiles) {
-            foveae.push_back({tile.rect, tile.pixels.data()});
+            // Every tile of a frame that decoded has its buffer; without one, the periphery shows.
+            if (!tile.upload) continue;
+            // Copied by the GPU straight from where the tile was decoded (UploadPool).
+            foveae.push_back({tile.rect, tile.upload->buffer, 0, tile.upload});
             record.raw_bytes += uint64_t{tile.rect.extent.width} * tile.rect.extent.height * 4;
         }
         record.tile_bytes = tiles->bytes;

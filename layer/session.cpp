@@ -111,8 +111,9 @@ void Session::adopt_locked(AgentLink &&agent) {
     if (splitting()) {
         // A new agent's tiles are a new stream (its encoders start with an IDR): new decoders.
         if (tiles_) tiles_->stop();
-        tiles_ = std::make_unique<TileStream>(
-            [this](const std::string &error) { fail("undecodable tiles from the agent: " + error); });
+        tiles_ = std::make_unique<TileStream>(*uploads_, [this](const std::string &error) {
+            fail("undecodable tiles from the agent: " + error);
+        });
     }
     failure_logged_.store(false);
     live_.store(true);
@@ -142,6 +143,7 @@ std::unique_ptr<Session> Session::open(const DeviceState &device, const VkDevice
     session->settings_ = loaded.settings;
     session->address_ = loaded.settings.server.host + ":" + std::to_string(loaded.settings.server.port);
     session->device_id_ = codec::handle_value(device.handle);
+    session->uploads_ = std::make_unique<UploadPool>(device);
     session->encoder_.set_hooks(&session->hooks_);
     session->client_name_ = application_name;
     VkPhysicalDeviceProperties properties{};
@@ -634,6 +636,9 @@ void Session::close() {
                  static_cast<unsigned long long>(stats.wire_bytes_sent));
     stop_receiver();
     if (tiles_) tiles_->stop();
+    // The present thread and the compositors let go of their tiles before (forget_device_objects):
+    // the pool's buffers can be freed while the device exists.
+    if (uploads_) uploads_->close();
     if (connection_) connection_->close("the application destroyed the device");
 }
 

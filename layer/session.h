@@ -316,6 +316,7 @@ private:
     std::unordered_map<uint64_t, uint64_t> retired_;                       // retired id -> its entry
     uint64_t next_seq_ = 1;
 
+    std::unique_ptr<UploadPool> uploads_; // what tiles_ decodes into; made by open()
     std::unique_ptr<TileStream> tiles_;
     std::unique_ptr<FrameStats> stats_;
     std::chrono::steady_clock::time_point last_present_{};

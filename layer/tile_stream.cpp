@@ -18,7 +18,8 @@ constexpr size_t kMaxKeptFrames = 8;
 
 } // namespace
 
-TileStream::TileStream(std::function<void(const std::string &)> on_error) : on_error_(std::move(on_error)) {}
+TileStream::TileStream(UploadPool &uploads, std::function<void(const std::string &)> on_error)
+    : uploads_(uploads), on_error_(std::move(on_error)) {}
 
 TileStream::~TileStream() {
     stop();
@@ -32,6 +33,10 @@ void TileStream::stop() {
     changed_.notify_all();
     for (auto &eye : eyes_)
         if (eye->thread.joinable()) eye->thread.join();
+    std::lock_guard lock(mutex_);
+    frames_.clear();
+    for (auto &eye : eyes_)
+        eye->jobs.clear();
 }
 
 void TileStream::abandon() {
@@ -120,11 +125,25 @@ void TileStream::decode_tile(EyeDecoder &eye, const EyeJob &job) {
         eye.decoder = tiles::make_tile_decoder(encoded.codec, encoded.width, encoded.height, &error);
         ok = eye.decoder != nullptr;
     }
+    std::shared_ptr<const HostBuffer> upload;
     if (ok) {
-        out.pixels.resize(size_t{encoded.width} * encoded.height * 4);
-        ok = eye.decoder->decode(encoded.data, out.pixels.data(), &error);
+        upload = uploads_.take(VkDeviceSize{encoded.width} * encoded.height * 4, &error);
+        ok = upload != nullptr;
+        // Without memory to decode into, the stream's reference is lost: restart it too.
+        if (!ok) {
+            error = "no upload memory for the tile: " + error;
+            eye.decoder.reset();
+        }
+    }
+    if (ok) {
+        ok = eye.decoder->decode(encoded.data, upload->mapped, &error);
         // A stream that failed is restarted at the agent's next keyframe.
         if (!ok) eye.decoder.reset();
+    }
+    if (ok) {
+        // Host writes before the composite's vkQueueSubmit are visible to its copy once flushed.
+        uploads_.flush(*upload);
+        out.upload = std::move(upload);
     }
     const auto took = Clock::now() - start;
 

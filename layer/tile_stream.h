@@ -6,10 +6,15 @@
 // in order. vkQueuePresentKHR then takes its own frame's tiles (lockstep: frame N is composited
 // with the tiles of frame N, never older ones), waiting at most SPLITVK_TILE_WAIT.
 //
+// Each tile is decoded straight into a buffer of the device's UploadPool (persistently mapped
+// host-visible memory), which the composite copies the tile's rect from on the GPU: no copy on the
+// CPU between the decoder and the GPU.
+//
 // Every Tiles message is decoded, also one that arrives after its present gave up on it: the next
 // frame's P-frames reference it. Frames older than the one a present asked for are dropped.
 
 #include "../protocol/session.h" // Tiles, AgentTimings (layer/session.h has the same name)
+#include "host_buffer.h"
 #include "tile_codec.h"
 
 #include <vulkan/vulkan.h>
@@ -30,7 +35,9 @@ namespace splitvk {
 
 struct DecodedTile {
     VkRect2D rect{};
-    std::vector<uint8_t> pixels; // rect.extent.width * height * 4 bytes, rows packed
+    // rect.extent.width * height * 4 bytes from offset 0, rows packed, written by the host and
+    // flushed; the pool's again once every holder has let go.
+    std::shared_ptr<const HostBuffer> upload;
 };
 
 // One frame's tiles as decoded, with what the statistics need.
@@ -50,8 +57,8 @@ struct FrameTiles {
 class TileStream {
 public:
     // `on_error` is called (on a decoder thread) with one line when the agent sent something that
-    // cannot be decoded; the session then stops splitting.
-    explicit TileStream(std::function<void(const std::string &)> on_error);
+    // cannot be decoded; the session then stops splitting. `uploads` outlives the stream.
+    TileStream(UploadPool &uploads, std::function<void(const std::string &)> on_error);
     ~TileStream();
     TileStream(const TileStream &) = delete;
     TileStream &operator=(const TileStream &) = delete;
@@ -67,7 +74,8 @@ public:
     // gives up on nothing, so a present can wait in slices and look at other things in between.
     bool wait_ready(uint64_t frame, std::chrono::steady_clock::time_point deadline);
 
-    // Stops the decoder threads (also makes take() return at once).
+    // Stops the decoder threads (also makes take() return at once) and lets go of every frame it
+    // holds, so that their upload buffers go back to the pool.
     void stop();
     // The agent went away: take() returns at once from now on. Callable from any thread, also a
     // decoder's own (it joins nothing).
@@ -96,6 +104,7 @@ private:
     void run_eye(size_t eye);
     void decode_tile(EyeDecoder &eye, const EyeJob &job);
 
+    UploadPool &uploads_;
     std::function<void(const std::string &)> on_error_;
     std::mutex mutex_;
     std::condition_variable changed_;

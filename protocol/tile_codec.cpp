@@ -375,8 +375,7 @@ std::string av_error_text(int code) {
 class X264TileDecoder final : public TileDecoder {
 public:
     X264TileDecoder(uint32_t width, uint32_t height)
-        : width_(width), height_(height), alpha_(size_t{width} * height),
-          decoded_(size_t{width} * height * 4) {}
+        : width_(width), height_(height), alpha_(size_t{width} * height) {}
 
     bool open(std::string *error) {
         const AVCodec *codec = avcodec_find_decoder(AV_CODEC_ID_H264);
@@ -449,10 +448,12 @@ private:
         }
 
         if (!decode_h264(h264, keyframe, error)) return false;
-        pack_pixels(has_alpha);
+        // The one conversion there is (the decoder's GBR planes are its reference frames, and
+        // planar): straight into the caller's memory, which is the layer's upload buffer.
+        pack_pixels(has_alpha, pixels);
         av_frame_unref(frame_.get());
-        if (!check_pixels(TileCodec::X264, header, decoded_, error)) return false;
-        std::memcpy(pixels, decoded_.data(), decoded_.size());
+        if (!check_pixels(TileCodec::X264, header, {pixels, size_t{width_} * height_ * 4}, error))
+            return false;
         have_reference_ = true;
         return true;
     }
@@ -511,14 +512,14 @@ private:
     // pixel in plane 1, byte 1 in plane 0 and byte 2 in plane 2, and H.264 with matrix GBR codes
     // plane 0 as G (luma), plane 1 as B, plane 2 as R. libavcodec's GBRP has data[0] = G,
     // data[1] = B, data[2] = R, so byte 0 comes from data[1], byte 1 from data[0], byte 2 from data[2].
-    void pack_pixels(bool has_alpha) {
+    void pack_pixels(bool has_alpha, uint8_t *pixels) const {
         const AVFrame &frame = *frame_;
         for (uint32_t y = 0; y < height_; ++y) {
             const uint8_t *byte0 = frame.data[1] + ptrdiff_t{frame.linesize[1]} * y;
             const uint8_t *byte1 = frame.data[0] + ptrdiff_t{frame.linesize[0]} * y;
             const uint8_t *byte2 = frame.data[2] + ptrdiff_t{frame.linesize[2]} * y;
             const uint8_t *alpha = alpha_.data() + size_t{width_} * y;
-            uint8_t *row = decoded_.data() + size_t{width_} * 4 * y;
+            uint8_t *row = pixels + size_t{width_} * 4 * y;
             for (uint32_t x = 0; x < width_; ++x) {
                 row[x * 4 + 0] = byte0[x];
                 row[x * 4 + 1] = byte1[x];
@@ -536,7 +537,6 @@ private:
     std::unique_ptr<AVFrame, AvFrameDeleter> extra_frame_;
     ZstdDecompressor alpha_decompressor_;
     std::vector<uint8_t> alpha_;
-    std::vector<uint8_t> decoded_; // checked before it reaches the caller's pixels
     bool have_reference_ = false;
 };
 

@@ -10,6 +10,7 @@
 
 #include "compositor.h"
 #include "gpu_timing.h"
+#include "host_buffer.h"
 #include "instance.h"
 #include "swapchain.h"
 
@@ -276,6 +277,7 @@ TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
     ASSERT_EQ(vkCreateFence(d, &fence_info, nullptr, &fence), VK_SUCCESS);
 
     std::string error;
+    UploadPool uploads(device_); // outlives the compositor, which holds its buffers
     auto compositor = Compositor::create(device_, sc, family_, &error, filter, timed);
     ASSERT_TRUE(compositor) << error;
 
@@ -328,18 +330,25 @@ TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
         ASSERT_EQ(vkWaitForFences(d, 1, &fence, VK_TRUE, 10'000'000'000ull), VK_SUCCESS);
         vkResetFences(d, 1, &fence);
 
-        // Two tiles: one in the middle, one reaching past the right edge (clipped).
-        const VkRect2D rects[2] = {{{20, 15}, {17, 11}}, {{int32_t(kWidth) - 6, 3}, {10, 5}}};
-        std::vector<uint8_t> tile_pixels[2];
-        FoveaTile tiles[2];
-        for (int t = 0; t < 2; ++t) {
+        // Three tiles, written into upload buffers as the layer's decoder writes them: one in the
+        // middle, one reaching past the right edge and one past the top-left corner (each copied
+        // clipped, from inside its buffer).
+        const VkRect2D rects[3] = {
+            {{20, 15}, {17, 11}}, {{int32_t(kWidth) - 6, 3}, {10, 5}}, {{-4, -3}, {9, 7}}};
+        std::vector<uint8_t> tile_pixels[3];
+        FoveaTile tiles[3];
+        for (int t = 0; t < 3; ++t) {
             tile_pixels[t].resize(size_t{rects[t].extent.width} * rects[t].extent.height * 4);
             for (uint32_t y = 0; y < rects[t].extent.height; ++y)
                 for (uint32_t x = 0; x < rects[t].extent.width; ++x)
                     for (uint32_t c = 0; c < 4; ++c)
                         tile_pixels[t][(size_t{y} * rects[t].extent.width + x) * 4 + c] =
                             tile_byte(x, y, c + 4 * t, frame);
-            tiles[t] = {rects[t], tile_pixels[t].data()};
+            auto upload = uploads.take(tile_pixels[t].size(), &error);
+            ASSERT_TRUE(upload) << error;
+            std::memcpy(upload->mapped, tile_pixels[t].data(), tile_pixels[t].size());
+            uploads.flush(*upload);
+            tiles[t] = {rects[t], upload->buffer, 0, upload};
         }
         VkSemaphore waits = rendered;
         if (timed) {
@@ -372,12 +381,12 @@ TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
 
         // The tiles, byte for byte, clipped to the image.
         uint64_t tile_mismatches = 0;
-        for (int t = 0; t < 2; ++t)
+        for (int t = 0; t < 3; ++t)
             for (uint32_t y = 0; y < rects[t].extent.height; ++y)
                 for (uint32_t x = 0; x < rects[t].extent.width; ++x) {
-                    const uint32_t ix = rects[t].offset.x + x, iy = rects[t].offset.y + y;
-                    if (ix >= kWidth || iy >= kHeight) continue;
-                    if (std::memcmp(shown + (size_t{iy} * kWidth + ix) * 4,
+                    const int64_t ix = int64_t{rects[t].offset.x} + x, iy = int64_t{rects[t].offset.y} + y;
+                    if (ix < 0 || iy < 0 || ix >= kWidth || iy >= kHeight) continue;
+                    if (std::memcmp(shown + (size_t(iy) * kWidth + size_t(ix)) * 4,
                                     tile_pixels[t].data() + (size_t{y} * rects[t].extent.width + x) * 4, 4))
                         ++tile_mismatches;
                 }
@@ -401,8 +410,8 @@ TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
             for (uint32_t x = 0; x < kWidth; ++x) {
                 bool in_tile = false;
                 for (const auto &r : rects)
-                    in_tile |= int(x) >= r.offset.x && x < r.offset.x + r.extent.width &&
-                               int(y) >= r.offset.y && y < r.offset.y + r.extent.height;
+                    in_tile |= int(x) >= r.offset.x && int(x) < r.offset.x + int(r.extent.width) &&
+                               int(y) >= r.offset.y && int(y) < r.offset.y + int(r.extent.height);
                 if (in_tile) continue;
                 const float px =
                     std::clamp((x + 0.5f) * kPeriphery.width / kWidth, 0.5f, kPeriphery.width - 0.5f);
@@ -603,8 +612,12 @@ TEST_P(CompositorTest, DISABLED_Cost) {
     const uint32_t fw = 512 * width / 2400, fh = 360 * height / 1080;
     const VkRect2D rects[2] = {{{int32_t(width / 4 - fw / 2), int32_t(height / 2 - fh / 2)}, {fw, fh}},
                                {{int32_t(3 * width / 4 - fw / 2), int32_t(height / 2 - fh / 2)}, {fw, fh}}};
-    std::vector<uint8_t> pixels(size_t{fw} * fh * 4, 0x7f);
-    const FoveaTile tiles[2] = {{rects[0], pixels.data()}, {rects[1], pixels.data()}};
+    UploadPool uploads(device_);
+    auto upload = uploads.take(VkDeviceSize{fw} * fh * 4, &error);
+    ASSERT_TRUE(upload) << error;
+    std::memset(upload->mapped, 0x7f, size_t{fw} * fh * 4);
+    uploads.flush(*upload);
+    const FoveaTile tiles[2] = {{rects[0], upload->buffer, 0, upload}, {rects[1], upload->buffer, 0, upload}};
     using Clock = std::chrono::steady_clock;
     const auto best = [&](auto &&run) {
         double ms = 1e9;

@@ -644,6 +644,97 @@ INSTANTIATE_TEST_SUITE_P(Depth, SplitShutdown, ::testing::Values(0, 1, 2),
                              return "Depth" + std::to_string(p.param);
                          });
 
+// Issue 12: what the driver's present answered the layer's present thread reaches the application.
+// VK_LAYER_SPLITVK_test_present_fault sits below splitvk and validation, next to the driver, and
+// makes the driver's present of frame kFaultFrame answer OUT_OF_DATE (the present rejected, its
+// semaphore waits consumed, as Mesa's WSI does) or SUBOPTIMAL (presented).
+// The application must hear it: synchronously at that frame's own present (depth 0), from the
+// present thread at its next present or acquire (depth 1, one frame later: the frame was in the
+// layer when the application went on). It recreates its swapchain, nothing hangs, validation
+// (synchronization included) stays silent, and the held last frame's foveae equal native, which
+// heard the same answer at frame kFaultFrame and recreated its swapchain there too.
+struct PresentFault {
+    int depth;
+    const char *fault;  // TEST_PRESENT_FAULT's kind
+    const char *result; // what the application must be told
+    const char *name;
+};
+void PrintTo(const PresentFault &f, std::ostream *os) {
+    *os << f.name;
+}
+
+class SplitPresentFault : public Split, public ::testing::WithParamInterface<PresentFault> {};
+
+TEST_P(SplitPresentFault, ReachesTheAppWhichRecreatesItsSwapchain) {
+    const PresentFault f = GetParam();
+    constexpr int kFaultFrame = 3;
+    constexpr int kFaultFrames = 8;
+    const std::string fault = std::string(f.fault) + ":" + std::to_string(kFaultFrame);
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    const auto argv = atrium_argv(2, kFaultFrames, false);
+    Env native_env = env();
+    use_present_fault_layer(native_env, fault);
+    Env e = split_env();
+    use_present_fault_layer(e, fault);
+    e["SPLITVK_PRESENT_DEPTH"] = std::to_string(f.depth);
+    enable_loader_debug(e);
+    Grab native, split;
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, native_env, "native", kFaultFrames, &native));
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, e, "split", kFaultFrames, &split));
+    const std::string &err = split.result.err();
+
+    // The layers are where they must be: the fault layer below splitvk, so that it answers the
+    // layer's presents, and below validation, which so checks what follows from that answer.
+    const auto stack = instance_layer_stack(err);
+    ASSERT_GE(stack_index(stack, kLayerName), 0) << tail(err, 60);
+    EXPECT_GT(stack_index(stack, kValidationLayerName), stack_index(stack, kLayerName)) << tail(err, 60);
+    EXPECT_GT(stack_index(stack, kPresentFaultLayerName), stack_index(stack, kValidationLayerName))
+        << tail(err, 60);
+    const std::string injected =
+        "present fault: present " + std::to_string(kFaultFrame) + " answered " + f.result;
+    ASSERT_EQ(grep(err, injected).size(), 1u) << tail(err, 30);
+    ASSERT_EQ(grep(native.result.err(), injected).size(), 1u) << tail(native.result.err(), 30);
+
+    // One recreation, at the frame whose own call could first know.
+    const std::regex recreated(R"(atrium: frame (\d+): (\S+) returned (\S+); recreating the swapchain)");
+    auto recreations = [&](const std::string &text) {
+        std::vector<std::string> out;
+        for (const auto &line : split_lines(text))
+            if (std::regex_search(line, recreated)) out.push_back(line);
+        return out;
+    };
+    const auto natives = recreations(native.result.err());
+    const auto theirs = recreations(err);
+    ASSERT_EQ(natives.size(), 1u) << tail(native.result.err(), 30);
+    ASSERT_EQ(theirs.size(), 1u) << tail(err, 30);
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(natives[0], m, recreated));
+    EXPECT_EQ(std::stoi(m[1]), kFaultFrame) << natives[0];
+    EXPECT_EQ(m[3], f.result) << natives[0];
+    ASSERT_TRUE(std::regex_search(theirs[0], m, recreated));
+    std::cout << "  " << theirs[0] << "\n";
+    EXPECT_EQ(std::stoi(m[1]), kFaultFrame + (f.depth > 0 ? 1 : 0)) << theirs[0];
+    EXPECT_EQ(m[3], f.result) << theirs[0];
+    if (f.depth > 0) {
+        const std::string heard = "present thread: frame " + std::to_string(kFaultFrame) +
+                                  ": vkQueuePresentKHR answered " + f.result;
+        EXPECT_EQ(grep(err, heard).size(), 1u) << tail(err, 30);
+    }
+
+    EXPECT_EQ(split_summary(err).late, 0u) << tail(err, 30);
+    ASSERT_NO_FATAL_FAILURE(
+        expect_split_frame(native.image, split.image, default_foveae(kWidth, kHeight, 2)));
+    expect_clean_validation();
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Fault, SplitPresentFault,
+    ::testing::Values(PresentFault{0, "out_of_date", "VK_ERROR_OUT_OF_DATE_KHR", "OutOfDateDepth0"},
+                      PresentFault{1, "out_of_date", "VK_ERROR_OUT_OF_DATE_KHR", "OutOfDateDepth1"},
+                      PresentFault{0, "suboptimal", "VK_SUBOPTIMAL_KHR", "SuboptimalDepth0"},
+                      PresentFault{1, "suboptimal", "VK_SUBOPTIMAL_KHR", "SuboptimalDepth1"}),
+    [](const ::testing::TestParamInfo<PresentFault> &p) { return std::string(p.param.name); });
+
 // Issue 10: the agent behaves as a GPU with 256-byte buffer alignments (--emulate-limits), the
 // client is lavapipe (16). The application is told 256 (the device envelope), so the foveae stay
 // exact and the agent flags nothing.
