@@ -1,0 +1,23 @@
+#pragma once
+
+// The chain plumbing shared by the e2e tests' present layers (hold_layer/, present_fault_layer/):
+// each intercepts vkQueuePresentKHR and nothing else, so all it writes is present() below;
+// present_layer.cpp, compiled into each, does the loader negotiation, vkCreateInstance and
+// vkCreateDevice down the chain, and the vkGet*ProcAddr that answer with present() for
+// vkQueuePresentKHR and the next layer's pointer for everything else.
+
+#include <vulkan/vk_layer.h>
+#include <vulkan/vulkan.h>
+
+namespace splitvk::present_layer {
+
+// The next layer's (or the driver's) entry points of the device a queue belongs to.
+struct Next {
+    PFN_vkQueuePresentKHR present = nullptr;
+    PFN_vkQueueSubmit submit = nullptr;
+};
+
+// Defined by each layer: its vkQueuePresentKHR. The caller holds the queue, as for any present.
+VkResult present(const Next &next, VkQueue queue, const VkPresentInfoKHR *info);
+
+} // namespace splitvk::present_layer
