@@ -113,9 +113,10 @@ std::shared_ptr<const HostBuffer> UploadPool::take(VkDeviceSize bytes, std::stri
         }
         ++state_->taken;
     }
-    // The host reads the tile back once to check its checksum (tile_codec.h): cached memory.
+    // The decoders only write here, whole rows in order, and sum the pixels before they store them
+    // (tile_codec.h): memory the host writes, uncached where that is what the device has.
     if (!buffer.buffer && !create_host_buffer(*state_->device, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
-                                              HostAccess::Read, &buffer, error)) {
+                                              HostAccess::Write, &buffer, error)) {
         std::lock_guard lock(state_->mutex);
         --state_->taken;
         return nullptr;

@@ -79,21 +79,59 @@ uint64_t get_u64(const uint8_t *p) {
 // pixels), and an encoder/decoder pair that disagreed (library versions on two machines) would
 // composite wrong pixels silently. Four independent multiply lanes keep it at memory speed; it
 // is not cryptographic.
-uint32_t tile_checksum(const uint8_t *bytes, size_t size) {
-    constexpr uint64_t kOdd = 0x9e3779b97f4a7c15ull; // odd: each step is a bijection of the lane
-    uint64_t lanes[4] = {1, 2, 3, 4};
-    size_t i = 0;
-    for (; i + 32 <= size; i += 32)
+//
+// TileChecksum takes the bytes in pieces (a decoder's rows as it packs them, so that it never reads
+// back the upload memory it writes, which may be uncached); tile_checksum() is it over one piece.
+class TileChecksum {
+public:
+    void update(const uint8_t *bytes, size_t size) {
+        total_ += size;
+        if (pending_ > 0) {
+            const size_t take = std::min(kBlock - pending_, size);
+            std::memcpy(block_ + pending_, bytes, take);
+            pending_ += take;
+            bytes += take;
+            size -= take;
+            if (pending_ < kBlock) return;
+            mix(block_);
+            pending_ = 0;
+        }
+        for (; size >= kBlock; bytes += kBlock, size -= kBlock)
+            mix(bytes);
+        std::memcpy(block_, bytes, size);
+        pending_ = size;
+    }
+
+    uint32_t finish() const {
+        uint64_t hash = total_;
+        for (uint64_t lane : lanes_)
+            hash = (hash ^ lane) * kOdd;
+        for (size_t i = 0; i < pending_; ++i)
+            hash = (hash ^ block_[i]) * kOdd;
+        hash ^= hash >> 29;
+        hash *= kOdd;
+        return static_cast<uint32_t>(hash ^ hash >> 32);
+    }
+
+private:
+    static constexpr uint64_t kOdd = 0x9e3779b97f4a7c15ull; // odd: each step is a bijection of the lane
+    static constexpr size_t kBlock = 32;                    // four lanes of eight bytes
+
+    void mix(const uint8_t *block) {
         for (size_t lane = 0; lane < 4; ++lane)
-            lanes[lane] = (lanes[lane] ^ get_u64(bytes + i + lane * 8)) * kOdd;
-    uint64_t hash = size;
-    for (uint64_t lane : lanes)
-        hash = (hash ^ lane) * kOdd;
-    for (; i < size; ++i)
-        hash = (hash ^ bytes[i]) * kOdd;
-    hash ^= hash >> 29;
-    hash *= kOdd;
-    return static_cast<uint32_t>(hash ^ hash >> 32);
+            lanes_[lane] = (lanes_[lane] ^ get_u64(block + lane * 8)) * kOdd;
+    }
+
+    uint64_t lanes_[4] = {1, 2, 3, 4};
+    uint64_t total_ = 0;
+    uint8_t block_[kBlock] = {};
+    size_t pending_ = 0;
+};
+
+uint32_t tile_checksum(const uint8_t *bytes, size_t size) {
+    TileChecksum checksum;
+    checksum.update(bytes, size);
+    return checksum.finish();
 }
 
 // Starts `out` with the header of a tile of `pixels`.
@@ -151,12 +189,15 @@ bool read_header(std::span<const uint8_t> data, TileCodec codec, uint32_t width,
     return true;
 }
 
-bool check_pixels(TileCodec codec, const TileHeader &header, std::span<const uint8_t> pixels,
-                  std::string *error) {
-    const uint32_t checksum = tile_checksum(pixels.data(), pixels.size());
+bool check_checksum(TileCodec codec, const TileHeader &header, uint32_t checksum, std::string *error) {
     if (checksum == header.checksum) return true;
     return fail(error,
                 std::string(splitvk::to_string(codec)) + " tile: decoded pixels do not match the checksum");
+}
+
+bool check_pixels(TileCodec codec, const TileHeader &header, std::span<const uint8_t> pixels,
+                  std::string *error) {
+    return check_checksum(codec, header, tile_checksum(pixels.data(), pixels.size()), error);
 }
 
 struct ZstdCCtxDeleter {
@@ -450,10 +491,9 @@ private:
         if (!decode_h264(h264, keyframe, error)) return false;
         // The one conversion there is (the decoder's GBR planes are its reference frames, and
         // planar): straight into the caller's memory, which is the layer's upload buffer.
-        pack_pixels(has_alpha, pixels);
+        const uint32_t checksum = pack_pixels(has_alpha, pixels);
         av_frame_unref(frame_.get());
-        if (!check_pixels(TileCodec::X264, header, {pixels, size_t{width_} * height_ * 4}, error))
-            return false;
+        if (!check_checksum(TileCodec::X264, header, checksum, error)) return false;
         have_reference_ = true;
         return true;
     }
@@ -512,21 +552,30 @@ private:
     // pixel in plane 1, byte 1 in plane 0 and byte 2 in plane 2, and H.264 with matrix GBR codes
     // plane 0 as G (luma), plane 1 as B, plane 2 as R. libavcodec's GBRP has data[0] = G,
     // data[1] = B, data[2] = R, so byte 0 comes from data[1], byte 1 from data[0], byte 2 from data[2].
-    void pack_pixels(bool has_alpha, uint8_t *pixels) const {
+    // Each row is packed in cache, summed there and written out whole: `pixels` may be uncached
+    // (write-combined) upload memory, which wants full sequential writes and no reads. Returns the
+    // pixels' tile_checksum().
+    uint32_t pack_pixels(bool has_alpha, uint8_t *pixels) {
         const AVFrame &frame = *frame_;
+        const size_t row_bytes = size_t{width_} * 4;
+        row_.resize(row_bytes);
+        TileChecksum checksum;
         for (uint32_t y = 0; y < height_; ++y) {
             const uint8_t *byte0 = frame.data[1] + ptrdiff_t{frame.linesize[1]} * y;
             const uint8_t *byte1 = frame.data[0] + ptrdiff_t{frame.linesize[0]} * y;
             const uint8_t *byte2 = frame.data[2] + ptrdiff_t{frame.linesize[2]} * y;
             const uint8_t *alpha = alpha_.data() + size_t{width_} * y;
-            uint8_t *row = pixels + size_t{width_} * 4 * y;
+            uint8_t *row = row_.data();
             for (uint32_t x = 0; x < width_; ++x) {
                 row[x * 4 + 0] = byte0[x];
                 row[x * 4 + 1] = byte1[x];
                 row[x * 4 + 2] = byte2[x];
                 row[x * 4 + 3] = has_alpha ? alpha[x] : 255;
             }
+            checksum.update(row, row_bytes);
+            std::memcpy(pixels + row_bytes * y, row, row_bytes);
         }
+        return checksum.finish();
     }
 
     uint32_t width_;
@@ -537,6 +586,7 @@ private:
     std::unique_ptr<AVFrame, AvFrameDeleter> extra_frame_;
     ZstdDecompressor alpha_decompressor_;
     std::vector<uint8_t> alpha_;
+    std::vector<uint8_t> row_; // one packed row, in cache
     bool have_reference_ = false;
 };
 

@@ -56,12 +56,12 @@ class TileDecoder {
 public:
     virtual ~TileDecoder();
 
-    // Decodes one encoded tile into `pixels` (width*height*4 bytes), writing each byte once (x264
-    // then reads them once for the checksum): `pixels` may be mapped device memory (the layer's
-    // upload buffer), with no copy of the tile in between. Malformed input of any kind returns
-    // false with one line in *error: never a crash, an over-read or an unbounded allocation. On
-    // failure `pixels` may have been partly written (the checksum is checked on them): do not use
-    // them.
+    // Decodes one encoded tile into `pixels` (width*height*4 bytes), writing each byte once, whole
+    // rows in order, and never reading them back (the checksum is summed before they are stored):
+    // `pixels` may be mapped, uncached device memory (the layer's upload buffer), with no copy of
+    // the tile in between. Malformed input of any kind returns false with one line in *error:
+    // never a crash, an over-read or an unbounded allocation. On failure `pixels` may have been
+    // partly or wholly written: do not use them.
     // A non-keyframe before the first keyframe is an error, and so is a non-keyframe after a
     // failed decode: the stream's reference is lost until the encoder sends a keyframe.
     virtual bool decode(std::span<const uint8_t> data, uint8_t *pixels, std::string *error) = 0;
