@@ -63,6 +63,8 @@ private:
     bool swapchain_memory(const protocol::SwapchainImages &m, std::string *error);
     // Handles one message; false with `error` set ends the session.
     bool handle(protocol::Message &message, bool *done, std::string *error);
+    static double milliseconds_since(std::chrono::steady_clock::time_point start);
+    void log_first_frame() const;
 
     std::unique_ptr<protocol::Connection> connection_;
     SessionConfig config_;
@@ -73,7 +75,33 @@ private:
     uint64_t swapchain_total_ = 0;
     uint64_t messages_ = 0;
     uint64_t frames_ = 0;
+    // Where a joining session's time goes before its first frame (the client's resync, issue 14):
+    // from the handshake, the device set-up, waiting for messages (the client reading back and
+    // sending its snapshot, the I/O thread decompressing it) and replaying them.
+    struct FirstFrame {
+        std::chrono::steady_clock::time_point handshake;
+        double setup_ms = 0;
+        double replay_ms = 0;
+        double memory_ms = 0; // of replay_ms: MemoryData (the contents the snapshot carries)
+        uint64_t payload_bytes = 0;
+    } first_frame_;
 };
+
+double Session::milliseconds_since(std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+// Its draw and encode follow on the tile streamer's thread and reach the client's SPLITVK_STATS.
+void Session::log_first_frame() const {
+    const double total = milliseconds_since(first_frame_.handshake);
+    SPLITVK_INFO("session %llu: first frame submitted for its tiles %.0f ms after the handshake: %.0f ms "
+                 "setting up the device, %.0f replaying %.1f MiB of messages (%.0f of it memory data), %.0f "
+                 "waiting for them",
+                 static_cast<unsigned long long>(config_.session_id), total, first_frame_.setup_ms,
+                 first_frame_.replay_ms, static_cast<double>(first_frame_.payload_bytes) / (1 << 20),
+                 first_frame_.memory_ms,
+                 std::max(0.0, total - first_frame_.setup_ms - first_frame_.replay_ms));
+}
 
 int Session::fail(const std::string &what, int status) {
     SPLITVK_ERROR("session %llu: %s; closing", static_cast<unsigned long long>(config_.session_id),
@@ -148,7 +176,9 @@ int Session::run() {
         }
     }
     std::string error;
+    first_frame_.handshake = std::chrono::steady_clock::now();
     if (!replayer_.init(config_.device_index, config_.validate, &error)) return fail(error, kSessionSetup);
+    first_frame_.setup_ms = milliseconds_since(first_frame_.handshake);
     // Tiles are sent from the tile streamer's worker thread; Connection::send is thread-safe and
     // keeps them in order with everything else this session sends.
     replayer_.set_tile_sender([this](std::vector<uint8_t> &&payload, std::string *send_error) {
@@ -173,7 +203,16 @@ int Session::run() {
         ++messages_;
         if (recorder_) recorder_->message(message->type, message->payload);
         bool done = false;
+        const auto start = std::chrono::steady_clock::now();
+        const bool first_present = frames_ == 0 && message->type == to_wire(MessageType::FramePresent);
+        if (frames_ == 0) first_frame_.payload_bytes += message->payload.size();
         if (!handle(*message, &done, &error)) return fail(error, kSessionError);
+        if (frames_ == 0 || first_present) {
+            const double ms = milliseconds_since(start);
+            first_frame_.replay_ms += ms;
+            if (message->type == to_wire(MessageType::MemoryData)) first_frame_.memory_ms += ms;
+        }
+        if (first_present) log_first_frame();
         if (done) break;
     }
     connection_->close("session over");
