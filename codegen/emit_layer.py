@@ -110,6 +110,11 @@ def _forward_body(c, by_name, handle_types):
         created = _created_handle(c, handle_types)
         destroyed = _destroyed_handle(c)
         logged = _logged_call(canon)
+        # A destroy is recorded before the driver call, for the observer's reason above: once the
+        # object is gone another thread may create one with the same handle value, and a destroy
+        # logged after that create would end the new object on the agent and in the live state.
+        record_first = destroyed is not None and ret == "void" and not logged
+        record_at = len(lines) - 1 if record_first else len(lines)
         lines.append(f"    if (capturing(dev){ok}) [[unlikely]] {{")
         if logged:
             lines += logged
@@ -127,6 +132,10 @@ def _forward_body(c, by_name, handle_types):
             lines.append("        note_descriptor_updates(descriptorWriteCount, pDescriptorWrites, "
                          "descriptorCopyCount, pDescriptorCopies);")
         lines.append("    }")
+        if record_first:  # move the capture block in front of the driver call
+            block = lines[record_at + 1:]
+            del lines[record_at + 1:]
+            lines[record_at:record_at] = block
     if ret != "void":
         lines.append("    return result;")
     return lines

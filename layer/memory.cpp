@@ -147,10 +147,11 @@ VKAPI_ATTR void VKAPI_CALL FreeMemory(VkDevice device, VkDeviceMemory memory,
             g_memory.erase(it);
         }
     }
-    dev.dispatch.FreeMemory(device, memory, pAllocator);
+    // Recorded before the driver may hand the value to memory another thread allocates.
     if (capturing(dev) && memory != VK_NULL_HANDLE)
         record_global(dev, LiveChange::Destroyed, codec::handle_value(memory),
                       [&](codec::Encoder &e) { encode_vkFreeMemory(e, device, memory, pAllocator); });
+    dev.dispatch.FreeMemory(device, memory, pAllocator);
 }
 
 VKAPI_ATTR VkResult VKAPI_CALL MapMemory(VkDevice device, VkDeviceMemory memory, VkDeviceSize offset,

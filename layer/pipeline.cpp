@@ -70,11 +70,13 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateGraphicsPipelines(VkDevice device, VkPipeli
 VKAPI_ATTR void VKAPI_CALL DestroyPipeline(VkDevice device, VkPipeline pipeline,
                                            const VkAllocationCallbacks *pAllocator) {
     DeviceState &dev = device_state(device);
-    dev.dispatch.DestroyPipeline(device, pipeline, pAllocator);
-    if (pipeline != VK_NULL_HANDLE && dev.session) g_pipelines.remove(pipeline);
+    // Recorded and forgotten before the driver may hand the value to a pipeline another thread
+    // creates (as every destroy: codegen/emit_layer.py).
     if (capturing(dev)) [[unlikely]]
         record_global(dev, LiveChange::Destroyed, codec::handle_value(pipeline),
                       [&](codec::Encoder &e) { encode_vkDestroyPipeline(e, device, pipeline, pAllocator); });
+    if (pipeline != VK_NULL_HANDLE && dev.session) g_pipelines.remove(pipeline);
+    dev.dispatch.DestroyPipeline(device, pipeline, pAllocator);
 }
 
 VKAPI_ATTR void VKAPI_CALL CmdBindPipeline(VkCommandBuffer commandBuffer,

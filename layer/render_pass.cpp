@@ -397,14 +397,14 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateImageView(VkDevice device, const VkImageVie
 VKAPI_ATTR void VKAPI_CALL DestroyImageView(VkDevice device, VkImageView imageView,
                                             const VkAllocationCallbacks *pAllocator) {
     DeviceState &dev = device_state(device);
-    // Forgotten before the driver may hand the value out again: a view created meanwhile on another
-    // thread must not lose its state to this removal.
+    // Forgotten and recorded before the driver may hand the value out again: a view created
+    // meanwhile on another thread must lose neither its state nor, on the agent, itself.
     if (dev.session && imageView != VK_NULL_HANDLE) g_views.remove(imageView);
-    dev.dispatch.DestroyImageView(device, imageView, pAllocator);
     if (capturing(dev)) [[unlikely]]
         record_global(dev, LiveChange::Destroyed, codec::handle_value(imageView), [&](codec::Encoder &e) {
             encode_vkDestroyImageView(e, device, imageView, pAllocator);
         });
+    dev.dispatch.DestroyImageView(device, imageView, pAllocator);
 }
 
 VKAPI_ATTR VkResult VKAPI_CALL CreateFramebuffer(VkDevice device, const VkFramebufferCreateInfo *pCreateInfo,
@@ -464,15 +464,15 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateFramebuffer(VkDevice device, const VkFrameb
 VKAPI_ATTR void VKAPI_CALL DestroyFramebuffer(VkDevice device, VkFramebuffer framebuffer,
                                               const VkAllocationCallbacks *pAllocator) {
     DeviceState &dev = device_state(device);
-    // Forgotten before the driver may hand the value out again: a framebuffer created meanwhile on
-    // another thread at the scaled size would otherwise lose its state, and its passes would go down
-    // with unscaled render areas.
+    // Forgotten and recorded before the driver may hand the value out again: a framebuffer created
+    // meanwhile on another thread at the scaled size would otherwise lose its state (its passes would
+    // go down with unscaled render areas), and the agent would destroy it.
     if (dev.session && framebuffer != VK_NULL_HANDLE) g_framebuffers.remove(framebuffer);
-    dev.dispatch.DestroyFramebuffer(device, framebuffer, pAllocator);
     if (capturing(dev)) [[unlikely]]
         record_global(dev, LiveChange::Destroyed, codec::handle_value(framebuffer), [&](codec::Encoder &e) {
             encode_vkDestroyFramebuffer(e, device, framebuffer, pAllocator);
         });
+    dev.dispatch.DestroyFramebuffer(device, framebuffer, pAllocator);
 }
 
 VKAPI_ATTR void VKAPI_CALL CmdBeginRenderPass(VkCommandBuffer commandBuffer,
