@@ -88,12 +88,6 @@ VkRect2D scale_target_rect(const VkRect2D &rect, VkExtent2D full, uint32_t mip, 
     return scale_rect(rect, scale, mip_extent(scaled_extent(full, scale), mip));
 }
 
-uint32_t scaled_group_count(uint32_t groups, double scale) {
-    if (groups == 0) return 0;
-    return std::max<uint32_t>(1,
-                              static_cast<uint32_t>(std::ceil(static_cast<double>(groups) * scale - 1e-6)));
-}
-
 GroupRange scaled_group_range(uint32_t base, uint32_t count, double scale) {
     // The same tolerance as split_geometry's rounding: a product off by float noise does not step.
     const auto first = static_cast<uint64_t>(std::floor(static_cast<double>(base) * scale + 1e-6));
@@ -102,6 +96,10 @@ GroupRange scaled_group_range(uint32_t base, uint32_t count, double scale) {
         std::ceil((static_cast<double>(base) + static_cast<double>(count)) * scale - 1e-6));
     return {static_cast<uint32_t>(first),
             static_cast<uint32_t>(std::max<uint64_t>(1, end - std::min(end, first)))};
+}
+
+uint32_t scaled_group_count(uint32_t groups, double scale) {
+    return scaled_group_range(0, groups, scale).count;
 }
 
 } // namespace splitvk::split

@@ -203,16 +203,18 @@ int Session::run() {
         ++messages_;
         if (recorder_) recorder_->message(message->type, message->payload);
         bool done = false;
-        const auto start = std::chrono::steady_clock::now();
-        const bool first_present = frames_ == 0 && message->type == to_wire(MessageType::FramePresent);
-        if (frames_ == 0) first_frame_.payload_bytes += message->payload.size();
+        // Until the first frame, each message is timed (log_first_frame); after it, none is.
+        const bool before_first_frame = frames_ == 0;
+        const auto start =
+            before_first_frame ? std::chrono::steady_clock::now() : std::chrono::steady_clock::time_point{};
         if (!handle(*message, &done, &error)) return fail(error, kSessionError);
-        if (frames_ == 0 || first_present) {
+        if (before_first_frame) {
             const double ms = milliseconds_since(start);
             first_frame_.replay_ms += ms;
+            first_frame_.payload_bytes += message->payload.size();
             if (message->type == to_wire(MessageType::MemoryData)) first_frame_.memory_ms += ms;
+            if (frames_ != 0) log_first_frame();
         }
-        if (first_present) log_first_frame();
         if (done) break;
     }
     connection_->close("session over");
