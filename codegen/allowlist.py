@@ -89,7 +89,28 @@ DEVICE_EXTENSIONS = [
     "VK_EXT_custom_border_color",
     "VK_EXT_line_rasterization",
     "VK_EXT_tooling_info",
+] + [
+    # Sharing memory, semaphores and fences with another process: what an OpenXR runtime's client
+    # compositor needs on the application's device (Monado imports its eye images with opaque fds;
+    # DESIGN §9). CLIENT_ONLY_EXTENSIONS says what the agent does with them.
+    "VK_KHR_external_memory",
+    "VK_KHR_external_memory_fd",
+    "VK_KHR_external_semaphore",
+    "VK_KHR_external_semaphore_fd",
+    "VK_KHR_external_fence",
+    "VK_KHR_external_fence_fd",
 ]
+
+# Forwarded device extensions that only the client's device enables: the agent has no other
+# process to share with. Their commands are answered by the client's driver (codec_policy.py), and
+# their structures never cross the wire (codec_overrides.DROPPED_EXTENSIONS), so the agent replays
+# an imported or exportable image as an ordinary one. The agent never enables these, whatever the
+# client's vkCreateDevice named.
+CLIENT_ONLY_EXTENSIONS = {
+    "VK_KHR_external_memory_fd": "an fd names a file of the client's process",
+    "VK_KHR_external_semaphore_fd": "the agent drops every semaphore of a submit (submit_rules.h)",
+    "VK_KHR_external_fence_fd": "the agent's fences are its own",
+}
 
 
 def extension_regex() -> str:

@@ -214,6 +214,15 @@ COMMAND_PROLOGUES = {
 DROPPED_EXTENSIONS = {
     # Names a client handle in a raw uint64_t (objectHandle); debug names are local (codec_policy).
     "VkDebugUtilsObjectNameInfoEXT": "debug names stay on the client",
+    # External memory, semaphores and fences (allowlist.CLIENT_ONLY_EXTENSIONS): shared with another
+    # process of the client's (an OpenXR runtime), never with the agent, which allocates and creates
+    # ordinary objects in their place. An imported fd would name nothing on the agent.
+    "VkImportMemoryFdInfoKHR": "an fd of the client's process",
+    "VkExportMemoryAllocateInfo": "the agent's memory is shared with no one",
+    "VkExternalMemoryImageCreateInfo": "the agent's images are shared with no one",
+    "VkExternalMemoryBufferCreateInfo": "the agent's buffers are shared with no one",
+    "VkExportSemaphoreCreateInfo": "the agent drops submit semaphores (submit_rules.h)",
+    "VkExportFenceCreateInfo": "the agent's fences are its own",
 }
 
 # Objects allocated from a pool die with it (vkDestroy*Pool, vkResetDescriptorPool): the handle

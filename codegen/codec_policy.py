@@ -164,6 +164,14 @@ POLICY = {
     # The client resets a fence after waiting on its own; the agent's copy may still be pending,
     # and resetting a fence in use is invalid. The agent manages its fences from submits.
     "vkResetFences": MANUAL,
+    # External payloads (allowlist.CLIENT_ONLY_EXTENSIONS): fds of the client's process, exchanged
+    # with another process of the client's (an OpenXR runtime). The agent's objects stay its own.
+    "vkGetMemoryFdKHR": LOCAL,
+    "vkGetMemoryFdPropertiesKHR": LOCAL,
+    "vkGetSemaphoreFdKHR": LOCAL,
+    "vkImportSemaphoreFdKHR": LOCAL,
+    "vkGetFenceFdKHR": LOCAL,
+    "vkImportFenceFdKHR": LOCAL,
     "vkGetFenceStatus": LOCAL,
     "vkWaitForFences": LOCAL,
     "vkCreateSemaphore": FORWARD,

@@ -19,6 +19,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
+import allowlist
 import codec_overrides as ov
 import codec_policy
 from cpp import HEADER, guarded
@@ -776,7 +777,7 @@ def emit(model) -> dict[str, str]:
          "// Agent side:  decode_vkCmdDraw(decoder, decoded) or dispatch_decoded(decoder, visitor); then the",
          "//              replayer calls the driver with the decoded arguments and apply_handle_changes().",
          "", '#include "codec.h"', '#include "descriptor_template.h"', "",
-         "#include <vulkan/vulkan.h>", "", "#include <cstdint>", "#include <string>", "",
+         "#include <vulkan/vulkan.h>", "", "#include <cstdint>", "#include <string>", "#include <string_view>", "",
          "namespace splitvk::codec {", "",
          "// A hash of every encoded command and structure layout: peers built from another vk.xml (or",
          "// another generator) disagree on it, and the handshake rejects them.",
@@ -798,6 +799,9 @@ def emit(model) -> dict[str, str]:
           "// \"vkCmdDraw\", or \"unknown\".",
           "const char *command_name(VkCommandId id);",
           "CommandPolicy command_policy(VkCommandId id);", "",
+          "// True for a device extension the layer forwards but the agent never enables: its commands are",
+          "// the client's and its structures never cross the wire (codegen/allowlist.py CLIENT_ONLY_EXTENSIONS).",
+          "bool client_only_device_extension(std::string_view name);", "",
           "// ---------------------------------------------------------------------------------------------",
           "// Encoders. Each writes the command id, then the arguments. Created handles (pBuffer, ...) are",
           "// read from the output arguments, so call after the driver returned. pAllocator is never sent.", ""]
@@ -919,6 +923,9 @@ def emit(model) -> dict[str, str]:
             "CommandPolicy command_policy(VkCommandId id) {",
             "    const CommandInfo *i = info(static_cast<uint16_t>(id));",
             "    return i ? i->policy : CommandPolicy::Manual;", "}", "",
+            "bool client_only_device_extension(std::string_view name) {"] + [
+            f'    if (name == "{n}") return true; // {why}' for n, why in sorted(allowlist.CLIENT_ONLY_EXTENSIONS.items())] + [
+            "    return false;", "}", "",
             "bool changes_handles(VkCommandId id) {",
             "    const CommandInfo *i = info(static_cast<uint16_t>(id));",
             "    return i && i->changes_handles;", "}", "",

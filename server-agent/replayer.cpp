@@ -546,6 +546,7 @@ bool Replayer::frame_present(const protocol::FramePresent &message,
             frame.swapchain_id = presented.swapchain_id;
             frame.image_index = presented.image_index;
             frame.image = image.image;
+            frame.layout = image.layout;
             frame.format = image.format;
             frame.foveae = std::move(foveae);
             if (invalid) {
@@ -723,6 +724,33 @@ bool Replayer::vkCmdExecuteCommands(const codec::Decoded_vkCmdExecuteCommands &c
     if (!ReplayVisitorBase::vkCmdExecuteCommands(c)) return false;
     fovea_.execute_commands(c.commandBuffer, c.commandBufferCount, c.pCommandBuffers);
     return true;
+}
+
+bool Replayer::vkCmdPipelineBarrier(const codec::Decoded_vkCmdPipelineBarrier &c) {
+    const auto buffers =
+        codec::with_local_queue_families(c.pBufferMemoryBarriers, c.bufferMemoryBarrierCount);
+    const auto images = codec::with_local_queue_families(c.pImageMemoryBarriers, c.imageMemoryBarrierCount);
+    if (buffers.empty() && images.empty()) return ReplayVisitorBase::vkCmdPipelineBarrier(c);
+    codec::Decoded_vkCmdPipelineBarrier local = c;
+    if (!buffers.empty()) local.pBufferMemoryBarriers = buffers.data();
+    if (!images.empty()) local.pImageMemoryBarriers = images.data();
+    return ReplayVisitorBase::vkCmdPipelineBarrier(local);
+}
+
+bool Replayer::vkCmdPipelineBarrier2(const codec::Decoded_vkCmdPipelineBarrier2 &c) {
+    if (!c.pDependencyInfo) return ReplayVisitorBase::vkCmdPipelineBarrier2(c);
+    const VkDependencyInfo &dependency = *c.pDependencyInfo;
+    const auto buffers = codec::with_local_queue_families(dependency.pBufferMemoryBarriers,
+                                                          dependency.bufferMemoryBarrierCount);
+    const auto images =
+        codec::with_local_queue_families(dependency.pImageMemoryBarriers, dependency.imageMemoryBarrierCount);
+    if (buffers.empty() && images.empty()) return ReplayVisitorBase::vkCmdPipelineBarrier2(c);
+    VkDependencyInfo local_dependency = dependency;
+    if (!buffers.empty()) local_dependency.pBufferMemoryBarriers = buffers.data();
+    if (!images.empty()) local_dependency.pImageMemoryBarriers = images.data();
+    codec::Decoded_vkCmdPipelineBarrier2 local = c;
+    local.pDependencyInfo = &local_dependency;
+    return ReplayVisitorBase::vkCmdPipelineBarrier2(local);
 }
 
 bool Replayer::vkCmdBindPipeline(const codec::Decoded_vkCmdBindPipeline &c) {

@@ -102,6 +102,11 @@ public:
     bool vkCmdBindDescriptorSets(const codec::Decoded_vkCmdBindDescriptorSets &c) override;
     bool vkCreateComputePipelines(const codec::Decoded_vkCreateComputePipelines &c) override;
 
+    // Ownership transfers to and from an OpenXR runtime's process, replayed as local barriers
+    // (codec::with_local_queue_families).
+    bool vkCmdPipelineBarrier(const codec::Decoded_vkCmdPipelineBarrier &c) override;
+    bool vkCmdPipelineBarrier2(const codec::Decoded_vkCmdPipelineBarrier2 &c) override;
+
     // The split (fovea_shading.h): what makes a split pass, and the scissors narrowed inside one.
     bool vkCreateImageView(const codec::Decoded_vkCreateImageView &c) override;
     bool vkDestroyImageView(const codec::Decoded_vkDestroyImageView &c) override;

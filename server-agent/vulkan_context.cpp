@@ -1,6 +1,7 @@
 #include "vulkan_context.h"
 
 #include "log.h"
+#include "vk_codec.h"
 
 #include <algorithm>
 #include <cstring>
@@ -240,6 +241,9 @@ VkResult VulkanContext::create_device(const VkDeviceCreateInfo &client_info, std
             client_info.ppEnabledExtensionNames ? client_info.ppEnabledExtensionNames[i] : nullptr;
         if (!name) continue;
         const std::string_view n(name);
+        // Shared with another process of the client's, never with the agent: its structures do not
+        // cross the wire, so there is nothing to enable it for.
+        if (codec::client_only_device_extension(n)) continue;
         const bool needs_surface = n == VK_KHR_SWAPCHAIN_EXTENSION_NAME;
         if (has_extension(available, n) && (!needs_surface || surface_extension_))
             extensions.push_back(name);
@@ -407,19 +411,20 @@ void VulkanContext::invalidate(const HostBuffer &b) const {
     vkInvalidateMappedMemoryRanges(device, 1, &range);
 }
 
-void VulkanContext::record_present_readback(VkCommandBuffer cb, VkImage image, const HostBuffer &dst,
+void VulkanContext::record_present_readback(VkCommandBuffer cb, VkImage image, VkImageLayout presented,
+                                            const HostBuffer &dst,
                                             const std::vector<VkBufferImageCopy> &regions) {
     VkCommandBufferBeginInfo begin{};
     begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
     begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
     vkBeginCommandBuffer(cb, &begin);
-    // The app's submits left the image in PRESENT_SRC_KHR; they precede this one on the queue,
+    // The app's submits left the image in `presented`; they precede this one on the queue,
     // so a full source scope makes their attachment writes visible to the copy.
     VkImageMemoryBarrier barrier{};
     barrier.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
     barrier.srcAccessMask = VK_ACCESS_MEMORY_WRITE_BIT;
     barrier.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
-    barrier.oldLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+    barrier.oldLayout = presented;
     barrier.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
     barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
     barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
@@ -429,12 +434,16 @@ void VulkanContext::record_present_readback(VkCommandBuffer cb, VkImage image, c
                          nullptr, 0, nullptr, 1, &barrier);
     vkCmdCopyImageToBuffer(cb, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, dst.buffer,
                            static_cast<uint32_t>(regions.size()), regions.data());
-    // Back to where the app left it: the next frame's commands expect PRESENT_SRC_KHR (or
-    // UNDEFINED, which accepts anything).
+    // Back to where the app left it: the next frame's commands expect `presented` (or UNDEFINED,
+    // which accepts anything). An OpenXR runtime's image is next handed over by the runtime's own
+    // barrier, whose source scope is its attachment stage: the transition must come before it.
     barrier.srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
     barrier.dstAccessMask = 0;
     barrier.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-    barrier.newLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+    barrier.newLayout = presented;
+    const VkPipelineStageFlags after = presented == VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL
+                                           ? VK_PIPELINE_STAGE_ALL_COMMANDS_BIT
+                                           : VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT;
     VkBufferMemoryBarrier host{};
     host.sType = VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER;
     host.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
@@ -443,9 +452,8 @@ void VulkanContext::record_present_readback(VkCommandBuffer cb, VkImage image, c
     host.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
     host.buffer = dst.buffer;
     host.size = VK_WHOLE_SIZE;
-    vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                         VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT | VK_PIPELINE_STAGE_HOST_BIT, 0, 0, nullptr, 1,
-                         &host, 1, &barrier);
+    vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, after | VK_PIPELINE_STAGE_HOST_BIT, 0, 0,
+                         nullptr, 1, &host, 1, &barrier);
     vkEndCommandBuffer(cb);
 }
 

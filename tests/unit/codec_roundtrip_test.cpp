@@ -989,6 +989,54 @@ TEST(CodecRoundTrip, CmdCopyBufferToImage) {
                                                    o.dstImageLayout, o.regionCount, o.pRegions));
 }
 
+// An OpenXR runtime's eye image (DESIGN §9): its memory is imported from the runtime's process with
+// an fd. The agent allocates ordinary memory in its place, so the import, the export and the external
+// image info never cross the wire; the dedicated allocation does.
+TEST(CodecRoundTrip, ExternalMemoryStructuresStayOnTheClient) {
+    Session s;
+    const VkDevice device = s.client<VkDevice>(VK_OBJECT_TYPE_DEVICE, 0x1);
+    const VkImage image = s.client<VkImage>(VK_OBJECT_TYPE_IMAGE, 0x30);
+    VkImportMemoryFdInfoKHR import{VK_STRUCTURE_TYPE_IMPORT_MEMORY_FD_INFO_KHR, nullptr,
+                                   VK_EXTERNAL_MEMORY_HANDLE_TYPE_OPAQUE_FD_BIT, 42};
+    VkMemoryDedicatedAllocateInfo dedicated{VK_STRUCTURE_TYPE_MEMORY_DEDICATED_ALLOCATE_INFO, &import, image,
+                                            VK_NULL_HANDLE};
+    VkExportMemoryAllocateInfo exported{VK_STRUCTURE_TYPE_EXPORT_MEMORY_ALLOCATE_INFO, &dedicated,
+                                        VK_EXTERNAL_MEMORY_HANDLE_TYPE_OPAQUE_FD_BIT};
+    VkMemoryAllocateInfo info{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO, &exported, 1 << 20, 0};
+    VkDeviceMemory memory = to_handle<VkDeviceMemory>(0x40);
+    encode_vkAllocateMemory(s.enc, device, &info, nullptr, &memory);
+    Decoder d(s.bytes(), s.table, s.arena);
+    Decoded_vkAllocateMemory out;
+    ASSERT_TRUE(decode_vkAllocateMemory(d, out)) << d.error();
+    const auto *chain = static_cast<const VkBaseInStructure *>(out.pAllocateInfo->pNext);
+    ASSERT_NE(chain, nullptr);
+    EXPECT_EQ(chain->sType, VK_STRUCTURE_TYPE_MEMORY_DEDICATED_ALLOCATE_INFO);
+    EXPECT_EQ(reinterpret_cast<const VkMemoryDedicatedAllocateInfo *>(chain)->image, Session::server(image));
+    EXPECT_EQ(chain->pNext, nullptr);
+
+    VkExternalMemoryImageCreateInfo external{VK_STRUCTURE_TYPE_EXTERNAL_MEMORY_IMAGE_CREATE_INFO, nullptr,
+                                             VK_EXTERNAL_MEMORY_HANDLE_TYPE_OPAQUE_FD_BIT};
+    VkImageCreateInfo image_info{};
+    image_info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
+    image_info.pNext = &external;
+    image_info.imageType = VK_IMAGE_TYPE_2D;
+    image_info.format = VK_FORMAT_R8G8B8A8_SRGB;
+    image_info.extent = {320, 240, 1};
+    image_info.mipLevels = 1;
+    image_info.arrayLayers = 1;
+    image_info.samples = VK_SAMPLE_COUNT_1_BIT;
+    image_info.usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT;
+    VkImage created = to_handle<VkImage>(0x50);
+    Session images;
+    const VkDevice image_device = images.client<VkDevice>(VK_OBJECT_TYPE_DEVICE, 0x1);
+    encode_vkCreateImage(images.enc, image_device, &image_info, nullptr, &created);
+    Decoder di(images.bytes(), images.table, images.arena);
+    Decoded_vkCreateImage image_out;
+    ASSERT_TRUE(decode_vkCreateImage(di, image_out)) << di.error();
+    EXPECT_EQ(image_out.pCreateInfo->pNext, nullptr);
+    EXPECT_EQ(image_out.pCreateInfo->extent.width, 320u);
+}
+
 // ---------------------------------------------------------------------------------------------
 
 TEST(CodecRoundTrip, AllocateCommandBuffersRegistersIdsUnderTheirPool) {
