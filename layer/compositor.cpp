@@ -246,7 +246,17 @@ Compositor::Compositor(DeviceState &device, const SwapchainState &swapchain, uin
                        UpsampleFilter filter, bool timed)
     : device_(device), swapchain_(swapchain.handle), extent_(swapchain.extent), format_(swapchain.format),
       present_layout_(swapchain.present_layout), images_(swapchain.images), queue_family_(queue_family),
-      filter_(filter), blit_(filter == UpsampleFilter::BilinearBlit), timed_(timed) {}
+      filter_(filter), blit_(filter == UpsampleFilter::BilinearBlit), timed_(timed) {
+    if (swapchain.runtime) {
+        // An OpenXR runtime's image (runtime_swapchain.h): no semaphore orders the application's
+        // rendering before the composite, nor the composite before the runtime's release barrier;
+        // submission order on the queue does, so the barriers' outer scopes must name every stage.
+        ready_stages_ = VK_PIPELINE_STAGE_ALL_COMMANDS_BIT;
+        ready_access_ = VK_ACCESS_MEMORY_WRITE_BIT;
+        done_stages_ = VK_PIPELINE_STAGE_ALL_COMMANDS_BIT;
+        done_access_ = VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_MEMORY_WRITE_BIT;
+    }
+}
 
 std::unique_ptr<Compositor> Compositor::create(DeviceState &device, const SwapchainState &swapchain,
                                                uint32_t queue_family, std::string *error,
@@ -646,7 +656,7 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
     // already waited on.
     if (upsample) {
         VkImageMemoryBarrier barriers[2] = {
-            image_barrier(image, 0, VK_ACCESS_TRANSFER_READ_BIT, present_layout_,
+            image_barrier(image, ready_access_, VK_ACCESS_TRANSFER_READ_BIT, present_layout_,
                           VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL),
             // Old contents are not needed. This slot's previous submit sampled the periphery
             // image in the fragment shader; the host waited for its fence, but the execution
@@ -654,7 +664,7 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
             image_barrier(s.periphery, 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
                           VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL),
         };
-        k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
+        k.CmdPipelineBarrier(cb, ready_stages_ | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
                              VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr, 2, barriers);
         VkImageCopy copy{};
         copy.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
@@ -682,13 +692,14 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
                            regions.data(), VK_FILTER_LINEAR);
             // The blit's writes before the tile copies overwrite the fovea (write-after-write), or
             // before the present.
-            VkImageMemoryBarrier after_blit = image_barrier(
-                image, VK_ACCESS_TRANSFER_WRITE_BIT, has_tiles ? VK_ACCESS_TRANSFER_WRITE_BIT : 0,
-                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
+            VkImageMemoryBarrier after_blit =
+                image_barrier(image, VK_ACCESS_TRANSFER_WRITE_BIT,
+                              has_tiles ? VkAccessFlags{VK_ACCESS_TRANSFER_WRITE_BIT} : done_access_,
+                              VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                              has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
             k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                                 has_tiles ? VK_PIPELINE_STAGE_TRANSFER_BIT
-                                           : VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT,
+                                 has_tiles ? VkPipelineStageFlags{VK_PIPELINE_STAGE_TRANSFER_BIT}
+                                           : done_stages_,
                                  0, 0, nullptr, 0, nullptr, 1, &after_blit);
         } else {
             // The copy's write of the periphery image before the fragment shader reads it; the
@@ -734,21 +745,22 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
 
             // The draw's writes before the tile copies overwrite the fovea (write-after-write), or
             // before the present.
-            VkImageMemoryBarrier after_draw = image_barrier(
-                image, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, has_tiles ? VK_ACCESS_TRANSFER_WRITE_BIT : 0,
-                VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
-                has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
+            VkImageMemoryBarrier after_draw =
+                image_barrier(image, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
+                              has_tiles ? VkAccessFlags{VK_ACCESS_TRANSFER_WRITE_BIT} : done_access_,
+                              VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                              has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
             k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
-                                 has_tiles ? VK_PIPELINE_STAGE_TRANSFER_BIT
-                                           : VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT,
+                                 has_tiles ? VkPipelineStageFlags{VK_PIPELINE_STAGE_TRANSFER_BIT}
+                                           : done_stages_,
                                  0, 0, nullptr, 0, nullptr, 1, &after_draw);
         }
     } else if (has_tiles) {
         // Tiles over what the application rendered: keep the contents (old layout, not UNDEFINED).
-        VkImageMemoryBarrier b = image_barrier(image, 0, VK_ACCESS_TRANSFER_WRITE_BIT, present_layout_,
-                                               VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
-        k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
-                             nullptr, 0, nullptr, 1, &b);
+        VkImageMemoryBarrier b = image_barrier(image, ready_access_, VK_ACCESS_TRANSFER_WRITE_BIT,
+                                               present_layout_, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+        k.CmdPipelineBarrier(cb, ready_stages_, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr, 1,
+                             &b);
     }
 
     if (has_tiles) {
@@ -761,10 +773,10 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
         // Back to the present layout. The present waits on our semaphore, whose signal makes
         // these writes available and visible to the presentation engine: no destination stage
         // or access beyond the end of the pipe.
-        VkImageMemoryBarrier b = image_barrier(image, VK_ACCESS_TRANSFER_WRITE_BIT, 0,
+        VkImageMemoryBarrier b = image_barrier(image, VK_ACCESS_TRANSFER_WRITE_BIT, done_access_,
                                                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, present_layout_);
-        k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, 0, 0,
-                             nullptr, 0, nullptr, 1, &b);
+        k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, done_stages_, 0, 0, nullptr, 0, nullptr, 1,
+                             &b);
     }
     if (timed_ && s.timing.buffer) s.timing_recorded = time_composite_end(device_, cb, s.timing.buffer);
     k.EndCommandBuffer(cb);
@@ -919,8 +931,10 @@ VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<co
     submit.pWaitDstStageMask = stages.data();
     submit.commandBufferCount = 1;
     submit.pCommandBuffers = &s.command_buffer;
-    submit.signalSemaphoreCount = 1;
-    submit.pSignalSemaphores = &s.semaphore;
+    // No one to signal for (an OpenXR runtime's image, ordered by the queue): a binary semaphore
+    // signalled and never waited on could not be signalled again.
+    submit.signalSemaphoreCount = signal ? 1 : 0;
+    submit.pSignalSemaphores = signal ? &s.semaphore : nullptr;
     k.ResetFences(d, 1, &s.fence);
     // On failure the semaphores and the fence are left as they were (except after device loss).
     result = k.QueueSubmit(queue, 1, &submit, s.fence);
@@ -928,7 +942,7 @@ VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<co
     note_timed_submit(device_, 1, &s.command_buffer);
     s.in_flight = true;
     s.timing_pending = s.timing_recorded;
-    *signal = s.semaphore;
+    if (signal) *signal = s.semaphore;
     return VK_SUCCESS;
 }
 

@@ -112,7 +112,8 @@ public:
     // that the present must wait on instead of `waits` (it stays the compositor's: do not destroy it). On any
     // other result nothing was submitted, `waits` are untouched and *signal is unchanged: present as the
     // application asked. VK_NOT_READY: nothing to do (no upsample, no tile); VK_TIMEOUT: this image's
-    // previous composition had not finished.
+    // previous composition had not finished. A null `signal` signals nothing (an OpenXR runtime's
+    // image: the runtime's release barrier follows on the same queue).
     VkResult composite(VkQueue queue, uint32_t image_index, std::span<const VkSemaphore> waits,
                        VkExtent2D periphery, std::span<const FoveaTile> tiles, VkSemaphore *signal);
 
@@ -150,6 +151,13 @@ private:
     VkExtent2D extent_{};
     VkFormat format_ = VK_FORMAT_UNDEFINED;
     VkImageLayout present_layout_ = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+    // What orders the application's rendering before the composite (the semaphores the submit waits
+    // on at TRANSFER, or for a runtime's image the queue alone), and the composite before whatever
+    // reads the image next (the present's semaphore, or the runtime's barrier on the queue).
+    VkPipelineStageFlags ready_stages_ = VK_PIPELINE_STAGE_TRANSFER_BIT;
+    VkAccessFlags ready_access_ = 0;
+    VkPipelineStageFlags done_stages_ = VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT;
+    VkAccessFlags done_access_ = 0;
     std::vector<VkImage> images_;
     uint32_t queue_family_ = 0;
     UpsampleFilter filter_ = kDefaultUpsampleFilter;

@@ -43,6 +43,8 @@
 // vkDestroyDevice logs `[splitvk] verify: F frames, M mismatching pixels` once. A frame the agent
 // does not return in time counts as all of its pixels mismatching.
 
+#include "present.h"
+
 #include "capture.h"
 #include "compositor.h"
 #include "gpu_timing.h"
@@ -357,7 +359,8 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
     Exposure exposure{&dev};
     VkSemaphore taken = p.taken;
     if (stats) exposure.done = p.done;
-    if (!taken && stats && compositor &&
+    // A runtime's image has no semaphores to take (swapchain.h: the queue orders it).
+    if (!taken && stats && compositor && !p.swapchain->runtime &&
         compositor->take_waits(p.queue, p.image_index, waits, &taken, &exposure.done) == VK_SUCCESS)
         waits = {&taken, 1};
 
@@ -395,8 +398,8 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
     VkSemaphore composited = VK_NULL_HANDLE;
     if (compositor) {
         auto queue_lock = lock ? lock_queue(p.queue) : std::unique_lock<std::mutex>();
-        if (compositor->composite(p.queue, p.image_index, waits, p.split.periphery, foveae, &composited) !=
-            VK_SUCCESS)
+        if (compositor->composite(p.queue, p.image_index, waits, p.split.periphery, foveae,
+                                  p.swapchain->runtime ? nullptr : &composited) != VK_SUCCESS)
             composited = taken; // VK_NULL_HANDLE unless take_waits() consumed the application's semaphores
     } else {
         composited = taken;
@@ -630,6 +633,50 @@ void note_split_or_not(Session &session, uint64_t frame, bool split) {
 }
 
 } // namespace
+
+void begin_runtime_frame(DeviceState &dev, const SwapchainState &swapchain, uint32_t image_index) {
+    if (!capturing(dev)) return;
+    protocol::FrameBegin message{dev.session->current_frame(), codec::handle_value(swapchain.handle),
+                                 image_index};
+    dev.session->send_metadata(protocol::MessageType::FrameBegin, protocol::encode(message));
+}
+
+void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &swapchain,
+                       uint32_t image_index) {
+    if (!dev.session || image_index >= swapchain.images.size()) return;
+    const auto called = std::chrono::steady_clock::now();
+    Session &session = *dev.session;
+    const uint64_t frame = session.take_frame();
+    // Everything happens on the application's thread, as presents with SPLITVK_PRESENT_DEPTH=0 do:
+    // the runtime's release barrier follows at once on the same queue, and it must find the image
+    // composited.
+    drain_presents(dev);
+    const auto queue_lock = lock_queue(queue);
+    if (session.resync_pending()) session.resync(dev, queue, frame);
+    if (frame == 1) log_live_state(dev, "at frame 1"); // SPLITVK_LOG_LEVEL=debug
+    SplitFrame split;
+    if (session.splitting() && swapchain.composable) {
+        split = take_split_frame(dev, swapchain.images[image_index]);
+        note_split_or_not(session, frame, split.split);
+    }
+    if (session.runtime_images()) {
+        protocol::FramePresent message;
+        message.frame = frame;
+        message.queue_id = codec::handle_value(queue);
+        message.images.push_back({codec::handle_value(swapchain.handle), image_index});
+        session.send_metadata(protocol::MessageType::FramePresent, protocol::encode(message));
+    }
+    if (!split.split) return;
+    SplitPresent p;
+    p.queue = queue;
+    p.swapchain = &swapchain;
+    p.image_index = image_index;
+    p.split = std::move(split);
+    p.frame = frame;
+    p.sent = std::chrono::steady_clock::now();
+    p.frame_ms = session.frame_interval_ms();
+    composite_split_frame(dev, p, {}, /*lock=*/false, called);
+}
 
 void drain_presents(DeviceState &device) {
     std::unique_lock lock(g_async_mutex);

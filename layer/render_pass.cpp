@@ -302,6 +302,14 @@ bool swapchain_image_extent(VkImage image, VkExtent2D *extent) {
     return false;
 }
 
+void note_swapchain_images(VkSwapchainKHR swapchain, uint32_t count, const VkImage *images) {
+    for (uint32_t i = 0; i < count; ++i) {
+        auto state = std::make_unique<SwapchainImageState>();
+        state->swapchain = swapchain;
+        g_swapchain_images.insert(images[i], std::move(state));
+    }
+}
+
 void begin_secondary(DeviceState &dev, VkCommandBuffer cb, const VkCommandBufferBeginInfo &begin) {
     if (!(begin.flags & VK_COMMAND_BUFFER_USAGE_RENDER_PASS_CONTINUE_BIT) || !begin.pInheritanceInfo) return;
     split::CommandTracker *tracker = split_tracker(cb);
@@ -368,11 +376,7 @@ VKAPI_ATTR VkResult VKAPI_CALL GetSwapchainImagesKHR(VkDevice device, VkSwapchai
     const VkResult result =
         dev.dispatch.GetSwapchainImagesKHR(device, swapchain, pSwapchainImageCount, pSwapchainImages);
     if (dev.session && pSwapchainImages && result >= 0)
-        for (uint32_t i = 0; i < *pSwapchainImageCount; ++i) {
-            auto state = std::make_unique<SwapchainImageState>();
-            state->swapchain = swapchain;
-            g_swapchain_images.insert(pSwapchainImages[i], std::move(state));
-        }
+        note_swapchain_images(swapchain, *pSwapchainImageCount, pSwapchainImages);
     return result;
 }
 

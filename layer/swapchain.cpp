@@ -27,6 +27,7 @@
 #include "object_map.h"
 #include "screen_space.h"
 #include "session.h"
+#include "split.h"
 
 #include <algorithm>
 
@@ -63,6 +64,83 @@ bool can_compose(DeviceState &dev, const VkSwapchainCreateInfoKHR &info, VkSurfa
 
 SwapchainState *find_swapchain(VkSwapchainKHR swapchain) {
     return g_swapchains.find(swapchain);
+}
+
+namespace {
+
+void send_swapchain_images(DeviceState &dev, const SwapchainState &state) {
+    protocol::SwapchainImages message;
+    message.device_id = dev.session->device_id();
+    message.swapchain_id = codec::handle_value(state.handle);
+    message.width = state.extent.width;
+    message.height = state.extent.height;
+    message.format = static_cast<uint32_t>(state.format);
+    message.usage = state.usage;
+    message.array_layers = state.array_layers;
+    for (VkImage image : state.images)
+        message.image_ids.push_back(codec::handle_value(image));
+    if (state.runtime) {
+        message.source = protocol::SwapchainImages::Source::Runtime;
+        message.presented_layout = static_cast<uint32_t>(state.present_layout);
+    }
+    dev.session->send_metadata_logged(protocol::MessageType::SwapchainImages, protocol::encode(message),
+                                      message.swapchain_id);
+}
+
+void send_swapchain_destroyed(DeviceState &dev, VkSwapchainKHR swapchain) {
+    const uint64_t id = codec::handle_value(swapchain);
+    dev.session->forget(std::span(&id, 1)); // its SwapchainImages leaves the live-state log
+    if (capturing(dev)) {
+        protocol::SwapchainDestroyed message{dev.session->device_id(), id};
+        dev.session->send_metadata(protocol::MessageType::SwapchainDestroyed, protocol::encode(message));
+    }
+}
+
+} // namespace
+
+SwapchainState *register_runtime_swapchain(DeviceState &dev, VkSwapchainKHR key,
+                                           const RuntimeSwapchain &info) {
+    if (!dev.session || info.images.empty()) return nullptr;
+    auto state = std::make_unique<SwapchainState>();
+    state->device = &dev;
+    state->handle = key;
+    state->extent = info.extent;
+    state->format = info.format;
+    state->usage = info.usage;
+    state->array_layers = info.array_layers;
+    state->transfer_src = (info.usage & VK_IMAGE_USAGE_TRANSFER_SRC_BIT) != 0;
+    state->runtime = true;
+    state->present_layout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    state->images = info.images;
+    // Where the agent cannot adopt the images, nothing names them on its side: they are replicated
+    // as the ordinary images they are, and the frames are not split.
+    const bool adoptable = dev.session->runtime_images();
+    std::string why;
+    if (!adoptable)
+        why = "the agent cannot adopt an OpenXR runtime's images (an older splitvk-agent)";
+    else if (info.array_layers != 1)
+        why = std::to_string(info.array_layers) + " array layers";
+    else if ((info.usage & Compositor::kSwapchainUsage) != Compositor::kSwapchainUsage)
+        why = "its images lack transfer and colour attachment usage";
+    else
+        Compositor::supports(dev, info.format, &why);
+    state->composable = why.empty();
+    if (!state->composable)
+        SPLITVK_INFO("OpenXR swapchain %ux%u is not composable (%s): it will not be split", info.extent.width,
+                     info.extent.height, why.c_str());
+    note_swapchain_images(key, static_cast<uint32_t>(state->images.size()), state->images.data());
+    if (state->composable) note_screen_extent(dev, info.extent);
+    SwapchainState *registered = g_swapchains.insert(key, std::move(state));
+    if (adoptable && capturing(dev)) send_swapchain_images(dev, *registered);
+    return registered;
+}
+
+void unregister_runtime_swapchain(DeviceState &dev, VkSwapchainKHR key) {
+    if (!dev.session) return;
+    drain_presents(dev);
+    release_compositor(dev, key);
+    if (auto state = g_swapchains.remove(key); state && dev.session->runtime_images())
+        send_swapchain_destroyed(dev, key);
 }
 
 namespace entry {
@@ -139,20 +217,8 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateSwapchainKHR(VkDevice device,
     const uint32_t surface_min = compose ? caps.minImageCount : pCreateInfo->minImageCount;
     state->acquire_allowance = count > surface_min ? count - surface_min : 0;
 
-    protocol::SwapchainImages message;
-    message.device_id = dev.session->device_id();
-    message.swapchain_id = codec::handle_value(*pSwapchain);
-    message.width = state->extent.width;
-    message.height = state->extent.height;
-    message.format = static_cast<uint32_t>(state->format);
-    message.usage = state->usage;
-    message.array_layers = state->array_layers;
-    for (VkImage image : state->images)
-        message.image_ids.push_back(codec::handle_value(image));
     if (composable) note_screen_extent(dev, pCreateInfo->imageExtent);
-    g_swapchains.insert(*pSwapchain, std::move(state));
-    dev.session->send_metadata_logged(protocol::MessageType::SwapchainImages, protocol::encode(message),
-                                      message.swapchain_id);
+    send_swapchain_images(dev, *g_swapchains.insert(*pSwapchain, std::move(state)));
     return result;
 }
 
@@ -163,15 +229,7 @@ VKAPI_ATTR void VKAPI_CALL DestroySwapchainKHR(VkDevice device, VkSwapchainKHR s
         drain_presents(dev); // its frames still in the present thread
         release_present_resources(dev, swapchain);
         release_compositor(dev, swapchain);
-        if (g_swapchains.remove(swapchain)) {
-            const uint64_t id = codec::handle_value(swapchain);
-            dev.session->forget(std::span(&id, 1)); // its SwapchainImages leaves the live-state log
-            if (capturing(dev)) {
-                protocol::SwapchainDestroyed message{dev.session->device_id(), id};
-                dev.session->send_metadata(protocol::MessageType::SwapchainDestroyed,
-                                           protocol::encode(message));
-            }
-        }
+        if (g_swapchains.remove(swapchain)) send_swapchain_destroyed(dev, swapchain);
     }
     dev.dispatch.DestroySwapchainKHR(device, swapchain, pAllocator);
 }

@@ -49,6 +49,13 @@ std::vector<uint8_t> encode(const SwapchainImages &m) {
     w.u32(static_cast<uint32_t>(m.image_ids.size()));
     for (uint64_t id : m.image_ids)
         w.u64(id);
+    // Appended with capability::kRuntimeImages; a window swapchain is sent as before, so that an agent
+    // without the capability reads it.
+    if (m.source != SwapchainImages::Source::Window ||
+        m.presented_layout != VK_IMAGE_LAYOUT_PRESENT_SRC_KHR) {
+        w.u32(static_cast<uint32_t>(m.source));
+        w.u32(m.presented_layout);
+    }
     return w.take();
 }
 
@@ -70,6 +77,17 @@ Result<SwapchainImages> decode_swapchain_images(std::span<const uint8_t> payload
         r.fail("swapchain extent or layers out of range");
     for (uint32_t i = 0; r.ok() && i < count; ++i)
         m.image_ids.push_back(r.u64("image id"));
+    if (r.remaining() > 0) {
+        const uint32_t source = r.u32("source");
+        m.presented_layout = r.u32("presented layout");
+        if (r.ok() && source > static_cast<uint32_t>(SwapchainImages::Source::Runtime))
+            r.fail("unknown image source " + std::to_string(source));
+        m.source = static_cast<SwapchainImages::Source>(source);
+        if (r.ok() && m.presented_layout != VK_IMAGE_LAYOUT_PRESENT_SRC_KHR &&
+            m.presented_layout != VK_IMAGE_LAYOUT_SHARED_PRESENT_KHR &&
+            m.presented_layout != VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL)
+            r.fail("presented layout " + std::to_string(m.presented_layout) + " is not one a frame ends in");
+    }
     return finish(r, std::move(m), "SwapchainImages");
 }
 

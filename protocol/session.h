@@ -20,6 +20,8 @@
 #include "result.h"
 #include "settings.h"
 
+#include <vulkan/vulkan.h>
+
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -53,6 +55,16 @@ struct SwapchainImages {
     uint32_t usage = 0;        // VkImageUsageFlags the app asked for
     uint32_t array_layers = 1; // imageArrayLayers
     std::vector<uint64_t> image_ids;
+    // Where the images come from. A window swapchain's images exist only on the client, so the agent
+    // makes offscreen ones under these ids. An OpenXR runtime's swapchain images (DESIGN §9) are
+    // images the client created with vkCreateImage, which the agent already replays: it adopts
+    // them. Sent only when capability::kRuntimeImages was granted.
+    enum class Source : uint32_t { Window = 0, Runtime = 1 };
+    Source source = Source::Window;
+    // The layout the images are in when a frame ends with them (FramePresent): PRESENT_SRC_KHR (or
+    // SHARED_PRESENT_KHR) for a window; COLOR_ATTACHMENT_OPTIMAL for an OpenXR runtime's, released
+    // with xrReleaseSwapchainImage before the runtime's own barrier.
+    uint32_t presented_layout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR; // VkImageLayout
 };
 
 struct SwapchainDestroyed {

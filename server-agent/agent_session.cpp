@@ -116,6 +116,8 @@ int Session::fail(const std::string &what, int status) {
 }
 
 bool Session::swapchain_memory(const protocol::SwapchainImages &m, std::string *error) {
+    // An OpenXR runtime's images are the client's own vkCreateImage, counted as images already.
+    if (m.source == protocol::SwapchainImages::Source::Runtime) return true;
     // 8 bytes per pixel: the widest format a surface presents (R16G16B16A16_SFLOAT); the decoder
     // bounds every factor, so the product cannot overflow.
     const uint64_t bytes = uint64_t{m.width} * m.height * 8 * m.array_layers * m.image_ids.size();

@@ -17,6 +17,11 @@ SwapchainImages::~SwapchainImages() {
 }
 
 void SwapchainImages::release(Swapchain &swapchain) {
+    if (swapchain.info.source == protocol::SwapchainImages::Source::Runtime) {
+        // Adopted: the client's vkDestroyImage ends them, as it created them.
+        swapchain.images.clear();
+        return;
+    }
     for (VkImage image : swapchain.images)
         vkDestroyImage(context_.device, image, nullptr);
     for (VkDeviceMemory memory : swapchain.memory)
@@ -42,6 +47,21 @@ bool SwapchainImages::create(const protocol::SwapchainImages &message, std::stri
     }
     Swapchain swapchain;
     swapchain.info = message;
+    if (message.source == protocol::SwapchainImages::Source::Runtime) {
+        // An OpenXR runtime's images: the client created them with vkCreateImage, which this session
+        // replayed, so they are adopted rather than made.
+        for (uint64_t id : message.image_ids) {
+            const codec::HandleTable::Entry *entry = table_.find(id);
+            if (!entry || entry->type != VK_OBJECT_TYPE_IMAGE) {
+                *error = "runtime swapchain image " + std::to_string(id) + " is not a live image";
+                return false;
+            }
+            swapchain.images.push_back(codec::to_handle<VkImage>(entry->handle));
+        }
+        swapchains_.emplace(message.swapchain_id, std::move(swapchain));
+        newest_ = {message.width, message.height};
+        return true;
+    }
     swapchain.info.image_ids.clear();
     VkImageCreateInfo info{};
     info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
@@ -108,7 +128,8 @@ bool SwapchainImages::presented(uint64_t swapchain_id, uint32_t image_index, Pre
         return false;
     }
     *out = {swapchain.images[image_index], swapchain.info.image_ids[image_index],
-            static_cast<VkFormat>(swapchain.info.format)};
+            static_cast<VkFormat>(swapchain.info.format),
+            static_cast<VkImageLayout>(swapchain.info.presented_layout)};
     return true;
 }
 
@@ -185,8 +206,9 @@ bool SwapchainImages::read_back(uint64_t swapchain_id, uint32_t image_index, Rec
     region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
     region.imageOffset = {static_cast<int32_t>(rect.x), static_cast<int32_t>(rect.y), 0};
     region.imageExtent = {rect.width, rect.height, 1};
-    VulkanContext::record_present_readback(command_buffer_, swapchain.images[image_index], staging_,
-                                           {region});
+    VulkanContext::record_present_readback(command_buffer_, swapchain.images[image_index],
+                                           static_cast<VkImageLayout>(swapchain.info.presented_layout),
+                                           staging_, {region});
     VkSubmitInfo submit{};
     submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
     submit.commandBufferCount = 1;

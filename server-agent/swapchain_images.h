@@ -35,7 +35,7 @@ public:
     // classified against, as the client does (protocol/target_rule.h).
     VkExtent2D newest_extent() const { return newest_; }
 
-    // A rectangle of a presented image (left in VK_IMAGE_LAYOUT_PRESENT_SRC_KHR by the app), read
+    // A rectangle of a presented image (left in its presented layout by the app), read
     // back tightly packed, 4 bytes per pixel. The caller has made the frame's submits complete.
     // Returns false with `error` on failure; sets *unsupported (and reads nothing) for formats
     // other than 8-bit BGRA/RGBA.
@@ -51,6 +51,7 @@ public:
         VkImage image = VK_NULL_HANDLE;
         uint64_t image_id = 0;
         VkFormat format = VK_FORMAT_UNDEFINED;
+        VkImageLayout layout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR; // what the frame's commands left it in
     };
     bool presented(uint64_t swapchain_id, uint32_t image_index, Presented *out, std::string *error) const;
 

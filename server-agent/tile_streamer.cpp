@@ -175,7 +175,8 @@ void TileStreamer::record_copy(Slot &slot) {
         regions.push_back(region);
         offset += VkDeviceSize{rect.extent.width} * rect.extent.height * 4;
     }
-    VulkanContext::record_present_readback(slot.command_buffer, slot.frame.image, slot.staging, regions);
+    VulkanContext::record_present_readback(slot.command_buffer, slot.frame.image, slot.frame.layout,
+                                           slot.staging, regions);
 }
 
 bool TileStreamer::present(Frame frame, std::string *error) {

@@ -51,7 +51,8 @@ public:
         uint64_t frame = 0;
         uint64_t swapchain_id = 0;
         uint32_t image_index = 0;
-        VkImage image = VK_NULL_HANDLE; // left in PRESENT_SRC_KHR by the frame's submits
+        VkImage image = VK_NULL_HANDLE; // left in `layout` by the frame's submits
+        VkImageLayout layout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
         VkFormat format = VK_FORMAT_UNDEFINED;
         std::vector<VkRect2D> foveae; // may be empty: an empty Tiles message
         bool invalid = false;         // limit_guard.h: sent as kTilesInvalid, with no tiles

@@ -59,10 +59,10 @@ public:
     void invalidate(const HostBuffer &buffer) const;
 
     // Records, into `cb` (begun and ended here), copies of `regions` of a presented image into
-    // `dst`, leaving the image in PRESENT_SRC_KHR as the app left it and the bytes visible to the
-    // host once the submit completes.
-    static void record_present_readback(VkCommandBuffer cb, VkImage image, const HostBuffer &dst,
-                                        const std::vector<VkBufferImageCopy> &regions);
+    // `dst`, leaving the image in `presented` (the layout the app left it in) and the bytes visible
+    // to the host once the submit completes.
+    static void record_present_readback(VkCommandBuffer cb, VkImage image, VkImageLayout presented,
+                                        const HostBuffer &dst, const std::vector<VkBufferImageCopy> &regions);
 
     // A memory type among `type_bits` with all of `required`, preferring `preferred` too; -1 if none.
     int32_t find_memory_type(uint32_t type_bits, VkMemoryPropertyFlags required,

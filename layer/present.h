@@ -1,0 +1,23 @@
+#pragma once
+
+// Frame marks of an OpenXR runtime's swapchain (present.cpp; DESIGN §9). A runtime's frame never
+// reaches vkQueuePresentKHR: the application acquires an image with xrAcquireSwapchainImage and hands
+// it back with xrReleaseSwapchainImage, after which the runtime's barrier gives it to the
+// compositor. Each release ends one splitvk frame of that image.
+
+#include "device.h"
+
+namespace splitvk {
+
+struct SwapchainState;
+
+// xrAcquireSwapchainImage: FrameBegin for the image the runtime handed out.
+void begin_runtime_frame(DeviceState &device, const SwapchainState &swapchain, uint32_t image_index);
+// xrReleaseSwapchainImage, before the runtime's release: ends the frame (FramePresent) and, when its
+// passes were split, waits (bounded by SPLITVK_TILE_WAIT) for the agent's tiles and composites them
+// into the image on `queue`, leaving it in COLOR_ATTACHMENT_OPTIMAL. Synchronous, on the
+// application's thread: the runtime's own barrier follows on the same queue as soon as this returns.
+void end_runtime_frame(DeviceState &device, VkQueue queue, const SwapchainState &swapchain,
+                       uint32_t image_index);
+
+} // namespace splitvk

@@ -1,0 +1,425 @@
+// XR_APILAYER_SPLITVK_split_render: the OpenXR API layer (DESIGN §9), in the same library as the
+// Vulkan layer, so that both see one process's state.
+//
+// An OpenXR application never presents to a window: it renders each eye into images of an
+// XrSwapchain, which the runtime created on the application's VkDevice (Monado imports them from
+// its service with external memory), hands each back with xrReleaseSwapchainImage, and ends the
+// frame with xrEndFrame. The Vulkan side cannot tell those images from any other; this layer tells
+// it:
+//   xrCreateSession            the session's VkDevice and queue (XR_KHR_vulkan_enable / enable2);
+//   xrCreateSwapchain          adds the usage the compositor needs to colour swapchains;
+//   xrEnumerateSwapchainImages the images become a swapchain of the split (swapchain.h,
+//                              register_runtime_swapchain): passes into them are split passes;
+//   xrAcquireSwapchainImage    FrameBegin;
+//   xrReleaseSwapchainImage    the frame ends here, before the runtime's release: the agent's foveae
+//                              are composited into the image on the application's queue, so that the
+//                              runtime's own barrier (which hands it to VK_QUEUE_FAMILY_EXTERNAL)
+//                              finds it finished (present.h, end_runtime_frame);
+//   xrDestroySwapchain         the swapchain leaves the split before the runtime destroys its images.
+// Everything else goes straight to the next layer or the runtime. Where the Vulkan layer is not on
+// the session's device (it was disabled, or has no agent), this layer only forwards.
+
+#include "device.h"
+#include "layer_settings.h"
+#include "log.h"
+#include "present.h"
+#include "swapchain.h"
+#include "xr_loader_interface.h"
+
+#include <vulkan/vulkan.h>
+#define XR_USE_GRAPHICS_API_VULKAN
+#include <cstring>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <unordered_map>
+#include <vector>
+
+#include <openxr/openxr.h>
+#include <openxr/openxr_platform.h>
+
+namespace splitvk::xr {
+namespace {
+
+constexpr char kApiLayerName[] = "XR_APILAYER_SPLITVK_split_render";
+
+// The next layer's (or the runtime's) functions this layer calls, per XrInstance.
+struct InstanceState {
+    PFN_xrGetInstanceProcAddr get_instance_proc_addr = nullptr;
+    PFN_xrDestroyInstance destroy_instance = nullptr;
+    PFN_xrCreateSession create_session = nullptr;
+    PFN_xrDestroySession destroy_session = nullptr;
+    PFN_xrCreateSwapchain create_swapchain = nullptr;
+    PFN_xrDestroySwapchain destroy_swapchain = nullptr;
+    PFN_xrEnumerateSwapchainImages enumerate_swapchain_images = nullptr;
+    PFN_xrAcquireSwapchainImage acquire_swapchain_image = nullptr;
+    PFN_xrReleaseSwapchainImage release_swapchain_image = nullptr;
+};
+
+struct SessionState {
+    InstanceState *instance = nullptr;
+    // The Vulkan layer's state of the session's device; null where splitvk is not on it.
+    DeviceState *device = nullptr;
+    VkQueue queue = VK_NULL_HANDLE;
+};
+
+struct SwapchainState {
+    XrSession session = XR_NULL_HANDLE;
+    InstanceState *instance = nullptr;
+    XrSwapchainCreateInfo info{}; // next cleared; usage as created, the layer's bits included
+    // The split's state of this swapchain once its images are known; null when not registered.
+    splitvk::SwapchainState *split = nullptr;
+    // Acquired and not yet released, oldest first: OpenXR releases in acquisition order.
+    std::deque<uint32_t> acquired;
+};
+
+// The layer's tables. Calls down are made without the lock: a runtime may call back into the
+// application's Vulkan device, and so into the Vulkan layer, on the same thread.
+std::mutex g_mutex;
+std::unordered_map<XrInstance, std::unique_ptr<InstanceState>> g_instances;
+std::unordered_map<XrSession, std::unique_ptr<SessionState>> g_sessions;
+std::unordered_map<XrSwapchain, std::unique_ptr<SwapchainState>> g_swapchains;
+
+// The XR usage the compositor needs on an eye image, as Compositor::kSwapchainUsage in Vulkan terms.
+constexpr XrSwapchainUsageFlags kCompositorUsage = XR_SWAPCHAIN_USAGE_TRANSFER_SRC_BIT |
+                                                   XR_SWAPCHAIN_USAGE_TRANSFER_DST_BIT |
+                                                   XR_SWAPCHAIN_USAGE_COLOR_ATTACHMENT_BIT;
+
+VkImageUsageFlags vulkan_usage(XrSwapchainUsageFlags usage) {
+    VkImageUsageFlags out = 0;
+    if (usage & XR_SWAPCHAIN_USAGE_COLOR_ATTACHMENT_BIT) out |= VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT;
+    if (usage & XR_SWAPCHAIN_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT)
+        out |= VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT;
+    if (usage & XR_SWAPCHAIN_USAGE_UNORDERED_ACCESS_BIT) out |= VK_IMAGE_USAGE_STORAGE_BIT;
+    if (usage & XR_SWAPCHAIN_USAGE_TRANSFER_SRC_BIT) out |= VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+    if (usage & XR_SWAPCHAIN_USAGE_TRANSFER_DST_BIT) out |= VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+    if (usage & XR_SWAPCHAIN_USAGE_SAMPLED_BIT) out |= VK_IMAGE_USAGE_SAMPLED_BIT;
+    return out;
+}
+
+InstanceState *find_instance(XrInstance instance) {
+    std::lock_guard lock(g_mutex);
+    const auto it = g_instances.find(instance);
+    return it == g_instances.end() ? nullptr : it->second.get();
+}
+
+template <class F>
+bool load(InstanceState &s, XrInstance instance, const char *name, F *out) {
+    PFN_xrVoidFunction function = nullptr;
+    if (XR_FAILED(s.get_instance_proc_addr(instance, name, &function)) || !function) return false;
+    *out = reinterpret_cast<F>(function);
+    return true;
+}
+
+// The session's graphics binding, where it is Vulkan's (XR_KHR_vulkan_enable's structure is also
+// XR_KHR_vulkan_enable2's: XrGraphicsBindingVulkan2KHR is an alias with the same type).
+const XrGraphicsBindingVulkanKHR *vulkan_binding(const XrSessionCreateInfo &info) {
+    for (auto *s = static_cast<const XrBaseInStructure *>(info.next); s; s = s->next)
+        if (s->type == XR_TYPE_GRAPHICS_BINDING_VULKAN_KHR)
+            return reinterpret_cast<const XrGraphicsBindingVulkanKHR *>(s);
+    return nullptr;
+}
+
+// The swapchain's state and its session's, for the calls that need both.
+bool find_swapchain(XrSwapchain swapchain, SwapchainState **out, SessionState **session) {
+    std::lock_guard lock(g_mutex);
+    const auto it = g_swapchains.find(swapchain);
+    if (it == g_swapchains.end()) return false;
+    *out = it->second.get();
+    const auto s = g_sessions.find(it->second->session);
+    *session = s == g_sessions.end() ? nullptr : s->second.get();
+    return true;
+}
+
+VkSwapchainKHR split_key(XrSwapchain swapchain) {
+    // XrSwapchain is a pointer-sized handle of the runtime's: no VkSwapchainKHR of this process has
+    // the same value, since both name distinct live objects of the same address space.
+    return reinterpret_cast<VkSwapchainKHR>(swapchain);
+}
+
+void forget_swapchain(XrSwapchain swapchain) {
+    std::unique_ptr<SwapchainState> state;
+    SessionState *session = nullptr;
+    {
+        std::lock_guard lock(g_mutex);
+        const auto it = g_swapchains.find(swapchain);
+        if (it == g_swapchains.end()) return;
+        state = std::move(it->second);
+        g_swapchains.erase(it);
+        const auto s = g_sessions.find(state->session);
+        if (s != g_sessions.end()) session = s->second.get();
+    }
+    if (state->split && session && session->device)
+        unregister_runtime_swapchain(*session->device, split_key(swapchain));
+}
+
+// ------------------------------------------------------------------------------------ entry points
+
+XRAPI_ATTR XrResult XRAPI_CALL DestroyInstance(XrInstance instance) {
+    std::unique_ptr<InstanceState> state;
+    {
+        std::lock_guard lock(g_mutex);
+        const auto it = g_instances.find(instance);
+        if (it == g_instances.end()) return XR_ERROR_HANDLE_INVALID;
+        state = std::move(it->second);
+        g_instances.erase(it);
+    }
+    return state->destroy_instance(instance);
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL CreateSession(XrInstance instance, const XrSessionCreateInfo *info,
+                                             XrSession *session) {
+    InstanceState *state = find_instance(instance);
+    if (!state) return XR_ERROR_HANDLE_INVALID;
+    const XrResult result = state->create_session(instance, info, session);
+    if (XR_FAILED(result)) return result;
+    auto s = std::make_unique<SessionState>();
+    s->instance = state;
+    if (const XrGraphicsBindingVulkanKHR *binding = info ? vulkan_binding(*info) : nullptr) {
+        s->device = find_device(dispatch_key(binding->device));
+        if (s->device && s->device->session) {
+            s->device->dispatch.GetDeviceQueue(binding->device, binding->queueFamilyIndex,
+                                               binding->queueIndex, &s->queue);
+            SPLITVK_INFO("OpenXR session: eye images of its Vulkan device are split (queue family %u)",
+                         binding->queueFamilyIndex);
+        } else {
+            // No splitvk on that device (disabled there, or no agent was configured): forward only.
+            s->device = nullptr;
+            SPLITVK_INFO("OpenXR session: its Vulkan device is not splitvk's; frames pass through");
+        }
+    }
+    std::lock_guard lock(g_mutex);
+    g_sessions[*session] = std::move(s);
+    return result;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL DestroySession(XrSession session) {
+    InstanceState *instance = nullptr;
+    std::vector<XrSwapchain> swapchains;
+    {
+        std::lock_guard lock(g_mutex);
+        const auto it = g_sessions.find(session);
+        if (it == g_sessions.end()) return XR_ERROR_HANDLE_INVALID;
+        instance = it->second->instance;
+        for (const auto &[handle, state] : g_swapchains)
+            if (state->session == session) swapchains.push_back(handle);
+    }
+    // Destroying a session destroys its swapchains: they leave the split first.
+    for (XrSwapchain swapchain : swapchains)
+        forget_swapchain(swapchain);
+    const XrResult result = instance->destroy_session(session);
+    std::lock_guard lock(g_mutex);
+    g_sessions.erase(session);
+    return result;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL CreateSwapchain(XrSession session, const XrSwapchainCreateInfo *info,
+                                               XrSwapchain *swapchain) {
+    SessionState *s = nullptr;
+    {
+        std::lock_guard lock(g_mutex);
+        const auto it = g_sessions.find(session);
+        if (it == g_sessions.end()) return XR_ERROR_HANDLE_INVALID;
+        s = it->second.get();
+    }
+    XrSwapchainCreateInfo created = *info;
+    XrResult result = XR_ERROR_VALIDATION_FAILURE;
+    // Colour swapchains of a split device get the compositor's usage; the application never sees it
+    // (no OpenXR call returns a swapchain's usage). A runtime that refuses it gets the application's.
+    if (s->device && (info->usageFlags & XR_SWAPCHAIN_USAGE_COLOR_ATTACHMENT_BIT) &&
+        (info->usageFlags & kCompositorUsage) != kCompositorUsage) {
+        created.usageFlags |= kCompositorUsage;
+        result = s->instance->create_swapchain(session, &created, swapchain);
+        if (XR_FAILED(result)) {
+            SPLITVK_INFO("OpenXR: the runtime refused transfer usage on a swapchain (%d); retrying without",
+                         static_cast<int>(result));
+            created.usageFlags = info->usageFlags;
+        }
+    }
+    if (created.usageFlags == info->usageFlags)
+        result = s->instance->create_swapchain(session, info, swapchain);
+    if (XR_FAILED(result)) return result;
+    auto state = std::make_unique<SwapchainState>();
+    state->session = session;
+    state->instance = s->instance;
+    state->info = created;
+    state->info.next = nullptr;
+    std::lock_guard lock(g_mutex);
+    g_swapchains[*swapchain] = std::move(state);
+    return result;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL DestroySwapchain(XrSwapchain swapchain) {
+    SwapchainState *state = nullptr;
+    SessionState *session = nullptr;
+    if (!find_swapchain(swapchain, &state, &session)) return XR_ERROR_HANDLE_INVALID;
+    InstanceState *instance = state->instance;
+    // Before the runtime destroys the images: the agent must stop naming them first.
+    forget_swapchain(swapchain);
+    return instance->destroy_swapchain(swapchain);
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL EnumerateSwapchainImages(XrSwapchain swapchain, uint32_t capacity,
+                                                        uint32_t *count, XrSwapchainImageBaseHeader *images) {
+    SwapchainState *state = nullptr;
+    SessionState *session = nullptr;
+    if (!find_swapchain(swapchain, &state, &session)) return XR_ERROR_HANDLE_INVALID;
+    const XrResult result = state->instance->enumerate_swapchain_images(swapchain, capacity, count, images);
+    if (XR_FAILED(result) || capacity == 0 || !images || !session || !session->device || state->split)
+        return result;
+    if (images->type != XR_TYPE_SWAPCHAIN_IMAGE_VULKAN_KHR) return result;
+    const auto *vulkan = reinterpret_cast<const XrSwapchainImageVulkanKHR *>(images);
+    RuntimeSwapchain runtime;
+    runtime.extent = {state->info.width, state->info.height};
+    runtime.format = static_cast<VkFormat>(state->info.format);
+    // The Vulkan layer adds TRANSFER_SRC to every image it creates (resource.cpp).
+    runtime.usage = vulkan_usage(state->info.usageFlags) | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+    runtime.array_layers = state->info.arraySize;
+    for (uint32_t i = 0; i < *count; ++i)
+        runtime.images.push_back(vulkan[i].image);
+    // Multisampled or mipmapped eye images are replicated but not split: the compositor writes
+    // single-sampled level 0 only.
+    if (state->info.sampleCount > 1 || state->info.mipCount > 1)
+        runtime.usage &= ~VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+    state->split = register_runtime_swapchain(*session->device, split_key(swapchain), runtime);
+    return result;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL AcquireSwapchainImage(XrSwapchain swapchain,
+                                                     const XrSwapchainImageAcquireInfo *info,
+                                                     uint32_t *index) {
+    SwapchainState *state = nullptr;
+    SessionState *session = nullptr;
+    if (!find_swapchain(swapchain, &state, &session)) return XR_ERROR_HANDLE_INVALID;
+    const XrResult result = state->instance->acquire_swapchain_image(swapchain, info, index);
+    if (XR_FAILED(result) || !state->split || !session || !session->device) return result;
+    {
+        std::lock_guard lock(g_mutex);
+        state->acquired.push_back(*index);
+    }
+    begin_runtime_frame(*session->device, *state->split, *index);
+    return result;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL ReleaseSwapchainImage(XrSwapchain swapchain,
+                                                     const XrSwapchainImageReleaseInfo *info) {
+    SwapchainState *state = nullptr;
+    SessionState *session = nullptr;
+    if (!find_swapchain(swapchain, &state, &session)) return XR_ERROR_HANDLE_INVALID;
+    if (state->split && session && session->device && session->queue) {
+        bool acquired = false;
+        uint32_t index = 0;
+        {
+            std::lock_guard lock(g_mutex);
+            if (!state->acquired.empty()) {
+                index = state->acquired.front();
+                state->acquired.pop_front();
+                acquired = true;
+            }
+        }
+        // The application's rendering of this image has been submitted; the runtime's release
+        // barrier has not: the composite goes between them on the queue.
+        if (acquired) end_runtime_frame(*session->device, session->queue, *state->split, index);
+    }
+    return state->instance->release_swapchain_image(swapchain, info);
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL GetInstanceProcAddr(XrInstance instance, const char *name,
+                                                   PFN_xrVoidFunction *function);
+
+struct Intercepted {
+    const char *name;
+    PFN_xrVoidFunction function;
+};
+const Intercepted kIntercepted[] = {
+    {"xrGetInstanceProcAddr", reinterpret_cast<PFN_xrVoidFunction>(GetInstanceProcAddr)},
+    {"xrDestroyInstance", reinterpret_cast<PFN_xrVoidFunction>(DestroyInstance)},
+    {"xrCreateSession", reinterpret_cast<PFN_xrVoidFunction>(CreateSession)},
+    {"xrDestroySession", reinterpret_cast<PFN_xrVoidFunction>(DestroySession)},
+    {"xrCreateSwapchain", reinterpret_cast<PFN_xrVoidFunction>(CreateSwapchain)},
+    {"xrDestroySwapchain", reinterpret_cast<PFN_xrVoidFunction>(DestroySwapchain)},
+    {"xrEnumerateSwapchainImages", reinterpret_cast<PFN_xrVoidFunction>(EnumerateSwapchainImages)},
+    {"xrAcquireSwapchainImage", reinterpret_cast<PFN_xrVoidFunction>(AcquireSwapchainImage)},
+    {"xrReleaseSwapchainImage", reinterpret_cast<PFN_xrVoidFunction>(ReleaseSwapchainImage)},
+};
+
+XRAPI_ATTR XrResult XRAPI_CALL GetInstanceProcAddr(XrInstance instance, const char *name,
+                                                   PFN_xrVoidFunction *function) {
+    if (!name || !function) return XR_ERROR_VALIDATION_FAILURE;
+    InstanceState *state = find_instance(instance);
+    for (const Intercepted &i : kIntercepted)
+        if (std::strcmp(name, i.name) == 0) {
+            // Ours only where the runtime has it too (an absent function must stay absent).
+            if (state && state->get_instance_proc_addr(instance, name, function) != XR_SUCCESS)
+                return XR_ERROR_FUNCTION_UNSUPPORTED;
+            *function = i.function;
+            return XR_SUCCESS;
+        }
+    if (!state) {
+        *function = nullptr;
+        return XR_ERROR_HANDLE_INVALID;
+    }
+    return state->get_instance_proc_addr(instance, name, function);
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo *info,
+                                                      const XrApiLayerCreateInfo *layer_info,
+                                                      XrInstance *instance) {
+    if (!layer_info || !layer_info->nextInfo ||
+        std::strncmp(layer_info->nextInfo->layerName, kApiLayerName, XR_MAX_API_LAYER_NAME_SIZE) != 0) {
+        SPLITVK_ERROR("%s: the OpenXR loader gave a chain that is not this layer's", kApiLayerName);
+        return XR_ERROR_INITIALIZATION_FAILED;
+    }
+    const XrApiLayerNextInfo &next = *layer_info->nextInfo;
+    XrApiLayerCreateInfo down = *layer_info;
+    down.nextInfo = next.next;
+    const XrResult result = next.nextCreateApiLayerInstance(info, &down, instance);
+    if (XR_FAILED(result)) return result;
+
+    auto state = std::make_unique<InstanceState>();
+    state->get_instance_proc_addr = next.nextGetInstanceProcAddr;
+    const bool loaded =
+        load(*state, *instance, "xrDestroyInstance", &state->destroy_instance) &&
+        load(*state, *instance, "xrCreateSession", &state->create_session) &&
+        load(*state, *instance, "xrDestroySession", &state->destroy_session) &&
+        load(*state, *instance, "xrCreateSwapchain", &state->create_swapchain) &&
+        load(*state, *instance, "xrDestroySwapchain", &state->destroy_swapchain) &&
+        load(*state, *instance, "xrEnumerateSwapchainImages", &state->enumerate_swapchain_images) &&
+        load(*state, *instance, "xrAcquireSwapchainImage", &state->acquire_swapchain_image) &&
+        load(*state, *instance, "xrReleaseSwapchainImage", &state->release_swapchain_image);
+    if (!loaded) {
+        SPLITVK_ERROR("%s: the runtime lacks a core OpenXR function; instance not created", kApiLayerName);
+        if (state->destroy_instance) state->destroy_instance(*instance);
+        return XR_ERROR_INITIALIZATION_FAILED;
+    }
+    SPLITVK_INFO("%s active in '%s'", kApiLayerName, info ? info->applicationInfo.applicationName : "?");
+    std::lock_guard lock(g_mutex);
+    g_instances[*instance] = std::move(state);
+    return result;
+}
+
+} // namespace
+} // namespace splitvk::xr
+
+extern "C" __attribute__((visibility("default"))) XrResult XRAPI_CALL xrNegotiateLoaderApiLayerInterface(
+    const XrNegotiateLoaderInfo *loader_info, const char *layer_name, XrNegotiateApiLayerRequest *request) {
+    using namespace splitvk::xr;
+    if (!loader_info || !request || loader_info->structType != XR_LOADER_INTERFACE_STRUCT_LOADER_INFO ||
+        loader_info->structVersion != XR_LOADER_INFO_STRUCT_VERSION ||
+        loader_info->structSize != sizeof(XrNegotiateLoaderInfo) ||
+        request->structType != XR_LOADER_INTERFACE_STRUCT_API_LAYER_REQUEST ||
+        request->structVersion != XR_API_LAYER_INFO_STRUCT_VERSION ||
+        request->structSize != sizeof(XrNegotiateApiLayerRequest))
+        return XR_ERROR_INITIALIZATION_FAILED;
+    if (layer_name && std::strcmp(layer_name, kApiLayerName) != 0) return XR_ERROR_INITIALIZATION_FAILED;
+    if (loader_info->minInterfaceVersion > XR_CURRENT_LOADER_API_LAYER_VERSION ||
+        loader_info->maxInterfaceVersion < XR_CURRENT_LOADER_API_LAYER_VERSION)
+        return XR_ERROR_INITIALIZATION_FAILED;
+    // SPLITVK_DISABLE keeps splitvk out however it was enabled (the Vulkan layer declines the same way).
+    if (splitvk::disabled_by_environment()) return XR_ERROR_INITIALIZATION_FAILED;
+    request->layerInterfaceVersion = XR_CURRENT_LOADER_API_LAYER_VERSION;
+    request->layerApiVersion = XR_CURRENT_API_VERSION;
+    request->getInstanceProcAddr = GetInstanceProcAddr;
+    request->createApiLayerInstance = CreateApiLayerInstance;
+    return XR_SUCCESS;
+}
