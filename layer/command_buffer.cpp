@@ -197,6 +197,7 @@ VKAPI_ATTR VkResult VKAPI_CALL ResetCommandBuffer(VkCommandBuffer commandBuffer,
     if (CommandBufferState *state = find_state(commandBuffer)) {
         discard_stream(*state);
         state->last_stream.clear();
+        state->split.reset(); // what it recorded is gone: its bound compute sets too
     }
     // Not sent: the agent's vkBeginCommandBuffer resets implicitly, as the client's did.
     return result;
@@ -215,6 +216,7 @@ VKAPI_ATTR VkResult VKAPI_CALL ResetCommandPool(VkDevice device, VkCommandPool c
                 auto &state = *g_command_buffers.at(cb);
                 discard_stream(state);
                 state.last_stream.clear();
+                state.split.reset();
             }
     }
     if (result == VK_SUCCESS && capturing(dev))
