@@ -130,22 +130,26 @@ VKAPI_ATTR void VKAPI_CALL FreeCommandBuffers(VkDevice device, VkCommandPool com
                                               uint32_t commandBufferCount,
                                               const VkCommandBuffer *pCommandBuffers) {
     DeviceState &dev = device_state(device);
-    dev.dispatch.FreeCommandBuffers(device, commandPool, commandBufferCount, pCommandBuffers);
-    if (!dev.session) return;
-    std::vector<uint64_t> ids;
-    {
-        std::unique_lock lock(g_mutex);
-        for (uint32_t i = 0; i < commandBufferCount; ++i)
-            if (pCommandBuffers[i]) {
-                erase_locked(pCommandBuffers[i]);
-                ids.push_back(codec::handle_value(pCommandBuffers[i]));
-            }
+    // Forgotten and recorded before the driver may hand the values to command buffers another thread
+    // allocates (as every destroy: codegen/emit_layer.py): they must keep their state, and the agent
+    // must not free them.
+    if (dev.session) {
+        std::vector<uint64_t> ids;
+        {
+            std::unique_lock lock(g_mutex);
+            for (uint32_t i = 0; i < commandBufferCount; ++i)
+                if (pCommandBuffers[i]) {
+                    erase_locked(pCommandBuffers[i]);
+                    ids.push_back(codec::handle_value(pCommandBuffers[i]));
+                }
+        }
+        dev.session->forget(ids);
+        if (capturing(dev))
+            record_global(dev, LiveChange::Unchanged, 0, [&](codec::Encoder &e) {
+                encode_vkFreeCommandBuffers(e, device, commandPool, commandBufferCount, pCommandBuffers);
+            });
     }
-    dev.session->forget(ids);
-    if (capturing(dev))
-        record_global(dev, LiveChange::Unchanged, 0, [&](codec::Encoder &e) {
-            encode_vkFreeCommandBuffers(e, device, commandPool, commandBufferCount, pCommandBuffers);
-        });
+    dev.dispatch.FreeCommandBuffers(device, commandPool, commandBufferCount, pCommandBuffers);
 }
 
 VKAPI_ATTR VkResult VKAPI_CALL BeginCommandBuffer(VkCommandBuffer commandBuffer,
@@ -193,6 +197,7 @@ VKAPI_ATTR VkResult VKAPI_CALL ResetCommandBuffer(VkCommandBuffer commandBuffer,
     if (CommandBufferState *state = find_state(commandBuffer)) {
         discard_stream(*state);
         state->last_stream.clear();
+        state->split.reset(); // what it recorded is gone: its bound compute sets too
     }
     // Not sent: the agent's vkBeginCommandBuffer resets implicitly, as the client's did.
     return result;
@@ -211,6 +216,7 @@ VKAPI_ATTR VkResult VKAPI_CALL ResetCommandPool(VkDevice device, VkCommandPool c
                 auto &state = *g_command_buffers.at(cb);
                 discard_stream(state);
                 state.last_stream.clear();
+                state.split.reset();
             }
     }
     if (result == VK_SUCCESS && capturing(dev))
@@ -222,25 +228,28 @@ VKAPI_ATTR VkResult VKAPI_CALL ResetCommandPool(VkDevice device, VkCommandPool c
 VKAPI_ATTR void VKAPI_CALL DestroyCommandPool(VkDevice device, VkCommandPool commandPool,
                                               const VkAllocationCallbacks *pAllocator) {
     DeviceState &dev = device_state(device);
-    dev.dispatch.DestroyCommandPool(device, commandPool, pAllocator);
-    if (!dev.session) return;
-    std::vector<uint64_t> ids;
-    {
-        std::unique_lock lock(g_mutex);
-        const auto pool = g_pools.find(commandPool);
-        if (pool != g_pools.end()) {
-            for (VkCommandBuffer cb : pool->second) {
-                g_command_buffers.erase(cb);
-                ids.push_back(codec::handle_value(cb));
+    // Forgotten and recorded before the driver may hand the pool's value, or its command buffers',
+    // to objects another thread creates (as every destroy: codegen/emit_layer.py).
+    if (dev.session && commandPool != VK_NULL_HANDLE) {
+        std::vector<uint64_t> ids;
+        {
+            std::unique_lock lock(g_mutex);
+            const auto pool = g_pools.find(commandPool);
+            if (pool != g_pools.end()) {
+                for (VkCommandBuffer cb : pool->second) {
+                    g_command_buffers.erase(cb);
+                    ids.push_back(codec::handle_value(cb));
+                }
+                g_pools.erase(pool);
             }
-            g_pools.erase(pool);
         }
+        dev.session->forget(ids);
+        if (capturing(dev))
+            record_global(
+                dev, LiveChange::Destroyed, codec::handle_value(commandPool),
+                [&](codec::Encoder &e) { encode_vkDestroyCommandPool(e, device, commandPool, nullptr); });
     }
-    dev.session->forget(ids);
-    if (capturing(dev))
-        record_global(dev, LiveChange::Destroyed, codec::handle_value(commandPool), [&](codec::Encoder &e) {
-            encode_vkDestroyCommandPool(e, device, commandPool, nullptr);
-        });
+    dev.dispatch.DestroyCommandPool(device, commandPool, pAllocator);
 }
 
 } // namespace entry

@@ -311,17 +311,21 @@ VKAPI_ATTR void VKAPI_CALL DestroyDescriptorSetLayout(VkDevice device,
                                                       VkDescriptorSetLayout descriptorSetLayout,
                                                       const VkAllocationCallbacks *pAllocator) {
     DeviceState &dev = device_state(device);
-    dev.dispatch.DestroyDescriptorSetLayout(device, descriptorSetLayout, pAllocator);
-    if (!dev.session || descriptorSetLayout == VK_NULL_HANDLE) return;
-    {
-        std::unique_lock lock(g_mutex);
-        g_layouts.erase(descriptorSetLayout);
+    // Forgotten and recorded before the driver may hand the value to a layout another thread creates
+    // (as every destroy: codegen/emit_layer.py): the new layout keeps its counts, and the agent and
+    // the live state keep the new layout.
+    if (dev.session && descriptorSetLayout != VK_NULL_HANDLE) {
+        {
+            std::unique_lock lock(g_mutex);
+            g_layouts.erase(descriptorSetLayout);
+        }
+        if (capturing(dev))
+            record_global(dev, LiveChange::Retired, codec::handle_value(descriptorSetLayout),
+                          [&](codec::Encoder &e) {
+                              encode_vkDestroyDescriptorSetLayout(e, device, descriptorSetLayout, pAllocator);
+                          });
     }
-    if (capturing(dev))
-        record_global(dev, LiveChange::Retired, codec::handle_value(descriptorSetLayout),
-                      [&](codec::Encoder &e) {
-                          encode_vkDestroyDescriptorSetLayout(e, device, descriptorSetLayout, pAllocator);
-                      });
+    dev.dispatch.DestroyDescriptorSetLayout(device, descriptorSetLayout, pAllocator);
 }
 
 VKAPI_ATTR VkResult VKAPI_CALL AllocateDescriptorSets(VkDevice device,
@@ -392,19 +396,22 @@ VKAPI_ATTR VkResult VKAPI_CALL ResetDescriptorPool(VkDevice device, VkDescriptor
 VKAPI_ATTR void VKAPI_CALL DestroyDescriptorPool(VkDevice device, VkDescriptorPool descriptorPool,
                                                  const VkAllocationCallbacks *pAllocator) {
     DeviceState &dev = device_state(device);
-    dev.dispatch.DestroyDescriptorPool(device, descriptorPool, pAllocator);
-    if (!dev.session || descriptorPool == VK_NULL_HANDLE) return;
-    std::vector<uint64_t> ids;
-    {
-        std::unique_lock lock(g_mutex);
-        ids = forget_pool_sets_locked(descriptorPool);
+    // Forgotten and recorded before the driver may hand the pool's value, or its sets', to objects
+    // another thread creates (as every destroy: codegen/emit_layer.py).
+    if (dev.session && descriptorPool != VK_NULL_HANDLE) {
+        std::vector<uint64_t> ids;
+        {
+            std::unique_lock lock(g_mutex);
+            ids = forget_pool_sets_locked(descriptorPool);
+        }
+        dev.session->forget(ids);
+        if (capturing(dev))
+            record_global(dev, LiveChange::Destroyed, codec::handle_value(descriptorPool),
+                          [&](codec::Encoder &e) {
+                              encode_vkDestroyDescriptorPool(e, device, descriptorPool, pAllocator);
+                          });
     }
-    dev.session->forget(ids);
-    if (capturing(dev))
-        record_global(dev, LiveChange::Destroyed, codec::handle_value(descriptorPool),
-                      [&](codec::Encoder &e) {
-                          encode_vkDestroyDescriptorPool(e, device, descriptorPool, pAllocator);
-                      });
+    dev.dispatch.DestroyDescriptorPool(device, descriptorPool, pAllocator);
 }
 
 } // namespace entry

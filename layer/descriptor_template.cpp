@@ -30,15 +30,19 @@ void destroy_template(PFN_vkDestroyDescriptorUpdateTemplate next, VkDevice devic
                       VkDescriptorUpdateTemplate descriptorUpdateTemplate,
                       const VkAllocationCallbacks *pAllocator) {
     DeviceState &dev = device_state(device);
+    // Forgotten and recorded before the driver may hand the value to a template another thread
+    // creates (as every destroy: codegen/emit_layer.py): the new template keeps its layout, and the
+    // agent and the live state keep the new template.
+    if (dev.session && descriptorUpdateTemplate != VK_NULL_HANDLE) {
+        g_templates.remove(descriptorUpdateTemplate);
+        if (capturing(dev))
+            record_global(dev, LiveChange::Destroyed, codec::handle_value(descriptorUpdateTemplate),
+                          [&](codec::Encoder &e) {
+                              encode_vkDestroyDescriptorUpdateTemplate(e, device, descriptorUpdateTemplate,
+                                                                       pAllocator);
+                          });
+    }
     next(device, descriptorUpdateTemplate, pAllocator);
-    if (!dev.session || descriptorUpdateTemplate == VK_NULL_HANDLE) return;
-    g_templates.remove(descriptorUpdateTemplate);
-    if (capturing(dev))
-        record_global(dev, LiveChange::Destroyed, codec::handle_value(descriptorUpdateTemplate),
-                      [&](codec::Encoder &e) {
-                          encode_vkDestroyDescriptorUpdateTemplate(e, device, descriptorUpdateTemplate,
-                                                                   pAllocator);
-                      });
 }
 
 void update_with_template(PFN_vkUpdateDescriptorSetWithTemplate next, VkDevice device, VkDescriptorSet set,

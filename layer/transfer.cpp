@@ -16,8 +16,6 @@
 #include "split_geometry.h"
 
 #include <algorithm>
-#include <mutex>
-#include <unordered_map>
 #include <vector>
 
 namespace splitvk {
@@ -199,19 +197,12 @@ bool scale_buffer_copies(VkImage image, uint32_t count, const Region *regions, s
     return true;
 }
 
-// The compute descriptor sets bound per command buffer, for dispatches.
-std::mutex g_mutex;
-std::unordered_map<VkCommandBuffer, std::vector<VkDescriptorSet>> g_compute_sets;
-
+// Whether a compute descriptor set bound in `cb` (its split tracker's, begun afresh with it: a set
+// its previous recording bound does not count) writes a screen-space target.
 bool dispatch_writes_screen_space(VkCommandBuffer cb) {
-    std::vector<VkDescriptorSet> sets;
-    {
-        std::lock_guard lock(g_mutex);
-        const auto it = g_compute_sets.find(cb);
-        if (it == g_compute_sets.end()) return false;
-        sets = it->second;
-    }
-    for (VkDescriptorSet set : sets)
+    const split::CommandTracker *tracker = split_tracker(cb);
+    if (!tracker) return false;
+    for (VkDescriptorSet set : tracker->compute_sets())
         if (set && set_writes_screen_space(set)) return true;
     return false;
 }
@@ -244,10 +235,7 @@ void CmdBindDescriptorSets(DeviceState &, VkCommandBuffer cb, VkPipelineBindPoin
                            VkPipelineLayout, uint32_t first, uint32_t count, const VkDescriptorSet *sets,
                            uint32_t, const uint32_t *) {
     if (bind_point != VK_PIPELINE_BIND_POINT_COMPUTE) return;
-    std::lock_guard lock(g_mutex);
-    auto &bound = g_compute_sets[cb];
-    if (bound.size() < first + count) bound.resize(first + count);
-    std::copy(sets, sets + count, bound.begin() + first);
+    if (split::CommandTracker *tracker = split_tracker(cb)) tracker->bind_compute_sets(first, count, sets);
 }
 
 // Its group counts live in GPU memory, written by earlier GPU work the layer cannot see finish at

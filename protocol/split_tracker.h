@@ -14,6 +14,7 @@
 
 #include <vulkan/vulkan.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -142,6 +143,16 @@ public:
     void merge_executed(const CommandTracker &secondary, EyeMode mode, const FoveaSize &fovea);
     const std::vector<DrawnImage> &drawn() const { return drawn_; }
 
+    // The descriptor sets bound at the compute bind point, by set number (vkCmdBindDescriptorSets):
+    // a dispatch scales its group counts when one of them writes a screen-space target. Part of the
+    // command buffer's state, so a command buffer begun again has none bound, and its dispatches are
+    // not scaled for a set its previous recording bound (issue 20).
+    void bind_compute_sets(uint32_t first, uint32_t count, const VkDescriptorSet *sets) {
+        if (compute_sets_.size() < size_t{first} + count) compute_sets_.resize(size_t{first} + count);
+        std::copy(sets, sets + count, compute_sets_.begin() + first);
+    }
+    const std::vector<VkDescriptorSet> &compute_sets() const { return compute_sets_; }
+
 private:
     DrawnImage &drawn_entry(uint64_t image, VkExtent2D extent);
 
@@ -156,6 +167,7 @@ private:
     uint64_t image_ = 0;
     VkExtent2D extent_{};
     std::vector<DrawnImage> drawn_;
+    std::vector<VkDescriptorSet> compute_sets_;
 };
 
 // How a render pass's latest instance was scaled (client, issue 11 item 4): a secondary that

@@ -220,17 +220,19 @@ int Session::run() {
         if (done) break;
     }
     connection_->close("session over");
-    const auto validation = replayer_.context().validation_messages();
-    SPLITVK_INFO(
-        "session %llu: closed after %llu messages, %llu commands, %llu submits, %llu frames; %llu validation "
-        "messages; memory data while the GPU worked: %llu queued behind it, %llu after waiting for it",
-        static_cast<unsigned long long>(config_.session_id), static_cast<unsigned long long>(messages_),
-        static_cast<unsigned long long>(replayer_.commands_replayed()),
-        static_cast<unsigned long long>(replayer_.submits()), static_cast<unsigned long long>(frames_),
-        static_cast<unsigned long long>(validation),
-        static_cast<unsigned long long>(replayer_.memory_queued()),
-        static_cast<unsigned long long>(replayer_.memory_waited()));
-    return validation ? kSessionValidation : kSessionClosed;
+    const auto errors = replayer_.context().validation_errors();
+    SPLITVK_INFO("session %llu: closed after %llu messages, %llu commands, %llu submits, %llu frames; %llu "
+                 "validation errors, %llu validation warnings; memory data while the GPU worked: %llu queued "
+                 "behind it, %llu after waiting for it",
+                 static_cast<unsigned long long>(config_.session_id),
+                 static_cast<unsigned long long>(messages_),
+                 static_cast<unsigned long long>(replayer_.commands_replayed()),
+                 static_cast<unsigned long long>(replayer_.submits()),
+                 static_cast<unsigned long long>(frames_), static_cast<unsigned long long>(errors),
+                 static_cast<unsigned long long>(replayer_.context().validation_warnings()),
+                 static_cast<unsigned long long>(replayer_.memory_queued()),
+                 static_cast<unsigned long long>(replayer_.memory_waited()));
+    return closed_session_status(errors);
 }
 
 bool Session::handle(protocol::Message &message, bool *done, std::string *error) {
@@ -326,6 +328,10 @@ bool Session::handle(protocol::Message &message, bool *done, std::string *error)
 
 } // namespace
 
+int closed_session_status(uint64_t validation_errors) {
+    return validation_errors ? kSessionValidation : kSessionClosed;
+}
+
 const char *session_exit_name(int status) {
     switch (status) {
     case kSessionClosed:
@@ -337,7 +343,7 @@ const char *session_exit_name(int status) {
     case kSessionSetup:
         return "Vulkan setup failed";
     case kSessionValidation:
-        return "closed, with validation messages";
+        return "closed, with validation errors";
     case kSessionConfinement:
         return "confinement failed";
     default:

@@ -40,10 +40,13 @@ enum SessionExit : int {
     kSessionError = 1,       // malformed input, a decode or replay error
     kSessionHandshake = 2,   // no valid Hello (bad token, version, a command first, timeout)
     kSessionSetup = 3,       // the agent's own Vulkan setup failed
-    kSessionValidation = 4,  // closed normally, but --validate reported messages
+    kSessionValidation = 4,  // closed normally, but --validate reported errors (warnings do not count)
     kSessionConfinement = 5, // the session process could not be confined (confinement.h)
 };
 const char *session_exit_name(int status);
+// The status of a session the client closed: kSessionValidation when --validate reported errors,
+// kSessionClosed otherwise (validation warnings, performance ones included, leave it clean).
+int closed_session_status(uint64_t validation_errors);
 
 // Serves one connection; returns the process exit status.
 int run_session(protocol::UniqueFd socket, const SessionConfig &config);

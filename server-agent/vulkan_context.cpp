@@ -116,10 +116,17 @@ VKAPI_ATTR VkBool32 VKAPI_CALL VulkanContext::on_message(VkDebugUtilsMessageSeve
                                                          const VkDebugUtilsMessengerCallbackDataEXT *data,
                                                          void *user) {
     auto *self = static_cast<VulkanContext *>(user);
-    if (severity < VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT) return VK_FALSE;
-    ++self->validation_messages_;
-    SPLITVK_ERROR("session %llu: validation: %s", static_cast<unsigned long long>(self->session_id_),
-                  data && data->pMessage ? data->pMessage : "(no message)");
+    const char *message = data && data->pMessage ? data->pMessage : "(no message)";
+    const auto session = static_cast<unsigned long long>(self->session_id_);
+    // Only errors fail the session: a warning (a performance one such as OutputNotConsumed, or a
+    // best-practice note) describes a clean application too.
+    if (severity >= VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT) {
+        ++self->validation_errors_;
+        SPLITVK_ERROR("session %llu: validation: %s", session, message);
+    } else if (severity >= VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT) {
+        ++self->validation_warnings_;
+        SPLITVK_WARN("session %llu: validation: %s", session, message);
+    }
     return VK_FALSE;
 }
 

@@ -46,8 +46,9 @@ public:
     bool swapchain_extension = false; // VK_KHR_swapchain enabled: PRESENT_SRC_KHR is a legal layout
     VkPhysicalDeviceMemoryProperties memory_properties{};
 
-    // Validation messages seen (errors and warnings).
-    uint64_t validation_messages() const { return validation_messages_; }
+    // Validation messages seen, errors and warnings apart: only errors fail a session.
+    uint64_t validation_errors() const { return validation_errors_; }
+    uint64_t validation_warnings() const { return validation_warnings_; }
 
     // A host-visible TRANSFER_DST buffer of `size` bytes the host reads (cached memory preferred).
     // False with one line in `error`; `out` is then empty.
@@ -76,7 +77,8 @@ private:
                                                      const VkDebugUtilsMessengerCallbackDataEXT *data,
                                                      void *user);
     VkDebugUtilsMessengerEXT messenger_ = VK_NULL_HANDLE;
-    uint64_t validation_messages_ = 0;
+    uint64_t validation_errors_ = 0;
+    uint64_t validation_warnings_ = 0;
     uint64_t session_id_ = 0;
     bool surface_extension_ = false;
 };

@@ -333,5 +333,30 @@ TEST(SplitTracker, RenderingKeyIsWhatTheInheritanceNames) {
     EXPECT_FALSE(renderings.predict(rendering_key(one, 1, none, none, 0)).has_value());
 }
 
+// Issue 20: the compute sets a dispatch looks at are the command buffer's own, begun afresh with it
+// (the layer resets the tracker at vkBeginCommandBuffer and vkResetCommandBuffer/Pool, and drops it
+// with the command buffer): a set a previous recording bound, one that writes a screen-space target,
+// must not scale a later recording's dispatch that binds no such set.
+TEST(SplitTracker, ComputeSetsEndWithTheRecording) {
+    const auto set = [](uint64_t v) { return reinterpret_cast<VkDescriptorSet>(v); };
+    CommandTracker t;
+    const VkDescriptorSet screen_space[] = {set(0x10), set(0x20)};
+    t.bind_compute_sets(1, 2, screen_space);
+    ASSERT_EQ(t.compute_sets().size(), 3u);
+    EXPECT_EQ(t.compute_sets()[0], VK_NULL_HANDLE);
+    EXPECT_EQ(t.compute_sets()[1], set(0x10));
+    EXPECT_EQ(t.compute_sets()[2], set(0x20));
+    const VkDescriptorSet rebound[] = {set(0x30)};
+    t.bind_compute_sets(2, 1, rebound);
+    EXPECT_EQ(t.compute_sets()[2], set(0x30));
+
+    t.reset(); // the command buffer is begun again
+    EXPECT_TRUE(t.compute_sets().empty());
+    const VkDescriptorSet plain[] = {set(0x40)};
+    t.bind_compute_sets(0, 1, plain);
+    ASSERT_EQ(t.compute_sets().size(), 1u);
+    EXPECT_EQ(t.compute_sets()[0], set(0x40));
+}
+
 } // namespace
 } // namespace splitvk::split

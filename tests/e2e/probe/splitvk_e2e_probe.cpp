@@ -1,6 +1,7 @@
 // splitvk-e2e-probe: the smallest Vulkan program the end-to-end tests need, headless (no window,
 // no X server). It creates an instance (with the application name the tests look for in the
-// layer's log), a device and a queue, records two vkCmdFillBuffer into one buffer and submits them.
+// layer's log), a device and a queue, records two vkCmdFillBuffer into one buffer and submits them,
+// and creates and destroys a descriptor set layout and a descriptor pool.
 //
 //   splitvk-e2e-probe [--app-name NAME] [--sync-hazard]
 //
@@ -157,6 +158,27 @@ int run(const std::string &app_name, bool sync_hazard) {
     si.pCommandBuffers = &cmd;
     CHECK(vkQueueSubmit(queue, 1, &si, fence));
     CHECK(vkWaitForFences(device, 1, &fence, VK_TRUE, UINT64_MAX));
+
+    // A descriptor set layout and pool, created and destroyed (VK_LAYER_SPLITVK_test_reuse, below
+    // splitvk, hands their values to new ones at once; tests/e2e/reuse_layer).
+    const VkDescriptorSetLayoutBinding binding{0, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1,
+                                               VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+    VkDescriptorSetLayoutCreateInfo lci{};
+    lci.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
+    lci.bindingCount = 1;
+    lci.pBindings = &binding;
+    VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
+    CHECK(vkCreateDescriptorSetLayout(device, &lci, nullptr, &set_layout));
+    const VkDescriptorPoolSize pool_size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1};
+    VkDescriptorPoolCreateInfo dpci{};
+    dpci.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+    dpci.maxSets = 1;
+    dpci.poolSizeCount = 1;
+    dpci.pPoolSizes = &pool_size;
+    VkDescriptorPool descriptor_pool = VK_NULL_HANDLE;
+    CHECK(vkCreateDescriptorPool(device, &dpci, nullptr, &descriptor_pool));
+    vkDestroyDescriptorPool(device, descriptor_pool, nullptr);
+    vkDestroyDescriptorSetLayout(device, set_layout, nullptr);
 
     vkDestroyFence(device, fence, nullptr);
     vkFreeCommandBuffers(device, pool, 1, &cmd);

@@ -1,0 +1,230 @@
+// VK_LAYER_SPLITVK_test_reuse: a test-only layer that stages the race of issue 20. Once the driver
+// has destroyed an object it may hand the same handle value to an object that another thread
+// creates, before the destroying call has returned through the layers above. The tests put this
+// layer BELOW splitvk, next to the driver: right after the driver destroyed a command pool, a
+// descriptor pool or a descriptor set layout, it creates one of the same kind through the top of
+// the chain (the loader's entry point, so splitvk sees and captures the create, as it would another
+// thread's), then destroys that one again the same way. The create runs on the destroying thread,
+// with nothing allocated in between, so the driver's allocator (lavapipe: malloc, whose per-thread
+// cache hands back the chunk just freed) gives it the destroyed object's value. It prints, on
+// stderr, "reuse: <destroy>: the next <create> got the same handle value" (or "another handle
+// value", which leaves the test without its race).
+//
+// A splitvk that records (or forgets its state of) a destroy after the driver call records it after
+// the new object's create: the agent then holds two objects under one id, and ends the session.
+// Built into the build tree only and never installed.
+#include <vulkan/vk_layer.h>
+#include <vulkan/vulkan.h>
+
+#include <cstdio>
+#include <cstring>
+#include <mutex>
+#include <unordered_map>
+
+#include <dlfcn.h>
+
+namespace splitvk::reuse_layer {
+namespace {
+
+using DispatchKey = void *;
+DispatchKey key(const void *dispatchable) {
+    return *static_cast<void *const *>(dispatchable);
+}
+
+struct Device {
+    PFN_vkGetDeviceProcAddr next_gdpa = nullptr;
+    PFN_vkDestroyCommandPool destroy_command_pool = nullptr;
+    PFN_vkDestroyDescriptorPool destroy_descriptor_pool = nullptr;
+    PFN_vkDestroyDescriptorSetLayout destroy_set_layout = nullptr;
+};
+
+std::mutex g_mutex;
+std::unordered_map<DispatchKey, PFN_vkGetInstanceProcAddr> g_instances;
+std::unordered_map<DispatchKey, Device> g_devices;
+VkInstance g_instance = VK_NULL_HANDLE;
+// The queue family of the device's first queue: what a command pool is created for.
+uint32_t g_family = 0;
+thread_local bool t_staging = false; // inside a staged create/destroy: not staged again
+
+Device device_of(VkDevice device) {
+    std::lock_guard lock(g_mutex);
+    return g_devices[key(device)];
+}
+
+// The top of the chain: the loader's own entry point, which dispatches to the first layer.
+template <class Fn>
+Fn top(const char *name) {
+    static void *loader = dlopen("libvulkan.so.1", RTLD_NOW | RTLD_NOLOAD);
+    return loader ? reinterpret_cast<Fn>(dlsym(loader, name)) : nullptr;
+}
+
+template <class Handle>
+void report(const char *destroy, const char *create, Handle destroyed, Handle created) {
+    std::fprintf(stderr, "reuse: %s: the next %s got %s handle value\n", destroy, create,
+                 created == destroyed ? "the same" : "another");
+    std::fflush(stderr);
+}
+
+// Right after the driver destroyed `destroyed`: one of the same kind created and destroyed again
+// through the top of the chain.
+template <class Handle, class Info, class Create, class Destroy>
+void stage(VkDevice device, Handle destroyed, const Info &info, Create create, Destroy destroy,
+           const char *create_name, const char *destroy_name) {
+    if (!create || !destroy) {
+        std::fprintf(stderr, "reuse: the loader's %s is not found\n", create_name);
+        return;
+    }
+    t_staging = true;
+    Handle created = VK_NULL_HANDLE;
+    if (create(device, &info, nullptr, &created) == VK_SUCCESS) {
+        report(destroy_name, create_name, destroyed, created);
+        destroy(device, created, nullptr);
+    }
+    t_staging = false;
+}
+
+VKAPI_ATTR void VKAPI_CALL DestroyCommandPool(VkDevice device, VkCommandPool pool,
+                                              const VkAllocationCallbacks *alloc) {
+    const auto destroy_next = device_of(device).destroy_command_pool;
+    if (t_staging || pool == VK_NULL_HANDLE) return destroy_next(device, pool, alloc);
+    VkCommandPoolCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    info.queueFamilyIndex = g_family;
+    static const auto create = top<PFN_vkCreateCommandPool>("vkCreateCommandPool");
+    static const auto destroy = top<PFN_vkDestroyCommandPool>("vkDestroyCommandPool");
+    destroy_next(device, pool, alloc);
+    stage(device, pool, info, create, destroy, "vkCreateCommandPool", "vkDestroyCommandPool");
+}
+
+// The same create infos as the probe's (tests/e2e/probe), so that the driver allocates the same size.
+VKAPI_ATTR void VKAPI_CALL DestroyDescriptorPool(VkDevice device, VkDescriptorPool pool,
+                                                 const VkAllocationCallbacks *alloc) {
+    const auto destroy_next = device_of(device).destroy_descriptor_pool;
+    if (t_staging || pool == VK_NULL_HANDLE) return destroy_next(device, pool, alloc);
+    static const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1};
+    VkDescriptorPoolCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+    info.maxSets = 1;
+    info.poolSizeCount = 1;
+    info.pPoolSizes = &size;
+    static const auto create = top<PFN_vkCreateDescriptorPool>("vkCreateDescriptorPool");
+    static const auto destroy = top<PFN_vkDestroyDescriptorPool>("vkDestroyDescriptorPool");
+    destroy_next(device, pool, alloc);
+    stage(device, pool, info, create, destroy, "vkCreateDescriptorPool", "vkDestroyDescriptorPool");
+}
+
+VKAPI_ATTR void VKAPI_CALL DestroyDescriptorSetLayout(VkDevice device, VkDescriptorSetLayout layout,
+                                                      const VkAllocationCallbacks *alloc) {
+    const auto destroy_next = device_of(device).destroy_set_layout;
+    if (t_staging || layout == VK_NULL_HANDLE) return destroy_next(device, layout, alloc);
+    static const VkDescriptorSetLayoutBinding binding{0, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1,
+                                                      VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+    VkDescriptorSetLayoutCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
+    info.bindingCount = 1;
+    info.pBindings = &binding;
+    static const auto create = top<PFN_vkCreateDescriptorSetLayout>("vkCreateDescriptorSetLayout");
+    static const auto destroy = top<PFN_vkDestroyDescriptorSetLayout>("vkDestroyDescriptorSetLayout");
+    destroy_next(device, layout, alloc);
+    stage(device, layout, info, create, destroy, "vkCreateDescriptorSetLayout",
+          "vkDestroyDescriptorSetLayout");
+}
+
+// The loader's link info for this layer in a create info's pNext chain, moved on to the next layer.
+template <class LinkInfo>
+auto *take_link(const void *next, VkStructureType type) {
+    auto *chain = static_cast<LinkInfo *>(const_cast<void *>(next));
+    while (chain && !(chain->sType == type && chain->function == VK_LAYER_LINK_INFO))
+        chain = static_cast<LinkInfo *>(const_cast<void *>(chain->pNext));
+    if (!chain) return decltype(chain->u.pLayerInfo){nullptr};
+    auto *link = chain->u.pLayerInfo;
+    chain->u.pLayerInfo = link->pNext;
+    return link;
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL CreateInstance(const VkInstanceCreateInfo *info,
+                                              const VkAllocationCallbacks *alloc, VkInstance *instance) {
+    const auto *link =
+        take_link<VkLayerInstanceCreateInfo>(info->pNext, VK_STRUCTURE_TYPE_LOADER_INSTANCE_CREATE_INFO);
+    if (!link) return VK_ERROR_INITIALIZATION_FAILED;
+    const PFN_vkGetInstanceProcAddr next = link->pfnNextGetInstanceProcAddr;
+    auto create = reinterpret_cast<PFN_vkCreateInstance>(next(VK_NULL_HANDLE, "vkCreateInstance"));
+    const VkResult result = create(info, alloc, instance);
+    if (result == VK_SUCCESS) {
+        std::lock_guard lock(g_mutex);
+        g_instances[key(*instance)] = next;
+        g_instance = *instance;
+    }
+    return result;
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL CreateDevice(VkPhysicalDevice gpu, const VkDeviceCreateInfo *info,
+                                            const VkAllocationCallbacks *alloc, VkDevice *device) {
+    const auto *link =
+        take_link<VkLayerDeviceCreateInfo>(info->pNext, VK_STRUCTURE_TYPE_LOADER_DEVICE_CREATE_INFO);
+    if (!link) return VK_ERROR_INITIALIZATION_FAILED;
+    const PFN_vkGetInstanceProcAddr next_gipa = link->pfnNextGetInstanceProcAddr;
+    const PFN_vkGetDeviceProcAddr next_gdpa = link->pfnNextGetDeviceProcAddr;
+    VkInstance instance = VK_NULL_HANDLE;
+    {
+        std::lock_guard lock(g_mutex);
+        instance = g_instance;
+    }
+    auto create = reinterpret_cast<PFN_vkCreateDevice>(next_gipa(instance, "vkCreateDevice"));
+    const VkResult result = create(gpu, info, alloc, device);
+    if (result == VK_SUCCESS) {
+        Device d;
+        d.next_gdpa = next_gdpa;
+        d.destroy_command_pool =
+            reinterpret_cast<PFN_vkDestroyCommandPool>(next_gdpa(*device, "vkDestroyCommandPool"));
+        d.destroy_descriptor_pool =
+            reinterpret_cast<PFN_vkDestroyDescriptorPool>(next_gdpa(*device, "vkDestroyDescriptorPool"));
+        d.destroy_set_layout = reinterpret_cast<PFN_vkDestroyDescriptorSetLayout>(
+            next_gdpa(*device, "vkDestroyDescriptorSetLayout"));
+        std::lock_guard lock(g_mutex);
+        g_devices[key(*device)] = d;
+        if (info->queueCreateInfoCount > 0) g_family = info->pQueueCreateInfos[0].queueFamilyIndex;
+    }
+    return result;
+}
+
+VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetDeviceProcAddr(VkDevice device, const char *name);
+
+VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetInstanceProcAddr(VkInstance instance, const char *name) {
+    if (!std::strcmp(name, "vkGetInstanceProcAddr"))
+        return reinterpret_cast<PFN_vkVoidFunction>(GetInstanceProcAddr);
+    if (!std::strcmp(name, "vkCreateInstance")) return reinterpret_cast<PFN_vkVoidFunction>(CreateInstance);
+    if (!std::strcmp(name, "vkCreateDevice")) return reinterpret_cast<PFN_vkVoidFunction>(CreateDevice);
+    if (!std::strcmp(name, "vkGetDeviceProcAddr"))
+        return reinterpret_cast<PFN_vkVoidFunction>(GetDeviceProcAddr);
+    if (!instance) return nullptr;
+    std::lock_guard lock(g_mutex);
+    return g_instances[key(instance)](instance, name);
+}
+
+VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetDeviceProcAddr(VkDevice device, const char *name) {
+    if (!std::strcmp(name, "vkGetDeviceProcAddr"))
+        return reinterpret_cast<PFN_vkVoidFunction>(GetDeviceProcAddr);
+    if (!std::strcmp(name, "vkDestroyCommandPool"))
+        return reinterpret_cast<PFN_vkVoidFunction>(DestroyCommandPool);
+    if (!std::strcmp(name, "vkDestroyDescriptorPool"))
+        return reinterpret_cast<PFN_vkVoidFunction>(DestroyDescriptorPool);
+    if (!std::strcmp(name, "vkDestroyDescriptorSetLayout"))
+        return reinterpret_cast<PFN_vkVoidFunction>(DestroyDescriptorSetLayout);
+    std::lock_guard lock(g_mutex);
+    return g_devices[key(device)].next_gdpa(device, name);
+}
+
+} // namespace
+} // namespace splitvk::reuse_layer
+
+extern "C" __attribute__((visibility("default"))) VKAPI_ATTR VkResult VKAPI_CALL
+vkNegotiateLoaderLayerInterfaceVersion(VkNegotiateLayerInterface *interface) {
+    if (!interface || interface->sType != LAYER_NEGOTIATE_INTERFACE_STRUCT)
+        return VK_ERROR_INITIALIZATION_FAILED;
+    if (interface->loaderLayerInterfaceVersion > 2) interface->loaderLayerInterfaceVersion = 2;
+    interface->pfnGetInstanceProcAddr = splitvk::reuse_layer::GetInstanceProcAddr;
+    interface->pfnGetDeviceProcAddr = splitvk::reuse_layer::GetDeviceProcAddr;
+    interface->pfnGetPhysicalDeviceProcAddr = nullptr;
+    return VK_SUCCESS;
+}
