@@ -95,8 +95,7 @@ VKAPI_ATTR void VKAPI_CALL CmdBindPipeline(VkCommandBuffer commandBuffer,
     // values (held back while it was bound) apply again.
     if (had_viewports || tracker->static_viewports()) emit_viewports(dev, commandBuffer, *tracker);
     if (had_scissors || tracker->static_scissors()) emit_scissors(dev, commandBuffer, *tracker);
-    if (had_viewports || tracker->static_viewports())
-        tracker->note_foveae(split_settings().eyes, split_settings().fovea);
+    if (had_viewports || tracker->static_viewports()) tracker->note_foveae();
 }
 
 } // namespace entry

@@ -164,7 +164,7 @@ void leave_split(DeviceState &dev, VkCommandBuffer cb) {
     if (!tracker || !tracker->in_split()) return;
     // The periphery's GPU time runs from the first scaled pass to the end of the swapchain's.
     if (tracker->swapchain_pass()) time_split_pass_ended(dev, cb);
-    tracker->end_split(split_settings().eyes, split_settings().fovea);
+    tracker->end_split();
     emit_viewports(dev, cb, *tracker);
     emit_scissors(dev, cb, *tracker);
 }
@@ -361,7 +361,7 @@ void CmdExecuteCommands(DeviceState &, VkCommandBuffer cb, uint32_t count,
                 "a secondary command buffer was recorded for a pass scaled otherwise than the one "
                 "that executes it: the client's periphery of that pass is wrong (the foveae stay "
                 "exact only where the agent's tiles cover them)");
-        tracker->merge_executed(*secondary, split_settings().eyes, split_settings().fovea);
+        tracker->merge_executed(*secondary);
     }
 }
 

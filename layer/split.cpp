@@ -25,8 +25,7 @@ void note_command_buffers(uint32_t count, const VkCommandBuffer *command_buffers
             auto [it, inserted] = g_frames.try_emplace(drawn.image, drawn);
             if (inserted) continue;
             it->second.extent = drawn.extent;
-            for (const VkRect2D &r : drawn.foveae)
-                split::add_fovea(it->second.foveae, r);
+            it->second.coverage |= drawn.coverage;
         }
     }
 }
@@ -52,7 +51,8 @@ SplitFrame take_split_frame(DeviceState &, VkImage image) {
     if (it == g_frames.end()) return frame;
     frame.split = true;
     frame.periphery = split::scaled_extent(it->second.extent, split_settings().scale);
-    frame.foveae = std::move(it->second.foveae);
+    // The whole frame's coverage decides its foveae (split::frame_foveae), as the agent's does.
+    frame.foveae = it->second.foveae(split_settings().eyes, split_settings().fovea);
     g_frames.erase(it);
     return frame;
 }

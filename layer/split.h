@@ -27,8 +27,8 @@ struct SplitFrame {
 
 // What the submits since the last call rendered into swapchain image `image`: whether a split pass
 // drew into it, the scaled periphery extent, and the fovea rects (full-resolution image coordinates,
-// sorted by x then y: the agent's take_drawn_foveae order) of the eyes the split passes drew. Clears
-// the image's record.
+// sorted by x then y: the agent's take_drawn_foveae order) that split::frame_foveae gives for what
+// the split passes drew. Clears the image's record.
 SplitFrame take_split_frame(DeviceState &device, VkImage image);
 
 // Whether the layer rewrites split passes on this device: it has a session whose agent accepted the

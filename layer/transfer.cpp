@@ -66,8 +66,7 @@ VkRect2D rect_of(VkOffset3D o, VkExtent3D e) {
 void note_swapchain_write(VkCommandBuffer cb, const Side &dst, const VkRect2D &region) {
     split::CommandTracker *tracker = split_tracker(cb);
     if (!tracker) return;
-    tracker->note_transfer(codec::handle_value(dst.image), dst.extent, region, split_settings().eyes,
-                           split_settings().fovea);
+    tracker->note_transfer(codec::handle_value(dst.image), dst.extent, region);
 }
 
 // Copies and resolves: one extent for both sides. Returns false when the command goes down as

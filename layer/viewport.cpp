@@ -21,9 +21,9 @@ void set_viewports(DeviceState &dev, VkCommandBuffer cb, uint32_t first, uint32_
     if (!tracker) return down(viewports);
     tracker->set_viewports(first, count, viewports, with_count);
     if (tracker->static_viewports()) return;
-    if (tracker->secondary()) tracker->note_foveae(split_settings().eyes, split_settings().fovea);
+    if (tracker->secondary()) tracker->note_foveae();
     if (!tracker->in_split()) return down(viewports);
-    tracker->note_foveae(split_settings().eyes, split_settings().fovea);
+    tracker->note_foveae();
     std::vector<VkViewport> scaled(viewports, viewports + count);
     for (VkViewport &v : scaled)
         v = split::scale_viewport(v, split_settings().scale);

@@ -62,26 +62,63 @@ VkRect2D intersect(const VkRect2D &a, const VkRect2D &b) {
             {static_cast<uint32_t>(x1 - x0), static_cast<uint32_t>(y1 - y0)}};
 }
 
-VkRect2D eye_for_viewport(const VkViewport &viewport, VkExtent2D image, EyeMode mode) {
-    const VkRect2D whole{{0, 0}, image};
+namespace {
+
+// Apps compute per-eye viewports in float; allow them a pixel of rounding either way.
+constexpr double kSlack = 1.0;
+
+bool near(double a, double b) {
+    return std::abs(a - b) <= kSlack;
+}
+
+// The bounding box of `a` and `b`; an empty `a` gives `b`.
+VkRect2D bounding_box(const VkRect2D &a, const VkRect2D &b) {
+    if (a.extent.width == 0 || a.extent.height == 0) return b;
+    const int64_t x0 = std::min(a.offset.x, b.offset.x), y0 = std::min(a.offset.y, b.offset.y);
+    const int64_t x1 = std::max(int64_t{a.offset.x} + a.extent.width, int64_t{b.offset.x} + b.extent.width);
+    const int64_t y1 = std::max(int64_t{a.offset.y} + a.extent.height, int64_t{b.offset.y} + b.extent.height);
+    return {{static_cast<int32_t>(x0), static_cast<int32_t>(y0)},
+            {static_cast<uint32_t>(x1 - x0), static_cast<uint32_t>(y1 - y0)}};
+}
+
+} // namespace
+
+EyeCoverage &EyeCoverage::operator|=(const EyeCoverage &other) {
+    left |= other.left;
+    right |= other.right;
+    left_eye |= other.left_eye;
+    right_eye |= other.right_eye;
+    return *this;
+}
+
+VkRect2D left_eye(VkExtent2D image) {
+    return {{0, 0}, {image.width / 2, image.height}};
+}
+
+VkRect2D right_eye(VkExtent2D image) {
     const uint32_t half = image.width / 2;
-    const VkRect2D left{{0, 0}, {half, image.height}};
-    const VkRect2D right{{static_cast<int32_t>(half), 0}, {image.width - half, image.height}};
+    return {{static_cast<int32_t>(half), 0}, {image.width - half, image.height}};
+}
+
+EyeCoverage viewport_coverage(const VkViewport &viewport, VkExtent2D image) {
+    const double half = image.width / 2, width = image.width;
     const double x0 = viewport.x, x1 = static_cast<double>(viewport.x) + viewport.width;
-    switch (mode) {
-    case EyeMode::One:
-        return whole;
-    case EyeMode::Two:
-        return (x0 + x1) / 2.0 < half ? left : right;
-    case EyeMode::Auto:
-        break;
+    // A viewport's height may be negative (a flipped y axis): its rows are those between y and y+h.
+    const double ya = viewport.y, yb = static_cast<double>(viewport.y) + viewport.height;
+    const double y0 = std::min(ya, yb), y1 = std::max(ya, yb);
+    EyeCoverage c;
+    c.left = std::min(x1, half) - std::max(x0, 0.0) > kSlack;
+    c.right = std::min(x1, width) - std::max(x0, half) > kSlack;
+    if (!c.left && !c.right) {
+        if ((x0 + x1) / 2.0 < half)
+            c.left = true;
+        else
+            c.right = true;
     }
-    // Apps compute per-eye viewports in float; allow them a pixel of rounding either way.
-    constexpr double kSlack = 1.0;
-    if (half == 0) return whole;
-    if (x0 >= -kSlack && x1 <= half + kSlack) return left;
-    if (x0 >= half - kSlack && x1 <= image.width + kSlack) return right;
-    return whole;
+    const bool full_height = near(y0, 0.0) && near(y1, image.height);
+    c.left_eye = half > 0 && full_height && near(x0, 0.0) && near(x1, half);
+    c.right_eye = half > 0 && full_height && near(x0, half) && near(x1, width);
+    return c;
 }
 
 VkRect2D fovea_of_eye(const VkRect2D &eye, const FoveaSize &fovea) {
@@ -92,9 +129,48 @@ VkRect2D fovea_of_eye(const VkRect2D &eye, const FoveaSize &fovea) {
             {fw, fh}};
 }
 
-VkRect2D fovea_for_viewport(const VkViewport &viewport, VkExtent2D image, EyeMode mode,
-                            const FoveaSize &fovea) {
-    return fovea_of_eye(eye_for_viewport(viewport, image, mode), fovea);
+std::vector<VkRect2D> frame_foveae(const EyeCoverage &drawn, VkExtent2D image, EyeMode mode,
+                                   const FoveaSize &fovea) {
+    std::vector<VkRect2D> foveae;
+    if (!drawn.any()) return foveae;
+    // An image one pixel wide has no left half: its one eye is the whole image.
+    const bool two =
+        image.width >= 2 && (mode == EyeMode::Two || (mode == EyeMode::Auto && drawn.stereo_pair()));
+    if (!two) {
+        foveae.push_back(fovea_of_eye({{0, 0}, image}, fovea));
+        return foveae;
+    }
+    if (drawn.left) add_fovea(foveae, fovea_of_eye(left_eye(image), fovea));
+    if (drawn.right) add_fovea(foveae, fovea_of_eye(right_eye(image), fovea));
+    return foveae;
+}
+
+VkRect2D fovea_scissor(const VkViewport &viewport, VkExtent2D image, EyeMode mode, const FoveaSize &fovea) {
+    const EyeCoverage c = viewport_coverage(viewport, image);
+    VkRect2D box{};
+    if (mode != EyeMode::Two || image.width < 2) box = fovea_of_eye({{0, 0}, image}, fovea);
+    if (mode == EyeMode::One) return box;
+    for (const VkRect2D &f : frame_foveae(c, image, EyeMode::Two, fovea))
+        box = bounding_box(box, f);
+    return box;
+}
+
+VkRect2D fovea_at_view_direction(const VkRect2D &eye, const FieldOfView &fov, const FoveaSize &fovea) {
+    const VkRect2D centred = fovea_of_eye(eye, fovea);
+    const double l = std::tan(fov.angle_left), r = std::tan(fov.angle_right);
+    const double u = std::tan(fov.angle_up), d = std::tan(fov.angle_down);
+    if (!std::isfinite(l) || !std::isfinite(r) || !std::isfinite(u) || !std::isfinite(d) || !(r > l) ||
+        !(u > d))
+        return centred;
+    const double cx = (0.0 - l) / (r - l) * eye.extent.width;
+    const double cy = (u - 0.0) / (u - d) * eye.extent.height;
+    const uint32_t fw = centred.extent.width, fh = centred.extent.height;
+    // Rounded down as fovea_of_eye rounds, with its tolerance for noise far below a pixel.
+    const double x = std::floor(cx - fw / 2.0 + kEpsilon), y = std::floor(cy - fh / 2.0 + kEpsilon);
+    const double max_x = eye.extent.width - fw, max_y = eye.extent.height - fh;
+    return {{eye.offset.x + static_cast<int32_t>(std::clamp(x, 0.0, max_x)),
+             eye.offset.y + static_cast<int32_t>(std::clamp(y, 0.0, max_y))},
+            {fw, fh}};
 }
 
 void add_fovea(std::vector<VkRect2D> &foveae, const VkRect2D &rect) {

@@ -28,17 +28,73 @@ VkRect2D scale_rect(const VkRect2D &rect, double scale, VkExtent2D scaled);
 // The intersection of two rectangles; when empty, a zero-extent rectangle at a's clamped offset.
 VkRect2D intersect(const VkRect2D &a, const VkRect2D &b);
 
-// The eye a viewport draws (a rectangle of the image): EyeMode::One: the whole image. Two: the
-// half (W/2 wide, the right one W - W/2) holding the viewport's centre. Auto: the left or right
-// half when the viewport lies within it (1 px of rounding allowed), otherwise the whole image.
-VkRect2D eye_for_viewport(const VkViewport &viewport, VkExtent2D image, EyeMode mode);
+// Which halves of a side-by-side image a viewport (or a transfer's region, as a viewport of that
+// rectangle) draws, as the foveae see it. A frame's coverage is the union over every viewport its
+// split passes drew with; its foveae follow from that and SPLITVK_EYES only once the frame is
+// complete (frame_foveae), so that a viewport drawn early cannot decide alone whether the frame is
+// a stereo pair.
+struct EyeCoverage {
+    bool left = false;  // draws into the left half (W/2 wide), more than a pixel of it
+    bool right = false; // draws into the right half (W - W/2 wide), more than a pixel of it
+    // Is that half (a pixel of rounding allowed on every side, the whole height): one eye of a
+    // stereo pair.
+    bool left_eye = false;
+    bool right_eye = false;
+
+    bool any() const { return left || right; }
+    bool stereo_pair() const { return left_eye && right_eye; }
+    EyeCoverage &operator|=(const EyeCoverage &other);
+};
+
+// A viewport's coverage. One that draws into neither half by more than a pixel (a sliver, or one
+// outside the image) counts for the half holding its centre.
+EyeCoverage viewport_coverage(const VkViewport &viewport, VkExtent2D image);
+
+// The left and right eyes of a side-by-side image: the left W/2 wide, the right W - W/2.
+VkRect2D left_eye(VkExtent2D image);
+VkRect2D right_eye(VkExtent2D image);
 
 // The fovea of an eye: FoveaSize::pixels_for_eye, centred in the eye (rounded down).
 VkRect2D fovea_of_eye(const VkRect2D &eye, const FoveaSize &fovea);
 
-// eye_for_viewport, then fovea_of_eye.
-VkRect2D fovea_for_viewport(const VkViewport &viewport, VkExtent2D image, EyeMode mode,
-                            const FoveaSize &fovea);
+// The foveae of a frame whose split passes drew `drawn` into `image` (sorted by x, as add_fovea
+// keeps them; none when nothing was drawn). DESIGN §4, §9:
+// - EyeMode::One: the fovea of the whole image, centred.
+// - Two: the fovea of each half drawn into. A stereo frame has two foveae wherever its last pass
+//   draws: a full-screen pass (tone mapping, a multiview compose) gives both.
+// - Auto: as Two when the frame's viewports include a stereo pair (one that is the left half and
+//   one that is the right half), otherwise as One: a mono frame's fovea belongs at the centre of
+//   the screen, however many panels it draws side by side.
+std::vector<VkRect2D> frame_foveae(const EyeCoverage &drawn, VkExtent2D image, EyeMode mode,
+                                   const FoveaSize &fovea);
+
+// The rectangle the agent cuts a viewport's scissors to in a pass into the swapchain image: the
+// bounding box of every fovea the viewport's draws can end up in, whatever else the frame draws.
+// One: the centred fovea. Two: the foveae of the halves it draws into (both, for a full-screen
+// viewport). Auto: those and the centred fovea, since the frame may or may not turn out to be a
+// stereo pair (set SPLITVK_EYES to shade less). Both sides composite only frame_foveae, which
+// always lies within the scissors of the viewports that drew it.
+VkRect2D fovea_scissor(const VkViewport &viewport, VkExtent2D image, EyeMode mode, const FoveaSize &fovea);
+
+// An eye's field of view as OpenXR gives it (XrFovf): the angles of the image's edges from the
+// view direction, in radians, within (-pi/2, pi/2); left and down are negative.
+struct FieldOfView {
+    double angle_left = 0;
+    double angle_right = 0;
+    double angle_up = 0;
+    double angle_down = 0;
+};
+
+// The fovea of an eye (FoveaSize::pixels_for_eye of `eye`) centred on the projection of the view
+// direction (DESIGN §9: an asymmetric field of view moves it off the image's centre). On the image
+// plane the edges lie at tan(angle); the view direction, at tan(0) = 0, lands at
+//   x = (0 - tan(angleLeft)) / (tan(angleRight) - tan(angleLeft)) of the eye's width, and
+//   y = (tan(angleUp) - 0) / (tan(angleUp) - tan(angleDown)) of its height (image y grows downward).
+// The fovea's offset is that centre less half its size, rounded down (a symmetric field of view
+// gives fovea_of_eye's rectangle), then clamped so that the fovea stays inside the eye. A field of
+// view that spans nothing (right <= left, up <= down, or not finite) gives fovea_of_eye's.
+// Not used yet: the OpenXR layer places each eye's fovea with it.
+VkRect2D fovea_at_view_direction(const VkRect2D &eye, const FieldOfView &fov, const FoveaSize &fovea);
 
 // Adds `rect` to a set of foveae kept sorted by x, then y, without duplicates: the order both
 // sides report them in.

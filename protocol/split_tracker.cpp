@@ -15,9 +15,12 @@ void merge_drawn(std::vector<DrawnImage> &into, const std::vector<DrawnImage> &f
             continue;
         }
         it->extent = d.extent;
-        for (const VkRect2D &r : d.foveae)
-            add_fovea(it->foveae, r);
+        it->coverage |= d.coverage;
     }
+}
+
+std::vector<VkRect2D> DrawnImage::foveae(EyeMode mode, const FoveaSize &fovea) const {
+    return frame_foveae(coverage, extent, mode, fovea);
 }
 
 void CommandTracker::bind_pipeline(std::shared_ptr<const StaticViewportState> state) {
@@ -58,16 +61,16 @@ DrawnImage &CommandTracker::drawn_entry(uint64_t image, VkExtent2D extent) {
     return *it;
 }
 
-void CommandTracker::merge_executed(const CommandTracker &secondary, EyeMode mode, const FoveaSize &fovea) {
+void CommandTracker::merge_executed(const CommandTracker &secondary) {
     merge_drawn(drawn_, secondary.drawn_);
     if (!in_split_ || !swapchain_) return;
     DrawnImage &entry = drawn_entry(image_, extent_);
     for (const VkViewport &v : secondary.secondary_viewports_)
-        add_fovea(entry.foveae, fovea_for_viewport(v, extent_, mode, fovea));
+        entry.coverage |= viewport_coverage(v, extent_);
     noted_in_pass_ = true;
 }
 
-void CommandTracker::note_foveae(EyeMode mode, const FoveaSize &fovea) {
+void CommandTracker::note_foveae() {
     if (secondary_) {
         for (size_t i = 0; i < viewport_count(); ++i)
             if (const VkViewport *v = viewport(i)) {
@@ -82,30 +85,19 @@ void CommandTracker::note_foveae(EyeMode mode, const FoveaSize &fovea) {
     if (!in_split_ || !swapchain_) return;
     DrawnImage &entry = drawn_entry(image_, extent_);
     for (size_t i = 0; i < viewport_count(); ++i)
-        if (const VkViewport *v = viewport(i))
-            add_fovea(entry.foveae, fovea_for_viewport(*v, extent_, mode, fovea));
+        if (const VkViewport *v = viewport(i)) entry.coverage |= viewport_coverage(*v, extent_);
     noted_in_pass_ = true;
 }
 
-void CommandTracker::note_transfer(uint64_t image, VkExtent2D extent, const VkRect2D &region, EyeMode mode,
-                                   const FoveaSize &fovea) {
+void CommandTracker::note_transfer(uint64_t image, VkExtent2D extent, const VkRect2D &region) {
     if (region.extent.width == 0 || region.extent.height == 0) return;
-    DrawnImage &entry = drawn_entry(image, extent);
     const VkViewport as_viewport{static_cast<float>(region.offset.x),
                                  static_cast<float>(region.offset.y),
                                  static_cast<float>(region.extent.width),
                                  static_cast<float>(region.extent.height),
                                  0.f,
                                  1.f};
-    if (mode != EyeMode::Two) {
-        add_fovea(entry.foveae, fovea_for_viewport(as_viewport, extent, mode, fovea));
-        return;
-    }
-    const uint32_t half = extent.width / 2;
-    const VkRect2D eyes[] = {{{0, 0}, {half, extent.height}},
-                             {{static_cast<int32_t>(half), 0}, {extent.width - half, extent.height}}};
-    for (const VkRect2D &eye : eyes)
-        if (intersect(eye, region).extent.width > 0) add_fovea(entry.foveae, fovea_of_eye(eye, fovea));
+    drawn_entry(image, extent).coverage |= viewport_coverage(as_viewport, extent);
 }
 
 void PassPredictions::note_begin(uint64_t render_pass, const PassPrediction &prediction) {

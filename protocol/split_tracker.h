@@ -11,6 +11,7 @@
 // can re-emit the state in effect whenever a split pass begins or ends or the pipeline changes.
 
 #include "settings.h"
+#include "split_geometry.h"
 
 #include <vulkan/vulkan.h>
 
@@ -34,14 +35,17 @@ struct StaticViewportState {
 };
 
 // A swapchain image drawn by split passes: the image (client id or handle value), its full
-// extent, and the foveae (full-resolution, sorted by x then y) of the viewports in effect.
+// extent, and which of its halves the viewports in effect drew (split_geometry.h). The foveae follow
+// from the whole frame's coverage (split::frame_foveae), taken at present on both sides.
 struct DrawnImage {
     uint64_t image = 0;
     VkExtent2D extent{};
-    std::vector<VkRect2D> foveae;
+    EyeCoverage coverage;
+
+    std::vector<VkRect2D> foveae(EyeMode mode, const FoveaSize &fovea) const;
 };
 
-// Unions `from` into `into` (one entry per image).
+// Unions `from` into `into` (one entry per image; the coverages are joined).
 void merge_drawn(std::vector<DrawnImage> &into, const std::vector<DrawnImage> &from);
 
 template <class T>
@@ -102,8 +106,8 @@ public:
     // noted now. They are not noted at the pass's begin, because a pass that sets its own before
     // drawing never draws the inherited ones, and a fovea noted but never shaded would be
     // composited from pixels the agent left out (atrium --path hdr: the last bloom pass's viewport).
-    void end_split(EyeMode mode, const FoveaSize &fovea) {
-        if (in_split_ && !noted_in_pass_) note_foveae(mode, fovea);
+    void end_split() {
+        if (in_split_ && !noted_in_pass_) note_foveae();
         in_split_ = false;
         swapchain_ = false;
     }
@@ -122,25 +126,23 @@ public:
     const VkRect2D *scissor(size_t i) const;
     size_t scissor_count() const;
 
-    // Inside a split pass: adds the fovea of every viewport in effect to the pass's image record.
+    // Inside a split pass: adds the coverage of every viewport in effect to the pass's image record.
     // Called whenever the pass changes the viewports in effect (viewport set, pipeline bind), and
     // at the pass's end when it changed none (end_split).
-    void note_foveae(EyeMode mode, const FoveaSize &fovea);
+    void note_foveae();
     // A copy or blit into swapchain image `image` (of `extent`) wrote `region`: it counts as drawing
-    // there (issue 11), with the fovea of each eye the region covers (as a viewport of that
-    // rectangle would have; EyeMode::Two: every half it touches).
-    void note_transfer(uint64_t image, VkExtent2D extent, const VkRect2D &region, EyeMode mode,
-                       const FoveaSize &fovea);
+    // there (issue 11), covering what a viewport of that rectangle would.
+    void note_transfer(uint64_t image, VkExtent2D extent, const VkRect2D &region);
     // Secondary command buffers (issue 11, item 4). A secondary that continues a render pass
     // (RENDER_PASS_CONTINUE) does not know the image it will draw into, so it keeps the viewports it
-    // draws with as recorded; they become foveae when a primary executes it inside a split pass into
-    // a swapchain image, from that image's extent. Both sides do this, so they agree on the foveae.
+    // draws with as recorded; they count as drawn when a primary executes it inside a split pass
+    // into a swapchain image, from that image's extent. Both sides do this, so they agree on the foveae.
     void begin_secondary() { secondary_ = true; }
     bool secondary() const { return secondary_; }
     // A primary's pass whose contents come from secondaries: it draws nothing with its own viewports.
     void contents_in_secondaries() { noted_in_pass_ = true; }
     // vkCmdExecuteCommands: what the executed secondary drew counts for this command buffer.
-    void merge_executed(const CommandTracker &secondary, EyeMode mode, const FoveaSize &fovea);
+    void merge_executed(const CommandTracker &secondary);
     const std::vector<DrawnImage> &drawn() const { return drawn_; }
 
     // The descriptor sets bound at the compute bind point, by set number (vkCmdBindDescriptorSets):

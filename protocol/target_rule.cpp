@@ -59,7 +59,7 @@ TargetClass classify_target(const VkImageCreateInfo &info, VkExtent2D screen, Ey
     const char *of = "the swapchain's extent";
     bool found = halved(e, screen, &c.divisor);
     if (!found && eyes != EyeMode::One) {
-        // eye_for_viewport's eyes: the left one W/2 wide, the right one W - W/2.
+        // split::left_eye and right_eye: the left one W/2 wide, the right one W - W/2.
         const VkExtent2D left{screen.width / 2, screen.height},
             right{screen.width - screen.width / 2, screen.height};
         found = halved(e, left, &c.divisor) || halved(e, right, &c.divisor);

@@ -10,7 +10,8 @@ namespace splitvk::agent {
 std::vector<VkRect2D> FoveaShading::take_drawn_foveae(uint64_t image_id) {
     const auto it = drawn_.find(image_id);
     if (it == drawn_.end()) return {};
-    std::vector<VkRect2D> foveae = std::move(it->second);
+    // The whole frame's coverage decides its foveae (split::frame_foveae), as the client's does.
+    std::vector<VkRect2D> foveae = it->second.foveae(eyes_, fovea_);
     drawn_.erase(it);
     return foveae;
 }
@@ -94,7 +95,7 @@ void FoveaShading::transfer_into(VkCommandBuffer cb, VkImage image, uint32_t cou
     VkExtent2D extent{};
     if (!t || !swapchains_.find_image(image, &image_id, &extent)) return;
     for (uint32_t i = 0; i < count; ++i)
-        t->note_transfer(image_id, extent, rects[i], eyes_, fovea_);
+        t->note_transfer(image_id, extent, rects[i]);
 }
 
 void FoveaShading::execute_commands(VkCommandBuffer cb, uint32_t count, const VkCommandBuffer *secondaries) {
@@ -102,7 +103,7 @@ void FoveaShading::execute_commands(VkCommandBuffer cb, uint32_t count, const Vk
     if (!t) return;
     for (uint32_t i = 0; i < count; ++i) {
         const auto it = command_buffers_.find(secondaries[i]);
-        if (it != command_buffers_.end()) t->merge_executed(it->second, eyes_, fovea_);
+        if (it != command_buffers_.end()) t->merge_executed(it->second);
     }
 }
 
@@ -115,7 +116,7 @@ void FoveaShading::bind_pipeline(VkCommandBuffer cb, VkPipelineBindPoint bind_po
     // The client notes foveae on the same condition (layer/pipeline.cpp), so both sides agree.
     const bool viewports_changed = had_viewports || t->static_viewports();
     if (had_scissors || t->static_scissors() || (t->in_split() && viewports_changed)) emit_scissors(cb, *t);
-    if (viewports_changed) t->note_foveae(eyes_, fovea_);
+    if (viewports_changed) t->note_foveae();
 }
 
 void FoveaShading::set_viewports(VkCommandBuffer cb, uint32_t first, uint32_t count,
@@ -123,9 +124,9 @@ void FoveaShading::set_viewports(VkCommandBuffer cb, uint32_t first, uint32_t co
     split::CommandTracker *t = tracker(cb);
     if (!t) return;
     t->set_viewports(first, count, viewports, with_count);
-    if (!t->static_viewports() && t->secondary()) t->note_foveae(eyes_, fovea_);
+    if (!t->static_viewports() && t->secondary()) t->note_foveae();
     if (t->static_viewports() || !t->in_split()) return;
-    t->note_foveae(eyes_, fovea_);
+    t->note_foveae();
     emit_scissors(cb, *t);
 }
 
@@ -165,7 +166,7 @@ bool FoveaShading::guard_rect(const std::vector<VkImageView> &views, VkExtent2D 
         const uint32_t shift = std::min(v->second.mip, 31u);
         const int64_t divisor = int64_t{target.kind.divisor} << shift;
         const VkExtent2D s = target.screen;
-        // Every place a fovea can be (split::eye_for_viewport's eyes) in the screen; an eye-sized
+        // Every place a fovea can be (split::frame_foveae's) in the screen; an eye-sized
         // target (a layer of an eye texture) holds either eye, so what of them lies in each eye,
         // in that eye's coordinates (a centred fovea straddles both eyes).
         const uint32_t left = s.width / 2;
@@ -307,7 +308,7 @@ void FoveaShading::begin_rendering(VkCommandBuffer cb, const VkRenderingInfo &in
 void FoveaShading::end_pass(VkCommandBuffer cb) {
     split::CommandTracker *t = tracker(cb);
     if (!t || !t->in_split()) return;
-    t->end_split(eyes_, fovea_);
+    t->end_split();
     emit_scissors(cb, *t);
 }
 
@@ -318,7 +319,7 @@ void FoveaShading::emit_scissors(VkCommandBuffer cb, const split::CommandTracker
         if (guard != guard_rects_.end()) return split::intersect(r, guard->second);
         const VkViewport *v = t.viewport(i);
         // Without viewport i the eye is unknown; the scissor is narrowed once the viewport is set.
-        return v ? split::intersect(r, split::fovea_for_viewport(*v, t.extent(), eyes_, fovea_)) : r;
+        return v ? split::intersect(r, split::fovea_scissor(*v, t.extent(), eyes_, fovea_)) : r;
     };
     std::vector<VkRect2D> values;
     if (t.static_scissors()) {
@@ -355,9 +356,10 @@ void FoveaShading::submitted(uint32_t count, const VkCommandBuffer *command_buff
         const auto it = command_buffers_.find(command_buffers[i]);
         if (it == command_buffers_.end()) continue;
         for (const split::DrawnImage &d : it->second.drawn()) {
-            auto &foveae = drawn_[d.image];
-            for (const VkRect2D &r : d.foveae)
-                split::add_fovea(foveae, r);
+            split::DrawnImage &entry = drawn_[d.image];
+            entry.image = d.image;
+            entry.extent = d.extent;
+            entry.coverage |= d.coverage;
         }
     }
 }

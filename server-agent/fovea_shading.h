@@ -2,10 +2,11 @@
 
 // The agent half of the image-space split (DESIGN §4, issue 4): in split passes (render passes or
 // dynamic renderings that draw into a swapchain image) the agent keeps the app's full-resolution
-// viewports and intersects every scissor with the fovea of the eye its viewport belongs to
-// (scissor i pairs with viewport i), so that only foveal pixels are shaded. The foveae come from
-// protocol/split_geometry.h and the viewports in effect from protocol/split_tracker.h, exactly as
-// on the client, so both sides report the same fovea rects for a frame.
+// viewports and intersects every scissor with split::fovea_scissor of its viewport (scissor i pairs
+// with viewport i): every fovea that viewport's draws can end up in, so that only foveal pixels
+// are shaded. The frame's foveae come from protocol/split_geometry.h (split::frame_foveae, once
+// the frame is presented) and the viewports in effect from protocol/split_tracker.h, exactly as on
+// the client, so both sides report the same fovea rects for a frame.
 //
 // The derived scissors are re-emitted whenever a viewport, a scissor or a pipeline with static
 // state changes inside a split pass, and the app's own scissors when the pass ends (dynamic state
@@ -56,9 +57,10 @@ public:
     void set_enabled(bool enabled) { enabled_ = enabled; }
     bool enabled() const { return enabled_; }
 
-    // The fovea rects drawn into swapchain image `image_id` (client id) by split passes in the submits
-    // replayed since the last call (union of eyes; full-resolution coordinates, sorted by x then y,
-    // as the client's take_split_frame reports them). Clears the record.
+    // The fovea rects of what split passes drew into swapchain image `image_id` (client id) in the
+    // submits replayed since the last call (split::frame_foveae of their coverage; full-resolution
+    // coordinates, sorted by x then y, as the client's take_split_frame reports them). Clears the
+    // record.
     std::vector<VkRect2D> take_drawn_foveae(uint64_t image_id);
 
     // Object tracking (after the driver call; destroys before it).
@@ -126,7 +128,7 @@ private:
     std::unordered_map<VkFramebuffer, std::vector<VkImageView>> framebuffers_;
     std::unordered_map<VkPipeline, std::shared_ptr<const split::StaticViewportState>> pipelines_;
     std::unordered_map<VkCommandBuffer, split::CommandTracker> command_buffers_;
-    std::unordered_map<uint64_t, std::vector<VkRect2D>> drawn_; // client image id -> foveae
+    std::unordered_map<uint64_t, split::DrawnImage> drawn_; // client image id -> what was drawn
     // prepare_pipelines' output
     std::vector<std::shared_ptr<split::StaticViewportState>> pending_;
     std::vector<VkGraphicsPipelineCreateInfo> infos_;

@@ -4,6 +4,8 @@
 #include "split_geometry.h"
 #include "split_tracker.h"
 
+#include <cmath>
+
 #include <gtest/gtest.h>
 
 namespace splitvk::split {
@@ -62,41 +64,191 @@ TEST(SplitGeometry, Intersection) {
     EXPECT_GE(empty.offset.x, 0);
 }
 
-TEST(SplitGeometry, EyeAssignment) {
+TEST(SplitGeometry, EyeCoverage) {
     const VkExtent2D image{2400, 1080};
     const VkViewport left{0.f, 0.f, 1200.f, 1080.f, 0.f, 1.f};
     const VkViewport right{1200.f, 0.f, 1200.f, 1080.f, 0.f, 1.f};
     const VkViewport whole{0.f, 0.f, 2400.f, 1080.f, 0.f, 1.f};
     const VkViewport sloppy{-0.5f, 0.f, 1200.8f, 1080.f, 0.f, 1.f}; // within a pixel of the left half
-    EXPECT_RECT(eye_for_viewport(left, image, EyeMode::Auto), 0, 0, 1200u, 1080u);
-    EXPECT_RECT(eye_for_viewport(right, image, EyeMode::Auto), 1200, 0, 1200u, 1080u);
-    EXPECT_RECT(eye_for_viewport(whole, image, EyeMode::Auto), 0, 0, 2400u, 1080u);
-    EXPECT_RECT(eye_for_viewport(sloppy, image, EyeMode::Auto), 0, 0, 1200u, 1080u);
-    EXPECT_RECT(eye_for_viewport(left, image, EyeMode::One), 0, 0, 2400u, 1080u);
-    // Two: the half holding the centre, even for a viewport spanning both.
-    EXPECT_RECT(eye_for_viewport(whole, image, EyeMode::Two), 1200, 0, 1200u, 1080u);
-    EXPECT_RECT(eye_for_viewport({100.f, 0.f, 1500.f, 10.f, 0.f, 1.f}, image, EyeMode::Two), 0, 0, 1200u,
-                1080u);
+    const VkViewport flipped{1200.f, 1080.f, 1200.f, -1080.f, 0.f, 1.f};
+    EyeCoverage c = viewport_coverage(left, image);
+    EXPECT_TRUE(c.left && c.left_eye);
+    EXPECT_FALSE(c.right || c.right_eye);
+    c = viewport_coverage(right, image);
+    EXPECT_TRUE(c.right && c.right_eye);
+    EXPECT_FALSE(c.left || c.left_eye);
+    c = viewport_coverage(whole, image);
+    EXPECT_TRUE(c.left && c.right);          // draws into both halves...
+    EXPECT_FALSE(c.left_eye || c.right_eye); // ...but is neither eye
+    c = viewport_coverage(sloppy, image);
+    EXPECT_TRUE(c.left && c.left_eye);
+    EXPECT_FALSE(c.right) << "0.3 px past the centre is rounding, not drawing";
+    c = viewport_coverage(flipped, image);
+    EXPECT_TRUE(c.right && c.right_eye) << "a negative height spans the same rows";
+    // Not the whole height: a quadrant is no eye.
+    EXPECT_FALSE(viewport_coverage({0.f, 0.f, 1200.f, 540.f, 0.f, 1.f}, image).left_eye);
+    // A sliver counts for the half holding its centre.
+    c = viewport_coverage({1800.f, 0.f, 0.5f, 10.f, 0.f, 1.f}, image);
+    EXPECT_TRUE(c.right);
+    EXPECT_FALSE(c.left);
     // An odd width: the right eye takes the extra column.
-    EXPECT_RECT(eye_for_viewport({601.f, 0.f, 600.f, 10.f, 0.f, 1.f}, {1201, 540}, EyeMode::Auto), 600, 0,
-                601u, 540u);
+    EXPECT_TRUE(viewport_coverage({600.f, 0.f, 601.f, 540.f, 0.f, 1.f}, {1201, 540}).right_eye);
+    EXPECT_RECT(right_eye({1201, 540}), 600, 0, 601u, 540u);
+    EXPECT_RECT(left_eye({1201, 540}), 0, 0, 600u, 540u);
 }
 
 TEST(SplitGeometry, DefaultFoveaIsThePapers) {
     const FoveaSize fovea; // 512x360 of a 1200x1080 eye
     const VkExtent2D image{2400, 1080};
-    EXPECT_RECT(fovea_for_viewport({0.f, 0.f, 1200.f, 1080.f, 0.f, 1.f}, image, EyeMode::Auto, fovea), 344,
-                360, 512u, 360u);
-    EXPECT_RECT(fovea_for_viewport({1200.f, 0.f, 1200.f, 1080.f, 0.f, 1.f}, image, EyeMode::Auto, fovea),
-                1544, 360, 512u, 360u);
+    EXPECT_RECT(fovea_of_eye(left_eye(image), fovea), 344, 360, 512u, 360u);
+    EXPECT_RECT(fovea_of_eye(right_eye(image), fovea), 1544, 360, 512u, 360u);
     // One eye of the whole image: the same fractions of 2400x1080.
-    EXPECT_RECT(fovea_for_viewport({0.f, 0.f, 2400.f, 1080.f, 0.f, 1.f}, image, EyeMode::Auto, fovea), 688,
-                360, 1024u, 360u);
+    EXPECT_RECT(fovea_of_eye({{0, 0}, image}, fovea), 688, 360, 1024u, 360u);
     FoveaSize pixels;
     pixels.fractional = false;
     pixels.width = 5000;
     pixels.height = 100;
     EXPECT_RECT(fovea_of_eye({{1200, 0}, {1200, 1080}}, pixels), 1200, 490, 1200u, 100u);
+}
+
+// The frame's foveae from everything it drew (issue 18 item 3, issue 19 item 4).
+std::vector<VkRect2D> foveae_of(std::initializer_list<VkViewport> viewports, EyeMode mode,
+                                VkExtent2D image = {2400, 1080}) {
+    EyeCoverage drawn;
+    for (const VkViewport &v : viewports)
+        drawn |= viewport_coverage(v, image);
+    return frame_foveae(drawn, image, mode, FoveaSize{});
+}
+
+TEST(SplitGeometry, StereoFramesHaveBothFoveaeWhereverTheirLastPassDraws) {
+    const VkViewport whole{0.f, 0.f, 2400.f, 1080.f, 0.f, 1.f};
+    const VkViewport left{0.f, 0.f, 1200.f, 1080.f, 0.f, 1.f}, right{1200.f, 0.f, 1200.f, 1080.f, 0.f, 1.f};
+    // SPLITVK_EYES=2, a full-screen last pass (tone mapping, a multiview compose): both eyes.
+    auto f = foveae_of({whole}, EyeMode::Two);
+    ASSERT_EQ(f.size(), 2u);
+    EXPECT_RECT(f[0], 344, 360, 512u, 360u);
+    EXPECT_RECT(f[1], 1544, 360, 512u, 360u);
+    // ...and per-eye viewports give the same two.
+    f = foveae_of({right, left}, EyeMode::Two);
+    ASSERT_EQ(f.size(), 2u);
+    EXPECT_RECT(f[0], 344, 360, 512u, 360u);
+    EXPECT_RECT(f[1], 1544, 360, 512u, 360u);
+    // A frame that drew only one half has only that eye's.
+    f = foveae_of({left}, EyeMode::Two);
+    ASSERT_EQ(f.size(), 1u);
+    EXPECT_RECT(f[0], 344, 360, 512u, 360u);
+    // Auto: a stereo pair, then a full-screen overlay: still the eyes' two.
+    f = foveae_of({left, right, whole}, EyeMode::Auto);
+    ASSERT_EQ(f.size(), 2u);
+    EXPECT_RECT(f[1], 1544, 360, 512u, 360u);
+    // One: the centre, whatever was drawn.
+    f = foveae_of({left, right}, EyeMode::One);
+    ASSERT_EQ(f.size(), 1u);
+    EXPECT_RECT(f[0], 688, 360, 1024u, 360u);
+    EXPECT_TRUE(foveae_of({}, EyeMode::Two).empty());
+}
+
+TEST(SplitGeometry, AutoIsStereoOnlyForTwoViewportsThatTileTheImageInHalves) {
+    // Three side-by-side panels (a mono app): none is an eye, so one fovea at the screen's centre,
+    // not one in each half around the middle panel.
+    const VkViewport panels[] = {{0.f, 0.f, 800.f, 1080.f, 0.f, 1.f},
+                                 {800.f, 0.f, 800.f, 1080.f, 0.f, 1.f},
+                                 {1600.f, 0.f, 800.f, 1080.f, 0.f, 1.f}};
+    auto f = foveae_of({panels[0], panels[1], panels[2]}, EyeMode::Auto);
+    ASSERT_EQ(f.size(), 1u);
+    EXPECT_RECT(f[0], 688, 360, 1024u, 360u);
+    // Panels that each lie within a half but do not tile it are no stereo pair either.
+    f = foveae_of({{0.f, 0.f, 1000.f, 1080.f, 0.f, 1.f}, {1300.f, 0.f, 1100.f, 1080.f, 0.f, 1.f}},
+                  EyeMode::Auto);
+    ASSERT_EQ(f.size(), 1u);
+    EXPECT_RECT(f[0], 688, 360, 1024u, 360u);
+    // One eye alone is no pair.
+    f = foveae_of({{1200.f, 0.f, 1200.f, 1080.f, 0.f, 1.f}}, EyeMode::Auto);
+    ASSERT_EQ(f.size(), 1u);
+    EXPECT_RECT(f[0], 688, 360, 1024u, 360u);
+    // Two half viewports (rounded as apps compute them) are: two foveae, one per eye.
+    f = foveae_of({{-0.25f, 0.f, 1200.5f, 1080.f, 0.f, 1.f}, {1200.25f, 0.f, 1199.75f, 1080.f, 0.f, 1.f}},
+                  EyeMode::Auto);
+    ASSERT_EQ(f.size(), 2u);
+    EXPECT_RECT(f[0], 344, 360, 512u, 360u);
+    EXPECT_RECT(f[1], 1544, 360, 512u, 360u);
+    // Four quadrants tile the image but not in halves: mono.
+    EXPECT_EQ(foveae_of({{0.f, 0.f, 1200.f, 540.f, 0.f, 1.f},
+                         {1200.f, 0.f, 1200.f, 540.f, 0.f, 1.f},
+                         {0.f, 540.f, 1200.f, 540.f, 0.f, 1.f},
+                         {1200.f, 540.f, 1200.f, 540.f, 0.f, 1.f}},
+                        EyeMode::Auto)
+                  .size(),
+              1u);
+}
+
+// The agent's scissor for a viewport holds every fovea the frame can give that viewport's pixels.
+TEST(SplitGeometry, FoveaScissorHoldsEveryFoveaAViewportCanDrawInto) {
+    const FoveaSize fovea;
+    const VkExtent2D image{2400, 1080};
+    const VkViewport left{0.f, 0.f, 1200.f, 1080.f, 0.f, 1.f}, whole{0.f, 0.f, 2400.f, 1080.f, 0.f, 1.f};
+    EXPECT_RECT(fovea_scissor(whole, image, EyeMode::One, fovea), 688, 360, 1024u, 360u);
+    EXPECT_RECT(fovea_scissor(left, image, EyeMode::One, fovea), 688, 360, 1024u, 360u);
+    EXPECT_RECT(fovea_scissor(left, image, EyeMode::Two, fovea), 344, 360, 512u, 360u);
+    EXPECT_RECT(fovea_scissor(whole, image, EyeMode::Two, fovea), 344, 360, 1712u, 360u); // both eyes
+    // Auto: the eye's fovea or the centre's, as the rest of the frame decides.
+    EXPECT_RECT(fovea_scissor(left, image, EyeMode::Auto, fovea), 344, 360, 1368u, 360u);
+    EXPECT_RECT(fovea_scissor(whole, image, EyeMode::Auto, fovea), 344, 360, 1712u, 360u);
+    // Whatever the frame draws, its foveae lie within the scissors of the viewports that drew them.
+    const VkViewport viewports[] = {left,
+                                    whole,
+                                    {1200.f, 0.f, 1200.f, 1080.f, 0.f, 1.f},
+                                    {800.f, 0.f, 800.f, 1080.f, 0.f, 1.f},
+                                    {0.f, 0.f, 1000.f, 540.f, 0.f, 1.f}};
+    for (EyeMode mode : {EyeMode::One, EyeMode::Two, EyeMode::Auto})
+        for (const VkViewport &v : viewports) {
+            const EyeCoverage own = viewport_coverage(v, image);
+            for (const EyeCoverage &rest : {EyeCoverage{}, EyeCoverage{true, true, true, true}}) {
+                EyeCoverage drawn = rest;
+                drawn |= own;
+                const VkRect2D scissor = fovea_scissor(v, image, mode, fovea);
+                for (const VkRect2D &f : frame_foveae(drawn, image, mode, fovea)) {
+                    // A fovea the viewport draws into (it overlaps the viewport's columns) is inside.
+                    const VkRect2D columns{{static_cast<int32_t>(v.x), 0},
+                                           {static_cast<uint32_t>(v.width), image.height}};
+                    const VkRect2D drawn_part = intersect(f, columns);
+                    if (drawn_part.extent.width == 0) continue;
+                    EXPECT_TRUE(same(intersect(drawn_part, scissor), drawn_part))
+                        << "mode " << static_cast<int>(mode) << ", viewport at " << v.x << " w " << v.width;
+                }
+            }
+        }
+}
+
+// DESIGN §9: an eye's fovea at the projection of its view direction (for the OpenXR layer).
+TEST(SplitGeometry, FoveaAtTheViewDirection) {
+    const FoveaSize fovea; // 512x360 of a 1200x1080 eye
+    const VkRect2D eye{{1200, 0}, {1200, 1080}};
+    const double a = 0.785398163397448; // 45 degrees
+    // Symmetric: the centred fovea, exactly fovea_of_eye's.
+    EXPECT_RECT(fovea_at_view_direction(eye, {-a, a, a, -a}, fovea), 1544, 360, 512u, 360u);
+    EXPECT_TRUE(same(fovea_at_view_direction({{0, 0}, {1201, 541}}, {-0.6, 0.6, 0.5, -0.5}, fovea),
+                     fovea_of_eye({{0, 0}, {1201, 541}}, fovea)));
+    // Asymmetric, as a headset's inner edge is narrower: left -45, right +26.565 (tan 0.5), so the
+    // view direction is 1 / 1.5 of the width across: x = 800, fovea 800 - 256 = 544 into the eye.
+    // Up +26.565 (tan 0.5), down -45 (tan -1): y = 0.5 / 1.5 of the height from the top = 360,
+    // fovea 360 - 180 = 180.
+    const double t = std::atan(0.5);
+    EXPECT_RECT(fovea_at_view_direction(eye, {-a, t, t, -a}, fovea), 1200 + 544, 180, 512u, 360u);
+    // The mirror image (the other eye): 1200 - 800 - 256 = 144; down the other way: 720 - 180 = 540.
+    EXPECT_RECT(fovea_at_view_direction(eye, {-t, a, a, -t}, fovea), 1200 + 144, 540, 512u, 360u);
+    // Far off centre: clamped so that the fovea stays inside the eye.
+    const double wide = 1.5, narrow = 0.05;
+    EXPECT_RECT(fovea_at_view_direction(eye, {-wide, narrow, narrow, -wide}, fovea), 1200 + 688, 0, 512u,
+                360u);
+    EXPECT_RECT(fovea_at_view_direction(eye, {-narrow, wide, wide, -narrow}, fovea), 1200, 720, 512u, 360u);
+    // A view direction outside the field of view: the same, at the edge.
+    EXPECT_RECT(fovea_at_view_direction(eye, {0.2, 0.6, -0.1, -0.5}, fovea), 1200, 0, 512u, 360u);
+    // Degenerate fields of view: fovea_of_eye's.
+    EXPECT_RECT(fovea_at_view_direction(eye, {0.3, 0.3, a, -a}, fovea), 1544, 360, 512u, 360u);
+    EXPECT_RECT(fovea_at_view_direction(eye, {-a, a, -a, a}, fovea), 1544, 360, 512u, 360u);
+    EXPECT_RECT(fovea_at_view_direction(eye, {-a, std::nan(""), a, -a}, fovea), 1544, 360, 512u, 360u);
+    EXPECT_RECT(fovea_at_view_direction(eye, {}, fovea), 1544, 360, 512u, 360u);
 }
 
 TEST(SplitGeometry, FoveaSetIsSortedAndUnique) {
@@ -127,18 +279,19 @@ const VkExtent2D kImage{2400, 1080};
 TEST(SplitTracker, ViewportsSetBeforeThePassCountOnlyInsideIt) {
     CommandTracker t;
     t.set_viewports(0, 1, &kLeft, false);
-    t.note_foveae(EyeMode::Auto, FoveaSize{}); // outside a split pass: nothing
+    t.note_foveae(); // outside a split pass: nothing
     EXPECT_TRUE(t.drawn().empty());
     // A pass that sets its own viewport before drawing never draws with the one it inherited
     // (atrium --path hdr: the last bloom pass's), so only its own fovea is noted.
     t.begin_split(7, kImage);
     t.set_viewports(0, 1, &kRight, false);
-    t.note_foveae(EyeMode::Auto, FoveaSize{});
-    t.end_split(EyeMode::Auto, FoveaSize{});
+    t.note_foveae();
+    t.end_split();
     ASSERT_EQ(t.drawn().size(), 1u);
     EXPECT_EQ(t.drawn()[0].image, 7u);
-    ASSERT_EQ(t.drawn()[0].foveae.size(), 1u);
-    EXPECT_RECT(t.drawn()[0].foveae[0], 1544, 360, 512u, 360u);
+    const auto foveae = t.drawn()[0].foveae(EyeMode::Two, FoveaSize{});
+    ASSERT_EQ(foveae.size(), 1u);
+    EXPECT_RECT(foveae[0], 1544, 360, 512u, 360u);
 }
 
 TEST(SplitTracker, APassThatSetsNoViewportDrawsWithTheInheritedOne) {
@@ -146,10 +299,11 @@ TEST(SplitTracker, APassThatSetsNoViewportDrawsWithTheInheritedOne) {
     t.set_viewports(0, 1, &kLeft, false);
     t.begin_split(7, kImage);
     EXPECT_TRUE(t.drawn().empty()) << "nothing is noted at the pass's begin";
-    t.end_split(EyeMode::Auto, FoveaSize{});
+    t.end_split();
     ASSERT_EQ(t.drawn().size(), 1u);
-    ASSERT_EQ(t.drawn()[0].foveae.size(), 1u);
-    EXPECT_RECT(t.drawn()[0].foveae[0], 344, 360, 512u, 360u);
+    const auto foveae = t.drawn()[0].foveae(EyeMode::Two, FoveaSize{});
+    ASSERT_EQ(foveae.size(), 1u);
+    EXPECT_RECT(foveae[0], 344, 360, 512u, 360u);
 }
 
 TEST(SplitTracker, StaticPipelineStateWinsWhileBound) {
@@ -185,14 +339,20 @@ TEST(SplitTracker, UnsetIndicesAreNotViewports) {
     EXPECT_EQ(t.viewport(1), nullptr);
 }
 
-TEST(SplitTracker, MergeUnionsFoveaePerImage) {
+TEST(SplitTracker, MergeUnionsCoveragePerImage) {
+    // Command buffers submitted apart, one per eye: their union is the stereo pair.
     std::vector<DrawnImage> all;
-    merge_drawn(all, {{1, kImage, {{{1544, 360}, {512, 360}}}}});
-    merge_drawn(all, {{1, kImage, {{{344, 360}, {512, 360}}}}, {2, kImage, {{{344, 360}, {512, 360}}}}});
+    merge_drawn(all, {{1, kImage, viewport_coverage(kRight, kImage)}});
+    merge_drawn(
+        all, {{1, kImage, viewport_coverage(kLeft, kImage)}, {2, kImage, viewport_coverage(kLeft, kImage)}});
     ASSERT_EQ(all.size(), 2u);
-    ASSERT_EQ(all[0].foveae.size(), 2u);
-    EXPECT_EQ(all[0].foveae[0].offset.x, 344);
-    EXPECT_EQ(all[1].foveae.size(), 1u);
+    const auto both = all[0].foveae(EyeMode::Auto, FoveaSize{});
+    ASSERT_EQ(both.size(), 2u);
+    EXPECT_EQ(both[0].offset.x, 344);
+    EXPECT_EQ(both[1].offset.x, 1544);
+    const auto one = all[1].foveae(EyeMode::Auto, FoveaSize{}); // one eye alone: mono, centred
+    ASSERT_EQ(one.size(), 1u);
+    EXPECT_EQ(one[0].offset.x, 688);
 }
 
 TEST(SplitTracker, StaticStateFromCreateInfo) {
@@ -239,27 +399,27 @@ TEST(SplitTracker, OffscreenPassesDrawNoFovea) {
     t.begin_split(0, {2400, 1080}, false);
     const VkViewport whole{0.f, 0.f, 2400.f, 1080.f, 0.f, 1.f};
     t.set_viewports(0, 1, &whole, false);
-    t.note_foveae(EyeMode::Auto, FoveaSize{});
+    t.note_foveae();
     EXPECT_TRUE(t.in_split());
     EXPECT_FALSE(t.swapchain_pass());
-    t.end_split(EyeMode::Auto, FoveaSize{});
+    t.end_split();
     EXPECT_TRUE(t.drawn().empty());
 }
 
 TEST(SplitTracker, TransfersIntoTheSwapchainImageAreDrawing) {
     CommandTracker t;
     const VkRect2D whole{{0, 0}, {2400, 1080}};
-    t.note_transfer(7, {2400, 1080}, whole, EyeMode::Auto, FoveaSize{});
+    t.note_transfer(7, {2400, 1080}, whole);
     ASSERT_EQ(t.drawn().size(), 1u);
-    ASSERT_EQ(t.drawn()[0].foveae.size(), 1u); // one viewport-like rectangle over both halves
-    EXPECT_RECT(t.drawn()[0].foveae[0], 688, 360, 1024u, 360u);
-    CommandTracker two;
-    two.note_transfer(7, {2400, 1080}, whole, EyeMode::Two, FoveaSize{});
-    ASSERT_EQ(two.drawn()[0].foveae.size(), 2u); // both eyes it covers
-    EXPECT_RECT(two.drawn()[0].foveae[0], 344, 360, 512u, 360u);
-    EXPECT_RECT(two.drawn()[0].foveae[1], 1544, 360, 512u, 360u);
+    const auto one = t.drawn()[0].foveae(EyeMode::Auto, FoveaSize{});
+    ASSERT_EQ(one.size(), 1u); // one viewport-like rectangle over both halves
+    EXPECT_RECT(one[0], 688, 360, 1024u, 360u);
+    const auto two = t.drawn()[0].foveae(EyeMode::Two, FoveaSize{});
+    ASSERT_EQ(two.size(), 2u); // both eyes it covers
+    EXPECT_RECT(two[0], 344, 360, 512u, 360u);
+    EXPECT_RECT(two[1], 1544, 360, 512u, 360u);
     CommandTracker empty;
-    empty.note_transfer(7, {2400, 1080}, {{0, 0}, {0, 10}}, EyeMode::Auto, FoveaSize{});
+    empty.note_transfer(7, {2400, 1080}, {{0, 0}, {0, 10}});
     EXPECT_TRUE(empty.drawn().empty());
 }
 
@@ -268,25 +428,26 @@ TEST(SplitTracker, SecondariesGiveTheExecutingPassItsFoveae) {
     secondary.begin_secondary();
     const VkViewport left{0.f, 0.f, 1200.f, 1080.f, 0.f, 1.f}, right{1200.f, 0.f, 1200.f, 1080.f, 0.f, 1.f};
     secondary.set_viewports(0, 1, &left, false);
-    secondary.note_foveae(EyeMode::Auto, FoveaSize{});
+    secondary.note_foveae();
     secondary.set_viewports(0, 1, &right, false);
-    secondary.note_foveae(EyeMode::Auto, FoveaSize{});
+    secondary.note_foveae();
     EXPECT_TRUE(secondary.drawn().empty()); // its image is unknown until executed
     CommandTracker primary;
     const VkViewport stale{0.f, 0.f, 2400.f, 1080.f, 0.f, 1.f};
     primary.set_viewports(0, 1, &stale, false);
     primary.begin_split(9, {2400, 1080});
     primary.contents_in_secondaries();
-    primary.merge_executed(secondary, EyeMode::Auto, FoveaSize{});
-    primary.end_split(EyeMode::Auto, FoveaSize{}); // the stale viewport adds nothing
+    primary.merge_executed(secondary);
+    primary.end_split(); // the stale viewport adds nothing
     ASSERT_EQ(primary.drawn().size(), 1u);
     EXPECT_EQ(primary.drawn()[0].image, 9u);
-    ASSERT_EQ(primary.drawn()[0].foveae.size(), 2u);
-    EXPECT_RECT(primary.drawn()[0].foveae[0], 344, 360, 512u, 360u);
-    EXPECT_RECT(primary.drawn()[0].foveae[1], 1544, 360, 512u, 360u);
+    const auto foveae = primary.drawn()[0].foveae(EyeMode::Auto, FoveaSize{});
+    ASSERT_EQ(foveae.size(), 2u);
+    EXPECT_RECT(foveae[0], 344, 360, 512u, 360u);
+    EXPECT_RECT(foveae[1], 1544, 360, 512u, 360u);
     // Executed outside a split pass, it notes nothing.
     CommandTracker outside;
-    outside.merge_executed(secondary, EyeMode::Auto, FoveaSize{});
+    outside.merge_executed(secondary);
     EXPECT_TRUE(outside.drawn().empty());
 }
 

@@ -393,6 +393,58 @@ INSTANTIATE_TEST_SUITE_P(
         return std::string(p.param.name ? p.param.name : p.param.path);
     });
 
+// Issue 18, item 3: a stereo frame has two foveae wherever its last pass draws. With SPLITVK_EYES=2
+// the left and right halves of the image each get their fovea, also on the paths whose last pass is
+// one full-screen pass over both eyes (hdr's tone mapping, deferred's lighting and post, multiview's
+// compose, compute's blit): before, only the eye holding the viewport's centre (the right one) had
+// its fovea, and the left eye showed the periphery. Both foveae must equal native bit for bit on
+// every path, client and agent agreeing on them (no late frame, no mismatch). At 960x432 (480x432
+// eyes, 205x144 foveae) to keep the runs short.
+constexpr uint32_t kSmallWidth = 960;
+constexpr uint32_t kSmallHeight = 432;
+
+class SplitEyesTwo : public Split, public ::testing::WithParamInterface<const char *> {};
+
+TEST_P(SplitEyesTwo, BothFoveaeExactWhateverTheLastPassSpans) {
+    const char *path = GetParam();
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    auto argv = atrium_argv(2, kFrames, false);
+    argv[2] = std::to_string(kSmallWidth);  // --width
+    argv[4] = std::to_string(kSmallHeight); // --height
+    argv.insert(argv.end(), {"--path", path});
+    Grab native, split;
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, env(), "native", kFrames, &native, kSmallWidth, kSmallHeight));
+    Env e = split_env();
+    e["SPLITVK_EYES"] = "2";
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, e, "split", kFrames, &split, kSmallWidth, kSmallHeight));
+    const std::string &err = split.result.err();
+    const SplitSummary summary = split_summary(err);
+    ASSERT_TRUE(summary.found) << tail(err, 30);
+    EXPECT_GE(summary.frames, static_cast<uint64_t>(kFrames)) << tail(err, 30);
+    EXPECT_EQ(summary.late, 0u) << tail(err, 30);
+    EXPECT_TRUE(grep(err, "do not match the frame's foveae").empty()) << tail(err, 30);
+    ASSERT_GT(distinct_colours(native.image), 1000u) << "the native grab looks blank";
+    const auto foveae = default_foveae(kSmallWidth, kSmallHeight, 2);
+    ASSERT_EQ(foveae.size(), 2u);
+    for (size_t i = 0; i < foveae.size(); ++i) {
+        const Rect &f = foveae[i];
+        const auto cmp = compare_exact(native.image, split.image, f.x, f.y, f.w, f.h);
+        std::cout << "  " << path << ", " << (i == 0 ? "left" : "right") << " fovea at " << f.x << "," << f.y
+                  << ": " << cmp.summary() << "\n";
+        EXPECT_TRUE(cmp.equal()) << (i == 0 ? "left" : "right") << " eye's fovea differs from native\n"
+                                 << save_mismatch_artefacts(out_, "fovea", native.image, split.image);
+    }
+    const auto whole = compare_exact(native.image, split.image);
+    EXPECT_GT(whole.mismatched_pixels, whole.pixels / 100) << "the frame equals native: was it split?";
+    expect_clean_validation();
+}
+
+INSTANTIATE_TEST_SUITE_P(Paths, SplitEyesTwo,
+                         ::testing::Values("direct", "hdr", "deferred", "multiview", "secondary", "compute"),
+                         [](const ::testing::TestParamInfo<const char *> &p) {
+                             return std::string(p.param);
+                         });
+
 // SPLITVK_TARGETS=swapchain keeps the first version's behaviour: only the pass into the swapchain
 // image is scaled, every offscreen target stays full size, and the foveae are still exact.
 TEST_F(Split, TargetsSwapchainScalesOnlyTheSwapchainPass) {
