@@ -656,16 +656,14 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     if (frame == 1) log_live_state(dev, "at frame 1"); // SPLITVK_LOG_LEVEL=debug
     SplitFrame split;
     if (session.splitting() && swapchain.composable) {
-        split = take_split_frame(dev, swapchain.images[image_index]);
+        split = take_split_frame(dev, swapchain.images[image_index], EyeMode::One);
         note_split_or_not(session, frame, split.split);
     }
-    if (session.runtime_images()) {
-        protocol::FramePresent message;
-        message.frame = frame;
-        message.queue_id = codec::handle_value(queue);
-        message.images.push_back({codec::handle_value(swapchain.handle), image_index});
-        session.send_metadata(protocol::MessageType::FramePresent, protocol::encode(message));
-    }
+    protocol::FramePresent message;
+    message.frame = frame;
+    message.queue_id = codec::handle_value(queue);
+    message.images.push_back({codec::handle_value(swapchain.handle), image_index});
+    session.send_metadata(protocol::MessageType::FramePresent, protocol::encode(message));
     if (!split.split) return;
     SplitPresent p;
     p.queue = queue;
@@ -811,7 +809,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         split_swapchain = find_swapchain(pPresentInfo->pSwapchains[0]);
         const uint32_t index = pPresentInfo->pImageIndices[0];
         if (split_swapchain && index < split_swapchain->images.size())
-            split = take_split_frame(dev, split_swapchain->images[index]);
+            split = take_split_frame(dev, split_swapchain->images[index], split_settings().eyes);
         note_split_or_not(session, frame, split.split);
     }
     const double frame_ms = split.split ? session.frame_interval_ms() : 0;

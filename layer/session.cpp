@@ -101,7 +101,6 @@ void Session::adopt_locked(AgentLink &&agent) {
         policy.enabled = false;
         connection_->set_compression(policy);
     }
-    runtime_images_.store((capabilities & protocol::capability::kRuntimeImages) != 0);
     verify_ = settings_.verify && (capabilities & protocol::capability::kVerifyFrames);
     if (settings_.verify && !verify_)
         SPLITVK_WARN("splitvk-agent at %s cannot verify frames; SPLITVK_VERIFY ignored", address_.c_str());

@@ -124,8 +124,6 @@ public:
     // connected (the centre then comes from the periphery), so command buffers recorded scaled are
     // always composited.
     bool splitting() const { return splitting_.load(std::memory_order_relaxed); }
-    // The agent adopts an OpenXR runtime's swapchain images (capability::kRuntimeImages).
-    bool runtime_images() const { return runtime_images_.load(std::memory_order_relaxed); }
     const Settings &settings() const { return settings_; }
     // Split mode: the decoded tiles of the agent (tile_stream.h), and per-frame statistics.
     TileStream *tiles() { return tiles_.get(); }
@@ -299,7 +297,6 @@ private:
     std::atomic<uint64_t> frame_{0};
     bool verify_ = false;
     std::atomic<bool> splitting_{false};
-    std::atomic<bool> runtime_images_{false};
     Settings settings_;
     uint64_t device_id_ = 0;
     std::string address_;

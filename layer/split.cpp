@@ -44,7 +44,7 @@ const Settings &split_settings() {
     return layer_settings().settings;
 }
 
-SplitFrame take_split_frame(DeviceState &, VkImage image) {
+SplitFrame take_split_frame(DeviceState &, VkImage image, EyeMode eyes) {
     SplitFrame frame;
     std::lock_guard lock(g_frames_mutex);
     const auto it = g_frames.find(codec::handle_value(image));
@@ -52,7 +52,7 @@ SplitFrame take_split_frame(DeviceState &, VkImage image) {
     frame.split = true;
     frame.periphery = split::scaled_extent(it->second.extent, split_settings().scale);
     // The whole frame's coverage decides its foveae (split::frame_foveae), as the agent's does.
-    frame.foveae = it->second.foveae(split_settings().eyes, split_settings().fovea);
+    frame.foveae = it->second.foveae(eyes, split_settings().fovea);
     g_frames.erase(it);
     return frame;
 }

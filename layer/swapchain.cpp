@@ -112,13 +112,8 @@ SwapchainState *register_runtime_swapchain(DeviceState &dev, VkSwapchainKHR key,
     state->runtime = true;
     state->present_layout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
     state->images = info.images;
-    // Where the agent cannot adopt the images, nothing names them on its side: they are replicated
-    // as the ordinary images they are, and the frames are not split.
-    const bool adoptable = dev.session->runtime_images();
     std::string why;
-    if (!adoptable)
-        why = "the agent cannot adopt an OpenXR runtime's images (an older splitvk-agent)";
-    else if (info.array_layers != 1)
+    if (info.array_layers != 1)
         why = std::to_string(info.array_layers) + " array layers";
     else if ((info.usage & Compositor::kSwapchainUsage) != Compositor::kSwapchainUsage)
         why = "its images lack transfer and colour attachment usage";
@@ -131,7 +126,8 @@ SwapchainState *register_runtime_swapchain(DeviceState &dev, VkSwapchainKHR key,
     note_swapchain_images(key, static_cast<uint32_t>(state->images.size()), state->images.data());
     if (state->composable) note_screen_extent(dev, info.extent);
     SwapchainState *registered = g_swapchains.insert(key, std::move(state));
-    if (adoptable && capturing(dev)) send_swapchain_images(dev, *registered);
+    // Logged like a window's, so that an agent joining later adopts the images too.
+    send_swapchain_images(dev, *registered);
     return registered;
 }
 
@@ -139,8 +135,7 @@ void unregister_runtime_swapchain(DeviceState &dev, VkSwapchainKHR key) {
     if (!dev.session) return;
     drain_presents(dev);
     release_compositor(dev, key);
-    if (auto state = g_swapchains.remove(key); state && dev.session->runtime_images())
-        send_swapchain_destroyed(dev, key);
+    if (g_swapchains.remove(key)) send_swapchain_destroyed(dev, key);
 }
 
 namespace entry {

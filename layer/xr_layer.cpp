@@ -370,6 +370,8 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
         SPLITVK_ERROR("%s: the OpenXR loader gave a chain that is not this layer's", kApiLayerName);
         return XR_ERROR_INITIALIZATION_FAILED;
     }
+    // The settings (and so the log level) of the process, parsed once, as the Vulkan layer does.
+    static_cast<void>(layer_settings());
     const XrApiLayerNextInfo &next = *layer_info->nextInfo;
     XrApiLayerCreateInfo down = *layer_info;
     down.nextInfo = next.next;

@@ -52,13 +52,9 @@ inline constexpr uint64_t kFoveaTiles = 1ull << 2; // the split: SplitConfig, fo
 // SplitConfig may carry SPLITVK_AGENT_SCISSOR (issue 11); an agent without it refuses the longer
 // message, so the client sends it only when this bit was granted.
 inline constexpr uint64_t kAgentScissor = 1ull << 3;
-// SwapchainImages may name images the client created itself, an OpenXR runtime's swapchain, which the
-// agent adopts (DESIGN §9); an agent without it would refuse the longer message.
-inline constexpr uint64_t kRuntimeImages = 1ull << 4;
 } // namespace capability
 inline constexpr uint64_t kSupportedCapabilities = capability::kZstdPayloads | capability::kVerifyFrames |
-                                                   capability::kFoveaTiles | capability::kAgentScissor |
-                                                   capability::kRuntimeImages;
+                                                   capability::kFoveaTiles | capability::kAgentScissor;
 
 // Field caps, enforced by the decoders (and by the encoders, which clamp text to them).
 inline constexpr uint32_t kMaxTokenBytes = 256;

@@ -49,8 +49,7 @@ std::vector<uint8_t> encode(const SwapchainImages &m) {
     w.u32(static_cast<uint32_t>(m.image_ids.size()));
     for (uint64_t id : m.image_ids)
         w.u64(id);
-    // Appended with capability::kRuntimeImages; a window swapchain is sent as before, so that an agent
-    // without the capability reads it.
+    // Appended for an OpenXR runtime's swapchain; a window's is laid out as before.
     if (m.source != SwapchainImages::Source::Window ||
         m.presented_layout != VK_IMAGE_LAYOUT_PRESENT_SRC_KHR) {
         w.u32(static_cast<uint32_t>(m.source));

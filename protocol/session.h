@@ -58,7 +58,9 @@ struct SwapchainImages {
     // Where the images come from. A window swapchain's images exist only on the client, so the agent
     // makes offscreen ones under these ids. An OpenXR runtime's swapchain images (DESIGN §9) are
     // images the client created with vkCreateImage, which the agent already replays: it adopts
-    // them. Sent only when capability::kRuntimeImages was granted.
+    // them. No capability bit guards the two trailing fields: the codec that forwards what an
+    // OpenXR runtime needs (external memory) came with them, and peers of different codecs refuse
+    // each other at the handshake (Hello's codec fingerprint).
     enum class Source : uint32_t { Window = 0, Runtime = 1 };
     Source source = Source::Window;
     // The layout the images are in when a frame ends with them (FramePresent): PRESENT_SRC_KHR (or

@@ -11,7 +11,7 @@ std::vector<VkRect2D> FoveaShading::take_drawn_foveae(uint64_t image_id) {
     const auto it = drawn_.find(image_id);
     if (it == drawn_.end()) return {};
     // The whole frame's coverage decides its foveae (split::frame_foveae), as the client's does.
-    std::vector<VkRect2D> foveae = it->second.foveae(eyes_, fovea_);
+    std::vector<VkRect2D> foveae = it->second.foveae(eyes_of(image_id), fovea_);
     drawn_.erase(it);
     return foveae;
 }
@@ -319,7 +319,7 @@ void FoveaShading::emit_scissors(VkCommandBuffer cb, const split::CommandTracker
         if (guard != guard_rects_.end()) return split::intersect(r, guard->second);
         const VkViewport *v = t.viewport(i);
         // Without viewport i the eye is unknown; the scissor is narrowed once the viewport is set.
-        return v ? split::intersect(r, split::fovea_scissor(*v, t.extent(), eyes_, fovea_)) : r;
+        return v ? split::intersect(r, split::fovea_scissor(*v, t.extent(), eyes_of(t.image()), fovea_)) : r;
     };
     std::vector<VkRect2D> values;
     if (t.static_scissors()) {

@@ -110,6 +110,10 @@ private:
     SwapchainImages &swapchains_;
     bool enabled_ = true;
     EyeMode eyes_ = Settings{}.eyes;
+    // SPLITVK_EYES for a window's image; one eye for an OpenXR runtime's (SwapchainImages::runtime_image).
+    EyeMode eyes_of(uint64_t image_id) const {
+        return swapchains_.runtime_image(image_id) ? EyeMode::One : eyes_;
+    }
     FoveaSize fovea_ = Settings{}.fovea;
     AgentScissor scissor_;
     struct View {

@@ -133,6 +133,14 @@ bool SwapchainImages::presented(uint64_t swapchain_id, uint32_t image_index, Pre
     return true;
 }
 
+bool SwapchainImages::runtime_image(uint64_t image_id) const {
+    for (const auto &[id, swapchain] : swapchains_)
+        if (swapchain.info.source == protocol::SwapchainImages::Source::Runtime)
+            for (uint64_t image : swapchain.info.image_ids)
+                if (image == image_id) return true;
+    return false;
+}
+
 bool SwapchainImages::destroy(uint64_t swapchain_id, std::string *error) {
     auto it = swapchains_.find(swapchain_id);
     if (it == swapchains_.end()) {

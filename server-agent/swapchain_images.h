@@ -31,6 +31,9 @@ public:
     // Whether `image` (the agent's handle) is a swapchain image; if so its client id and extent
     // (fovea_shading.h: split passes are the ones drawing into these).
     bool find_image(VkImage image, uint64_t *image_id, VkExtent2D *extent) const;
+    // Whether `image_id` is an image of an OpenXR runtime's swapchain (adopted, SwapchainImages::Source::
+    // Runtime): it holds one eye, whatever SPLITVK_EYES says of windows.
+    bool runtime_image(uint64_t image_id) const;
     // The extent of the newest swapchain, {0, 0} before the first: what screen-space targets are
     // classified against, as the client does (protocol/target_rule.h).
     VkExtent2D newest_extent() const { return newest_; }

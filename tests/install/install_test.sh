@@ -12,7 +12,9 @@ trap cleanup EXIT
 
 cmake --install "$build" --prefix "$prefix" >/dev/null
 for f in bin/splitvk-agent bin/splitvk-atrium share/vulkan/implicit_layer.d/VkLayer_splitvk.json \
-         share/vulkan/explicit_layer.d/VkLayer_splitvk.json; do
+         share/vulkan/explicit_layer.d/VkLayer_splitvk.json \
+         share/openxr/1/api_layers/implicit.d/XrApiLayer_splitvk.json \
+         share/openxr/1/api_layers/explicit.d/XrApiLayer_splitvk.json; do
   [ -e "$prefix/$f" ] || { echo "FAIL: $f not installed"; exit 1; }
 done
 lib=$(find "$prefix" -name libVkLayer_splitvk.so -print -quit)
