@@ -12,7 +12,10 @@ SPLITVK_PACKAGES=(
   glslang-tools spirv-tools mangohud gfxreconstruct
   libx264-dev libavcodec-dev libavutil-dev libasio-dev libglm-dev libzstd-dev libssl-dev libgtest-dev
   libxcb1-dev libx11-dev xvfb xauth x11-utils ffmpeg
-  systemd
+  systemd ccache
+  # OpenXR: the API layer's headers, hello_xr and the core validation layer (the tests' first
+  # unmodified VR application); scripts/xr-runtime installs what Monado's build needs.
+  libopenxr-dev libopenxr-loader1 libopenxr-utils openxr-layer-corevalidation
 )
 
 log() { printf '==> %s\n' "$*"; }
@@ -42,12 +45,24 @@ ensure_packages() {
   rm -f "$apt_log"
 }
 
+# Compiler cache: builds of another clone on this machine (CI's fresh clone, a second work tree)
+# reuse what an earlier build compiled. Paths are hashed relative to the clone, so the cache is
+# shared whatever folder the clone is in; the cache itself lives outside it (ccache's default,
+# ~/.cache/ccache).
+export CCACHE_BASEDIR=${CCACHE_BASEDIR:-$SPLITVK_ROOT}
+compiler_cache_args() {
+  command -v ccache >/dev/null || return 0
+  printf '%s\n' -DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache
+}
+
 # configure BUILD_DIR [cmake args...]
 configure() {
   local dir=$1; shift
   log "configuring $dir"
   mkdir -p "$dir"
-  cmake -S "$SPLITVK_ROOT" -B "$dir" -DCMAKE_BUILD_TYPE=Release "$@" >"$dir/configure.log" 2>&1 ||
+  local cache_args
+  mapfile -t cache_args < <(compiler_cache_args)
+  cmake -S "$SPLITVK_ROOT" -B "$dir" -DCMAKE_BUILD_TYPE=Release "${cache_args[@]}" "$@" >"$dir/configure.log" 2>&1 ||
     { cat "$dir/configure.log"; die "cmake configure failed"; }
 }
 
