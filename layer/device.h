@@ -6,6 +6,7 @@
 
 #include <memory>
 #include <mutex>
+#include <span>
 
 namespace splitvk {
 
@@ -48,6 +49,10 @@ std::unique_lock<std::mutex> lock_queue(VkQueue queue);
 // thread (vkDestroyDevice).
 void drain_presents(DeviceState &device);
 void stop_presents(DeviceState &device);
+// Before a submit that draws into these swapchain images (handle values; split.h): an image the
+// application has not acquired marks its swapchain as one whose application uses its images in an
+// order of its own, and one the present thread still holds is presented first (present.cpp).
+void order_swapchain_writes(DeviceState &device, std::span<const uint64_t> images);
 // SPLITVK_VERIFY=full: the one summary line at vkDestroyDevice (present.cpp).
 void report_verify_summary(DeviceState &device);
 // Split mode: the one summary line at vkDestroyDevice (present.cpp).

@@ -24,6 +24,17 @@
 //  - Images: a frame in the thread holds its image past the application's present, so the layer
 //    adds that many images to the swapchain (swapchain.cpp) and vkAcquireNextImageKHR waits for the
 //    thread when an acquire would otherwise hold more images than the surface allows.
+//  - Order: image indices are the driver's to assign, and the driver picks among the images it
+//    has been given back, so an acquire made while the thread still holds a frame may get another
+//    image than it would without the layer (lavapipe's X11 WSI hands out the lowest free image: 0
+//    every frame natively). An application that uses its images in an order of its own
+//    (gfxrecon-replay --use-captured-swapchain-indices draws into the captured image and presents
+//    the acquired one) then draws into an image it did not acquire. A submit that does so
+//    (order_swapchain_writes) waits for the thread if the thread still holds that image, and marks
+//    the swapchain: its acquires from then on wait until the thread has presented every frame of
+//    it (before_acquire), so the driver picks as it would natively. The frame at hand is presented
+//    here: composited in the image drawn, copied into the image presented (never an image the
+//    layer did not fill), and the agent told the image drawn.
 //  - Results: the thread's real present result (VK_SUBOPTIMAL_KHR, VK_ERROR_OUT_OF_DATE_KHR,
 //    surface or device lost) is kept per swapchain, worst first, and returned by the
 //    application's next present or acquire of that swapchain (an error at acquire is returned
@@ -460,10 +471,22 @@ VkResult worse(VkResult a, VkResult b) {
 // What the asynchronous present knows of a swapchain, under g_async_mutex.
 struct SwapchainPresents {
     const DeviceState *device = nullptr;
-    uint32_t app_held = 0;          // acquired by the application, not presented by it yet
-    uint32_t pending = 0;           // presented by the application, not by the present thread yet
+    std::vector<uint32_t> held;     // image indices acquired by the application, not presented by it yet
+    std::vector<uint32_t> queued;   // presented by the application, not by the present thread yet
     VkResult deferred = VK_SUCCESS; // the worst result of the thread's presents the app has not had
+    // The application drew into an image it did not hold (see the top of this file, "Order"):
+    // from then on its acquires reach the driver only after the thread's presents.
+    bool in_order = false;
+    std::optional<uint32_t> stray; // the image it drew into, until its next present
 };
+
+void erase_one(std::vector<uint32_t> &v, uint32_t value) {
+    if (const auto it = std::find(v.begin(), v.end(), value); it != v.end()) v.erase(it);
+}
+
+bool contains(const std::vector<uint32_t> &v, uint32_t value) {
+    return std::find(v.begin(), v.end(), value) != v.end();
+}
 
 struct PresentThread {
     std::thread thread;
@@ -510,7 +533,7 @@ void run_present_thread(DeviceState &dev, PresentThread &t) {
                 static_cast<unsigned long long>(p.frame), present_result_name(result));
         lock.lock();
         SwapchainPresents &sc = g_swapchain_presents[p.swapchain->handle];
-        --sc.pending;
+        erase_one(sc.queued, p.image_index);
         sc.deferred = worse(sc.deferred, result);
         --t.in_layer;
         g_async_changed.notify_all();
@@ -552,8 +575,9 @@ std::optional<VkResult> present_async(DeviceState &dev, SplitPresent &p, std::sp
     }
     SwapchainPresents &sc = g_swapchain_presents[p.swapchain->handle];
     sc.device = &dev;
-    ++sc.pending;
-    if (sc.app_held) --sc.app_held;
+    sc.queued.push_back(p.image_index);
+    erase_one(sc.held, p.image_index);
+    sc.stray.reset();
     const VkResult result = sc.deferred;
     sc.deferred = VK_SUCCESS;
     p.present_call_ms = ms_between(called, std::chrono::steady_clock::now());
@@ -563,7 +587,10 @@ std::optional<VkResult> present_async(DeviceState &dev, SplitPresent &p, std::sp
 }
 
 // Before the driver's acquire: an error a present thread's present answered, returned instead of
-// acquiring; else waits until one more acquired image stays within the surface's allowance.
+// acquiring; else waits until one more acquired image stays within the surface's allowance, or,
+// for a swapchain whose application depends on the order of its images, until the thread has
+// presented every frame of it (so the driver picks the image it would have picked without the
+// layer).
 VkResult before_acquire(const DeviceState &dev, VkSwapchainKHR swapchain) {
     if (!dev.session) return VK_SUCCESS;
     const SwapchainState *state = find_swapchain(swapchain);
@@ -573,19 +600,21 @@ VkResult before_acquire(const DeviceState &dev, VkSwapchainKHR swapchain) {
     if (it == g_swapchain_presents.end()) return VK_SUCCESS;
     SwapchainPresents &sc = it->second;
     if (sc.deferred < 0) return std::exchange(sc.deferred, VK_SUCCESS);
-    g_async_changed.wait(lock, [&] { return sc.pending == 0 || sc.app_held + sc.pending < allowance; });
+    g_async_changed.wait(lock, [&] {
+        return sc.queued.empty() || (!sc.in_order && sc.held.size() + sc.queued.size() < allowance);
+    });
     if (sc.deferred < 0) return std::exchange(sc.deferred, VK_SUCCESS);
     return VK_SUCCESS;
 }
 
 // After the driver's acquire: the image counts as the application's, and a suboptimal answer of
 // the thread's reaches it here if its acquire succeeded.
-VkResult after_acquire(const DeviceState &dev, VkSwapchainKHR swapchain, VkResult result) {
+VkResult after_acquire(const DeviceState &dev, VkSwapchainKHR swapchain, VkResult result, uint32_t index) {
     if (!dev.session || (result != VK_SUCCESS && result != VK_SUBOPTIMAL_KHR)) return result;
     std::lock_guard lock(g_async_mutex);
     SwapchainPresents &sc = g_swapchain_presents[swapchain];
     sc.device = &dev;
-    ++sc.app_held;
+    sc.held.push_back(index);
     if (sc.deferred == VK_SUBOPTIMAL_KHR) {
         sc.deferred = VK_SUCCESS;
         return VK_SUBOPTIMAL_KHR;
@@ -600,12 +629,151 @@ VkResult note_presented(const VkPresentInfoKHR &info, VkResult result) {
     for (uint32_t i = 0; i < info.swapchainCount; ++i) {
         const auto it = g_swapchain_presents.find(info.pSwapchains[i]);
         if (it == g_swapchain_presents.end()) continue;
-        if (it->second.app_held) --it->second.app_held;
+        erase_one(it->second.held, info.pImageIndices[i]);
+        it->second.stray.reset();
         const VkResult deferred = std::exchange(it->second.deferred, VK_SUCCESS);
         if (info.pResults) info.pResults[i] = worse(info.pResults[i], deferred);
         result = worse(result, deferred);
     }
     return result;
+}
+
+// The image the application drew into while it did not hold it, when it now presents another
+// one, `presented` (see the top of this file, "Order"); cleared either way.
+std::optional<uint32_t> take_stray(VkSwapchainKHR swapchain, uint32_t presented) {
+    std::lock_guard lock(g_async_mutex);
+    const auto it = g_swapchain_presents.find(swapchain);
+    if (it == g_swapchain_presents.end()) return std::nullopt;
+    const auto stray = std::exchange(it->second.stray, std::nullopt);
+    return stray && *stray != presented ? stray : std::nullopt;
+}
+
+// A copy of one swapchain image into another of the same swapchain ("Order"): its command buffer,
+// its fence, and the semaphore the present waits on.
+struct Redirect {
+    VkCommandPool pool = VK_NULL_HANDLE;
+    VkCommandBuffer command_buffer = VK_NULL_HANDLE;
+    VkFence fence = VK_NULL_HANDLE;
+    VkSemaphore semaphore = VK_NULL_HANDLE;
+    bool in_flight = false;
+};
+
+std::map<VkSwapchainKHR, Redirect> g_redirects; // under g_mutex
+
+void destroy(DeviceState &dev, Redirect &r) {
+    const VkDevice d = dev.handle;
+    if (r.in_flight) dev.dispatch.WaitForFences(d, 1, &r.fence, VK_TRUE, kFenceWaitNs);
+    if (r.semaphore) dev.dispatch.DestroySemaphore(d, r.semaphore, nullptr);
+    if (r.fence) dev.dispatch.DestroyFence(d, r.fence, nullptr);
+    if (r.pool) dev.dispatch.DestroyCommandPool(d, r.pool, nullptr);
+    r = Redirect{};
+}
+
+bool create(DeviceState &dev, uint32_t family, Redirect &r) {
+    const VkDevice d = dev.handle;
+    const auto &k = dev.dispatch;
+    VkCommandPoolCreateInfo pool_info{};
+    pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+    pool_info.queueFamilyIndex = family;
+    if (k.CreateCommandPool(d, &pool_info, nullptr, &r.pool) != VK_SUCCESS) return false;
+    VkCommandBufferAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    alloc.commandPool = r.pool;
+    alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    alloc.commandBufferCount = 1;
+    if (k.AllocateCommandBuffers(d, &alloc, &r.command_buffer) != VK_SUCCESS) return false;
+    if (dev.set_loader_data)
+        dev.set_loader_data(d, r.command_buffer);
+    else
+        *reinterpret_cast<void **>(r.command_buffer) = *reinterpret_cast<void **>(d);
+    VkFenceCreateInfo fence_info{};
+    fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+    if (k.CreateFence(d, &fence_info, nullptr, &r.fence) != VK_SUCCESS) return false;
+    VkSemaphoreCreateInfo sem_info{};
+    sem_info.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
+    return k.CreateSemaphore(d, &sem_info, nullptr, &r.semaphore) == VK_SUCCESS;
+}
+
+VkImageMemoryBarrier swapchain_barrier(VkImage image, VkAccessFlags src, VkAccessFlags dst,
+                                       VkImageLayout from, VkImageLayout to) {
+    VkImageMemoryBarrier b{};
+    b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+    b.srcAccessMask = src;
+    b.dstAccessMask = dst;
+    b.oldLayout = from;
+    b.newLayout = to;
+    b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.image = image;
+    b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    return b;
+}
+
+// Submits on `queue` (its lock held) a copy of the whole image `from` into image `to`, which the
+// application acquired and presents but did not draw: after `waits` (consumed), leaving both in
+// the present layout. Returns the semaphore the present waits on instead, or VK_NULL_HANDLE when
+// nothing was submitted (`waits` untouched).
+VkSemaphore copy_swapchain_image(DeviceState &dev, VkQueue queue, const SwapchainState &sc, uint32_t from,
+                                 uint32_t to, std::span<const VkSemaphore> waits) {
+    const uint32_t family = queue_family_of(queue);
+    if (family == UINT32_MAX || from >= sc.images.size() || to >= sc.images.size()) return VK_NULL_HANDLE;
+    const auto &k = dev.dispatch;
+    std::lock_guard lock(g_mutex);
+    Redirect &r = g_redirects[sc.handle];
+    if (!r.pool && !create(dev, family, r)) {
+        destroy(dev, r);
+        return VK_NULL_HANDLE;
+    }
+    if (r.in_flight) {
+        if (k.WaitForFences(dev.handle, 1, &r.fence, VK_TRUE, kFenceWaitNs) != VK_SUCCESS)
+            return VK_NULL_HANDLE;
+        r.in_flight = false;
+    }
+    k.ResetFences(dev.handle, 1, &r.fence);
+    k.ResetCommandBuffer(r.command_buffer, 0);
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    k.BeginCommandBuffer(r.command_buffer, &begin);
+    // The submit waits at the TRANSFER stage, the barriers' source stage: the transitions follow
+    // the waits. `to` holds nothing the application drew: its old contents are not needed.
+    const VkImageMemoryBarrier before[2] = {
+        swapchain_barrier(sc.images[from], 0, VK_ACCESS_TRANSFER_READ_BIT, sc.present_layout,
+                          VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL),
+        swapchain_barrier(sc.images[to], 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                          VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL),
+    };
+    k.CmdPipelineBarrier(r.command_buffer, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0,
+                         0, nullptr, 0, nullptr, 2, before);
+    VkImageCopy copy{};
+    copy.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    copy.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    copy.extent = {sc.extent.width, sc.extent.height, 1};
+    k.CmdCopyImage(r.command_buffer, sc.images[from], VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, sc.images[to],
+                   VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &copy);
+    // The present waits on the semaphore, whose signal makes the copy's writes visible to it.
+    const VkImageMemoryBarrier after[2] = {
+        swapchain_barrier(sc.images[from], 0, 0, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, sc.present_layout),
+        swapchain_barrier(sc.images[to], VK_ACCESS_TRANSFER_WRITE_BIT, 0,
+                          VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, sc.present_layout),
+    };
+    k.CmdPipelineBarrier(r.command_buffer, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                         VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, 0, 0, nullptr, 0, nullptr, 2, after);
+    if (k.EndCommandBuffer(r.command_buffer) != VK_SUCCESS) return VK_NULL_HANDLE;
+    const std::vector<VkPipelineStageFlags> stages(waits.size(), VK_PIPELINE_STAGE_TRANSFER_BIT);
+    VkSubmitInfo submit{};
+    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    submit.waitSemaphoreCount = static_cast<uint32_t>(waits.size());
+    submit.pWaitSemaphores = waits.data();
+    submit.pWaitDstStageMask = stages.data();
+    submit.commandBufferCount = 1;
+    submit.pCommandBuffers = &r.command_buffer;
+    submit.signalSemaphoreCount = 1;
+    submit.pSignalSemaphores = &r.semaphore;
+    if (k.QueueSubmit(queue, 1, &submit, r.fence) != VK_SUCCESS) return VK_NULL_HANDLE;
+    r.in_flight = true;
+    return r.semaphore;
 }
 
 // Frames replayed with no split pass before the warning: an application may present a few copied
@@ -701,12 +869,49 @@ void stop_presents(DeviceState &device) {
     std::erase_if(g_swapchain_presents, [&](const auto &entry) { return entry.second.device == &device; });
 }
 
+void order_swapchain_writes(DeviceState &device, std::span<const uint64_t> images) {
+    if (images.empty()) return;
+    bool drain = false;
+    {
+        std::lock_guard lock(g_async_mutex);
+        for (auto &[handle, sc] : g_swapchain_presents) {
+            if (sc.device != &device) continue;
+            const SwapchainState *state = find_swapchain(handle);
+            // A shared present mode's image is acquired once and presented again and again.
+            if (!state || state->present_layout == VK_IMAGE_LAYOUT_SHARED_PRESENT_KHR) continue;
+            for (const uint64_t image : images) {
+                const auto it = std::find_if(state->images.begin(), state->images.end(),
+                                             [&](VkImage i) { return codec::handle_value(i) == image; });
+                if (it == state->images.end()) continue;
+                const auto index = static_cast<uint32_t>(it - state->images.begin());
+                if (contains(sc.held, index)) continue;
+                if (!sc.in_order)
+                    SPLITVK_INFO(
+                        "present: the application drew into swapchain image %u, which it had not acquired "
+                        "(it uses its images in an order of its own, as gfxrecon-replay "
+                        "--use-captured-swapchain-indices does); this swapchain's acquires now wait for "
+                        "the present thread",
+                        index);
+                sc.in_order = true;
+                sc.stray = index;
+                drain = drain || contains(sc.queued, index);
+            }
+        }
+    }
+    // The present thread must be done with the image before the application's submit draws into it.
+    if (drain) drain_presents(device);
+}
+
 void release_present_resources(DeviceState &device, VkSwapchainKHR swapchain) {
     {
         std::lock_guard lock(g_async_mutex);
         g_swapchain_presents.erase(swapchain);
     }
     std::lock_guard lock(g_mutex);
+    if (const auto it = g_redirects.find(swapchain); it != g_redirects.end()) {
+        destroy(device, it->second);
+        g_redirects.erase(it);
+    }
     for (auto it = g_readbacks.begin(); it != g_readbacks.end();) {
         if (it->first.first == swapchain) {
             destroy(device, it->second);
@@ -750,9 +955,9 @@ VKAPI_ATTR VkResult VKAPI_CALL AcquireNextImageKHR(VkDevice device, VkSwapchainK
                                                    uint32_t *pImageIndex) {
     DeviceState &dev = device_state(device);
     if (const VkResult deferred = before_acquire(dev, swapchain); deferred != VK_SUCCESS) return deferred;
-    const VkResult result = after_acquire(
-        dev, swapchain,
-        dev.dispatch.AcquireNextImageKHR(device, swapchain, timeout, semaphore, fence, pImageIndex));
+    const VkResult acquired =
+        dev.dispatch.AcquireNextImageKHR(device, swapchain, timeout, semaphore, fence, pImageIndex);
+    const VkResult result = after_acquire(dev, swapchain, acquired, *pImageIndex);
     if ((result == VK_SUCCESS || result == VK_SUBOPTIMAL_KHR) && capturing(dev)) {
         protocol::FrameBegin message{dev.session->current_frame(), codec::handle_value(swapchain),
                                      *pImageIndex};
@@ -767,8 +972,8 @@ VKAPI_ATTR VkResult VKAPI_CALL AcquireNextImage2KHR(VkDevice device,
     DeviceState &dev = device_state(device);
     if (const VkResult deferred = before_acquire(dev, pAcquireInfo->swapchain); deferred != VK_SUCCESS)
         return deferred;
-    const VkResult result = after_acquire(
-        dev, pAcquireInfo->swapchain, dev.dispatch.AcquireNextImage2KHR(device, pAcquireInfo, pImageIndex));
+    const VkResult acquired = dev.dispatch.AcquireNextImage2KHR(device, pAcquireInfo, pImageIndex);
+    const VkResult result = after_acquire(dev, pAcquireInfo->swapchain, acquired, *pImageIndex);
     if ((result == VK_SUCCESS || result == VK_SUBOPTIMAL_KHR) && capturing(dev)) {
         protocol::FrameBegin message{dev.session->current_frame(),
                                      codec::handle_value(pAcquireInfo->swapchain), *pImageIndex};
@@ -805,18 +1010,31 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
     // Split mode composites the first swapchain's image (its split passes drew it scaled).
     const SwapchainState *split_swapchain = nullptr;
     SplitFrame split;
+    // The image the application drew this frame into: the presented one, or ("Order") another.
+    uint32_t drawn = pPresentInfo->swapchainCount > 0 ? pPresentInfo->pImageIndices[0] : 0;
     if (session.splitting() && pPresentInfo->swapchainCount > 0) {
         split_swapchain = find_swapchain(pPresentInfo->pSwapchains[0]);
         const uint32_t index = pPresentInfo->pImageIndices[0];
         if (split_swapchain && index < split_swapchain->images.size())
             split = take_split_frame(dev, split_swapchain->images[index], split_settings().eyes);
+        if (split_swapchain && !split.split)
+            if (const auto stray = take_stray(split_swapchain->handle, index);
+                stray && *stray < split_swapchain->images.size()) {
+                split = take_split_frame(dev, split_swapchain->images[*stray], split_settings().eyes);
+                if (split.split) {
+                    drawn = *stray;
+                    // The agent's foveae are those of the image drawn.
+                    if (!message.images.empty()) message.images[0].image_index = drawn;
+                }
+            }
         note_split_or_not(session, frame, split.split);
     }
+    const bool redirect = split.split && drawn != pPresentInfo->pImageIndices[0];
     const double frame_ms = split.split ? session.frame_interval_ms() : 0;
     // The present thread's case (see the top of this file); everything else happens here, after
     // the thread's frames, with the queue this thread's for the rest of the call.
-    const bool async = split.split && session.settings().present_depth > 0 && !session.verify() &&
-                       pPresentInfo->swapchainCount == 1 && !pPresentInfo->pNext;
+    const bool async = split.split && !redirect && session.settings().present_depth > 0 &&
+                       !session.verify() && pPresentInfo->swapchainCount == 1 && !pPresentInfo->pNext;
     std::unique_lock<std::mutex> queue_lock;
     if (!async) {
         drain_presents(dev);
@@ -866,11 +1084,12 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
     session.send_metadata(protocol::MessageType::FramePresent, protocol::encode(message));
 
     VkSemaphore composited = VK_NULL_HANDLE;
+    VkSemaphore redirected = VK_NULL_HANDLE;
     if (split.split) {
         SplitPresent p;
         p.queue = queue;
         p.swapchain = split_swapchain;
-        p.image_index = pPresentInfo->pImageIndices[0];
+        p.image_index = drawn;
         p.split = std::move(split);
         p.frame = frame;
         p.sent = std::chrono::steady_clock::now();
@@ -889,6 +1108,15 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
             present.waitSemaphoreCount = 1;
             present.pWaitSemaphores = &composited;
         }
+        // The presented image gets the frame: never an image the layer did not fill.
+        if (redirect)
+            if (const VkSemaphore copied =
+                    copy_swapchain_image(dev, queue, *split_swapchain, drawn, pPresentInfo->pImageIndices[0],
+                                         {present.pWaitSemaphores, present.waitSemaphoreCount})) {
+                redirected = copied;
+                present.waitSemaphoreCount = 1;
+                present.pWaitSemaphores = &redirected;
+            }
     }
     const VkResult result = note_presented(*pPresentInfo, dev.dispatch.QueuePresentKHR(queue, &present));
     queue_lock = {};

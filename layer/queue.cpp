@@ -151,6 +151,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit(VkQueue queue, uint32_t submitCount, 
     DeviceState &dev = device_state(queue);
     if (capturing(dev)) [[unlikely]]
         capture_submit(dev, queue, submitCount, pSubmits, fence);
+    if (dev.session) order_swapchain_writes(dev, swapchain_images_drawn(dev, submitCount, pSubmits));
     const auto lock = lock_queue(queue);
     if (dev.session) note_submit(dev, submitCount, pSubmits);
     return dev.dispatch.QueueSubmit(queue, submitCount, pSubmits, fence);
@@ -161,6 +162,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit2(VkQueue queue, uint32_t submitCount,
     DeviceState &dev = device_state(queue);
     if (capturing(dev)) [[unlikely]]
         capture_submit2(dev, queue, submitCount, pSubmits, fence);
+    if (dev.session) order_swapchain_writes(dev, swapchain_images_drawn(dev, submitCount, pSubmits));
     const auto lock = lock_queue(queue);
     if (dev.session) note_submit(dev, submitCount, pSubmits);
     return dev.dispatch.QueueSubmit2(queue, submitCount, pSubmits, fence);
@@ -171,6 +173,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit2KHR(VkQueue queue, uint32_t submitCou
     DeviceState &dev = device_state(queue);
     if (capturing(dev)) [[unlikely]]
         capture_submit2(dev, queue, submitCount, pSubmits, fence);
+    if (dev.session) order_swapchain_writes(dev, swapchain_images_drawn(dev, submitCount, pSubmits));
     const auto lock = lock_queue(queue);
     if (dev.session) note_submit(dev, submitCount, pSubmits);
     return dev.dispatch.QueueSubmit2KHR(queue, submitCount, pSubmits, fence);

@@ -57,6 +57,38 @@ SplitFrame take_split_frame(DeviceState &, VkImage image, EyeMode eyes) {
     return frame;
 }
 
+namespace {
+
+void add_drawn(std::vector<uint64_t> &out, uint32_t count, const VkCommandBuffer *command_buffers) {
+    for (uint32_t i = 0; i < count; ++i) {
+        const split::CommandTracker *tracker = split_tracker(command_buffers[i]);
+        if (!tracker) continue;
+        for (const split::DrawnImage &drawn : tracker->drawn())
+            out.push_back(drawn.image);
+    }
+}
+
+} // namespace
+
+std::vector<uint64_t> swapchain_images_drawn(const DeviceState &device, uint32_t count,
+                                             const VkSubmitInfo *submits) {
+    std::vector<uint64_t> out;
+    if (!split_enabled(device)) return out;
+    for (uint32_t i = 0; i < count; ++i)
+        add_drawn(out, submits[i].commandBufferCount, submits[i].pCommandBuffers);
+    return out;
+}
+
+std::vector<uint64_t> swapchain_images_drawn(const DeviceState &device, uint32_t count,
+                                             const VkSubmitInfo2 *submits) {
+    std::vector<uint64_t> out;
+    if (!split_enabled(device)) return out;
+    for (uint32_t i = 0; i < count; ++i)
+        for (uint32_t j = 0; j < submits[i].commandBufferInfoCount; ++j)
+            add_drawn(out, 1, &submits[i].pCommandBufferInfos[j].commandBuffer);
+    return out;
+}
+
 void note_split_submit(DeviceState &device, uint32_t count, const VkSubmitInfo *submits) {
     if (!split_enabled(device)) return;
     for (uint32_t i = 0; i < count; ++i)

@@ -79,6 +79,12 @@ void emit_scissors(DeviceState &device, VkCommandBuffer command_buffer, const sp
 // for every other pipeline.
 std::shared_ptr<const split::StaticViewportState> pipeline_static_state(VkPipeline pipeline);
 
+// queue.cpp, before the submit: the swapchain images (handle values) split passes in these
+// submits draw into; empty unless split_enabled().
+std::vector<uint64_t> swapchain_images_drawn(const DeviceState &device, uint32_t count,
+                                             const VkSubmitInfo *submits);
+std::vector<uint64_t> swapchain_images_drawn(const DeviceState &device, uint32_t count,
+                                             const VkSubmitInfo2 *submits);
 // queue.cpp: unions what the submitted command buffers' split passes drew into the per-image record.
 void note_split_submit(DeviceState &device, uint32_t count, const VkSubmitInfo *submits);
 void note_split_submit(DeviceState &device, uint32_t count, const VkSubmitInfo2 *submits);
