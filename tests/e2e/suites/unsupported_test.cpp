@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <set>
+#include <thread>
 
 namespace splitvk::e2e {
 namespace {
@@ -125,6 +126,14 @@ TEST_F(UnsupportedExtensions, PassthroughRunsUnsplit) {
                             "driver, unsplit");
     EXPECT_TRUE(grep(err, "replicating to splitvk-agent").empty()) << tail(err);
     EXPECT_TRUE(lines_starting_with(err, "[splitvk] error:").empty()) << tail(err);
+    // The instance still greets the agent at vkCreateInstance (for the device envelope), before any
+    // device exists, so the agent sees a second connection; but no device of it is created there.
+    const auto deadline = Clock::now() + std::chrono::seconds(10);
+    while (grep(agent.log(), ") ended").size() < 2 && Clock::now() < deadline)
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    EXPECT_EQ(grep(agent.log(), ": device created on ").size(), 1u)
+        << "only the control run's device replicates:\n"
+        << tail(agent.log());
 }
 
 } // namespace
