@@ -7,6 +7,7 @@
 #include "gpu_timing.h"
 #include "instance.h"
 #include "layer_entry_points.h"
+#include "layer_settings.h"
 #include "log.h"
 #include "object_map.h"
 #include "session.h"
@@ -14,10 +15,32 @@
 
 #include <vulkan/vk_layer.h>
 
+#include <string>
+
 namespace splitvk {
 namespace {
 
 ObjectMap<DispatchKey, DeviceState> g_devices;
+
+// SPLITVK_UNSUPPORTED=passthrough: the devices splitvk stays out of (passthrough_device_proc_addr).
+struct PassthroughDevice {
+    PFN_vkGetDeviceProcAddr next_get_device_proc_addr = nullptr;
+    PFN_vkDestroyDevice next_destroy_device = nullptr;
+};
+ObjectMap<DispatchKey, PassthroughDevice> g_passthrough_devices;
+
+// The device extensions of a vkCreateDevice that splitvk does not forward (codegen/allowlist.py),
+// joined with ", "; empty when it forwards them all.
+std::string withheld_extensions(const VkDeviceCreateInfo &info) {
+    std::string names;
+    for (uint32_t i = 0; i < info.enabledExtensionCount; ++i) {
+        const char *name = info.ppEnabledExtensionNames[i];
+        if (!name || device_extension_forwarded(name)) continue;
+        if (!names.empty()) names += ", ";
+        names += name;
+    }
+    return names;
+}
 
 const DeviceDispatchTable &device_table(DispatchKey key) {
     DeviceState *state = g_devices.find(key);
@@ -69,6 +92,11 @@ DeviceState *find_device(DispatchKey key) {
     return g_devices.find(key);
 }
 
+PFN_vkGetDeviceProcAddr passthrough_device_proc_addr(DispatchKey key) {
+    const PassthroughDevice *device = g_passthrough_devices.find(key);
+    return device ? device->next_get_device_proc_addr : nullptr;
+}
+
 const DeviceDispatchTable &device_dispatch(VkDevice device) {
     return device_table(dispatch_key(device));
 }
@@ -95,9 +123,42 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateDevice(VkPhysicalDevice physicalDevice,
         reinterpret_cast<PFN_vkCreateDevice>(next_gipa(instance->handle, "vkCreateDevice"));
     if (!next_create) return VK_ERROR_INITIALIZATION_FAILED;
 
+    // An extension splitvk does not forward: its commands and structures would reach the driver
+    // and never the agent, which then replays something else. One line, whatever happens next
+    // (the loader asks vkEnumerateDeviceExtensionProperties first, and splitvk lets it see the
+    // driver's extensions there so that the request gets this far: instance.cpp).
+    const std::string withheld = withheld_extensions(*pCreateInfo);
+    const bool passthrough =
+        !withheld.empty() && layer_settings().settings.unsupported == UnsupportedMode::Passthrough;
+    if (!withheld.empty()) {
+        const char *app =
+            instance->application_name.empty() ? "(unnamed application)" : instance->application_name.c_str();
+        if (!passthrough) {
+            SPLITVK_WARN("'%s' enables device extensions splitvk does not forward: %s; vkCreateDevice fails "
+                         "with VK_ERROR_EXTENSION_NOT_PRESENT. To run it unsplit, set "
+                         "SPLITVK_UNSUPPORTED=passthrough, or SPLITVK_DISABLE=1 to keep splitvk out",
+                         app, withheld.c_str());
+            return VK_ERROR_EXTENSION_NOT_PRESENT;
+        }
+        SPLITVK_WARN("'%s' enables device extensions splitvk does not forward: %s; SPLITVK_UNSUPPORTED="
+                     "passthrough: splitvk passes this device through to the driver, unsplit",
+                     app, withheld.c_str());
+    }
+
     link->u.pLayerInfo = link->u.pLayerInfo->pNext;
     const VkResult result = next_create(physicalDevice, pCreateInfo, pAllocator, pDevice);
     if (result != VK_SUCCESS) return result;
+
+    if (passthrough) {
+        // Nothing of splitvk's for this device: no session, no dispatch table, no object state;
+        // vkGetDeviceProcAddr answers with the next layer's commands (layer.cpp).
+        auto device = std::make_unique<PassthroughDevice>();
+        device->next_get_device_proc_addr = next_gdpa;
+        device->next_destroy_device =
+            reinterpret_cast<PFN_vkDestroyDevice>(next_gdpa(*pDevice, "vkDestroyDevice"));
+        g_passthrough_devices.insert(dispatch_key(*pDevice), std::move(device));
+        return VK_SUCCESS;
+    }
 
     auto state = std::make_unique<DeviceState>();
     state->handle = *pDevice;
@@ -121,7 +182,11 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateDevice(VkPhysicalDevice physicalDevice,
 VKAPI_ATTR void VKAPI_CALL DestroyDevice(VkDevice device, const VkAllocationCallbacks *pAllocator) {
     if (device == VK_NULL_HANDLE) return;
     const auto state = g_devices.remove(dispatch_key(device));
-    if (!state) return;
+    if (!state) {
+        if (const auto passthrough = g_passthrough_devices.remove(dispatch_key(device)))
+            passthrough->next_destroy_device(device, pAllocator);
+        return;
+    }
     log_live_state(*state, "at vkDestroyDevice");
     forget_device_objects(*state);
     if (state->session) {

@@ -29,6 +29,11 @@ struct DeviceState {
 
 // nullptr when the handle was not created through this layer.
 DeviceState *find_device(DispatchKey key);
+// SPLITVK_UNSUPPORTED=passthrough: a device created with an extension splitvk does not forward has
+// no DeviceState; the layer only remembers the next layer's vkGetDeviceProcAddr, so that
+// vkGetDeviceProcAddr hands the application the next layer's commands (vkDestroyDevice excepted,
+// which forgets it). nullptr for every other device.
+PFN_vkGetDeviceProcAddr passthrough_device_proc_addr(DispatchKey key);
 
 // The state of the device a handle belongs to (aborts, like device_dispatch, on an unknown handle).
 DeviceState &device_state(VkDevice device);

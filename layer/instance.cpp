@@ -14,10 +14,36 @@
 #include <cstring>
 #include <vector>
 
+#include <dlfcn.h>
+#include <execinfo.h>
+
 namespace splitvk {
 namespace {
 
 ObjectMap<DispatchKey, InstanceState> g_instances;
+
+// Whether this vkEnumerateDeviceExtensionProperties is the loader's check of a vkCreateDevice
+// request rather than the application's question. The loader (1.3.2xx and later) validates the
+// extensions an application enables against the top of the layer chain's list before any layer's
+// vkCreateDevice runs, so with splitvk's list it would refuse a withheld extension silently and
+// splitvk could neither say so nor pass the device through. The loader's check runs inside its
+// exported vkCreateDevice, the application's question never does: that frame on the stack (the
+// loader's library, libvulkan.so*) tells them apart, whatever layers sit above splitvk.
+bool loader_checking_create_device() {
+    void *frames[64];
+    const int count = backtrace(frames, 64);
+    for (int i = 1; i < count; ++i) {
+        Dl_info info{};
+        // A return address points after its call; one byte back is inside the calling function.
+        if (!dladdr(static_cast<char *>(frames[i]) - 1, &info) || !info.dli_sname || !info.dli_fname)
+            continue;
+        if (std::strcmp(info.dli_sname, "vkCreateDevice") != 0) continue;
+        const char *slash = std::strrchr(info.dli_fname, '/');
+        const char *file = slash ? slash + 1 : info.dli_fname;
+        if (std::strncmp(file, "libvulkan.so", 12) == 0) return true;
+    }
+    return false;
+}
 
 InstanceState &instance_state(DispatchKey key) {
     InstanceState *state = g_instances.find(key);
@@ -100,6 +126,11 @@ VKAPI_ATTR VkResult VKAPI_CALL EnumerateDeviceExtensionProperties(VkPhysicalDevi
     if (pLayerName)
         return next.EnumerateDeviceExtensionProperties(physicalDevice, pLayerName, pPropertyCount,
                                                        pProperties);
+    // The loader checking a vkCreateDevice: the driver's whole list, so that a withheld extension
+    // reaches splitvk's vkCreateDevice, which says so in one line and fails it or passes the
+    // device through (SPLITVK_UNSUPPORTED, device.cpp).
+    if (loader_checking_create_device())
+        return next.EnumerateDeviceExtensionProperties(physicalDevice, nullptr, pPropertyCount, pProperties);
 
     // The driver's extensions, less those splitvk cannot forward (codegen/allowlist.py). Always
     // hidden, with or without an agent, so that an application behaves the same either way and a

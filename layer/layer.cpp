@@ -31,6 +31,15 @@ VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetDeviceProcAddr(VkDevice device, cons
     const bool device_level = entry && entry->level == EntryLevel::Device;
     // As in GetInstanceProcAddr: without a device we know, answer for what we intercept.
     DeviceState *state = device == VK_NULL_HANDLE ? nullptr : find_device(dispatch_key(device));
+    // SPLITVK_UNSUPPORTED=passthrough: the next layer's commands, so that splitvk sees nothing of
+    // this device but its end.
+    if (!state && device != VK_NULL_HANDLE) {
+        if (const PFN_vkGetDeviceProcAddr next = passthrough_device_proc_addr(dispatch_key(device))) {
+            if (std::strcmp(pName, "vkDestroyDevice") == 0)
+                return reinterpret_cast<PFN_vkVoidFunction>(DestroyDevice);
+            return next(device, pName);
+        }
+    }
     if (!state) return device_level ? entry->function : nullptr;
     const PFN_vkVoidFunction next = state->next_get_device_proc_addr(device, pName);
     return device_level ? intercept_if_available(entry, next) : next;

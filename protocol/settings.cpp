@@ -60,6 +60,10 @@ const SettingInfo kSettings[] = {
     {"ENVELOPE", "auto or client", "auto",
      "auto: the app sees limits, features and formats that the client and every agent honour; client: the "
      "client's own, unchecked (agents then flag frames they cannot render)"},
+    {"UNSUPPORTED", "fail or passthrough", "fail",
+     "a device that enables an extension splitvk does not forward: fail: vkCreateDevice answers "
+     "VK_ERROR_EXTENSION_NOT_PRESENT; passthrough: the device is created as asked and runs unsplit, "
+     "splitvk out of its way"},
 };
 
 struct Source {
@@ -276,6 +280,15 @@ bool apply(std::string_view name, std::string_view raw, Settings &s) {
             s.envelope = true;
         else if (v == "client")
             s.envelope = false;
+        else
+            return false;
+        return true;
+    }
+    if (name == "UNSUPPORTED") {
+        if (v == "fail")
+            s.unsupported = UnsupportedMode::Fail;
+        else if (v == "passthrough")
+            s.unsupported = UnsupportedMode::Passthrough;
         else
             return false;
         return true;
@@ -499,6 +512,16 @@ const char *to_string(TileCodec codec) {
 
 std::string to_string(const AgentScissor &scissor) {
     return scissor.guard ? "guard:" + std::to_string(scissor.pixels) : "off";
+}
+
+const char *to_string(UnsupportedMode mode) {
+    switch (mode) {
+    case UnsupportedMode::Fail:
+        return "fail";
+    case UnsupportedMode::Passthrough:
+        return "passthrough";
+    }
+    return "?";
 }
 
 const char *to_string(LogLevel level) {

@@ -25,6 +25,11 @@ enum class TileCodec { X264, Zstd, Raw };
 // SPLITVK_TARGETS (issue 11): Auto scales every screen-space target on the client; Swapchain only
 // the passes into the swapchain image, as the first version did.
 enum class TargetMode { Auto, Swapchain };
+// SPLITVK_UNSUPPORTED (issue 19): what vkCreateDevice does when the application enables a device
+// extension splitvk does not forward (codegen/allowlist.py). Fail answers
+// VK_ERROR_EXTENSION_NOT_PRESENT; Passthrough creates that device as asked and leaves it alone:
+// no session, no split, every command straight to the driver.
+enum class UnsupportedMode { Fail, Passthrough };
 
 // SPLITVK_AGENT_SCISSOR (issue 11): off replays the agent's offscreen passes in full; guard:N also
 // scissors its passes into screen-space targets to the foveae grown by N pixels of each target.
@@ -73,6 +78,7 @@ struct Settings {
     // SPLITVK_ENVELOPE (issue 10): auto tells the application limits both sides honour; client
     // tells it the client's own, unchecked, which only a diagnosis should want.
     bool envelope = true;
+    UnsupportedMode unsupported = UnsupportedMode::Fail;
     TlsMode tls = TlsMode::Auto;
     // SPLITVK_AGENT_FINGERPRINT: the agent's certificate, canonical "sha256:<hex>"; empty: trust
     // on first use through known_agents (known_agents.h).
@@ -122,5 +128,6 @@ const char *to_string(EyeMode mode);
 const char *to_string(TileCodec codec);
 std::string to_string(const AgentScissor &scissor); // "off", "guard:64"
 const char *to_string(LogLevel level);
+const char *to_string(UnsupportedMode mode);
 
 } // namespace splitvk

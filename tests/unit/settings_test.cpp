@@ -104,6 +104,19 @@ TEST_F(SettingsTest, AgentScissorGuard) {
     EXPECT_EQ(load({{"SPLITVK_AGENT_SCISSOR", "guard:0"}}).settings.agent_scissor.pixels, 0u);
 }
 
+// SPLITVK_UNSUPPORTED: fail (the default) or passthrough, in any case, from the file too.
+TEST_F(SettingsTest, UnsupportedExtensions) {
+    EXPECT_EQ(load({}).settings.unsupported, UnsupportedMode::Fail);
+    EXPECT_EQ(load({{"SPLITVK_UNSUPPORTED", "passthrough"}}).settings.unsupported,
+              UnsupportedMode::Passthrough);
+    EXPECT_EQ(load({{"SPLITVK_UNSUPPORTED", "Passthrough"}}).settings.unsupported,
+              UnsupportedMode::Passthrough);
+    EXPECT_EQ(load({{"SPLITVK_UNSUPPORTED", "fail"}}).settings.unsupported, UnsupportedMode::Fail);
+    write_file("vk_layer_settings.txt", "splitvk_split_render.unsupported = passthrough\n");
+    EXPECT_EQ(load({}).settings.unsupported, UnsupportedMode::Passthrough);
+    EXPECT_STREQ(to_string(UnsupportedMode::Passthrough), "passthrough");
+}
+
 TEST_F(SettingsTest, FractionalFovea) {
     const auto loaded = load({{"SPLITVK_FOVEA", "0.5x0.25"}});
     ASSERT_TRUE(loaded.valid());
@@ -131,6 +144,7 @@ TEST_F(SettingsTest, InvalidValuesAreOneLineErrorsNamingTheSetting) {
         {"TOKEN_FILE", {"", "/nonexistent/token", "/"}},
         {"VERIFY", {"", "on", "1", "partial"}},
         {"ENVELOPE", {"", "on", "agent", "strict"}},
+        {"UNSUPPORTED", {"", "ignore", "pass", "disable", "1"}},
         {"TLS", {"", "yes", "1", "tls13", "required"}},
         {"AGENT_FINGERPRINT",
          {"", "sha256:", "sha1:" + std::string(40, 'a'), "sha256:" + std::string(63, 'a'),

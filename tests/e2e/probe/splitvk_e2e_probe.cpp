@@ -3,12 +3,17 @@
 // layer's log), a device and a queue, records two vkCmdFillBuffer into one buffer and submits them,
 // and creates and destroys a descriptor set layout and a descriptor pool.
 //
-//   splitvk-e2e-probe [--app-name NAME] [--sync-hazard]
+//   splitvk-e2e-probe [--app-name NAME] [--sync-hazard] [--device-extension NAME]...
+//                     [--list-device-extensions]
 //
 // With --sync-hazard the barrier between the two fills is left out: a write-after-write hazard that
 // only synchronization validation reports. The validation tests use it to prove that
 // synchronization validation is really on (a negative control), so a clean run means something.
-// It prints the limits it was told, for the device envelope tests.
+// It prints the limits it was told, for the device envelope tests. --device-extension enables a
+// device extension whether or not vkEnumerateDeviceExtensionProperties lists it, as an application
+// that enables extensions blindly does (the unsupported-extension tests). --list-device-extensions
+// prints `device extension: NAME` for each extension vkEnumerateDeviceExtensionProperties lists, and
+// stops before creating a device.
 #include <vulkan/vulkan.h>
 
 #include <cstdio>
@@ -27,7 +32,17 @@ namespace {
         }                                                                                                    \
     } while (0)
 
-int run(const std::string &app_name, bool sync_hazard) {
+struct Options {
+    std::string app_name = "splitvk-e2e-probe";
+    bool sync_hazard = false;
+    std::vector<const char *> device_extensions;
+    bool list_device_extensions = false;
+};
+
+int run(const Options &options) {
+    const std::string &app_name = options.app_name;
+    const bool sync_hazard = options.sync_hazard;
+    const std::vector<const char *> &device_extensions = options.device_extensions;
     VkApplicationInfo app{};
     app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
     app.pApplicationName = app_name.c_str();
@@ -58,6 +73,17 @@ int run(const std::string &app_name, bool sync_hazard) {
                 static_cast<unsigned long long>(properties.limits.minStorageBufferOffsetAlignment),
                 properties.limits.maxPushConstantsSize, properties.limits.maxImageDimension2D);
 
+    if (options.list_device_extensions) {
+        uint32_t extension_count = 0;
+        CHECK(vkEnumerateDeviceExtensionProperties(gpu, nullptr, &extension_count, nullptr));
+        std::vector<VkExtensionProperties> extensions(extension_count);
+        CHECK(vkEnumerateDeviceExtensionProperties(gpu, nullptr, &extension_count, extensions.data()));
+        for (uint32_t i = 0; i < extension_count; ++i)
+            std::printf("device extension: %s\n", extensions[i].extensionName);
+        vkDestroyInstance(instance, nullptr);
+        return 0;
+    }
+
     uint32_t qcount = 0;
     vkGetPhysicalDeviceQueueFamilyProperties(gpu, &qcount, nullptr);
     std::vector<VkQueueFamilyProperties> families(qcount);
@@ -83,6 +109,8 @@ int run(const std::string &app_name, bool sync_hazard) {
     dci.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
     dci.queueCreateInfoCount = 1;
     dci.pQueueCreateInfos = &qci;
+    dci.enabledExtensionCount = static_cast<uint32_t>(device_extensions.size());
+    dci.ppEnabledExtensionNames = device_extensions.data();
     VkDevice device = VK_NULL_HANDLE;
     CHECK(vkCreateDevice(gpu, &dci, nullptr, &device));
     VkQueue queue = VK_NULL_HANDLE;
@@ -194,17 +222,21 @@ int run(const std::string &app_name, bool sync_hazard) {
 } // namespace
 
 int main(int argc, char **argv) {
-    std::string app_name = "splitvk-e2e-probe";
-    bool sync_hazard = false;
+    Options options;
     for (int i = 1; i < argc; ++i) {
         if (std::strcmp(argv[i], "--app-name") == 0 && i + 1 < argc) {
-            app_name = argv[++i];
+            options.app_name = argv[++i];
         } else if (std::strcmp(argv[i], "--sync-hazard") == 0) {
-            sync_hazard = true;
+            options.sync_hazard = true;
+        } else if (std::strcmp(argv[i], "--device-extension") == 0 && i + 1 < argc) {
+            options.device_extensions.push_back(argv[++i]);
+        } else if (std::strcmp(argv[i], "--list-device-extensions") == 0) {
+            options.list_device_extensions = true;
         } else {
-            std::fprintf(stderr, "usage: splitvk-e2e-probe [--app-name NAME] [--sync-hazard]\n");
+            std::fprintf(stderr, "usage: splitvk-e2e-probe [--app-name NAME] [--sync-hazard] "
+                                 "[--device-extension NAME]... [--list-device-extensions]\n");
             return 2;
         }
     }
-    return run(app_name, sync_hazard);
+    return run(options);
 }

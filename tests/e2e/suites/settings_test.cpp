@@ -121,6 +121,7 @@ const std::map<std::string, std::string> &bad_values() {
         {"TOKEN_FILE", "/nonexistent-splitvk-dir/token"}, // unreadable
         {"VERIFY", "partial"},                            // off or full
         {"ENVELOPE", "strict"},                           // auto or client
+        {"UNSUPPORTED", "ignore"},                        // fail or passthrough
         {"TLS", "required"},                              // auto, on or off
         {"AGENT_FINGERPRINT", "sha1:0123"},               // sha256: and 64 hex digits
     };
