@@ -206,6 +206,7 @@ protected:
         e["SPLITVK_SERVER"] = agent.address();
         e["SPLITVK_STATS"] = (out_ / run / "stats.csv").string();
         e["SPLITVK_LOG_LEVEL"] = "info";
+        e["SPLITVK_TILE_WAIT"] = "60000"; // a busy machine must not turn the compared frames late
         return e;
     }
 
@@ -395,6 +396,7 @@ TEST_F(Xr, AgentKilledAndRestartedIsBroughtBackIn) {
     ASSERT_TRUE(first.start(clean_env(), out_, {}, port, "first-agent")) << first.error();
     Env e = split_env("split", first);
     e["TEST_XR_READBACK_KEEP"] = "8"; // room for the copy below while the app writes on
+    e.erase("SPLITVK_TILE_WAIT");     // the default: the outage's frames go on without tiles
     Process app(hello_xr(e, "split", 12));
     ASSERT_TRUE(app.start()) << app.error();
     const auto stderr_path = out_ / "split.stderr";
