@@ -1,0 +1,499 @@
+// OpenXR (issue 18, item 7): Debian's unmodified hello_xr on Monado (scripts/xr-runtime: headless,
+// simulated HMD, static head pose, 320x240 eye images, one swapchain of three images per eye),
+// judged from what the runtime receives. VK_LAYER_SPLITVK_test_xr_readback (xr_readback_layer/),
+// at the bottom of the chain below splitvk and validation, writes every eye image as the runtime's
+// release barrier hands it to VK_QUEUE_FAMILY_EXTERNAL: after hello_xr's rendering and splitvk's
+// composite.
+//  - Native (readback layer only) against split (agent, splitvk's Vulkan and OpenXR layers): each
+//    eye image's fovea is bit-exact against native, its periphery holds colours that native never
+//    renders (hello_xr's flat-shaded cubes have five colours; a periphery rendered at reduced scale
+//    and upscaled blends them at the edges: the split is real), SPLITVK_STATS shows the frames split
+//    with none late, and Khronos validation (which hello_xr enables itself; synchronization on)
+//    reports no message ID that the native run does not.
+//  - The same with the OpenXR core validation layer above splitvk's API layer: no message.
+//  - The agent killed mid-session: hello_xr goes on and exits 0, a new agent on the same port is
+//    brought in, and the last eye images' foveae are again those of the split frames before the kill.
+// hello_xr's hand cubes move (the simulated controllers); the fovea holds only the static centre
+// cube, so foveae of different frames compare exactly, whole images do not.
+#include "agent.h"
+#include "e2e_test.h"
+#include "fovea.h"
+
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <set>
+#include <sstream>
+#include <thread>
+
+namespace splitvk::e2e {
+namespace {
+
+using namespace std::chrono_literals;
+
+constexpr const char *kReadbackLayerName = "VK_LAYER_SPLITVK_test_xr_readback";
+constexpr const char *kXrLayerName = "XR_APILAYER_SPLITVK_split_render";
+constexpr const char *kXrCoreValidationName = "XR_APILAYER_LUNARG_core_validation";
+constexpr const char *kSystemXrLayers = "/usr/share/openxr/1/api_layers/explicit.d";
+constexpr int kEyeImages = 6; // two swapchains of three images
+
+// An eye image as the readback layer wrote it: RGBA texels, rows packed.
+struct EyeImage {
+    uint32_t width = 0, height = 0;
+    std::vector<uint8_t> rgba;
+    uint32_t texel(uint32_t x, uint32_t y) const {
+        uint32_t v = 0;
+        std::memcpy(&v, rgba.data() + (size_t{y} * width + x) * 4, 4);
+        return v;
+    }
+};
+
+bool load_pam(const std::filesystem::path &path, EyeImage *image) {
+    std::ifstream in(path, std::ios::binary);
+    std::string line;
+    uint32_t depth = 0;
+    while (std::getline(in, line) && line != "ENDHDR") {
+        std::istringstream fields(line);
+        std::string name;
+        fields >> name;
+        if (name == "WIDTH") fields >> image->width;
+        if (name == "HEIGHT") fields >> image->height;
+        if (name == "DEPTH") fields >> depth;
+    }
+    if (depth != 4 || image->width == 0 || image->height == 0) return false;
+    image->rgba.resize(size_t{image->width} * image->height * 4);
+    in.read(reinterpret_cast<char *>(image->rgba.data()), static_cast<std::streamsize>(image->rgba.size()));
+    return in.gcount() == static_cast<std::streamsize>(image->rgba.size());
+}
+
+// The bgr0 Image of the harness (for its PNG artefacts), alpha in the fourth byte.
+Image to_image(const EyeImage &e) {
+    Image image;
+    image.width = e.width;
+    image.height = e.height;
+    image.bgr0.resize(e.rgba.size());
+    for (size_t i = 0; i < e.rgba.size(); i += 4) {
+        image.bgr0[i] = e.rgba[i + 2];
+        image.bgr0[i + 1] = e.rgba[i + 1];
+        image.bgr0[i + 2] = e.rgba[i];
+        image.bgr0[i + 3] = e.rgba[i + 3];
+    }
+    return image;
+}
+
+// The newest readback of each eye image in `dir` (image<K>-<N>.pam): K -> (N, path).
+std::map<int, std::pair<int, std::filesystem::path>> newest_readbacks(const std::filesystem::path &dir) {
+    std::map<int, std::pair<int, std::filesystem::path>> newest;
+    const std::regex name(R"(image(\d+)-(\d+)\.pam)");
+    std::error_code ec;
+    for (const auto &entry : std::filesystem::directory_iterator(dir, ec)) {
+        std::smatch m;
+        const std::string file = entry.path().filename().string();
+        if (!std::regex_match(file, m, name)) continue;
+        const int k = std::stoi(m[1]), n = std::stoi(m[2]);
+        auto it = newest.find(k);
+        if (it == newest.end() || it->second.first < n) newest[k] = {n, entry.path()};
+    }
+    return newest;
+}
+
+struct Mismatch {
+    uint64_t pixels = 0, mismatched = 0;
+};
+
+// Texels (all four bytes) that differ within `r`.
+Mismatch compare_rect(const EyeImage &a, const EyeImage &b, const Rect &r) {
+    Mismatch m;
+    for (uint32_t y = r.y; y < r.y + r.h; ++y)
+        for (uint32_t x = r.x; x < r.x + r.w; ++x) {
+            ++m.pixels;
+            if (a.texel(x, y) != b.texel(x, y)) ++m.mismatched;
+        }
+    return m;
+}
+
+bool inside(const Rect &r, uint32_t x, uint32_t y) {
+    return x >= r.x && x < r.x + r.w && y >= r.y && y < r.y + r.h;
+}
+
+// Validation log messages by ID ("VUID-...", "SYNC-...", or the message's first words).
+std::map<std::string, int> message_ids(const std::filesystem::path &log) {
+    std::map<std::string, int> ids;
+    const std::regex id(R"((VUID-[A-Za-z0-9_-]+|SYNC-[A-Z-]+|UNASSIGNED-[A-Za-z0-9_.-]+))");
+    for (const std::string &l : split_lines(read_file(log))) {
+        if (l.empty() || l[0] == ' ' || l[0] == '\t') continue;
+        std::smatch m;
+        ++ids[std::regex_search(l, m, id) ? m[1].str() : l.substr(0, 60)];
+    }
+    return ids;
+}
+
+std::string describe(const std::map<std::string, int> &ids) {
+    std::string s;
+    for (const auto &[id, n] : ids)
+        s += "\n  " + id + " x" + std::to_string(n);
+    return s.empty() ? " none" : s;
+}
+
+struct StatsSummary {
+    int frames = 0, late = 0, with_tiles = 0;
+    bool last_with_tiles = false;
+};
+
+StatsSummary read_stats(const std::filesystem::path &csv) {
+    StatsSummary s;
+    const auto lines = split_lines(read_file(csv));
+    if (lines.empty()) return s;
+    std::vector<std::string> names;
+    std::stringstream header(lines[0]);
+    for (std::string f; std::getline(header, f, ',');)
+        names.push_back(f);
+    for (size_t i = 1; i < lines.size(); ++i) {
+        if (lines[i].empty()) continue;
+        std::map<std::string, double> row;
+        std::stringstream fields(lines[i]);
+        size_t c = 0;
+        for (std::string f; std::getline(fields, f, ',') && c < names.size(); ++c)
+            row[names[c]] = std::stod(f);
+        ++s.frames;
+        s.late += row["late"] != 0;
+        s.last_with_tiles = row["tile_bytes"] > 0;
+        s.with_tiles += s.last_with_tiles;
+    }
+    return s;
+}
+
+class Xr : public ::testing::Test {
+protected:
+    void SetUp() override {
+        out_ = test_output_dir();
+        if (!find_program("hello_xr", clean_env()))
+            GTEST_SKIP() << "hello_xr (libopenxr-utils) is not installed";
+        ASSERT_TRUE(built(explicit_layer_dir()));
+        ASSERT_TRUE(built(agent_path()));
+        ASSERT_TRUE(built(SPLITVK_E2E_XR_READBACK_LAYER_DIR));
+        ASSERT_TRUE(built(build_dir() / "manifest" / "openxr"));
+    }
+
+    // Native: validation (as hello_xr asks) with the readback layer below it; Monado's own
+    // environment comes from scripts/xr-runtime. Each run has its folder under the test's.
+    Env native_env(const std::string &run) {
+        Env e = clean_env();
+        // The Monado build in the cache: scripts/xr-runtime's location (clean_env drops SPLITVK_*).
+        if (const char *cache = std::getenv("SPLITVK_CACHE")) e["SPLITVK_CACHE"] = cache;
+        const auto dir = out_ / run;
+        std::filesystem::create_directories(dir / "images");
+        // This loader chains explicit layers in the order their manifests are found: the readback
+        // layer's folder comes last, below the system's (validation); validation is named here too
+        // so that the app's own request for it does not put it below the readback layer.
+        e["VK_LAYER_PATH"] = std::string(kSystemExplicitLayers) + ":" + SPLITVK_E2E_XR_READBACK_LAYER_DIR;
+        e["VK_INSTANCE_LAYERS"] = std::string(kValidationLayerName) + ":" + kReadbackLayerName;
+        validation_logs_[run] = configure_validation(e, dir);
+        e["TEST_XR_READBACK_DIR"] = (dir / "images").string();
+        e["TEST_XR_READBACK_KEEP"] = "3";
+        enable_loader_debug(e);
+        return e;
+    }
+
+    // Split: splitvk's Vulkan layer above validation above the readback layer, its OpenXR layer on.
+    Env split_env(const std::string &run, const Agent &agent) {
+        Env e = native_env(run);
+        e["VK_LAYER_PATH"] = explicit_layer_dir().string() + ":" + e["VK_LAYER_PATH"];
+        e["VK_INSTANCE_LAYERS"] = std::string(kLayerName) + ":" + e["VK_INSTANCE_LAYERS"];
+        e["XR_API_LAYER_PATH"] = (build_dir() / "manifest" / "openxr").string();
+        e["XR_ENABLE_API_LAYERS"] = kXrLayerName;
+        e["SPLITVK_SERVER"] = agent.address();
+        e["SPLITVK_STATS"] = (out_ / run / "stats.csv").string();
+        e["SPLITVK_LOG_LEVEL"] = "info";
+        e["SPLITVK_TILE_WAIT"] = "60000"; // a busy machine must not turn the compared frames late
+        return e;
+    }
+
+    // The OpenXR core validation layer above splitvk's (XR_ENABLE_API_LAYERS: first is closest to the
+    // app), its messages as text in <run>/xr-validation.txt.
+    void add_xr_core_validation(Env &e, const std::string &run) {
+        const auto path = e.find("XR_API_LAYER_PATH");
+        e["XR_API_LAYER_PATH"] =
+            path == e.end() ? std::string(kSystemXrLayers) : path->second + ":" + kSystemXrLayers;
+        const auto layers = e.find("XR_ENABLE_API_LAYERS");
+        e["XR_ENABLE_API_LAYERS"] = layers == e.end()
+                                        ? std::string(kXrCoreValidationName)
+                                        : std::string(kXrCoreValidationName) + ":" + layers->second;
+        e["XR_CORE_VALIDATION_EXPORT_TYPE"] = "text";
+        e["XR_CORE_VALIDATION_FILE_NAME"] = (out_ / run / "xr-validation.txt").string();
+        e["XR_LOADER_DEBUG"] = "info";
+    }
+
+    // hello_xr -g Vulkan2 under Monado for about `seconds` (it exits when its standard input closes).
+    ProcessSpec hello_xr(const Env &env, const std::string &run, int seconds) {
+        ProcessSpec spec;
+        spec.argv = {"/bin/bash", "-c",
+                     "sleep " + std::to_string(seconds) + " | \"$0\" run -- hello_xr -g Vulkan2",
+                     (source_dir() / "scripts" / "xr-runtime").string()};
+        spec.env = env;
+        spec.out_dir = out_;
+        spec.name = run;
+        return spec;
+    }
+
+    ProcessResult run_hello_xr(const Env &env, const std::string &run, int seconds) {
+        return run_process(hello_xr(env, run, seconds), std::chrono::seconds(seconds + 60));
+    }
+
+    // The chain the loader built: splitvk (where present) above validation above the readback layer.
+    void expect_layer_order(const ProcessResult &r, bool split) {
+        const auto stack = instance_layer_stack(r.err());
+        const int readback = stack_index(stack, kReadbackLayerName);
+        const int validation = stack_index(stack, kValidationLayerName);
+        EXPECT_GE(readback, 0) << "the readback layer is not in the chain";
+        EXPECT_GE(validation, 0) << "validation is not in the chain";
+        EXPECT_LT(validation, readback) << "the readback layer must be below validation";
+        if (split) {
+            const int splitvk = stack_index(stack, kLayerName);
+            EXPECT_GE(splitvk, 0) << "splitvk is not in the chain";
+            EXPECT_LT(splitvk, validation) << "splitvk must be above validation";
+        }
+    }
+
+    // Native and split of the same eye images: foveae exact, peripheries with colours native lacks.
+    void expect_foveae_exact(const std::string &native_run, const std::string &split_run) {
+        const auto native = newest_readbacks(out_ / native_run / "images");
+        const auto split = newest_readbacks(out_ / split_run / "images");
+        ASSERT_EQ(native.size(), static_cast<size_t>(kEyeImages)) << "native eye images read back";
+        ASSERT_EQ(split.size(), static_cast<size_t>(kEyeImages)) << "split eye images read back";
+        // hello_xr's palette: every colour any native image has.
+        std::set<uint32_t> palette;
+        std::map<int, EyeImage> native_images;
+        for (const auto &[k, newest] : native) {
+            ASSERT_TRUE(load_pam(newest.second, &native_images[k])) << newest.second;
+            const EyeImage &n = native_images[k];
+            for (uint32_t y = 0; y < n.height; ++y)
+                for (uint32_t x = 0; x < n.width; ++x)
+                    palette.insert(n.texel(x, y));
+        }
+        uint64_t compared = 0, mismatched = 0, periphery_blended = 0;
+        for (const auto &[k, newest] : split) {
+            SCOPED_TRACE("eye image " + std::to_string(k) + ": " + newest.second.filename().string());
+            ASSERT_TRUE(native_images.count(k));
+            EXPECT_GE(newest.first, 5) << "too few frames to compare one late in the run";
+            EyeImage s;
+            ASSERT_TRUE(load_pam(newest.second, &s)) << newest.second;
+            const EyeImage &n = native_images[k];
+            ASSERT_EQ(s.width, n.width);
+            ASSERT_EQ(s.height, n.height);
+            // One eye per image: the default fovea of a single-eye image.
+            const Rect f = default_foveae(s.width, s.height, 1)[0];
+            const Mismatch m = compare_rect(n, s, f);
+            compared += m.pixels;
+            mismatched += m.mismatched;
+            EXPECT_EQ(m.mismatched, 0u)
+                << "fovea " << f.w << "x" << f.h << " at " << f.x << "," << f.y << ": " << m.mismatched
+                << " of " << m.pixels << " texels differ\n"
+                << save_mismatch_artefacts(out_, "image" + std::to_string(k), to_image(n), to_image(s));
+            uint64_t blended = 0;
+            for (uint32_t y = 0; y < s.height; ++y)
+                for (uint32_t x = 0; x < s.width; ++x)
+                    if (!inside(f, x, y) && !palette.count(s.texel(x, y))) ++blended;
+            EXPECT_GT(blended, 0u) << "the periphery has only native colours: not rendered at reduced scale";
+            periphery_blended += blended;
+        }
+        std::cout << "  foveae: " << compared << " texels compared in " << split.size() << " eye images, "
+                  << mismatched << " differ; periphery: " << periphery_blended
+                  << " texels in colours native never renders (native palette: " << palette.size() << ")\n";
+        RecordProperty("fovea_texels", std::to_string(compared));
+        RecordProperty("fovea_mismatches", std::to_string(mismatched));
+    }
+
+    void expect_split_stats(const std::string &run, int min_frames) {
+        const StatsSummary s = read_stats(out_ / run / "stats.csv");
+        std::cout << "  " << run << ": " << s.frames << " frames split, " << s.with_tiles << " with tiles, "
+                  << s.late << " late\n";
+        EXPECT_GE(s.frames, min_frames) << "SPLITVK_STATS: too few split frames";
+        EXPECT_EQ(s.late, 0) << "SPLITVK_STATS: late frames";
+        EXPECT_EQ(s.with_tiles, s.frames) << "SPLITVK_STATS: frames without tiles";
+    }
+
+    // No Khronos validation message ID in the split run that the native run lacks.
+    void expect_no_new_validation(const std::string &native_run, const std::string &split_run) {
+        const auto native = message_ids(validation_logs_[native_run]);
+        const auto split = message_ids(validation_logs_[split_run]);
+        int native_n = 0, split_n = 0;
+        for (const auto &[id, n] : native)
+            native_n += n;
+        for (const auto &[id, n] : split)
+            split_n += n;
+        std::cout << "  Khronos validation: " << native_n << " message(s) native, " << split_n << " split\n";
+        for (const auto &[id, n] : split)
+            EXPECT_TRUE(native.count(id))
+                << "validation message " << id << " (x" << n
+                << ") only with splitvk; native:" << describe(native) << "\nsplit:" << describe(split)
+                << "\nfirst: " << first_message(read_file(validation_logs_[split_run]));
+    }
+
+    std::filesystem::path out_;
+    std::map<std::string, std::filesystem::path> validation_logs_;
+};
+
+TEST_F(Xr, HelloXrFoveaeExactAgainstNative) {
+    const auto native = run_hello_xr(native_env("native"), "native", 4);
+    ASSERT_TRUE(native.ok()) << native.describe() << "\n" << tail(native.err(), 30);
+    expect_layer_order(native, false);
+    Agent agent;
+    ASSERT_TRUE(agent.start(clean_env(), out_)) << agent.error();
+    const auto split = run_hello_xr(split_env("split", agent), "split", 4);
+    ASSERT_TRUE(split.ok()) << split.describe() << "\n" << tail(split.err(), 30);
+    expect_layer_order(split, true);
+    EXPECT_TRUE(grep(split.err(), "[splitvk] error:").empty()) << tail(split.err(), 30);
+    EXPECT_FALSE(grep(split.err(), "OpenXR session: eye images of its Vulkan device are split").empty());
+    ASSERT_NO_FATAL_FAILURE(expect_foveae_exact("native", "split"));
+    expect_split_stats("split", 20);
+    expect_no_new_validation("native", "split");
+}
+
+// XR_APILAYER_LUNARG_core_validation above splitvk's API layer: it sees the application's calls as
+// splitvk's layer receives them and splitvk's calls down; it must report nothing, as natively.
+TEST_F(Xr, CoreValidationAboveSplitvkReportsNothing) {
+    Env native = native_env("native");
+    add_xr_core_validation(native, "native");
+    const auto n = run_hello_xr(native, "native", 4);
+    ASSERT_TRUE(n.ok()) << n.describe() << "\n" << tail(n.err(), 30);
+    Agent agent;
+    ASSERT_TRUE(agent.start(clean_env(), out_)) << agent.error();
+    Env split = split_env("split", agent);
+    add_xr_core_validation(split, "split");
+    const auto s = run_hello_xr(split, "split", 4);
+    ASSERT_TRUE(s.ok()) << s.describe() << "\n" << tail(s.err(), 30);
+    // The OpenXR loader loads the layers application side first.
+    for (const ProcessResult *r : {&n, &s}) {
+        const std::string out = r->out();
+        const auto core = out.find(std::string("succeeded loading layer ") + kXrCoreValidationName);
+        ASSERT_NE(core, std::string::npos) << "core validation was not loaded\n" << tail(out, 20);
+        if (r == &s) {
+            const auto ours = out.find(std::string("succeeded loading layer ") + kXrLayerName);
+            ASSERT_NE(ours, std::string::npos) << "splitvk's API layer was not loaded\n" << tail(out, 20);
+            EXPECT_LT(core, ours) << "core validation must be above splitvk's API layer";
+        }
+    }
+    const std::string native_messages = read_file(out_ / "native" / "xr-validation.txt");
+    const std::string split_messages = read_file(out_ / "split" / "xr-validation.txt");
+    std::cout << "  OpenXR core validation: " << split_lines(native_messages).size() << " line(s) native, "
+              << split_lines(split_messages).size() << " split\n";
+    EXPECT_EQ(split_messages, native_messages) << "core validation with splitvk:\n"
+                                               << tail(split_messages, 30);
+    ASSERT_NO_FATAL_FAILURE(expect_foveae_exact("native", "split"));
+    expect_split_stats("split", 10);
+    expect_no_new_validation("native", "split");
+}
+
+// The agent SIGKILLed mid-session (listener and session): hello_xr runs on unsplit and exits 0; a
+// new agent on the same port is brought in, and the eye images the runtime gets at the end have
+// the foveae of the split frames before the kill (exact against native, by the test above).
+TEST_F(Xr, AgentKilledAndRestartedIsBroughtBackIn) {
+    const uint16_t port = free_loopback_port();
+    ASSERT_NE(port, 0);
+    Agent first;
+    ASSERT_TRUE(first.start(clean_env(), out_, {}, port, "first-agent")) << first.error();
+    Env e = split_env("split", first);
+    e["TEST_XR_READBACK_KEEP"] = "8"; // room for the copy below while the app writes on
+    e.erase("SPLITVK_TILE_WAIT");     // the default: the outage's frames go on without tiles
+    Process app(hello_xr(e, "split", 12));
+    ASSERT_TRUE(app.start()) << app.error();
+    const auto stderr_path = out_ / "split.stderr";
+    const auto wait_for_log = [&](const std::string &text, std::chrono::seconds timeout) {
+        for (const auto deadline = Clock::now() + timeout; Clock::now() < deadline;) {
+            if (read_file(stderr_path).find(text) != std::string::npos) return true;
+            std::this_thread::sleep_for(50ms);
+        }
+        return false;
+    };
+    ASSERT_TRUE(wait_for_log("split: passes into", 30s)) << tail(read_file(stderr_path), 30);
+    // Some frames with tiles first: each eye image released a few times since the split began.
+    const auto images = out_ / "split" / "images";
+    const auto at_split = newest_readbacks(images);
+    const auto released_since = [&](const std::map<int, std::pair<int, std::filesystem::path>> &then, int n) {
+        const auto now = newest_readbacks(images);
+        if (now.size() < static_cast<size_t>(kEyeImages)) return false;
+        for (const auto &[k, newest] : now) {
+            const auto it = then.find(k);
+            if (newest.first < (it == then.end() ? 0 : it->second.first) + n) return false;
+        }
+        return true;
+    };
+    for (const auto deadline = Clock::now() + 30s; !released_since(at_split, 3) && Clock::now() < deadline;)
+        std::this_thread::sleep_for(50ms);
+    ASSERT_TRUE(released_since(at_split, 3)) << "the eye images were not released after the split began";
+    // The newest eye images as the runtime got them, kept in `dir` (the layer keeps each image's
+    // last 8 only).
+    const auto snapshot = [&](const std::filesystem::path &dir) {
+        std::filesystem::create_directories(dir);
+        for (const auto &[k, newest] : newest_readbacks(images)) {
+            std::error_code ec;
+            std::filesystem::copy_file(newest.second, dir / newest.second.filename(), ec);
+            ASSERT_FALSE(ec) << newest.second << ": " << ec.message();
+        }
+    };
+    const auto before_dir = out_ / "before-kill";
+    ASSERT_NO_FATAL_FAILURE(snapshot(before_dir));
+    first.kill();
+    ASSERT_TRUE(wait_for_log("went away", 30s)) << tail(read_file(stderr_path), 30);
+    const auto at_kill = newest_readbacks(images);
+    std::this_thread::sleep_for(1s); // some frames with no agent at all
+    const auto during = newest_readbacks(images);
+    const auto outage_dir = out_ / "during-outage";
+    ASSERT_NO_FATAL_FAILURE(snapshot(outage_dir));
+    Agent second;
+    ASSERT_TRUE(second.start(clean_env(), out_, {}, port, "second-agent")) << second.error();
+    ASSERT_TRUE(wait_for_log("the first split frame from the agent that joined", 30s))
+        << tail(read_file(stderr_path), 30);
+    const ProcessResult r = app.wait(60s);
+    ASSERT_TRUE(r.ok()) << r.describe() << "\n" << tail(r.err(), 30);
+    EXPECT_TRUE(grep(r.err(), "[splitvk] error:").empty()) << tail(r.err(), 30);
+    EXPECT_FALSE(grep(r.err(), "brought in at frame").empty()) << tail(r.err(), 30);
+    std::regex first_split(R"(the first split frame from the agent that joined, (\d+) ms after it answered)");
+    std::smatch m;
+    const std::string err = r.err();
+    if (std::regex_search(err, m, first_split)) std::cout << "  resync: " << m[1] << " ms\n";
+    // The runtime kept getting eye images while no agent was there.
+    ASSERT_EQ(at_kill.size(), static_cast<size_t>(kEyeImages));
+    for (const auto &[k, newest] : during)
+        EXPECT_GT(newest.first, at_kill.at(k).first) << "eye image " << k << " not released without an agent";
+    // The last frames, split by the second agent: their foveae are those of the first agent's.
+    // Those of the frames without an agent, their centre from the periphery, are not (the control:
+    // the comparison sees a fovea that is missing).
+    const auto before = newest_readbacks(before_dir);
+    const auto outage = newest_readbacks(outage_dir);
+    const auto after = newest_readbacks(images);
+    ASSERT_EQ(before.size(), static_cast<size_t>(kEyeImages));
+    ASSERT_EQ(outage.size(), static_cast<size_t>(kEyeImages));
+    ASSERT_EQ(after.size(), static_cast<size_t>(kEyeImages));
+    uint64_t compared = 0, mismatched = 0, outage_mismatched = 0;
+    for (const auto &[k, newest] : after) {
+        EyeImage a, b, o;
+        ASSERT_TRUE(load_pam(before.at(k).second, &b) && load_pam(newest.second, &a) &&
+                    load_pam(outage.at(k).second, &o));
+        ASSERT_EQ(a.width, b.width);
+        const Rect f = default_foveae(a.width, a.height, 1)[0];
+        const Mismatch without_agent = compare_rect(b, o, f);
+        outage_mismatched += without_agent.mismatched;
+        EXPECT_GT(without_agent.mismatched, 0u)
+            << "eye image " << k << " (" << outage.at(k).second.filename().string()
+            << "): without an agent its fovea is the split one";
+        const Mismatch mm = compare_rect(b, a, f);
+        compared += mm.pixels;
+        mismatched += mm.mismatched;
+        EXPECT_EQ(mm.mismatched, 0u) << "eye image " << k << " (" << newest.second.filename().string()
+                                     << "): fovea after the restart differs from before the kill\n"
+                                     << save_mismatch_artefacts(out_, "image" + std::to_string(k),
+                                                                to_image(b), to_image(a));
+    }
+    std::cout << "  after the restart: " << compared << " fovea texels compared with before the kill, "
+              << mismatched << " differ (without an agent: " << outage_mismatched << " differ)\n";
+    const StatsSummary s = read_stats(out_ / "split" / "stats.csv");
+    std::cout << "  split: " << s.frames << " frames, " << s.with_tiles << " with tiles, " << s.late
+              << " late\n";
+    EXPECT_TRUE(s.last_with_tiles) << "the last frame was not split with the new agent's tiles";
+}
+
+} // namespace
+} // namespace splitvk::e2e

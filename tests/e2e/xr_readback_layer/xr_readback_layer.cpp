@@ -1,0 +1,493 @@
+// VK_LAYER_SPLITVK_test_xr_readback: a test-only layer that shows what an OpenXR runtime receives.
+// An OpenXR application hands each eye image to the runtime with a barrier that releases it to
+// VK_QUEUE_FAMILY_EXTERNAL; Monado records that barrier once per image, in a command buffer of its
+// own on the application's device, and submits it at every xrReleaseSwapchainImage. The tests put
+// this layer BELOW splitvk and validation, next to the driver, so that it sees the image exactly as
+// the runtime gets it: after the application's rendering and splitvk's composite.
+//
+// It remembers, per command buffer, the images its vkCmdPipelineBarrier(2) release to the external
+// queue family (cleared at vkBeginCommandBuffer). At a vkQueueSubmit of such a command buffer, before
+// passing the submit down, it waits for the queue, copies each image (in the layout the barrier
+// releases it from, transitioned there and back with a command buffer of its own) to a host buffer
+// and writes it to $TEST_XR_READBACK_DIR/image<K>-<N>.pam: K numbers the images with external memory
+// (the runtime's) in the order they were created, N counts that image's releases from 0. A PAM file
+// (P7, TUPLTYPE RGB_ALPHA for 4-byte texels, GRAYSCALE otherwise) holds the texels unconverted.
+// With TEST_XR_READBACK_KEEP=M only each image's last M files are kept.
+//
+// Its own Vulkan calls go to the next layer (the driver), so that no layer above it sees them.
+// Built into the build tree only and never installed.
+#include <vulkan/vk_layer.h>
+#include <vulkan/vulkan.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+namespace splitvk::xr_readback_layer {
+namespace {
+
+using DispatchKey = void *;
+DispatchKey key(const void *dispatchable) {
+    return *static_cast<void *const *>(dispatchable);
+}
+
+struct Instance {
+    VkInstance handle = VK_NULL_HANDLE;
+    PFN_vkGetInstanceProcAddr next_gipa = nullptr;
+};
+
+#define XR_READBACK_DEVICE_FUNCTIONS(X)                                                                      \
+    X(DestroyDevice)                                                                                         \
+    X(CreateImage)                                                                                           \
+    X(DestroyImage)                                                                                          \
+    X(BeginCommandBuffer)                                                                                    \
+    X(EndCommandBuffer)                                                                                      \
+    X(CmdPipelineBarrier)                                                                                    \
+    X(CmdCopyImageToBuffer)                                                                                  \
+    X(QueueSubmit)                                                                                           \
+    X(QueueWaitIdle)                                                                                         \
+    X(CreateCommandPool)                                                                                     \
+    X(DestroyCommandPool)                                                                                    \
+    X(AllocateCommandBuffers)                                                                                \
+    X(FreeCommandBuffers)                                                                                    \
+    X(CreateBuffer)                                                                                          \
+    X(DestroyBuffer)                                                                                         \
+    X(GetBufferMemoryRequirements)                                                                           \
+    X(AllocateMemory)                                                                                        \
+    X(FreeMemory)                                                                                            \
+    X(BindBufferMemory)                                                                                      \
+    X(MapMemory)
+
+struct Device {
+    VkDevice handle = VK_NULL_HANDLE;
+    PFN_vkGetDeviceProcAddr next_gdpa = nullptr;
+    PFN_vkSetDeviceLoaderData set_loader_data = nullptr;
+    VkPhysicalDeviceMemoryProperties memory{};
+#define X(name) PFN_vk##name name = nullptr;
+    XR_READBACK_DEVICE_FUNCTIONS(X)
+#undef X
+    PFN_vkCmdPipelineBarrier2 CmdPipelineBarrier2 = nullptr;
+    PFN_vkCmdPipelineBarrier2 CmdPipelineBarrier2KHR = nullptr;
+    // The layer's own command pools, per queue family, created on first need.
+    std::unordered_map<uint32_t, VkCommandPool> pools;
+};
+
+struct ImageInfo {
+    VkFormat format = VK_FORMAT_UNDEFINED;
+    VkExtent3D extent{};
+    int ordinal = -1;      // among images with external memory, in creation order; -1 for others
+    uint64_t releases = 0; // readbacks written so far
+};
+
+// An image a command buffer releases to VK_QUEUE_FAMILY_EXTERNAL.
+struct Release {
+    VkImage image = VK_NULL_HANDLE;
+    VkImageLayout layout = VK_IMAGE_LAYOUT_UNDEFINED; // the layout the barrier releases it from
+    uint32_t family = 0;                              // the queue family it releases it from
+    VkImageSubresourceRange range{};
+};
+
+std::mutex g_mutex;
+std::unordered_map<DispatchKey, Instance> g_instances; // a physical device shares its instance's key
+std::unordered_map<DispatchKey, Device> g_devices;     // so do a device's queues and command buffers
+VkInstance g_instance = VK_NULL_HANDLE;
+std::unordered_map<VkImage, ImageInfo> g_images;
+int g_external_images = 0;
+std::unordered_map<VkCommandBuffer, std::vector<Release>> g_releases;
+std::mutex g_readback_mutex;
+
+Device &device_of(const void *dispatchable) {
+    std::lock_guard lock(g_mutex);
+    return g_devices[key(dispatchable)];
+}
+
+bool has_external_memory(const VkImageCreateInfo &info) {
+    for (auto *s = static_cast<const VkBaseInStructure *>(info.pNext); s; s = s->pNext)
+        if (s->sType == VK_STRUCTURE_TYPE_EXTERNAL_MEMORY_IMAGE_CREATE_INFO) return true;
+    return false;
+}
+
+uint32_t texel_size(VkFormat format) {
+    switch (format) {
+    case VK_FORMAT_R8G8B8A8_UNORM:
+    case VK_FORMAT_R8G8B8A8_SRGB:
+    case VK_FORMAT_B8G8R8A8_UNORM:
+    case VK_FORMAT_B8G8R8A8_SRGB:
+        return 4;
+    default:
+        return 0; // not read back
+    }
+}
+
+// ------------------------------------------------------------------------------------ readback
+
+uint32_t host_memory_type(const Device &d, uint32_t type_bits) {
+    const VkMemoryPropertyFlags wanted =
+        VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+    for (uint32_t i = 0; i < d.memory.memoryTypeCount; ++i)
+        if ((type_bits & (1u << i)) && (d.memory.memoryTypes[i].propertyFlags & wanted) == wanted) return i;
+    return UINT32_MAX;
+}
+
+void barrier(const Device &d, VkCommandBuffer cb, const Release &r, VkImageLayout from, VkImageLayout to) {
+    VkImageMemoryBarrier b{};
+    b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+    b.srcAccessMask = VK_ACCESS_MEMORY_WRITE_BIT | VK_ACCESS_MEMORY_READ_BIT;
+    b.dstAccessMask = VK_ACCESS_MEMORY_WRITE_BIT | VK_ACCESS_MEMORY_READ_BIT;
+    b.oldLayout = from;
+    b.newLayout = to;
+    b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.image = r.image;
+    b.subresourceRange = r.range;
+    d.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, 0, 0,
+                         nullptr, 0, nullptr, 1, &b);
+}
+
+void write_pam(const std::filesystem::path &path, const ImageInfo &info, const uint8_t *texels) {
+    const uint32_t size = texel_size(info.format);
+    const auto tmp = path.string() + ".tmp";
+    {
+        std::ofstream out(tmp, std::ios::binary);
+        out << "P7\nWIDTH " << info.extent.width << "\nHEIGHT " << info.extent.height << "\nDEPTH " << size
+            << "\nMAXVAL 255\nTUPLTYPE " << (size == 4 ? "RGB_ALPHA" : "GRAYSCALE") << "\nENDHDR\n";
+        out.write(reinterpret_cast<const char *>(texels),
+                  static_cast<std::streamsize>(size_t{info.extent.width} * info.extent.height * size));
+    }
+    std::filesystem::rename(tmp, path); // a reader sees whole files only
+}
+
+std::filesystem::path readback_path(const std::string &dir, int ordinal, uint64_t release) {
+    char name[64];
+    std::snprintf(name, sizeof name, "image%d-%05llu.pam", ordinal, static_cast<unsigned long long>(release));
+    return std::filesystem::path(dir) / name;
+}
+
+// Copies the image level 0, layer 0 to a file. The queue is idle; the image is in r.layout. Called
+// under g_readback_mutex (the layer's command pools are used from one thread at a time).
+void read_back(Device &d, VkQueue queue, const Release &r, const std::string &dir) {
+    ImageInfo info;
+    {
+        std::lock_guard lock(g_mutex);
+        const auto it = g_images.find(r.image);
+        if (it == g_images.end() || it->second.ordinal < 0 || texel_size(it->second.format) == 0) return;
+        info = it->second;
+        ++it->second.releases;
+    }
+    const VkDeviceSize bytes = VkDeviceSize{info.extent.width} * info.extent.height * texel_size(info.format);
+    VkCommandPool &pool = d.pools[r.family];
+    if (!pool) {
+        VkCommandPoolCreateInfo pool_info{};
+        pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+        pool_info.queueFamilyIndex = r.family;
+        if (d.CreateCommandPool(d.handle, &pool_info, nullptr, &pool) != VK_SUCCESS) return;
+    }
+    VkBufferCreateInfo buffer_info{};
+    buffer_info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+    buffer_info.size = bytes;
+    buffer_info.usage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    VkBuffer buffer = VK_NULL_HANDLE;
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    VkCommandBuffer cb = VK_NULL_HANDLE;
+    VkMemoryRequirements req{};
+    void *mapped = nullptr;
+    bool ok = d.CreateBuffer(d.handle, &buffer_info, nullptr, &buffer) == VK_SUCCESS;
+    if (ok) {
+        d.GetBufferMemoryRequirements(d.handle, buffer, &req);
+        VkMemoryAllocateInfo alloc{};
+        alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+        alloc.allocationSize = req.size;
+        alloc.memoryTypeIndex = host_memory_type(d, req.memoryTypeBits);
+        ok = alloc.memoryTypeIndex != UINT32_MAX &&
+             d.AllocateMemory(d.handle, &alloc, nullptr, &memory) == VK_SUCCESS &&
+             d.BindBufferMemory(d.handle, buffer, memory, 0) == VK_SUCCESS &&
+             d.MapMemory(d.handle, memory, 0, VK_WHOLE_SIZE, 0, &mapped) == VK_SUCCESS;
+    }
+    if (ok) {
+        VkCommandBufferAllocateInfo cb_info{};
+        cb_info.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+        cb_info.commandPool = pool;
+        cb_info.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+        cb_info.commandBufferCount = 1;
+        // A dispatchable object made below the loader gets its dispatch pointer from the loader.
+        ok = d.AllocateCommandBuffers(d.handle, &cb_info, &cb) == VK_SUCCESS &&
+             d.set_loader_data(d.handle, cb) == VK_SUCCESS;
+    }
+    if (ok) {
+        VkCommandBufferBeginInfo begin{};
+        begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+        begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+        d.BeginCommandBuffer(cb, &begin);
+        barrier(d, cb, r, r.layout, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+        VkBufferImageCopy copy{};
+        copy.imageSubresource = {r.range.aspectMask, 0, 0, 1};
+        copy.imageExtent = {info.extent.width, info.extent.height, 1};
+        d.CmdCopyImageToBuffer(cb, r.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, buffer, 1, &copy);
+        barrier(d, cb, r, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, r.layout);
+        d.EndCommandBuffer(cb);
+        VkSubmitInfo submit{};
+        submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+        submit.commandBufferCount = 1;
+        submit.pCommandBuffers = &cb;
+        ok = d.QueueSubmit(queue, 1, &submit, VK_NULL_HANDLE) == VK_SUCCESS &&
+             d.QueueWaitIdle(queue) == VK_SUCCESS;
+    }
+    if (ok) {
+        const auto path = readback_path(dir, info.ordinal, info.releases);
+        write_pam(path, info, static_cast<const uint8_t *>(mapped));
+        const char *keep = std::getenv("TEST_XR_READBACK_KEEP");
+        const uint64_t m = keep ? std::strtoull(keep, nullptr, 10) : 0;
+        if (m > 0 && info.releases >= m) {
+            std::error_code ec;
+            std::filesystem::remove(readback_path(dir, info.ordinal, info.releases - m), ec);
+        }
+    } else {
+        std::fprintf(stderr, "xr_readback: reading back image %d failed\n", info.ordinal);
+    }
+    if (cb) d.FreeCommandBuffers(d.handle, pool, 1, &cb);
+    if (buffer) d.DestroyBuffer(d.handle, buffer, nullptr);
+    if (memory) d.FreeMemory(d.handle, memory, nullptr);
+}
+
+// ------------------------------------------------------------------------------------ entry points
+
+VKAPI_ATTR VkResult VKAPI_CALL CreateImage(VkDevice device, const VkImageCreateInfo *info,
+                                           const VkAllocationCallbacks *alloc, VkImage *image) {
+    Device &d = device_of(device);
+    VkImageCreateInfo created = *info;
+    const bool external = has_external_memory(*info);
+    // The runtime's images are copied from: lavapipe ignores usage for the copy, validation (above)
+    // never sees it. splitvk adds the same bit to every image when it is on.
+    if (external) created.usage |= VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+    const VkResult result = d.CreateImage(device, &created, alloc, image);
+    if (result == VK_SUCCESS) {
+        std::lock_guard lock(g_mutex);
+        ImageInfo i;
+        i.format = info->format;
+        i.extent = info->extent;
+        if (external) i.ordinal = g_external_images++;
+        g_images[*image] = i;
+    }
+    return result;
+}
+
+VKAPI_ATTR void VKAPI_CALL DestroyImage(VkDevice device, VkImage image, const VkAllocationCallbacks *alloc) {
+    Device &d = device_of(device);
+    {
+        std::lock_guard lock(g_mutex);
+        g_images.erase(image);
+    }
+    d.DestroyImage(device, image, alloc);
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL BeginCommandBuffer(VkCommandBuffer cb, const VkCommandBufferBeginInfo *info) {
+    {
+        std::lock_guard lock(g_mutex);
+        g_releases.erase(cb);
+    }
+    return device_of(cb).BeginCommandBuffer(cb, info);
+}
+
+void note_release(VkCommandBuffer cb, VkImage image, VkImageLayout layout, uint32_t src_family,
+                  uint32_t dst_family, const VkImageSubresourceRange &range) {
+    if (dst_family != VK_QUEUE_FAMILY_EXTERNAL || src_family == VK_QUEUE_FAMILY_EXTERNAL) return;
+    std::lock_guard lock(g_mutex);
+    g_releases[cb].push_back({image, layout, src_family, range});
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdPipelineBarrier(VkCommandBuffer cb, VkPipelineStageFlags src,
+                                              VkPipelineStageFlags dst, VkDependencyFlags flags,
+                                              uint32_t memory_count, const VkMemoryBarrier *memory,
+                                              uint32_t buffer_count, const VkBufferMemoryBarrier *buffers,
+                                              uint32_t image_count, const VkImageMemoryBarrier *images) {
+    for (uint32_t i = 0; i < image_count; ++i)
+        note_release(cb, images[i].image, images[i].oldLayout, images[i].srcQueueFamilyIndex,
+                     images[i].dstQueueFamilyIndex, images[i].subresourceRange);
+    device_of(cb).CmdPipelineBarrier(cb, src, dst, flags, memory_count, memory, buffer_count, buffers,
+                                     image_count, images);
+}
+
+void note_releases(VkCommandBuffer cb, const VkDependencyInfo *info) {
+    for (uint32_t i = 0; i < info->imageMemoryBarrierCount; ++i) {
+        const VkImageMemoryBarrier2 &b = info->pImageMemoryBarriers[i];
+        note_release(cb, b.image, b.oldLayout, b.srcQueueFamilyIndex, b.dstQueueFamilyIndex,
+                     b.subresourceRange);
+    }
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdPipelineBarrier2(VkCommandBuffer cb, const VkDependencyInfo *info) {
+    note_releases(cb, info);
+    device_of(cb).CmdPipelineBarrier2(cb, info);
+}
+
+VKAPI_ATTR void VKAPI_CALL CmdPipelineBarrier2KHR(VkCommandBuffer cb, const VkDependencyInfo *info) {
+    note_releases(cb, info);
+    device_of(cb).CmdPipelineBarrier2KHR(cb, info);
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit(VkQueue queue, uint32_t count, const VkSubmitInfo *submits,
+                                           VkFence fence) {
+    Device &d = device_of(queue);
+    std::vector<Release> releases;
+    {
+        std::lock_guard lock(g_mutex);
+        for (uint32_t s = 0; s < count; ++s)
+            for (uint32_t c = 0; c < submits[s].commandBufferCount; ++c) {
+                const auto it = g_releases.find(submits[s].pCommandBuffers[c]);
+                if (it != g_releases.end())
+                    releases.insert(releases.end(), it->second.begin(), it->second.end());
+            }
+    }
+    const char *dir = std::getenv("TEST_XR_READBACK_DIR");
+    if (!releases.empty() && dir && *dir) {
+        // Everything submitted before (the application's rendering, splitvk's composite) is done.
+        d.QueueWaitIdle(queue);
+        std::lock_guard lock(g_readback_mutex);
+        for (const Release &r : releases)
+            read_back(d, queue, r, dir);
+    }
+    return d.QueueSubmit(queue, count, submits, fence);
+}
+
+VKAPI_ATTR void VKAPI_CALL DestroyDevice(VkDevice device, const VkAllocationCallbacks *alloc) {
+    Device d;
+    {
+        std::lock_guard lock(g_mutex);
+        d = g_devices[key(device)];
+        g_devices.erase(key(device));
+    }
+    for (const auto &[family, pool] : d.pools)
+        d.DestroyCommandPool(device, pool, nullptr);
+    d.DestroyDevice(device, alloc);
+}
+
+// The loader's link info for this layer in a create info's pNext chain, moved on to the next layer.
+template <class LinkInfo>
+auto *take_link(const void *next, VkStructureType type) {
+    auto *chain = static_cast<LinkInfo *>(const_cast<void *>(next));
+    while (chain && !(chain->sType == type && chain->function == VK_LAYER_LINK_INFO))
+        chain = static_cast<LinkInfo *>(const_cast<void *>(chain->pNext));
+    if (!chain) return decltype(chain->u.pLayerInfo){nullptr};
+    auto *link = chain->u.pLayerInfo;
+    chain->u.pLayerInfo = link->pNext;
+    return link;
+}
+
+PFN_vkSetDeviceLoaderData loader_data_callback(const VkDeviceCreateInfo *info) {
+    for (auto *s = static_cast<const VkLayerDeviceCreateInfo *>(info->pNext); s;
+         s = static_cast<const VkLayerDeviceCreateInfo *>(s->pNext))
+        if (s->sType == VK_STRUCTURE_TYPE_LOADER_DEVICE_CREATE_INFO && s->function == VK_LOADER_DATA_CALLBACK)
+            return s->u.pfnSetDeviceLoaderData;
+    return nullptr;
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL CreateInstance(const VkInstanceCreateInfo *info,
+                                              const VkAllocationCallbacks *alloc, VkInstance *instance) {
+    const auto *link =
+        take_link<VkLayerInstanceCreateInfo>(info->pNext, VK_STRUCTURE_TYPE_LOADER_INSTANCE_CREATE_INFO);
+    if (!link) return VK_ERROR_INITIALIZATION_FAILED;
+    const PFN_vkGetInstanceProcAddr next = link->pfnNextGetInstanceProcAddr;
+    auto create = reinterpret_cast<PFN_vkCreateInstance>(next(VK_NULL_HANDLE, "vkCreateInstance"));
+    const VkResult result = create(info, alloc, instance);
+    if (result == VK_SUCCESS) {
+        std::lock_guard lock(g_mutex);
+        g_instances[key(*instance)] = {*instance, next};
+        g_instance = *instance;
+    }
+    return result;
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL CreateDevice(VkPhysicalDevice gpu, const VkDeviceCreateInfo *info,
+                                            const VkAllocationCallbacks *alloc, VkDevice *device) {
+    const PFN_vkSetDeviceLoaderData set_loader_data = loader_data_callback(info);
+    const auto *link =
+        take_link<VkLayerDeviceCreateInfo>(info->pNext, VK_STRUCTURE_TYPE_LOADER_DEVICE_CREATE_INFO);
+    if (!link || !set_loader_data) return VK_ERROR_INITIALIZATION_FAILED;
+    const PFN_vkGetInstanceProcAddr next_gipa = link->pfnNextGetInstanceProcAddr;
+    const PFN_vkGetDeviceProcAddr next_gdpa = link->pfnNextGetDeviceProcAddr;
+    Instance instance;
+    {
+        std::lock_guard lock(g_mutex);
+        const auto it = g_instances.find(key(gpu));
+        instance = it != g_instances.end() ? it->second : Instance{g_instance, next_gipa};
+    }
+    auto create = reinterpret_cast<PFN_vkCreateDevice>(next_gipa(instance.handle, "vkCreateDevice"));
+    const VkResult result = create(gpu, info, alloc, device);
+    if (result != VK_SUCCESS) return result;
+    Device d;
+    d.handle = *device;
+    d.next_gdpa = next_gdpa;
+    d.set_loader_data = set_loader_data;
+    auto memory_properties = reinterpret_cast<PFN_vkGetPhysicalDeviceMemoryProperties>(
+        next_gipa(instance.handle, "vkGetPhysicalDeviceMemoryProperties"));
+    memory_properties(gpu, &d.memory);
+#define X(name) d.name = reinterpret_cast<PFN_vk##name>(next_gdpa(*device, "vk" #name));
+    XR_READBACK_DEVICE_FUNCTIONS(X)
+#undef X
+    d.CmdPipelineBarrier2 =
+        reinterpret_cast<PFN_vkCmdPipelineBarrier2>(next_gdpa(*device, "vkCmdPipelineBarrier2"));
+    d.CmdPipelineBarrier2KHR =
+        reinterpret_cast<PFN_vkCmdPipelineBarrier2>(next_gdpa(*device, "vkCmdPipelineBarrier2KHR"));
+    std::lock_guard lock(g_mutex);
+    g_devices[key(*device)] = d;
+    return result;
+}
+
+VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetDeviceProcAddr(VkDevice device, const char *name);
+
+VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetInstanceProcAddr(VkInstance instance, const char *name) {
+    if (!std::strcmp(name, "vkGetInstanceProcAddr"))
+        return reinterpret_cast<PFN_vkVoidFunction>(GetInstanceProcAddr);
+    if (!std::strcmp(name, "vkCreateInstance")) return reinterpret_cast<PFN_vkVoidFunction>(CreateInstance);
+    if (!std::strcmp(name, "vkCreateDevice")) return reinterpret_cast<PFN_vkVoidFunction>(CreateDevice);
+    if (!std::strcmp(name, "vkGetDeviceProcAddr"))
+        return reinterpret_cast<PFN_vkVoidFunction>(GetDeviceProcAddr);
+    if (!instance) return nullptr;
+    std::lock_guard lock(g_mutex);
+    return g_instances[key(instance)].next_gipa(instance, name);
+}
+
+VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetDeviceProcAddr(VkDevice device, const char *name) {
+    Device &d = device_of(device);
+    struct Intercepted {
+        const char *name;
+        PFN_vkVoidFunction function;
+        bool present; // the next layer has it
+    };
+    const Intercepted intercepted[] = {
+        {"vkGetDeviceProcAddr", reinterpret_cast<PFN_vkVoidFunction>(GetDeviceProcAddr), true},
+        {"vkDestroyDevice", reinterpret_cast<PFN_vkVoidFunction>(DestroyDevice), true},
+        {"vkCreateImage", reinterpret_cast<PFN_vkVoidFunction>(CreateImage), true},
+        {"vkDestroyImage", reinterpret_cast<PFN_vkVoidFunction>(DestroyImage), true},
+        {"vkBeginCommandBuffer", reinterpret_cast<PFN_vkVoidFunction>(BeginCommandBuffer), true},
+        {"vkCmdPipelineBarrier", reinterpret_cast<PFN_vkVoidFunction>(CmdPipelineBarrier), true},
+        {"vkCmdPipelineBarrier2", reinterpret_cast<PFN_vkVoidFunction>(CmdPipelineBarrier2),
+         d.CmdPipelineBarrier2 != nullptr},
+        {"vkCmdPipelineBarrier2KHR", reinterpret_cast<PFN_vkVoidFunction>(CmdPipelineBarrier2KHR),
+         d.CmdPipelineBarrier2KHR != nullptr},
+        {"vkQueueSubmit", reinterpret_cast<PFN_vkVoidFunction>(QueueSubmit), true},
+    };
+    for (const Intercepted &i : intercepted)
+        if (!std::strcmp(name, i.name)) return i.present ? i.function : nullptr;
+    return d.next_gdpa(device, name);
+}
+
+} // namespace
+} // namespace splitvk::xr_readback_layer
+
+extern "C" __attribute__((visibility("default"))) VKAPI_ATTR VkResult VKAPI_CALL
+vkNegotiateLoaderLayerInterfaceVersion(VkNegotiateLayerInterface *interface) {
+    if (!interface || interface->sType != LAYER_NEGOTIATE_INTERFACE_STRUCT)
+        return VK_ERROR_INITIALIZATION_FAILED;
+    if (interface->loaderLayerInterfaceVersion > 2) interface->loaderLayerInterfaceVersion = 2;
+    interface->pfnGetInstanceProcAddr = splitvk::xr_readback_layer::GetInstanceProcAddr;
+    interface->pfnGetDeviceProcAddr = splitvk::xr_readback_layer::GetDeviceProcAddr;
+    interface->pfnGetPhysicalDeviceProcAddr = nullptr;
+    return VK_SUCCESS;
+}
