@@ -50,6 +50,9 @@ ensure_packages() {
 # shared whatever folder the clone is in; the cache itself lives outside it (ccache's default,
 # ~/.cache/ccache).
 export CCACHE_BASEDIR=${CCACHE_BASEDIR:-$SPLITVK_ROOT}
+# The instrumented builds carry debug info, which would make ccache hash the build folder too;
+# a fresh clone's debug info then names the first clone's folders, which only a debugger reads.
+export CCACHE_NOHASHDIR=${CCACHE_NOHASHDIR:-1}
 compiler_cache_args() {
   command -v ccache >/dev/null || return 0
   printf '%s\n' -DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache

@@ -736,7 +736,7 @@ TEST_F(AgentTest, ClosingWithPresentsInFlightEndsCleanly) {
     client.connection->flush(5000ms);
     client.connection->close();
     EXPECT_TRUE(agent_.wait_for_end(1, "closed by the client")) << agent_.log();
-    EXPECT_EQ(agent_.log().find("error"), std::string::npos) << agent_.log();
+    EXPECT_EQ(agent_.log().find("] error:"), std::string::npos) << agent_.log();
     EXPECT_NE(agent_.log().find(std::to_string(kPresents) + " frames"), std::string::npos)
         << "the session did not replay every present it was sent:\n"
         << agent_.log();
