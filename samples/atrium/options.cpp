@@ -102,7 +102,8 @@ options:
 On start it prints 'atrium: T triangles, 49 textures, WxH per eye, path NAME'. When the last frame has been
 presented it prints 'frame-time: median M ms, IQR Q ms, N frames' (CPU time between successive
 presents; frame 0 counts from the start of the render loop). With --xr a second line follows the
-first, 'xr: RUNTIME, SYSTEM, LOCAL space, FORMAT, LAYOUT', and frame times are between xrEndFrame calls.
+first, 'xr: RUNTIME, SYSTEM, LOCAL space, FORMAT, LAYOUT', then at the first frame one line per eye
+with its offset from the head and its field of view; frame times are between xrEndFrame calls.
 )";
 }
 

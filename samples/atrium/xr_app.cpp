@@ -38,9 +38,23 @@ constexpr XrViewConfigurationType view_type = XR_VIEW_CONFIGURATION_TYPE_PRIMARY
 
 std::string xr_result_name(XrInstance instance, XrResult result) {
     char name[XR_MAX_RESULT_STRING_SIZE] = {};
-    if (instance == XR_NULL_HANDLE || xrResultToString(instance, result, name) != XR_SUCCESS)
+    if (instance != XR_NULL_HANDLE && xrResultToString(instance, result, name) == XR_SUCCESS) return name;
+    switch (result) { // what the loader answers before there is an instance
+    case XR_ERROR_RUNTIME_UNAVAILABLE:
+        return "XR_ERROR_RUNTIME_UNAVAILABLE";
+    case XR_ERROR_RUNTIME_FAILURE:
+        return "XR_ERROR_RUNTIME_FAILURE";
+    case XR_ERROR_INSTANCE_LOST:
+        return "XR_ERROR_INSTANCE_LOST";
+    case XR_ERROR_INITIALIZATION_FAILED:
+        return "XR_ERROR_INITIALIZATION_FAILED";
+    case XR_ERROR_API_VERSION_UNSUPPORTED:
+        return "XR_ERROR_API_VERSION_UNSUPPORTED";
+    case XR_ERROR_EXTENSION_NOT_PRESENT:
+        return "XR_ERROR_EXTENSION_NOT_PRESENT";
+    default:
         return "XrResult " + std::to_string(int(result));
-    return name;
+    }
 }
 
 // An OpenXR input or output structure: zeroed, with its type.
@@ -79,9 +93,10 @@ F instance_proc(XrInstance instance, const char *name) {
 }
 
 // Runtime values with float noise (Monado composes the head pose and its inverse to locate the
-// views in VIEW space) rounded to 10 micrometres and 10 microradians: the same on every run.
+// views in VIEW space, and the noise's sign varies) rounded to 10 micrometres and 10 microradians:
+// the same on every run. Adding +0 turns a rounded -0 into +0.
 float quantize(float value) {
-    return float(std::round(double(value) * 1e5) / 1e5);
+    return float(std::round(double(value) * 1e5) / 1e5) + 0.0f;
 }
 
 // Where eye `view` (located in VIEW space: relative to the head) is, and its field of view.
@@ -256,7 +271,7 @@ private:
     XrOwned<XrSpace, xrDestroySpace> world_space_, head_space_; // LOCAL (or STAGE), VIEW
     const char *world_space_name_ = "LOCAL";
     XrSessionState state_ = XR_SESSION_STATE_UNKNOWN;
-    bool running_ = false, exit_requested_ = false;
+    bool running_ = false, exit_requested_ = false, views_reported_ = false;
 
     VkFormat format_ = VK_FORMAT_UNDEFINED;
     VkExtent2D extents_[view_count]{};
@@ -646,6 +661,21 @@ bool XrApp::frame_loop_iteration(uint64_t frame) {
     const XrCompositionLayerBaseHeader *layers[] = {
         reinterpret_cast<XrCompositionLayerBaseHeader *>(&projection)};
     if (render) {
+        if (!views_reported_) {
+            // What the pictures take from the runtime, once: the eyes relative to the head.
+            for (uint32_t eye = 0; eye < view_count; ++eye) {
+                const XrVector3f &p = head_views[eye].pose.position;
+                const XrFovf fov = rendered_fov(head_views[eye].fov);
+                std::printf(
+                    "xr: eye %u at (%.5f, %.5f, %.5f) m from the head, fov left %.3f right %.3f up %.3f "
+                    "down %.3f deg\n",
+                    eye, double(quantize(p.x)), double(quantize(p.y)), double(quantize(p.z)),
+                    glm::degrees(double(fov.angleLeft)), glm::degrees(double(fov.angleRight)),
+                    glm::degrees(double(fov.angleUp)), glm::degrees(double(fov.angleDown)));
+            }
+            std::fflush(stdout);
+            views_reported_ = true;
+        }
         render_eyes(frame, head_views);
         for (uint32_t eye = 0; eye < view_count; ++eye) {
             XrCompositionLayerProjectionView &view = projection_views[eye];
