@@ -32,7 +32,7 @@ CameraPath CameraPath::for_scene(const Scene &scene) {
     return path;
 }
 
-EyeView CameraPath::eye_view(uint64_t frame, uint32_t eye, uint32_t eye_count, float aspect) const {
+CameraPath::Head CameraPath::head(uint64_t frame) const {
     // Parameters in double so that late frames do not lose precision.
     const double t = 2.0 * std::numbers::pi * double(frame) / frames_per_loop;
     const glm::vec3 position =
@@ -44,6 +44,11 @@ EyeView CameraPath::eye_view(uint64_t frame, uint32_t eye, uint32_t eye_count, f
     const double pitch = 0.12 + 0.1 * std::sin(2.3 * t);
     const glm::vec3 forward(float(std::cos(pitch) * std::cos(heading)), float(std::sin(pitch)),
                             float(std::cos(pitch) * std::sin(heading)));
+    return {position, forward};
+}
+
+EyeView CameraPath::eye_view(uint64_t frame, uint32_t eye, uint32_t eye_count, float aspect) const {
+    const auto [position, forward] = head(frame);
     const glm::vec3 up(0.0f, 1.0f, 0.0f);
     const glm::vec3 right = glm::normalize(glm::cross(forward, up));
 
@@ -56,6 +61,23 @@ EyeView CameraPath::eye_view(uint64_t frame, uint32_t eye, uint32_t eye_count, f
     proj[1][1] *= -1.0f; // Vulkan's clip space has y pointing down
     const glm::mat4 view = glm::lookAt(eye_position, eye_position + forward, up);
     return {proj * view, eye_position};
+}
+
+EyeView CameraPath::head_eye_view(uint64_t frame, const HeadEye &eye) const {
+    const auto [position, forward] = head(frame);
+    const glm::mat4 head_view = glm::lookAt(position, position + forward, glm::vec3(0.0f, 1.0f, 0.0f));
+    const glm::mat4 view = glm::inverse(eye.eye_to_head) * head_view;
+    // The frustum through the four tangents, into Vulkan's clip space (y down, depth in [0, 1]).
+    const float width = eye.tan_right - eye.tan_left, height = eye.tan_up - eye.tan_down;
+    glm::mat4 proj(0.0f);
+    proj[0][0] = 2.0f / width;
+    proj[2][0] = (eye.tan_right + eye.tan_left) / width;
+    proj[1][1] = -2.0f / height;
+    proj[2][1] = -(eye.tan_up + eye.tan_down) / height;
+    proj[2][2] = far_ / (near_ - far_);
+    proj[3][2] = -(far_ * near_) / (far_ - near_);
+    proj[2][3] = -1.0f;
+    return {proj * view, glm::vec3(glm::inverse(view)[3])};
 }
 
 } // namespace atrium

@@ -34,4 +34,13 @@ std::string format_frame_times(const FrameTimes &t) {
     return line;
 }
 
+std::string with_thousands(size_t n) {
+    std::string digits = std::to_string(n), out;
+    for (size_t i = 0; i < digits.size(); ++i) {
+        if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
+        out += digits[i];
+    }
+    return out;
+}
+
 } // namespace atrium

@@ -1,4 +1,4 @@
-// Frame-time summary printed on exit (scripts parse it).
+// Frame-time summary printed on exit, and the numbers of the start line (scripts parse both).
 #pragma once
 
 #include <cstddef>
@@ -18,5 +18,8 @@ FrameTimes summarize(std::vector<double> frame_ms);
 
 // "frame-time: median 12.34 ms, IQR 1.23 ms, 300 frames"
 std::string format_frame_times(const FrameTimes &t);
+
+// 300424 -> "300,424"
+std::string with_thousands(size_t n);
 
 } // namespace atrium

@@ -12,6 +12,7 @@
 #include "textures.h"
 #include "vk_context.h"
 #include "xcb_window.h"
+#include "xr_app.h"
 
 #include <algorithm>
 #include <chrono>
@@ -68,17 +69,9 @@ void wait_for_stop_signal() {
     sigprocmask(SIG_SETMASK, &previous, nullptr);
 }
 
-std::string with_thousands(size_t n) {
-    std::string digits = std::to_string(n), out;
-    for (size_t i = 0; i < digits.size(); ++i) {
-        if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
-        out += digits[i];
-    }
-    return out;
-}
-
 int run(const Options &options) {
     install_signal_handlers();
+    if (options.xr) return run_xr(options, &stop_requested);
 
     XcbWindow window(options.width, options.height, "splitvk-atrium");
     VkContext context(window, options.dynamic_rendering, options.path == PathKind::multiview);

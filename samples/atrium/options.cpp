@@ -88,11 +88,22 @@ options:
                          The camera walk is fitted to the model's bounds.
   --frame-times PATH     after the last frame, write every frame's time to PATH as CSV
                          ('frame,ms', the same present-to-present times the summary uses)
+  --xr                   draw through OpenXR (XR_KHR_vulkan_enable2, a head-mounted display, a LOCAL
+                         or STAGE space) into the runtime's eye swapchains instead of a window: one
+                         swapchain per eye, each eye a mono frame of --path direct, hdr or deferred,
+                         at the runtime's recommended size, with the runtime's eye offsets and fields
+                         of view (--width, --height, --srgb and --present-mode do not apply). --frames
+                         N ends the session after N frames; --hold re-renders frame N-1 until SIGTERM
+                         or SIGINT, printing 'holding frame N-1' once the runtime has had it
+  --multiview            with --xr: one swapchain of two layers, both eyes drawn in one
+                         VK_KHR_multiview pass straight into it (--xr --path multiview is the same)
   --help                 show this text
 
 On start it prints 'atrium: T triangles, 49 textures, WxH per eye, path NAME'. When the last frame has been
 presented it prints 'frame-time: median M ms, IQR Q ms, N frames' (CPU time between successive
-presents; frame 0 counts from the start of the render loop).
+presents; frame 0 counts from the start of the render loop). With --xr a second line follows the
+first, 'xr: RUNTIME, SYSTEM, LOCAL space, FORMAT, LAYOUT', then at the first frame one line per eye
+with its offset from the head and its field of view; frame times are between xrEndFrame calls.
 )";
 }
 
@@ -156,6 +167,10 @@ Options parse_options(int argc, char **argv) {
                 throw std::invalid_argument("--resize-at: expected WxH, got '" + size + "'");
             o.resize_width = parse_number<uint32_t>(arg, size.substr(0, x), 16, 16384);
             o.resize_height = parse_number<uint32_t>(arg, size.substr(x + 1), 16, 16384);
+        } else if (arg == "--xr") {
+            o.xr = true;
+        } else if (arg == "--multiview") {
+            o.multiview = true;
         } else if (arg == "--hold") {
             o.hold = true;
         } else if (arg == "--frame-times") {
@@ -172,6 +187,26 @@ Options parse_options(int argc, char **argv) {
         throw std::invalid_argument("--screenshot " + std::to_string(*o.screenshot_frame) +
                                     ": only frames 0.." + std::to_string(o.frames - 1) + " are rendered");
     if (o.width < o.eyes) throw std::invalid_argument("--width must be at least --eyes");
+    if (o.xr) {
+        if (o.path == PathKind::multiview) o.multiview = true;
+        if (o.path == PathKind::secondary || o.path == PathKind::compute)
+            throw std::invalid_argument("--xr goes with --path direct, hdr, deferred or multiview only");
+        if (o.multiview && o.path != PathKind::direct && o.path != PathKind::multiview)
+            throw std::invalid_argument(
+                "--multiview draws the scene straight into the eye images: not with --path " +
+                std::string(path_name(o.path)));
+        if (o.multiview && (o.static_viewports || o.clear_depth_per_eye || o.dynamic_rendering))
+            throw std::invalid_argument("--static-viewports, --clear-depth-per-eye and --dynamic-rendering "
+                                        "do not go with --multiview");
+        if (o.screenshot_frame || o.resize_frame)
+            throw std::invalid_argument(
+                "--screenshot and --resize-at do not go with --xr (there is no window)");
+        if (o.eyes != 2)
+            throw std::invalid_argument("--xr renders the runtime's two views: not with --eyes 1");
+        if (o.multiview) o.path = PathKind::direct; // the multiview pass is the path
+    } else if (o.multiview) {
+        throw std::invalid_argument("--multiview goes with --xr (in a window: --path multiview)");
+    }
     if (o.path != PathKind::direct && (o.static_viewports || o.clear_depth_per_eye))
         throw std::invalid_argument(
             "--static-viewports and --clear-depth-per-eye go with --path direct only");

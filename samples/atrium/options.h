@@ -35,6 +35,10 @@ struct Options {
     std::string model_path;
     // --frame-times PATH: one line per frame, 'frame,ms', written after the last frame.
     std::string frame_times_path;
+    // --xr: through OpenXR into the runtime's eye swapchains (xr_app.h) instead of a window;
+    // --multiview: one two-layer swapchain drawn with VK_KHR_multiview (--xr --path multiview too).
+    bool xr = false;
+    bool multiview = false;
     bool help = false;
 };
 

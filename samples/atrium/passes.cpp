@@ -173,7 +173,7 @@ VkSampler create_sampler(VkDevice device, VkFilter filter) {
 SwapchainPass::SwapchainPass(VkDevice device, const Swapchain &swapchain)
     : device_(device), swapchain_(swapchain) {
     Attachment color{swapchain.format(), VK_ATTACHMENT_LOAD_OP_DONT_CARE, VK_ATTACHMENT_STORE_OP_STORE,
-                     VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR};
+                     VK_IMAGE_LAYOUT_UNDEFINED, swapchain.final_layout()};
     present_ = create_render_pass(device, color);
     color.final = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
     readback_ = create_render_pass(device, color);

@@ -13,7 +13,7 @@ DirectPath::DirectPath(const SceneGpu &scene, const Swapchain &swapchain, const 
             reinterpret_cast<PFN_vkCmdEndRenderingKHR>(vkGetDeviceProcAddr(device_, "vkCmdEndRenderingKHR"));
         if (!cmd_begin_rendering_ || !cmd_end_rendering_) throw Error("vkCmdBeginRenderingKHR is missing");
     }
-    present_pass_ = create_render_pass(VK_IMAGE_LAYOUT_PRESENT_SRC_KHR);
+    present_pass_ = create_render_pass(swapchain_.final_layout());
     if (options_.screenshot_frame) readback_pass_ = create_render_pass(VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
 
     ScenePipelineInfo info;
@@ -152,14 +152,15 @@ void DirectPath::begin_rendering(VkCommandBuffer cmd, uint32_t image, VkExtent2D
 
 void DirectPath::end_rendering(VkCommandBuffer cmd, uint32_t image, bool readback) {
     cmd_end_rendering_(cmd);
-    // To PRESENT_SRC (the present's semaphore waits for everything), or to TRANSFER_SRC for the
-    // screenshot's copy, which reads what was rendered.
+    // To PRESENT_SRC (the present's semaphore waits for everything; an OpenXR image stays in
+    // COLOR_ATTACHMENT_OPTIMAL), or to TRANSFER_SRC for the screenshot's copy, which reads what was
+    // rendered.
     VkImageMemoryBarrier barrier{};
     barrier.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
     barrier.srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
     barrier.dstAccessMask = readback ? VK_ACCESS_TRANSFER_READ_BIT : 0;
     barrier.oldLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-    barrier.newLayout = readback ? VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL : VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+    barrier.newLayout = readback ? VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL : swapchain_.final_layout();
     barrier.srcQueueFamilyIndex = barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
     barrier.image = swapchain_.images()[image];
     barrier.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};

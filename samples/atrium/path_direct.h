@@ -31,7 +31,7 @@ protected:
     const RendererOptions options_;
     VkDevice device_;
     VkPipeline pipeline_ = VK_NULL_HANDLE;
-    VkRenderPass present_pass_ = VK_NULL_HANDLE; // ends in PRESENT_SRC_KHR
+    VkRenderPass present_pass_ = VK_NULL_HANDLE; // ends in the swapchain's final layout
 
 private:
     VkRenderPass create_render_pass(VkImageLayout final_layout);

@@ -38,8 +38,8 @@ public:
     virtual void create_targets() = 0;
     virtual void destroy_targets() = 0;
 
-    // Records frame `frame`. The swapchain image ends in PRESENT_SRC_KHR or, when readback, in
-    // TRANSFER_SRC_OPTIMAL with its writes visible to transfer reads.
+    // Records frame `frame`. The swapchain image ends in the swapchain's final_layout() or, when
+    // readback, in TRANSFER_SRC_OPTIMAL with its writes visible to transfer reads.
     virtual void record(const FrameContext &frame) = 0;
 
     // The stage whose first write to the swapchain image waits for the acquire semaphore.

@@ -17,6 +17,17 @@ const glm::vec3 ground_ambient(0.17f, 0.14f, 0.11f);
 
 } // namespace
 
+void set_lighting(FrameUniforms &u, const Scene &scene) {
+    u.sun_direction = glm::vec4(to_sun, 0.0f);
+    u.sun_color = glm::vec4(sun_color, 1.0f);
+    u.sky_color = glm::vec4(sky_ambient, 1.0f);
+    u.ground_color = glm::vec4(ground_ambient, 1.0f);
+    const SunOcclusion &occlusion = scene.sun_occlusion;
+    u.sun_opening = occlusion.enabled ? occlusion.opening : glm::vec4(1.0f, 0.0f, 0.0f, 0.0f);
+    u.sun_facades = occlusion.facades;
+    u.sun_params = glm::vec4(occlusion.roof_height, 0.0f, 0.0f, 0.0f);
+}
+
 Renderer::Renderer(VkContext &context, Swapchain &swapchain, const Scene &scene,
                    const std::vector<Texture> &textures, const CameraPath &camera,
                    const RendererOptions &options)
@@ -102,14 +113,7 @@ void Renderer::update_uniforms(uint32_t slot, uint64_t frame) {
         u.eye_position[1] = u.eye_position[0];
         u.inv_view_proj[1] = u.inv_view_proj[0];
     }
-    u.sun_direction = glm::vec4(to_sun, 0.0f);
-    u.sun_color = glm::vec4(sun_color, 1.0f);
-    u.sky_color = glm::vec4(sky_ambient, 1.0f);
-    u.ground_color = glm::vec4(ground_ambient, 1.0f);
-    const SunOcclusion &occlusion = scene_.sun_occlusion;
-    u.sun_opening = occlusion.enabled ? occlusion.opening : glm::vec4(1.0f, 0.0f, 0.0f, 0.0f);
-    u.sun_facades = occlusion.facades;
-    u.sun_params = glm::vec4(occlusion.roof_height, 0.0f, 0.0f, 0.0f);
+    set_lighting(u, scene_);
     std::memcpy(&scene_gpu_.uniforms(slot), &u, sizeof(u));
 }
 

@@ -17,6 +17,9 @@
 
 namespace atrium {
 
+// The sun, sky and ground of every frame, and the scene's courtyard shadow.
+void set_lighting(FrameUniforms &u, const Scene &scene);
+
 class Renderer {
 public:
     Renderer(VkContext &context, Swapchain &swapchain, const Scene &scene,

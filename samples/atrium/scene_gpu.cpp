@@ -36,8 +36,8 @@ float eye_split(VkExtent2D extent, uint32_t eyes) {
 }
 
 SceneGpu::SceneGpu(VkContext &context, const Scene &scene, const std::vector<Texture> &textures,
-                   bool linear_textures)
-    : context_(context), scene_(scene), device_(context.device()) {
+                   bool linear_textures, uint32_t slots)
+    : context_(context), scene_(scene), device_(context.device()), frame_sets_(slots), uniforms_(slots) {
     upload(textures, linear_textures);
     create_descriptors(textures.size());
     create_pipeline_layout();
@@ -200,6 +200,7 @@ void SceneGpu::upload(const std::vector<Texture> &textures, bool linear_textures
 }
 
 void SceneGpu::create_descriptors(size_t textures) {
+    const uint32_t slots = uint32_t(frame_sets_.size());
     VkDescriptorSetLayoutBinding frame_binding{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1,
                                                VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT,
                                                nullptr};
@@ -214,25 +215,25 @@ void SceneGpu::create_descriptors(size_t textures) {
     ATRIUM_VK_CHECK(vkCreateDescriptorSetLayout(device_, &layout, nullptr, &material_layout_));
 
     const VkDescriptorPoolSize sizes[] = {
-        {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, frames_in_flight},
+        {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, slots},
         {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, uint32_t(textures)},
     };
     VkDescriptorPoolCreateInfo pool{};
     pool.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
-    pool.maxSets = frames_in_flight + uint32_t(textures);
+    pool.maxSets = slots + uint32_t(textures);
     pool.poolSizeCount = 2;
     pool.pPoolSizes = sizes;
     ATRIUM_VK_CHECK(vkCreateDescriptorPool(device_, &pool, nullptr, &descriptor_pool_));
 
-    // One uniform block per frame in flight, in one persistently mapped host-coherent buffer: the
-    // CPU rewrites a slot's block only after waiting for the slot's fence.
+    // One uniform block per slot (frame in flight, or submission of one), in one persistently mapped
+    // host-coherent buffer: the CPU rewrites a slot's block only after waiting for the slot's fence.
     const VkDeviceSize stride =
         align_up(sizeof(FrameUniforms), context_.properties().limits.minUniformBufferOffsetAlignment);
     uniform_buffer_ =
-        context_.create_buffer(stride * frames_in_flight, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
+        context_.create_buffer(stride * slots, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
                                VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
 
-    std::vector<VkDescriptorSetLayout> layouts(frames_in_flight, frame_layout_);
+    std::vector<VkDescriptorSetLayout> layouts(slots, frame_layout_);
     layouts.insert(layouts.end(), textures, material_layout_);
     std::vector<VkDescriptorSet> sets(layouts.size());
     VkDescriptorSetAllocateInfo alloc{};
@@ -242,10 +243,10 @@ void SceneGpu::create_descriptors(size_t textures) {
     alloc.pSetLayouts = layouts.data();
     ATRIUM_VK_CHECK(vkAllocateDescriptorSets(device_, &alloc, sets.data()));
 
-    std::vector<VkDescriptorBufferInfo> buffer_infos(frames_in_flight);
+    std::vector<VkDescriptorBufferInfo> buffer_infos(slots);
     std::vector<VkDescriptorImageInfo> image_infos(textures);
     std::vector<VkWriteDescriptorSet> writes;
-    for (uint32_t i = 0; i < frames_in_flight; ++i) {
+    for (uint32_t i = 0; i < slots; ++i) {
         frame_sets_[i] = sets[i];
         uniforms_[i] =
             reinterpret_cast<FrameUniforms *>(static_cast<uint8_t *>(uniform_buffer_.mapped) + i * stride);
@@ -259,7 +260,7 @@ void SceneGpu::create_descriptors(size_t textures) {
         writes.push_back(w);
     }
     for (size_t t = 0; t < textures; ++t) {
-        texture_sets_.push_back(sets[frames_in_flight + t]);
+        texture_sets_.push_back(sets[slots + t]);
         image_infos[t] = {sampler_, textures_[t].view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
         VkWriteDescriptorSet w{};
         w.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;

@@ -58,9 +58,10 @@ struct ScenePipelineInfo {
 class SceneGpu {
 public:
     // With `linear_textures` the textures reach the device through linear images (linear_upload.h)
-    // instead of the staging buffer.
+    // instead of the staging buffer. `slots`: how many sets of frame uniforms (FrameContext::slot)
+    // may be in use at once; one per frame in flight, or per submission of one (OpenXR: per eye).
     SceneGpu(VkContext &context, const Scene &scene, const std::vector<Texture> &textures,
-             bool linear_textures);
+             bool linear_textures, uint32_t slots = frames_in_flight);
     ~SceneGpu();
     SceneGpu(const SceneGpu &) = delete;
     SceneGpu &operator=(const SceneGpu &) = delete;
@@ -95,8 +96,8 @@ private:
     VkDescriptorSetLayout frame_layout_ = VK_NULL_HANDLE, material_layout_ = VK_NULL_HANDLE;
     VkDescriptorPool descriptor_pool_ = VK_NULL_HANDLE;
     std::vector<VkDescriptorSet> texture_sets_;
-    std::array<VkDescriptorSet, frames_in_flight> frame_sets_{};
-    std::array<FrameUniforms *, frames_in_flight> uniforms_{}; // persistently mapped, host-coherent
+    std::vector<VkDescriptorSet> frame_sets_;
+    std::vector<FrameUniforms *> uniforms_; // persistently mapped, host-coherent
     VkPipelineLayout pipeline_layout_ = VK_NULL_HANDLE;
 };
 

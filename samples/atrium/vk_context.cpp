@@ -114,6 +114,41 @@ VkContext::VkContext(const XcbWindow &window, bool dynamic_rendering, bool multi
         }
     }
     if (physical_device_ == VK_NULL_HANDLE) throw Error("no Vulkan 1.1 device can present to the X window");
+    create_device(dynamic_rendering, multiview, true, nullptr);
+}
+
+VkContext::VkContext(const VkCreators &creators, bool dynamic_rendering, bool multiview) {
+    VkApplicationInfo app{};
+    app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
+    app.pApplicationName = "splitvk-atrium";
+    app.applicationVersion = VK_MAKE_API_VERSION(0, 0, 1, 0);
+    app.pEngineName = "splitvk-atrium";
+    app.apiVersion = VK_API_VERSION_1_1;
+    VkInstanceCreateInfo instance_info{};
+    instance_info.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
+    instance_info.pApplicationInfo = &app;
+    instance_ = creators.create_instance(instance_info);
+    physical_device_ = creators.physical_device(instance_);
+    vkGetPhysicalDeviceProperties(physical_device_, &properties_);
+    if (properties_.apiVersion < VK_API_VERSION_1_1)
+        throw Error(std::string(properties_.deviceName) + " does not support Vulkan 1.1");
+    const auto families = enumerate<VkQueueFamilyProperties>([&](uint32_t *n, VkQueueFamilyProperties *p) {
+        vkGetPhysicalDeviceQueueFamilyProperties(physical_device_, n, p);
+        return VK_SUCCESS;
+    });
+    const auto graphics =
+        std::find_if(families.begin(), families.end(), [](const VkQueueFamilyProperties &f) {
+            return (f.queueFlags & VK_QUEUE_GRAPHICS_BIT) != 0;
+        });
+    if (graphics == families.end())
+        throw Error(std::string(properties_.deviceName) + " has no graphics queue");
+    queue_family_ = uint32_t(graphics - families.begin());
+    create_device(dynamic_rendering, multiview, false, &creators.create_device);
+}
+
+void VkContext::create_device(
+    bool dynamic_rendering, bool multiview, bool swapchain,
+    const std::function<VkDevice(VkPhysicalDevice, const VkDeviceCreateInfo &)> *create) {
     vkGetPhysicalDeviceMemoryProperties(physical_device_, &memory_properties_);
 
     VkFormatProperties depth;
@@ -127,9 +162,12 @@ VkContext::VkContext(const XcbWindow &window, bool dynamic_rendering, bool multi
     queue_info.queueFamilyIndex = queue_family_;
     queue_info.queueCount = 1;
     queue_info.pQueuePriorities = &priority;
-    const char *device_extensions[] = {
-        VK_KHR_SWAPCHAIN_EXTENSION_NAME, VK_KHR_CREATE_RENDERPASS_2_EXTENSION_NAME,
-        VK_KHR_DEPTH_STENCIL_RESOLVE_EXTENSION_NAME, VK_KHR_DYNAMIC_RENDERING_EXTENSION_NAME};
+    std::vector<const char *> device_extensions;
+    if (swapchain) device_extensions.push_back(VK_KHR_SWAPCHAIN_EXTENSION_NAME);
+    if (dynamic_rendering)
+        device_extensions.insert(device_extensions.end(), {VK_KHR_CREATE_RENDERPASS_2_EXTENSION_NAME,
+                                                           VK_KHR_DEPTH_STENCIL_RESOLVE_EXTENSION_NAME,
+                                                           VK_KHR_DYNAMIC_RENDERING_EXTENSION_NAME});
     VkPhysicalDeviceDynamicRenderingFeaturesKHR dynamic_rendering_features{};
     dynamic_rendering_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DYNAMIC_RENDERING_FEATURES_KHR;
     dynamic_rendering_features.dynamicRendering = VK_TRUE;
@@ -155,9 +193,12 @@ VkContext::VkContext(const XcbWindow &window, bool dynamic_rendering, bool multi
                                             : nullptr;
     device_info.queueCreateInfoCount = 1;
     device_info.pQueueCreateInfos = &queue_info;
-    device_info.enabledExtensionCount = dynamic_rendering ? 4 : 1;
-    device_info.ppEnabledExtensionNames = device_extensions;
-    ATRIUM_VK_CHECK(vkCreateDevice(physical_device_, &device_info, nullptr, &device_));
+    device_info.enabledExtensionCount = uint32_t(device_extensions.size());
+    device_info.ppEnabledExtensionNames = device_extensions.data();
+    if (create)
+        device_ = (*create)(physical_device_, device_info);
+    else
+        ATRIUM_VK_CHECK(vkCreateDevice(physical_device_, &device_info, nullptr, &device_));
     vkGetDeviceQueue(device_, queue_family_, 0, &queue_);
 }
 
@@ -277,12 +318,29 @@ Swapchain::Swapchain(VkContext &context, const SwapchainRequest &request)
     create(VK_NULL_HANDLE);
 }
 
+Swapchain::Swapchain(VkContext &context, VkFormat format, VkExtent2D extent,
+                     const std::vector<VkImage> &images, uint32_t layers)
+    : context_(context), format_(format), extent_(extent), images_(images),
+      final_layout_(VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL) {
+    for (VkImage image : images_) {
+        VkImageViewCreateInfo view{};
+        view.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO;
+        view.image = image;
+        view.viewType = layers > 1 ? VK_IMAGE_VIEW_TYPE_2D_ARRAY : VK_IMAGE_VIEW_TYPE_2D;
+        view.format = format_;
+        view.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, layers};
+        views_.push_back(VK_NULL_HANDLE);
+        ATRIUM_VK_CHECK(vkCreateImageView(context_.device(), &view, nullptr, &views_.back()));
+    }
+}
+
 Swapchain::~Swapchain() {
     destroy_views();
     if (swapchain_) vkDestroySwapchainKHR(context_.device(), swapchain_, nullptr);
 }
 
 void Swapchain::recreate() {
+    if (!swapchain_) throw Error("external swapchain images cannot be recreated");
     destroy_views();
     const VkSwapchainKHR old = swapchain_;
     swapchain_ = VK_NULL_HANDLE;

@@ -3,11 +3,20 @@
 
 #include "vk_util.h"
 
+#include <functional>
 #include <vector>
 
 namespace atrium {
 
 class XcbWindow;
+
+// How another API creates the instance and the device and picks the physical device, adding what
+// it needs (OpenXR's XR_KHR_vulkan_enable2). Each throws Error on failure.
+struct VkCreators {
+    std::function<VkInstance(const VkInstanceCreateInfo &)> create_instance;
+    std::function<VkPhysicalDevice(VkInstance)> physical_device;
+    std::function<VkDevice(VkPhysicalDevice, const VkDeviceCreateInfo &)> create_device;
+};
 
 class VkContext {
 public:
@@ -15,6 +24,9 @@ public:
     // dynamic_rendering: enable VK_KHR_dynamic_rendering (and what it requires); multiview: the
     // core 1.1 multiview feature.
     VkContext(const XcbWindow &window, bool dynamic_rendering, bool multiview = false);
+    // No window: the instance and device come from `creators` (Vulkan 1.1, a graphics queue, no
+    // swapchain extension); surface() is VK_NULL_HANDLE.
+    VkContext(const VkCreators &creators, bool dynamic_rendering, bool multiview);
     ~VkContext();
     VkContext(const VkContext &) = delete;
     VkContext &operator=(const VkContext &) = delete;
@@ -36,6 +48,9 @@ public:
     void destroy(Image &image);
 
 private:
+    // The device on physical_device_ and queue_family_, through `create` when given.
+    void create_device(bool dynamic_rendering, bool multiview, bool swapchain,
+                       const std::function<VkDevice(VkPhysicalDevice, const VkDeviceCreateInfo &)> *create);
     uint32_t memory_type(uint32_t type_bits, VkMemoryPropertyFlags properties) const;
 
     VkInstance instance_ = VK_NULL_HANDLE;
@@ -59,12 +74,17 @@ class Swapchain {
 public:
     // Falls back to FIFO, with a note on stderr, if the requested present mode is unsupported.
     Swapchain(VkContext &context, const SwapchainRequest &request);
+    // Images that another API owns and presents (an OpenXR swapchain's), each with `layers` array
+    // layers: only views onto them (2D, or 2D_ARRAY when layers > 1), no VkSwapchainKHR. Frames
+    // leave them in COLOR_ATTACHMENT_OPTIMAL, as OpenXR requires at release.
+    Swapchain(VkContext &context, VkFormat format, VkExtent2D extent, const std::vector<VkImage> &images,
+              uint32_t layers = 1);
     ~Swapchain();
     Swapchain(const Swapchain &) = delete;
     Swapchain &operator=(const Swapchain &) = delete;
 
     // Replaces the swapchain after VK_ERROR_OUT_OF_DATE_KHR / VK_SUBOPTIMAL_KHR. The caller makes
-    // sure that the device is idle.
+    // sure that the device is idle. Not for external images.
     void recreate();
 
     VkSwapchainKHR handle() const { return swapchain_; }
@@ -73,6 +93,9 @@ public:
     VkPresentModeKHR present_mode() const { return present_mode_; }
     const std::vector<VkImage> &images() const { return images_; }
     const std::vector<VkImageView> &views() const { return views_; }
+    // The layout a frame leaves its image in: PRESENT_SRC_KHR, or COLOR_ATTACHMENT_OPTIMAL for
+    // external images.
+    VkImageLayout final_layout() const { return final_layout_; }
 
 private:
     void create(VkSwapchainKHR old);
@@ -86,6 +109,7 @@ private:
     VkPresentModeKHR present_mode_ = VK_PRESENT_MODE_FIFO_KHR;
     std::vector<VkImage> images_;
     std::vector<VkImageView> views_;
+    VkImageLayout final_layout_ = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
 };
 
 const char *present_mode_name(VkPresentModeKHR mode);
