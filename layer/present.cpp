@@ -809,8 +809,8 @@ void begin_runtime_frame(DeviceState &dev, const SwapchainState &swapchain, uint
     dev.session->send_metadata(protocol::MessageType::FrameBegin, protocol::encode(message));
 }
 
-void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &swapchain,
-                       uint32_t image_index) {
+void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &swapchain, uint32_t image_index,
+                       const split::FieldOfView *view) {
     if (!dev.session || image_index >= swapchain.images.size()) return;
     const auto called = std::chrono::steady_clock::now();
     Session &session = *dev.session;
@@ -825,6 +825,9 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     SplitFrame split;
     if (session.splitting() && swapchain.composable) {
         split = take_split_frame(dev, swapchain.images[image_index], EyeMode::One);
+        // One eye per image, its fovea at the view direction once the application's views said it.
+        if (!split.foveae.empty())
+            split.foveae = {split::runtime_eye_fovea(swapchain.extent, view, split_settings().fovea)};
         note_split_or_not(session, frame, split.split);
     }
     protocol::FramePresent message;
@@ -842,6 +845,21 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     p.sent = std::chrono::steady_clock::now();
     p.frame_ms = session.frame_interval_ms();
     composite_split_frame(dev, p, {}, /*lock=*/false, called);
+}
+
+void send_runtime_view(DeviceState &dev, const SwapchainState &swapchain,
+                       const protocol::SwapchainView &view) {
+    if (!capturing(dev)) return;
+    protocol::SwapchainView message = view;
+    message.device_id = dev.session->device_id();
+    message.swapchain_id = codec::handle_value(swapchain.handle);
+    // Logged as the swapchain's, so that an agent joining later places the fovea as the client does. A
+    // killer as well as a holder: a second entry of one holder would otherwise stand for a re-created
+    // object and drop the first (SwapchainImages itself); this way each view only adds to it, the
+    // latest replays last, and all go with the swapchain.
+    const uint64_t id = message.swapchain_id;
+    dev.session->send_metadata_logged(protocol::MessageType::SwapchainView, protocol::encode(message), id,
+                                      std::span(&id, 1));
 }
 
 void drain_presents(DeviceState &device) {

@@ -6,6 +6,8 @@
 // compositor. Each release ends one splitvk frame of that image.
 
 #include "device.h"
+#include "session.h"
+#include "split_geometry.h"
 
 namespace splitvk {
 
@@ -17,7 +19,12 @@ void begin_runtime_frame(DeviceState &device, const SwapchainState &swapchain, u
 // passes were split, waits (bounded by SPLITVK_TILE_WAIT) for the agent's tiles and composites them
 // into the image on `queue`, leaving it in COLOR_ATTACHMENT_OPTIMAL. Synchronous, on the
 // application's thread: the runtime's own barrier follows on the same queue as soon as this returns.
+// The image's fovea is at `view`'s view direction, or centred without one (split::runtime_eye_fovea).
 void end_runtime_frame(DeviceState &device, VkQueue queue, const SwapchainState &swapchain,
-                       uint32_t image_index);
+                       uint32_t image_index, const split::FieldOfView *view);
+// xrEndFrame: the application's projection views gave this swapchain's eye another field of view
+// than the one sent last (or the first): SwapchainView, after which both sides place its fovea there.
+void send_runtime_view(DeviceState &device, const SwapchainState &swapchain,
+                       const protocol::SwapchainView &view);
 
 } // namespace splitvk

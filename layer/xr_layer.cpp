@@ -15,6 +15,9 @@
 //                              are composited into the image on the application's queue, so that the
 //                              runtime's own barrier (which hands it to VK_QUEUE_FAMILY_EXTERNAL)
 //                              finds it finished (present.h, end_runtime_frame);
+//   xrEndFrame                 each eye's field of view, from the projection views: its fovea sits at
+//                              the projection of the view direction from the next frame on
+//                              (SwapchainView; real headsets' fields of view are asymmetric);
 //   xrDestroySwapchain         the swapchain leaves the split before the runtime destroys its images.
 // Everything else goes straight to the next layer or the runtime. Where the Vulkan layer is not on
 // the session's device (it was disabled, or has no agent), this layer only forwards.
@@ -28,10 +31,12 @@
 
 #include <vulkan/vulkan.h>
 #define XR_USE_GRAPHICS_API_VULKAN
+#include <cmath>
 #include <cstring>
 #include <deque>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <unordered_map>
 #include <vector>
 
@@ -54,6 +59,7 @@ struct InstanceState {
     PFN_xrEnumerateSwapchainImages enumerate_swapchain_images = nullptr;
     PFN_xrAcquireSwapchainImage acquire_swapchain_image = nullptr;
     PFN_xrReleaseSwapchainImage release_swapchain_image = nullptr;
+    PFN_xrEndFrame end_frame = nullptr;
 };
 
 struct SessionState {
@@ -71,6 +77,9 @@ struct SwapchainState {
     splitvk::SwapchainState *split = nullptr;
     // Acquired and not yet released, oldest first: OpenXR releases in acquisition order.
     std::deque<uint32_t> acquired;
+    // The eye's field of view the agent was last sent (protocol::SwapchainView), as floats the way
+    // both sides read it.
+    std::optional<protocol::SwapchainView> view;
 };
 
 // The layer's tables. Calls down are made without the lock: a runtime may call back into the
@@ -309,6 +318,7 @@ XRAPI_ATTR XrResult XRAPI_CALL ReleaseSwapchainImage(XrSwapchain swapchain,
     if (state->split && session && session->device && session->queue) {
         bool acquired = false;
         uint32_t index = 0;
+        std::optional<split::FieldOfView> view;
         {
             std::lock_guard lock(g_mutex);
             if (!state->acquired.empty()) {
@@ -316,12 +326,70 @@ XRAPI_ATTR XrResult XRAPI_CALL ReleaseSwapchainImage(XrSwapchain swapchain,
                 state->acquired.pop_front();
                 acquired = true;
             }
+            if (state->view)
+                view = split::FieldOfView{state->view->angle_left, state->view->angle_right,
+                                          state->view->angle_up, state->view->angle_down};
         }
         // The application's rendering of this image has been submitted; the runtime's release
         // barrier has not: the composite goes between them on the queue.
-        if (acquired) end_runtime_frame(*session->device, session->queue, *state->split, index);
+        if (acquired)
+            end_runtime_frame(*session->device, session->queue, *state->split, index,
+                              view ? &*view : nullptr);
     }
     return state->instance->release_swapchain_image(swapchain, info);
+}
+
+// A projection view's field of view, where its sub-image is the whole of an eye image this layer
+// splits (a side-by-side or layered image holds more than one eye: not placed yet).
+void note_projection_view(const XrCompositionLayerProjectionView &view) {
+    SwapchainState *state = nullptr;
+    SessionState *session = nullptr;
+    if (!find_swapchain(view.subImage.swapchain, &state, &session) || !state->split || !session ||
+        !session->device)
+        return;
+    const XrRect2Di &rect = view.subImage.imageRect;
+    if (rect.offset.x != 0 || rect.offset.y != 0 || uint32_t(rect.extent.width) != state->info.width ||
+        uint32_t(rect.extent.height) != state->info.height || view.subImage.imageArrayIndex != 0)
+        return;
+    protocol::SwapchainView sent;
+    sent.angle_left = view.fov.angleLeft;
+    sent.angle_right = view.fov.angleRight;
+    sent.angle_up = view.fov.angleUp;
+    sent.angle_down = view.fov.angleDown;
+    // What the agent would refuse (protocol::decode_swapchain_view) is not sent: the fovea stays put.
+    constexpr float kHalfPi = 1.5707963f;
+    for (float a : {sent.angle_left, sent.angle_right, sent.angle_up, sent.angle_down})
+        if (!std::isfinite(a) || a <= -kHalfPi || a >= kHalfPi) return;
+    if (sent.angle_right <= sent.angle_left || sent.angle_up <= sent.angle_down) return;
+    {
+        std::lock_guard lock(g_mutex);
+        if (state->view && state->view->angle_left == sent.angle_left &&
+            state->view->angle_right == sent.angle_right && state->view->angle_up == sent.angle_up &&
+            state->view->angle_down == sent.angle_down)
+            return;
+        state->view = sent;
+    }
+    send_runtime_view(*session->device, *state->split, sent);
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL EndFrame(XrSession session, const XrFrameEndInfo *info) {
+    InstanceState *instance = nullptr;
+    {
+        std::lock_guard lock(g_mutex);
+        const auto it = g_sessions.find(session);
+        if (it == g_sessions.end()) return XR_ERROR_HANDLE_INVALID;
+        instance = it->second->instance;
+    }
+    // The views this frame was rendered with place the next frames' foveae (this frame's eye images
+    // were released, and composited, before xrEndFrame).
+    for (uint32_t i = 0; info && i < info->layerCount; ++i) {
+        const XrCompositionLayerBaseHeader *layer = info->layers[i];
+        if (!layer || layer->type != XR_TYPE_COMPOSITION_LAYER_PROJECTION) continue;
+        const auto *projection = reinterpret_cast<const XrCompositionLayerProjection *>(layer);
+        for (uint32_t v = 0; v < projection->viewCount; ++v)
+            note_projection_view(projection->views[v]);
+    }
+    return instance->end_frame(session, info);
 }
 
 XRAPI_ATTR XrResult XRAPI_CALL GetInstanceProcAddr(XrInstance instance, const char *name,
@@ -341,6 +409,7 @@ const Intercepted kIntercepted[] = {
     {"xrEnumerateSwapchainImages", reinterpret_cast<PFN_xrVoidFunction>(EnumerateSwapchainImages)},
     {"xrAcquireSwapchainImage", reinterpret_cast<PFN_xrVoidFunction>(AcquireSwapchainImage)},
     {"xrReleaseSwapchainImage", reinterpret_cast<PFN_xrVoidFunction>(ReleaseSwapchainImage)},
+    {"xrEndFrame", reinterpret_cast<PFN_xrVoidFunction>(EndFrame)},
 };
 
 XRAPI_ATTR XrResult XRAPI_CALL GetInstanceProcAddr(XrInstance instance, const char *name,
@@ -388,7 +457,8 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
         load(*state, *instance, "xrDestroySwapchain", &state->destroy_swapchain) &&
         load(*state, *instance, "xrEnumerateSwapchainImages", &state->enumerate_swapchain_images) &&
         load(*state, *instance, "xrAcquireSwapchainImage", &state->acquire_swapchain_image) &&
-        load(*state, *instance, "xrReleaseSwapchainImage", &state->release_swapchain_image);
+        load(*state, *instance, "xrReleaseSwapchainImage", &state->release_swapchain_image) &&
+        load(*state, *instance, "xrEndFrame", &state->end_frame);
     if (!loaded) {
         SPLITVK_ERROR("%s: the runtime lacks a core OpenXR function; instance not created", kApiLayerName);
         if (state->destroy_instance) state->destroy_instance(*instance);

@@ -3,6 +3,7 @@
 #include "wire.h"
 
 #include <algorithm>
+#include <cmath>
 #include <tuple>
 
 namespace splitvk::protocol {
@@ -103,6 +104,34 @@ Result<SwapchainDestroyed> decode_swapchain_destroyed(std::span<const uint8_t> p
     m.device_id = r.u64("device_id");
     m.swapchain_id = r.u64("swapchain_id");
     return finish(r, m, "SwapchainDestroyed");
+}
+
+std::vector<uint8_t> encode(const SwapchainView &m) {
+    WireWriter w(32);
+    w.u64(m.device_id);
+    w.u64(m.swapchain_id);
+    w.f32(m.angle_left);
+    w.f32(m.angle_right);
+    w.f32(m.angle_up);
+    w.f32(m.angle_down);
+    return w.take();
+}
+
+Result<SwapchainView> decode_swapchain_view(std::span<const uint8_t> payload) {
+    WireReader r(payload);
+    SwapchainView m;
+    m.device_id = r.u64("device_id");
+    m.swapchain_id = r.u64("swapchain_id");
+    m.angle_left = r.f32("angle_left");
+    m.angle_right = r.f32("angle_right");
+    m.angle_up = r.f32("angle_up");
+    m.angle_down = r.f32("angle_down");
+    constexpr float kHalfPi = 1.5707963f;
+    const auto within = [&](float a) { return std::isfinite(a) && a > -kHalfPi && a < kHalfPi; };
+    if (r.ok() && !(within(m.angle_left) && within(m.angle_right) && within(m.angle_up) &&
+                    within(m.angle_down) && m.angle_right > m.angle_left && m.angle_up > m.angle_down))
+        r.fail("field of view out of range");
+    return finish(r, m, "SwapchainView");
 }
 
 std::vector<uint8_t> encode(const FrameBegin &m) {

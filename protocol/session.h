@@ -7,6 +7,8 @@
 //   client -> server  MemoryData        bytes the host wrote into a mapped range of a VkDeviceMemory
 //   client -> server  SwapchainImages   a swapchain was created: the server makes offscreen images
 //   client -> server  SwapchainDestroyed
+//   client -> server  SwapchainView     an OpenXR eye's field of view: where that swapchain's
+//                                       fovea sits from the next frame on (DESIGN §9)
 //   client -> server  FrameBegin        vkAcquireNextImageKHR returned an image
 //   client -> server  FramePresent      vkQueuePresentKHR: the frame's commands are all submitted
 //   server -> client  VerifyFrame       a presented image read back whole (SPLITVK_VERIFY=full)
@@ -72,6 +74,21 @@ struct SwapchainImages {
 struct SwapchainDestroyed {
     uint64_t device_id = 0;
     uint64_t swapchain_id = 0;
+};
+
+// An OpenXR runtime's swapchain holds one eye (SwapchainImages::Source::Runtime), whose fovea
+// belongs at the projection of its view direction rather than at the image's centre: real headsets
+// have asymmetric fields of view (split::fovea_at_view_direction). The OpenXR layer learns the
+// field of view from xrEndFrame's projection views and sends it when it changes; both sides place
+// that swapchain's foveae with it from the frames that follow in the stream. The angles are
+// XrFovf's, in radians, each within (-pi/2, pi/2), right > left and up > down.
+struct SwapchainView {
+    uint64_t device_id = 0;
+    uint64_t swapchain_id = 0;
+    float angle_left = 0;
+    float angle_right = 0;
+    float angle_up = 0;
+    float angle_down = 0;
 };
 
 struct FrameBegin {
@@ -176,6 +193,7 @@ struct ImageLayouts {
 std::vector<uint8_t> encode(const MemoryData &m);
 std::vector<uint8_t> encode(const SwapchainImages &m);
 std::vector<uint8_t> encode(const SwapchainDestroyed &m);
+std::vector<uint8_t> encode(const SwapchainView &m);
 std::vector<uint8_t> encode(const FrameBegin &m);
 std::vector<uint8_t> encode(const FramePresent &m);
 std::vector<uint8_t> encode(const VerifyFrame &m);
@@ -188,6 +206,7 @@ std::vector<uint8_t> encode(const ImageLayouts &m);
 Result<MemoryData> decode_memory_data(std::span<const uint8_t> payload, uint32_t max_bytes);
 Result<SwapchainImages> decode_swapchain_images(std::span<const uint8_t> payload);
 Result<SwapchainDestroyed> decode_swapchain_destroyed(std::span<const uint8_t> payload);
+Result<SwapchainView> decode_swapchain_view(std::span<const uint8_t> payload);
 Result<FrameBegin> decode_frame_begin(std::span<const uint8_t> payload);
 Result<FramePresent> decode_frame_present(std::span<const uint8_t> payload);
 Result<VerifyFrame> decode_verify_frame(std::span<const uint8_t> payload, uint32_t max_bytes);

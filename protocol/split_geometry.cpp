@@ -173,6 +173,11 @@ VkRect2D fovea_at_view_direction(const VkRect2D &eye, const FieldOfView &fov, co
             {fw, fh}};
 }
 
+VkRect2D runtime_eye_fovea(VkExtent2D image, const FieldOfView *view, const FoveaSize &fovea) {
+    const VkRect2D eye{{0, 0}, image};
+    return view ? fovea_at_view_direction(eye, *view, fovea) : fovea_of_eye(eye, fovea);
+}
+
 void add_fovea(std::vector<VkRect2D> &foveae, const VkRect2D &rect) {
     const auto less = [](const VkRect2D &a, const VkRect2D &b) {
         if (a.offset.x != b.offset.x) return a.offset.x < b.offset.x;

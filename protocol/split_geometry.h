@@ -93,8 +93,12 @@ struct FieldOfView {
 // The fovea's offset is that centre less half its size, rounded down (a symmetric field of view
 // gives fovea_of_eye's rectangle), then clamped so that the fovea stays inside the eye. A field of
 // view that spans nothing (right <= left, up <= down, or not finite) gives fovea_of_eye's.
-// Not used yet: the OpenXR layer places each eye's fovea with it.
 VkRect2D fovea_at_view_direction(const VkRect2D &eye, const FieldOfView &fov, const FoveaSize &fovea);
+
+// The fovea of an OpenXR runtime's eye image (one eye, the whole image): at the view direction
+// where the application's projection views gave its field of view (protocol::SwapchainView), else
+// centred. Both sides composite it and the agent shades it, in every pass into that image.
+VkRect2D runtime_eye_fovea(VkExtent2D image, const FieldOfView *view, const FoveaSize &fovea);
 
 // Adds `rect` to a set of foveae kept sorted by x, then y, without duplicates: the order both
 // sides report them in.

@@ -55,6 +55,8 @@ const char *message_type_name(uint16_t type) {
         return "VerifyFrame";
     case MessageType::ImageLayouts:
         return "ImageLayouts";
+    case MessageType::SwapchainView:
+        return "SwapchainView";
     default:
         break;
     }

@@ -66,6 +66,7 @@ enum class MessageType : uint16_t {
     VerifyFrame = 0x1006,        // a whole presented frame read back by the server (SPLITVK_VERIFY)
     SplitConfig = 0x1007,        // the client's split settings: eyes, fovea, codec (client -> server)
     ImageLayouts = 0x1008,       // the client's VkSubresourceLayouts of a linear image (client -> server)
+    SwapchainView = 0x1009,      // an OpenXR eye's field of view: where its fovea sits (client -> server)
 };
 
 enum class MessageClass { Invalid, Control, Vulkan, Metadata };

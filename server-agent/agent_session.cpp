@@ -38,6 +38,7 @@ bool client_type(uint16_t type) {
     case MessageType::SwapchainDestroyed:
     case MessageType::SplitConfig:
     case MessageType::ImageLayouts:
+    case MessageType::SwapchainView:
         return true;
     default:
         return false;
@@ -283,6 +284,14 @@ bool Session::handle(protocol::Message &message, bool *done, std::string *error)
             return false;
         }
         return replayer_.image_layouts(*m, error);
+    }
+    case MessageType::SwapchainView: {
+        auto m = protocol::decode_swapchain_view(message.payload);
+        if (!m) {
+            *error = "SwapchainView: " + m.error();
+            return false;
+        }
+        return replayer_.swapchain_view(*m, error);
     }
     case MessageType::FrameBegin: {
         auto m = protocol::decode_frame_begin(message.payload);

@@ -11,9 +11,17 @@ std::vector<VkRect2D> FoveaShading::take_drawn_foveae(uint64_t image_id) {
     const auto it = drawn_.find(image_id);
     if (it == drawn_.end()) return {};
     // The whole frame's coverage decides its foveae (split::frame_foveae), as the client's does.
-    std::vector<VkRect2D> foveae = it->second.foveae(eyes_of(image_id), fovea_);
+    std::vector<VkRect2D> foveae = it->second.foveae(eyes_, fovea_);
+    // An OpenXR eye image: one fovea, wherever its passes drew, as the client composites it.
+    if (const auto eye = runtime_fovea(image_id, it->second.extent); eye && !foveae.empty()) foveae = {*eye};
     drawn_.erase(it);
     return foveae;
+}
+
+std::optional<VkRect2D> FoveaShading::runtime_fovea(uint64_t image_id, VkExtent2D extent) const {
+    const split::FieldOfView *view = nullptr;
+    if (!swapchains_.runtime_image(image_id, &view)) return std::nullopt;
+    return split::runtime_eye_fovea(extent, view, fovea_);
 }
 
 void FoveaShading::image_created(VkImage image, const VkImageCreateInfo &info) {
@@ -319,7 +327,8 @@ void FoveaShading::emit_scissors(VkCommandBuffer cb, const split::CommandTracker
         if (guard != guard_rects_.end()) return split::intersect(r, guard->second);
         const VkViewport *v = t.viewport(i);
         // Without viewport i the eye is unknown; the scissor is narrowed once the viewport is set.
-        return v ? split::intersect(r, split::fovea_scissor(*v, t.extent(), eyes_of(t.image()), fovea_)) : r;
+        if (const auto eye = runtime_fovea(t.image(), t.extent())) return split::intersect(r, *eye);
+        return v ? split::intersect(r, split::fovea_scissor(*v, t.extent(), eyes_, fovea_)) : r;
     };
     std::vector<VkRect2D> values;
     if (t.static_scissors()) {

@@ -37,6 +37,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <unordered_map>
 #include <vector>
 
@@ -110,10 +111,9 @@ private:
     SwapchainImages &swapchains_;
     bool enabled_ = true;
     EyeMode eyes_ = Settings{}.eyes;
-    // SPLITVK_EYES for a window's image; one eye for an OpenXR runtime's (SwapchainImages::runtime_image).
-    EyeMode eyes_of(uint64_t image_id) const {
-        return swapchains_.runtime_image(image_id) ? EyeMode::One : eyes_;
-    }
+    // The fovea of an OpenXR runtime's image (one eye, at its view direction once known), or none
+    // for a window's, whose foveae SPLITVK_EYES places.
+    std::optional<VkRect2D> runtime_fovea(uint64_t image_id, VkExtent2D extent) const;
     FoveaSize fovea_ = Settings{}.fovea;
     AgentScissor scissor_;
     struct View {

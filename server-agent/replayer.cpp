@@ -507,6 +507,16 @@ bool Replayer::swapchain_destroyed(const protocol::SwapchainDestroyed &message, 
     return true;
 }
 
+bool Replayer::swapchain_view(const protocol::SwapchainView &message, std::string *error) {
+    const split::FieldOfView view{message.angle_left, message.angle_right, message.angle_up,
+                                  message.angle_down};
+    if (!swapchains_.set_view(message.swapchain_id, view, error)) {
+        *error = "SwapchainView: swapchain " + hex(message.swapchain_id) + ": " + *error;
+        return false;
+    }
+    return true;
+}
+
 bool Replayer::split_config(const protocol::SplitConfig &message, std::string *error) {
     if (!tile_sender_) {
         *error = "SplitConfig: this session cannot send tiles";

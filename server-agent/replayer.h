@@ -47,6 +47,7 @@ public:
     bool memory_data(const protocol::MemoryData &message, std::string *error);
     bool swapchain_images(const protocol::SwapchainImages &message, std::string *error);
     bool swapchain_destroyed(const protocol::SwapchainDestroyed &message, std::string *error);
+    bool swapchain_view(const protocol::SwapchainView &message, std::string *error);
     // The client's layout of a linear image, for MemoryData into it (memory_rebind.h).
     bool image_layouts(const protocol::ImageLayouts &message, std::string *error);
     // FramePresent: hands the first presented image's fovea to the tile streamer (when tiles are

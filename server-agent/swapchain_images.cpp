@@ -133,12 +133,25 @@ bool SwapchainImages::presented(uint64_t swapchain_id, uint32_t image_index, Pre
     return true;
 }
 
-bool SwapchainImages::runtime_image(uint64_t image_id) const {
+bool SwapchainImages::runtime_image(uint64_t image_id, const split::FieldOfView **view) const {
     for (const auto &[id, swapchain] : swapchains_)
         if (swapchain.info.source == protocol::SwapchainImages::Source::Runtime)
             for (uint64_t image : swapchain.info.image_ids)
-                if (image == image_id) return true;
+                if (image == image_id) {
+                    if (view) *view = swapchain.view ? &*swapchain.view : nullptr;
+                    return true;
+                }
     return false;
+}
+
+bool SwapchainImages::set_view(uint64_t swapchain_id, const split::FieldOfView &view, std::string *error) {
+    const auto it = swapchains_.find(swapchain_id);
+    if (it == swapchains_.end() || it->second.info.source != protocol::SwapchainImages::Source::Runtime) {
+        *error = "not an OpenXR runtime's swapchain";
+        return false;
+    }
+    it->second.view = view;
+    return true;
 }
 
 bool SwapchainImages::destroy(uint64_t swapchain_id, std::string *error) {

@@ -6,12 +6,14 @@
 // (SPLITVK_VERIFY=full) here; the fovea readback of issue 4 reuses read_back() with a rectangle.
 
 #include "session.h"
+#include "split_geometry.h"
 #include "vk_codec.h"
 #include "vulkan_context.h"
 
 #include <vulkan/vulkan.h>
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -32,8 +34,12 @@ public:
     // (fovea_shading.h: split passes are the ones drawing into these).
     bool find_image(VkImage image, uint64_t *image_id, VkExtent2D *extent) const;
     // Whether `image_id` is an image of an OpenXR runtime's swapchain (adopted, SwapchainImages::Source::
-    // Runtime): it holds one eye, whatever SPLITVK_EYES says of windows.
-    bool runtime_image(uint64_t image_id) const;
+    // Runtime): it holds one eye, whatever SPLITVK_EYES says of windows. *view (when given) is then
+    // that eye's field of view, or null before the client sent one (SwapchainView).
+    bool runtime_image(uint64_t image_id, const split::FieldOfView **view = nullptr) const;
+    // SwapchainView: an OpenXR swapchain's field of view. False with `error` for a swapchain that is
+    // not a runtime's.
+    bool set_view(uint64_t swapchain_id, const split::FieldOfView &view, std::string *error);
     // The extent of the newest swapchain, {0, 0} before the first: what screen-space targets are
     // classified against, as the client does (protocol/target_rule.h).
     VkExtent2D newest_extent() const { return newest_; }
@@ -63,6 +69,7 @@ private:
         protocol::SwapchainImages info;
         std::vector<VkImage> images;
         std::vector<VkDeviceMemory> memory;
+        std::optional<split::FieldOfView> view; // a runtime's swapchain, once SwapchainView said
     };
     void release(Swapchain &swapchain);
     bool ensure_readback(VkDeviceSize bytes, std::string *error);

@@ -187,6 +187,9 @@ void decode_metadata(const protocol::Message &m, codec::HandleTable &table) {
     case MessageType::SplitConfig:
         if (auto d = protocol::decode_split_config(p)) touch(d->codec);
         break;
+    case MessageType::SwapchainView:
+        if (auto d = protocol::decode_swapchain_view(p)) touch(d->angle_left);
+        break;
     case MessageType::ImageLayouts:
         if (auto d = protocol::decode_image_layouts(p)) {
             // As the agent's ImageLayouts does: the id must name a live image.

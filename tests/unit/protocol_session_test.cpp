@@ -50,6 +50,46 @@ TEST(ProtocolSession, SwapchainImagesRoundTripAndLimits) {
     EXPECT_FALSE(decode_swapchain_images(encode(m)).ok());
 }
 
+// An OpenXR runtime's swapchain: adopted images, and the layout a frame ends in (trailing fields
+// that a window's swapchain leaves out).
+TEST(ProtocolSession, RuntimeSwapchainImagesRoundTrip) {
+    SwapchainImages window{7, 0x55, 2400, 1080, 44, 0x10, 1, {0x100}};
+    SwapchainImages runtime = window;
+    runtime.source = SwapchainImages::Source::Runtime;
+    runtime.presented_layout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    EXPECT_EQ(encode(runtime).size(), encode(window).size() + 8);
+    const auto back = decode_swapchain_images(encode(runtime));
+    ASSERT_TRUE(back.ok()) << back.error();
+    EXPECT_EQ(back->source, SwapchainImages::Source::Runtime);
+    EXPECT_EQ(back->presented_layout, uint32_t{VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL});
+    const auto plain = decode_swapchain_images(encode(window));
+    ASSERT_TRUE(plain.ok()) << plain.error();
+    EXPECT_EQ(plain->source, SwapchainImages::Source::Window);
+    EXPECT_EQ(plain->presented_layout, uint32_t{VK_IMAGE_LAYOUT_PRESENT_SRC_KHR});
+    runtime.presented_layout = VK_IMAGE_LAYOUT_GENERAL;
+    EXPECT_FALSE(decode_swapchain_images(encode(runtime)).ok());
+    runtime.presented_layout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    std::vector<uint8_t> bad = encode(runtime);
+    bad[bad.size() - 8] = 9; // an unknown source
+    EXPECT_FALSE(decode_swapchain_images(bad).ok());
+}
+
+TEST(ProtocolSession, SwapchainViewRoundTripAndRange) {
+    SwapchainView m{7, 0x55, -0.8f, 0.6f, 0.7f, -0.9f};
+    const auto bytes = encode(m);
+    const auto back = decode_swapchain_view(bytes);
+    ASSERT_TRUE(back.ok()) << back.error();
+    EXPECT_EQ(back->swapchain_id, 0x55u);
+    EXPECT_EQ(back->angle_left, -0.8f);
+    EXPECT_EQ(back->angle_down, -0.9f);
+    expect_truncations_refused(bytes, decode_swapchain_view);
+    for (SwapchainView bad : {SwapchainView{7, 0x55, 0.6f, -0.8f, 0.7f, -0.9f}, // right < left
+                              SwapchainView{7, 0x55, -0.8f, 0.6f, -0.9f, 0.7f}, // up < down
+                              SwapchainView{7, 0x55, -1.6f, 0.6f, 0.7f, -0.9f}, // past -pi/2
+                              SwapchainView{7, 0x55, -0.8f, NAN, 0.7f, -0.9f}}) // not a number
+        EXPECT_FALSE(decode_swapchain_view(encode(bad)).ok());
+}
+
 TEST(ProtocolSession, FrameMarksRoundTrip) {
     const FrameBegin begin{41, 0x55, 2};
     const auto b = decode_frame_begin(encode(begin));

@@ -251,6 +251,17 @@ TEST(SplitGeometry, FoveaAtTheViewDirection) {
     EXPECT_RECT(fovea_at_view_direction(eye, {}, fovea), 1544, 360, 512u, 360u);
 }
 
+// An OpenXR eye image: one eye, the whole image; at the view direction once its field of view is
+// known, centred before (both sides place it with this one function).
+TEST(SplitGeometry, RuntimeEyeFovea) {
+    const FoveaSize fovea;
+    const VkExtent2D image{1200, 1080};
+    EXPECT_RECT(runtime_eye_fovea(image, nullptr, fovea), 344, 360, 512u, 360u);
+    const double a = 0.785398163397448, t = std::atan(0.5);
+    const FieldOfView inner_narrow{-a, t, t, -a};
+    EXPECT_RECT(runtime_eye_fovea(image, &inner_narrow, fovea), 544, 180, 512u, 360u);
+}
+
 TEST(SplitGeometry, FoveaSetIsSortedAndUnique) {
     std::vector<VkRect2D> foveae;
     add_fovea(foveae, {{1544, 360}, {512, 360}});
