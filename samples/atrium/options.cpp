@@ -91,19 +91,24 @@ options:
   --xr                   draw through OpenXR (XR_KHR_vulkan_enable2, a head-mounted display, a LOCAL
                          or STAGE space) into the runtime's eye swapchains instead of a window: one
                          swapchain per eye, each eye a mono frame of --path direct, hdr or deferred,
-                         at the runtime's recommended size, with the runtime's eye offsets and fields
-                         of view (--width, --height, --srgb and --present-mode do not apply). --frames
-                         N ends the session after N frames; --hold re-renders frame N-1 until SIGTERM
-                         or SIGINT, printing 'holding frame N-1' once the runtime has had it
+                         at the runtime's recommended size (or --eye-size), with the runtime's eye
+                         offsets and fields of view (--width, --height, --srgb and --present-mode do
+                         not apply). --frames N ends the session after N frames; --hold re-renders
+                         frame N-1 until SIGTERM or SIGINT, printing 'holding frame N-1' once the
+                         runtime has had it
   --multiview            with --xr: one swapchain of two layers, both eyes drawn in one
                          VK_KHR_multiview pass straight into it (--xr --path multiview is the same)
+  --eye-size WxH         with --xr: create the eye swapchains (or the two-layer one) at WxH instead
+                         of the runtime's recommended size; at most the system's maximum image size
+                         (the paper's eyes: --eye-size 1200x1080)
   --help                 show this text
 
 On start it prints 'atrium: T triangles, 49 textures, WxH per eye, path NAME'. When the last frame has been
 presented it prints 'frame-time: median M ms, IQR Q ms, N frames' (CPU time between successive
 presents; frame 0 counts from the start of the render loop). With --xr a second line follows the
 first, 'xr: RUNTIME, SYSTEM, LOCAL space, FORMAT, LAYOUT', then at the first frame one line per eye
-with its offset from the head and its field of view; frame times are between xrEndFrame calls.
+with its offset from the head and its field of view; frame times are between xrEndFrame calls
+(the runtime's xrWaitFrame paces them: they are at least its display period).
 )";
 }
 
@@ -167,6 +172,13 @@ Options parse_options(int argc, char **argv) {
                 throw std::invalid_argument("--resize-at: expected WxH, got '" + size + "'");
             o.resize_width = parse_number<uint32_t>(arg, size.substr(0, x), 16, 16384);
             o.resize_height = parse_number<uint32_t>(arg, size.substr(x + 1), 16, 16384);
+        } else if (arg == "--eye-size") {
+            const std::string size(value());
+            const auto x = size.find('x');
+            if (x == std::string::npos)
+                throw std::invalid_argument("--eye-size: expected WxH, got '" + size + "'");
+            o.eye_width = parse_number<uint32_t>(arg, size.substr(0, x), 16, 16384);
+            o.eye_height = parse_number<uint32_t>(arg, size.substr(x + 1), 16, 16384);
         } else if (arg == "--xr") {
             o.xr = true;
         } else if (arg == "--multiview") {
@@ -206,6 +218,8 @@ Options parse_options(int argc, char **argv) {
         if (o.multiview) o.path = PathKind::direct; // the multiview pass is the path
     } else if (o.multiview) {
         throw std::invalid_argument("--multiview goes with --xr (in a window: --path multiview)");
+    } else if (o.eye_width) {
+        throw std::invalid_argument("--eye-size goes with --xr (in a window: --width and --height)");
     }
     if (o.path != PathKind::direct && (o.static_viewports || o.clear_depth_per_eye))
         throw std::invalid_argument(

@@ -39,6 +39,9 @@ struct Options {
     // --multiview: one two-layer swapchain drawn with VK_KHR_multiview (--xr --path multiview too).
     bool xr = false;
     bool multiview = false;
+    // --eye-size WxH (with --xr): the eye swapchains' size instead of the runtime's recommended one.
+    uint32_t eye_width = 0;
+    uint32_t eye_height = 0;
     bool help = false;
 };
 

@@ -483,6 +483,16 @@ void XrApp::create_swapchains() {
             width = std::max(width, views[1].recommendedImageRectWidth);
             height = std::max(height, views[1].recommendedImageRectHeight);
         }
+        if (options_.eye_width) { // --eye-size: any size up to the system's maximum
+            const uint32_t max_width = std::min(views[0].maxImageRectWidth, views[1].maxImageRectWidth);
+            const uint32_t max_height = std::min(views[0].maxImageRectHeight, views[1].maxImageRectHeight);
+            if (options_.eye_width > max_width || options_.eye_height > max_height)
+                throw Error("--eye-size " + std::to_string(options_.eye_width) + "x" +
+                            std::to_string(options_.eye_height) + ": " + system_name_ + " takes at most " +
+                            std::to_string(max_width) + "x" + std::to_string(max_height));
+            width = options_.eye_width;
+            height = options_.eye_height;
+        }
         XrSwapchainCreateInfo info = xr<XrSwapchainCreateInfo>(XR_TYPE_SWAPCHAIN_CREATE_INFO);
         info.usageFlags = XR_SWAPCHAIN_USAGE_COLOR_ATTACHMENT_BIT;
         info.format = format_;

@@ -46,6 +46,7 @@ class Build:
         self.atrium = os.path.join(self.path, "bin", "splitvk-atrium")
         self.layer = os.path.join(self.path, "lib", "libVkLayer_splitvk.so")
         self.explicit_manifest_dir = os.path.join(self.path, "manifest", "explicit_layer.d")
+        self.xr_manifest_dir = os.path.join(self.path, "manifest", "openxr")
 
     def check(self):
         missing = [p for p in (self.atrium, self.layer, self.explicit_manifest_dir) if not os.path.exists(p)]

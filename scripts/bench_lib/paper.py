@@ -18,6 +18,16 @@ a split over TLS 1.3 (split-tls: SPLITVK_TLS=on, the agent pinned by its fingerp
 --agent-scissor guard:N a split whose agent also cuts offscreen screen-space passes to the fovea
 (split-guard: SPLITVK_AGENT_SCISSOR=guard:N).
 
+--xr runs the experiment through OpenXR too: in every round and path, after the desktop runs,
+splitvk-atrium --xr (one swapchain per eye, each --eye-size, by default half the window: the
+paper's 1200x1080) native and split under scripts/xr-runtime (Monado, headless), on the same
+confined client against the same agent with the same scale, fovea and tile wait (splitvk's OpenXR
+layer on, one centred fovea per eye image). Its frame times are between xrEndFrame calls, which
+the runtime's xrWaitFrame paces at 20 Hz: they are never under 50 ms, so the eyes must be large
+enough that native frames take well over that (at 1200x1080 on one confined core they take
+hundreds of ms). Reported as xr split/native beside the desktop split/native. Only --path direct,
+hdr or deferred (atrium --xr draws no other path per eye; layered swapchains are not split).
+
 Prints median and IQR of the frame time (every frame of every run, after --warmup frames per run)
 of native and split, the client's and the agent's per-stage medians, Mbit/s of tiles; draws the
 frame-time distributions and one typical frame's timeline (docs/figures/ with /usr/bin/python3
@@ -67,6 +77,9 @@ RENDER_PATHS = ("direct", "hdr", "deferred", "multiview", "secondary", "compute"
 # --periphery-frames N adds the older estimate, a native run at the periphery's size.
 # Variants of the split measured beside it (see measure): name -> how the tables call it.
 VARIANTS = {"split-tls": "split over TLS 1.3", "split-guard": "split, agent scissor"}
+XR_PATHS = ("direct", "hdr", "deferred")  # splitvk-atrium --xr, one swapchain per eye
+XR_LAYER_NAME = "XR_APILAYER_SPLITVK_split_render"
+XR_RUNTIME = os.path.join(common.REPO, "scripts", "xr-runtime")
 FULL = {"frames": 350, "rounds": 3, "periphery_frames": 0}
 QUICK = {"frames": 40, "rounds": 2, "periphery_frames": 0}
 
@@ -109,6 +122,27 @@ def guard_setting(text):
     if head != "guard" or not n.isdigit():
         raise argparse.ArgumentTypeError(f"--agent-scissor '{text}': expected guard:N, N pixels (e.g. guard:64)")
     return text
+
+
+def eye_size(text):
+    """'1200x1080' -> (1200, 1080) (splitvk-atrium --eye-size takes 16..16384 each)."""
+    w, x, h = text.partition("x")
+    if not x or not w.isdigit() or not h.isdigit() or not (16 <= int(w) <= 16384 and 16 <= int(h) <= 16384):
+        raise argparse.ArgumentTypeError(f"--eye-size '{text}': expected WxH, each 16..16384 (e.g. 1200x1080)")
+    return int(w), int(h)
+
+
+def xr_eye_size(args):
+    """The OpenXR runs' eye size: --eye-size, or one eye of the window (half its width)."""
+    return args.eye_size or (max(16, args.width // 2), args.height)
+
+
+def check_xr_paths(paths):
+    """--xr draws per-eye swapchains, which atrium --xr does for direct, hdr and deferred only."""
+    bad = [p for p in paths if p not in XR_PATHS]
+    if bad:
+        raise common.BenchError(f"--xr runs --path {', '.join(XR_PATHS)} only (atrium --xr draws no "
+                                f"{', '.join(bad)} per eye)")
 
 
 def cpu_text(cpus):
@@ -165,6 +199,11 @@ def register(subparsers):
                    help="also run each round's split over TLS 1.3 (SPLITVK_TLS=on) and report split-tls/split")
     p.add_argument("--agent-scissor", type=guard_setting, metavar="guard:N",
                    help="also run each round's split with SPLITVK_AGENT_SCISSOR=guard:N and report split-guard/split")
+    p.add_argument("--xr", action="store_true",
+                   help="also run native and split through OpenXR (splitvk-atrium --xr under scripts/xr-runtime, "
+                        "one swapchain per eye) and report xr split/native beside split/native")
+    p.add_argument("--eye-size", type=eye_size, metavar="WxH",
+                   help="with --xr: the eye swapchains' size (default: half the window, 1200x1080)")
     p.add_argument("--out-dir", help="per-frame CSVs, logs, results.json (default: BUILD/bench-paper)")
     p.add_argument("--figures-dir", help="where the PNGs go (default: docs/figures with --write-docs, else --out-dir)")
     docs = p.add_mutually_exclusive_group()
@@ -316,6 +355,15 @@ def measure(args):
     for c in client_cpus + agent_cpus:
         if c not in available:
             raise common.BenchError(f"CPU {c} is not available to this process (have {cpu_text(sorted(available))})")
+    if args.eye_size and not args.xr:
+        raise common.BenchError("--eye-size goes with --xr")
+    if args.xr:
+        check_xr_paths(args.paths)
+        if not os.path.isdir(build.xr_manifest_dir):
+            raise common.MissingBuild(f"{build.xr_manifest_dir} is missing: --xr needs splitvk's OpenXR layer built")
+        # Monado, built once into the cache, before anything is timed.
+        subprocess.run([XR_RUNTIME, "build"], check=True, stdout=subprocess.DEVNULL)
+    ew, eh = xr_eye_size(args)
     scale = float(args.scale)
     pw, ph = max(16, round(args.width * scale)), max(16, round(args.height * scale))
 
@@ -332,6 +380,12 @@ def measure(args):
                                 "--eyes", "2", "--frames", str(frames), "--present-mode", "immediate",
                                 "--frame-times", times_path]
 
+    def xr_argv(path, frames, times_path):
+        # The runtime's service outside the confinement (the headset's compositor), the app inside it.
+        return [XR_RUNTIME, "run", "--"] + client_prefix + [
+            build.atrium, "--xr", "--path", path, "--eye-size", f"{ew}x{eh}", "--frames", str(frames),
+            "--frame-times", times_path]
+
     timeout_s = 300 + 3 * args.frames
     agent_port = split.free_port()
     machine = machine_info()
@@ -340,6 +394,7 @@ def measure(args):
           f"({args.warmup} warm-up left out), {args.rounds} rounds native/split alternating"
           + (" with a split over TLS 1.3" if args.tls else "")
           + (f" with a split at SPLITVK_AGENT_SCISSOR={args.agent_scissor}" if args.agent_scissor else "")
+          + (f", and native/split through OpenXR at {ew}x{eh} per eye" if args.xr else "")
           + f"; render path(s): {', '.join(args.paths)}"
           + (f", periphery-size native runs of {args.periphery_frames} frames" if args.periphery_frames else ""),
           flush=True)
@@ -353,6 +408,7 @@ def measure(args):
 
     # Per path: frame times of each run (after the warm-up), the split runs' stats rows, CPU per frame.
     modes = ["native", "split"] + [v for v, on in (("split-tls", args.tls), ("split-guard", args.agent_scissor)) if on]
+    modes += ["xr-native", "xr-split"] if args.xr else []
     runs = {path: dict({m: [] for m in modes}, periphery=[], cpu={m: [] for m in modes}) for path in args.paths}
     start = time.monotonic()
     with common.display() as disp:
@@ -374,6 +430,8 @@ def measure(args):
                 variant_env["split-tls"] = common.tls_split_env(split_env, agent, out_dir, base)
             if args.agent_scissor:
                 variant_env["split-guard"] = dict(split_env, SPLITVK_AGENT_SCISSOR=args.agent_scissor)
+            # Through OpenXR: splitvk's OpenXR layer too (docs/user-guide.md, "OpenXR applications").
+            xr_split_env = dict(split_env, XR_API_LAYER_PATH=build.xr_manifest_dir, XR_ENABLE_API_LAYERS=XR_LAYER_NAME)
             for i in range(args.rounds):
                 # Native and split alternate their order every round; the variants trade ends with
                 # native, so the plain split sits next to native in one round and to them in the next.
@@ -385,7 +443,21 @@ def measure(args):
                     prefix = "" if path == "direct" else f"{path}-"  # a direct run's files keep their names
                     for mode in order:
                         times = os.path.join(out_dir, f"{prefix}{mode}-round{i + 1}-frames.csv")
-                        if mode == "native":
+                        if mode in ("xr-native", "xr-split"):
+                            # No client CPU time: the runtime's service is a child of the run too.
+                            stats = os.path.join(out_dir, f"{prefix}xr-split-round{i + 1}.csv")
+                            env = client_env if mode == "xr-native" else dict(xr_split_env, SPLITVK_STATS=stats)
+                            r = common.run(xr_argv(path, args.frames, times), env, timeout_s)
+                            if mode == "xr-native":
+                                got[mode].append(read_frame_times(times, args.warmup))
+                            else:
+                                if "running unsplit" in r.stderr or "eye images of its Vulkan device are split" \
+                                        not in r.stderr or "[splitvk] split:" not in r.stderr:
+                                    raise common.BenchError(f"the OpenXR split run (--path {path}) did not split:\n"
+                                                            + common.tail(r.stderr))
+                                got[mode].append((read_frame_times(times, args.warmup),
+                                                  split.read_stats(stats, 2 * args.warmup)))
+                        elif mode == "native":
                             r = cpu_run(argv(path, args.width, args.height, args.frames, times), client_env,
                                         timeout_s, args.frames, got["cpu"]["native"])
                             got["native"].append(read_frame_times(times, args.warmup))
@@ -523,7 +595,21 @@ def path_summary(path, runs):
         "periphery_source": "gpu" if measured else ("estimate" if periphery else None),
         "stages": stages,
         "client_cpu": {k: split.median(v) for k, v in runs["cpu"].items() if v},
+        "xr": xr_summary(runs),
     }
+
+
+def xr_summary(runs):
+    """The OpenXR runs of one path (--xr): native and split frame times, the split's stages; None
+    without them."""
+    if not runs.get("xr-native") or not runs.get("xr-split"):
+        return None
+    rows = [r for _, rows in runs["xr-split"] for r in rows]
+    return {"native": q3([v for run in runs["xr-native"] for v in run]),
+            "split": q3([v for run, _ in runs["xr-split"] for v in run]),
+            "native_rounds": [split.median(r) for r in runs["xr-native"]],
+            "split_rounds": [split.median(r) for r, _ in runs["xr-split"]],
+            "stages": split.stage_medians(rows)}
 
 
 def summarize(args, machine, runs, periphery_size, out_dir, wall_s):
@@ -546,7 +632,8 @@ def summarize(args, machine, runs, periphery_size, out_dir, wall_s):
                    "client_threads": args.client_threads, "tile_wait": args.tile_wait, "agent_cpus": args.agent_cpus, "link": args.link,
                    "quick": args.quick, "periphery_source": p["periphery_source"],
                    "paths": list(args.paths), "tls": args.tls,
-                   "agent_scissor": args.agent_scissor},
+                   "agent_scissor": args.agent_scissor, "xr": args.xr,
+                   "eye_size": "{}x{}".format(*xr_eye_size(args)) if args.xr else None},
         "native": p["native"], "split": p["split"],
         "native_rounds": p["native_rounds"], "split_rounds": p["split_rounds"],
         "periphery": p["periphery"],
@@ -556,6 +643,7 @@ def summarize(args, machine, runs, periphery_size, out_dir, wall_s):
         "native_frames": [v for run in runs[first]["native"] for v in run],
         "split_frames": [v for run, _ in runs[first]["split"] for v in run],
         "per_path": per_path,
+        "xr": p["xr"],
     }
     return res
 
@@ -592,6 +680,20 @@ def variant_rows_markdown(res):
     return rows
 
 
+def xr_rows_markdown(res):
+    """Native and split through OpenXR and their ratio under the end-to-end table (--xr)."""
+    xr = res.get("xr")
+    if not xr:
+        return []
+    n, sp = xr["native"], xr["split"]
+    eye = res["config"].get("eye_size")
+    return [f"| native through OpenXR ({eye} per eye) | {n['median']:.2f} | {n['iqr']:.2f} | {n['n']} | "
+            + ", ".join(f"{v:.1f}" for v in xr["native_rounds"]) + " |",
+            f"| split through OpenXR ({xr['stages']['late']} of {xr['stages']['frames']} eye images late) | "
+            f"{sp['median']:.2f} | {sp['iqr']:.2f} | {sp['n']} | " + ", ".join(f"{v:.1f}" for v in xr["split_rounds"]) + " |",
+            f"| **split / native through OpenXR** | **{sp['median'] / n['median']:.3f}** | | | |"]
+
+
 def tables_markdown(res):
     s, n, sp, per = res["stages"], res["native"], res["split"], res["periphery"]
     per_text = f"{per['median']:.2f}" if per else "n/a"
@@ -604,7 +706,7 @@ def tables_markdown(res):
         f"| split | {sp['median']:.2f} | {sp['iqr']:.2f} | {sp['n']} | "
         + ", ".join(f"{v:.1f}" for v in res["split_rounds"]) + " |",
         f"| **split / native** | **{sp['median'] / n['median']:.3f}** | | | |",
-    ] + variant_rows_markdown(res) + [
+    ] + variant_rows_markdown(res) + xr_rows_markdown(res) + [
         "",
         f"Client (Table 1), medians in ms; {periphery_note(c)}:",
         "",
@@ -639,6 +741,12 @@ def print_tables(res):
     print("end to end (ms per frame)        median      IQR   frames")
     print(f"  native (client alone)     {n['median']:9.2f} {n['iqr']:8.2f} {n['n']:8d}")
     print(f"  split                     {sp['median']:9.2f} {sp['iqr']:8.2f} {sp['n']:8d}")
+    if res.get("xr"):
+        xr = res["xr"]
+        print(f"  native through OpenXR     {xr['native']['median']:9.2f} {xr['native']['iqr']:8.2f} {xr['native']['n']:8d}")
+        print(f"  split through OpenXR      {xr['split']['median']:9.2f} {xr['split']['iqr']:8.2f} {xr['split']['n']:8d}"
+              f"   ({res['config'].get('eye_size')} per eye; {xr['stages']['late']} of {xr['stages']['frames']} "
+              "eye images late)")
     label = "periphery(GPU)" if res["config"].get("periphery_source") == "gpu" else "periphery(est.)"
     print(f"client (median ms)   {label:>15}  tile wait  exposed wait   network   decode  upload+merge  "
           "merge(GPU)   Mbit/s")
@@ -686,6 +794,11 @@ def path_ratios(p):
               "periphery/native": per["median"] / n if per and n else None}
     for name, t in variants_of(p).items():
         ratios[f"{name}/split"] = t["median"] / sp if sp else None
+    xr = p.get("xr")
+    if xr:
+        ratios["xr split/native"] = xr["split"]["median"] / xr["native"]["median"] if xr["native"]["median"] else None
+        ratios["xr split/native by means"] = (xr["split"]["mean"] / xr["native"]["mean"]
+                                              if xr["native"].get("mean") and xr["split"].get("mean") else None)
     return ratios
 
 
@@ -758,7 +871,7 @@ def section_markdown(res, figures, docs_path, analysis):
         f"lavapipe's `LP_NUM_THREADS={c['client_threads']}`, the agent to CPU {c['agent_cpus']}; link: "
         f"{c['link']} ({'loopback, no proxy' if c['link'] == 'direct' else 'splitvk-link on loopback'}); `SPLITVK_TILE_WAIT={c.get('tile_wait', 250)}` (lockstep as in the paper). Native and split alternate, {c['rounds']} rounds of {c['frames']} frames, "
         f"the first {c['warmup']} of each run left out; {periphery_note(c)}. Medians and IQRs are over every "
-        "remaining frame.",
+        "remaining frame." + (" " + xr_note(c) if c.get("xr") else ""),
         "",
         f"- date: {res['date']}",
         f"- machine: {describe_machine(m)}; Xvfb display",
@@ -842,7 +955,8 @@ def paths_markdown(res):
     head = ["path", "native, ms (IQR)", "split, ms (IQR)"] + [f"{variant_label(res, v)}, ms (IQR)" for v in variants] + \
         ["periphery (GPU), ms", "periphery/native", "tile wait", "exposed wait / frame", "split/native",
          "split/native by means"] + \
-        [f"{v}/split" for v in variants] + ["tile-bytes/raw", "client CPU split/native", "late frames"]
+        [f"{v}/split" for v in variants] + ["tile-bytes/raw", "client CPU split/native", "late frames"] + \
+        (["OpenXR native, ms (IQR)", "OpenXR split, ms (IQR)", "OpenXR split/native"] if c.get("xr") else [])
     rows = []
     for p in res["per_path"]:
         s, r, cpu = p["stages"], path_ratios(p), p.get("client_cpu", {})
@@ -859,6 +973,11 @@ def paths_markdown(res):
         row += [f"{s['tile_bytes'] / s['raw_bytes']:.3f}" if s["raw_bytes"] else "n/a",
                 f"{cpu['split'] / cpu['native']:.3f}" if cpu.get("native") and cpu.get("split") else "n/a",
                 f"{s['late']} of {s['frames']}"]
+        if c.get("xr"):
+            xr = p.get("xr")
+            row += [f"{xr['native']['median']:.2f} ({xr['native']['iqr']:.2f})",
+                    f"{xr['split']['median']:.2f} ({xr['split']['iqr']:.2f})",
+                    f"**{fmt_ratio(r['xr split/native'])}**"] if xr else ["n/a"] * 3
         rows.append("| " + " | ".join(row) + " |")
     out = [
         PATHS_BEGIN,
@@ -876,7 +995,8 @@ def paths_markdown(res):
            f"(`SPLITVK_AGENT_SCISSOR={c['agent_scissor']}`)" if "split-guard" in variants else "")
         + (" at the other end of the round from native" if len(variants) else "")
         + f"; {c['rounds']} rounds of {c['frames']} frames, the first {c['warmup']} of each run left out. "
-        "Frame times are medians (IQR) over every remaining frame; periphery is the client's periphery "
+        + (xr_note(c) + " " if c.get("xr") else "")
+        + "Frame times are medians (IQR) over every remaining frame; periphery is the client's periphery "
         "render on its GPU (`SPLITVK_STATS`' `periphery_ms`, timestamp queries), and periphery/native that "
         "over the native median frame: the share of a native frame the client still renders itself. "
         "split/native by means compares mean frame times: where the agent is slower than the client, "
@@ -899,6 +1019,17 @@ def paths_markdown(res):
         PATHS_END,
     ]
     return "\n".join(out)
+
+
+def xr_note(c):
+    """What the OpenXR runs (--xr) are, for the docs."""
+    return (f"Through OpenXR: splitvk-atrium `--xr --eye-size {c['eye_size']}` (one swapchain per eye, each split "
+            "with one centred fovea of the same size) under `scripts/xr-runtime run` (Monado, headless null "
+            "compositor; its service is not confined), native and split in the same rounds on the same "
+            "confined client and agent with splitvk's OpenXR layer on; frame times are between `xrEndFrame` "
+            "calls, which the runtime paces at 20 Hz, so none is under 50 ms (the eyes are sized so that "
+            "native frames take several times that; xrWaitFrame can still add part of a 50 ms period to a "
+            "frame, native and split alike).")
 
 
 def analysis_text(res):

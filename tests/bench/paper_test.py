@@ -45,6 +45,46 @@ class Variants(unittest.TestCase):
         self.assertEqual(paper.run_variants({"config": {"tls": False}}), [])
 
 
+class ThroughOpenXR(unittest.TestCase):
+    def summary(self, xr=None):
+        return {"path": "direct", "native": quartiles(200.0), "split": quartiles(100.0), "periphery": None,
+                "variants": {}, "xr": xr}
+
+    def test_the_openxr_runs_are_reported_as_their_own_split_over_native(self):
+        xr = {"native": quartiles(400.0, 410.0), "split": quartiles(300.0, 328.0)}
+        r = paper.path_ratios(self.summary(xr))
+        self.assertAlmostEqual(r["split/native"], 0.5)
+        self.assertAlmostEqual(r["xr split/native"], 0.75)
+        self.assertAlmostEqual(r["xr split/native by means"], 0.8)
+
+    def test_without_xr_no_xr_ratio_and_no_rows(self):
+        self.assertNotIn("xr split/native", paper.path_ratios(self.summary()))
+        self.assertEqual(paper.xr_rows_markdown({"config": {}}), [])
+
+    def test_rows_under_the_end_to_end_table(self):
+        res = {"config": {"eye_size": "1200x1080"},
+               "xr": {"native": quartiles(400.0), "split": quartiles(300.0), "native_rounds": [399.0, 401.0],
+                      "split_rounds": [300.0, 301.0], "stages": {"late": 0, "frames": 60}}}
+        rows = paper.xr_rows_markdown(res)
+        self.assertEqual(len(rows), 3)
+        self.assertIn("1200x1080 per eye", rows[0])
+        self.assertIn("0 of 60 eye images late", rows[1])
+        self.assertIn("**0.750**", rows[2])
+
+    def test_xr_runs_are_not_variants_of_the_split(self):
+        self.assertEqual(paper.run_variants({"config": {"tls": False, "xr": True}}), [])
+
+    def test_runs_without_xr_runs_summarize_to_none(self):
+        self.assertIsNone(paper.xr_summary({"native": [[1.0]], "split": []}))
+        self.assertIsNone(paper.xr_summary({"xr-native": [[1.0]], "xr-split": []}))
+
+    def test_the_eye_size_defaults_to_one_eye_of_the_window(self):
+        args = argparse.Namespace(eye_size=None, width=2400, height=1080)
+        self.assertEqual(paper.xr_eye_size(args), (1200, 1080))
+        args.eye_size = (640, 480)
+        self.assertEqual(paper.xr_eye_size(args), (640, 480))
+
+
 class Usage(unittest.TestCase):
     def test_agent_scissor_takes_guard_n_only(self):
         self.assertEqual(paper.guard_setting("guard:64"), "guard:64")
@@ -52,6 +92,28 @@ class Usage(unittest.TestCase):
         for bad in ("off", "guard", "guard:", "guard:-1", "guard:6x", "scissor:4"):
             with self.assertRaises(argparse.ArgumentTypeError, msg=bad):
                 paper.guard_setting(bad)
+
+    def test_eye_size_takes_w_x_h(self):
+        self.assertEqual(paper.eye_size("1200x1080"), (1200, 1080))
+        for bad in ("1200", "1200x", "x1080", "12x1080", "1200x1080x2", "-1x5", "axb", "20000x100"):
+            with self.assertRaises(argparse.ArgumentTypeError, msg=bad):
+                paper.eye_size(bad)
+
+    def test_xr_takes_per_eye_render_paths_only(self):
+        paper.check_xr_paths(["direct", "hdr", "deferred"])
+        for bad in (["multiview"], ["direct", "compute"], ["secondary"]):
+            with self.assertRaises(paper.common.BenchError, msg=bad):
+                paper.check_xr_paths(bad)
+
+    def test_the_command_line_takes_xr_and_eye_size(self):
+        parser = argparse.ArgumentParser()
+        paper.register(parser.add_subparsers(dest="command"))
+        args = parser.parse_args(["paper", "--xr", "--eye-size", "640x480", "--quick"])
+        self.assertTrue(args.xr)
+        self.assertEqual(args.eye_size, (640, 480))
+        args = parser.parse_args(["paper"])
+        self.assertFalse(args.xr)
+        self.assertIsNone(args.eye_size)
 
     def test_render_paths(self):
         self.assertEqual(paper.path_names("hdr,direct,hdr"), ["hdr", "direct"])

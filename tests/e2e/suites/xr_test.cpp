@@ -15,6 +15,12 @@
 //    brought in, and the last eye images' foveae are again those of the split frames before the kill.
 // hello_xr's hand cubes move (the simulated controllers); the fovea holds only the static centre
 // cube, so foveae of different frames compare exactly, whole images do not.
+// splitvk-atrium --xr (deterministic per frame number, small --eye-size, a few frames, no validation:
+// xr.AtriumThroughMonado has it) through the same readback layer:
+//  - Per eye: every eye image of every frame, native against split for the same image and release
+//    (the same frame), fovea bit-exact, periphery different; the frames split with none late.
+//  - --multiview (one swapchain of two layers, which splitvk replicates but does not split yet):
+//    runs to its end, exit 0, the agent gets its frames, no splitvk error.
 #include "agent.h"
 #include "e2e_test.h"
 #include "fovea.h"
@@ -166,9 +172,11 @@ StatsSummary read_stats(const std::filesystem::path &csv) {
 
 class Xr : public ::testing::Test {
 protected:
-    void SetUp() override {
+    void SetUp() override { set_up(true); }
+
+    void set_up(bool hello_xr) {
         out_ = test_output_dir();
-        if (!find_program("hello_xr", clean_env()))
+        if (hello_xr && !find_program("hello_xr", clean_env()))
             GTEST_SKIP() << "hello_xr (libopenxr-utils) is not installed";
         ASSERT_TRUE(built(explicit_layer_dir()));
         ASSERT_TRUE(built(agent_path()));
@@ -335,6 +343,143 @@ protected:
     std::map<std::string, std::filesystem::path> validation_logs_;
 };
 
+class XrAtrium : public Xr {
+protected:
+    static constexpr int kFrames = 8;
+    static constexpr const char *kEyeSize = "192x160";
+
+    void SetUp() override {
+        set_up(false);
+        ASSERT_TRUE(built(atrium_path()));
+    }
+
+    // The readback layer alone below the app (no validation: xr.AtriumThroughMonado covers it), every
+    // readback kept.
+    Env atrium_native_env(const std::string &run) {
+        Env e = clean_env();
+        if (const char *cache = std::getenv("SPLITVK_CACHE")) e["SPLITVK_CACHE"] = cache;
+        std::filesystem::create_directories(out_ / run / "images");
+        e["VK_LAYER_PATH"] = SPLITVK_E2E_XR_READBACK_LAYER_DIR;
+        e["VK_INSTANCE_LAYERS"] = kReadbackLayerName;
+        e["TEST_XR_READBACK_DIR"] = (out_ / run / "images").string();
+        return e;
+    }
+
+    Env atrium_split_env(const std::string &run, const Agent &agent) {
+        Env e = atrium_native_env(run);
+        e["VK_LAYER_PATH"] = explicit_layer_dir().string() + ":" + e["VK_LAYER_PATH"];
+        e["VK_INSTANCE_LAYERS"] = std::string(kLayerName) + ":" + e["VK_INSTANCE_LAYERS"];
+        e["XR_API_LAYER_PATH"] = (build_dir() / "manifest" / "openxr").string();
+        e["XR_ENABLE_API_LAYERS"] = kXrLayerName;
+        e["SPLITVK_SERVER"] = agent.address();
+        e["SPLITVK_STATS"] = (out_ / run / "stats.csv").string();
+        e["SPLITVK_LOG_LEVEL"] = "info";
+        e["SPLITVK_TILE_WAIT"] = "60000"; // a busy machine must not turn the compared frames late
+        return e;
+    }
+
+    ProcessResult run_atrium(const Env &env, const std::string &run, const std::vector<std::string> &extra) {
+        ProcessSpec spec;
+        spec.argv = {(source_dir() / "scripts" / "xr-runtime").string(),
+                     "run",
+                     "--",
+                     atrium_path().string(),
+                     "--xr",
+                     "--eye-size",
+                     kEyeSize,
+                     "--frames",
+                     std::to_string(kFrames)};
+        spec.argv.insert(spec.argv.end(), extra.begin(), extra.end());
+        spec.env = env;
+        spec.out_dir = out_;
+        spec.name = run;
+        return run_process(spec, std::chrono::seconds(120));
+    }
+
+    // Every readback in `dir`: (K, N) -> path.
+    static std::map<std::pair<int, int>, std::filesystem::path> readbacks(const std::filesystem::path &dir) {
+        std::map<std::pair<int, int>, std::filesystem::path> all;
+        const std::regex name(R"(image(\d+)-(\d+)\.pam)");
+        std::error_code ec;
+        for (const auto &entry : std::filesystem::directory_iterator(dir, ec)) {
+            std::smatch m;
+            const std::string file = entry.path().filename().string();
+            if (std::regex_match(file, m, name)) all[{std::stoi(m[1]), std::stoi(m[2])}] = entry.path();
+        }
+        return all;
+    }
+
+    // The frames the agent replicated, from the layer's closing 'session to ...: N frames' line.
+    static int session_frames(const std::string &err) {
+        const std::regex line(R"(session to [^ ]+: (\d+) frames)");
+        std::smatch m;
+        return std::regex_search(err, m, line) ? std::stoi(m[1]) : -1;
+    }
+};
+
+// Image K's release N is the same frame in both runs: the runtime hands out each eye's images in the
+// same order, and atrium draws frame N alike on every run.
+TEST_F(XrAtrium, PerEyeFoveaeExactAgainstNativeFrameByFrame) {
+    const auto native = run_atrium(atrium_native_env("native"), "native", {});
+    ASSERT_TRUE(native.ok()) << native.describe() << "\n" << tail(native.err(), 30);
+    Agent agent;
+    ASSERT_TRUE(agent.start(clean_env(), out_)) << agent.error();
+    const auto split = run_atrium(atrium_split_env("split", agent), "split", {});
+    ASSERT_TRUE(split.ok()) << split.describe() << "\n" << tail(split.err(), 30);
+    EXPECT_TRUE(grep(split.err(), "[splitvk] error:").empty()) << tail(split.err(), 30);
+    EXPECT_FALSE(grep(split.err(), "OpenXR session: eye images of its Vulkan device are split").empty());
+    const auto n = readbacks(out_ / "native" / "images");
+    const auto s = readbacks(out_ / "split" / "images");
+    // Two eyes, each image of each frame released once to the runtime.
+    ASSERT_EQ(n.size(), static_cast<size_t>(2 * kFrames)) << "native eye images read back";
+    ASSERT_EQ(s.size(), n.size()) << "split eye images read back";
+    uint64_t compared = 0, mismatched = 0;
+    int periphery_differs = 0;
+    for (const auto &[key, native_path] : n) {
+        SCOPED_TRACE(native_path.filename().string());
+        const auto it = s.find(key);
+        ASSERT_NE(it, s.end()) << "no split readback of the same image and release";
+        EyeImage a, b;
+        ASSERT_TRUE(load_pam(native_path, &a) && load_pam(it->second, &b));
+        ASSERT_EQ(a.width, 192u);
+        ASSERT_EQ(a.height, 160u);
+        ASSERT_EQ(b.width, a.width);
+        ASSERT_EQ(b.height, a.height);
+        const Rect f = default_foveae(a.width, a.height, 1)[0];
+        const Mismatch m = compare_rect(a, b, f);
+        compared += m.pixels;
+        mismatched += m.mismatched;
+        EXPECT_EQ(m.mismatched, 0u) << "fovea " << f.w << "x" << f.h << " at " << f.x << "," << f.y << ": "
+                                    << m.mismatched << " of " << m.pixels << " texels differ\n"
+                                    << save_mismatch_artefacts(out_, native_path.stem().string(), to_image(a),
+                                                               to_image(b));
+        const Mismatch whole = compare_rect(a, b, Rect{0, 0, a.width, a.height});
+        EXPECT_GT(whole.mismatched, m.mismatched)
+            << "the periphery is native's: not rendered at reduced scale";
+        periphery_differs += whole.mismatched > m.mismatched;
+    }
+    std::cout << "  foveae: " << compared << " texels compared in " << n.size() << " eye images, "
+              << mismatched << " differ; periphery differs in " << periphery_differs << "\n";
+    RecordProperty("fovea_texels", std::to_string(compared));
+    RecordProperty("fovea_mismatches", std::to_string(mismatched));
+    expect_split_stats("split", 2 * kFrames);
+}
+
+// A layered swapchain is replicated only: the agent gets the frames, the app its own pictures.
+TEST_F(XrAtrium, MultiviewRunsToTheEndReplicated) {
+    Agent agent;
+    ASSERT_TRUE(agent.start(clean_env(), out_)) << agent.error();
+    const auto split = run_atrium(atrium_split_env("split", agent), "split", {"--multiview"});
+    ASSERT_TRUE(split.ok()) << split.describe() << "\n" << tail(split.err(), 30);
+    EXPECT_FALSE(grep(split.out(), "frame-time: ").empty()) << tail(split.out(), 10);
+    EXPECT_TRUE(grep(split.err(), "[splitvk] error:").empty()) << tail(split.err(), 30);
+    EXPECT_FALSE(grep(split.err(), "XR_APILAYER_SPLITVK_split_render active").empty())
+        << tail(split.err(), 30);
+    const int frames = session_frames(split.err());
+    std::cout << "  multiview: the agent replicated " << frames << " frames\n";
+    EXPECT_GE(frames, kFrames) << "the agent did not get the frames\n" << tail(split.err(), 30);
+}
+
 TEST_F(Xr, HelloXrFoveaeExactAgainstNative) {
     const auto native = run_hello_xr(native_env("native"), "native", 4);
     ASSERT_TRUE(native.ok()) << native.describe() << "\n" << tail(native.err(), 30);
@@ -395,8 +540,9 @@ TEST_F(Xr, AgentKilledAndRestartedIsBroughtBackIn) {
     Agent first;
     ASSERT_TRUE(first.start(clean_env(), out_, {}, port, "first-agent")) << first.error();
     Env e = split_env("split", first);
-    e["TEST_XR_READBACK_KEEP"] = "8"; // room for the copy below while the app writes on
-    e.erase("SPLITVK_TILE_WAIT");     // the default: the outage's frames go on without tiles
+    e["TEST_XR_READBACK_KEEP"] = std::string("8"); // room for the copy below while the app writes
+                                                   // on (std::string: GCC 12 -Wrestrict false positive)
+    e.erase("SPLITVK_TILE_WAIT");                  // the default: the outage's frames go on without tiles
     Process app(hello_xr(e, "split", 12));
     ASSERT_TRUE(app.start()) << app.error();
     const auto stderr_path = out_ / "split.stderr";
