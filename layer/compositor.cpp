@@ -27,6 +27,7 @@
 #include "log.h"
 #include "swapchain.h"
 #include "upsample_shaders.h"
+#include "vk_util.h"
 
 #include <algorithm>
 #include <cstring>
@@ -77,21 +78,6 @@ uint32_t find_memory_type(const DeviceState &dev, uint32_t bits, VkMemoryPropert
         if ((bits & (1u << i)) && (dev.memory_properties.memoryTypes[i].propertyFlags & want) == want)
             return i;
     return UINT32_MAX;
-}
-
-VkImageMemoryBarrier image_barrier(VkImage image, VkAccessFlags src, VkAccessFlags dst, VkImageLayout from,
-                                   VkImageLayout to) {
-    VkImageMemoryBarrier b{};
-    b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
-    b.srcAccessMask = src;
-    b.dstAccessMask = dst;
-    b.oldLayout = from;
-    b.newLayout = to;
-    b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    b.image = image;
-    b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-    return b;
 }
 
 // A tile clipped to the image.
@@ -473,18 +459,8 @@ bool Compositor::init_slot(Slot &s, uint32_t image_index, std::string *error) {
                  std::to_string(image_index);
         return false;
     };
-    VkCommandBufferAllocateInfo alloc{};
-    alloc.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
-    alloc.commandPool = pool_;
-    alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-    alloc.commandBufferCount = 1;
-    if (k.AllocateCommandBuffers(d, &alloc, &s.command_buffer) != VK_SUCCESS) return fail("command buffer");
-    // A dispatchable object the layer made below the loader: it needs the loader's dispatch
-    // pointer before any call goes through the loader's trampolines (or layers above us).
-    if (device_.set_loader_data)
-        device_.set_loader_data(d, s.command_buffer);
-    else
-        *reinterpret_cast<void **>(s.command_buffer) = *reinterpret_cast<void **>(d);
+    if (allocate_primary_command_buffer(device_, pool_, &s.command_buffer) != VK_SUCCESS)
+        return fail("command buffer");
 
     VkFenceCreateInfo fence_info{};
     fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
@@ -656,13 +632,13 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
     // already waited on.
     if (upsample) {
         VkImageMemoryBarrier barriers[2] = {
-            image_barrier(image, ready_access_, VK_ACCESS_TRANSFER_READ_BIT, present_layout_,
-                          VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL),
+            colour_image_barrier(image, ready_access_, VK_ACCESS_TRANSFER_READ_BIT, present_layout_,
+                                 VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL),
             // Old contents are not needed. This slot's previous submit sampled the periphery
             // image in the fragment shader; the host waited for its fence, but the execution
             // dependency from FRAGMENT_SHADER states the write-after-read order on the queue too.
-            image_barrier(s.periphery, 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                          VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL),
+            colour_image_barrier(s.periphery, 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                                 VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL),
         };
         k.CmdPipelineBarrier(cb, ready_stages_ | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
                              VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr, 2, barriers);
@@ -677,10 +653,12 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
             // The copy's write of the periphery image before the blit reads it; the copy's read of
             // the swapchain image before the blit overwrites it (write-after-read).
             VkImageMemoryBarrier to_blit[2] = {
-                image_barrier(s.periphery, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT,
-                              VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL),
-                image_barrier(image, 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                              VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL),
+                colour_image_barrier(s.periphery, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT,
+                                     VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                                     VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL),
+                colour_image_barrier(image, 0, VK_ACCESS_TRANSFER_WRITE_BIT,
+                                     VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                                     VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL),
             };
             k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
                                  nullptr, 0, nullptr, 2, to_blit);
@@ -693,10 +671,10 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
             // The blit's writes before the tile copies overwrite the fovea (write-after-write), or
             // before the present.
             VkImageMemoryBarrier after_blit =
-                image_barrier(image, VK_ACCESS_TRANSFER_WRITE_BIT,
-                              has_tiles ? VkAccessFlags{VK_ACCESS_TRANSFER_WRITE_BIT} : done_access_,
-                              VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                              has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
+                colour_image_barrier(image, VK_ACCESS_TRANSFER_WRITE_BIT,
+                                     has_tiles ? VkAccessFlags{VK_ACCESS_TRANSFER_WRITE_BIT} : done_access_,
+                                     VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                                     has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
             k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
                                  has_tiles ? VkPipelineStageFlags{VK_PIPELINE_STAGE_TRANSFER_BIT}
                                            : done_stages_,
@@ -706,10 +684,12 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
             // copy's read of the swapchain image before the draw overwrites it (write-after-read:
             // an execution dependency, plus the transition to the attachment layout).
             VkImageMemoryBarrier to_draw[2] = {
-                image_barrier(s.periphery, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
-                              VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL),
-                image_barrier(image, 0, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
-                              VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL),
+                colour_image_barrier(s.periphery, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
+                                     VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                                     VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL),
+                colour_image_barrier(image, 0, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
+                                     VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                                     VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL),
             };
             k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
                                  VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT |
@@ -746,10 +726,10 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
             // The draw's writes before the tile copies overwrite the fovea (write-after-write), or
             // before the present.
             VkImageMemoryBarrier after_draw =
-                image_barrier(image, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
-                              has_tiles ? VkAccessFlags{VK_ACCESS_TRANSFER_WRITE_BIT} : done_access_,
-                              VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
-                              has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
+                colour_image_barrier(image, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
+                                     has_tiles ? VkAccessFlags{VK_ACCESS_TRANSFER_WRITE_BIT} : done_access_,
+                                     VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                                     has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
             k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
                                  has_tiles ? VkPipelineStageFlags{VK_PIPELINE_STAGE_TRANSFER_BIT}
                                            : done_stages_,
@@ -757,8 +737,8 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
         }
     } else if (has_tiles) {
         // Tiles over what the application rendered: keep the contents (old layout, not UNDEFINED).
-        VkImageMemoryBarrier b = image_barrier(image, ready_access_, VK_ACCESS_TRANSFER_WRITE_BIT,
-                                               present_layout_, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+        VkImageMemoryBarrier b = colour_image_barrier(image, ready_access_, VK_ACCESS_TRANSFER_WRITE_BIT,
+                                                      present_layout_, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
         k.CmdPipelineBarrier(cb, ready_stages_, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr, 1,
                              &b);
     }
@@ -773,8 +753,8 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
         // Back to the present layout. The present waits on our semaphore, whose signal makes
         // these writes available and visible to the presentation engine: no destination stage
         // or access beyond the end of the pipe.
-        VkImageMemoryBarrier b = image_barrier(image, VK_ACCESS_TRANSFER_WRITE_BIT, done_access_,
-                                               VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, present_layout_);
+        VkImageMemoryBarrier b = colour_image_barrier(image, VK_ACCESS_TRANSFER_WRITE_BIT, done_access_,
+                                                      VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, present_layout_);
         k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, done_stages_, 0, 0, nullptr, 0, nullptr, 1,
                              &b);
     }

@@ -67,6 +67,7 @@
 #include "stats.h"
 #include "submit_rules.h"
 #include "swapchain.h"
+#include "vk_util.h"
 
 #include <algorithm>
 #include <chrono>
@@ -115,22 +116,10 @@ void destroy(DeviceState &dev, Readback &r) {
 bool create(DeviceState &dev, const SwapchainState &sc, uint32_t family, Readback &r) {
     const VkDevice d = dev.handle;
     const auto &k = dev.dispatch;
-    VkCommandPoolCreateInfo pool_info{};
-    pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
-    pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-    pool_info.queueFamilyIndex = family;
-    if (k.CreateCommandPool(d, &pool_info, nullptr, &r.pool) != VK_SUCCESS) return false;
-    VkCommandBufferAllocateInfo alloc{};
-    alloc.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
-    alloc.commandPool = r.pool;
-    alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-    alloc.commandBufferCount = 1;
-    if (k.AllocateCommandBuffers(d, &alloc, &r.command_buffer) != VK_SUCCESS) return false;
-    // A dispatchable object the layer made: it needs the loader's dispatch pointer.
-    if (dev.set_loader_data)
-        dev.set_loader_data(d, r.command_buffer);
-    else
-        *reinterpret_cast<void **>(r.command_buffer) = *reinterpret_cast<void **>(d);
+    if (create_command_pool(dev, family, VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT, &r.pool) !=
+            VK_SUCCESS ||
+        allocate_primary_command_buffer(dev, r.pool, &r.command_buffer) != VK_SUCCESS)
+        return false;
 
     std::string error;
     if (!create_host_buffer(dev, VkDeviceSize{sc.extent.width} * sc.extent.height * 4,
@@ -672,42 +661,16 @@ void destroy(DeviceState &dev, Redirect &r) {
 bool create(DeviceState &dev, uint32_t family, Redirect &r) {
     const VkDevice d = dev.handle;
     const auto &k = dev.dispatch;
-    VkCommandPoolCreateInfo pool_info{};
-    pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
-    pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-    pool_info.queueFamilyIndex = family;
-    if (k.CreateCommandPool(d, &pool_info, nullptr, &r.pool) != VK_SUCCESS) return false;
-    VkCommandBufferAllocateInfo alloc{};
-    alloc.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
-    alloc.commandPool = r.pool;
-    alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-    alloc.commandBufferCount = 1;
-    if (k.AllocateCommandBuffers(d, &alloc, &r.command_buffer) != VK_SUCCESS) return false;
-    if (dev.set_loader_data)
-        dev.set_loader_data(d, r.command_buffer);
-    else
-        *reinterpret_cast<void **>(r.command_buffer) = *reinterpret_cast<void **>(d);
+    if (create_command_pool(dev, family, VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT, &r.pool) !=
+            VK_SUCCESS ||
+        allocate_primary_command_buffer(dev, r.pool, &r.command_buffer) != VK_SUCCESS)
+        return false;
     VkFenceCreateInfo fence_info{};
     fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
     if (k.CreateFence(d, &fence_info, nullptr, &r.fence) != VK_SUCCESS) return false;
     VkSemaphoreCreateInfo sem_info{};
     sem_info.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
     return k.CreateSemaphore(d, &sem_info, nullptr, &r.semaphore) == VK_SUCCESS;
-}
-
-VkImageMemoryBarrier swapchain_barrier(VkImage image, VkAccessFlags src, VkAccessFlags dst,
-                                       VkImageLayout from, VkImageLayout to) {
-    VkImageMemoryBarrier b{};
-    b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
-    b.srcAccessMask = src;
-    b.dstAccessMask = dst;
-    b.oldLayout = from;
-    b.newLayout = to;
-    b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    b.image = image;
-    b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-    return b;
 }
 
 // Submits on `queue` (its lock held) a copy of the whole image `from` into image `to`, which the
@@ -739,10 +702,10 @@ VkSemaphore copy_swapchain_image(DeviceState &dev, VkQueue queue, const Swapchai
     // The submit waits at the TRANSFER stage, the barriers' source stage: the transitions follow
     // the waits. `to` holds nothing the application drew: its old contents are not needed.
     const VkImageMemoryBarrier before[2] = {
-        swapchain_barrier(sc.images[from], 0, VK_ACCESS_TRANSFER_READ_BIT, sc.present_layout,
-                          VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL),
-        swapchain_barrier(sc.images[to], 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                          VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL),
+        colour_image_barrier(sc.images[from], 0, VK_ACCESS_TRANSFER_READ_BIT, sc.present_layout,
+                             VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL),
+        colour_image_barrier(sc.images[to], 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                             VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL),
     };
     k.CmdPipelineBarrier(r.command_buffer, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0,
                          0, nullptr, 0, nullptr, 2, before);
@@ -754,9 +717,9 @@ VkSemaphore copy_swapchain_image(DeviceState &dev, VkQueue queue, const Swapchai
                    VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &copy);
     // The present waits on the semaphore, whose signal makes the copy's writes visible to it.
     const VkImageMemoryBarrier after[2] = {
-        swapchain_barrier(sc.images[from], 0, 0, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, sc.present_layout),
-        swapchain_barrier(sc.images[to], VK_ACCESS_TRANSFER_WRITE_BIT, 0,
-                          VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, sc.present_layout),
+        colour_image_barrier(sc.images[from], 0, 0, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, sc.present_layout),
+        colour_image_barrier(sc.images[to], VK_ACCESS_TRANSFER_WRITE_BIT, 0,
+                             VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, sc.present_layout),
     };
     k.CmdPipelineBarrier(r.command_buffer, VK_PIPELINE_STAGE_TRANSFER_BIT,
                          VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, 0, 0, nullptr, 0, nullptr, 2, after);

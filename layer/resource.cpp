@@ -11,6 +11,7 @@
 #include "screen_space.h"
 #include "split.h"
 #include "vk_format_info.h"
+#include "vk_util.h"
 
 #include <algorithm>
 #include <atomic>
@@ -498,29 +499,14 @@ struct Readback {
         if (!create_host_buffer(dev, size, VK_BUFFER_USAGE_TRANSFER_DST_BIT, HostAccess::Read, &staging,
                                 error))
             return false;
-        const VkDevice d = dev.handle;
-        const auto &k = dev.dispatch;
-        VkCommandPoolCreateInfo pool_info{};
-        pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
-        pool_info.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
-        pool_info.queueFamilyIndex = family;
-        VkCommandBufferAllocateInfo cb_info{};
-        cb_info.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
-        cb_info.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-        cb_info.commandBufferCount = 1;
         VkFenceCreateInfo fence_info{};
         fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
-        if (k.CreateCommandPool(d, &pool_info, nullptr, &pool) != VK_SUCCESS ||
-            (cb_info.commandPool = pool, k.AllocateCommandBuffers(d, &cb_info, &cb) != VK_SUCCESS) ||
-            k.CreateFence(d, &fence_info, nullptr, &fence) != VK_SUCCESS) {
+        if (create_command_pool(dev, family, VK_COMMAND_POOL_CREATE_TRANSIENT_BIT, &pool) != VK_SUCCESS ||
+            allocate_primary_command_buffer(dev, pool, &cb) != VK_SUCCESS ||
+            dev.dispatch.CreateFence(dev.handle, &fence_info, nullptr, &fence) != VK_SUCCESS) {
             *error = "cannot create a command buffer for the readback";
             return false;
         }
-        // A dispatchable object the layer made: it needs the loader's dispatch pointer.
-        if (dev.set_loader_data)
-            dev.set_loader_data(d, cb);
-        else
-            *reinterpret_cast<void **>(cb) = *reinterpret_cast<void **>(d);
         return true;
     }
 };

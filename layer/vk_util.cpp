@@ -1,0 +1,45 @@
+#include "vk_util.h"
+
+namespace splitvk {
+
+VkImageMemoryBarrier colour_image_barrier(VkImage image, VkAccessFlags src, VkAccessFlags dst,
+                                          VkImageLayout from, VkImageLayout to) {
+    VkImageMemoryBarrier b{};
+    b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+    b.srcAccessMask = src;
+    b.dstAccessMask = dst;
+    b.oldLayout = from;
+    b.newLayout = to;
+    b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.image = image;
+    b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    return b;
+}
+
+VkResult create_command_pool(DeviceState &device, uint32_t family, VkCommandPoolCreateFlags flags,
+                             VkCommandPool *pool) {
+    VkCommandPoolCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    info.flags = flags;
+    info.queueFamilyIndex = family;
+    return device.dispatch.CreateCommandPool(device.handle, &info, nullptr, pool);
+}
+
+VkResult allocate_primary_command_buffer(DeviceState &device, VkCommandPool pool,
+                                         VkCommandBuffer *command_buffer) {
+    VkCommandBufferAllocateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    info.commandPool = pool;
+    info.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    info.commandBufferCount = 1;
+    const VkResult result = device.dispatch.AllocateCommandBuffers(device.handle, &info, command_buffer);
+    if (result != VK_SUCCESS) return result;
+    if (device.set_loader_data)
+        device.set_loader_data(device.handle, *command_buffer);
+    else
+        *reinterpret_cast<void **>(*command_buffer) = *reinterpret_cast<void **>(device.handle);
+    return VK_SUCCESS;
+}
+
+} // namespace splitvk

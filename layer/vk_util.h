@@ -1,0 +1,24 @@
+#pragma once
+
+// Small Vulkan helpers for the work the layer itself submits (composites, readbacks, copies), so
+// that each is written once.
+
+#include "device.h"
+
+namespace splitvk {
+
+// A barrier on level 0, layer 0 of a colour image, with no queue-family transfer.
+VkImageMemoryBarrier colour_image_barrier(VkImage image, VkAccessFlags src, VkAccessFlags dst,
+                                          VkImageLayout from, VkImageLayout to);
+
+// A command pool of `family` on `device`.
+VkResult create_command_pool(DeviceState &device, uint32_t family, VkCommandPoolCreateFlags flags,
+                             VkCommandPool *pool);
+
+// One primary command buffer from `pool`. It is a dispatchable object the layer made below the
+// loader, so it gets the loader's dispatch pointer before any call can reach the loader's
+// trampolines (or the layers above splitvk).
+VkResult allocate_primary_command_buffer(DeviceState &device, VkCommandPool pool,
+                                         VkCommandBuffer *command_buffer);
+
+} // namespace splitvk
