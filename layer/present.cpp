@@ -266,6 +266,26 @@ struct Exposure {
     }
 };
 
+// Split frames of a live agent before late ones may be called the rule rather than a stall.
+constexpr uint64_t kFramesBeforeLateVerdict = 30;
+
+// Once, when most frames the agent replays come late: the user pays for an agent that does not
+// keep up and sees the periphery alone, so the line says why and what helps (issue 19).
+void warn_if_late_dominates(Session &session, uint64_t late, uint32_t wait_ms) {
+    const uint64_t split = session.split_frames.load();
+    if (split < kFramesBeforeLateVerdict || late * 2 <= split || session.late_warned.exchange(true)) return;
+    SPLITVK_WARN(
+        "split: %llu of %llu split frames came late (no tiles within SPLITVK_TILE_WAIT=%u ms): the agent "
+        "does "
+        "not keep up with this application, so most frames show the periphery alone while it still renders "
+        "them. What helps: SPLITVK_AGENT_SCISSOR=guard:N (the agent cuts its offscreen passes to the "
+        "foveae), a "
+        "smaller SPLITVK_FOVEA, a longer SPLITVK_TILE_WAIT (the application waits for the agent), or an "
+        "agent "
+        "on a faster GPU",
+        static_cast<unsigned long long>(late), static_cast<unsigned long long>(split), wait_ms);
+}
+
 // Split mode: the frame's own tiles, waiting at most SPLITVK_TILE_WAIT (longer for the first split
 // frame after the agent joined). They must cover exactly the foveae the frame's split passes drew;
 // anything else counts as late.
@@ -314,6 +334,7 @@ std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, 
                      static_cast<unsigned long long>(frame), why.c_str(),
                      static_cast<unsigned long long>(late + 1));
     }
+    if (session.live()) warn_if_late_dominates(session, late + 1, wait_ms);
     return nullptr;
 }
 

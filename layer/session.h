@@ -220,6 +220,8 @@ public:
     std::atomic<uint64_t> split_frames{0};
     std::atomic<uint64_t> unsplit_frames{0};
     std::atomic<bool> unsplit_warned{false};
+    // Split mode (present.cpp): said once that most split frames come late.
+    std::atomic<bool> late_warned{false};
 
     // Entries in the object part of the live-state log.
     size_t live_object_count();

@@ -520,6 +520,32 @@ TEST_F(Split, VkcubeOneEyeFoveaEqualsNative) {
     EXPECT_TRUE(client_validation_clean(validation_log_));
 }
 
+// Frames that are almost always late (issue 19): one line says so, with the reason and the settings
+// that help; an agent that keeps up never gets it.
+TEST_F(Split, MostlyLateFramesAreSaidOnceWithWhatHelps) {
+    ASSERT_TRUE(find_program("vkcube", env())) << "vkcube is not installed (vulkan-tools)";
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    const auto run = [&](const char *tile_wait, const char *name) {
+        Env e = split_env(tile_wait);
+        e["SPLITVK_EYES"] = "1";
+        ProcessSpec spec;
+        spec.argv = {"vkcube", "--width", "320", "--height", "320", "--c", "60"};
+        spec.env = e;
+        spec.out_dir = out_;
+        spec.name = name;
+        return run_process(spec, 120s);
+    };
+    const std::string verdict = "came late (no tiles within SPLITVK_TILE_WAIT";
+    // 1 ms: no agent answers that fast, so nearly every frame after the first is late.
+    const ProcessResult late = run("1", "late");
+    ASSERT_TRUE(late.ok()) << late.describe() << "\n" << tail(late.err(), 30);
+    EXPECT_EQ(grep(late.err(), verdict).size(), 1u) << tail(late.err(), 30);
+    EXPECT_FALSE(grep(late.err(), "SPLITVK_AGENT_SCISSOR=guard:N").empty()) << tail(late.err(), 30);
+    const ProcessResult kept_up = run("60000", "kept-up");
+    ASSERT_TRUE(kept_up.ok()) << kept_up.describe() << "\n" << tail(kept_up.err(), 30);
+    EXPECT_TRUE(grep(kept_up.err(), verdict).empty()) << tail(kept_up.err(), 30);
+}
+
 // An agent that stalls past SPLITVK_TILE_WAIT: the app goes on, every present is composited (the
 // centre from the periphery), the stall is counted, and once the agent resumes the app ends
 // normally. The held frame is grabbed while the agent is still stopped: it must be a complete
