@@ -19,12 +19,17 @@
 // xr.AtriumThroughMonado has it) through the same readback layer:
 //  - Per eye: every eye image of every frame, native against split for the same image and release
 //    (the same frame), fovea bit-exact, periphery different; the frames split with none late.
+//  - With XR_APILAYER_SPLITVK_test_skew_fov (xr_fov_layer/) above splitvk's API layer, an asymmetric
+//    field of view at xrEndFrame: the fovea at the projection of the view direction is bit-exact
+//    against native, the centred one is not.
 //  - --multiview (one swapchain of two layers, which splitvk replicates but does not split yet):
 //    runs to its end, exit 0, the agent gets its frames, no splitvk error.
 #include "agent.h"
 #include "e2e_test.h"
 #include "fovea.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <map>
@@ -40,6 +45,7 @@ using namespace std::chrono_literals;
 
 constexpr const char *kReadbackLayerName = "VK_LAYER_SPLITVK_test_xr_readback";
 constexpr const char *kXrLayerName = "XR_APILAYER_SPLITVK_split_render";
+constexpr const char *kXrSkewFovName = "XR_APILAYER_SPLITVK_test_skew_fov";
 constexpr const char *kXrCoreValidationName = "XR_APILAYER_LUNARG_core_validation";
 constexpr const char *kSystemXrLayers = "/usr/share/openxr/1/api_layers/explicit.d";
 constexpr int kEyeImages = 6; // two swapchains of three images
@@ -462,6 +468,115 @@ TEST_F(XrAtrium, PerEyeFoveaeExactAgainstNativeFrameByFrame) {
               << mismatched << " differ; periphery differs in " << periphery_differs << "\n";
     RecordProperty("fovea_texels", std::to_string(compared));
     RecordProperty("fovea_mismatches", std::to_string(mismatched));
+    expect_split_stats("split", 2 * kFrames);
+}
+
+// XR_APILAYER_SPLITVK_test_skew_fov (xr_fov_layer/) above splitvk's API layer gives every projection
+// view at xrEndFrame an asymmetric field of view; atrium rendered with Monado's symmetric one, so
+// the pixels are native's and only where splitvk puts each eye's fovea changes. From the frame after
+// the first xrEndFrame on, the fovea at the projection of the view direction (computed here from the
+// skewed angles) is bit-exact against native (the view, sent at xrEndFrame, precedes the next frame's
+// passes and composite on both sides), and the centred one is not (the periphery covers part
+// of it): the fovea moved. Frame 0 (before any xrEndFrame) keeps the centred fovea.
+TEST_F(XrAtrium, AsymmetricFieldOfViewMovesTheFovea) {
+    const auto native = run_atrium(atrium_native_env("native"), "native", {});
+    ASSERT_TRUE(native.ok()) << native.describe() << "\n" << tail(native.err(), 30);
+    Agent agent;
+    ASSERT_TRUE(agent.start(clean_env(), out_)) << agent.error();
+    ASSERT_TRUE(built(SPLITVK_E2E_XR_FOV_LAYER_DIR));
+    Env e = atrium_split_env("split", agent);
+    e["XR_API_LAYER_PATH"] = std::string(SPLITVK_E2E_XR_FOV_LAYER_DIR) + ":" + e["XR_API_LAYER_PATH"];
+    e["XR_ENABLE_API_LAYERS"] = std::string(kXrSkewFovName) + ":" + kXrLayerName; // first: nearest the app
+    e["XR_LOADER_DEBUG"] = "info";
+    const auto split = run_atrium(e, "split", {});
+    ASSERT_TRUE(split.ok()) << split.describe() << "\n" << tail(split.err(), 30);
+    EXPECT_TRUE(grep(split.err(), "[splitvk] error:").empty()) << tail(split.err(), 30);
+    EXPECT_FALSE(grep(split.err(), "OpenXR session: eye images of its Vulkan device are split").empty());
+    // The OpenXR loader loads the layers application side first.
+    const std::string out = split.out() + split.err();
+    const auto skew = out.find(std::string("succeeded loading layer ") + kXrSkewFovName);
+    const auto ours = out.find(std::string("succeeded loading layer ") + kXrLayerName);
+    ASSERT_NE(skew, std::string::npos) << "the skew layer was not loaded\n" << tail(out, 20);
+    ASSERT_NE(ours, std::string::npos) << "splitvk's API layer was not loaded\n" << tail(out, 20);
+    EXPECT_LT(skew, ours) << "the skew layer must be above splitvk's API layer";
+
+    // The layer's angles, as the XrFovf floats it writes (left, right, up, down; view 1 mirrored).
+    const auto rad = [](double degrees) { return static_cast<float>(degrees * M_PI / 180.0); };
+    const float skewed[2][4] = {{rad(-45), rad(20), rad(20), rad(-45)},
+                                {rad(-20), rad(45), rad(20), rad(-45)}};
+    const uint32_t w = 192, h = 160;
+    const Rect centred = default_foveae(w, h, 1)[0];
+    // The fovea centred on the view direction's projection: on the image plane the edges lie at
+    // tan(angle) and the view direction at 0, so its centre is at (0 - tan l) / (tan r - tan l) of the
+    // width and tan u / (tan u - tan d) of the height; the offset is that less half the fovea,
+    // rounded down, kept inside the image.
+    Rect at_view[2];
+    for (int eye = 0; eye < 2; ++eye) {
+        const double l = std::tan(double(skewed[eye][0])), r = std::tan(double(skewed[eye][1]));
+        const double u = std::tan(double(skewed[eye][2])), d = std::tan(double(skewed[eye][3]));
+        const double x = std::floor(-l / (r - l) * w - centred.w / 2.0);
+        const double y = std::floor(u / (u - d) * h - centred.h / 2.0);
+        at_view[eye] = {static_cast<uint32_t>(std::clamp(x, 0.0, double(w - centred.w))),
+                        static_cast<uint32_t>(std::clamp(y, 0.0, double(h - centred.h))), centred.w,
+                        centred.h};
+        std::cout << "  eye " << eye << ": fovea " << at_view[eye].w << "x" << at_view[eye].h << " at "
+                  << at_view[eye].x << "," << at_view[eye].y << " (centred: " << centred.x << "," << centred.y
+                  << ")\n";
+    }
+    // The skewed foveae are well off the centre: the centred one is partly periphery.
+    ASSERT_GT(at_view[0].x, centred.x + 20);
+    ASSERT_LT(at_view[1].x + 20, centred.x);
+    ASSERT_LT(at_view[0].y + 20, centred.y);
+
+    const auto n = readbacks(out_ / "native" / "images");
+    const auto s = readbacks(out_ / "split" / "images");
+    ASSERT_EQ(n.size(), static_cast<size_t>(2 * kFrames)) << "native eye images read back";
+    ASSERT_EQ(s.size(), n.size()) << "split eye images read back";
+    uint64_t compared = 0, mismatched = 0, centred_compared = 0, centred_mismatched = 0;
+    int images = 0;
+    for (const auto &[key, native_path] : n) {
+        SCOPED_TRACE(native_path.filename().string());
+        const auto it = s.find(key);
+        ASSERT_NE(it, s.end()) << "no split readback of the same image and release";
+        EyeImage a, b;
+        ASSERT_TRUE(load_pam(native_path, &a) && load_pam(it->second, &b));
+        ASSERT_EQ(a.width, w);
+        ASSERT_EQ(a.height, h);
+        ASSERT_EQ(b.width, w);
+        ASSERT_EQ(b.height, h);
+        // Images 0-2 are view 0's swapchain (created first), 3-5 view 1's; each swapchain's images
+        // are released in turn, so release N of image K is frame 3N + K % 3 of its eye.
+        const int eye = key.first / 3;
+        const int frame = 3 * key.second + key.first % 3;
+        if (frame == 0) {
+            // Released (and composited) before the first xrEndFrame told splitvk any field of view.
+            const Mismatch m = compare_rect(a, b, centred);
+            EXPECT_EQ(m.mismatched, 0u) << "eye " << eye << " frame 0: centred fovea, " << m.mismatched
+                                        << " of " << m.pixels << " texels differ";
+            continue;
+        }
+        ++images;
+        const Mismatch m = compare_rect(a, b, at_view[eye]);
+        compared += m.pixels;
+        mismatched += m.mismatched;
+        EXPECT_EQ(m.mismatched, 0u) << "eye " << eye << " frame " << frame << ": fovea at the view direction "
+                                    << at_view[eye].x << "," << at_view[eye].y << ": " << m.mismatched
+                                    << " of " << m.pixels << " texels differ\n"
+                                    << save_mismatch_artefacts(out_, native_path.stem().string(), to_image(a),
+                                                               to_image(b));
+        const Mismatch c = compare_rect(a, b, centred);
+        centred_compared += c.pixels;
+        centred_mismatched += c.mismatched;
+        EXPECT_GT(c.mismatched, 0u) << "eye " << eye << " frame " << frame
+                                    << ": the centred fovea is still exact: the fovea did not move";
+    }
+    std::cout << "  at the view direction: " << compared << " texels compared in " << images
+              << " eye images, " << mismatched << " differ; centred: " << centred_mismatched << " of "
+              << centred_compared << " differ\n";
+    RecordProperty("fovea_texels", std::to_string(compared));
+    RecordProperty("fovea_mismatches", std::to_string(mismatched));
+    RecordProperty("centred_mismatches", std::to_string(centred_mismatched));
+    EXPECT_EQ(images, 2 * (kFrames - 1));
     expect_split_stats("split", 2 * kFrames);
 }
 
