@@ -68,10 +68,16 @@ TargetClass classify_target(const VkImageCreateInfo &info, VkExtent2D screen, Ey
     }
     if (!found) return no("not the swapchain's or an eye's extent, nor either halved on both axes");
     c.screen_space = true;
+    c.layers = info.arrayLayers;
     c.reason = of;
     if (c.divisor > 1) c.reason += " / " + std::to_string(c.divisor);
     if (info.arrayLayers > 1) c.reason += ", per layer";
     return c;
+}
+
+bool guard_maps_target(const TargetClass &kind, EyeMode eyes) {
+    if (!kind.screen_space) return false;
+    return eyes != EyeMode::One || (kind.layers <= 1 && !kind.eye);
 }
 
 VkExtent3D scaled_target_extent(VkExtent3D full, double scale) {

@@ -29,12 +29,21 @@ struct TargetClass {
     bool screen_space = false;
     bool eye = false;     // sized after one eye (half the swapchain's width), not the whole screen
     uint32_t divisor = 1; // 1, 2, 4, ...: the screen (or eye) extent halved log2(divisor) times
+    uint32_t layers = 1;  // array layers: a multiview eye texture has one per eye
     std::string reason;   // why, for the info line: "the swapchain's extent / 2", "no attachment usage"
 };
 
 // `screen`: the extent of the device's newest swapchain; `eyes`: SPLITVK_EYES (Two and Auto also
 // accept one eye's extent, since Auto may find eyes side by side).
 TargetClass classify_target(const VkImageCreateInfo &info, VkExtent2D screen, EyeMode eyes);
+
+// SPLITVK_AGENT_SCISSOR=guard:N (issue 19, item 3): whether the agent may cut a pass into this
+// target to the foveae grown by N. The foveae are computed in the screen (or, with two eyes, in each
+// eye) and map to a target by its divisor alone; a layered or eye-sized target under SPLITVK_EYES=1
+// has no such mapping: its layers are eyes that a later pass composes where the agent cannot see (a
+// 1280x720 layer squeezed into a 640-wide half of a 1280x720 screen puts the centred fovea at the
+// layer's edge), so the agent replays its passes whole.
+bool guard_maps_target(const TargetClass &kind, EyeMode eyes);
 
 // The extent a screen-space target is created with: width and height as split::scaled_extent
 // rounds them (ceil, at least 1), depth unchanged.

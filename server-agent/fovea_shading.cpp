@@ -156,8 +156,8 @@ bool FoveaShading::target(VkImageView view, uint64_t *image_id, VkExtent2D *exte
     return it != views_.end() && swapchains_.find_image(it->second.image, image_id, extent);
 }
 
-bool FoveaShading::guard_rect(const std::vector<VkImageView> &views, VkExtent2D *extent,
-                              VkRect2D *rect) const {
+bool FoveaShading::guard_rect(const std::vector<VkImageView> &views, VkExtent2D *extent, VkRect2D *rect,
+                              VkExtent2D *unmapped) const {
     bool any = false;
     int64_t x0 = 0, y0 = 0, x1 = 0, y1 = 0;
     for (VkImageView view : views) {
@@ -171,6 +171,10 @@ bool FoveaShading::guard_rect(const std::vector<VkImageView> &views, VkExtent2D 
         const VkExtent2D newest = swapchains_.newest_extent();
         if (newest.width != target.screen.width || newest.height != target.screen.height) return false;
         const VkExtent2D e = split::mip_extent(target.extent, v->second.mip);
+        if (!split::guard_maps_target(target.kind, eyes_)) {
+            *unmapped = e;
+            return false;
+        }
         const uint32_t shift = std::min(v->second.mip, 31u);
         const int64_t divisor = int64_t{target.kind.divisor} << shift;
         const VkExtent2D s = target.screen;
@@ -230,7 +234,16 @@ void FoveaShading::enter_guarded(VkCommandBuffer cb, split::CommandTracker &t,
                                  const std::vector<VkImageView> &views) {
     VkExtent2D extent{};
     VkRect2D rect{};
-    if (!scissor_.guard || !guard_rect(views, &extent, &rect)) return;
+    VkExtent2D unmapped{};
+    if (!scissor_.guard) return;
+    if (!guard_rect(views, &extent, &rect, &unmapped)) {
+        if (unmapped.width && !unmapped_logged_)
+            SPLITVK_INFO("SPLITVK_AGENT_SCISSOR=guard:%u: a layered target of %ux%u cannot be mapped to the "
+                         "foveae with SPLITVK_EYES=1; replayed whole",
+                         scissor_.pixels, unmapped.width, unmapped.height);
+        unmapped_logged_ |= unmapped.width != 0;
+        return;
+    }
     if (!guard_logged_)
         SPLITVK_INFO(
             "SPLITVK_AGENT_SCISSOR=guard:%u: scissoring passes into screen-space targets; the first, "

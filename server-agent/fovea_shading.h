@@ -99,8 +99,11 @@ public:
 
 private:
     bool target(VkImageView view, uint64_t *image_id, VkExtent2D *extent) const;
-    // guard:N: the scissor of a pass whose attachments are all screen-space targets.
-    bool guard_rect(const std::vector<VkImageView> &views, VkExtent2D *extent, VkRect2D *rect) const;
+    // guard:N: the scissor of a pass whose attachments are all screen-space targets. False, with
+    // *unmapped set to its extent, where one is a target the foveae cannot be mapped to
+    // (split::guard_maps_target): that pass is replayed whole.
+    bool guard_rect(const std::vector<VkImageView> &views, VkExtent2D *extent, VkRect2D *rect,
+                    VkExtent2D *unmapped) const;
     void enter_guarded(VkCommandBuffer cb, split::CommandTracker &t, const std::vector<VkImageView> &views);
     void enter_split(VkCommandBuffer cb, split::CommandTracker &tracker, uint64_t image_id,
                      VkExtent2D extent);
@@ -129,6 +132,7 @@ private:
     std::unordered_map<VkImage, Target> targets_;               // screen-space targets only
     std::unordered_map<VkCommandBuffer, VkRect2D> guard_rects_; // of the guarded pass in progress
     bool guard_logged_ = false;
+    bool unmapped_logged_ = false; // a pass replayed whole: said once
     std::unordered_map<VkFramebuffer, std::vector<VkImageView>> framebuffers_;
     std::unordered_map<VkPipeline, std::shared_ptr<const split::StaticViewportState>> pipelines_;
     std::unordered_map<VkCommandBuffer, split::CommandTracker> command_buffers_;

@@ -75,6 +75,33 @@ TEST(ScreenSpace, EyesAndLayers) {
     EXPECT_TRUE(classify_target(image(1201, 1080), {2401, 1080}, EyeMode::Two).screen_space);
 }
 
+// SPLITVK_AGENT_SCISSOR=guard:N (issue 19, item 3): a multiview sample drew 1280x720 eye layers and
+// squeezed each into a 640-wide half of a 1280x720 screen; with SPLITVK_EYES=1 the guard cut each
+// layer to the centred screen fovea, which the squeeze puts at the layers' inner edges (41,829 fovea
+// pixels wrong). Layered targets under one eye are replayed whole; everything else keeps its guard.
+TEST(ScreenSpace, GuardRefusesLayersUnderOneEye) {
+    constexpr VkExtent2D screen{1280, 720};
+    const auto kind = [&](uint32_t w, uint32_t h, uint32_t layers, EyeMode eyes) {
+        return classify_target(image(w, h, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT, layers), screen, eyes);
+    };
+    // The reported case: screen-sized layers, one eye.
+    const TargetClass squeezed = kind(1280, 720, 2, EyeMode::One);
+    ASSERT_TRUE(squeezed.screen_space);
+    EXPECT_EQ(squeezed.layers, 2u);
+    EXPECT_FALSE(guard_maps_target(squeezed, EyeMode::One));
+    EXPECT_FALSE(guard_maps_target(kind(640, 360, 2, EyeMode::One), EyeMode::One)); // its halving
+    // Single-layer targets under one eye (hdr's bloom chain, deferred's G-buffer) keep their guard.
+    EXPECT_TRUE(guard_maps_target(kind(1280, 720, 1, EyeMode::One), EyeMode::One));
+    EXPECT_TRUE(guard_maps_target(kind(320, 180, 1, EyeMode::One), EyeMode::One));
+    // With two eyes, or auto, the foveae are computed per eye: eye layers keep their guard (exact).
+    for (EyeMode eyes : {EyeMode::Two, EyeMode::Auto}) {
+        EXPECT_TRUE(guard_maps_target(kind(640, 720, 2, eyes), eyes));
+        EXPECT_TRUE(guard_maps_target(kind(1280, 720, 2, eyes), eyes));
+    }
+    // Not screen-space: never guarded.
+    EXPECT_FALSE(guard_maps_target(kind(1024, 1024, 1, EyeMode::Auto), EyeMode::Auto));
+}
+
 TEST(ScreenSpace, OnlyTargetsThatPassesWrite) {
     EXPECT_TRUE(qualifies(image(2400, 1080, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT)));
     EXPECT_TRUE(qualifies(image(2400, 1080, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT)));
