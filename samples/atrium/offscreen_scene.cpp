@@ -36,7 +36,7 @@ OffscreenScene::~OffscreenScene() {
 
 void OffscreenScene::create_targets(VkExtent2D screen) {
     screen_ = screen;
-    extent_ = info_.multiview ? eye_rect(screen, info_.eyes, 0).extent : screen;
+    extent_ = info_.multiview && !info_.screen_layers ? eye_rect(screen, info_.eyes, 0).extent : screen;
     const uint32_t layers = info_.multiview ? info_.eyes : 0;
     for (VkFormat format : info_.colors)
         colors_.push_back(create_target(scene_.context(), extent_, format,

@@ -13,8 +13,9 @@ struct OffscreenSceneInfo {
     std::vector<VkClearColorValue> clears; // one per colour
     SceneShading shading = SceneShading::hdr;
     uint32_t eyes = 2;
-    bool multiview = false;    // one layer per eye, one eye wide, drawn once with a view mask
-    bool sample_depth = false; // keep the depth buffer for a later pass to sample
+    bool multiview = false;     // one layer per eye, one eye wide, drawn once with a view mask
+    bool sample_depth = false;  // keep the depth buffer for a later pass to sample
+    bool screen_layers = false; // multiview: layers at the screen's extent, not one eye's
 };
 
 class OffscreenScene {
@@ -25,7 +26,7 @@ public:
     OffscreenScene &operator=(const OffscreenScene &) = delete;
 
     // `screen`: the swapchain's extent. Side by side, the targets have that extent; with
-    // multiview, one eye's (the left eye's width) and a layer per eye.
+    // multiview, one eye's (the left eye's width; the screen's with screen_layers) and a layer per eye.
     void create_targets(VkExtent2D screen);
     void destroy_targets();
     // The pass, leaving every target in SHADER_READ_ONLY_OPTIMAL.

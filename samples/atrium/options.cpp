@@ -73,6 +73,8 @@ options:
   --dynamic-rendering    draw with VK_KHR_dynamic_rendering instead of a render pass (same picture;
                          with --path secondary, its secondaries inherit the rendering's formats)
                          (the first two vary --path direct only, this one direct or secondary)
+  --screen-layers        with --path multiview: eye layers at the window's size instead of one
+                         eye's, each squeezed into its half of the window when composed
   --linear-textures      upload the textures through linear-tiling images that the host writes at
                          the driver's row pitch, instead of a staging buffer (same picture, any
                          --path)
@@ -149,6 +151,8 @@ Options parse_options(int argc, char **argv) {
             o.clear_depth_per_eye = true;
         } else if (arg == "--dynamic-rendering") {
             o.dynamic_rendering = true;
+        } else if (arg == "--screen-layers") {
+            o.screen_layers = true;
         } else if (arg == "--linear-textures") {
             o.linear_textures = true;
         } else if (arg == "--path") {
@@ -198,6 +202,8 @@ Options parse_options(int argc, char **argv) {
     if (o.screenshot_frame && *o.screenshot_frame >= o.frames)
         throw std::invalid_argument("--screenshot " + std::to_string(*o.screenshot_frame) +
                                     ": only frames 0.." + std::to_string(o.frames - 1) + " are rendered");
+    if (o.screen_layers && (o.path != PathKind::multiview || o.xr))
+        throw std::invalid_argument("--screen-layers goes with --path multiview only (not --xr)");
     if (o.width < o.eyes) throw std::invalid_argument("--width must be at least --eyes");
     if (o.xr) {
         if (o.path == PathKind::multiview) o.multiview = true;

@@ -24,6 +24,8 @@ struct Options {
     bool clear_depth_per_eye = false;
     bool dynamic_rendering = false;
     bool linear_textures = false;
+    // --screen-layers (--path multiview): eye layers at the window's size, each squeezed into its half.
+    bool screen_layers = false;
     PathKind path = PathKind::direct;
     bool hold = false;
     // --resize-at N WxH: before frame N, resize the window (the swapchain is then recreated).

@@ -16,8 +16,13 @@ class MultiviewPath : public RenderPath {
 public:
     MultiviewPath(const SceneGpu &scene, const Swapchain &swapchain, const RendererOptions &options)
         : device_(scene.device()), swapchain_(swapchain), eyes_(options.eyes),
-          eyes_scene_(scene,
-                      {{eye_format}, {sky_clear(eye_format)}, SceneShading::multiview, options.eyes, true}),
+          eyes_scene_(scene, {{eye_format},
+                              {sky_clear(eye_format)},
+                              SceneShading::multiview,
+                              options.eyes,
+                              true,
+                              false,
+                              options.screen_layers}),
           final_(device_, swapchain), sampler_(create_sampler(device_, VK_FILTER_NEAREST)),
           compose_(device_, fullscreen_info(final_.render_pass(), spirv::compose_frag, 1, sizeof(float),
                                             swapchain.format())),

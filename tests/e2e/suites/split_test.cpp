@@ -1067,5 +1067,38 @@ INSTANTIATE_TEST_SUITE_P(Paths, SplitAgentScissor,
                              return std::string(p.param.path);
                          });
 
+// Issue 19, item 3: eye layers at the window's size (--screen-layers), each squeezed into its half
+// when composed, under SPLITVK_EYES=1. The single fovea is centred on the screen, which the squeeze
+// puts at the layers' inner edges; cutting each layer to the screen's fovea left black bands by the
+// seam. The agent cannot see how the final pass samples the layers, so it replays passes into a
+// layered target whole under one eye and says why; the fovea must stay bit-exact.
+class SplitAgentScissorLayers : public Split {};
+
+TEST_F(SplitAgentScissorLayers, ScreenSizedLayersUnderOneEyeReplayWhole) {
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    auto argv = atrium_argv(2, kFrames, false);
+    argv.insert(argv.end(), {"--path", "multiview", "--screen-layers"});
+    Grab native;
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, env(), "native", kFrames, &native));
+    ASSERT_GT(distinct_colours(native.image), 1000u) << "the native grab looks blank";
+    Env e = split_env();
+    e["SPLITVK_EYES"] = "1";
+    e["SPLITVK_AGENT_SCISSOR"] = "guard:64";
+    Grab split;
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, e, "split-64", kFrames, &split));
+    EXPECT_TRUE(split_summary(split.result.err()).found) << tail(split.result.err(), 30);
+    uint64_t mismatched = 0;
+    for (const Rect &f : default_foveae(kWidth, kHeight, 1))
+        mismatched += compare_exact(native.image, split.image, f.x, f.y, f.w, f.h).mismatched_pixels;
+    EXPECT_EQ(mismatched, 0u) << save_mismatch_artefacts(out_, "fovea", native.image, split.image);
+    const std::string agent_log = read_file(out_ / "splitvk-agent.stderr");
+    EXPECT_NE(
+        agent_log.find("SPLITVK_AGENT_SCISSOR=guard:64: a layered target of 2400x1080 cannot be mapped to "
+                       "the foveae with SPLITVK_EYES=1; replayed whole"),
+        std::string::npos)
+        << tail(agent_log, 20);
+    expect_clean_validation();
+}
+
 } // namespace
 } // namespace splitvk::e2e
