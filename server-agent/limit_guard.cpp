@@ -137,6 +137,22 @@ void LimitGuard::command_buffer_begun(VkCommandBuffer command_buffer) {
     command_buffers_[command_buffer] = Recorded{};
 }
 
+void LimitGuard::taint(VkCommandBuffer command_buffer, const std::string &kind, const std::string &detail) {
+    violation(kind, detail);
+    command_buffers_[command_buffer].tainted = true;
+}
+
+void LimitGuard::executed(VkCommandBuffer primary, uint32_t count, const VkCommandBuffer *secondaries) {
+    for (uint32_t i = 0; i < count && secondaries; ++i) {
+        const auto it = command_buffers_.find(secondaries[i]);
+        if (it == command_buffers_.end()) continue;
+        const Recorded secondary = it->second; // the primary's entry may rehash the map
+        Recorded &recorded = command_buffers_[primary];
+        recorded.tainted = recorded.tainted || secondary.tainted;
+        recorded.sets.insert(recorded.sets.end(), secondary.sets.begin(), secondary.sets.end());
+    }
+}
+
 void LimitGuard::sets_bound(VkCommandBuffer command_buffer, uint32_t set_count, const VkDescriptorSet *sets,
                             uint32_t dynamic_count, const uint32_t *dynamic_offsets) {
     Recorded &recorded = command_buffers_[command_buffer];

@@ -48,6 +48,11 @@ public:
     void sets_bound(VkCommandBuffer command_buffer, uint32_t set_count, const VkDescriptorSet *sets,
                     uint32_t dynamic_count, const uint32_t *dynamic_offsets);
     void image_created(const VkImageCreateInfo &info);
+    // Something recorded into `command_buffer` that the agent cannot replay faithfully (a buffer
+    // device address it cannot translate, buffer_addresses.h); `kind` is logged once per session.
+    void taint(VkCommandBuffer command_buffer, const std::string &kind, const std::string &detail);
+    // vkCmdExecuteCommands: what taints the secondaries taints the primary that executes them.
+    void executed(VkCommandBuffer primary, uint32_t count, const VkCommandBuffer *secondaries);
 
     void submitted(uint32_t count, const VkCommandBuffer *command_buffers);
     // Whether the frame now presented used anything this GPU cannot honour; resets for the next.

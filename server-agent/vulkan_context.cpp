@@ -52,6 +52,8 @@ constexpr FeatureStruct kFeatureStructs[] = {
      sizeof(VkPhysicalDeviceSynchronization2Features), VK_API_VERSION_1_3},
     {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_TIMELINE_SEMAPHORE_FEATURES,
      sizeof(VkPhysicalDeviceTimelineSemaphoreFeatures), VK_API_VERSION_1_2},
+    {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_BUFFER_DEVICE_ADDRESS_FEATURES,
+     sizeof(VkPhysicalDeviceBufferDeviceAddressFeatures), VK_API_VERSION_1_2},
 };
 constexpr size_t kBoolsOffset = sizeof(VkBaseOutStructure);
 
