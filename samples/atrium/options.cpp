@@ -78,6 +78,9 @@ options:
   --linear-textures      upload the textures through linear-tiling images that the host writes at
                          the driver's row pitch, instead of a staging buffer (same picture, any
                          --path)
+  --buffer-address       the scene's vertex shader reads the view-projection matrices through a
+                         buffer device address in push constants (VK_KHR_buffer_device_address)
+                         instead of the uniform descriptor (same picture; --path direct only)
   --screenshot N PATH    write frame N (0-based) as a PNG, read back from its swapchain image
                          before it is presented
   --resize-at N WxH      resize the window to WxH before frame N; the swapchain is recreated when
@@ -155,6 +158,8 @@ Options parse_options(int argc, char **argv) {
             o.screen_layers = true;
         } else if (arg == "--linear-textures") {
             o.linear_textures = true;
+        } else if (arg == "--buffer-address") {
+            o.buffer_address = true;
         } else if (arg == "--path") {
             const std::string_view name = value();
             const auto known = std::find_if(std::begin(path_names), std::end(path_names),
@@ -230,6 +235,8 @@ Options parse_options(int argc, char **argv) {
     if (o.path != PathKind::direct && (o.static_viewports || o.clear_depth_per_eye))
         throw std::invalid_argument(
             "--static-viewports and --clear-depth-per-eye go with --path direct only");
+    if ((o.path != PathKind::direct || o.xr) && o.buffer_address)
+        throw std::invalid_argument("--buffer-address goes with --path direct in a window only");
     if (o.path != PathKind::direct && o.path != PathKind::secondary && o.dynamic_rendering)
         throw std::invalid_argument("--dynamic-rendering goes with --path direct or secondary only");
     return o;

@@ -24,6 +24,9 @@ struct Options {
     bool clear_depth_per_eye = false;
     bool dynamic_rendering = false;
     bool linear_textures = false;
+    // --buffer-address: the scene's vertex shader reads the frame's matrices through a buffer device
+    // address in push constants (VK_KHR_buffer_device_address).
+    bool buffer_address = false;
     // --screen-layers (--path multiview): eye layers at the window's size, each squeezed into its half.
     bool screen_layers = false;
     PathKind path = PathKind::direct;

@@ -60,8 +60,10 @@ public:
     // With `linear_textures` the textures reach the device through linear images (linear_upload.h)
     // instead of the staging buffer. `slots`: how many sets of frame uniforms (FrameContext::slot)
     // may be in use at once; one per frame in flight, or per submission of one (OpenXR: per eye).
+    // With `buffer_address` the scene's vertex shader reads the view-projection matrices through
+    // the frame slot's buffer device address in push constants (scene_address.vert).
     SceneGpu(VkContext &context, const Scene &scene, const std::vector<Texture> &textures,
-             bool linear_textures, uint32_t slots = frames_in_flight);
+             bool linear_textures, uint32_t slots = frames_in_flight, bool buffer_address = false);
     ~SceneGpu();
     SceneGpu(const SceneGpu &) = delete;
     SceneGpu &operator=(const SceneGpu &) = delete;
@@ -98,6 +100,9 @@ private:
     std::vector<VkDescriptorSet> texture_sets_;
     std::vector<VkDescriptorSet> frame_sets_;
     std::vector<FrameUniforms *> uniforms_; // persistently mapped, host-coherent
+    bool buffer_address_ = false;
+    std::vector<VkDeviceAddress> frame_addresses_; // per slot, with buffer_address_
+    mutable uint32_t bound_slot_ = 0;              // bind()'s slot, whose address draw() pushes
     VkPipelineLayout pipeline_layout_ = VK_NULL_HANDLE;
 };
 
