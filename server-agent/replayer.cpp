@@ -263,7 +263,17 @@ bool Replayer::vkGetDeviceQueue2(const codec::Decoded_vkGetDeviceQueue2 &c) {
 // --- submits: in order on one queue; the client's semaphores and fences are its own ------------
 
 bool Replayer::vkQueueSubmit(const codec::Decoded_vkQueueSubmit &c) {
-    const auto submits = codec::without_synchronization(c.pSubmits, c.submitCount);
+    auto submits = codec::without_synchronization(c.pSubmits, c.submitCount);
+    // Command buffers with addresses the agent cannot translate never run (LimitGuard::must_skip).
+    std::vector<std::vector<VkCommandBuffer>> kept(submits.size());
+    for (size_t s = 0; s < submits.size(); ++s) {
+        const VkSubmitInfo &submit = submits[s];
+        for (uint32_t i = 0; i < submit.commandBufferCount; ++i)
+            if (!guard_.must_skip(submit.pCommandBuffers[i])) kept[s].push_back(submit.pCommandBuffers[i]);
+        if (kept[s].size() == submit.commandBufferCount) continue;
+        submits[s].commandBufferCount = static_cast<uint32_t>(kept[s].size());
+        submits[s].pCommandBuffers = kept[s].data();
+    }
     if (!flush_writes()) return false; // the memory data the client wrote before this submit
     note_frame_submit();
     const VkFence fence = submit_fence();
@@ -276,9 +286,9 @@ bool Replayer::vkQueueSubmit(const codec::Decoded_vkQueueSubmit &c) {
             for (uint32_t i = 0; i < s.commandBufferCount; ++i)
                 note_submitted(s.pCommandBuffers[i]);
     }
-    for (const VkSubmitInfo &s : submits) {
-        fovea_.submitted(s.commandBufferCount, s.pCommandBuffers);
-        guard_.submitted(s.commandBufferCount, s.pCommandBuffers);
+    for (uint32_t s = 0; s < c.submitCount; ++s) {
+        fovea_.submitted(c.pSubmits[s].commandBufferCount, c.pSubmits[s].pCommandBuffers);
+        guard_.submitted(c.pSubmits[s].commandBufferCount, c.pSubmits[s].pCommandBuffers);
     }
     gpu_busy_ = true;
     ++submits_;
@@ -287,7 +297,17 @@ bool Replayer::vkQueueSubmit(const codec::Decoded_vkQueueSubmit &c) {
 
 bool Replayer::vkQueueSubmit2(const codec::Decoded_vkQueueSubmit2 &c) {
     if (!vk.QueueSubmit2) return missing("vkQueueSubmit2");
-    const auto submits = codec::without_synchronization(c.pSubmits, c.submitCount);
+    auto submits = codec::without_synchronization(c.pSubmits, c.submitCount);
+    std::vector<std::vector<VkCommandBufferSubmitInfo>> kept(submits.size());
+    for (size_t s = 0; s < submits.size(); ++s) {
+        const VkSubmitInfo2 &submit = submits[s];
+        for (uint32_t i = 0; i < submit.commandBufferInfoCount; ++i)
+            if (!guard_.must_skip(submit.pCommandBufferInfos[i].commandBuffer))
+                kept[s].push_back(submit.pCommandBufferInfos[i]);
+        if (kept[s].size() == submit.commandBufferInfoCount) continue;
+        submits[s].commandBufferInfoCount = static_cast<uint32_t>(kept[s].size());
+        submits[s].pCommandBufferInfos = kept[s].data();
+    }
     if (!flush_writes()) return false;
     note_frame_submit();
     const VkFence fence = submit_fence();
@@ -300,10 +320,10 @@ bool Replayer::vkQueueSubmit2(const codec::Decoded_vkQueueSubmit2 &c) {
             for (uint32_t i = 0; i < s.commandBufferInfoCount; ++i)
                 note_submitted(s.pCommandBufferInfos[i].commandBuffer);
     }
-    for (const VkSubmitInfo2 &s : submits)
-        for (uint32_t i = 0; i < s.commandBufferInfoCount; ++i) {
-            fovea_.submitted(1, &s.pCommandBufferInfos[i].commandBuffer);
-            guard_.submitted(1, &s.pCommandBufferInfos[i].commandBuffer);
+    for (uint32_t s = 0; s < c.submitCount; ++s)
+        for (uint32_t i = 0; i < c.pSubmits[s].commandBufferInfoCount; ++i) {
+            fovea_.submitted(1, &c.pSubmits[s].pCommandBufferInfos[i].commandBuffer);
+            guard_.submitted(1, &c.pSubmits[s].pCommandBufferInfos[i].commandBuffer);
         }
     gpu_busy_ = true;
     ++submits_;
@@ -494,11 +514,10 @@ bool Replayer::vkCmdPushConstants(const codec::Decoded_vkCmdPushConstants &c) {
                                static_cast<const uint8_t *>(c.pValues) + c.size);
     const PushTranslation t = translate_push_constants(addresses_, fields->second, c.offset, bytes);
     if (t.unknown || t.partial)
-        guard_.taint(c.commandBuffer, "unknown buffer address",
-                     t.unknown ? "a push constant holds a buffer device address the client never asked "
-                                 "vkGetBufferDeviceAddress for, which the agent cannot translate"
-                               : "vkCmdPushConstants updates part of a buffer device address, which the "
-                                 "agent cannot translate");
+        guard_.untranslatable_address(
+            c.commandBuffer, t.unknown ? "a push constant holds a buffer device address inside no buffer "
+                                         "the client asked vkGetBufferDeviceAddress for"
+                                       : "vkCmdPushConstants updates part of a buffer device address");
     auto copy = c;
     copy.pValues = bytes.data();
     return ReplayVisitorBase::vkCmdPushConstants(copy);
@@ -863,8 +882,7 @@ bool Replayer::vkCmdBindPipeline(const codec::Decoded_vkCmdBindPipeline &c) {
     if (!ReplayVisitorBase::vkCmdBindPipeline(c)) return false;
     fovea_.bind_pipeline(c.commandBuffer, c.pipelineBindPoint, c.pipeline);
     if (const auto it = untranslatable_pipelines_.find(c.pipeline); it != untranslatable_pipelines_.end())
-        guard_.taint(c.commandBuffer, "untranslatable buffer address",
-                     "a pipeline's shaders use " + it->second + ", which the agent cannot translate");
+        guard_.untranslatable_address(c.commandBuffer, "a pipeline's shaders use " + it->second);
     return true;
 }
 

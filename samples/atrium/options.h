@@ -13,6 +13,8 @@ namespace atrium {
 enum class PathKind { direct, hdr, deferred, multiview, secondary, compute };
 const char *path_name(PathKind kind);
 
+enum class BufferAddressMode { none, push, uniform };
+
 struct Options {
     uint32_t width = 2400;
     uint32_t height = 1080;
@@ -24,9 +26,10 @@ struct Options {
     bool clear_depth_per_eye = false;
     bool dynamic_rendering = false;
     bool linear_textures = false;
-    // --buffer-address: the scene's vertex shader reads the frame's matrices through a buffer device
-    // address in push constants (VK_KHR_buffer_device_address).
-    bool buffer_address = false;
+    // --buffer-address push|uniform: the scene's vertex shader reads the frame's matrices through a
+    // buffer device address (VK_KHR_buffer_device_address) in push constants, or in the frame's
+    // uniform block.
+    BufferAddressMode buffer_address = BufferAddressMode::none;
     // --screen-layers (--path multiview): eye layers at the window's size, each squeezed into its half.
     bool screen_layers = false;
     PathKind path = PathKind::direct;

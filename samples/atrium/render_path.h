@@ -20,8 +20,8 @@ struct RendererOptions {
     bool dynamic_rendering = false;           // vkCmdBeginRenderingKHR instead of a render pass
     bool linear_textures = false;             // textures uploaded through linear images (any path)
     PathKind path = PathKind::direct;
-    bool screen_layers = false;  // multiview: eye layers at the window's size
-    bool buffer_address = false; // the scene's matrices through a buffer device address
+    bool screen_layers = false;                                 // multiview: eye layers at the window's size
+    BufferAddressMode buffer_address = BufferAddressMode::none; // the scene's matrices through an address
 };
 
 struct FrameContext {

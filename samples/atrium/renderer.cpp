@@ -115,6 +115,7 @@ void Renderer::update_uniforms(uint32_t slot, uint64_t frame) {
         u.inv_view_proj[1] = u.inv_view_proj[0];
     }
     set_lighting(u, scene_);
+    u.frame_address = scene_gpu_.frame_address(slot);
     std::memcpy(&scene_gpu_.uniforms(slot), &u, sizeof(u));
 }
 

@@ -25,6 +25,12 @@ struct PushConstants {
 };
 constexpr uint32_t push_bytes_without_address = offsetof(PushConstants, pad);
 
+static_assert(offsetof(FrameUniforms, frame_address) == 400, "scene_address_uniform.vert's std140 offset");
+
+uint32_t push_bytes(BufferAddressMode mode) {
+    return mode == BufferAddressMode::push ? uint32_t(sizeof(PushConstants)) : push_bytes_without_address;
+}
+
 VkDeviceSize align_up(VkDeviceSize value, VkDeviceSize alignment) {
     return (value + alignment - 1) / alignment * alignment;
 }
@@ -42,7 +48,7 @@ float eye_split(VkExtent2D extent, uint32_t eyes) {
 }
 
 SceneGpu::SceneGpu(VkContext &context, const Scene &scene, const std::vector<Texture> &textures,
-                   bool linear_textures, uint32_t slots, bool buffer_address)
+                   bool linear_textures, uint32_t slots, BufferAddressMode buffer_address)
     : context_(context), scene_(scene), device_(context.device()), frame_sets_(slots), uniforms_(slots),
       buffer_address_(buffer_address) {
     upload(textures, linear_textures);
@@ -236,12 +242,12 @@ void SceneGpu::create_descriptors(size_t textures) {
     // host-coherent buffer: the CPU rewrites a slot's block only after waiting for the slot's fence.
     const VkDeviceSize stride =
         align_up(sizeof(FrameUniforms), context_.properties().limits.minUniformBufferOffsetAlignment);
-    uniform_buffer_ =
-        context_.create_buffer(stride * slots,
-                               VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT |
-                                   (buffer_address_ ? VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT : 0),
-                               VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
-    if (buffer_address_) {
+    uniform_buffer_ = context_.create_buffer(
+        stride * slots,
+        VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT |
+            (buffer_address_ != BufferAddressMode::none ? VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT : 0),
+        VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
+    if (buffer_address_ != BufferAddressMode::none) {
         const auto get_address = reinterpret_cast<PFN_vkGetBufferDeviceAddressKHR>(
             vkGetDeviceProcAddr(device_, "vkGetBufferDeviceAddressKHR"));
         if (!get_address) throw Error("vkGetBufferDeviceAddressKHR is missing (--buffer-address)");
@@ -296,8 +302,7 @@ void SceneGpu::create_descriptors(size_t textures) {
 void SceneGpu::create_pipeline_layout() {
     const VkDescriptorSetLayout set_layouts[] = {frame_layout_, material_layout_};
     const VkPushConstantRange push{VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
-                                   buffer_address_ ? uint32_t(sizeof(PushConstants))
-                                                   : push_bytes_without_address};
+                                   push_bytes(buffer_address_)};
     VkPipelineLayoutCreateInfo layout{};
     layout.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
     layout.setLayoutCount = 2;
@@ -310,9 +315,13 @@ void SceneGpu::create_pipeline_layout() {
 VkPipeline SceneGpu::create_pipeline(const ScenePipelineInfo &pipeline) const {
     GraphicsPipelineInfo info;
     const bool multiview = pipeline.shading == SceneShading::multiview;
-    info.vertex = multiview ? ShaderCode{spirv::scene_multiview_vert, sizeof(spirv::scene_multiview_vert)}
-                  : buffer_address_ ? ShaderCode{spirv::scene_address_vert, sizeof(spirv::scene_address_vert)}
-                                    : ShaderCode{spirv::scene_vert, sizeof(spirv::scene_vert)};
+    info.vertex =
+        multiview ? ShaderCode{spirv::scene_multiview_vert, sizeof(spirv::scene_multiview_vert)}
+        : buffer_address_ == BufferAddressMode::push
+            ? ShaderCode{spirv::scene_address_vert, sizeof(spirv::scene_address_vert)}
+        : buffer_address_ == BufferAddressMode::uniform
+            ? ShaderCode{spirv::scene_address_uniform_vert, sizeof(spirv::scene_address_uniform_vert)}
+            : ShaderCode{spirv::scene_vert, sizeof(spirv::scene_vert)};
     // scene.frag's constants: 0 encode_srgb, 1 display (false: linear HDR out).
     const VkBool32 constants[2] = {pipeline.encode_srgb ? VK_TRUE : VK_FALSE,
                                    pipeline.shading == SceneShading::hdr ? VK_FALSE : VK_TRUE};
@@ -378,9 +387,9 @@ void SceneGpu::draw(VkCommandBuffer cmd, uint32_t eye, size_t first, size_t end)
                                     &texture_sets_[bound_texture], 0, nullptr);
         }
         PushConstants push{eye, material.specular, material.shininess};
-        if (buffer_address_) push.frame = frame_addresses_[bound_slot_];
+        if (buffer_address_ == BufferAddressMode::push) push.frame = frame_addresses_[bound_slot_];
         vkCmdPushConstants(cmd, pipeline_layout_, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT,
-                           0, buffer_address_ ? uint32_t(sizeof(push)) : push_bytes_without_address, &push);
+                           0, push_bytes(buffer_address_), &push);
         vkCmdDrawIndexed(cmd, draw.index_count, 1, draw.first_index, 0, 0);
     }
 }
