@@ -14,9 +14,11 @@
 // Where addresses travel typed, they are translated: 8-byte push-constant fields that the
 // pipeline's SPIR-V reads as PhysicalStorageBuffer pointers (spirv_pointers.h). What the agent
 // cannot translate, it does not guess at: an address the map does not know, or a pipeline that
-// gets addresses from memory or computes them (spirv_pointers.h says which), taints the command
-// buffer, and the frames that submit it are flagged invalid (limit_guard.h): the client shows the
-// periphery there, never a fovea drawn from a wrong address.
+// gets addresses from memory or computes them (spirv_pointers.h says which), marks the command
+// buffer. It is never submitted (run, it would read or write wherever the client's number points
+// on this GPU), and every frame from then on is flagged invalid, since later frames may read what
+// it would have written (LimitGuard::untranslatable_address): the client shows the periphery
+// there, never a fovea drawn from a wrong address.
 
 #include <cstdint>
 #include <map>
