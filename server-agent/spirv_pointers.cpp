@@ -48,6 +48,7 @@ enum StorageClass : uint32_t {
 // Arrays of addresses in a push-constant block: the limit is 128 bytes on most GPUs, 256 at most.
 constexpr uint64_t kMaxPushArrayElements = 64;
 constexpr int kMaxTypeDepth = 16;
+constexpr uint32_t kMaxWalkSteps = 4096;
 
 struct Type {
     uint32_t op = 0;
@@ -144,7 +145,7 @@ private:
         case OpTypeStruct: {
             Type t;
             t.op = OpTypeStruct;
-            t.members.assign(i.begin() + 2, i.end());
+            if (i.size() > 2) t.members.assign(i.begin() + 2, i.end());
             types_[operand(i, 0)] = t;
             break;
         }
@@ -194,15 +195,22 @@ private:
         const Type *t = type(type_id);
         return t && t->op == OpTypeInt && t->width == 64;
     }
-    bool holds_address(uint32_t type_id, int depth = 0) const {
+    // Memoised: a module may share one struct type among many members at every level.
+    bool holds_address(uint32_t type_id, int depth = 0) {
+        if (const auto known = holds_address_.find(type_id); known != holds_address_.end())
+            return known->second;
         const Type *t = type(type_id);
         if (!t || depth > kMaxTypeDepth) return false;
-        if (t->op == OpTypePointer) return t->storage_class == PhysicalStorageBuffer;
-        if (t->op == OpTypeArray) return holds_address(t->pointee, depth + 1);
-        if (t->op == OpTypeStruct)
-            return std::any_of(t->members.begin(), t->members.end(),
-                               [&](uint32_t m) { return holds_address(m, depth + 1); });
-        return false;
+        bool holds = false;
+        if (t->op == OpTypePointer)
+            holds = t->storage_class == PhysicalStorageBuffer;
+        else if (t->op == OpTypeArray)
+            holds = holds_address(t->pointee, depth + 1);
+        else if (t->op == OpTypeStruct)
+            holds = std::any_of(t->members.begin(), t->members.end(),
+                                [&](uint32_t m) { return holds_address(m, depth + 1); });
+        holds_address_[type_id] = holds;
+        return holds;
     }
     std::optional<uint32_t> member_offset(uint32_t struct_id, uint32_t member) const {
         const auto it = member_offsets_.find(key(struct_id, member));
@@ -213,14 +221,16 @@ private:
     // Every member of pointer type in the push-constant block, at its byte offset.
     void walk_push_type(uint32_t type_id, uint64_t base, int depth) {
         const Type *t = type(type_id);
-        if (!t || depth > kMaxTypeDepth) return;
+        // A push-constant block is 256 bytes at most: more address fields than that name no block a
+        // driver accepts, and nested arrays must not make this walk exponential.
+        if (!t || depth > kMaxTypeDepth || ++walk_steps_ > kMaxWalkSteps || !holds_address(type_id)) return;
         if (is_address(type_id)) {
             if (base <= UINT32_MAX) out_.push_constant_pointers.push_back(static_cast<uint32_t>(base));
         } else if (t->op == OpTypeStruct) {
             for (uint32_t m = 0; m < t->members.size(); ++m)
                 if (const auto offset = member_offset(type_id, m))
                     walk_push_type(t->members[m], base + *offset, depth + 1);
-        } else if (t->op == OpTypeArray && holds_address(type_id)) {
+        } else if (t->op == OpTypeArray) {
             const auto stride = array_strides_.find(type_id);
             const auto length = constants_.find(t->length_id);
             if (stride == array_strides_.end() || length == constants_.end()) return;
@@ -355,6 +365,8 @@ private:
     std::unordered_map<uint32_t, uint32_t> types_of_;                         // id -> its type
     std::unordered_map<uint32_t, std::pair<uint64_t, uint32_t>> push_chains_; // id -> (offset, pointee)
     std::unordered_map<uint32_t, uint64_t> push_integers_; // 64-bit values loaded from push constants
+    std::unordered_map<uint32_t, bool> holds_address_;
+    uint32_t walk_steps_ = 0;
 };
 
 } // namespace

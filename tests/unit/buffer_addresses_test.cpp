@@ -142,6 +142,45 @@ TEST(SpirvAddresses, ShaderWithoutAddressesHasNone) {
     EXPECT_EQ(a.untranslatable, "");
 }
 
+// A client's module is untrusted: nested arrays of addresses (64 of 64 of ... ten deep) must not
+// make the walk over the push-constant block exponential, nor a struct instruction without members
+// read past its words.
+TEST(SpirvAddresses, HostileTypesAreReadInBoundedTime) {
+    auto op = [](uint32_t opcode, std::initializer_list<uint32_t> operands) {
+        std::vector<uint32_t> words = {uint32_t(operands.size() + 1) << 16 | opcode};
+        words.insert(words.end(), operands);
+        return words;
+    };
+    std::vector<uint32_t> module = {0x07230203, 0x00010500, 0, 1000, 0};
+    auto add = [&](const std::vector<uint32_t> &words) {
+        module.insert(module.end(), words.begin(), words.end());
+    };
+    add(op(17, {5347}));        // OpCapability PhysicalStorageBufferAddresses
+    add(op(21, {1, 64, 0}));    // %1 = OpTypeInt 64
+    add(op(43, {1, 2, 64, 0})); // %2 = OpConstant %1 64
+    add(op(32, {3, 5349, 1}));  // %3 = OpTypePointer PhysicalStorageBuffer %1
+    uint32_t element = 3, stride = 8;
+    for (uint32_t level = 0; level < 10; ++level, stride *= 64) {
+        const uint32_t array = 10 + level;
+        add(op(28, {array, element, 2})); // OpTypeArray element [64]
+        add(op(71, {array, 6, stride}));  // OpDecorate ArrayStride
+        element = array;
+    }
+    add(op(30, {50, element}));  // %50 = OpTypeStruct
+    add(op(72, {50, 0, 35, 0})); // OpMemberDecorate %50 0 Offset 0
+    add(op(30, {60}));           // %60 = OpTypeStruct with no members, and one cut short
+    add({1u << 16 | 30});
+    add(op(32, {51, 9, 50})); // %51 = OpTypePointer PushConstant %50
+    add(op(59, {51, 52, 9})); // %52 = OpVariable %51 PushConstant
+    ShaderAddresses out;
+    std::string error;
+    ASSERT_TRUE(reflect_shader_addresses(module, &out, &error)) << error;
+    EXPECT_TRUE(out.uses_addresses);
+    EXPECT_FALSE(out.push_constant_pointers.empty());
+    EXPECT_LE(out.push_constant_pointers.size(), 4096u);
+    EXPECT_EQ(out.push_constant_pointers.front(), 0u);
+}
+
 TEST(SpirvAddresses, MalformedModulesAreOneLineErrors) {
     ShaderAddresses out;
     std::string error;
