@@ -365,7 +365,6 @@ static VkDeviceAddress get_buffer_device_address(VkDevice device, const VkBuffer
         std::lock_guard lock(g_mutex);
         const auto it = g_buffers.find(pInfo->buffer);
         if (it == g_buffers.end() || it->second.address_sent == address) return address;
-        it->second.address_sent = address;
         memory = it->second.memory;
     }
     protocol::BufferAddress message;
@@ -375,6 +374,11 @@ static VkDeviceAddress get_buffer_device_address(VkDevice device, const VkBuffer
     const uint64_t killers[] = {message.buffer_id, codec::handle_value(memory)};
     dev.session->send_metadata_logged(protocol::MessageType::BufferAddress, protocol::encode(message),
                                       message.buffer_id, std::span(killers, memory ? 2 : 1));
+    // Marked sent only now: another thread asking meanwhile sends it again (the agent keeps the
+    // last), rather than returning an address whose message could follow that thread's submit.
+    std::lock_guard lock(g_mutex);
+    if (const auto it = g_buffers.find(pInfo->buffer); it != g_buffers.end())
+        it->second.address_sent = address;
     return address;
 }
 
