@@ -147,7 +147,7 @@ bool FoveaShading::continues_pass(VkCommandBuffer cb) const {
 
 void FoveaShading::begin_variant(VkCommandBuffer variant, const PassScissor &scissor) {
     if (!variant_logged_)
-        SPLITVK_INFO("secondaries executed in %s pass of %ux%u: recorded again with its scissors",
+        SPLITVK_INFO("secondaries executed in %s pass of %ux%u: recorded again, scissored for the pass",
                      scissor.swapchain ? "a split" : "a guarded", scissor.extent.width,
                      scissor.extent.height);
     variant_logged_ = true;
