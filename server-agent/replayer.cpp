@@ -683,7 +683,7 @@ void Replayer::forget_secondary(uint64_t id) {
     const auto it = secondaries_.find(id);
     if (it == secondaries_.end()) return;
     if (!it->second.variants.empty()) {
-        quiesce(); // already idle (see SecondaryStream): only guards that promise
+        quiesce(); // a no-op: the queue is idle when a secondary is re-begun or freed (SecondaryStream)
         for (const auto &[scissor, variant] : it->second.variants)
             ::vkFreeCommandBuffers(context_.device, variant_pool_, 1, &variant);
     }
@@ -848,9 +848,11 @@ bool Replayer::vkCmdResolveImage2(const codec::Decoded_vkCmdResolveImage2 &c) {
 
 bool Replayer::vkCmdExecuteCommands(const codec::Decoded_vkCmdExecuteCommands &c) {
     // In a scissored pass, each secondary's variant for it; the secondaries themselves still say
-    // which foveae were drawn.
+    // which foveae were drawn. A variant's own secondaries (nested command buffers) run as recorded:
+    // recording one variant inside another would reuse the arena the outer one is decoded from.
     std::vector<VkCommandBuffer> executed;
-    if (const auto scissor = fovea_.pass_scissor(c.commandBuffer); scissor && c.pCommandBuffers_ids) {
+    const auto scissor = recording_variant_ ? std::nullopt : fovea_.pass_scissor(c.commandBuffer);
+    if (scissor && c.pCommandBuffers_ids) {
         executed.assign(c.pCommandBuffers, c.pCommandBuffers + c.commandBufferCount);
         for (uint32_t i = 0; i < c.commandBufferCount; ++i)
             if (const VkCommandBuffer variant =
