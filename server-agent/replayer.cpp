@@ -672,11 +672,24 @@ bool Replayer::vkDestroyCommandPool(const codec::Decoded_vkDestroyCommandPool &c
 // --- secondaries in scissored passes (fovea_shading.h) ---------------------------------------
 
 void Replayer::keep_secondary_stream(uint64_t id, std::span<const uint8_t> stream) {
+    // What a session may keep: the client's streams are not charged to --max-host-memory, and an
+    // application's secondaries are small next to this; past it, the rest are shaded whole.
+    constexpr uint64_t kMaxKeptBytes = 64ull << 20;
     const auto *entry = table_.find(id);
     if (recording_variant_ || !entry ||
         !fovea_.continues_pass(codec::to_handle<VkCommandBuffer>(entry->handle)))
         return;
-    secondaries_[id].stream.assign(stream.begin(), stream.end());
+    if (kept_stream_bytes_ + stream.size() > kMaxKeptBytes) {
+        if (!variant_failed_logged_)
+            SPLITVK_WARN(
+                "secondaries in scissored passes: their commands pass %llu MiB; the rest are shaded whole",
+                static_cast<unsigned long long>(kMaxKeptBytes >> 20));
+        variant_failed_logged_ = true;
+        return;
+    }
+    SecondaryStream &kept = secondaries_[id];
+    kept_stream_bytes_ += stream.size() - kept.stream.size();
+    kept.stream.assign(stream.begin(), stream.end());
 }
 
 void Replayer::forget_secondary(uint64_t id) {
@@ -687,6 +700,7 @@ void Replayer::forget_secondary(uint64_t id) {
         for (const auto &[scissor, variant] : it->second.variants)
             ::vkFreeCommandBuffers(context_.device, variant_pool_, 1, &variant);
     }
+    kept_stream_bytes_ -= it->second.stream.size();
     secondaries_.erase(it);
 }
 

@@ -206,7 +206,8 @@ private:
     codec::Arena variant_arena_; // a variant is recorded while the primary's commands use arena_
     bool recording_variant_ = false;
     bool variant_failed_logged_ = false;
-    QueuedWrites writes_{context_}; // last: destroyed first, with the device still there
+    uint64_t kept_stream_bytes_ = 0; // of secondaries_' streams
+    QueuedWrites writes_{context_};  // last: destroyed first, with the device still there
 };
 
 } // namespace splitvk::agent
