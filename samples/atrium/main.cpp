@@ -87,7 +87,8 @@ int run(const Options &options) {
         renderer.emplace(context, swapchain, scene, textures, camera,
                          RendererOptions{options.eyes, options.screenshot_frame, options.static_viewports,
                                          options.clear_depth_per_eye, options.dynamic_rendering,
-                                         options.linear_textures, options.path, options.screen_layers});
+                                         options.linear_textures, options.path, options.screen_layers,
+                                         options.scene_in_secondaries});
     }
     const VkExtent2D extent = swapchain.extent();
     std::printf("atrium: %s triangles, %u textures, %ux%u per eye, path %s\n",

@@ -72,9 +72,12 @@ options:
                          (same picture)
   --dynamic-rendering    draw with VK_KHR_dynamic_rendering instead of a render pass (same picture;
                          with --path secondary, its secondaries inherit the rendering's formats)
-                         (the first two vary --path direct only, this one direct or secondary)
+                         (all three vary --path direct or secondary)
   --screen-layers        with --path multiview: eye layers at the window's size instead of one
                          eye's, each squeezed into its half of the window when composed
+  --scene-in-secondaries with --path hdr, deferred or compute: the offscreen scene pass's draws
+                         recorded in secondary command buffers, one per eye, whose inheritance
+                         names the render pass but not the framebuffer (same picture)
   --linear-textures      upload the textures through linear-tiling images that the host writes at
                          the driver's row pitch, instead of a staging buffer (same picture, any
                          --path)
@@ -153,6 +156,8 @@ Options parse_options(int argc, char **argv) {
             o.dynamic_rendering = true;
         } else if (arg == "--screen-layers") {
             o.screen_layers = true;
+        } else if (arg == "--scene-in-secondaries") {
+            o.scene_in_secondaries = true;
         } else if (arg == "--linear-textures") {
             o.linear_textures = true;
         } else if (arg == "--path") {
@@ -227,9 +232,14 @@ Options parse_options(int argc, char **argv) {
     } else if (o.eye_width) {
         throw std::invalid_argument("--eye-size goes with --xr (in a window: --width and --height)");
     }
-    if (o.path != PathKind::direct && (o.static_viewports || o.clear_depth_per_eye))
+    if (o.path != PathKind::direct && o.path != PathKind::secondary &&
+        (o.static_viewports || o.clear_depth_per_eye))
         throw std::invalid_argument(
-            "--static-viewports and --clear-depth-per-eye go with --path direct only");
+            "--static-viewports and --clear-depth-per-eye go with --path direct or secondary only");
+    if (o.scene_in_secondaries &&
+        (o.xr || (o.path != PathKind::hdr && o.path != PathKind::deferred && o.path != PathKind::compute)))
+        throw std::invalid_argument(
+            "--scene-in-secondaries goes with --path hdr, deferred or compute only (not --xr)");
     if (o.path != PathKind::direct && o.path != PathKind::secondary && o.dynamic_rendering)
         throw std::invalid_argument("--dynamic-rendering goes with --path direct or secondary only");
     return o;

@@ -26,6 +26,9 @@ struct Options {
     bool linear_textures = false;
     // --screen-layers (--path multiview): eye layers at the window's size, each squeezed into its half.
     bool screen_layers = false;
+    // --scene-in-secondaries (--path hdr, deferred, compute): the offscreen scene pass's draws in
+    // secondary command buffers.
+    bool scene_in_secondaries = false;
     PathKind path = PathKind::direct;
     bool hold = false;
     // --resize-at N WxH: before frame N, resize the window (the swapchain is then recreated).
