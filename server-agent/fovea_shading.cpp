@@ -4,24 +4,28 @@
 #include "split_geometry.h"
 
 #include <algorithm>
+#include <cstdint>
 
 namespace splitvk::agent {
 
-std::vector<VkRect2D> FoveaShading::take_drawn_foveae(uint64_t image_id) {
+std::vector<split::LayerFovea> FoveaShading::take_drawn_foveae(uint64_t image_id) {
     const auto it = drawn_.find(image_id);
     if (it == drawn_.end()) return {};
     // The whole frame's coverage decides its foveae (split::frame_foveae), as the client's does.
-    std::vector<VkRect2D> foveae = it->second.foveae(eyes_, fovea_);
-    // An OpenXR eye image: one fovea, wherever its passes drew, as the client composites it.
-    if (const auto eye = runtime_fovea(image_id, it->second.extent); eye && !foveae.empty()) foveae = {*eye};
+    std::vector<split::LayerFovea> foveae = split::in_layer_zero(it->second.foveae(eyes_, fovea_));
+    // An OpenXR eye image: its eyes' foveae, wherever its passes drew, as the client composites them.
+    if (auto eyes = runtime_foveae(image_id, it->second.extent); eyes && !foveae.empty())
+        foveae = std::move(*eyes);
     drawn_.erase(it);
     return foveae;
 }
 
-std::optional<VkRect2D> FoveaShading::runtime_fovea(uint64_t image_id, VkExtent2D extent) const {
-    const split::FieldOfView *view = nullptr;
-    if (!swapchains_.runtime_image(image_id, &view)) return std::nullopt;
-    return split::runtime_eye_fovea(extent, view, fovea_);
+std::optional<std::vector<split::LayerFovea>> FoveaShading::runtime_foveae(uint64_t image_id,
+                                                                           VkExtent2D extent) const {
+    const std::vector<split::RuntimeEye> *eyes = nullptr;
+    uint32_t layers = 1;
+    if (!swapchains_.runtime_image(image_id, &eyes, &layers)) return std::nullopt;
+    return split::runtime_eye_foveae(extent, layers, *eyes, fovea_);
 }
 
 void FoveaShading::image_created(VkImage image, const VkImageCreateInfo &info) {
@@ -391,14 +395,42 @@ void FoveaShading::end_pass(VkCommandBuffer cb) {
     emit_scissors(cb, *t);
 }
 
+// The bounding box of the foveae of an OpenXR eye image that a viewport can draw into: every layer's
+// (a multiview pass draws all its views with the same scissors), and of a side-by-side image the
+// eyes whose foveae the viewport reaches (all of them where it is not known, or reaches none).
+VkRect2D FoveaShading::runtime_scissor(const std::vector<split::LayerFovea> &foveae, const VkViewport *v) {
+    const auto reaches = [&](const VkRect2D &f) {
+        if (!v) return true;
+        const double x0 = v->x, x1 = double(v->x) + v->width;
+        const double y0 = std::min(double(v->y), double(v->y) + v->height);
+        const double y1 = std::max(double(v->y), double(v->y) + v->height);
+        return x0 < f.offset.x + double(f.extent.width) && f.offset.x < x1 &&
+               y0 < f.offset.y + double(f.extent.height) && f.offset.y < y1;
+    };
+    const bool any = std::any_of(foveae.begin(), foveae.end(),
+                                 [&](const split::LayerFovea &f) { return reaches(f.rect); });
+    int64_t x0 = INT64_MAX, y0 = INT64_MAX, x1 = INT64_MIN, y1 = INT64_MIN;
+    for (const split::LayerFovea &f : foveae) {
+        if (any && !reaches(f.rect)) continue;
+        x0 = std::min<int64_t>(x0, f.rect.offset.x);
+        y0 = std::min<int64_t>(y0, f.rect.offset.y);
+        x1 = std::max<int64_t>(x1, int64_t{f.rect.offset.x} + f.rect.extent.width);
+        y1 = std::max<int64_t>(y1, int64_t{f.rect.offset.y} + f.rect.extent.height);
+    }
+    if (x1 <= x0 || y1 <= y0) return {};
+    return {{int32_t(x0), int32_t(y0)}, {uint32_t(x1 - x0), uint32_t(y1 - y0)}};
+}
+
 void FoveaShading::emit_scissors(VkCommandBuffer cb, const split::CommandTracker &t) {
     const auto guard = t.in_split() && !t.swapchain_pass() ? guard_rects_.find(cb) : guard_rects_.end();
+    const auto runtime =
+        t.in_split() && guard == guard_rects_.end() ? runtime_foveae(t.image(), t.extent()) : std::nullopt;
     const auto out = [&](size_t i, const VkRect2D &r) {
         if (!t.in_split()) return r;
         if (guard != guard_rects_.end()) return split::intersect(r, guard->second);
         const VkViewport *v = t.viewport(i);
         // Without viewport i the eye is unknown; the scissor is narrowed once the viewport is set.
-        if (const auto eye = runtime_fovea(t.image(), t.extent())) return split::intersect(r, *eye);
+        if (runtime) return split::intersect(r, runtime_scissor(*runtime, v));
         return v ? split::intersect(r, split::fovea_scissor(*v, t.extent(), eyes_, fovea_)) : r;
     };
     std::vector<VkRect2D> values;

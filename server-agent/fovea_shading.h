@@ -64,7 +64,9 @@ public:
     // submits replayed since the last call (split::frame_foveae of their coverage; full-resolution
     // coordinates, sorted by x then y, as the client's take_split_frame reports them). Clears the
     // record.
-    std::vector<VkRect2D> take_drawn_foveae(uint64_t image_id);
+    // An OpenXR runtime's image gives its eyes' foveae instead (split::runtime_eye_foveae), in their
+    // array layers.
+    std::vector<split::LayerFovea> take_drawn_foveae(uint64_t image_id);
 
     // Object tracking (after the driver call; destroys before it).
     void image_created(VkImage image, const VkImageCreateInfo &info);
@@ -144,9 +146,10 @@ private:
     SwapchainImages &swapchains_;
     bool enabled_ = true;
     EyeMode eyes_ = Settings{}.eyes;
-    // The fovea of an OpenXR runtime's image (one eye, at its view direction once known), or none
-    // for a window's, whose foveae SPLITVK_EYES places.
-    std::optional<VkRect2D> runtime_fovea(uint64_t image_id, VkExtent2D extent) const;
+    // The foveae of an OpenXR runtime's image (its eyes', at their view directions once known), or
+    // none for a window's, whose foveae SPLITVK_EYES places.
+    std::optional<std::vector<split::LayerFovea>> runtime_foveae(uint64_t image_id, VkExtent2D extent) const;
+    static VkRect2D runtime_scissor(const std::vector<split::LayerFovea> &foveae, const VkViewport *viewport);
     FoveaSize fovea_ = Settings{}.fovea;
     AgentScissor scissor_;
     struct View {

@@ -525,9 +525,12 @@ bool Replayer::swapchain_destroyed(const protocol::SwapchainDestroyed &message, 
 }
 
 bool Replayer::swapchain_view(const protocol::SwapchainView &message, std::string *error) {
-    const split::FieldOfView view{message.angle_left, message.angle_right, message.angle_up,
-                                  message.angle_down};
-    if (!swapchains_.set_view(message.swapchain_id, view, error)) {
+    split::RuntimeEye eye;
+    eye.layer = message.array_layer;
+    eye.rect = {{static_cast<int32_t>(message.x), static_cast<int32_t>(message.y)},
+                {message.width, message.height}};
+    eye.fov = {message.angle_left, message.angle_right, message.angle_up, message.angle_down};
+    if (!swapchains_.note_eye(message.swapchain_id, eye, error)) {
         *error = "SwapchainView: swapchain " + hex(message.swapchain_id) + ": " + *error;
         return false;
     }

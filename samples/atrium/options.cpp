@@ -103,6 +103,9 @@ options:
                          runtime has had it
   --multiview            with --xr: one swapchain of two layers, both eyes drawn in one
                          VK_KHR_multiview pass straight into it (--xr --path multiview is the same)
+  --side-by-side         with --xr: one swapchain twice an eye's width, the left eye drawn into its
+                         left half and the right eye into its right half (a stereo frame of --path
+                         direct, hdr or deferred), each half an imageRect of the projection layer
   --eye-size WxH         with --xr: create the eye swapchains (or the two-layer one) at WxH instead
                          of the runtime's recommended size; at most the system's maximum image size
                          (the paper's eyes: --eye-size 1200x1080)
@@ -192,6 +195,8 @@ Options parse_options(int argc, char **argv) {
             o.xr = true;
         } else if (arg == "--multiview") {
             o.multiview = true;
+        } else if (arg == "--side-by-side") {
+            o.side_by_side = true;
         } else if (arg == "--hold") {
             o.hold = true;
         } else if (arg == "--frame-times") {
@@ -226,9 +231,14 @@ Options parse_options(int argc, char **argv) {
                 "--screenshot and --resize-at do not go with --xr (there is no window)");
         if (o.eyes != 2)
             throw std::invalid_argument("--xr renders the runtime's two views: not with --eyes 1");
+        if (o.multiview && o.side_by_side)
+            throw std::invalid_argument("--side-by-side and --multiview are two layouts: one at a time");
         if (o.multiview) o.path = PathKind::direct; // the multiview pass is the path
     } else if (o.multiview) {
         throw std::invalid_argument("--multiview goes with --xr (in a window: --path multiview)");
+    } else if (o.side_by_side) {
+        throw std::invalid_argument(
+            "--side-by-side goes with --xr (a window's frame is side by side already)");
     } else if (o.eye_width) {
         throw std::invalid_argument("--eye-size goes with --xr (in a window: --width and --height)");
     }

@@ -44,6 +44,8 @@ struct Options {
     // --multiview: one two-layer swapchain drawn with VK_KHR_multiview (--xr --path multiview too).
     bool xr = false;
     bool multiview = false;
+    // --side-by-side (--xr): one swapchain twice an eye's width, each eye a half (two imageRects).
+    bool side_by_side = false;
     // --eye-size WxH (with --xr): the eye swapchains' size instead of the runtime's recommended one.
     uint32_t eye_width = 0;
     uint32_t eye_height = 0;
