@@ -108,7 +108,7 @@ DEVICE_EXTENSIONS = [
     # (the layer's viewport rewrite covers every command that sets those).
     "VK_EXT_conditional_rendering",
     "VK_EXT_transform_feedback",
-    "VK_EXT_extended_dynamic_state3",
+    "VK_EXT_extended_dynamic_state3",  # the subset WITHHELD_FEATURES leaves
     "VK_EXT_color_write_enable",
     "VK_EXT_vertex_input_dynamic_state",
     # Pipeline, sampler and image-view state carried in structures and flags the codec forwards.
@@ -147,6 +147,29 @@ DEVICE_EXTENSIONS = [
     "VK_KHR_variable_pointers",
     "VK_KHR_vulkan_memory_model",
 ]
+
+# Members of forwarded extensions' feature structures that the layer always reports as
+# unsupported: the state they enable belongs to extensions splitvk withholds (so no application
+# can use it validly through splitvk), or has no forwarded meaning. The layer clears them in every
+# VkPhysicalDeviceFeatures2 answer (layer/physical_device.cpp). Reason per member.
+WITHHELD_FEATURES = {
+    "VkPhysicalDeviceExtendedDynamicState3FeaturesEXT": {
+        "extendedDynamicState3ConservativeRasterizationMode": "VK_EXT_conservative_rasterization is withheld",
+        "extendedDynamicState3ExtraPrimitiveOverestimationSize": "VK_EXT_conservative_rasterization is withheld",
+        "extendedDynamicState3SampleLocationsEnable": "VK_EXT_sample_locations is withheld",
+        "extendedDynamicState3ColorBlendAdvanced": "VK_EXT_blend_operation_advanced is withheld",
+        "extendedDynamicState3ViewportWScalingEnable": "VK_NV_clip_space_w_scaling is withheld",
+        "extendedDynamicState3ViewportSwizzle": "VK_NV_viewport_swizzle is withheld",
+        "extendedDynamicState3CoverageToColorEnable": "VK_NV_fragment_coverage_to_color is withheld",
+        "extendedDynamicState3CoverageToColorLocation": "VK_NV_fragment_coverage_to_color is withheld",
+        "extendedDynamicState3CoverageModulationMode": "VK_NV_framebuffer_mixed_samples is withheld",
+        "extendedDynamicState3CoverageModulationTableEnable": "VK_NV_framebuffer_mixed_samples is withheld",
+        "extendedDynamicState3CoverageModulationTable": "VK_NV_framebuffer_mixed_samples is withheld",
+        "extendedDynamicState3CoverageReductionMode": "VK_NV_coverage_reduction_mode is withheld",
+        "extendedDynamicState3RepresentativeFragmentTestEnable": "VK_NV_representative_fragment_test is withheld",
+        "extendedDynamicState3ShadingRateImageEnable": "VK_NV_shading_rate_image is withheld",
+    },
+}
 
 # Forwarded device extensions that only the client's device enables: the agent has no other
 # process to share with. Their commands are answered by the client's driver (codec_policy.py), and
