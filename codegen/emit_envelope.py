@@ -210,5 +210,27 @@ def emit(model):
     lines += ["inline constexpr VkFormat kEnvelopeFormats[] = {"]
     lines += [f"    {f.name}," for f in model.formats]
     lines += ["};", "", "} // namespace splitvk::envelope", ""]
-    return {"vk_envelope_tables.h": "\n".join(lines)}
+    return {"vk_envelope_tables.h": "\n".join(lines), "vk_withheld_extensions.h": _withheld_extensions(model)}
 
+
+def _withheld_extensions(model) -> str:
+    """Why each device extension is withheld (allowlist.WITHHELD_REASONS), for the Coverage test."""
+    forwarded = set(model.device_extensions)
+    stale = sorted(set(allowlist.WITHHELD_REASONS) & forwarded)
+    if stale:
+        raise SystemExit("allowlist.py: forwarded extensions still have a withheld reason (remove it from "
+                         "WITHHELD_REASONS): " + ", ".join(stale))
+    lines = [HEADER.format(script="emit_envelope.py"), "#pragma once", "",
+             "namespace splitvk {", "",
+             "struct WithheldExtension {",
+             "    const char *name;",
+             "    const char *reason;",
+             "};", "",
+             "// The device extensions splitvk withholds that a driver it is tested on offers, and why",
+             "// (codegen/allowlist.py WITHHELD_REASONS).",
+             "inline constexpr WithheldExtension kWithheldExtensions[] = {"]
+    for name, reason in sorted(allowlist.WITHHELD_REASONS.items()):
+        text = reason.replace("\\", "\\\\").replace('"', '\\"')
+        lines.append(f'    {{"{name}", "{text}"}},')
+    lines += ["};", "", "} // namespace splitvk", ""]
+    return "\n".join(lines)
