@@ -75,6 +75,10 @@ options:
                          (the first two vary --path direct only, this one direct or secondary)
   --screen-layers        with --path multiview: eye layers at the window's size instead of one
                          eye's, each squeezed into its half of the window when composed
+  --engine-extensions    with --path direct: enable VK_EXT_conditional_rendering, VK_EXT_transform_feedback
+                         and VK_EXT_extended_dynamic_state3 as engines do, and draw a small triangle at
+                         each eye's centre that uses all three (captured by transform feedback, drawn
+                         from its byte count under a GPU-written predicate, with EDS3 state)
   --linear-textures      upload the textures through linear-tiling images that the host writes at
                          the driver's row pitch, instead of a staging buffer (same picture, any
                          --path)
@@ -149,6 +153,8 @@ Options parse_options(int argc, char **argv) {
             o.static_viewports = true;
         } else if (arg == "--clear-depth-per-eye") {
             o.clear_depth_per_eye = true;
+        } else if (arg == "--engine-extensions") {
+            o.engine_extensions = true;
         } else if (arg == "--dynamic-rendering") {
             o.dynamic_rendering = true;
         } else if (arg == "--screen-layers") {
@@ -230,6 +236,11 @@ Options parse_options(int argc, char **argv) {
     if (o.path != PathKind::direct && (o.static_viewports || o.clear_depth_per_eye))
         throw std::invalid_argument(
             "--static-viewports and --clear-depth-per-eye go with --path direct only");
+    if (o.engine_extensions &&
+        (o.path != PathKind::direct || o.dynamic_rendering || o.static_viewports || o.xr))
+        throw std::invalid_argument(
+            "--engine-extensions goes with --path direct only (not --dynamic-rendering, "
+            "--static-viewports or --xr)");
     if (o.path != PathKind::direct && o.path != PathKind::secondary && o.dynamic_rendering)
         throw std::invalid_argument("--dynamic-rendering goes with --path direct or secondary only");
     return o;
