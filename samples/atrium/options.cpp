@@ -78,6 +78,10 @@ options:
   --scene-in-secondaries with --path hdr, deferred or compute: the offscreen scene pass's draws
                          recorded in secondary command buffers, one per eye, whose inheritance
                          names the render pass but not the framebuffer (same picture)
+  --engine-extensions    with --path direct: enable VK_EXT_conditional_rendering, VK_EXT_transform_feedback
+                         and VK_EXT_extended_dynamic_state3 as engines do, and draw a small triangle at
+                         each eye's centre that uses all three (captured by transform feedback, drawn
+                         from its byte count under a GPU-written predicate, with EDS3 state)
   --linear-textures      upload the textures through linear-tiling images that the host writes at
                          the driver's row pitch, instead of a staging buffer (same picture, any
                          --path)
@@ -155,6 +159,8 @@ Options parse_options(int argc, char **argv) {
             o.static_viewports = true;
         } else if (arg == "--clear-depth-per-eye") {
             o.clear_depth_per_eye = true;
+        } else if (arg == "--engine-extensions") {
+            o.engine_extensions = true;
         } else if (arg == "--dynamic-rendering") {
             o.dynamic_rendering = true;
         } else if (arg == "--screen-layers") {
@@ -250,6 +256,11 @@ Options parse_options(int argc, char **argv) {
         (o.xr || (o.path != PathKind::hdr && o.path != PathKind::deferred && o.path != PathKind::compute)))
         throw std::invalid_argument(
             "--scene-in-secondaries goes with --path hdr, deferred or compute only (not --xr)");
+    if (o.engine_extensions &&
+        (o.path != PathKind::direct || o.dynamic_rendering || o.static_viewports || o.xr))
+        throw std::invalid_argument(
+            "--engine-extensions goes with --path direct only (not --dynamic-rendering, "
+            "--static-viewports or --xr)");
     if (o.path != PathKind::direct && o.path != PathKind::secondary && o.dynamic_rendering)
         throw std::invalid_argument("--dynamic-rendering goes with --path direct or secondary only");
     return o;

@@ -24,6 +24,9 @@ struct Options {
     bool clear_depth_per_eye = false;
     bool dynamic_rendering = false;
     bool linear_textures = false;
+    // --engine-extensions (--path direct): conditional rendering, transform feedback and extended
+    // dynamic state 3 markers over the scene (engine_markers.h).
+    bool engine_extensions = false;
     // --screen-layers (--path multiview): eye layers at the window's size, each squeezed into its half.
     bool screen_layers = false;
     // --scene-in-secondaries (--path hdr, deferred, compute): the offscreen scene pass's draws in

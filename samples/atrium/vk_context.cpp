@@ -1,5 +1,6 @@
 #include "vk_context.h"
 
+#include "engine_markers.h"
 #include "xcb_window.h"
 
 #include <algorithm>
@@ -44,7 +45,8 @@ int device_type_rank(VkPhysicalDeviceType type) {
 
 } // namespace
 
-VkContext::VkContext(const XcbWindow &window, bool dynamic_rendering, bool multiview) {
+VkContext::VkContext(const XcbWindow &window, bool dynamic_rendering, bool multiview,
+                     bool engine_extensions) {
     uint32_t loader_version = VK_API_VERSION_1_0;
     if (vkEnumerateInstanceVersion(&loader_version) != VK_SUCCESS || loader_version < VK_API_VERSION_1_1)
         throw Error("the Vulkan loader does not support Vulkan 1.1");
@@ -114,7 +116,7 @@ VkContext::VkContext(const XcbWindow &window, bool dynamic_rendering, bool multi
         }
     }
     if (physical_device_ == VK_NULL_HANDLE) throw Error("no Vulkan 1.1 device can present to the X window");
-    create_device(dynamic_rendering, multiview, true, nullptr);
+    create_device(dynamic_rendering, multiview, engine_extensions, true, nullptr);
 }
 
 VkContext::VkContext(const VkCreators &creators, bool dynamic_rendering, bool multiview) {
@@ -143,11 +145,11 @@ VkContext::VkContext(const VkCreators &creators, bool dynamic_rendering, bool mu
     if (graphics == families.end())
         throw Error(std::string(properties_.deviceName) + " has no graphics queue");
     queue_family_ = uint32_t(graphics - families.begin());
-    create_device(dynamic_rendering, multiview, false, &creators.create_device);
+    create_device(dynamic_rendering, multiview, false, false, &creators.create_device);
 }
 
 void VkContext::create_device(
-    bool dynamic_rendering, bool multiview, bool swapchain,
+    bool dynamic_rendering, bool multiview, bool engine_extensions, bool swapchain,
     const std::function<VkDevice(VkPhysicalDevice, const VkDeviceCreateInfo &)> *create) {
     vkGetPhysicalDeviceMemoryProperties(physical_device_, &memory_properties_);
 
@@ -191,6 +193,29 @@ void VkContext::create_device(
     device_info.pNext = multiview           ? static_cast<void *>(&multiview_features)
                         : dynamic_rendering ? &dynamic_rendering_features
                                             : nullptr;
+    // --engine-extensions: in front of the chain above, only the features the markers use.
+    VkPhysicalDeviceExtendedDynamicState3FeaturesEXT eds3_features{};
+    eds3_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_EXTENDED_DYNAMIC_STATE_3_FEATURES_EXT;
+    eds3_features.extendedDynamicState3PolygonMode = VK_TRUE;
+    eds3_features.extendedDynamicState3SampleMask = VK_TRUE;
+    eds3_features.extendedDynamicState3AlphaToCoverageEnable = VK_TRUE;
+    eds3_features.extendedDynamicState3ColorWriteMask = VK_TRUE;
+    VkPhysicalDeviceTransformFeedbackFeaturesEXT xfb_features{};
+    xfb_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_TRANSFORM_FEEDBACK_FEATURES_EXT;
+    xfb_features.transformFeedback = VK_TRUE;
+    xfb_features.pNext = &eds3_features;
+    VkPhysicalDeviceConditionalRenderingFeaturesEXT conditional_features{};
+    conditional_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_CONDITIONAL_RENDERING_FEATURES_EXT;
+    conditional_features.conditionalRendering = VK_TRUE;
+    conditional_features.pNext = &xfb_features;
+    if (engine_extensions) {
+        EngineMarkers::check_support(physical_device_);
+        eds3_features.pNext = const_cast<void *>(device_info.pNext);
+        device_info.pNext = &conditional_features;
+        device_extensions.insert(device_extensions.end(), {VK_EXT_CONDITIONAL_RENDERING_EXTENSION_NAME,
+                                                           VK_EXT_TRANSFORM_FEEDBACK_EXTENSION_NAME,
+                                                           VK_EXT_EXTENDED_DYNAMIC_STATE_3_EXTENSION_NAME});
+    }
     device_info.queueCreateInfoCount = 1;
     device_info.pQueueCreateInfos = &queue_info;
     device_info.enabledExtensionCount = uint32_t(device_extensions.size());

@@ -445,6 +445,53 @@ INSTANTIATE_TEST_SUITE_P(Paths, SplitEyesTwo,
                              return std::string(p.param);
                          });
 
+// Issue 19: an application that enables VK_EXT_conditional_rendering, VK_EXT_transform_feedback and
+// VK_EXT_extended_dynamic_state3 as engines do (atrium --engine-extensions) is split, and both foveae
+// equal native bit for bit. Atrium draws, at each eye's centre, a triangle that transform feedback
+// captured in an earlier pass, from the captured byte count, in orange under a GPU-written predicate
+// of 1 and in magenta under one of 0, with EDS3's polygon mode, sample mask, alpha-to-coverage and
+// write mask set dynamically. Without any one of them on the agent, its fovea would differ at the
+// centre: no triangle (no capture, no counter, or a zero sample or write mask), or a magenta one (no
+// predicate). The centre pixels are checked to be orange in both grabs, so that a native run that
+// drew no marker cannot pass. At 960x432 to keep the run short.
+TEST_F(Split, EngineExtensionsKeepFoveaeExact) {
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    auto argv = atrium_argv(2, kFrames, false);
+    argv[2] = std::to_string(kSmallWidth);  // --width
+    argv[4] = std::to_string(kSmallHeight); // --height
+    argv.push_back("--engine-extensions");
+    Grab native, split;
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, env(), "native", kFrames, &native, kSmallWidth, kSmallHeight));
+    ASSERT_NO_FATAL_FAILURE(
+        run_and_grab(argv, split_env(), "split", kFrames, &split, kSmallWidth, kSmallHeight));
+    const std::string &err = split.result.err();
+    EXPECT_TRUE(grep(err, "does not forward").empty()) << tail(err, 30);
+    const SplitSummary summary = split_summary(err);
+    ASSERT_TRUE(summary.found) << tail(err, 30);
+    EXPECT_GE(summary.frames, static_cast<uint64_t>(kFrames)) << tail(err, 30);
+    EXPECT_EQ(summary.late, 0u) << tail(err, 30);
+    EXPECT_TRUE(grep(err, "do not match the frame's foveae").empty()) << tail(err, 30);
+    const auto foveae = default_foveae(kSmallWidth, kSmallHeight, 2);
+    ASSERT_EQ(foveae.size(), 2u);
+    for (uint32_t eye = 0; eye < 2; ++eye) {
+        const Rect &f = foveae[eye];
+        const auto cmp = compare_exact(native.image, split.image, f.x, f.y, f.w, f.h);
+        std::cout << "  " << (eye == 0 ? "left" : "right") << " fovea at " << f.x << "," << f.y << ": "
+                  << cmp.summary() << "\n";
+        EXPECT_TRUE(cmp.equal()) << save_mismatch_artefacts(out_, "fovea", native.image, split.image);
+        const uint32_t cx = eye * (kSmallWidth / 2) + kSmallWidth / 4, cy = kSmallHeight / 2;
+        for (const Grab *g : {&native, &split}) {
+            const uint8_t *bgr = g->image.pixel(cx, cy);
+            EXPECT_TRUE(bgr[0] < 8 && bgr[1] > 112 && bgr[1] < 144 && bgr[2] > 247)
+                << (g == &native ? "native" : "split") << ": eye " << eye << "'s centre is (B, G, R) ("
+                << int(bgr[0]) << ", " << int(bgr[1]) << ", " << int(bgr[2]) << "), not the orange marker";
+        }
+    }
+    const auto whole = compare_exact(native.image, split.image);
+    EXPECT_GT(whole.mismatched_pixels, whole.pixels / 100) << "the frame equals native: was it split?";
+    expect_clean_validation();
+}
+
 // SPLITVK_TARGETS=swapchain keeps the first version's behaviour: only the pass into the swapchain
 // image is scaled, every offscreen target stays full size, and the foveae are still exact.
 TEST_F(Split, TargetsSwapchainScalesOnlyTheSwapchainPass) {
