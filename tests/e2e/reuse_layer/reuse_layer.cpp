@@ -2,9 +2,10 @@
 // has destroyed an object it may hand the same handle value to an object that another thread
 // creates, before the destroying call has returned through the layers above. The tests put this
 // layer BELOW splitvk, next to the driver: right after the driver destroyed a command pool, a
-// descriptor pool or a descriptor set layout, it creates one of the same kind through the top of
-// the chain (the loader's entry point, so splitvk sees and captures the create, as it would another
-// thread's), then destroys that one again the same way. The create runs on the destroying thread,
+// descriptor pool or a descriptor set layout, or freed descriptor sets (vkFreeDescriptorSets,
+// vkResetDescriptorPool), it creates one of the same kind through the top of the chain (the
+// loader's entry point, so splitvk sees and captures the create, as it would another thread's),
+// then destroys that one again the same way. The create runs on the destroying thread,
 // with nothing allocated in between, so the driver's allocator (lavapipe: malloc, whose per-thread
 // cache hands back the chunk just freed) gives it the destroyed object's value. It prints, on
 // stderr, "reuse: <destroy>: the next <create> got the same handle value" (or "another handle
@@ -36,11 +37,22 @@ struct Device {
     PFN_vkDestroyCommandPool destroy_command_pool = nullptr;
     PFN_vkDestroyDescriptorPool destroy_descriptor_pool = nullptr;
     PFN_vkDestroyDescriptorSetLayout destroy_set_layout = nullptr;
+    PFN_vkAllocateDescriptorSets allocate_sets = nullptr;
+    PFN_vkFreeDescriptorSets free_sets = nullptr;
+    PFN_vkResetDescriptorPool reset_pool = nullptr;
+};
+
+// The last set allocated from a pool, and its layout: what a staged allocation after a free or a
+// reset allocates again (the same layout, so the driver allocates the same size).
+struct PoolSet {
+    VkDescriptorSet set = VK_NULL_HANDLE;
+    VkDescriptorSetLayout layout = VK_NULL_HANDLE;
 };
 
 std::mutex g_mutex;
 std::unordered_map<DispatchKey, PFN_vkGetInstanceProcAddr> g_instances;
 std::unordered_map<DispatchKey, Device> g_devices;
+std::unordered_map<VkDescriptorPool, PoolSet> g_pool_sets;
 VkInstance g_instance = VK_NULL_HANDLE;
 // The queue family of the device's first queue: what a command pool is created for.
 uint32_t g_family = 0;
@@ -104,6 +116,7 @@ VKAPI_ATTR void VKAPI_CALL DestroyDescriptorPool(VkDevice device, VkDescriptorPo
     static const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1};
     VkDescriptorPoolCreateInfo info{};
     info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+    info.flags = VK_DESCRIPTOR_POOL_CREATE_FREE_DESCRIPTOR_SET_BIT;
     info.maxSets = 1;
     info.poolSizeCount = 1;
     info.pPoolSizes = &size;
@@ -128,6 +141,84 @@ VKAPI_ATTR void VKAPI_CALL DestroyDescriptorSetLayout(VkDevice device, VkDescrip
     destroy_next(device, layout, alloc);
     stage(device, layout, info, create, destroy, "vkCreateDescriptorSetLayout",
           "vkDestroyDescriptorSetLayout");
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL AllocateDescriptorSets(VkDevice device,
+                                                      const VkDescriptorSetAllocateInfo *info,
+                                                      VkDescriptorSet *sets) {
+    const VkResult result = device_of(device).allocate_sets(device, info, sets);
+    if (result == VK_SUCCESS && !t_staging && info->descriptorSetCount > 0) {
+        std::lock_guard lock(g_mutex);
+        g_pool_sets[info->descriptorPool] = {sets[0], info->pSetLayouts[0]};
+    }
+    return result;
+}
+
+// Right after the driver freed `freed` (from `pool`): one set of the same layout allocated from the
+// same pool through the top of the chain, then released again with `release` (a free or a reset).
+template <class Release>
+void stage_set(VkDevice device, VkDescriptorPool pool, VkDescriptorSet freed, Release release,
+               const char *destroy_name) {
+    PoolSet last;
+    {
+        std::lock_guard lock(g_mutex);
+        last = g_pool_sets[pool];
+    }
+    static const auto allocate = top<PFN_vkAllocateDescriptorSets>("vkAllocateDescriptorSets");
+    if (!allocate) {
+        std::fprintf(stderr, "reuse: the loader's vkAllocateDescriptorSets is not found\n");
+        return;
+    }
+    if (last.layout == VK_NULL_HANDLE) return;
+    VkDescriptorSetAllocateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+    info.descriptorPool = pool;
+    info.descriptorSetCount = 1;
+    info.pSetLayouts = &last.layout;
+    t_staging = true;
+    VkDescriptorSet created = VK_NULL_HANDLE;
+    if (allocate(device, &info, &created) == VK_SUCCESS) {
+        report(destroy_name, "vkAllocateDescriptorSets", freed, created);
+        release(created);
+    }
+    t_staging = false;
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL FreeDescriptorSets(VkDevice device, VkDescriptorPool pool, uint32_t count,
+                                                  const VkDescriptorSet *sets) {
+    const auto free_next = device_of(device).free_sets;
+    if (t_staging || count == 0) return free_next(device, pool, count, sets);
+    const VkResult result = free_next(device, pool, count, sets);
+    static const auto free_top = top<PFN_vkFreeDescriptorSets>("vkFreeDescriptorSets");
+    if (!free_top) {
+        std::fprintf(stderr, "reuse: the loader's vkFreeDescriptorSets is not found\n");
+        return result;
+    }
+    stage_set(
+        device, pool, sets[0], [&](VkDescriptorSet created) { free_top(device, pool, 1, &created); },
+        "vkFreeDescriptorSets");
+    return result;
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL ResetDescriptorPool(VkDevice device, VkDescriptorPool pool,
+                                                   VkDescriptorPoolResetFlags flags) {
+    const auto reset_next = device_of(device).reset_pool;
+    if (t_staging) return reset_next(device, pool, flags);
+    VkDescriptorSet freed = VK_NULL_HANDLE;
+    {
+        std::lock_guard lock(g_mutex);
+        freed = g_pool_sets[pool].set;
+    }
+    const VkResult result = reset_next(device, pool, flags);
+    static const auto reset_top = top<PFN_vkResetDescriptorPool>("vkResetDescriptorPool");
+    if (!reset_top) {
+        std::fprintf(stderr, "reuse: the loader's vkResetDescriptorPool is not found\n");
+        return result;
+    }
+    stage_set(
+        device, pool, freed, [&](VkDescriptorSet) { reset_top(device, pool, flags); },
+        "vkResetDescriptorPool");
+    return result;
 }
 
 // The loader's link info for this layer in a create info's pNext chain, moved on to the next layer.
@@ -181,6 +272,11 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateDevice(VkPhysicalDevice gpu, const VkDevice
             reinterpret_cast<PFN_vkDestroyDescriptorPool>(next_gdpa(*device, "vkDestroyDescriptorPool"));
         d.destroy_set_layout = reinterpret_cast<PFN_vkDestroyDescriptorSetLayout>(
             next_gdpa(*device, "vkDestroyDescriptorSetLayout"));
+        d.allocate_sets =
+            reinterpret_cast<PFN_vkAllocateDescriptorSets>(next_gdpa(*device, "vkAllocateDescriptorSets"));
+        d.free_sets = reinterpret_cast<PFN_vkFreeDescriptorSets>(next_gdpa(*device, "vkFreeDescriptorSets"));
+        d.reset_pool =
+            reinterpret_cast<PFN_vkResetDescriptorPool>(next_gdpa(*device, "vkResetDescriptorPool"));
         std::lock_guard lock(g_mutex);
         g_devices[key(*device)] = d;
         if (info->queueCreateInfoCount > 0) g_family = info->pQueueCreateInfos[0].queueFamilyIndex;
@@ -211,6 +307,12 @@ VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetDeviceProcAddr(VkDevice device, cons
         return reinterpret_cast<PFN_vkVoidFunction>(DestroyDescriptorPool);
     if (!std::strcmp(name, "vkDestroyDescriptorSetLayout"))
         return reinterpret_cast<PFN_vkVoidFunction>(DestroyDescriptorSetLayout);
+    if (!std::strcmp(name, "vkAllocateDescriptorSets"))
+        return reinterpret_cast<PFN_vkVoidFunction>(AllocateDescriptorSets);
+    if (!std::strcmp(name, "vkFreeDescriptorSets"))
+        return reinterpret_cast<PFN_vkVoidFunction>(FreeDescriptorSets);
+    if (!std::strcmp(name, "vkResetDescriptorPool"))
+        return reinterpret_cast<PFN_vkVoidFunction>(ResetDescriptorPool);
     std::lock_guard lock(g_mutex);
     return g_devices[key(device)].next_gdpa(device, name);
 }
