@@ -12,8 +12,8 @@
 //                        [--timeout S] -- APP [ARGS...]
 //       Runs APP until it prints "holding frame N", grabs the screen, ends APP with SIGTERM.
 //
-// Everything runs with this program's environment (DISPLAY included); nothing is left running
-// when it exits, whatever the way.
+// Everything runs with this program's environment (DISPLAY included); the agent in --out-dir, the
+// app of `hold` in the current directory. Nothing is left running when it exits, whatever the way.
 #include "agent_process.h"
 #include "process.h"
 #include "screen_grab.h"
@@ -25,6 +25,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <string>
 #include <thread>
 #include <vector>
@@ -113,6 +114,9 @@ bool parse(int argc, char **argv, Args *a, std::string *error) {
         const std::string opt = argv[i];
         if (opt == "--") {
             a->command.assign(argv + i + 1, argv + argc);
+            // Children run in --out-dir (the agent) or here (hold): a path is made absolute now.
+            if (!a->command.empty() && a->command[0].find('/') != std::string::npos)
+                a->command[0] = std::filesystem::absolute(a->command[0]).string();
             return true;
         }
         if (i + 1 >= argc) {
@@ -201,6 +205,7 @@ int hold(const Args &a) {
     spec.env = current_env();
     spec.out_dir = a.out_dir;
     spec.name = a.name;
+    spec.cwd = std::filesystem::current_path(); // the caller's, as if it ran the app itself
     Process app(spec);
     if (!app.start()) return fail(app.error());
     const std::string line = "holding frame " + std::to_string(a.frame);
@@ -229,6 +234,7 @@ int hold(const Args &a) {
     grab.framerate = a.framerate;
     grab.pix_fmt = a.pix_fmt;
     grab.output = a.grab;
+    grab.log_dir = a.out_dir;
     std::string error;
     const bool grabbed = grab_to_file(grab, spec.env, &error);
     const ProcessResult r = app.terminate(30s);

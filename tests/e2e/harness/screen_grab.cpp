@@ -18,7 +18,9 @@ bool grab_to_file(const ScreenGrab &grab, const Env &env, std::string *error) {
         spec.argv.insert(spec.argv.end(), {"-f", "rawvideo", "-pix_fmt", grab.pix_fmt});
     spec.argv.insert(spec.argv.end(), {"-y", grab.output.string()});
     spec.env = env;
-    spec.out_dir = grab.output.parent_path().empty() ? std::filesystem::path(".") : grab.output.parent_path();
+    spec.out_dir = !grab.log_dir.empty()               ? grab.log_dir
+                   : grab.output.parent_path().empty() ? std::filesystem::path(".")
+                                                       : grab.output.parent_path();
     spec.name = grab.output.filename().string() + ".ffmpeg";
     const auto r = run_process(spec, std::chrono::seconds(30));
     if (!r.ok()) {

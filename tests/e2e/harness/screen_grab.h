@@ -22,7 +22,8 @@ struct ScreenGrab {
     // Raw frames in this pixel format ("bgr0", "bgra"); empty: the format ffmpeg picks from the
     // output's extension (.png).
     std::string pix_fmt;
-    std::filesystem::path output; // overwritten; ffmpeg's own output goes beside it
+    std::filesystem::path output;  // overwritten
+    std::filesystem::path log_dir; // for ffmpeg's own output; empty: beside `output`
 };
 
 // Runs ffmpeg under `env` (at most 30 s). False with *error (ffmpeg's last words) on failure.
