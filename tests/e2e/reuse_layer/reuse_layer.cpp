@@ -14,8 +14,7 @@
 // A splitvk that records (or forgets its state of) a destroy after the driver call records it after
 // the new object's create: the agent then holds two objects under one id, and ends the session.
 // Built into the build tree only and never installed.
-#include <vulkan/vk_layer.h>
-#include <vulkan/vulkan.h>
+#include "../test_layer/test_layer.h"
 
 #include <cstdio>
 #include <cstring>
@@ -27,13 +26,10 @@
 namespace splitvk::reuse_layer {
 namespace {
 
-using DispatchKey = void *;
-DispatchKey key(const void *dispatchable) {
-    return *static_cast<void *const *>(dispatchable);
-}
+using test_layer::key;
 
+// The next layer's commands this layer calls.
 struct Device {
-    PFN_vkGetDeviceProcAddr next_gdpa = nullptr;
     PFN_vkDestroyCommandPool destroy_command_pool = nullptr;
     PFN_vkDestroyDescriptorPool destroy_descriptor_pool = nullptr;
     PFN_vkDestroyDescriptorSetLayout destroy_set_layout = nullptr;
@@ -50,10 +46,8 @@ struct PoolSet {
 };
 
 std::mutex g_mutex;
-std::unordered_map<DispatchKey, PFN_vkGetInstanceProcAddr> g_instances;
-std::unordered_map<DispatchKey, Device> g_devices;
+std::unordered_map<test_layer::DispatchKey, Device> g_devices;
 std::unordered_map<VkDescriptorPool, PoolSet> g_pool_sets;
-VkInstance g_instance = VK_NULL_HANDLE;
 // The queue family of the device's first queue: what a command pool is created for.
 uint32_t g_family = 0;
 thread_local bool t_staging = false; // inside a staged create/destroy: not staged again
@@ -221,86 +215,13 @@ VKAPI_ATTR VkResult VKAPI_CALL ResetDescriptorPool(VkDevice device, VkDescriptor
     return result;
 }
 
-// The loader's link info for this layer in a create info's pNext chain, moved on to the next layer.
-template <class LinkInfo>
-auto *take_link(const void *next, VkStructureType type) {
-    auto *chain = static_cast<LinkInfo *>(const_cast<void *>(next));
-    while (chain && !(chain->sType == type && chain->function == VK_LAYER_LINK_INFO))
-        chain = static_cast<LinkInfo *>(const_cast<void *>(chain->pNext));
-    if (!chain) return decltype(chain->u.pLayerInfo){nullptr};
-    auto *link = chain->u.pLayerInfo;
-    chain->u.pLayerInfo = link->pNext;
-    return link;
-}
+} // namespace
+} // namespace splitvk::reuse_layer
 
-VKAPI_ATTR VkResult VKAPI_CALL CreateInstance(const VkInstanceCreateInfo *info,
-                                              const VkAllocationCallbacks *alloc, VkInstance *instance) {
-    const auto *link =
-        take_link<VkLayerInstanceCreateInfo>(info->pNext, VK_STRUCTURE_TYPE_LOADER_INSTANCE_CREATE_INFO);
-    if (!link) return VK_ERROR_INITIALIZATION_FAILED;
-    const PFN_vkGetInstanceProcAddr next = link->pfnNextGetInstanceProcAddr;
-    auto create = reinterpret_cast<PFN_vkCreateInstance>(next(VK_NULL_HANDLE, "vkCreateInstance"));
-    const VkResult result = create(info, alloc, instance);
-    if (result == VK_SUCCESS) {
-        std::lock_guard lock(g_mutex);
-        g_instances[key(*instance)] = next;
-        g_instance = *instance;
-    }
-    return result;
-}
+namespace splitvk::test_layer {
 
-VKAPI_ATTR VkResult VKAPI_CALL CreateDevice(VkPhysicalDevice gpu, const VkDeviceCreateInfo *info,
-                                            const VkAllocationCallbacks *alloc, VkDevice *device) {
-    const auto *link =
-        take_link<VkLayerDeviceCreateInfo>(info->pNext, VK_STRUCTURE_TYPE_LOADER_DEVICE_CREATE_INFO);
-    if (!link) return VK_ERROR_INITIALIZATION_FAILED;
-    const PFN_vkGetInstanceProcAddr next_gipa = link->pfnNextGetInstanceProcAddr;
-    const PFN_vkGetDeviceProcAddr next_gdpa = link->pfnNextGetDeviceProcAddr;
-    VkInstance instance = VK_NULL_HANDLE;
-    {
-        std::lock_guard lock(g_mutex);
-        instance = g_instance;
-    }
-    auto create = reinterpret_cast<PFN_vkCreateDevice>(next_gipa(instance, "vkCreateDevice"));
-    const VkResult result = create(gpu, info, alloc, device);
-    if (result == VK_SUCCESS) {
-        Device d;
-        d.next_gdpa = next_gdpa;
-        d.destroy_command_pool =
-            reinterpret_cast<PFN_vkDestroyCommandPool>(next_gdpa(*device, "vkDestroyCommandPool"));
-        d.destroy_descriptor_pool =
-            reinterpret_cast<PFN_vkDestroyDescriptorPool>(next_gdpa(*device, "vkDestroyDescriptorPool"));
-        d.destroy_set_layout = reinterpret_cast<PFN_vkDestroyDescriptorSetLayout>(
-            next_gdpa(*device, "vkDestroyDescriptorSetLayout"));
-        d.allocate_sets =
-            reinterpret_cast<PFN_vkAllocateDescriptorSets>(next_gdpa(*device, "vkAllocateDescriptorSets"));
-        d.free_sets = reinterpret_cast<PFN_vkFreeDescriptorSets>(next_gdpa(*device, "vkFreeDescriptorSets"));
-        d.reset_pool =
-            reinterpret_cast<PFN_vkResetDescriptorPool>(next_gdpa(*device, "vkResetDescriptorPool"));
-        std::lock_guard lock(g_mutex);
-        g_devices[key(*device)] = d;
-        if (info->queueCreateInfoCount > 0) g_family = info->pQueueCreateInfos[0].queueFamilyIndex;
-    }
-    return result;
-}
-
-VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetDeviceProcAddr(VkDevice device, const char *name);
-
-VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetInstanceProcAddr(VkInstance instance, const char *name) {
-    if (!std::strcmp(name, "vkGetInstanceProcAddr"))
-        return reinterpret_cast<PFN_vkVoidFunction>(GetInstanceProcAddr);
-    if (!std::strcmp(name, "vkCreateInstance")) return reinterpret_cast<PFN_vkVoidFunction>(CreateInstance);
-    if (!std::strcmp(name, "vkCreateDevice")) return reinterpret_cast<PFN_vkVoidFunction>(CreateDevice);
-    if (!std::strcmp(name, "vkGetDeviceProcAddr"))
-        return reinterpret_cast<PFN_vkVoidFunction>(GetDeviceProcAddr);
-    if (!instance) return nullptr;
-    std::lock_guard lock(g_mutex);
-    return g_instances[key(instance)](instance, name);
-}
-
-VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetDeviceProcAddr(VkDevice device, const char *name) {
-    if (!std::strcmp(name, "vkGetDeviceProcAddr"))
-        return reinterpret_cast<PFN_vkVoidFunction>(GetDeviceProcAddr);
+PFN_vkVoidFunction device_entry_point(const char *name) {
+    using namespace reuse_layer;
     if (!std::strcmp(name, "vkDestroyCommandPool"))
         return reinterpret_cast<PFN_vkVoidFunction>(DestroyCommandPool);
     if (!std::strcmp(name, "vkDestroyDescriptorPool"))
@@ -313,20 +234,24 @@ VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetDeviceProcAddr(VkDevice device, cons
         return reinterpret_cast<PFN_vkVoidFunction>(FreeDescriptorSets);
     if (!std::strcmp(name, "vkResetDescriptorPool"))
         return reinterpret_cast<PFN_vkVoidFunction>(ResetDescriptorPool);
+    return nullptr;
+}
+
+void device_created(VkDevice device, PFN_vkGetDeviceProcAddr next, const VkDeviceCreateInfo &info) {
+    using namespace reuse_layer;
+    Device d;
+    d.destroy_command_pool = reinterpret_cast<PFN_vkDestroyCommandPool>(next(device, "vkDestroyCommandPool"));
+    d.destroy_descriptor_pool =
+        reinterpret_cast<PFN_vkDestroyDescriptorPool>(next(device, "vkDestroyDescriptorPool"));
+    d.destroy_set_layout =
+        reinterpret_cast<PFN_vkDestroyDescriptorSetLayout>(next(device, "vkDestroyDescriptorSetLayout"));
+    d.allocate_sets =
+        reinterpret_cast<PFN_vkAllocateDescriptorSets>(next(device, "vkAllocateDescriptorSets"));
+    d.free_sets = reinterpret_cast<PFN_vkFreeDescriptorSets>(next(device, "vkFreeDescriptorSets"));
+    d.reset_pool = reinterpret_cast<PFN_vkResetDescriptorPool>(next(device, "vkResetDescriptorPool"));
     std::lock_guard lock(g_mutex);
-    return g_devices[key(device)].next_gdpa(device, name);
+    g_devices[key(device)] = d;
+    if (info.queueCreateInfoCount > 0) g_family = info.pQueueCreateInfos[0].queueFamilyIndex;
 }
 
-} // namespace
-} // namespace splitvk::reuse_layer
-
-extern "C" __attribute__((visibility("default"))) VKAPI_ATTR VkResult VKAPI_CALL
-vkNegotiateLoaderLayerInterfaceVersion(VkNegotiateLayerInterface *interface) {
-    if (!interface || interface->sType != LAYER_NEGOTIATE_INTERFACE_STRUCT)
-        return VK_ERROR_INITIALIZATION_FAILED;
-    if (interface->loaderLayerInterfaceVersion > 2) interface->loaderLayerInterfaceVersion = 2;
-    interface->pfnGetInstanceProcAddr = splitvk::reuse_layer::GetInstanceProcAddr;
-    interface->pfnGetDeviceProcAddr = splitvk::reuse_layer::GetDeviceProcAddr;
-    interface->pfnGetPhysicalDeviceProcAddr = nullptr;
-    return VK_SUCCESS;
-}
+} // namespace splitvk::test_layer
