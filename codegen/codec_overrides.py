@@ -147,6 +147,16 @@ CONDITIONS = {
         "!e.context().dynamic_scissor",
         "pScissors is a pointer to an array of VkRect2D structures defining the rectangular bounds of the "
         "scissor for the corresponding viewport. If the scissor state is dynamic, this member is ignored."),
+    ("VkGraphicsPipelineCreateInfo", "pVertexInputState"): (
+        "!e.context().dynamic_vertex_input",
+        "pVertexInputState is a pointer to a VkPipelineVertexInputStateCreateInfo structure. It is ignored if "
+        "the pipeline includes a mesh shader stage. It can be NULL if the pipeline is created with the "
+        "VK_DYNAMIC_STATE_VERTEX_INPUT_EXT dynamic state set."),
+    ("VkPipelineColorBlendStateCreateInfo", "pAttachments"): (
+        "!e.context().dynamic_color_blend_attachments",
+        "pAttachments [...] is ignored if the pipeline is created with VK_DYNAMIC_STATE_COLOR_BLEND_ENABLE_EXT, "
+        "VK_DYNAMIC_STATE_COLOR_BLEND_EQUATION_EXT, and VK_DYNAMIC_STATE_COLOR_WRITE_MASK_EXT dynamic states "
+        "set (and VK_DYNAMIC_STATE_COLOR_BLEND_ADVANCED_EXT, whose feature splitvk withholds)."),
     ("VkPipelineRenderingCreateInfo", "pColorAttachmentFormats"): (
         "e.context().rendering_info_applies",
         "If renderPass is not VK_NULL_HANDLE, the pipeline is being created with a render pass, and "
@@ -156,20 +166,24 @@ CONDITIONS = {
 # noautovalidity pointers and handles that are always valid to read (the reason is why).
 ALWAYS_VALID = {
     ("VkGraphicsPipelineCreateInfo", "pStages"): "noautovalidity only for graphics pipeline libraries (not forwarded)",
-    ("VkGraphicsPipelineCreateInfo", "pVertexInputState"): "ignored only with mesh shaders / dynamic vertex input (not forwarded)",
     ("VkGraphicsPipelineCreateInfo", "pInputAssemblyState"): "ignored only with mesh shaders (not forwarded)",
-    ("VkGraphicsPipelineCreateInfo", "pRasterizationState"): "required without VK_EXT_extended_dynamic_state3 (not forwarded)",
+    ("VkGraphicsPipelineCreateInfo", "pRasterizationState"): "NULL (never garbage) when EDS3 makes all of it dynamic",
     ("VkGraphicsPipelineCreateInfo", "layout"): "required without graphics pipeline libraries; nullable on decode",
     ("VkGraphicsPipelineCreateInfo", "renderPass"): "VK_NULL_HANDLE selects dynamic rendering; nullable on decode",
     ("VkBindImageMemoryInfo", "memory"): "VK_NULL_HANDLE with VkBindImageMemorySwapchainInfoKHR; nullable on decode",
     ("VkRenderPassBeginInfo", "pClearValues"): "must be valid when clearValueCount is not 0; only the cleared entries matter",
-    ("VkPipelineColorBlendStateCreateInfo", "pAttachments"): "ignored only with VK_EXT_extended_dynamic_state3 (not forwarded)",
 }
 # Command parameters with noautovalidity that are read as usual.
 ALWAYS_VALID_PARAMS = {
     ("vkCmdClearColorImage", "pColor"): "a union: noautovalidity because the active member is not knowable",
     ("vkFreeCommandBuffers", "pCommandBuffers"): "elements may be VK_NULL_HANDLE (ignored); nullable on decode",
     ("vkFreeDescriptorSets", "pDescriptorSets"): "elements may be VK_NULL_HANDLE (ignored); nullable on decode",
+    ("vkCmdBindTransformFeedbackBuffersEXT", "pSizes"):
+        "may be NULL (every binding to the end of its buffer); read as usual when not",
+    ("vkCmdBeginTransformFeedbackEXT", "pCounterBuffers"):
+        "may be NULL (capture from byte 0) and its elements VK_NULL_HANDLE; nullable on decode",
+    ("vkCmdEndTransformFeedbackEXT", "pCounterBuffers"):
+        "may be NULL (counters not written) and its elements VK_NULL_HANDLE; nullable on decode",
     ("vkUpdateDescriptorSetWithTemplate", "pData"): "hand-written (codec_policy.TEMPLATE_COMMANDS)",
     ("vkCmdPushDescriptorSetWithTemplateKHR", "pData"): "hand-written (codec_policy.TEMPLATE_COMMANDS)",
 }

@@ -336,6 +336,58 @@ POLICY = {
     "vkCmdWriteBufferMarker2AMD": FORWARD,
     "vkCmdWriteTimestamp": FORWARD,
     "vkCmdWriteTimestamp2": FORWARD,
+
+    # --- Engines' extensions (allowlist.py, issue 19): recorded like the core vkCmd*. -----------
+    # The predicate buffer is the agent's own, written by the same replayed copies and memory data.
+    "vkCmdBeginConditionalRenderingEXT": FORWARD,
+    "vkCmdEndConditionalRenderingEXT": FORWARD,
+    # Transform feedback captures vertices before the viewport transform, so the scaled viewports
+    # of a split pass change nothing it writes; each side captures into its own buffers.
+    "vkCmdBindTransformFeedbackBuffersEXT": FORWARD,
+    "vkCmdBeginTransformFeedbackEXT": FORWARD,
+    "vkCmdEndTransformFeedbackEXT": FORWARD,
+    "vkCmdBeginQueryIndexedEXT": FORWARD,
+    "vkCmdEndQueryIndexedEXT": FORWARD,
+    "vkCmdDrawIndirectByteCountEXT": FORWARD,
+    "vkCmdSetColorWriteEnableEXT": FORWARD,
+    "vkCmdSetVertexInputEXT": FORWARD,
+    # VK_EXT_extended_dynamic_state3. Every command is forwarded; the features of the ones whose
+    # state belongs to withheld extensions are cleared (allowlist.WITHHELD_FEATURES), so an
+    # application cannot reach those.
+    "vkCmdSetTessellationDomainOriginEXT": FORWARD,
+    "vkCmdSetDepthClampEnableEXT": FORWARD,
+    "vkCmdSetPolygonModeEXT": FORWARD,
+    "vkCmdSetRasterizationSamplesEXT": FORWARD,
+    "vkCmdSetSampleMaskEXT": FORWARD,
+    "vkCmdSetAlphaToCoverageEnableEXT": FORWARD,
+    "vkCmdSetAlphaToOneEnableEXT": FORWARD,
+    "vkCmdSetLogicOpEnableEXT": FORWARD,
+    "vkCmdSetColorBlendEnableEXT": FORWARD,
+    "vkCmdSetColorBlendEquationEXT": FORWARD,
+    "vkCmdSetColorWriteMaskEXT": FORWARD,
+    "vkCmdSetRasterizationStreamEXT": FORWARD,
+    "vkCmdSetConservativeRasterizationModeEXT": FORWARD,
+    "vkCmdSetExtraPrimitiveOverestimationSizeEXT": FORWARD,
+    "vkCmdSetDepthClipEnableEXT": FORWARD,
+    "vkCmdSetSampleLocationsEnableEXT": FORWARD,
+    "vkCmdSetColorBlendAdvancedEXT": FORWARD,
+    "vkCmdSetProvokingVertexModeEXT": FORWARD,
+    "vkCmdSetLineRasterizationModeEXT": FORWARD,
+    "vkCmdSetLineStippleEnableEXT": FORWARD,
+    "vkCmdSetDepthClipNegativeOneToOneEXT": FORWARD,
+    "vkCmdSetViewportWScalingEnableNV": FORWARD,
+    "vkCmdSetViewportSwizzleNV": FORWARD,
+    "vkCmdSetCoverageToColorEnableNV": FORWARD,
+    "vkCmdSetCoverageToColorLocationNV": FORWARD,
+    "vkCmdSetCoverageModulationModeNV": FORWARD,
+    "vkCmdSetCoverageModulationTableEnableNV": FORWARD,
+    "vkCmdSetCoverageModulationTableNV": FORWARD,
+    "vkCmdSetShadingRateImageEnableNV": FORWARD,
+    "vkCmdSetRepresentativeFragmentTestEnableNV": FORWARD,
+    "vkCmdSetCoverageReductionModeNV": FORWARD,
+    # Timestamps are the client's queries, calibrated against the client's clocks.
+    "vkGetPhysicalDeviceCalibrateableTimeDomainsEXT": LOCAL,
+    "vkGetCalibratedTimestampsEXT": LOCAL,
 }
 
 def classify(model) -> dict[str, str]:

@@ -92,7 +92,7 @@ protocol::Hello base_hello(const Settings &settings, const std::string &client_n
     protocol::Hello hello;
     hello.token.assign(settings.token.begin(), settings.token.end());
     hello.client_name = client_name;
-    hello.codec_fingerprint = codec::kCodecFingerprint;
+    hello.codec_fingerprint = protocol::session_fingerprint(codec::kCodecFingerprint);
     hello.capabilities = protocol::capability::kZstdPayloads;
     // SPLITVK_VERIFY compares whole frames with the agent's replay, which only an unsplit frame
     // can match: verification and the split exclude each other.

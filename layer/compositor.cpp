@@ -88,7 +88,8 @@ struct ClippedTile {
     VkOffset2D skipped{}; // tile pixels left of / above the image
 };
 
-bool clip(const FoveaTile &t, VkExtent2D image, ClippedTile *out) {
+bool clip(const FoveaTile &t, VkExtent2D image, uint32_t layers, ClippedTile *out) {
+    if (t.layer >= layers) return false;
     const int64_t x0 = std::max<int64_t>(t.rect.offset.x, 0);
     const int64_t y0 = std::max<int64_t>(t.rect.offset.y, 0);
     const int64_t x1 = std::min<int64_t>(int64_t{t.rect.offset.x} + t.rect.extent.width, image.width);
@@ -102,7 +103,7 @@ bool clip(const FoveaTile &t, VkExtent2D image, ClippedTile *out) {
 }
 
 bool overlaps(const ClippedTile &a, const ClippedTile &b) {
-    return a.offset.x < b.offset.x + int32_t(b.extent.width) &&
+    return a.tile->layer == b.tile->layer && a.offset.x < b.offset.x + int32_t(b.extent.width) &&
            b.offset.x < a.offset.x + int32_t(a.extent.width) &&
            a.offset.y < b.offset.y + int32_t(b.extent.height) &&
            b.offset.y < a.offset.y + int32_t(a.extent.height);
@@ -213,7 +214,7 @@ struct Compositor::Slot {
     bool taken_in_flight = false;
 };
 
-bool Compositor::supports(DeviceState &device, VkFormat format, std::string *why) {
+bool Compositor::supports(DeviceState &device, VkFormat format, std::string *why, uint32_t layers) {
     if (!four_bytes_per_texel(format)) {
         *why = "format " + std::to_string(format) + " is not 4 bytes per pixel";
         return false;
@@ -225,14 +226,19 @@ bool Compositor::supports(DeviceState &device, VkFormat format, std::string *why
         *why = "format " + std::to_string(format) + " lacks transfer, colour attachment or linear sampling";
         return false;
     }
+    if (layers > 1 && (props.optimalTilingFeatures & kBlitFeatures) != kBlitFeatures) {
+        *why = "format " + std::to_string(format) + " of a layered image does not blit with a linear filter";
+        return false;
+    }
     return true;
 }
 
 Compositor::Compositor(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family,
                        UpsampleFilter filter, bool timed)
     : device_(device), swapchain_(swapchain.handle), extent_(swapchain.extent), format_(swapchain.format),
-      present_layout_(swapchain.present_layout), images_(swapchain.images), queue_family_(queue_family),
-      filter_(filter), blit_(filter == UpsampleFilter::BilinearBlit), timed_(timed) {
+      layers_(std::max(swapchain.array_layers, 1u)), present_layout_(swapchain.present_layout),
+      images_(swapchain.images), queue_family_(queue_family), filter_(filter),
+      blit_(filter == UpsampleFilter::BilinearBlit), timed_(timed) {
     if (swapchain.runtime) {
         // An OpenXR runtime's image (runtime_swapchain.h): no semaphore orders the application's
         // rendering before the composite, nor the composite before the runtime's release barrier;
@@ -261,12 +267,17 @@ std::unique_ptr<Compositor> Compositor::create(DeviceState &device, const Swapch
         *error = "the present queue's family " + std::to_string(queue_family) + " cannot draw";
         return nullptr;
     }
-    if (!supports(device, swapchain.format, error)) return nullptr;
+    if (!supports(device, swapchain.format, error, swapchain.array_layers)) return nullptr;
     if (filter == UpsampleFilter::BilinearBlit) {
         VkFormatProperties props{};
         device.instance->dispatch.GetPhysicalDeviceFormatProperties(device.physical_device, swapchain.format,
                                                                     &props);
         if ((props.optimalTilingFeatures & kBlitFeatures) != kBlitFeatures) filter = UpsampleFilter::Bilinear;
+    }
+    // The draw writes one layer (its framebuffer's); only the blit upsamples every layer.
+    if (swapchain.array_layers > 1 && filter != UpsampleFilter::BilinearBlit) {
+        *error = "a layered image is upsampled by blit only";
+        return nullptr;
     }
     std::unique_ptr<Compositor> c(new Compositor(device, swapchain, queue_family, filter, timed));
     if (!c->init(error)) return nullptr;
@@ -526,7 +537,7 @@ bool Compositor::ensure_periphery_image(Slot &s, VkExtent2D periphery, std::stri
     image_info.format = format_;
     image_info.extent = {periphery.width, periphery.height, 1};
     image_info.mipLevels = 1;
-    image_info.arrayLayers = 1;
+    image_info.arrayLayers = layers_;
     image_info.samples = VK_SAMPLE_COUNT_1_BIT;
     image_info.tiling = VK_IMAGE_TILING_OPTIMAL;
     image_info.usage =
@@ -616,6 +627,13 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
                           (periphery.width != extent_.width || periphery.height != extent_.height);
     const bool has_tiles = !copy_regions_.empty();
 
+    // Every layer of the image and of the periphery copy: a layered image is composited whole.
+    const auto layered_barrier = [&](VkImage target, VkAccessFlags src, VkAccessFlags dst, VkImageLayout from,
+                                     VkImageLayout to) {
+        VkImageMemoryBarrier b = colour_image_barrier(target, src, dst, from, to);
+        b.subresourceRange.layerCount = layers_;
+        return b;
+    };
     k.ResetCommandBuffer(cb, 0);
     VkCommandBufferBeginInfo begin{};
     begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
@@ -632,19 +650,19 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
     // already waited on.
     if (upsample) {
         VkImageMemoryBarrier barriers[2] = {
-            colour_image_barrier(image, ready_access_, VK_ACCESS_TRANSFER_READ_BIT, present_layout_,
-                                 VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL),
+            layered_barrier(image, ready_access_, VK_ACCESS_TRANSFER_READ_BIT, present_layout_,
+                            VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL),
             // Old contents are not needed. This slot's previous submit sampled the periphery
             // image in the fragment shader; the host waited for its fence, but the execution
             // dependency from FRAGMENT_SHADER states the write-after-read order on the queue too.
-            colour_image_barrier(s.periphery, 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                                 VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL),
+            layered_barrier(s.periphery, 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                            VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL),
         };
         k.CmdPipelineBarrier(cb, ready_stages_ | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
                              VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr, 2, barriers);
         VkImageCopy copy{};
-        copy.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-        copy.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        copy.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, layers_};
+        copy.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, layers_};
         copy.extent = {periphery.width, periphery.height, 1};
         k.CmdCopyImage(cb, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, s.periphery,
                        VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &copy);
@@ -653,28 +671,38 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
             // The copy's write of the periphery image before the blit reads it; the copy's read of
             // the swapchain image before the blit overwrites it (write-after-read).
             VkImageMemoryBarrier to_blit[2] = {
-                colour_image_barrier(s.periphery, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT,
-                                     VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                                     VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL),
-                colour_image_barrier(image, 0, VK_ACCESS_TRANSFER_WRITE_BIT,
-                                     VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                                     VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL),
+                layered_barrier(s.periphery, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT,
+                                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL),
+                layered_barrier(image, 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL),
             };
             k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
                                  nullptr, 0, nullptr, 2, to_blit);
             // The periphery image is exactly the periphery's size, so the filter's clamp to its
             // edge is the clamp to the periphery's edge that the shader does.
-            const std::vector<VkImageBlit> regions = blit_regions(extent_, periphery, copy_regions_);
+            // Per layer, around that layer's tiles (create() leaves the draw to single-layer images).
+            std::vector<VkImageBlit> regions;
+            std::vector<VkBufferImageCopy> in_layer;
+            for (uint32_t layer = 0; layer < layers_; ++layer) {
+                in_layer.clear();
+                for (const VkBufferImageCopy &c : copy_regions_)
+                    if (c.imageSubresource.baseArrayLayer == layer) in_layer.push_back(c);
+                for (VkImageBlit r : blit_regions(extent_, periphery, in_layer)) {
+                    r.srcSubresource.baseArrayLayer = layer;
+                    r.dstSubresource.baseArrayLayer = layer;
+                    regions.push_back(r);
+                }
+            }
             k.CmdBlitImage(cb, s.periphery, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, image,
                            VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, static_cast<uint32_t>(regions.size()),
                            regions.data(), VK_FILTER_LINEAR);
             // The blit's writes before the tile copies overwrite the fovea (write-after-write), or
             // before the present.
             VkImageMemoryBarrier after_blit =
-                colour_image_barrier(image, VK_ACCESS_TRANSFER_WRITE_BIT,
-                                     has_tiles ? VkAccessFlags{VK_ACCESS_TRANSFER_WRITE_BIT} : done_access_,
-                                     VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                                     has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
+                layered_barrier(image, VK_ACCESS_TRANSFER_WRITE_BIT,
+                                has_tiles ? VkAccessFlags{VK_ACCESS_TRANSFER_WRITE_BIT} : done_access_,
+                                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                                has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
             k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
                                  has_tiles ? VkPipelineStageFlags{VK_PIPELINE_STAGE_TRANSFER_BIT}
                                            : done_stages_,
@@ -684,12 +712,12 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
             // copy's read of the swapchain image before the draw overwrites it (write-after-read:
             // an execution dependency, plus the transition to the attachment layout).
             VkImageMemoryBarrier to_draw[2] = {
-                colour_image_barrier(s.periphery, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
-                                     VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                                     VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL),
-                colour_image_barrier(image, 0, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
-                                     VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                                     VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL),
+                layered_barrier(s.periphery, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
+                                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                                VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL),
+                layered_barrier(image, 0, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
+                                VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                                VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL),
             };
             k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
                                  VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT |
@@ -726,10 +754,10 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
             // The draw's writes before the tile copies overwrite the fovea (write-after-write), or
             // before the present.
             VkImageMemoryBarrier after_draw =
-                colour_image_barrier(image, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
-                                     has_tiles ? VkAccessFlags{VK_ACCESS_TRANSFER_WRITE_BIT} : done_access_,
-                                     VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
-                                     has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
+                layered_barrier(image, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
+                                has_tiles ? VkAccessFlags{VK_ACCESS_TRANSFER_WRITE_BIT} : done_access_,
+                                VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                                has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
             k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
                                  has_tiles ? VkPipelineStageFlags{VK_PIPELINE_STAGE_TRANSFER_BIT}
                                            : done_stages_,
@@ -737,8 +765,8 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
         }
     } else if (has_tiles) {
         // Tiles over what the application rendered: keep the contents (old layout, not UNDEFINED).
-        VkImageMemoryBarrier b = colour_image_barrier(image, ready_access_, VK_ACCESS_TRANSFER_WRITE_BIT,
-                                                      present_layout_, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+        VkImageMemoryBarrier b = layered_barrier(image, ready_access_, VK_ACCESS_TRANSFER_WRITE_BIT,
+                                                 present_layout_, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
         k.CmdPipelineBarrier(cb, ready_stages_, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr, 1,
                              &b);
     }
@@ -753,8 +781,8 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
         // Back to the present layout. The present waits on our semaphore, whose signal makes
         // these writes available and visible to the presentation engine: no destination stage
         // or access beyond the end of the pipe.
-        VkImageMemoryBarrier b = colour_image_barrier(image, VK_ACCESS_TRANSFER_WRITE_BIT, done_access_,
-                                                      VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, present_layout_);
+        VkImageMemoryBarrier b = layered_barrier(image, VK_ACCESS_TRANSFER_WRITE_BIT, done_access_,
+                                                 VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, present_layout_);
         k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, done_stages_, 0, 0, nullptr, 0, nullptr, 1,
                              &b);
     }
@@ -868,7 +896,7 @@ VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<co
     std::vector<ClippedTile> clipped;
     for (const FoveaTile &t : tiles) {
         ClippedTile c;
-        if (!clip(t, extent_, &c)) continue;
+        if (!clip(t, extent_, layers_, &c)) continue;
         if (std::any_of(clipped.begin(), clipped.end(),
                         [&](const ClippedTile &o) { return overlaps(o, c); })) {
             SPLITVK_DEBUG("compositor: dropped a tile that overlaps another");
@@ -893,7 +921,7 @@ VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<co
             t.offset +
             (VkDeviceSize{uint32_t(c.skipped.y)} * t.rect.extent.width + uint32_t(c.skipped.x)) * 4;
         region.bufferRowLength = t.rect.extent.width;
-        region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, t.layer, 1};
         region.imageOffset = {c.offset.x, c.offset.y, 0};
         region.imageExtent = {c.extent.width, c.extent.height, 1};
         copy_regions_.push_back(region);

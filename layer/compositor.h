@@ -60,6 +60,8 @@ struct FoveaTile {
     VkBuffer buffer = VK_NULL_HANDLE;
     VkDeviceSize offset = 0; // a multiple of 4, the texel size
     std::shared_ptr<const void> keep;
+    uint32_t layer =
+        0; // the array layer it goes into (a layered OpenXR eye image); a tile past them is dropped
 };
 
 // The periphery filter, a specialisation constant of shaders/upsample.frag.
@@ -83,9 +85,11 @@ inline constexpr UpsampleFilter kDefaultUpsampleFilter = UpsampleFilter::Bilinea
 
 class Compositor {
 public:
-    // Whether a swapchain of `format` can be composited on this device, with the usage
-    // kSwapchainUsage added (swapchain.cpp asks before it adds the usage). `why` says why not.
-    static bool supports(DeviceState &device, VkFormat format, std::string *why);
+    // Whether a swapchain of `format` (and `layers` array layers) can be composited on this device,
+    // with the usage kSwapchainUsage added (swapchain.cpp asks before it adds the usage). `why` says
+    // why not. Layered images (an OpenXR swapchain drawn with multiview) are upsampled by blit, one
+    // layer per region, so their format must blit with a linear filter.
+    static bool supports(DeviceState &device, VkFormat format, std::string *why, uint32_t layers = 1);
     // The swapchain image usage composition needs: TRANSFER_SRC (the periphery copy),
     // TRANSFER_DST (the tiles), COLOR_ATTACHMENT (the upsample draw).
     static constexpr VkImageUsageFlags kSwapchainUsage = VK_IMAGE_USAGE_TRANSFER_SRC_BIT |
@@ -106,14 +110,14 @@ public:
 
     // Submits to `queue` (of the family given at create()): waits on `waits` (the application's
     // present wait semaphores), upsamples the top-left `periphery` of image `image_index` to the
-    // whole image but where tiles go (skipped when `periphery` is empty or the whole image),
-    // writes `tiles` into it bit-exactly, and leaves it in the layout the present expects (PRESENT_SRC_KHR,
-    // or SHARED_PRESENT_KHR for shared present modes). On VK_SUCCESS, *signal is the compositor's semaphore
-    // that the present must wait on instead of `waits` (it stays the compositor's: do not destroy it). On any
-    // other result nothing was submitted, `waits` are untouched and *signal is unchanged: present as the
-    // application asked. VK_NOT_READY: nothing to do (no upsample, no tile); VK_TIMEOUT: this image's
-    // previous composition had not finished. A null `signal` signals nothing (an OpenXR runtime's
-    // image: the runtime's release barrier follows on the same queue).
+    // whole image (each of its layers) but where tiles go (skipped when `periphery` is empty or the whole
+    // image), writes `tiles` into it bit-exactly, and leaves it in the layout the present expects
+    // (PRESENT_SRC_KHR, or SHARED_PRESENT_KHR for shared present modes). On VK_SUCCESS, *signal is the
+    // compositor's semaphore that the present must wait on instead of `waits` (it stays the compositor's: do
+    // not destroy it). On any other result nothing was submitted, `waits` are untouched and *signal is
+    // unchanged: present as the application asked. VK_NOT_READY: nothing to do (no upsample, no tile);
+    // VK_TIMEOUT: this image's previous composition had not finished. A null `signal` signals nothing (an
+    // OpenXR runtime's image: the runtime's release barrier follows on the same queue).
     VkResult composite(VkQueue queue, uint32_t image_index, std::span<const VkSemaphore> waits,
                        VkExtent2D periphery, std::span<const FoveaTile> tiles, VkSemaphore *signal);
 
@@ -150,6 +154,7 @@ private:
     VkSwapchainKHR swapchain_ = VK_NULL_HANDLE;
     VkExtent2D extent_{};
     VkFormat format_ = VK_FORMAT_UNDEFINED;
+    uint32_t layers_ = 1; // every image's array layers, each composited alike
     VkImageLayout present_layout_ = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
     // What orders the application's rendering before the composite (the semaphores the submit waits
     // on at TRANSFER, or for a runtime's image the queue alone), and the composite before whatever

@@ -354,43 +354,48 @@ VKAPI_ATTR VkResult VKAPI_CALL FreeDescriptorSets(VkDevice device, VkDescriptorP
                                                   uint32_t descriptorSetCount,
                                                   const VkDescriptorSet *pDescriptorSets) {
     DeviceState &dev = device_state(device);
-    const VkResult result =
-        dev.dispatch.FreeDescriptorSets(device, descriptorPool, descriptorSetCount, pDescriptorSets);
-    if (!dev.session) return result;
-    std::vector<uint64_t> ids;
-    {
-        std::unique_lock lock(g_mutex);
-        const auto pool = g_pool_sets.find(descriptorPool);
-        for (uint32_t i = 0; i < descriptorSetCount; ++i) {
-            g_sets.erase(pDescriptorSets[i]);
-            if (pool != g_pool_sets.end()) pool->second.erase(pDescriptorSets[i]);
-            ids.push_back(codec::handle_value(pDescriptorSets[i]));
+    // Forgotten and recorded before the driver may hand a freed set's value to a set another thread
+    // allocates (as every destroy: codegen/emit_layer.py). Recording first needs no result: the
+    // command's only result is VK_SUCCESS.
+    if (dev.session) {
+        std::vector<uint64_t> ids;
+        {
+            std::unique_lock lock(g_mutex);
+            const auto pool = g_pool_sets.find(descriptorPool);
+            for (uint32_t i = 0; i < descriptorSetCount; ++i) {
+                if (pDescriptorSets[i] == VK_NULL_HANDLE) continue;
+                g_sets.erase(pDescriptorSets[i]);
+                if (pool != g_pool_sets.end()) pool->second.erase(pDescriptorSets[i]);
+                ids.push_back(codec::handle_value(pDescriptorSets[i]));
+            }
         }
+        dev.session->forget(ids);
+        if (capturing(dev))
+            record_global(dev, LiveChange::Unchanged, 0, [&](codec::Encoder &e) {
+                encode_vkFreeDescriptorSets(e, device, descriptorPool, descriptorSetCount, pDescriptorSets);
+            });
     }
-    if (result == VK_SUCCESS) dev.session->forget(ids);
-    if (result == VK_SUCCESS && capturing(dev))
-        record_global(dev, LiveChange::Unchanged, 0, [&](codec::Encoder &e) {
-            encode_vkFreeDescriptorSets(e, device, descriptorPool, descriptorSetCount, pDescriptorSets);
-        });
-    return result;
+    return dev.dispatch.FreeDescriptorSets(device, descriptorPool, descriptorSetCount, pDescriptorSets);
 }
 
 VKAPI_ATTR VkResult VKAPI_CALL ResetDescriptorPool(VkDevice device, VkDescriptorPool descriptorPool,
                                                    VkDescriptorPoolResetFlags flags) {
     DeviceState &dev = device_state(device);
-    const VkResult result = dev.dispatch.ResetDescriptorPool(device, descriptorPool, flags);
-    if (!dev.session) return result;
-    std::vector<uint64_t> ids;
-    {
-        std::unique_lock lock(g_mutex);
-        ids = forget_pool_sets_locked(descriptorPool);
+    // As FreeDescriptorSets: the pool's sets are forgotten and the reset recorded before the driver
+    // may hand their values to sets another thread allocates; VK_SUCCESS is the only result.
+    if (dev.session) {
+        std::vector<uint64_t> ids;
+        {
+            std::unique_lock lock(g_mutex);
+            ids = forget_pool_sets_locked(descriptorPool);
+        }
+        dev.session->forget(ids);
+        if (capturing(dev))
+            record_global(dev, LiveChange::Unchanged, 0, [&](codec::Encoder &e) {
+                encode_vkResetDescriptorPool(e, device, descriptorPool, flags);
+            });
     }
-    if (result == VK_SUCCESS) dev.session->forget(ids);
-    if (result == VK_SUCCESS && capturing(dev))
-        record_global(dev, LiveChange::Unchanged, 0, [&](codec::Encoder &e) {
-            encode_vkResetDescriptorPool(e, device, descriptorPool, flags);
-        });
-    return result;
+    return dev.dispatch.ResetDescriptorPool(device, descriptorPool, flags);
 }
 
 VKAPI_ATTR void VKAPI_CALL DestroyDescriptorPool(VkDevice device, VkDescriptorPool descriptorPool,

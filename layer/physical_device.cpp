@@ -59,6 +59,7 @@ std::unique_ptr<PhysicalDeviceState> make_state(InstanceState &instance, VkPhysi
     if (instance.api_version >= VK_API_VERSION_1_1)
         queries.get_features2 = instance.dispatch.GetPhysicalDeviceFeatures2;
     queries.get_format_properties = instance.dispatch.GetPhysicalDeviceFormatProperties;
+    queries.enumerate_extensions = instance.dispatch.EnumerateDeviceExtensionProperties;
     state->client = protocol::describe(physical_device, queries);
 
     const LoadedSettings &loaded = layer_settings();
@@ -134,7 +135,17 @@ const PhysicalDeviceState *enveloped(VkPhysicalDevice physical_device) {
     return state && state->envelope ? state : nullptr;
 }
 
+// Clears the features of forwarded extensions whose state splitvk does not forward
+// (codegen/allowlist.py WITHHELD_FEATURES), whatever the envelope: no agent could replay them.
+void clear_withheld_features(void *next) {
+    for (auto *s = static_cast<VkBaseOutStructure *>(next); s; s = s->pNext)
+        for (const auto &withheld : envelope::kWithheldFeatures)
+            if (withheld.stype == s->sType)
+                *reinterpret_cast<VkBool32 *>(reinterpret_cast<uint8_t *>(s) + withheld.offset) = VK_FALSE;
+}
+
 void narrow_features2(VkPhysicalDevice physical_device, VkPhysicalDeviceFeatures2 *features) {
+    clear_withheld_features(features->pNext);
     if (const auto *state = enveloped(physical_device)) {
         mask_core_features(features->features, *state);
         mask_feature_chain(features->pNext, *state);

@@ -317,10 +317,11 @@ std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, 
     }
     bool match = tiles && tiles->tiles.size() == split.foveae.size();
     for (size_t i = 0; match && i < split.foveae.size(); ++i) {
-        const VkRect2D &want = split.foveae[i];
+        const VkRect2D &want = split.foveae[i].rect;
         const VkRect2D &got = tiles->tiles[i].rect;
-        match = want.offset.x == got.offset.x && want.offset.y == got.offset.y &&
-                want.extent.width == got.extent.width && want.extent.height == got.extent.height;
+        match = split.foveae[i].layer == tiles->tiles[i].layer && want.offset.x == got.offset.x &&
+                want.offset.y == got.offset.y && want.extent.width == got.extent.width &&
+                want.extent.height == got.extent.height;
     }
     if (match) return tiles;
     const uint64_t late = session.late_frames.fetch_add(1);
@@ -398,7 +399,7 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
             // Every tile of a frame that decoded has its buffer; without one, the periphery shows.
             if (!tile.upload) continue;
             // Copied by the GPU straight from where the tile was decoded (UploadPool).
-            foveae.push_back({tile.rect, tile.upload->buffer, 0, tile.upload});
+            foveae.push_back({tile.rect, tile.upload->buffer, 0, tile.upload, tile.layer});
             record.raw_bytes += uint64_t{tile.rect.extent.width} * tile.rect.extent.height * 4;
         }
         record.tile_bytes = tiles->bytes;
@@ -794,7 +795,7 @@ void begin_runtime_frame(DeviceState &dev, const SwapchainState &swapchain, uint
 }
 
 void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &swapchain, uint32_t image_index,
-                       const split::FieldOfView *view) {
+                       const std::vector<split::RuntimeEye> &eyes) {
     if (!dev.session || image_index >= swapchain.images.size()) return;
     const auto called = std::chrono::steady_clock::now();
     Session &session = *dev.session;
@@ -809,9 +810,11 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     SplitFrame split;
     if (session.splitting() && swapchain.composable) {
         split = take_split_frame(dev, swapchain.images[image_index], EyeMode::One);
-        // One eye per image, its fovea at the view direction once the application's views said it.
+        // The eyes' foveae (one per layer before the application's views said where its eyes are),
+        // each at its view direction, wherever the passes drew.
         if (!split.foveae.empty())
-            split.foveae = {split::runtime_eye_fovea(swapchain.extent, view, split_settings().fovea)};
+            split.foveae = split::runtime_eye_foveae(swapchain.extent, swapchain.array_layers, eyes,
+                                                     split_settings().fovea);
         note_split_or_not(session, frame, split.split);
     }
     protocol::FramePresent message;

@@ -19,11 +19,13 @@ void begin_runtime_frame(DeviceState &device, const SwapchainState &swapchain, u
 // passes were split, waits (bounded by SPLITVK_TILE_WAIT) for the agent's tiles and composites them
 // into the image on `queue`, leaving it in COLOR_ATTACHMENT_OPTIMAL. Synchronous, on the
 // application's thread: the runtime's own barrier follows on the same queue as soon as this returns.
-// The image's fovea is at `view`'s view direction, or centred without one (split::runtime_eye_fovea).
+// The image's foveae are its `eyes`' (the projection views' so far), or one centred in each layer
+// before any (split::runtime_eye_foveae).
 void end_runtime_frame(DeviceState &device, VkQueue queue, const SwapchainState &swapchain,
-                       uint32_t image_index, const split::FieldOfView *view);
-// xrEndFrame: the application's projection views gave this swapchain's eye another field of view
-// than the one sent last (or the first): SwapchainView, after which both sides place its fovea there.
+                       uint32_t image_index, const std::vector<split::RuntimeEye> &eyes);
+// xrEndFrame: a projection view gave an eye of this swapchain (its layer, sub-image rectangle and
+// field of view) that differs from what was sent before: SwapchainView, after which both sides
+// place that eye's fovea there (split::note_runtime_eye).
 void send_runtime_view(DeviceState &device, const SwapchainState &swapchain,
                        const protocol::SwapchainView &view);
 

@@ -52,7 +52,7 @@ SplitFrame take_split_frame(DeviceState &, VkImage image, EyeMode eyes) {
     frame.split = true;
     frame.periphery = split::scaled_extent(it->second.extent, split_settings().scale);
     // The whole frame's coverage decides its foveae (split::frame_foveae), as the agent's does.
-    frame.foveae = it->second.foveae(eyes, split_settings().fovea);
+    frame.foveae = split::in_layer_zero(it->second.foveae(eyes, split_settings().fovea));
     g_frames.erase(it);
     return frame;
 }

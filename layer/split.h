@@ -22,14 +22,14 @@ struct SwapchainState;
 struct SplitFrame {
     bool split = false;
     VkExtent2D periphery{};
-    std::vector<VkRect2D> foveae;
+    std::vector<split::LayerFovea> foveae; // layer 0 but in a layered OpenXR eye image
 };
 
 // What the submits since the last call rendered into swapchain image `image`: whether a split pass
 // drew into it, the scaled periphery extent, and the fovea rects (full-resolution image coordinates,
 // sorted by x then y: the agent's take_drawn_foveae order) that split::frame_foveae gives for what
-// the split passes drew, with `eyes` (SPLITVK_EYES for a window; EyeMode::One for an OpenXR
-// runtime's image, which holds one eye, as the agent places it too). Clears the image's record.
+// the split passes drew, with `eyes` (SPLITVK_EYES for a window; for an OpenXR runtime's image the
+// caller replaces them with its eyes' foveae, as the agent does). Clears the image's record.
 SplitFrame take_split_frame(DeviceState &device, VkImage image, EyeMode eyes);
 
 // Whether the layer rewrites split passes on this device: it has a session whose agent accepted the

@@ -113,12 +113,12 @@ SwapchainState *register_runtime_swapchain(DeviceState &dev, VkSwapchainKHR key,
     state->present_layout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
     state->images = info.images;
     std::string why;
-    if (info.array_layers != 1)
-        why = std::to_string(info.array_layers) + " array layers";
-    else if ((info.usage & Compositor::kSwapchainUsage) != Compositor::kSwapchainUsage)
+    // Several layers are eyes of one image drawn with multiview (split::runtime_eye_foveae): each
+    // layer gets its periphery upsampled and its eye's fovea, as a swapchain per eye does.
+    if ((info.usage & Compositor::kSwapchainUsage) != Compositor::kSwapchainUsage)
         why = "its images lack transfer and colour attachment usage";
     else
-        Compositor::supports(dev, info.format, &why);
+        Compositor::supports(dev, info.format, &why, info.array_layers);
     state->composable = why.empty();
     if (!state->composable)
         SPLITVK_INFO("OpenXR swapchain %ux%u is not composable (%s): it will not be split", info.extent.width,

@@ -50,8 +50,8 @@ struct RuntimeSwapchain {
 // Makes the runtime's swapchain a swapchain of the split under `key` (a value no VkSwapchainKHR of
 // the device has: the XrSwapchain's), and tells the agent to adopt its images. Returns the state,
 // or nullptr when the device has no session (nothing to split). A swapchain that cannot be
-// composited (usage, format, layers) is registered not composable, with one line saying why: its
-// frames are replicated but not split.
+// composited (usage, format; a layered one's format must blit) is registered not composable, with one line
+// saying why: its frames are replicated but not split.
 SwapchainState *register_runtime_swapchain(DeviceState &device, VkSwapchainKHR key,
                                            const RuntimeSwapchain &swapchain);
 // xrDestroySwapchain, before the runtime destroys the images.

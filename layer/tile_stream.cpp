@@ -67,6 +67,7 @@ bool TileStream::accept(std::vector<uint8_t> &&payload, std::string *error) {
     for (size_t i = 0; i < decoded->tiles.size(); ++i) {
         const auto &t = decoded->tiles[i];
         frame.tiles[i].rect = {{static_cast<int32_t>(t.x), static_cast<int32_t>(t.y)}, {t.width, t.height}};
+        frame.tiles[i].layer = t.array_layer;
     }
     pending->remaining = decoded->tiles.size();
     pending->encoded = std::move(decoded->tiles);

@@ -35,6 +35,7 @@ namespace splitvk {
 
 struct DecodedTile {
     VkRect2D rect{};
+    uint32_t layer = 0; // the image's array layer (a layered OpenXR eye image)
     // rect.extent.width * height * 4 bytes from offset 0, rows packed, written by the host and
     // flushed; the pool's again once every holder has let go.
     std::shared_ptr<const HostBuffer> upload;

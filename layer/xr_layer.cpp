@@ -15,9 +15,12 @@
 //                              are composited into the image on the application's queue, so that the
 //                              runtime's own barrier (which hands it to VK_QUEUE_FAMILY_EXTERNAL)
 //                              finds it finished (present.h, end_runtime_frame);
-//   xrEndFrame                 each eye's field of view, from the projection views: its fovea sits at
-//                              the projection of the view direction from the next frame on
-//                              (SwapchainView; real headsets' fields of view are asymmetric);
+//   xrEndFrame                 each eye, from the projection views: which swapchain, array layer and
+//                              sub-image rectangle hold it, and its field of view; its fovea sits at
+//                              the projection of the view direction within that rectangle from the
+//                              next frame on (SwapchainView; real headsets' fields of view are
+//                              asymmetric). A layered swapchain drawn with multiview holds an eye per
+//                              layer, a side-by-side one two rectangles of one layer;
 //   xrDestroySwapchain         the swapchain leaves the split before the runtime destroys its images.
 // Everything else goes straight to the next layer or the runtime. Where the Vulkan layer is not on
 // the session's device (it was disabled, or has no agent), this layer only forwards.
@@ -36,7 +39,6 @@
 #include <deque>
 #include <memory>
 #include <mutex>
-#include <optional>
 #include <unordered_map>
 #include <vector>
 
@@ -77,9 +79,9 @@ struct SwapchainState {
     splitvk::SwapchainState *split = nullptr;
     // Acquired and not yet released, oldest first: OpenXR releases in acquisition order.
     std::deque<uint32_t> acquired;
-    // The eye's field of view the agent was last sent (protocol::SwapchainView), as floats the way
-    // both sides read it.
-    std::optional<protocol::SwapchainView> view;
+    // The eyes the projection views placed in its images so far (split::note_runtime_eye), each sent
+    // to the agent (protocol::SwapchainView) as it changed: what both sides place the foveae with.
+    std::vector<split::RuntimeEye> eyes;
 };
 
 // The layer's tables. Calls down are made without the lock: a runtime may call back into the
@@ -318,7 +320,7 @@ XRAPI_ATTR XrResult XRAPI_CALL ReleaseSwapchainImage(XrSwapchain swapchain,
     if (state->split && session && session->device && session->queue) {
         bool acquired = false;
         uint32_t index = 0;
-        std::optional<split::FieldOfView> view;
+        std::vector<split::RuntimeEye> eyes;
         {
             std::lock_guard lock(g_mutex);
             if (!state->acquired.empty()) {
@@ -326,21 +328,18 @@ XRAPI_ATTR XrResult XRAPI_CALL ReleaseSwapchainImage(XrSwapchain swapchain,
                 state->acquired.pop_front();
                 acquired = true;
             }
-            if (state->view)
-                view = split::FieldOfView{state->view->angle_left, state->view->angle_right,
-                                          state->view->angle_up, state->view->angle_down};
+            eyes = state->eyes;
         }
         // The application's rendering of this image has been submitted; the runtime's release
         // barrier has not: the composite goes between them on the queue.
-        if (acquired)
-            end_runtime_frame(*session->device, session->queue, *state->split, index,
-                              view ? &*view : nullptr);
+        if (acquired) end_runtime_frame(*session->device, session->queue, *state->split, index, eyes);
     }
     return state->instance->release_swapchain_image(swapchain, info);
 }
 
-// A projection view's field of view, where its sub-image is the whole of an eye image this layer
-// splits (a side-by-side or layered image holds more than one eye: not placed yet).
+// A projection view's eye, where its swapchain is one this layer splits: the array layer and
+// sub-image rectangle that hold it (the whole image of a swapchain per eye, a layer of one drawn
+// with multiview, a half of a side-by-side one) and its field of view.
 void note_projection_view(const XrCompositionLayerProjectionView &view) {
     SwapchainState *state = nullptr;
     SessionState *session = nullptr;
@@ -348,26 +347,46 @@ void note_projection_view(const XrCompositionLayerProjectionView &view) {
         !session->device)
         return;
     const XrRect2Di &rect = view.subImage.imageRect;
-    if (rect.offset.x != 0 || rect.offset.y != 0 || uint32_t(rect.extent.width) != state->info.width ||
-        uint32_t(rect.extent.height) != state->info.height || view.subImage.imageArrayIndex != 0)
-        return;
     protocol::SwapchainView sent;
     sent.angle_left = view.fov.angleLeft;
     sent.angle_right = view.fov.angleRight;
     sent.angle_up = view.fov.angleUp;
     sent.angle_down = view.fov.angleDown;
-    // What the agent would refuse (protocol::decode_swapchain_view) is not sent: the fovea stays put.
+    sent.array_layer = view.subImage.imageArrayIndex;
+    // What the agent would refuse (protocol::decode_swapchain_view, SwapchainImages::note_eye) is not
+    // sent, once said: the foveae stay where they were. The runtime itself rejects such a frame.
     constexpr float kHalfPi = 1.5707963f;
+    bool valid = rect.offset.x >= 0 && rect.offset.y >= 0 && rect.extent.width > 0 &&
+                 rect.extent.height > 0 &&
+                 uint64_t(rect.offset.x) + uint64_t(rect.extent.width) <= state->info.width &&
+                 uint64_t(rect.offset.y) + uint64_t(rect.extent.height) <= state->info.height &&
+                 view.subImage.imageArrayIndex < state->info.arraySize;
     for (float a : {sent.angle_left, sent.angle_right, sent.angle_up, sent.angle_down})
-        if (!std::isfinite(a) || a <= -kHalfPi || a >= kHalfPi) return;
-    if (sent.angle_right <= sent.angle_left || sent.angle_up <= sent.angle_down) return;
+        valid = valid && std::isfinite(a) && a > -kHalfPi && a < kHalfPi;
+    valid = valid && sent.angle_right > sent.angle_left && sent.angle_up > sent.angle_down;
+    if (!valid) {
+        static std::once_flag said;
+        std::call_once(said, [&] {
+            SPLITVK_INFO(
+                "OpenXR: a projection view's sub-image (layer %u, %d,%d %dx%d of %ux%u, %u layers) or "
+                "field of view is out of range; its eye's fovea stays where it was",
+                view.subImage.imageArrayIndex, rect.offset.x, rect.offset.y, rect.extent.width,
+                rect.extent.height, state->info.width, state->info.height, state->info.arraySize);
+        });
+        return;
+    }
+    sent.x = uint32_t(rect.offset.x);
+    sent.y = uint32_t(rect.offset.y);
+    sent.width = uint32_t(rect.extent.width);
+    sent.height = uint32_t(rect.extent.height);
+    // As the agent reads the message (Replayer::swapchain_view): the floats sent, the rectangle as sent.
+    split::RuntimeEye eye;
+    eye.layer = sent.array_layer;
+    eye.rect = {{int32_t(sent.x), int32_t(sent.y)}, {sent.width, sent.height}};
+    eye.fov = {sent.angle_left, sent.angle_right, sent.angle_up, sent.angle_down};
     {
         std::lock_guard lock(g_mutex);
-        if (state->view && state->view->angle_left == sent.angle_left &&
-            state->view->angle_right == sent.angle_right && state->view->angle_up == sent.angle_up &&
-            state->view->angle_down == sent.angle_down)
-            return;
-        state->view = sent;
+        if (!split::note_runtime_eye(state->eyes, eye)) return;
     }
     send_runtime_view(*session->device, *state->split, sent);
 }

@@ -158,12 +158,51 @@ bool honours(const Element &e, const VkPhysicalDeviceLimits &device, const VkPhy
     return true;
 }
 
+// One forwarded extension's feature structure as a device answered it; empty where the device
+// does not offer the extension (its features then read as unsupported).
+using ExtensionFeatures = std::vector<std::vector<uint8_t>>;
+
+ExtensionFeatures extension_features(VkPhysicalDevice device, const DeviceQueries &queries,
+                                     uint32_t api_version) {
+    ExtensionFeatures out(std::size(envelope::kExtensionFeatureStructs));
+    // Extension structures are read through vkGetPhysicalDeviceFeatures2 (Vulkan 1.1).
+    if (!queries.get_features2 || !queries.enumerate_extensions || api_version < VK_API_VERSION_1_1)
+        return out;
+    uint32_t count = 0;
+    if (queries.enumerate_extensions(device, nullptr, &count, nullptr) != VK_SUCCESS) return out;
+    std::vector<VkExtensionProperties> offered(count);
+    if (queries.enumerate_extensions(device, nullptr, &count, offered.data()) < 0) return out;
+    offered.resize(count);
+    for (size_t i = 0; i < out.size(); ++i) {
+        const auto &known = envelope::kExtensionFeatureStructs[i];
+        const bool has = std::any_of(offered.begin(), offered.end(), [&](const VkExtensionProperties &e) {
+            return std::string_view(e.extensionName) == known.extension;
+        });
+        if (!has) continue;
+        // Queried one at a time: a structure of an extension the device lacks never reaches it.
+        out[i].assign(known.size, 0);
+        auto *node = reinterpret_cast<VkBaseOutStructure *>(out[i].data());
+        node->sType = known.stype;
+        VkPhysicalDeviceFeatures2 features2{};
+        features2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+        features2.pNext = node;
+        queries.get_features2(device, &features2);
+        node->pNext = nullptr;
+    }
+    return out;
+}
+
 const VkBool32 *feature_in(const envelope::FeatureField &field, const VkPhysicalDeviceFeatures &core,
                            const VkPhysicalDeviceVulkan11Features &v11,
                            const VkPhysicalDeviceVulkan12Features &v12,
-                           const VkPhysicalDeviceVulkan13Features &v13) {
+                           const VkPhysicalDeviceVulkan13Features &v13, const ExtensionFeatures &extensions) {
+    static constexpr VkBool32 kUnsupported = VK_FALSE;
     const uint8_t *base = nullptr;
     switch (field.source) {
+    case envelope::FeatureStruct::Extension:
+        if (extensions[field.extension].empty()) return &kUnsupported;
+        base = extensions[field.extension].data();
+        break;
     case envelope::FeatureStruct::Core:
         base = reinterpret_cast<const uint8_t *>(&core);
         break;
@@ -309,8 +348,8 @@ bool read_profile_features(const json::Value &features_json, DeviceProfile &prof
     }
     for (const auto &[structure, members] : features_json.members()) {
         // The aggregates must name only features the envelope knows. Extension structures may
-        // repeat promoted features under the same names, which count; their other members are
-        // outside the envelope (those features are gated by the extension list instead).
+        // repeat promoted features under the same names, which count, as do the features of the
+        // extensions splitvk forwards; other extensions' members are outside the envelope.
         const bool aggregate = structure == "VkPhysicalDeviceFeatures" ||
                                structure == "VkPhysicalDeviceVulkan11Features" ||
                                structure == "VkPhysicalDeviceVulkan12Features" ||
@@ -363,9 +402,10 @@ DeviceDescription describe(VkPhysicalDevice device, const DeviceQueries &queries
     } else {
         queries.get_features(device, &core);
     }
+    const ExtensionFeatures extensions = extension_features(device, queries, properties.apiVersion);
     out.features.resize(kFeatureCount);
     for (size_t i = 0; i < kFeatureCount; ++i)
-        out.features[i] = *feature_in(kFeatureFields[i], core, v11, v12, v13) ? 1 : 0;
+        out.features[i] = *feature_in(kFeatureFields[i], core, v11, v12, v13, extensions) ? 1 : 0;
 
     out.formats.resize(kFormatCount);
     for (size_t i = 0; i < kFormatCount; ++i)

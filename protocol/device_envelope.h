@@ -9,7 +9,8 @@
 //   limits   the strictest of all sources: for every alignment and granularity the largest, for
 //            every maximum the smallest (vk.xml's limittype, codegen/emit_envelope.py); a few
 //            limits describe only the client's own driver and keep its value (CLIENT_LOCAL there)
-//   features those every source supports (VkPhysicalDeviceFeatures, Vulkan 1.1-1.3 aggregates)
+//   features those every source supports (VkPhysicalDeviceFeatures, Vulkan 1.1-1.3 aggregates, and
+//            the feature structures of the extensions splitvk forwards)
 //   formats  the format features every source supports (linear, optimal, buffer)
 //
 // The sources: the client's device, the agent baseline (a Khronos-profile JSON built in:
@@ -56,6 +57,9 @@ struct DeviceQueries {
     PFN_vkGetPhysicalDeviceFeatures get_features = nullptr;
     PFN_vkGetPhysicalDeviceFeatures2 get_features2 = nullptr;
     PFN_vkGetPhysicalDeviceFormatProperties get_format_properties = nullptr;
+    // The forwarded extensions' own features are read where the device offers the extension; null:
+    // they read as unsupported.
+    PFN_vkEnumerateDeviceExtensionProperties enumerate_extensions = nullptr;
 };
 DeviceDescription describe(VkPhysicalDevice device, const DeviceQueries &queries);
 

@@ -202,9 +202,9 @@ std::variant<Welcome, Reject> evaluate_hello(const Hello &hello, const ServerHan
             return Reject{RejectReason::BadToken, "the token does not match the server's"};
     }
     if (config.codec_fingerprint != 0 && hello.codec_fingerprint != config.codec_fingerprint) {
-        return Reject{
-            RejectReason::VersionMismatch,
-            "client and server were built from different Vulkan codecs (vk.xml or allow-list differ)"};
+        return Reject{RejectReason::VersionMismatch,
+                      "client and server were built from different Vulkan codecs or message layouts (vk.xml, "
+                      "allow-list or splitvk version differ)"};
     }
     if (config.full) return Reject{RejectReason::ServerFull, "the server takes no more sessions"};
     if (config.check_envelope && !hello.device_envelope.empty()) {

@@ -39,6 +39,24 @@ constexpr uint16_t protocol_minor(uint32_t version) {
 }
 inline constexpr uint32_t kProtocolVersion = make_protocol_version(kProtocolMajor, kProtocolMinor);
 
+// The layouts of the metadata messages (session.h), which the generated codec's fingerprint does not
+// cover. Bumped whenever one changes, and folded into the fingerprint Hello carries
+// (session_fingerprint), so that peers laying them out differently refuse each other at the
+// handshake instead of misreading a message mid-session.
+//   2: SwapchainView carries the eye's array layer and sub-image rectangle, EncodedTile its layer.
+inline constexpr uint64_t kMetadataLayout = 2;
+
+// What Hello's codec_fingerprint carries and the server compares: the generated codec's
+// kCodecFingerprint with kMetadataLayout mixed in (FNV-1a over its 8 bytes).
+constexpr uint64_t session_fingerprint(uint64_t codec_fingerprint) {
+    uint64_t h = codec_fingerprint;
+    for (int i = 0; i < 8; ++i) {
+        h ^= (kMetadataLayout >> (8 * i)) & 0xFF;
+        h *= 0x100000001b3ull;
+    }
+    return h;
+}
+
 // "SPVK", the first four bytes of every Hello payload.
 inline constexpr uint8_t kHelloMagic[4] = {'S', 'P', 'V', 'K'};
 

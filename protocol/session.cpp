@@ -107,13 +107,18 @@ Result<SwapchainDestroyed> decode_swapchain_destroyed(std::span<const uint8_t> p
 }
 
 std::vector<uint8_t> encode(const SwapchainView &m) {
-    WireWriter w(32);
+    WireWriter w(52);
     w.u64(m.device_id);
     w.u64(m.swapchain_id);
     w.f32(m.angle_left);
     w.f32(m.angle_right);
     w.f32(m.angle_up);
     w.f32(m.angle_down);
+    w.u32(m.array_layer);
+    w.u32(m.x);
+    w.u32(m.y);
+    w.u32(m.width);
+    w.u32(m.height);
     return w.take();
 }
 
@@ -126,11 +131,21 @@ Result<SwapchainView> decode_swapchain_view(std::span<const uint8_t> payload) {
     m.angle_right = r.f32("angle_right");
     m.angle_up = r.f32("angle_up");
     m.angle_down = r.f32("angle_down");
+    m.array_layer = r.u32("array_layer");
+    m.x = r.u32("x");
+    m.y = r.u32("y");
+    m.width = r.u32("width");
+    m.height = r.u32("height");
     constexpr float kHalfPi = 1.5707963f;
     const auto within = [&](float a) { return std::isfinite(a) && a > -kHalfPi && a < kHalfPi; };
     if (r.ok() && !(within(m.angle_left) && within(m.angle_right) && within(m.angle_up) &&
                     within(m.angle_down) && m.angle_right > m.angle_left && m.angle_up > m.angle_down))
         r.fail("field of view out of range");
+    else if (r.ok() && (m.width == 0 || m.height == 0 || m.x >= kMaxImageExtent || m.y >= kMaxImageExtent ||
+                        m.width > kMaxImageExtent - m.x || m.height > kMaxImageExtent - m.y))
+        r.fail("sub-image rectangle out of range");
+    else if (r.ok() && m.array_layer >= kMaxImageArrayLayers)
+        r.fail("array layer " + std::to_string(m.array_layer) + " out of range");
     return finish(r, m, "SwapchainView");
 }
 
@@ -262,7 +277,7 @@ Result<SplitConfig> decode_split_config(std::span<const uint8_t> payload) {
 std::vector<uint8_t> encode(const Tiles &m) {
     size_t size = 64;
     for (const auto &t : m.tiles)
-        size += 32 + t.data.size();
+        size += 36 + t.data.size();
     WireWriter w(size);
     w.u64(m.frame);
     w.u64(m.swapchain_id);
@@ -278,6 +293,7 @@ std::vector<uint8_t> encode(const Tiles &m) {
         w.u32(t.y);
         w.u32(t.width);
         w.u32(t.height);
+        w.u32(t.array_layer);
         w.u32(static_cast<uint32_t>(t.codec));
         w.u32(t.flags);
         w.blob(t.data);
@@ -306,6 +322,7 @@ Result<Tiles> decode_tiles(std::span<const uint8_t> payload, uint32_t max_bytes)
         t.y = r.u32("y");
         t.width = r.u32("width");
         t.height = r.u32("height");
+        t.array_layer = r.u32("array_layer");
         const uint32_t codec = r.u32("codec");
         t.flags = r.u32("flags");
         const auto data = r.blob(max_bytes, "tile data");
@@ -313,6 +330,8 @@ Result<Tiles> decode_tiles(std::span<const uint8_t> payload, uint32_t max_bytes)
         if (t.width == 0 || t.height == 0 || t.x >= kMaxVerifyExtent || t.y >= kMaxVerifyExtent ||
             t.width > kMaxVerifyExtent - t.x || t.height > kMaxVerifyExtent - t.y)
             r.fail("tile " + std::to_string(i) + " rectangle out of range");
+        else if (t.array_layer >= kMaxImageArrayLayers)
+            r.fail("tile " + std::to_string(i) + " array layer out of range");
         else if (codec > static_cast<uint32_t>(TileCodec::Raw))
             r.fail("tile " + std::to_string(i) + " codec " + std::to_string(codec) + " unknown");
         else if (t.flags & ~kTileKeyframe)

@@ -78,12 +78,17 @@ struct SwapchainDestroyed {
     uint64_t swapchain_id = 0;
 };
 
-// An OpenXR runtime's swapchain holds one eye (SwapchainImages::Source::Runtime), whose fovea
-// belongs at the projection of its view direction rather than at the image's centre: real headsets
-// have asymmetric fields of view (split::fovea_at_view_direction). The OpenXR layer learns the
-// field of view from xrEndFrame's projection views and sends it when it changes; both sides place
-// that swapchain's foveae with it from the frames that follow in the stream. The angles are
-// XrFovf's, in radians, each within (-pi/2, pi/2), right > left and up > down.
+// An eye of an OpenXR runtime's swapchain (SwapchainImages::Source::Runtime; split::RuntimeEye):
+// which array layer and sub-image rectangle of its images hold the eye, and the eye's field of
+// view, whose view direction is where its fovea belongs rather than at the rectangle's centre (real
+// headsets have asymmetric fields of view: split::fovea_at_view_direction). A swapchain per eye has
+// one eye, the whole image; a layered one drawn with multiview, one per layer; a side-by-side one,
+// two rectangles of one layer. The OpenXR layer learns them from xrEndFrame's projection views and
+// sends each eye when it changes; both sides record it (split::note_runtime_eye) and place that
+// swapchain's foveae with its eyes from the frames that follow in the stream. The angles are
+// XrFovf's, in radians, each within (-pi/2, pi/2), right > left and up > down; the rectangle is not
+// empty and within kMaxImageExtent, the layer below kMaxImageArrayLayers (whether they lie inside
+// the swapchain's images is the receiver's to check against them).
 struct SwapchainView {
     uint64_t device_id = 0;
     uint64_t swapchain_id = 0;
@@ -91,6 +96,8 @@ struct SwapchainView {
     float angle_right = 0;
     float angle_up = 0;
     float angle_down = 0;
+    uint32_t array_layer = 0;
+    uint32_t x = 0, y = 0, width = 0, height = 0; // the sub-image rectangle
 };
 
 struct FrameBegin {
@@ -145,6 +152,7 @@ struct EncodedTile {
     TileCodec codec = TileCodec::X264;
     uint32_t flags = 0; // kTileKeyframe
     std::vector<uint8_t> data;
+    uint32_t array_layer = 0; // of a layered OpenXR eye image (its eye's); 0 otherwise
 };
 
 // What the agent spent on a frame, in microseconds, for the client's statistics.

@@ -173,9 +173,48 @@ VkRect2D fovea_at_view_direction(const VkRect2D &eye, const FieldOfView &fov, co
             {fw, fh}};
 }
 
-VkRect2D runtime_eye_fovea(VkExtent2D image, const FieldOfView *view, const FoveaSize &fovea) {
-    const VkRect2D eye{{0, 0}, image};
-    return view ? fovea_at_view_direction(eye, *view, fovea) : fovea_of_eye(eye, fovea);
+bool note_runtime_eye(std::vector<RuntimeEye> &eyes, const RuntimeEye &eye) {
+    const auto same = [](const RuntimeEye &a, const RuntimeEye &b) {
+        return a.layer == b.layer && a.rect.offset.x == b.rect.offset.x &&
+               a.rect.offset.y == b.rect.offset.y && a.rect.extent.width == b.rect.extent.width &&
+               a.rect.extent.height == b.rect.extent.height && a.fov.angle_left == b.fov.angle_left &&
+               a.fov.angle_right == b.fov.angle_right && a.fov.angle_up == b.fov.angle_up &&
+               a.fov.angle_down == b.fov.angle_down;
+    };
+    if (std::any_of(eyes.begin(), eyes.end(), [&](const RuntimeEye &e) { return same(e, eye); }))
+        return false;
+    std::erase_if(eyes, [&](const RuntimeEye &e) {
+        return e.layer == eye.layer && intersect(e.rect, eye.rect).extent.width > 0 &&
+               intersect(e.rect, eye.rect).extent.height > 0;
+    });
+    eyes.push_back(eye);
+    return true;
+}
+
+std::vector<LayerFovea> runtime_eye_foveae(VkExtent2D image, uint32_t layers,
+                                           const std::vector<RuntimeEye> &eyes, const FoveaSize &fovea) {
+    std::vector<std::vector<VkRect2D>> by_layer(layers);
+    const VkRect2D whole{{0, 0}, image};
+    if (eyes.empty())
+        for (auto &foveae : by_layer)
+            foveae.push_back(fovea_of_eye(whole, fovea));
+    for (const RuntimeEye &eye : eyes) {
+        const VkRect2D rect = intersect(eye.rect, whole);
+        if (eye.layer >= layers || rect.extent.width == 0 || rect.extent.height == 0) continue;
+        add_fovea(by_layer[eye.layer], fovea_at_view_direction(rect, eye.fov, fovea));
+    }
+    std::vector<LayerFovea> out;
+    for (uint32_t layer = 0; layer < layers; ++layer)
+        for (const VkRect2D &rect : by_layer[layer])
+            out.push_back({layer, rect});
+    return out;
+}
+
+std::vector<LayerFovea> in_layer_zero(const std::vector<VkRect2D> &foveae) {
+    std::vector<LayerFovea> out;
+    for (const VkRect2D &rect : foveae)
+        out.push_back({0, rect});
+    return out;
 }
 
 void add_fovea(std::vector<VkRect2D> &foveae, const VkRect2D &rect) {

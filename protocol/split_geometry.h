@@ -95,10 +95,38 @@ struct FieldOfView {
 // view that spans nothing (right <= left, up <= down, or not finite) gives fovea_of_eye's.
 VkRect2D fovea_at_view_direction(const VkRect2D &eye, const FieldOfView &fov, const FoveaSize &fovea);
 
-// The fovea of an OpenXR runtime's eye image (one eye, the whole image): at the view direction
-// where the application's projection views gave its field of view (protocol::SwapchainView), else
-// centred. Both sides composite it and the agent shades it, in every pass into that image.
-VkRect2D runtime_eye_fovea(VkExtent2D image, const FieldOfView *view, const FoveaSize &fovea);
+// One eye of an OpenXR runtime's swapchain (DESIGN §9): a projection view of xrEndFrame that names
+// the swapchain, with the array layer (imageArrayIndex) and sub-image rectangle (imageRect) that
+// hold that eye, and its field of view. A layered swapchain drawn with multiview has an eye per
+// layer; a side-by-side one has two rectangles in one layer.
+struct RuntimeEye {
+    uint32_t layer = 0;
+    VkRect2D rect{};
+    FieldOfView fov;
+};
+
+// A fovea in one array layer of an image (layer 0 for every window's swapchain image).
+struct LayerFovea {
+    uint32_t layer = 0;
+    VkRect2D rect{};
+};
+
+// Records `eye` among a runtime swapchain's eyes: it replaces every eye of its layer whose rectangle
+// overlaps its own (the same eye, drawn elsewhere or at another size, or with another field of
+// view) and is added otherwise. Returns whether anything changed. Both sides apply the views in
+// stream order, so they hold the same eyes for every frame.
+bool note_runtime_eye(std::vector<RuntimeEye> &eyes, const RuntimeEye &eye);
+
+// The foveae of an OpenXR runtime's eye image of `layers` array layers: before the application's
+// projection views said where its eyes are, one centred in each layer (an eye per layer, the whole
+// image); then one per eye, fovea_at_view_direction of its rectangle (clipped to the image; an eye
+// in a layer the image does not have, or outside it, has none). Sorted by layer, then as add_fovea
+// sorts: the order both sides report them in. Both sides composite them and the agent shades them.
+std::vector<LayerFovea> runtime_eye_foveae(VkExtent2D image, uint32_t layers,
+                                           const std::vector<RuntimeEye> &eyes, const FoveaSize &fovea);
+
+// The foveae of a window's swapchain image, all in layer 0.
+std::vector<LayerFovea> in_layer_zero(const std::vector<VkRect2D> &foveae);
 
 // Adds `rect` to a set of foveae kept sorted by x, then y, without duplicates: the order both
 // sides report them in.

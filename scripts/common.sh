@@ -78,17 +78,37 @@ build() {
   cmake --build "$dir" -j"$(nproc)" "${targets[@]}" || die "build failed"
 }
 
-# Starts a private Xvfb unless a display is already there; sets DISPLAY and SPLITVK_XVFB_PID.
+# splitvk-harness (tests/e2e/harness/harness_cli.cpp) starts Xvfb and the agent, holds an app and
+# grabs the screen for the scripts with the e2e tests' own code. Its services report key=value lines
+# and "ready", and stop what they started on SIGTERM or when the script that started them exits.
+# harness_service VAR REPORT COMMAND...: runs COMMAND (a splitvk-harness service, possibly under
+# env) in the background with its report in REPORT, waits for "ready" and sets VAR to its pid.
+harness_service() {
+  local var=$1 report=$2; shift 2
+  "$@" >"$report" &
+  local pid=$!
+  until grep -qx ready "$report"; do
+    # The service gives up by itself (Xvfb in 20 s, the agent in 30 s), with one line on stderr.
+    kill -0 "$pid" 2>/dev/null || die "$* did not start"
+    sleep 0.1
+  done
+  printf -v "$var" '%s' "$pid"
+}
+
+# harness_value REPORT KEY: KEY's value in a splitvk-harness report.
+harness_value() {
+  sed -n "s/^$2=//p" "$1" | head -1
+}
+
+# ensure_display BUILD_DIR: starts a private Xvfb (BUILD_DIR's splitvk-harness) unless a display is
+# already there; sets DISPLAY and SPLITVK_XVFB_PID.
 ensure_display() {
   [ -n "${DISPLAY:-}" ] && return 0
-  local fifo
-  fifo=$(mktemp -u) && mkfifo "$fifo"
-  Xvfb -displayfd 3 -screen 0 2560x1440x24 -nolisten tcp 3>"$fifo" >/dev/null 2>&1 &
-  SPLITVK_XVFB_PID=$!
-  local number
-  read -r -t 20 number <"$fifo" || die "Xvfb did not start"
-  rm -f "$fifo"
-  export DISPLAY=":$number"
+  local logs
+  logs=$(mktemp -d)
+  harness_service SPLITVK_XVFB_PID "$logs/report" "$1/bin/splitvk-harness" xvfb --out-dir "$logs"
+  DISPLAY=$(harness_value "$logs/report" display)
+  export DISPLAY
   trap 'kill "$SPLITVK_XVFB_PID" 2>/dev/null' EXIT
   log "started Xvfb on $DISPLAY"
 }

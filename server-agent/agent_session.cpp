@@ -145,7 +145,7 @@ int Session::run() {
     handshake.session_id = config_.session_id;
     handshake.full = config_.full;
     handshake.require_tls = require_tls_;
-    handshake.codec_fingerprint = codec::kCodecFingerprint;
+    handshake.codec_fingerprint = protocol::session_fingerprint(codec::kCodecFingerprint);
     handshake.server_device = protocol::encode(config_.device);
     handshake.check_envelope = [this](std::span<const uint8_t> blob) -> std::string {
         auto envelope = protocol::decode_device_description(blob);

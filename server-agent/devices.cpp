@@ -52,7 +52,8 @@ std::vector<GpuInfo> enumerate_gpus(std::string *error) {
         props.pNext = &driver;
         vkGetPhysicalDeviceProperties2(devices[i], &props);
         protocol::DeviceQueries queries{vkGetPhysicalDeviceProperties, vkGetPhysicalDeviceFeatures,
-                                        vkGetPhysicalDeviceFeatures2, vkGetPhysicalDeviceFormatProperties};
+                                        vkGetPhysicalDeviceFeatures2, vkGetPhysicalDeviceFormatProperties,
+                                        vkEnumerateDeviceExtensionProperties};
         gpus.push_back(GpuInfo{i, props.properties.deviceName, device_type_name(props.properties.deviceType),
                                props.properties.apiVersion,
                                std::string(driver.driverName) + " " + driver.driverInfo,

@@ -4,24 +4,28 @@
 #include "split_geometry.h"
 
 #include <algorithm>
+#include <cstdint>
 
 namespace splitvk::agent {
 
-std::vector<VkRect2D> FoveaShading::take_drawn_foveae(uint64_t image_id) {
+std::vector<split::LayerFovea> FoveaShading::take_drawn_foveae(uint64_t image_id) {
     const auto it = drawn_.find(image_id);
     if (it == drawn_.end()) return {};
     // The whole frame's coverage decides its foveae (split::frame_foveae), as the client's does.
-    std::vector<VkRect2D> foveae = it->second.foveae(eyes_, fovea_);
-    // An OpenXR eye image: one fovea, wherever its passes drew, as the client composites it.
-    if (const auto eye = runtime_fovea(image_id, it->second.extent); eye && !foveae.empty()) foveae = {*eye};
+    std::vector<split::LayerFovea> foveae = split::in_layer_zero(it->second.foveae(eyes_, fovea_));
+    // An OpenXR eye image: its eyes' foveae, wherever its passes drew, as the client composites them.
+    if (auto eyes = runtime_foveae(image_id, it->second.extent); eyes && !foveae.empty())
+        foveae = std::move(*eyes);
     drawn_.erase(it);
     return foveae;
 }
 
-std::optional<VkRect2D> FoveaShading::runtime_fovea(uint64_t image_id, VkExtent2D extent) const {
-    const split::FieldOfView *view = nullptr;
-    if (!swapchains_.runtime_image(image_id, &view)) return std::nullopt;
-    return split::runtime_eye_fovea(extent, view, fovea_);
+std::optional<std::vector<split::LayerFovea>> FoveaShading::runtime_foveae(uint64_t image_id,
+                                                                           VkExtent2D extent) const {
+    const std::vector<split::RuntimeEye> *eyes = nullptr;
+    uint32_t layers = 1;
+    if (!swapchains_.runtime_image(image_id, &eyes, &layers)) return std::nullopt;
+    return split::runtime_eye_foveae(extent, layers, *eyes, fovea_);
 }
 
 void FoveaShading::image_created(VkImage image, const VkImageCreateInfo &info) {
@@ -92,9 +96,66 @@ void FoveaShading::begin_command_buffer(VkCommandBuffer cb, const VkCommandBuffe
     split::CommandTracker *t = tracker(cb);
     if (!t) return;
     t->reset();
+    const auto variant = pending_variants_.find(cb);
     // Shaded whole (its image is unknown until executed); its viewports become foveae then.
-    if (info && (info->flags & VK_COMMAND_BUFFER_USAGE_RENDER_PASS_CONTINUE_BIT) && info->pInheritanceInfo)
+    if (info && (info->flags & VK_COMMAND_BUFFER_USAGE_RENDER_PASS_CONTINUE_BIT) && info->pInheritanceInfo) {
         t->begin_secondary();
+        // A variant: inside its pass from its first command, as a primary is after the pass's begin.
+        if (variant != pending_variants_.end()) {
+            const PassScissor &s = variant->second;
+            t->begin_split(s.image, s.extent, s.swapchain);
+            if (!s.swapchain) guard_rects_[cb] = s.guard;
+        }
+    }
+    if (variant != pending_variants_.end()) pending_variants_.erase(variant);
+}
+
+bool FoveaShading::PassScissor::same_as(const PassScissor &other) const {
+    const auto same_rect = [](const VkRect2D &a, const VkRect2D &b) {
+        return a.offset.x == b.offset.x && a.offset.y == b.offset.y && a.extent.width == b.extent.width &&
+               a.extent.height == b.extent.height;
+    };
+    // A split pass's scissors follow from the viewports, the image's extent and, for a runtime's
+    // image, its fovea: which of a swapchain's images it is does not matter.
+    if (swapchain != other.swapchain || generation != other.generation) return false;
+    if (extent.width != other.extent.width || extent.height != other.extent.height) return false;
+    if (!swapchain) return same_rect(guard, other.guard);
+    if (eye.has_value() != other.eye.has_value()) return false;
+    return !eye || same_rect(*eye, *other.eye);
+}
+
+std::optional<FoveaShading::PassScissor> FoveaShading::pass_scissor(VkCommandBuffer primary) const {
+    if (!enabled_) return std::nullopt;
+    const auto it = command_buffers_.find(primary);
+    if (it == command_buffers_.end() || !it->second.in_split()) return std::nullopt;
+    const split::CommandTracker &t = it->second;
+    PassScissor s;
+    s.swapchain = t.swapchain_pass();
+    s.image = t.image();
+    s.extent = t.extent();
+    s.generation = generation_;
+    if (s.swapchain) {
+        s.eye = runtime_fovea(t.image(), t.extent());
+    } else {
+        const auto guard = guard_rects_.find(primary);
+        if (guard == guard_rects_.end()) return std::nullopt;
+        s.guard = guard->second;
+    }
+    return s;
+}
+
+bool FoveaShading::continues_pass(VkCommandBuffer cb) const {
+    const auto it = command_buffers_.find(cb);
+    return enabled_ && it != command_buffers_.end() && it->second.secondary();
+}
+
+void FoveaShading::begin_variant(VkCommandBuffer variant, const PassScissor &scissor) {
+    if (!variant_logged_)
+        SPLITVK_INFO("secondaries executed in %s pass of %ux%u: recorded again, scissored for the pass",
+                     scissor.swapchain ? "a split" : "a guarded", scissor.extent.width,
+                     scissor.extent.height);
+    variant_logged_ = true;
+    pending_variants_[variant] = scissor;
 }
 
 void FoveaShading::transfer_into(VkCommandBuffer cb, VkImage image, uint32_t count, const VkRect2D *rects) {
@@ -231,7 +292,7 @@ bool FoveaShading::guard_rect(const std::vector<VkImageView> &views, VkExtent2D 
 }
 
 void FoveaShading::enter_guarded(VkCommandBuffer cb, split::CommandTracker &t,
-                                 const std::vector<VkImageView> &views) {
+                                 const std::vector<VkImageView> &views, bool emit) {
     VkExtent2D extent{};
     VkRect2D rect{};
     VkExtent2D unmapped{};
@@ -253,7 +314,7 @@ void FoveaShading::enter_guarded(VkCommandBuffer cb, split::CommandTracker &t,
     guard_logged_ = true;
     guard_rects_[cb] = rect;
     t.begin_split(0, extent, false);
-    emit_scissors(cb, t);
+    if (emit) emit_scissors(cb, t);
 }
 
 void FoveaShading::enter_split(VkCommandBuffer cb, split::CommandTracker &t, uint64_t image_id,
@@ -283,13 +344,14 @@ void FoveaShading::begin_render_pass(VkCommandBuffer cb, const VkRenderPassBegin
     for (size_t i = 0; i < count; ++i)
         if (target(views[i], &image_id, &extent)) {
             if (!secondary) return enter_split(cb, *t, image_id, extent);
-            // Its secondaries are shaded whole; the viewports they draw with give the foveae. Only
-            // vkCmdExecuteCommands may follow in the primary: no scissors to set.
+            // Its secondaries are executed as variants scissored for it (pass_scissor); the
+            // viewports they draw with give the foveae. Only vkCmdExecuteCommands may follow in
+            // the primary: no scissors to set.
             t->begin_split(image_id, extent);
             t->contents_in_secondaries();
             return;
         }
-    if (!secondary && count) enter_guarded(cb, *t, std::vector<VkImageView>(views, views + count));
+    if (count) enter_guarded(cb, *t, std::vector<VkImageView>(views, views + count), !secondary);
 }
 
 void FoveaShading::begin_rendering(VkCommandBuffer cb, const VkRenderingInfo &info) {
@@ -302,8 +364,9 @@ void FoveaShading::begin_rendering(VkCommandBuffer cb, const VkRenderingInfo &in
         if (target(a.imageView, &image_id, &extent) ||
             (a.resolveMode != VK_RESOLVE_MODE_NONE && target(a.resolveImageView, &image_id, &extent))) {
             if (info.flags & VK_RENDERING_CONTENTS_SECONDARY_COMMAND_BUFFERS_BIT) {
-                // As begin_render_pass's: its secondaries are shaded whole, the viewports they draw
-                // with give the foveae (the client's layer notes the same ones).
+                // As begin_render_pass's: its secondaries are executed as variants scissored for
+                // it, the viewports they draw with give the foveae (the client's layer notes the
+                // same ones).
                 t->begin_split(image_id, extent);
                 t->contents_in_secondaries();
                 return;
@@ -311,7 +374,6 @@ void FoveaShading::begin_rendering(VkCommandBuffer cb, const VkRenderingInfo &in
             return enter_split(cb, *t, image_id, extent);
         }
     }
-    if (info.flags & VK_RENDERING_CONTENTS_SECONDARY_COMMAND_BUFFERS_BIT) return;
     std::vector<VkImageView> views;
     for (uint32_t i = 0; i < info.colorAttachmentCount; ++i) {
         views.push_back(info.pColorAttachments[i].imageView);
@@ -323,7 +385,7 @@ void FoveaShading::begin_rendering(VkCommandBuffer cb, const VkRenderingInfo &in
             views.push_back(a->imageView);
             if (a->resolveMode != VK_RESOLVE_MODE_NONE) views.push_back(a->resolveImageView);
         }
-    enter_guarded(cb, *t, views);
+    enter_guarded(cb, *t, views, !(info.flags & VK_RENDERING_CONTENTS_SECONDARY_COMMAND_BUFFERS_BIT));
 }
 
 void FoveaShading::end_pass(VkCommandBuffer cb) {
@@ -333,14 +395,42 @@ void FoveaShading::end_pass(VkCommandBuffer cb) {
     emit_scissors(cb, *t);
 }
 
+// The bounding box of the foveae of an OpenXR eye image that a viewport can draw into: every layer's
+// (a multiview pass draws all its views with the same scissors), and of a side-by-side image the
+// eyes whose foveae the viewport reaches (all of them where it is not known, or reaches none).
+VkRect2D FoveaShading::runtime_scissor(const std::vector<split::LayerFovea> &foveae, const VkViewport *v) {
+    const auto reaches = [&](const VkRect2D &f) {
+        if (!v) return true;
+        const double x0 = v->x, x1 = double(v->x) + v->width;
+        const double y0 = std::min(double(v->y), double(v->y) + v->height);
+        const double y1 = std::max(double(v->y), double(v->y) + v->height);
+        return x0 < f.offset.x + double(f.extent.width) && f.offset.x < x1 &&
+               y0 < f.offset.y + double(f.extent.height) && f.offset.y < y1;
+    };
+    const bool any = std::any_of(foveae.begin(), foveae.end(),
+                                 [&](const split::LayerFovea &f) { return reaches(f.rect); });
+    int64_t x0 = INT64_MAX, y0 = INT64_MAX, x1 = INT64_MIN, y1 = INT64_MIN;
+    for (const split::LayerFovea &f : foveae) {
+        if (any && !reaches(f.rect)) continue;
+        x0 = std::min<int64_t>(x0, f.rect.offset.x);
+        y0 = std::min<int64_t>(y0, f.rect.offset.y);
+        x1 = std::max<int64_t>(x1, int64_t{f.rect.offset.x} + f.rect.extent.width);
+        y1 = std::max<int64_t>(y1, int64_t{f.rect.offset.y} + f.rect.extent.height);
+    }
+    if (x1 <= x0 || y1 <= y0) return {};
+    return {{int32_t(x0), int32_t(y0)}, {uint32_t(x1 - x0), uint32_t(y1 - y0)}};
+}
+
 void FoveaShading::emit_scissors(VkCommandBuffer cb, const split::CommandTracker &t) {
     const auto guard = t.in_split() && !t.swapchain_pass() ? guard_rects_.find(cb) : guard_rects_.end();
+    const auto runtime =
+        t.in_split() && guard == guard_rects_.end() ? runtime_foveae(t.image(), t.extent()) : std::nullopt;
     const auto out = [&](size_t i, const VkRect2D &r) {
         if (!t.in_split()) return r;
         if (guard != guard_rects_.end()) return split::intersect(r, guard->second);
         const VkViewport *v = t.viewport(i);
         // Without viewport i the eye is unknown; the scissor is narrowed once the viewport is set.
-        if (const auto eye = runtime_fovea(t.image(), t.extent())) return split::intersect(r, *eye);
+        if (runtime) return split::intersect(r, runtime_scissor(*runtime, v));
         return v ? split::intersect(r, split::fovea_scissor(*v, t.extent(), eyes_, fovea_)) : r;
     };
     std::vector<VkRect2D> values;

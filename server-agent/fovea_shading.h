@@ -25,7 +25,8 @@
 // stale contents; the foveae stay exact only while N covers the reach of every filter that carries
 // them towards the foveae (a bloom chain compounds: each halving doubles what it reads in its
 // source's pixels), and a pass whose shaders also write storage (a histogram) sees only the guarded
-// pixels. Passes with any other attachment, or with their contents in secondaries, run in full.
+// pixels. Passes with any other attachment run in full. Passes whose contents are in secondaries
+// are scissored alike through variants of their secondaries (begin_variant).
 
 #include "settings.h"
 #include "split_tracker.h"
@@ -52,6 +53,7 @@ public:
         eyes_ = eyes;
         fovea_ = fovea;
         scissor_ = scissor;
+        ++generation_;
     }
     // Off: everything replays as recorded (SPLITVK_VERIFY compares whole frames, and the client
     // does not split then). Set before the first command.
@@ -62,7 +64,9 @@ public:
     // submits replayed since the last call (split::frame_foveae of their coverage; full-resolution
     // coordinates, sorted by x then y, as the client's take_split_frame reports them). Clears the
     // record.
-    std::vector<VkRect2D> take_drawn_foveae(uint64_t image_id);
+    // An OpenXR runtime's image gives its eyes' foveae instead (split::runtime_eye_foveae), in their
+    // array layers.
+    std::vector<split::LayerFovea> take_drawn_foveae(uint64_t image_id);
 
     // Object tracking (after the driver call; destroys before it).
     void image_created(VkImage image, const VkImageCreateInfo &info);
@@ -85,6 +89,31 @@ public:
     void transfer_into(VkCommandBuffer cb, VkImage image, uint32_t count, const VkRect2D *rects);
     // Secondaries executed inside a split pass: the foveae of the viewports they drew with.
     void execute_commands(VkCommandBuffer cb, uint32_t count, const VkCommandBuffer *secondaries);
+
+    // Secondaries inside scissored passes (issue 19, item 5). A secondary that continues a render
+    // pass is recorded before the agent knows which pass will execute it (its stream arrives at its
+    // vkEndCommandBuffer, before the primary's), so its own recording keeps the app's scissors and
+    // is shaded whole. For a pass that is scissored (a split pass, or a guarded one under guard:N),
+    // the replayer records a variant of the secondary from its stream, begun with begin_variant:
+    // its scissors are narrowed as a primary's are inside that pass, from the viewports and
+    // scissors the secondary sets itself (they are not inherited). A variant serves every pass with
+    // the same PassScissor; the foveae drawn are still counted from the secondary itself.
+    struct PassScissor {
+        bool swapchain = false; // a split pass into swapchain image `image`; else a guarded one
+        uint64_t image = 0;
+        VkExtent2D extent{};
+        std::optional<VkRect2D> eye; // an OpenXR runtime's image: its one fovea
+        VkRect2D guard{};            // a guarded pass: its scissor
+        uint64_t generation = 0;     // of configure(): a variant is for one eye layout and fovea size
+        // Whether a variant recorded for `other` narrows exactly as one for this pass would.
+        bool same_as(const PassScissor &other) const;
+    };
+    // The scissoring of the pass in progress in `primary`; none when it is shaded whole.
+    std::optional<PassScissor> pass_scissor(VkCommandBuffer primary) const;
+    // `cb` was begun as a secondary that continues a render pass.
+    bool continues_pass(VkCommandBuffer cb) const;
+    // The next vkBeginCommandBuffer of `variant` records it for a pass scissored as `scissor`.
+    void begin_variant(VkCommandBuffer variant, const PassScissor &scissor);
     void bind_pipeline(VkCommandBuffer cb, VkPipelineBindPoint bind_point, VkPipeline pipeline);
     void set_viewports(VkCommandBuffer cb, uint32_t first, uint32_t count, const VkViewport *viewports,
                        bool with_count);
@@ -104,7 +133,10 @@ private:
     // (split::guard_maps_target): that pass is replayed whole.
     bool guard_rect(const std::vector<VkImageView> &views, VkExtent2D *extent, VkRect2D *rect,
                     VkExtent2D *unmapped) const;
-    void enter_guarded(VkCommandBuffer cb, split::CommandTracker &t, const std::vector<VkImageView> &views);
+    // `emit`: false for a pass whose contents are in secondaries (no scissor may be set in it; its
+    // secondaries' variants get the guard).
+    void enter_guarded(VkCommandBuffer cb, split::CommandTracker &t, const std::vector<VkImageView> &views,
+                       bool emit);
     void enter_split(VkCommandBuffer cb, split::CommandTracker &tracker, uint64_t image_id,
                      VkExtent2D extent);
     void emit_scissors(VkCommandBuffer cb, const split::CommandTracker &tracker);
@@ -114,9 +146,10 @@ private:
     SwapchainImages &swapchains_;
     bool enabled_ = true;
     EyeMode eyes_ = Settings{}.eyes;
-    // The fovea of an OpenXR runtime's image (one eye, at its view direction once known), or none
-    // for a window's, whose foveae SPLITVK_EYES places.
-    std::optional<VkRect2D> runtime_fovea(uint64_t image_id, VkExtent2D extent) const;
+    // The foveae of an OpenXR runtime's image (its eyes', at their view directions once known), or
+    // none for a window's, whose foveae SPLITVK_EYES places.
+    std::optional<std::vector<split::LayerFovea>> runtime_foveae(uint64_t image_id, VkExtent2D extent) const;
+    static VkRect2D runtime_scissor(const std::vector<split::LayerFovea> &foveae, const VkViewport *viewport);
     FoveaSize fovea_ = Settings{}.fovea;
     AgentScissor scissor_;
     struct View {
@@ -133,6 +166,9 @@ private:
     std::unordered_map<VkCommandBuffer, VkRect2D> guard_rects_; // of the guarded pass in progress
     bool guard_logged_ = false;
     bool unmapped_logged_ = false; // a pass replayed whole: said once
+    bool variant_logged_ = false;
+    uint64_t generation_ = 0;                                           // configure() calls
+    std::unordered_map<VkCommandBuffer, PassScissor> pending_variants_; // begin_variant, until begun
     std::unordered_map<VkFramebuffer, std::vector<VkImageView>> framebuffers_;
     std::unordered_map<VkPipeline, std::shared_ptr<const split::StaticViewportState>> pipelines_;
     std::unordered_map<VkCommandBuffer, split::CommandTracker> command_buffers_;

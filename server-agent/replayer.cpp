@@ -32,6 +32,7 @@ Replayer::Replayer(uint64_t session_id, const MemoryLimits &limits, protocol::De
 Replayer::~Replayer() {
     if (!context_.device) return;
     vkDeviceWaitIdle(context_.device);
+    if (variant_pool_) ::vkDestroyCommandPool(context_.device, variant_pool_, nullptr);
     for (const auto &[serial, fence] : in_flight_)
         ::vkDestroyFence(context_.device, fence, nullptr);
     for (VkFence fence : free_fences_)
@@ -169,10 +170,20 @@ bool Replayer::replay(std::span<const uint8_t> payload, std::string *error) {
     error->clear();
     codec::Decoder d(payload, table_, arena_);
     bool ok = true;
+    // Where each command buffer begun in this payload began (a command buffer's stream is sent whole).
+    std::unordered_map<uint64_t, size_t> begun_at;
     while (ok && d.ok() && !d.at_end()) {
         const size_t offset = d.offset();
+        bool ends_command_buffer = false; // its stream is complete once dispatched
         if (payload.size() - offset >= 2) {
             const auto id = static_cast<VkCommandId>(protocol::load_le16(payload.data() + offset));
+            // Both encoded as u16 command id, u64 commandBuffer id.
+            if ((id == VkCommandId::vkBeginCommandBuffer || id == VkCommandId::vkEndCommandBuffer) &&
+                payload.size() - offset >= 10) {
+                const uint64_t command_buffer = protocol::load_le64(payload.data() + offset + 2);
+                if (id == VkCommandId::vkBeginCommandBuffer) begun_at[command_buffer] = offset;
+                ends_command_buffer = id == VkCommandId::vkEndCommandBuffer;
+            }
             if (id == VkCommandId::vkCreateDevice && !peek_create_device(payload, offset, error)) {
                 *error = "vkCreateDevice: " + *error;
                 ok = false;
@@ -195,6 +206,12 @@ bool Replayer::replay(std::span<const uint8_t> payload, std::string *error) {
         }
         ok = codec::dispatch_decoded(d, *this);
         if (ok) ++commands_;
+        if (ok && d.ok() && ends_command_buffer) {
+            const uint64_t command_buffer = protocol::load_le64(payload.data() + offset + 2);
+            if (const auto begin = begun_at.find(command_buffer); begin != begun_at.end())
+                keep_secondary_stream(command_buffer,
+                                      payload.subspan(begin->second, d.offset() - begin->second));
+        }
     }
     if (ok && d.ok()) {
         arena_.reset();
@@ -621,9 +638,12 @@ bool Replayer::swapchain_destroyed(const protocol::SwapchainDestroyed &message, 
 }
 
 bool Replayer::swapchain_view(const protocol::SwapchainView &message, std::string *error) {
-    const split::FieldOfView view{message.angle_left, message.angle_right, message.angle_up,
-                                  message.angle_down};
-    if (!swapchains_.set_view(message.swapchain_id, view, error)) {
+    split::RuntimeEye eye;
+    eye.layer = message.array_layer;
+    eye.rect = {{static_cast<int32_t>(message.x), static_cast<int32_t>(message.y)},
+                {message.width, message.height}};
+    eye.fov = {message.angle_left, message.angle_right, message.angle_up, message.angle_down};
+    if (!swapchains_.note_eye(message.swapchain_id, eye, error)) {
         *error = "SwapchainView: swapchain " + hex(message.swapchain_id) + ": " + *error;
         return false;
     }
@@ -741,10 +761,123 @@ bool Replayer::vkDestroyPipeline(const codec::Decoded_vkDestroyPipeline &c) {
 }
 
 bool Replayer::vkBeginCommandBuffer(const codec::Decoded_vkBeginCommandBuffer &c) {
+    // A new recording: the previous one's stream and variants are gone (not for a variant's own
+    // begin, which names the secondary's id).
+    if (!recording_variant_) forget_secondary(c.commandBuffer_id);
     if (!ReplayVisitorBase::vkBeginCommandBuffer(c)) return false;
     fovea_.begin_command_buffer(c.commandBuffer, c.pBeginInfo);
     guard_.command_buffer_begun(c.commandBuffer);
     return true;
+}
+
+bool Replayer::vkFreeCommandBuffers(const codec::Decoded_vkFreeCommandBuffers &c) {
+    for (uint32_t i = 0; c.pCommandBuffers_ids && i < c.commandBufferCount; ++i)
+        forget_secondary(c.pCommandBuffers_ids[i]);
+    return ReplayVisitorBase::vkFreeCommandBuffers(c);
+}
+
+bool Replayer::vkDestroyCommandPool(const codec::Decoded_vkDestroyCommandPool &c) {
+    std::vector<uint64_t> freed; // the pool's command buffers, while the table still names their pool
+    for (const auto &[id, secondary] : secondaries_)
+        if (const auto *entry = table_.find(id); !entry || entry->parent == c.commandPool_id)
+            freed.push_back(id);
+    for (uint64_t id : freed)
+        forget_secondary(id);
+    return ReplayVisitorBase::vkDestroyCommandPool(c);
+}
+
+// --- secondaries in scissored passes (fovea_shading.h) ---------------------------------------
+
+void Replayer::keep_secondary_stream(uint64_t id, std::span<const uint8_t> stream) {
+    // What a session may keep: the client's streams are not charged to --max-host-memory, and an
+    // application's secondaries are small next to this; past it, the rest are shaded whole.
+    constexpr uint64_t kMaxKeptBytes = 64ull << 20;
+    const auto *entry = table_.find(id);
+    if (recording_variant_ || !entry ||
+        !fovea_.continues_pass(codec::to_handle<VkCommandBuffer>(entry->handle)))
+        return;
+    if (kept_stream_bytes_ + stream.size() > kMaxKeptBytes) {
+        if (!variant_failed_logged_)
+            SPLITVK_WARN(
+                "secondaries in scissored passes: their commands pass %llu MiB; the rest are shaded whole",
+                static_cast<unsigned long long>(kMaxKeptBytes >> 20));
+        variant_failed_logged_ = true;
+        return;
+    }
+    SecondaryStream &kept = secondaries_[id];
+    kept_stream_bytes_ += stream.size() - kept.stream.size();
+    kept.stream.assign(stream.begin(), stream.end());
+}
+
+void Replayer::forget_secondary(uint64_t id) {
+    const auto it = secondaries_.find(id);
+    if (it == secondaries_.end()) return;
+    if (!it->second.variants.empty()) {
+        quiesce(); // a no-op: the queue is idle when a secondary is re-begun or freed (SecondaryStream)
+        for (const auto &[scissor, variant] : it->second.variants)
+            ::vkFreeCommandBuffers(context_.device, variant_pool_, 1, &variant);
+    }
+    kept_stream_bytes_ -= it->second.stream.size();
+    secondaries_.erase(it);
+}
+
+VkCommandBuffer Replayer::secondary_variant(uint64_t id, VkCommandBuffer secondary,
+                                            const FoveaShading::PassScissor &scissor) {
+    const auto it = secondaries_.find(id);
+    const auto *entry = table_.find(id);
+    if (it == secondaries_.end() || it->second.stream.empty() || !entry ||
+        entry->handle != codec::handle_value(secondary))
+        return VK_NULL_HANDLE;
+    for (const auto &[recorded_for, variant] : it->second.variants)
+        if (recorded_for.same_as(scissor)) return variant;
+    const auto give_up = [&](const char *why) {
+        if (!variant_failed_logged_)
+            SPLITVK_WARN("secondaries in scissored passes: %s; they are shaded whole", why);
+        variant_failed_logged_ = true;
+        return VK_NULL_HANDLE;
+    };
+    if (!variant_pool_) {
+        VkCommandPoolCreateInfo info{};
+        info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+        info.queueFamilyIndex = context_.queue_family;
+        if (::vkCreateCommandPool(context_.device, &info, nullptr, &variant_pool_) != VK_SUCCESS) {
+            variant_pool_ = VK_NULL_HANDLE;
+            return give_up("no command pool");
+        }
+    }
+    VkCommandBufferAllocateInfo allocate{};
+    allocate.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    allocate.commandPool = variant_pool_;
+    allocate.level = VK_COMMAND_BUFFER_LEVEL_SECONDARY;
+    allocate.commandBufferCount = 1;
+    VkCommandBuffer variant = VK_NULL_HANDLE;
+    if (::vkAllocateCommandBuffers(context_.device, &allocate, &variant) != VK_SUCCESS)
+        return give_up("no command buffer");
+    // The stream names the secondary by its client id: for its second recording, that id names
+    // the variant. Nothing else is decoded meanwhile (the primary's command is already decoded).
+    const codec::HandleTable::Entry original = *entry;
+    table_.remove(id);
+    table_.insert(id, original.type, codec::handle_value(variant), original.parent);
+    fovea_.begin_variant(variant, scissor);
+    const std::string first_error = error_;
+    recording_variant_ = true;
+    codec::Decoder d(it->second.stream, table_, variant_arena_);
+    bool ok = true;
+    while (ok && d.ok() && !d.at_end())
+        ok = codec::dispatch_decoded(d, *this);
+    ok = ok && d.ok();
+    recording_variant_ = false;
+    const std::string error = !d.ok() ? d.error() : error_;
+    error_ = first_error; // the stream replayed once already: a failure here is not the session's
+    variant_arena_.reset();
+    table_.remove(id);
+    table_.insert(id, original.type, original.handle, original.parent);
+    if (!ok) {
+        ::vkFreeCommandBuffers(context_.device, variant_pool_, 1, &variant);
+        return give_up(error.c_str());
+    }
+    it->second.variants.emplace_back(scissor, variant);
+    return variant;
 }
 
 // --- the limit guard (limit_guard.h) ---------------------------------------------------------
@@ -845,7 +978,21 @@ bool Replayer::vkCmdResolveImage2(const codec::Decoded_vkCmdResolveImage2 &c) {
 }
 
 bool Replayer::vkCmdExecuteCommands(const codec::Decoded_vkCmdExecuteCommands &c) {
-    if (!ReplayVisitorBase::vkCmdExecuteCommands(c)) return false;
+    // In a scissored pass, each secondary's variant for it; the secondaries themselves still say
+    // which foveae were drawn. A variant's own secondaries (nested command buffers) run as recorded:
+    // recording one variant inside another would reuse the arena the outer one is decoded from.
+    std::vector<VkCommandBuffer> executed;
+    const auto scissor = recording_variant_ ? std::nullopt : fovea_.pass_scissor(c.commandBuffer);
+    if (scissor && c.pCommandBuffers_ids) {
+        executed.assign(c.pCommandBuffers, c.pCommandBuffers + c.commandBufferCount);
+        for (uint32_t i = 0; i < c.commandBufferCount; ++i)
+            if (const VkCommandBuffer variant =
+                    secondary_variant(c.pCommandBuffers_ids[i], c.pCommandBuffers[i], *scissor))
+                executed[i] = variant;
+    }
+    codec::Decoded_vkCmdExecuteCommands local = c;
+    if (!executed.empty()) local.pCommandBuffers = executed.data();
+    if (!ReplayVisitorBase::vkCmdExecuteCommands(local)) return false;
     fovea_.execute_commands(c.commandBuffer, c.commandBufferCount, c.pCommandBuffers);
     guard_.executed(c.commandBuffer, c.commandBufferCount, c.pCommandBuffers);
     return true;

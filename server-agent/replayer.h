@@ -127,6 +127,8 @@ public:
     bool vkDestroyFramebuffer(const codec::Decoded_vkDestroyFramebuffer &c) override;
     bool vkDestroyPipeline(const codec::Decoded_vkDestroyPipeline &c) override;
     bool vkBeginCommandBuffer(const codec::Decoded_vkBeginCommandBuffer &c) override;
+    bool vkFreeCommandBuffers(const codec::Decoded_vkFreeCommandBuffers &c) override;
+    bool vkDestroyCommandPool(const codec::Decoded_vkDestroyCommandPool &c) override;
     bool vkCmdBindPipeline(const codec::Decoded_vkCmdBindPipeline &c) override;
     bool vkCmdBlitImage(const codec::Decoded_vkCmdBlitImage &c) override;
     bool vkCmdBlitImage2(const codec::Decoded_vkCmdBlitImage2 &c) override;
@@ -170,6 +172,24 @@ private:
     void note_pipeline_addresses(VkPipeline pipeline, VkPipelineLayout layout, uint32_t stage_count,
                                  const VkPipelineShaderStageCreateInfo *stages);
 
+    // Secondaries in scissored passes (fovea_shading.h, FoveaShading::begin_variant): the stream of
+    // each secondary that continues a render pass is kept, and recorded again into a variant of
+    // our own for each differently scissored pass that executes it. A variant lives as long as the
+    // secondary's recording: re-beginning or freeing the secondary frees its variants, which no
+    // pending primary can use by then (a secondary is re-begun or freed only with the queue idle:
+    // wait_for_command_buffer, needs_quiesce).
+    struct SecondaryStream {
+        std::vector<uint8_t> stream; // its vkBeginCommandBuffer through its vkEndCommandBuffer
+        std::vector<std::pair<FoveaShading::PassScissor, VkCommandBuffer>> variants;
+    };
+    // `stream` ended the recording of command buffer `id`: kept if it continues a render pass.
+    void keep_secondary_stream(uint64_t id, std::span<const uint8_t> stream);
+    // The variant of secondary `id` for a pass scissored as `scissor`, recorded on first use; null
+    // where the secondary is executed as recorded (shaded whole).
+    VkCommandBuffer secondary_variant(uint64_t id, VkCommandBuffer secondary,
+                                      const FoveaShading::PassScissor &scissor);
+    void forget_secondary(uint64_t id);
+
     uint64_t session_id_;
     VulkanContext context_;
     codec::HandleTable table_;
@@ -197,7 +217,13 @@ private:
     std::unordered_map<VkCommandBuffer, VkCommandPool> pool_of_;
     std::unordered_map<VkCommandPool, uint64_t> pool_last_submit_;
     std::unordered_set<VkCommandPool> pools_with_secondaries_;
-    BufferAddressMap addresses_; // by the agent's buffer handle values
+    std::unordered_map<uint64_t, SecondaryStream> secondaries_; // by client id
+    VkCommandPool variant_pool_ = VK_NULL_HANDLE;
+    codec::Arena variant_arena_; // a variant is recorded while the primary's commands use arena_
+    bool recording_variant_ = false;
+    bool variant_failed_logged_ = false;
+    uint64_t kept_stream_bytes_ = 0; // of secondaries_' streams
+    BufferAddressMap addresses_;     // by the agent's buffer handle values
     std::unordered_map<VkShaderModule, ShaderAddresses> shader_addresses_; // modules that use addresses
     std::unordered_map<VkPipelineLayout, std::vector<uint32_t>> layout_address_fields_;
     std::unordered_map<VkPipeline, std::string> untranslatable_pipelines_; // -> why

@@ -133,24 +133,38 @@ bool SwapchainImages::presented(uint64_t swapchain_id, uint32_t image_index, Pre
     return true;
 }
 
-bool SwapchainImages::runtime_image(uint64_t image_id, const split::FieldOfView **view) const {
+bool SwapchainImages::runtime_image(uint64_t image_id, const std::vector<split::RuntimeEye> **eyes,
+                                    uint32_t *layers) const {
     for (const auto &[id, swapchain] : swapchains_)
         if (swapchain.info.source == protocol::SwapchainImages::Source::Runtime)
             for (uint64_t image : swapchain.info.image_ids)
                 if (image == image_id) {
-                    if (view) *view = swapchain.view ? &*swapchain.view : nullptr;
+                    if (eyes) *eyes = &swapchain.eyes;
+                    if (layers) *layers = swapchain.info.array_layers;
                     return true;
                 }
     return false;
 }
 
-bool SwapchainImages::set_view(uint64_t swapchain_id, const split::FieldOfView &view, std::string *error) {
+bool SwapchainImages::note_eye(uint64_t swapchain_id, const split::RuntimeEye &eye, std::string *error) {
     const auto it = swapchains_.find(swapchain_id);
     if (it == swapchains_.end() || it->second.info.source != protocol::SwapchainImages::Source::Runtime) {
         *error = "not an OpenXR runtime's swapchain";
         return false;
     }
-    it->second.view = view;
+    const protocol::SwapchainImages &info = it->second.info;
+    const VkRect2D &r = eye.rect;
+    if (eye.layer >= info.array_layers || r.offset.x < 0 || r.offset.y < 0 ||
+        uint64_t(r.offset.x) + r.extent.width > info.width ||
+        uint64_t(r.offset.y) + r.extent.height > info.height) {
+        *error = "eye in layer " + std::to_string(eye.layer) + " at " + std::to_string(r.offset.x) + "," +
+                 std::to_string(r.offset.y) + " " + std::to_string(r.extent.width) + "x" +
+                 std::to_string(r.extent.height) + " outside its " + std::to_string(info.width) + "x" +
+                 std::to_string(info.height) + " images of " + std::to_string(info.array_layers) +
+                 " layer(s)";
+        return false;
+    }
+    split::note_runtime_eye(it->second.eyes, eye);
     return true;
 }
 

@@ -34,12 +34,14 @@ public:
     // (fovea_shading.h: split passes are the ones drawing into these).
     bool find_image(VkImage image, uint64_t *image_id, VkExtent2D *extent) const;
     // Whether `image_id` is an image of an OpenXR runtime's swapchain (adopted, SwapchainImages::Source::
-    // Runtime): it holds one eye, whatever SPLITVK_EYES says of windows. *view (when given) is then
-    // that eye's field of view, or null before the client sent one (SwapchainView).
-    bool runtime_image(uint64_t image_id, const split::FieldOfView **view = nullptr) const;
-    // SwapchainView: an OpenXR swapchain's field of view. False with `error` for a swapchain that is
-    // not a runtime's.
-    bool set_view(uint64_t swapchain_id, const split::FieldOfView &view, std::string *error);
+    // Runtime): its eyes are the projection views', whatever SPLITVK_EYES says of windows. *eyes (when
+    // given) are then the eyes the client sent (SwapchainView; none before the first), *layers its
+    // images' array layers.
+    bool runtime_image(uint64_t image_id, const std::vector<split::RuntimeEye> **eyes = nullptr,
+                       uint32_t *layers = nullptr) const;
+    // SwapchainView: an eye of an OpenXR swapchain (split::note_runtime_eye). False with `error` for a
+    // swapchain that is not a runtime's, or an eye outside its images (layer or rectangle).
+    bool note_eye(uint64_t swapchain_id, const split::RuntimeEye &eye, std::string *error);
     // The extent of the newest swapchain, {0, 0} before the first: what screen-space targets are
     // classified against, as the client does (protocol/target_rule.h).
     VkExtent2D newest_extent() const { return newest_; }
@@ -69,7 +71,7 @@ private:
         protocol::SwapchainImages info;
         std::vector<VkImage> images;
         std::vector<VkDeviceMemory> memory;
-        std::optional<split::FieldOfView> view; // a runtime's swapchain, once SwapchainView said
+        std::vector<split::RuntimeEye> eyes; // a runtime's swapchain: what SwapchainView said
     };
     void release(Swapchain &swapchain);
     bool ensure_readback(VkDeviceSize bytes, std::string *error);

@@ -166,10 +166,10 @@ void TileStreamer::record_copy(Slot &slot) {
     vkResetCommandBuffer(slot.command_buffer, 0);
     std::vector<VkBufferImageCopy> regions;
     VkDeviceSize offset = 0;
-    for (const VkRect2D &rect : slot.frame.foveae) {
+    for (const auto &[layer, rect] : slot.frame.foveae) {
         VkBufferImageCopy region{};
         region.bufferOffset = offset; // tightly packed, one rect after the other
-        region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, layer, 1};
         region.imageOffset = {rect.offset.x, rect.offset.y, 0};
         region.imageExtent = {rect.extent.width, rect.extent.height, 1};
         regions.push_back(region);
@@ -195,7 +195,7 @@ bool TileStreamer::present(Frame frame, std::string *error) {
     if (!slot.command_buffer && !create_slot(slot, error)) return false;
 
     VkDeviceSize bytes = 0;
-    for (const VkRect2D &rect : frame.foveae)
+    for (const auto &[layer, rect] : frame.foveae)
         bytes += VkDeviceSize{rect.extent.width} * rect.extent.height * 4;
     slot.frame = std::move(frame);
     VkFence fences[] = {slot.drawn, slot.copied};
@@ -289,7 +289,7 @@ bool TileStreamer::encode_and_send(Slot &slot, std::string *error) {
     // on this one) and join before sending, so a frame's tiles travel as one message.
     std::vector<std::string> errors(frame.foveae.size());
     auto encode_eye = [&](size_t eye, const uint8_t *pixels) {
-        const VkRect2D &rect = frame.foveae[eye];
+        const VkRect2D &rect = frame.foveae[eye].rect;
         EyeStream &stream = eyes_[eye];
         if (!stream.encoder || stream.width != rect.extent.width || stream.height != rect.extent.height ||
             stream.codec != codec_) {
@@ -303,6 +303,7 @@ bool TileStreamer::encode_and_send(Slot &slot, std::string *error) {
         tile.y = static_cast<uint32_t>(rect.offset.y);
         tile.width = rect.extent.width;
         tile.height = rect.extent.height;
+        tile.array_layer = frame.foveae[eye].layer;
         tile.codec = codec_;
         bool keyframe = false;
         if (!stream.encoder->encode(pixels, tile.data, &keyframe, &errors[eye])) {
@@ -315,7 +316,7 @@ bool TileStreamer::encode_and_send(Slot &slot, std::string *error) {
     const uint8_t *base = slot.staging.mapped;
     size_t offset = 0;
     std::vector<const uint8_t *> pixels;
-    for (const VkRect2D &rect : frame.foveae) {
+    for (const auto &[layer, rect] : frame.foveae) {
         pixels.push_back(base + offset);
         offset += size_t{rect.extent.width} * rect.extent.height * 4;
     }

@@ -15,6 +15,7 @@
 // encoder.
 
 #include "session.h"
+#include "split_geometry.h"
 #include "tile_codec.h"
 #include "vulkan_context.h"
 
@@ -54,8 +55,8 @@ public:
         VkImage image = VK_NULL_HANDLE; // left in `layout` by the frame's submits
         VkImageLayout layout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
         VkFormat format = VK_FORMAT_UNDEFINED;
-        std::vector<VkRect2D> foveae; // may be empty: an empty Tiles message
-        bool invalid = false;         // limit_guard.h: sent as kTilesInvalid, with no tiles
+        std::vector<split::LayerFovea> foveae; // may be empty: an empty Tiles message
+        bool invalid = false;                  // limit_guard.h: sent as kTilesInvalid, with no tiles
         std::chrono::steady_clock::time_point first_submit{}; // of the frame: draw time without timestamps
         std::chrono::steady_clock::time_point present{};      // FramePresent received
     };

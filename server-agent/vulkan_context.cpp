@@ -2,10 +2,12 @@
 
 #include "log.h"
 #include "vk_codec.h"
+#include "vk_envelope_tables.h"
 
 #include <algorithm>
 #include <cstring>
 #include <memory>
+#include <optional>
 #include <string_view>
 #include <vector>
 
@@ -29,32 +31,35 @@ std::vector<VkExtensionProperties> instance_extensions(const char *layer) {
     return list;
 }
 
-// Feature structures made of VkBool32 members only (after sType and pNext), which the agent
-// mirrors member by member: what the client enabled and this GPU supports.
+// A feature structure of the client's vkCreateDevice chain that the agent mirrors member by member
+// (what the client enabled and this GPU supports): VkPhysicalDeviceFeatures2, and every structure of
+// VkBool32 members that vk.xml lets extend both it and VkDeviceCreateInfo (vk_envelope_tables.h),
+// where this device has its core version or enables its extension.
 struct FeatureStruct {
     VkStructureType stype;
     size_t size;
-    uint32_t min_api; // device API version the structure needs
 };
-constexpr FeatureStruct kFeatureStructs[] = {
-    {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2, sizeof(VkPhysicalDeviceFeatures2), VK_API_VERSION_1_1},
-    {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_1_FEATURES, sizeof(VkPhysicalDeviceVulkan11Features),
-     VK_API_VERSION_1_2},
-    {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES, sizeof(VkPhysicalDeviceVulkan12Features),
-     VK_API_VERSION_1_2},
-    {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES, sizeof(VkPhysicalDeviceVulkan13Features),
-     VK_API_VERSION_1_3},
-    {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MULTIVIEW_FEATURES, sizeof(VkPhysicalDeviceMultiviewFeatures),
-     VK_API_VERSION_1_1},
-    {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DYNAMIC_RENDERING_FEATURES,
-     sizeof(VkPhysicalDeviceDynamicRenderingFeatures), VK_API_VERSION_1_3},
-    {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SYNCHRONIZATION_2_FEATURES,
-     sizeof(VkPhysicalDeviceSynchronization2Features), VK_API_VERSION_1_3},
-    {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_TIMELINE_SEMAPHORE_FEATURES,
-     sizeof(VkPhysicalDeviceTimelineSemaphoreFeatures), VK_API_VERSION_1_2},
-    {VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_BUFFER_DEVICE_ADDRESS_FEATURES,
-     sizeof(VkPhysicalDeviceBufferDeviceAddressFeatures), VK_API_VERSION_1_2},
-};
+
+std::optional<FeatureStruct> mirrored_feature_struct(VkStructureType stype, uint32_t api_version,
+                                                     const std::vector<const char *> &extensions) {
+    if (stype == VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2)
+        return api_version >= VK_API_VERSION_1_1
+                   ? std::optional(FeatureStruct{stype, sizeof(VkPhysicalDeviceFeatures2)})
+                   : std::nullopt;
+    for (const auto &known : envelope::kDeviceFeatureStructs) {
+        if (known.stype != stype) continue;
+        // Any extension structure is queried through vkGetPhysicalDeviceFeatures2 (1.1).
+        const bool available =
+            known.extension
+                ? api_version >= VK_API_VERSION_1_1 &&
+                      std::any_of(extensions.begin(), extensions.end(),
+                                  [&](const char *e) { return std::string_view(e) == known.extension; })
+                : api_version >= known.core_version;
+        if (available) return FeatureStruct{stype, known.size};
+    }
+    return std::nullopt;
+}
+
 constexpr size_t kBoolsOffset = sizeof(VkBaseOutStructure);
 
 void and_bools(void *enabled, const void *supported, size_t size) {
@@ -274,10 +279,8 @@ VkResult VulkanContext::create_device(const VkDeviceCreateInfo &client_info, std
     VkBaseOutStructure **tail = &head;
     bool features2 = false;
     for (auto *s = static_cast<const VkBaseInStructure *>(client_info.pNext); s; s = s->pNext) {
-        const FeatureStruct *known = nullptr;
-        for (const auto &f : kFeatureStructs)
-            if (f.stype == s->sType) known = &f;
-        if (!known || known->min_api > api_version) continue;
+        const std::optional<FeatureStruct> known = mirrored_feature_struct(s->sType, api_version, extensions);
+        if (!known) continue;
         auto enabled = std::make_unique<uint8_t[]>(known->size);
         auto supported = std::make_unique<uint8_t[]>(known->size);
         std::memcpy(enabled.get(), s, known->size);
@@ -438,7 +441,8 @@ void VulkanContext::record_present_readback(VkCommandBuffer cb, VkImage image, V
     barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
     barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
     barrier.image = image;
-    barrier.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    // Every layer: the foveae of a layered OpenXR eye image come from each of its layers.
+    barrier.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, VK_REMAINING_ARRAY_LAYERS};
     vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
                          nullptr, 0, nullptr, 1, &barrier);
     vkCmdCopyImageToBuffer(cb, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, dst.buffer,

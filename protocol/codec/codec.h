@@ -178,6 +178,8 @@ struct EncodeContext {
     bool pipeline_color = true;
     bool dynamic_viewport = false;
     bool dynamic_scissor = false;
+    bool dynamic_vertex_input = false;            // VK_EXT_vertex_input_dynamic_state
+    bool dynamic_color_blend_attachments = false; // EDS3 blend enable, equation and write mask
 };
 
 class Encoder {

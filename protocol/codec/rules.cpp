@@ -115,6 +115,13 @@ GraphicsPipelineScope::GraphicsPipelineScope(Encoder &e, const VkGraphicsPipelin
                          has_dynamic_state(dynamic, VK_DYNAMIC_STATE_VIEWPORT_WITH_COUNT);
     c.dynamic_scissor = has_dynamic_state(dynamic, VK_DYNAMIC_STATE_SCISSOR) ||
                         has_dynamic_state(dynamic, VK_DYNAMIC_STATE_SCISSOR_WITH_COUNT);
+    c.dynamic_vertex_input = has_dynamic_state(dynamic, VK_DYNAMIC_STATE_VERTEX_INPUT_EXT);
+    // The attachments' blend state is ignored only when all three of its parts are dynamic
+    // (advanced blending, the fourth part, is not forwarded).
+    c.dynamic_color_blend_attachments =
+        has_dynamic_state(dynamic, VK_DYNAMIC_STATE_COLOR_BLEND_ENABLE_EXT) &&
+        has_dynamic_state(dynamic, VK_DYNAMIC_STATE_COLOR_BLEND_EQUATION_EXT) &&
+        has_dynamic_state(dynamic, VK_DYNAMIC_STATE_COLOR_WRITE_MASK_EXT);
 }
 
 } // namespace splitvk::codec

@@ -1,6 +1,9 @@
 #include "offscreen_scene.h"
 
 #include "passes.h"
+#include "vk_util.h"
+
+#include <stdexcept>
 
 namespace atrium {
 
@@ -26,9 +29,28 @@ OffscreenScene::OffscreenScene(const SceneGpu &scene, const OffscreenSceneInfo &
     pipeline.render_pass = pass_;
     pipeline.shading = info.shading;
     pipeline_ = scene_.create_pipeline(pipeline);
+    if (info.secondaries && info.multiview)
+        throw std::invalid_argument("a multiview scene pass draws once: not in secondaries");
+    for (uint32_t slot = 0; info.secondaries && slot < frames_in_flight; ++slot) {
+        Secondaries &s = secondaries_.emplace_back();
+        VkCommandPoolCreateInfo pool_info{};
+        pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+        pool_info.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
+        pool_info.queueFamilyIndex = scene.context().queue_family();
+        ATRIUM_VK_CHECK(vkCreateCommandPool(device_, &pool_info, nullptr, &s.pool));
+        s.eyes.resize(info.eyes);
+        VkCommandBufferAllocateInfo alloc{};
+        alloc.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+        alloc.commandPool = s.pool;
+        alloc.level = VK_COMMAND_BUFFER_LEVEL_SECONDARY;
+        alloc.commandBufferCount = info.eyes;
+        ATRIUM_VK_CHECK(vkAllocateCommandBuffers(device_, &alloc, s.eyes.data()));
+    }
 }
 
 OffscreenScene::~OffscreenScene() {
+    for (const Secondaries &s : secondaries_)
+        vkDestroyCommandPool(device_, s.pool, nullptr);
     destroy_targets();
     vkDestroyPipeline(device_, pipeline_, nullptr);
     vkDestroyRenderPass(device_, pass_, nullptr);
@@ -67,6 +89,30 @@ void OffscreenScene::record(VkCommandBuffer cmd, uint32_t slot) const {
     for (const VkClearColorValue &color : info_.clears)
         clears.push_back({.color = color});
     clears.push_back({.depthStencil = {1.0f, 0}});
+    if (info_.secondaries) {
+        begin_pass(cmd, pass_, framebuffer_, extent_, clears, VK_SUBPASS_CONTENTS_SECONDARY_COMMAND_BUFFERS);
+        const Secondaries &s = secondaries_[slot];
+        ATRIUM_VK_CHECK(vkResetCommandPool(device_, s.pool, 0));
+        VkCommandBufferInheritanceInfo inheritance{};
+        inheritance.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_INHERITANCE_INFO;
+        inheritance.renderPass = pass_;
+        inheritance.subpass = 0;
+        VkCommandBufferBeginInfo begin{};
+        begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+        begin.flags =
+            VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT | VK_COMMAND_BUFFER_USAGE_RENDER_PASS_CONTINUE_BIT;
+        begin.pInheritanceInfo = &inheritance;
+        for (uint32_t eye = 0; eye < info_.eyes; ++eye) {
+            ATRIUM_VK_CHECK(vkBeginCommandBuffer(s.eyes[eye], &begin));
+            scene_.bind(s.eyes[eye], pipeline_, slot);
+            set_viewport(s.eyes[eye], eye_rect(screen_, info_.eyes, eye));
+            scene_.draw(s.eyes[eye], eye);
+            ATRIUM_VK_CHECK(vkEndCommandBuffer(s.eyes[eye]));
+        }
+        vkCmdExecuteCommands(cmd, info_.eyes, s.eyes.data());
+        vkCmdEndRenderPass(cmd);
+        return;
+    }
     begin_pass(cmd, pass_, framebuffer_, extent_, clears);
     scene_.bind(cmd, pipeline_, slot);
     if (info_.multiview) {

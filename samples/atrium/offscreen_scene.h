@@ -16,7 +16,15 @@ struct OffscreenSceneInfo {
     bool multiview = false;     // one layer per eye, one eye wide, drawn once with a view mask
     bool sample_depth = false;  // keep the depth buffer for a later pass to sample
     bool screen_layers = false; // multiview: layers at the screen's extent, not one eye's
+    // The pass's draws in secondary command buffers, one per eye, recorded each frame after the
+    // pass begins; their inheritance names the render pass but not the framebuffer. Not multiview.
+    bool secondaries = false;
 };
+
+inline OffscreenSceneInfo in_secondaries(OffscreenSceneInfo info, bool secondaries) {
+    info.secondaries = secondaries;
+    return info;
+}
 
 class OffscreenScene {
 public:
@@ -46,6 +54,12 @@ private:
     std::vector<Image> colors_;
     Image depth_;
     VkFramebuffer framebuffer_ = VK_NULL_HANDLE;
+
+    struct Secondaries {
+        VkCommandPool pool = VK_NULL_HANDLE; // reset each frame: its slot's fence was waited for
+        std::vector<VkCommandBuffer> eyes;
+    };
+    std::vector<Secondaries> secondaries_; // per frame slot, with info.secondaries
 };
 
 } // namespace atrium

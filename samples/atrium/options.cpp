@@ -72,9 +72,16 @@ options:
                          (same picture)
   --dynamic-rendering    draw with VK_KHR_dynamic_rendering instead of a render pass (same picture;
                          with --path secondary, its secondaries inherit the rendering's formats)
-                         (the first two vary --path direct only, this one direct or secondary)
+                         (all three vary --path direct or secondary)
   --screen-layers        with --path multiview: eye layers at the window's size instead of one
                          eye's, each squeezed into its half of the window when composed
+  --scene-in-secondaries with --path hdr, deferred or compute: the offscreen scene pass's draws
+                         recorded in secondary command buffers, one per eye, whose inheritance
+                         names the render pass but not the framebuffer (same picture)
+  --engine-extensions    with --path direct: enable VK_EXT_conditional_rendering, VK_EXT_transform_feedback
+                         and VK_EXT_extended_dynamic_state3 as engines do, and draw a small triangle at
+                         each eye's centre that uses all three (captured by transform feedback, drawn
+                         from its byte count under a GPU-written predicate, with EDS3 state)
   --linear-textures      upload the textures through linear-tiling images that the host writes at
                          the driver's row pitch, instead of a staging buffer (same picture, any
                          --path)
@@ -105,6 +112,9 @@ options:
                          runtime has had it
   --multiview            with --xr: one swapchain of two layers, both eyes drawn in one
                          VK_KHR_multiview pass straight into it (--xr --path multiview is the same)
+  --side-by-side         with --xr: one swapchain twice an eye's width, the left eye drawn into its
+                         left half and the right eye into its right half (a stereo frame of --path
+                         direct, hdr or deferred), each half an imageRect of the projection layer
   --eye-size WxH         with --xr: create the eye swapchains (or the two-layer one) at WxH instead
                          of the runtime's recommended size; at most the system's maximum image size
                          (the paper's eyes: --eye-size 1200x1080)
@@ -154,10 +164,14 @@ Options parse_options(int argc, char **argv) {
             o.static_viewports = true;
         } else if (arg == "--clear-depth-per-eye") {
             o.clear_depth_per_eye = true;
+        } else if (arg == "--engine-extensions") {
+            o.engine_extensions = true;
         } else if (arg == "--dynamic-rendering") {
             o.dynamic_rendering = true;
         } else if (arg == "--screen-layers") {
             o.screen_layers = true;
+        } else if (arg == "--scene-in-secondaries") {
+            o.scene_in_secondaries = true;
         } else if (arg == "--linear-textures") {
             o.linear_textures = true;
         } else if (arg == "--buffer-address") {
@@ -201,6 +215,8 @@ Options parse_options(int argc, char **argv) {
             o.xr = true;
         } else if (arg == "--multiview") {
             o.multiview = true;
+        } else if (arg == "--side-by-side") {
+            o.side_by_side = true;
         } else if (arg == "--hold") {
             o.hold = true;
         } else if (arg == "--frame-times") {
@@ -235,15 +251,30 @@ Options parse_options(int argc, char **argv) {
                 "--screenshot and --resize-at do not go with --xr (there is no window)");
         if (o.eyes != 2)
             throw std::invalid_argument("--xr renders the runtime's two views: not with --eyes 1");
+        if (o.multiview && o.side_by_side)
+            throw std::invalid_argument("--side-by-side and --multiview are two layouts: one at a time");
         if (o.multiview) o.path = PathKind::direct; // the multiview pass is the path
     } else if (o.multiview) {
         throw std::invalid_argument("--multiview goes with --xr (in a window: --path multiview)");
+    } else if (o.side_by_side) {
+        throw std::invalid_argument(
+            "--side-by-side goes with --xr (a window's frame is side by side already)");
     } else if (o.eye_width) {
         throw std::invalid_argument("--eye-size goes with --xr (in a window: --width and --height)");
     }
-    if (o.path != PathKind::direct && (o.static_viewports || o.clear_depth_per_eye))
+    if (o.path != PathKind::direct && o.path != PathKind::secondary &&
+        (o.static_viewports || o.clear_depth_per_eye))
         throw std::invalid_argument(
-            "--static-viewports and --clear-depth-per-eye go with --path direct only");
+            "--static-viewports and --clear-depth-per-eye go with --path direct or secondary only");
+    if (o.scene_in_secondaries &&
+        (o.xr || (o.path != PathKind::hdr && o.path != PathKind::deferred && o.path != PathKind::compute)))
+        throw std::invalid_argument(
+            "--scene-in-secondaries goes with --path hdr, deferred or compute only (not --xr)");
+    if (o.engine_extensions &&
+        (o.path != PathKind::direct || o.dynamic_rendering || o.static_viewports || o.xr))
+        throw std::invalid_argument(
+            "--engine-extensions goes with --path direct only (not --dynamic-rendering, "
+            "--static-viewports or --xr)");
     if ((o.path != PathKind::direct || o.xr) && o.buffer_address != BufferAddressMode::none)
         throw std::invalid_argument("--buffer-address goes with --path direct in a window only");
     if (o.path != PathKind::direct && o.path != PathKind::secondary && o.dynamic_rendering)

@@ -26,12 +26,18 @@ struct Options {
     bool clear_depth_per_eye = false;
     bool dynamic_rendering = false;
     bool linear_textures = false;
+    // --engine-extensions (--path direct): conditional rendering, transform feedback and extended
+    // dynamic state 3 markers over the scene (engine_markers.h).
+    bool engine_extensions = false;
     // --buffer-address push|uniform: the scene's vertex shader reads the frame's matrices through a
     // buffer device address (VK_KHR_buffer_device_address) in push constants, or in the frame's
     // uniform block.
     BufferAddressMode buffer_address = BufferAddressMode::none;
     // --screen-layers (--path multiview): eye layers at the window's size, each squeezed into its half.
     bool screen_layers = false;
+    // --scene-in-secondaries (--path hdr, deferred, compute): the offscreen scene pass's draws in
+    // secondary command buffers.
+    bool scene_in_secondaries = false;
     PathKind path = PathKind::direct;
     bool hold = false;
     // --resize-at N WxH: before frame N, resize the window (the swapchain is then recreated).
@@ -47,6 +53,8 @@ struct Options {
     // --multiview: one two-layer swapchain drawn with VK_KHR_multiview (--xr --path multiview too).
     bool xr = false;
     bool multiview = false;
+    // --side-by-side (--xr): one swapchain twice an eye's width, each eye a half (two imageRects).
+    bool side_by_side = false;
     // --eye-size WxH (with --xr): the eye swapchains' size instead of the runtime's recommended one.
     uint32_t eye_width = 0;
     uint32_t eye_height = 0;

@@ -57,7 +57,8 @@ private:
 
 ComputePath::ComputePath(const SceneGpu &scene, const Swapchain &swapchain, const RendererOptions &options)
     : context_(scene.context()), device_(scene.device()), swapchain_(swapchain),
-      scene_(scene, {{hdr_format}, {sky_radiance()}, SceneShading::hdr, options.eyes}),
+      scene_(scene, in_secondaries({{hdr_format}, {sky_radiance()}, SceneShading::hdr, options.eyes},
+                                   options.scene_in_secondaries)),
       sampler_(create_sampler(device_, VK_FILTER_NEAREST)), sets_(device_, 1) {
     VkFormatProperties formats;
     vkGetPhysicalDeviceFormatProperties(context_.physical_device(), swapchain.format(), &formats);

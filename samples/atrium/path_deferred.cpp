@@ -57,8 +57,11 @@ FullscreenInfo with_frame(FullscreenInfo info, VkDescriptorSetLayout frame_layou
 
 DeferredPath::DeferredPath(const SceneGpu &scene, const Swapchain &swapchain, const RendererOptions &options)
     : scene_(scene), device_(scene.device()), swapchain_(swapchain), eyes_(options.eyes),
-      gbuffer_(scene,
-               {{albedo_format, normal_format}, {{}, {}}, SceneShading::gbuffer, options.eyes, false, true}),
+      gbuffer_(
+          scene,
+          in_secondaries(
+              {{albedo_format, normal_format}, {{}, {}}, SceneShading::gbuffer, options.eyes, false, true},
+              options.scene_in_secondaries)),
       final_(device_, swapchain), lighting_pass_(create_render_pass(
                                       device_, Attachment{radiance_format, VK_ATTACHMENT_LOAD_OP_DONT_CARE})),
       sampler_(create_sampler(device_, VK_FILTER_NEAREST)),

@@ -30,6 +30,8 @@ DirectPath::DirectPath(const SceneGpu &scene, const Swapchain &swapchain, const 
         info.render_pass = VK_NULL_HANDLE;
     }
     pipeline_ = scene_.create_pipeline(info);
+    if (options_.engine_extensions)
+        markers_ = std::make_unique<EngineMarkers>(scene_.context(), present_pass_);
     // Static state exercises the layer's other path: it must make these dynamic to scale them.
     for (uint32_t eye = 0; options_.static_viewports && eye < options_.eyes; ++eye) {
         const VkRect2D eye_scissor = eye_rect(swapchain_.extent(), options_.eyes, eye);
@@ -44,6 +46,7 @@ DirectPath::DirectPath(const SceneGpu &scene, const Swapchain &swapchain, const 
 
 DirectPath::~DirectPath() {
     destroy_targets();
+    markers_.reset();
     vkDestroyPipeline(device_, pipeline_, nullptr);
     for (VkPipeline eye_pipeline : eye_pipelines_)
         vkDestroyPipeline(device_, eye_pipeline, nullptr);
@@ -184,11 +187,16 @@ void DirectPath::record(const FrameContext &frame) {
     pass.renderArea = {{0, 0}, extent};
     pass.clearValueCount = 2;
     pass.pClearValues = clears;
+    if (markers_) markers_->record_capture(cmd);
     if (options_.dynamic_rendering)
         begin_rendering(cmd, image, extent, clears);
     else
         vkCmdBeginRenderPass(cmd, &pass, contents());
     record_contents(frame);
+    for (uint32_t eye = 0; markers_ && eye < options_.eyes; ++eye) {
+        set_viewport(cmd, eye_rect(extent, options_.eyes, eye));
+        markers_->record_draw(cmd);
+    }
     if (options_.dynamic_rendering)
         end_rendering(cmd, image, readback);
     else

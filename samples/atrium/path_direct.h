@@ -2,8 +2,10 @@
 // with one viewport per eye (today's path of the paper's client, and vkcube's structure).
 #pragma once
 
+#include "engine_markers.h"
 #include "render_path.h"
 
+#include <memory>
 #include <vector>
 
 namespace atrium {
@@ -42,6 +44,7 @@ private:
     PFN_vkCmdEndRenderingKHR cmd_end_rendering_ = nullptr;
     VkPipeline eye_pipelines_[2] = {};            // --static-viewports: eye i's viewport and scissor baked in
     VkRenderPass readback_pass_ = VK_NULL_HANDLE; // ends in TRANSFER_SRC_OPTIMAL, for the screenshot
+    std::unique_ptr<EngineMarkers> markers_;      // --engine-extensions
 
     // Per swapchain image, rebuilt with the swapchain.
     Image depth_;

@@ -61,7 +61,8 @@ Attachment bloom_level(bool add) {
 
 HdrPath::HdrPath(const SceneGpu &scene, const Swapchain &swapchain, const RendererOptions &options)
     : device_(scene.device()), context_(scene.context()), swapchain_(swapchain),
-      scene_(scene, {{hdr_format}, {sky_radiance()}, SceneShading::hdr, options.eyes}),
+      scene_(scene, in_secondaries({{hdr_format}, {sky_radiance()}, SceneShading::hdr, options.eyes},
+                                   options.scene_in_secondaries)),
       final_(device_, swapchain), bloom_write_(create_render_pass(device_, bloom_level(false))),
       bloom_add_(create_render_pass(device_, bloom_level(true))),
       sampler_(create_sampler(device_, VK_FILTER_LINEAR)),

@@ -1,5 +1,7 @@
 #include "pipeline.h"
 
+#include <vector>
+
 namespace atrium {
 
 VkPipeline create_graphics_pipeline(VkDevice device, const GraphicsPipelineInfo &info) {
@@ -35,13 +37,14 @@ VkPipeline create_graphics_pipeline(VkDevice device, const GraphicsPipelineInfo 
     // flips y (Vulkan's framebuffer y points down).
     raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
     raster.lineWidth = 1.0f;
+    raster.rasterizerDiscardEnable = info.rasterizer_discard ? VK_TRUE : VK_FALSE;
     VkPipelineMultisampleStateCreateInfo multisample{};
     multisample.sType = VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO;
     multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
     VkPipelineDepthStencilStateCreateInfo depth{};
     depth.sType = VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO;
-    depth.depthTestEnable = VK_TRUE;
-    depth.depthWriteEnable = VK_TRUE;
+    depth.depthTestEnable = info.depth_test ? VK_TRUE : VK_FALSE;
+    depth.depthWriteEnable = info.depth_test ? VK_TRUE : VK_FALSE;
     depth.depthCompareOp = VK_COMPARE_OP_LESS;
     VkPipelineColorBlendAttachmentState blend_attachments[2] = {};
     for (VkPipelineColorBlendAttachmentState &a : blend_attachments) {
@@ -59,11 +62,13 @@ VkPipeline create_graphics_pipeline(VkDevice device, const GraphicsPipelineInfo 
     blend.sType = VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO;
     blend.attachmentCount = info.color_attachments;
     blend.pAttachments = blend_attachments;
-    const VkDynamicState dynamic_states[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+    std::vector<VkDynamicState> dynamic_states = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+    dynamic_states.insert(dynamic_states.end(), info.extra_dynamic_states,
+                          info.extra_dynamic_states + info.extra_dynamic_state_count);
     VkPipelineDynamicStateCreateInfo dynamic{};
     dynamic.sType = VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO;
-    dynamic.dynamicStateCount = 2;
-    dynamic.pDynamicStates = dynamic_states;
+    dynamic.dynamicStateCount = uint32_t(dynamic_states.size());
+    dynamic.pDynamicStates = dynamic_states.data();
 
     VkGraphicsPipelineCreateInfo pipeline{};
     pipeline.sType = VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO;
@@ -75,7 +80,9 @@ VkPipeline create_graphics_pipeline(VkDevice device, const GraphicsPipelineInfo 
     pipeline.pViewportState = &viewport;
     pipeline.pRasterizationState = &raster;
     pipeline.pMultisampleState = &multisample;
-    pipeline.pDepthStencilState = info.depth_test ? &depth : nullptr;
+    // Always given: a subpass with a depth attachment needs it even without the test (ignored in
+    // one without).
+    pipeline.pDepthStencilState = &depth;
     pipeline.pColorBlendState = &blend;
     pipeline.pDynamicState = info.static_viewport ? nullptr : &dynamic;
     pipeline.layout = info.layout;

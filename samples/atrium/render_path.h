@@ -20,7 +20,9 @@ struct RendererOptions {
     bool dynamic_rendering = false;           // vkCmdBeginRenderingKHR instead of a render pass
     bool linear_textures = false;             // textures uploaded through linear images (any path)
     PathKind path = PathKind::direct;
-    bool screen_layers = false;                                 // multiview: eye layers at the window's size
+    bool screen_layers = false;        // multiview: eye layers at the window's size
+    bool scene_in_secondaries = false; // hdr, deferred, compute: the scene pass's draws in secondaries
+    bool engine_extensions = false;    // direct: the markers of engine_markers.h
     BufferAddressMode buffer_address = BufferAddressMode::none; // the scene's matrices through an address
 };
 

@@ -1,5 +1,6 @@
 #include "vk_context.h"
 
+#include "engine_markers.h"
 #include "xcb_window.h"
 
 #include <algorithm>
@@ -44,7 +45,8 @@ int device_type_rank(VkPhysicalDeviceType type) {
 
 } // namespace
 
-VkContext::VkContext(const XcbWindow &window, bool dynamic_rendering, bool multiview, bool buffer_address) {
+VkContext::VkContext(const XcbWindow &window, bool dynamic_rendering, bool multiview, bool engine_extensions,
+                     bool buffer_address) {
     uint32_t loader_version = VK_API_VERSION_1_0;
     if (vkEnumerateInstanceVersion(&loader_version) != VK_SUCCESS || loader_version < VK_API_VERSION_1_1)
         throw Error("the Vulkan loader does not support Vulkan 1.1");
@@ -114,7 +116,7 @@ VkContext::VkContext(const XcbWindow &window, bool dynamic_rendering, bool multi
         }
     }
     if (physical_device_ == VK_NULL_HANDLE) throw Error("no Vulkan 1.1 device can present to the X window");
-    create_device(dynamic_rendering, multiview, true, buffer_address, nullptr);
+    create_device(dynamic_rendering, multiview, engine_extensions, true, buffer_address, nullptr);
 }
 
 VkContext::VkContext(const VkCreators &creators, bool dynamic_rendering, bool multiview) {
@@ -143,11 +145,11 @@ VkContext::VkContext(const VkCreators &creators, bool dynamic_rendering, bool mu
     if (graphics == families.end())
         throw Error(std::string(properties_.deviceName) + " has no graphics queue");
     queue_family_ = uint32_t(graphics - families.begin());
-    create_device(dynamic_rendering, multiview, false, false, &creators.create_device);
+    create_device(dynamic_rendering, multiview, false, false, false, &creators.create_device);
 }
 
 void VkContext::create_device(
-    bool dynamic_rendering, bool multiview, bool swapchain, bool buffer_address,
+    bool dynamic_rendering, bool multiview, bool engine_extensions, bool swapchain, bool buffer_address,
     const std::function<VkDevice(VkPhysicalDevice, const VkDeviceCreateInfo &)> *create) {
     vkGetPhysicalDeviceMemoryProperties(physical_device_, &memory_properties_);
 
@@ -191,7 +193,30 @@ void VkContext::create_device(
     device_info.pNext = multiview           ? static_cast<void *>(&multiview_features)
                         : dynamic_rendering ? &dynamic_rendering_features
                                             : nullptr;
-    // A Vulkan 1.1 instance: the extension's name, feature structure and entry point.
+    // --engine-extensions: in front of the chain above, only the features the markers use.
+    VkPhysicalDeviceExtendedDynamicState3FeaturesEXT eds3_features{};
+    eds3_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_EXTENDED_DYNAMIC_STATE_3_FEATURES_EXT;
+    eds3_features.extendedDynamicState3PolygonMode = VK_TRUE;
+    eds3_features.extendedDynamicState3SampleMask = VK_TRUE;
+    eds3_features.extendedDynamicState3AlphaToCoverageEnable = VK_TRUE;
+    eds3_features.extendedDynamicState3ColorWriteMask = VK_TRUE;
+    VkPhysicalDeviceTransformFeedbackFeaturesEXT xfb_features{};
+    xfb_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_TRANSFORM_FEEDBACK_FEATURES_EXT;
+    xfb_features.transformFeedback = VK_TRUE;
+    xfb_features.pNext = &eds3_features;
+    VkPhysicalDeviceConditionalRenderingFeaturesEXT conditional_features{};
+    conditional_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_CONDITIONAL_RENDERING_FEATURES_EXT;
+    conditional_features.conditionalRendering = VK_TRUE;
+    conditional_features.pNext = &xfb_features;
+    if (engine_extensions) {
+        EngineMarkers::check_support(physical_device_);
+        eds3_features.pNext = const_cast<void *>(device_info.pNext);
+        device_info.pNext = &conditional_features;
+        device_extensions.insert(device_extensions.end(), {VK_EXT_CONDITIONAL_RENDERING_EXTENSION_NAME,
+                                                           VK_EXT_TRANSFORM_FEEDBACK_EXTENSION_NAME,
+                                                           VK_EXT_EXTENDED_DYNAMIC_STATE_3_EXTENSION_NAME});
+    }
+    // --buffer-address, on a Vulkan 1.1 instance: the extension's name, feature structure and entry point.
     VkPhysicalDeviceBufferDeviceAddressFeaturesKHR address_features{};
     address_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_BUFFER_DEVICE_ADDRESS_FEATURES_KHR;
     if (buffer_address) {

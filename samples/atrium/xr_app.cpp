@@ -255,7 +255,8 @@ private:
     const Options &options_;
     const volatile std::sig_atomic_t *stop_;
     const bool multiview_ = options_.multiview;
-    const uint32_t swapchain_count_ = multiview_ ? 1 : view_count;
+    const bool side_by_side_ = options_.side_by_side;
+    const uint32_t swapchain_count_ = multiview_ || side_by_side_ ? 1 : view_count;
 
     XrOwned<XrInstance, xrDestroyInstance> instance_;
     XrSystemId system_ = XR_NULL_SYSTEM_ID;
@@ -274,9 +275,10 @@ private:
     bool running_ = false, exit_requested_ = false, views_reported_ = false;
 
     VkFormat format_ = VK_FORMAT_UNDEFINED;
-    VkExtent2D extents_[view_count]{};
-    XrOwned<XrSwapchain, xrDestroySwapchain> swapchains_[view_count]; // per eye, or [0] with 2 layers
-    std::vector<std::unique_ptr<Swapchain>> images_;                  // views onto their images
+    VkExtent2D extents_[view_count]{}; // each eye's
+    // Per eye, or [0] alone: with 2 layers (multiview), or twice an eye's width (side by side).
+    XrOwned<XrSwapchain, xrDestroySwapchain> swapchains_[view_count];
+    std::vector<std::unique_ptr<Swapchain>> images_; // views onto their images
 
     std::optional<Scene> scene_;
     std::optional<CameraPath> camera_;
@@ -479,7 +481,7 @@ void XrApp::create_swapchains() {
     for (uint32_t i = 0; i < swapchain_count_; ++i) {
         // One image for both eyes has the larger of their recommended sizes.
         uint32_t width = views[i].recommendedImageRectWidth, height = views[i].recommendedImageRectHeight;
-        if (multiview_) {
+        if (multiview_ || side_by_side_) {
             width = std::max(width, views[1].recommendedImageRectWidth);
             height = std::max(height, views[1].recommendedImageRectHeight);
         }
@@ -497,14 +499,14 @@ void XrApp::create_swapchains() {
         info.usageFlags = XR_SWAPCHAIN_USAGE_COLOR_ATTACHMENT_BIT;
         info.format = format_;
         info.sampleCount = 1;
-        info.width = width;
+        info.width = side_by_side_ ? 2 * width : width;
         info.height = height;
         info.faceCount = 1;
         info.arraySize = multiview_ ? view_count : 1;
         info.mipCount = 1;
         ATRIUM_XR_CHECK(instance, xrCreateSwapchain(session_.handle, &info, &swapchains_[i].handle));
         extents_[i] = {width, height};
-        if (multiview_) extents_[1] = extents_[0];
+        if (multiview_ || side_by_side_) extents_[1] = extents_[0];
 
         uint32_t images = 0;
         ATRIUM_XR_CHECK(instance, xrEnumerateSwapchainImages(swapchains_[i].handle, 0, &images, nullptr));
@@ -516,8 +518,8 @@ void XrApp::create_swapchains() {
         std::vector<VkImage> handles;
         for (const XrSwapchainImageVulkan2KHR &image : vk_images)
             handles.push_back(image.image);
-        images_.push_back(std::make_unique<Swapchain>(*context_, format_, extents_[i], handles,
-                                                      multiview_ ? view_count : 1));
+        images_.push_back(std::make_unique<Swapchain>(*context_, format_, VkExtent2D{info.width, info.height},
+                                                      handles, multiview_ ? view_count : 1));
     }
 }
 
@@ -533,6 +535,17 @@ void XrApp::create_renderer() {
     }
     if (multiview_) {
         multiview_pass_ = std::make_unique<XrMultiviewPass>(*scene_gpu_, *images_[0]);
+    } else if (side_by_side_) {
+        // Both eyes a stereo frame of the path into the one image, as in a window.
+        RendererOptions stereo{2,
+                               std::nullopt,
+                               options_.static_viewports,
+                               options_.clear_depth_per_eye,
+                               options_.dynamic_rendering,
+                               options_.linear_textures,
+                               options_.path};
+        paths_.push_back(make_render_path(*scene_gpu_, *images_[0], stereo));
+        paths_.back()->create_targets();
     } else {
         // Each eye is a mono frame of the path into its own image.
         RendererOptions eye_options{1,
@@ -595,7 +608,7 @@ void XrApp::render_eyes(uint64_t frame, const XrView (&head_views)[view_count]) 
         // The eye's (per eye: in both entries, as a mono frame has it) or both eyes' views.
         FrameUniforms u{};
         for (uint32_t i = 0; i < 2; ++i) {
-            const EyeView view = camera_->head_eye_view(frame, eyes[multiview_ ? i : sc]);
+            const EyeView view = camera_->head_eye_view(frame, eyes[swapchain_count_ == 1 ? i : sc]);
             u.view_proj[i] = view.view_proj;
             u.eye_position[i] = glm::vec4(view.position, 1.0f);
             u.inv_view_proj[i] = glm::inverse(view.view_proj);
@@ -692,8 +705,9 @@ bool XrApp::frame_loop_iteration(uint64_t frame) {
             view = xr<XrCompositionLayerProjectionView>(XR_TYPE_COMPOSITION_LAYER_PROJECTION_VIEW);
             view.pose = world_views[eye].pose;
             view.fov = rendered_fov(head_views[eye].fov);
-            view.subImage.swapchain = swapchains_[multiview_ ? 0 : eye].handle;
-            view.subImage.imageRect = {{0, 0}, {int32_t(extents_[eye].width), int32_t(extents_[eye].height)}};
+            view.subImage.swapchain = swapchains_[swapchain_count_ == 1 ? 0 : eye].handle;
+            const int32_t x = side_by_side_ ? int32_t(eye * extents_[0].width) : 0;
+            view.subImage.imageRect = {{x, 0}, {int32_t(extents_[eye].width), int32_t(extents_[eye].height)}};
             view.subImage.imageArrayIndex = multiview_ ? eye : 0;
         }
         projection.space = world_space_.handle;
@@ -720,7 +734,9 @@ int XrApp::run() {
                 extents_[0].height, multiview_ ? "multiview" : path_name(options_.path));
     std::printf("xr: %s, %s, %s space, %s, %s\n", runtime_.c_str(), system_name_.c_str(), world_space_name_,
                 format_name(format_),
-                multiview_ ? "one swapchain of 2 layers (multiview)" : "one swapchain per eye");
+                multiview_      ? "one swapchain of 2 layers (multiview)"
+                : side_by_side_ ? "one swapchain, the eyes side by side"
+                                : "one swapchain per eye");
     std::fflush(stdout);
 
     // xrEndFrame-to-xrEndFrame CPU time of the rendered frames; frame 0 counts from the loop's start.

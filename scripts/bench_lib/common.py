@@ -8,6 +8,7 @@ import signal
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -47,9 +48,12 @@ class Build:
         self.layer = os.path.join(self.path, "lib", "libVkLayer_splitvk.so")
         self.explicit_manifest_dir = os.path.join(self.path, "manifest", "explicit_layer.d")
         self.xr_manifest_dir = os.path.join(self.path, "manifest", "openxr")
+        # Xvfb, the agent and screen grabs, as the e2e tests run them (tests/e2e/harness).
+        self.harness = os.path.join(self.path, "bin", "splitvk-harness")
 
     def check(self):
-        missing = [p for p in (self.atrium, self.layer, self.explicit_manifest_dir) if not os.path.exists(p)]
+        missing = [p for p in (self.atrium, self.layer, self.explicit_manifest_dir, self.harness)
+                   if not os.path.exists(p)]
         if missing:
             raise MissingBuild(
                 f"no splitvk build in {self.path} (missing {', '.join(missing)}); "
@@ -91,44 +95,72 @@ def layer_env(env, build):
 
 
 @contextlib.contextmanager
-def display():
-    """Yields the DISPLAY to use: the caller's, or a private Xvfb started with -displayfd (which
-    picks a free display number) and stopped afterwards."""
+def harness_service(argv, env, what):
+    """Runs a splitvk-harness service (`xvfb`, `agent`: tests/e2e/harness/harness_cli.cpp, the e2e
+    tests' own code for it) while the block runs and yields its key=value report. It stops what it
+    started when the block ends (SIGTERM), and on its own when this process dies."""
+    proc = subprocess.Popen(argv, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        report = {}
+        for line in proc.stdout:
+            line = line.strip()
+            if line == "ready":
+                break
+            key, _, value = line.partition("=")
+            report[key] = value
+        else:
+            proc.wait()
+            raise BenchError(f"{what} did not start:\n" + tail(proc.stderr.read()))
+        yield report
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(timeout=60)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
+@contextlib.contextmanager
+def display(build):
+    """Yields the DISPLAY to use: the caller's, or a private Xvfb (splitvk-harness xvfb, which lets
+    -displayfd pick a free display number) stopped afterwards."""
     if os.environ.get("DISPLAY"):
         yield os.environ["DISPLAY"]
         return
     if not shutil.which("Xvfb"):
         raise BenchError("DISPLAY is unset and Xvfb is not installed (apt-get install xvfb)")
-    read_fd, write_fd = os.pipe()
-    proc = subprocess.Popen(
-        ["Xvfb", "-displayfd", str(write_fd), "-screen", "0", "2560x1440x24", "-nolisten", "tcp", "-noreset"],
-        pass_fds=(write_fd,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
-    os.close(write_fd)
-    try:
-        number = b""
-        deadline = time.monotonic() + 20
-        import select
-        while not number.endswith(b"\n") and time.monotonic() < deadline:
-            ready, _, _ = select.select([read_fd], [], [], max(0.0, deadline - time.monotonic()))
-            if not ready:
-                break
-            chunk = os.read(read_fd, 64)
-            if not chunk:
-                break
-            number += chunk
-        if not number.strip():
-            raise BenchError("Xvfb did not start")
-        name = ":" + number.decode().strip()
-        print(f"bench: started Xvfb on {name}", file=sys.stderr)
-        yield name
-    finally:
-        os.close(read_fd)
-        proc.terminate()
-        try:
-            proc.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+    with tempfile.TemporaryDirectory(prefix="splitvk-bench-xvfb-") as logs, \
+            harness_service([build.harness, "xvfb", "--out-dir", logs], os.environ, "Xvfb") as report:
+        print(f"bench: started Xvfb on {report['display']}", file=sys.stderr)
+        yield report["display"]
+
+
+@contextlib.contextmanager
+def started_agent(build, agent, env, out_dir, port=0, prefix=()):
+    """Runs `prefix + agent --listen 127.0.0.1:port` (splitvk-harness agent: on a free port when 0, its
+    log in out_dir/agent.stderr, its TLS identity in agent_state_dir(out_dir)) while the block runs;
+    yields the harness's report: address, pid, log."""
+    argv = [build.harness, "agent", "--out-dir", out_dir, "--name", "agent", "--port", str(port)]
+    for word in prefix:
+        argv += ["--wrapper", word]
+    argv += ["--", agent, "--state-dir", agent_state_dir(out_dir)]
+    with harness_service(argv, env, "splitvk-agent") as report:
+        yield report
+
+
+def run_held(build, argv, env, frame, grab, width, height, out_dir, name, timeout_s):
+    """Runs argv (an app with --hold) until it holds frame `frame`, grabs the top-left width x height
+    of the screen into `grab` (a PNG), then ends it (splitvk-harness hold). Its output goes to
+    out_dir/<name>.stdout and .stderr."""
+    r = subprocess.run([build.harness, "hold", "--out-dir", out_dir, "--name", name, "--frame", str(frame),
+                        "--grab", grab,
+                        "--size", f"{width}x{height}", "--settle-ms", "500", "--timeout", str(timeout_s), "--"]
+                       + argv, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                       text=True)
+    if r.returncode != 0:
+        raise BenchError(f"{os.path.basename(argv[0])} --hold: " + tail(r.stderr))
 
 
 class Run:

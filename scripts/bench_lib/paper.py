@@ -411,14 +411,14 @@ def measure(args):
     modes += ["xr-native", "xr-split"] if args.xr else []
     runs = {path: dict({m: [] for m in modes}, periphery=[], cpu={m: [] for m in modes}) for path in args.paths}
     start = time.monotonic()
-    with common.display() as disp:
+    with common.display(build) as disp:
         base = common.clean_env(args.icd)
         base["DISPLAY"] = disp
         client_env = dict(base, LP_NUM_THREADS=str(args.client_threads))
         agent_env = dict(base, LP_NUM_THREADS=str(len(agent_cpus)))
         if args.agent_icd:
             agent_env["VK_DRIVER_FILES"] = args.agent_icd
-        with split.started_agent(agent, agent_port, agent_env, os.path.join(out_dir, "agent.log"), agent_prefix), \
+        with common.started_agent(build, agent, agent_env, out_dir, agent_port, agent_prefix), \
                 Link(build, link_bin, args.link, agent_port, cpu_text(agent_cpus), base,
                      os.path.join(out_dir, "link.log"), bool(args.link_bin)) as link:
             split_env = dict(common.layer_env(client_env, build), SPLITVK_SERVER=link.address,

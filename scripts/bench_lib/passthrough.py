@@ -46,7 +46,7 @@ def run(args):
           f"{args.rounds} rounds, present mode {args.present_mode}, driver {driver}, build {build.path}", flush=True)
     load_start = os.getloadavg()[0]
     rounds = []
-    with common.display() as disp:
+    with common.display(build) as disp:
         base = common.clean_env(args.icd)
         base["DISPLAY"] = disp
         base["SPLITVK_LOG_LEVEL"] = "info"  # so each run proves whether the layer was there

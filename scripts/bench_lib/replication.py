@@ -15,10 +15,8 @@ import argparse
 import os
 import re
 import resource
-import signal
 import socket
-import subprocess
-import time
+import tempfile
 
 from . import common
 
@@ -84,20 +82,16 @@ def run(args):
     print(f"replication: {APP_NAME} {args.width}x{args.height}, {args.eyes} eye(s), {args.frames} frames "
           f"(short run {args.short_frames}), {args.rounds} rounds, agent on 127.0.0.1:{port}", flush=True)
 
-    with common.display() as disp:
+    with common.display(build) as disp:
         base = common.clean_env(args.icd)
         base["DISPLAY"] = disp
         base["SPLITVK_LOG_LEVEL"] = "info"
         layered = common.layer_env(base, build)
         passthrough_env = dict(layered, SPLITVK_SERVER=f"127.0.0.1:{dead_port}")
         replicating_env = dict(layered, SPLITVK_SERVER=f"127.0.0.1:{port}")
-        agent_proc = subprocess.Popen([agent, "--listen", f"127.0.0.1:{port}"], env=base,
-                                      stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                                      start_new_session=True)
-        try:
-            time.sleep(0.5)
-            if agent_proc.poll() is not None:
-                raise common.BenchError("splitvk-agent did not start:\n" + agent_proc.stderr.read())
+        # The agent's log and TLS identity in a folder of their own: this bench keeps no files.
+        with tempfile.TemporaryDirectory(prefix="splitvk-bench-replication-") as agent_dir, \
+                common.started_agent(build, agent, base, agent_dir, port):
             short, _ = timed_run(argv(args.short_frames), replicating_env, timeout_s)
             short_summary = session_summary(short)
             rows = []
@@ -118,9 +112,6 @@ def run(args):
                       f"({row['pass-through']['cpu_ms_per_frame']:.2f} ms CPU)   replicating "
                       f"{row['replicating']['median_ms']:7.2f} ms/frame ({row['replicating']['cpu_ms_per_frame']:.2f} "
                       f"ms CPU)", flush=True)
-        finally:
-            os.killpg(agent_proc.pid, signal.SIGTERM)
-            agent_proc.wait(timeout=30)
 
     long_summary = rows[-1]["summary"]
     extra_frames = long_summary["frames"] - short_summary["frames"]

@@ -25,7 +25,6 @@ import os
 import signal
 import socket
 import subprocess
-import time
 
 from . import common
 
@@ -54,23 +53,6 @@ def add_arguments(p, frames=200, rounds=2):
     p.add_argument("--out-dir", help="keep the per-frame CSVs and logs there (default: a temporary folder)")
     common.add_build_argument(p)
     common.add_driver_argument(p)
-
-
-@contextlib.contextmanager
-def started_agent(agent, port, env, log_path, prefix=()):
-    """Runs `prefix + splitvk-agent --listen 127.0.0.1:port` (its log in log_path) while the block runs."""
-    with open(log_path, "w") as log:
-        # Its TLS identity beside its log, where common.tls_split_env finds it.
-        state = common.agent_state_dir(os.path.dirname(log_path))
-        proc = subprocess.Popen(list(prefix) + [agent, "--listen", f"127.0.0.1:{port}", "--state-dir", state], env=env,
-                                stdout=subprocess.DEVNULL, stderr=log, start_new_session=True)
-        try:
-            time.sleep(0.5)
-            if proc.poll() is not None:
-                raise common.BenchError(f"splitvk-agent did not start (see {log_path})")
-            yield proc
-        finally:
-            stop_group(proc)
 
 
 def stop_group(proc):
@@ -134,32 +116,6 @@ def stage_medians(rows):
     }
 
 
-def grab_png(disp, width, height, path):
-    subprocess.run(["ffmpeg", "-loglevel", "error", "-y", "-f", "x11grab", "-draw_mouse", "0", "-video_size",
-                    f"{width}x{height}", "-i", f"{disp}+0,0", "-frames:v", "1", path], check=True)
-
-
-def run_held(argv, env, frames, disp, width, height, path, timeout_s):
-    """Runs atrium with --hold, grabs the held last frame as a PNG, then ends it."""
-    proc = subprocess.Popen(argv + ["--hold"], env=env, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                            text=True, start_new_session=True)
-    try:
-        deadline = time.monotonic() + timeout_s
-        holding = f"holding frame {frames - 1}"
-        for line in proc.stdout:
-            if line.strip() == holding:
-                break
-            if time.monotonic() > deadline:
-                raise common.BenchError(f"{APP_NAME} did not reach frame {frames - 1} in time")
-        else:
-            raise common.BenchError(f"{APP_NAME} ended before holding frame {frames - 1}")
-        time.sleep(0.5)  # the X server may still be taking the last present
-        grab_png(disp, width, height, path)
-    finally:
-        os.killpg(proc.pid, signal.SIGTERM)
-        proc.wait(timeout=30)
-
-
 def measure(args):
     """Runs the rounds; returns a dict of results (also used by the demo)."""
     if min(args.frames, args.rounds, args.width, args.height) < 1 or args.warmup < 0 or args.warmup >= args.frames:
@@ -182,12 +138,12 @@ def measure(args):
           f"{args.rounds} rounds, scale {args.scale}, codec {args.codec}, agent on 127.0.0.1:{port}", flush=True)
 
     natives, splits, tls_splits = [], [], []
-    with common.display() as disp:
+    with common.display(build) as disp:
         base = common.clean_env(args.icd)
         base["DISPLAY"] = disp
         split_env = dict(common.layer_env(base, build), SPLITVK_SERVER=f"127.0.0.1:{port}", SPLITVK_LOG_LEVEL="info",
                          SPLITVK_SCALE=args.scale, SPLITVK_CODEC=args.codec, SPLITVK_EYES=str(args.eyes))
-        with started_agent(agent, port, base, os.path.join(out_dir, "agent.log")):
+        with common.started_agent(build, agent, base, out_dir, port):
             # The same split over TLS, to the same agent (it serves both on one port).
             tls_env = common.tls_split_env(split_env, agent, out_dir, base) if getattr(args, "tls", False) else None
             for i in range(args.rounds):
@@ -220,8 +176,10 @@ def measure(args):
                 frames = min(args.frames, 60)
                 pngs = (os.path.join(args.png_dir, f"native-frame-{frames - 1}.png"),
                         os.path.join(args.png_dir, f"split-frame-{frames - 1}.png"))
-                run_held(argv(frames), base, frames, disp, args.width, args.height, pngs[0], timeout_s)
-                run_held(argv(frames), split_env, frames, disp, args.width, args.height, pngs[1], timeout_s)
+                common.run_held(build, argv(frames) + ["--hold"], base, frames - 1, pngs[0], args.width,
+                                args.height, out_dir, "native-hold", timeout_s)
+                common.run_held(build, argv(frames) + ["--hold"], split_env, frames - 1, pngs[1], args.width,
+                                args.height, out_dir, "split-hold", timeout_s)
 
     rows = [row for _, rows in splits for row in rows]
     stages = stage_medians(rows)

@@ -203,7 +203,7 @@ struct Client {
         protocol::Hello hello;
         hello.client_name = "agent_session_test";
         hello.client_gpu_name = "fake";
-        hello.codec_fingerprint = codec::kCodecFingerprint;
+        hello.codec_fingerprint = protocol::session_fingerprint(codec::kCodecFingerprint);
         hello.token.assign(token.begin(), token.end());
         auto welcome = protocol::client_handshake(*connection, hello, 10s);
         if (!welcome) {
@@ -618,7 +618,7 @@ bool write_all(int fd, const std::vector<uint8_t> &bytes) {
 bool raw_handshake(int fd) {
     protocol::Hello hello;
     hello.capabilities = 0; // no compression: frames stay readable
-    hello.codec_fingerprint = codec::kCodecFingerprint;
+    hello.codec_fingerprint = protocol::session_fingerprint(codec::kCodecFingerprint);
     if (!write_all(fd, protocol::encode_frame(protocol::to_wire(MessageType::Hello), 1,
                                               protocol::encode_hello(hello))))
         return false;

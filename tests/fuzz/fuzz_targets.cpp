@@ -120,7 +120,7 @@ void decode_control(const protocol::Message &m) {
             // The server's decision: token comparison, version, capabilities, fingerprint.
             protocol::ServerHandshakeConfig config;
             config.token = {'s', 'e', 'c', 'r', 'e', 't'};
-            config.codec_fingerprint = codec::kCodecFingerprint;
+            config.codec_fingerprint = protocol::session_fingerprint(codec::kCodecFingerprint);
             // The device envelope a client sends (issue 10), decoded and checked as the agent does.
             config.check_envelope = [](std::span<const uint8_t> blob) -> std::string {
                 auto envelope = protocol::decode_device_description(blob);

@@ -1294,5 +1294,270 @@ TEST(CodecRoundTrip, QueueSubmitCodecIsGenerated) {
     EXPECT_EQ(t->pSignalSemaphoreValues[0], 42u);
 }
 
+// ---------------------------------------------------------------------------------------------
+// The extensions engines enable (issue 19): conditional rendering, transform feedback and
+// VK_EXT_extended_dynamic_state3, with the pointers the specification lets an application leave
+// NULL (or, for the counter buffers, hold VK_NULL_HANDLE elements).
+
+TEST(CodecRoundTrip, ConditionalRenderingAndTransformFeedback) {
+    Session s;
+    const VkCommandBuffer cb = s.client<VkCommandBuffer>(VK_OBJECT_TYPE_COMMAND_BUFFER, 0x10);
+    const VkBuffer predicate = s.client<VkBuffer>(VK_OBJECT_TYPE_BUFFER, 0x20);
+    const VkBuffer captures[2] = {s.client<VkBuffer>(VK_OBJECT_TYPE_BUFFER, 0x21),
+                                  s.client<VkBuffer>(VK_OBJECT_TYPE_BUFFER, 0x22)};
+    const VkBuffer counter = s.client<VkBuffer>(VK_OBJECT_TYPE_BUFFER, 0x23);
+    const VkQueryPool pool = s.client<VkQueryPool>(VK_OBJECT_TYPE_QUERY_POOL, 0x30);
+
+    const VkConditionalRenderingBeginInfoEXT begin{VK_STRUCTURE_TYPE_CONDITIONAL_RENDERING_BEGIN_INFO_EXT,
+                                                   nullptr, predicate, 256,
+                                                   VK_CONDITIONAL_RENDERING_INVERTED_BIT_EXT};
+    encode_vkCmdBeginConditionalRenderingEXT(s.enc, cb, &begin);
+    const VkDeviceSize offsets[2] = {0, 4096};
+    encode_vkCmdBindTransformFeedbackBuffersEXT(s.enc, cb, 1, 2, captures, offsets, nullptr);
+    // The first binding starts at byte 0 (no counter buffer), the second resumes from `counter`.
+    const VkBuffer begin_counters[2] = {VK_NULL_HANDLE, counter};
+    const VkDeviceSize counter_offsets[2] = {0, 16};
+    encode_vkCmdBeginTransformFeedbackEXT(s.enc, cb, 1, 2, begin_counters, counter_offsets);
+    encode_vkCmdBeginQueryIndexedEXT(s.enc, cb, pool, 3, VK_QUERY_CONTROL_PRECISE_BIT, 1);
+    encode_vkCmdEndQueryIndexedEXT(s.enc, cb, pool, 3, 1);
+    encode_vkCmdEndTransformFeedbackEXT(s.enc, cb, 0, 2, nullptr, nullptr);
+    encode_vkCmdDrawIndirectByteCountEXT(s.enc, cb, 2, 5, counter, 16, 0, 24);
+    encode_vkCmdEndConditionalRenderingEXT(s.enc, cb);
+
+    Decoder d(s.bytes(), s.table, s.arena);
+    Decoded_vkCmdBeginConditionalRenderingEXT begin_out;
+    ASSERT_TRUE(decode_vkCmdBeginConditionalRenderingEXT(d, begin_out)) << d.error();
+    ASSERT_NE(begin_out.pConditionalRenderingBegin, nullptr);
+    EXPECT_EQ(begin_out.pConditionalRenderingBegin->buffer, Session::server(predicate));
+    EXPECT_EQ(begin_out.pConditionalRenderingBegin->offset, 256u);
+    EXPECT_EQ(begin_out.pConditionalRenderingBegin->flags,
+              VkConditionalRenderingFlagsEXT{VK_CONDITIONAL_RENDERING_INVERTED_BIT_EXT});
+    Decoded_vkCmdBindTransformFeedbackBuffersEXT bind;
+    ASSERT_TRUE(decode_vkCmdBindTransformFeedbackBuffersEXT(d, bind)) << d.error();
+    EXPECT_EQ(bind.firstBinding, 1u);
+    ASSERT_EQ(bind.bindingCount, 2u);
+    EXPECT_EQ(bind.pBuffers[1], Session::server(captures[1]));
+    EXPECT_EQ(bind.pOffsets[1], 4096u);
+    EXPECT_EQ(bind.pSizes, nullptr);
+    Decoded_vkCmdBeginTransformFeedbackEXT begin_xfb;
+    ASSERT_TRUE(decode_vkCmdBeginTransformFeedbackEXT(d, begin_xfb)) << d.error();
+    ASSERT_EQ(begin_xfb.counterBufferCount, 2u);
+    EXPECT_EQ(begin_xfb.pCounterBuffers[0], VK_NULL_HANDLE);
+    EXPECT_EQ(begin_xfb.pCounterBuffers[1], Session::server(counter));
+    EXPECT_EQ(begin_xfb.pCounterBufferOffsets[1], 16u);
+    Decoded_vkCmdBeginQueryIndexedEXT begin_query;
+    ASSERT_TRUE(decode_vkCmdBeginQueryIndexedEXT(d, begin_query)) << d.error();
+    EXPECT_EQ(begin_query.queryPool, Session::server(pool));
+    EXPECT_EQ(begin_query.query, 3u);
+    EXPECT_EQ(begin_query.index, 1u);
+    Decoded_vkCmdEndQueryIndexedEXT end_query;
+    ASSERT_TRUE(decode_vkCmdEndQueryIndexedEXT(d, end_query)) << d.error();
+    EXPECT_EQ(end_query.index, 1u);
+    Decoded_vkCmdEndTransformFeedbackEXT end_xfb;
+    ASSERT_TRUE(decode_vkCmdEndTransformFeedbackEXT(d, end_xfb)) << d.error();
+    EXPECT_EQ(end_xfb.counterBufferCount, 2u);
+    EXPECT_EQ(end_xfb.pCounterBuffers, nullptr);
+    EXPECT_EQ(end_xfb.pCounterBufferOffsets, nullptr);
+    Decoded_vkCmdDrawIndirectByteCountEXT draw;
+    ASSERT_TRUE(decode_vkCmdDrawIndirectByteCountEXT(d, draw)) << d.error();
+    EXPECT_EQ(draw.instanceCount, 2u);
+    EXPECT_EQ(draw.firstInstance, 5u);
+    EXPECT_EQ(draw.counterBuffer, Session::server(counter));
+    EXPECT_EQ(draw.counterBufferOffset, 16u);
+    EXPECT_EQ(draw.vertexStride, 24u);
+    Decoded_vkCmdEndConditionalRenderingEXT end_out;
+    ASSERT_TRUE(decode_vkCmdEndConditionalRenderingEXT(d, end_out)) << d.error();
+    EXPECT_TRUE(d.at_end());
+}
+
+TEST(CodecRoundTrip, ExtendedDynamicState3AndVertexInput) {
+    Session s;
+    const VkCommandBuffer cb = s.client<VkCommandBuffer>(VK_OBJECT_TYPE_COMMAND_BUFFER, 0x10);
+    // 64 samples take two mask words: vk.xml's altlen, (samples + 31) / 32.
+    const VkSampleMask mask[2] = {0xF0F0F0F0u, 0x0000FFFFu};
+    encode_vkCmdSetSampleMaskEXT(s.enc, cb, VK_SAMPLE_COUNT_64_BIT, mask);
+    encode_vkCmdSetPolygonModeEXT(s.enc, cb, VK_POLYGON_MODE_LINE);
+    encode_vkCmdSetDepthClipNegativeOneToOneEXT(s.enc, cb, VK_TRUE);
+    const VkColorBlendEquationEXT equations[2] = {
+        {VK_BLEND_FACTOR_SRC_ALPHA, VK_BLEND_FACTOR_ONE_MINUS_SRC_ALPHA, VK_BLEND_OP_ADD, VK_BLEND_FACTOR_ONE,
+         VK_BLEND_FACTOR_ZERO, VK_BLEND_OP_ADD},
+        {VK_BLEND_FACTOR_ONE, VK_BLEND_FACTOR_ONE, VK_BLEND_OP_MAX, VK_BLEND_FACTOR_ONE, VK_BLEND_FACTOR_ONE,
+         VK_BLEND_OP_MIN}};
+    encode_vkCmdSetColorBlendEquationEXT(s.enc, cb, 1, 2, equations);
+    const VkBool32 writes[3] = {VK_TRUE, VK_FALSE, VK_TRUE};
+    encode_vkCmdSetColorWriteEnableEXT(s.enc, cb, 3, writes);
+    const VkVertexInputBindingDescription2EXT binding{
+        VK_STRUCTURE_TYPE_VERTEX_INPUT_BINDING_DESCRIPTION_2_EXT,
+        nullptr,
+        2,
+        20,
+        VK_VERTEX_INPUT_RATE_INSTANCE,
+        3};
+    const VkVertexInputAttributeDescription2EXT attributes[2] = {
+        {VK_STRUCTURE_TYPE_VERTEX_INPUT_ATTRIBUTE_DESCRIPTION_2_EXT, nullptr, 0, 2,
+         VK_FORMAT_R32G32B32_SFLOAT, 0},
+        {VK_STRUCTURE_TYPE_VERTEX_INPUT_ATTRIBUTE_DESCRIPTION_2_EXT, nullptr, 1, 2, VK_FORMAT_R8G8B8A8_UNORM,
+         12}};
+    encode_vkCmdSetVertexInputEXT(s.enc, cb, 1, &binding, 2, attributes);
+
+    Decoder d(s.bytes(), s.table, s.arena);
+    Decoded_vkCmdSetSampleMaskEXT sample_mask;
+    ASSERT_TRUE(decode_vkCmdSetSampleMaskEXT(d, sample_mask)) << d.error();
+    EXPECT_EQ(sample_mask.samples, VK_SAMPLE_COUNT_64_BIT);
+    ASSERT_NE(sample_mask.pSampleMask, nullptr);
+    EXPECT_EQ(sample_mask.pSampleMask[0], mask[0]);
+    EXPECT_EQ(sample_mask.pSampleMask[1], mask[1]);
+    Decoded_vkCmdSetPolygonModeEXT polygon;
+    ASSERT_TRUE(decode_vkCmdSetPolygonModeEXT(d, polygon)) << d.error();
+    EXPECT_EQ(polygon.polygonMode, VK_POLYGON_MODE_LINE);
+    Decoded_vkCmdSetDepthClipNegativeOneToOneEXT clip;
+    ASSERT_TRUE(decode_vkCmdSetDepthClipNegativeOneToOneEXT(d, clip)) << d.error();
+    EXPECT_EQ(clip.negativeOneToOne, VK_TRUE);
+    Decoded_vkCmdSetColorBlendEquationEXT blend;
+    ASSERT_TRUE(decode_vkCmdSetColorBlendEquationEXT(d, blend)) << d.error();
+    EXPECT_EQ(blend.firstAttachment, 1u);
+    ASSERT_EQ(blend.attachmentCount, 2u);
+    EXPECT_EQ(blend.pColorBlendEquations[1].alphaBlendOp, VK_BLEND_OP_MIN);
+    EXPECT_EQ(blend.pColorBlendEquations[0].dstColorBlendFactor, VK_BLEND_FACTOR_ONE_MINUS_SRC_ALPHA);
+    Decoded_vkCmdSetColorWriteEnableEXT write_enable;
+    ASSERT_TRUE(decode_vkCmdSetColorWriteEnableEXT(d, write_enable)) << d.error();
+    ASSERT_EQ(write_enable.attachmentCount, 3u);
+    EXPECT_EQ(write_enable.pColorWriteEnables[1], VK_FALSE);
+    EXPECT_EQ(write_enable.pColorWriteEnables[2], VK_TRUE);
+    Decoded_vkCmdSetVertexInputEXT vertex_input;
+    ASSERT_TRUE(decode_vkCmdSetVertexInputEXT(d, vertex_input)) << d.error();
+    ASSERT_EQ(vertex_input.vertexBindingDescriptionCount, 1u);
+    EXPECT_EQ(vertex_input.pVertexBindingDescriptions[0].divisor, 3u);
+    EXPECT_EQ(vertex_input.pVertexBindingDescriptions[0].stride, 20u);
+    ASSERT_EQ(vertex_input.vertexAttributeDescriptionCount, 2u);
+    EXPECT_EQ(vertex_input.pVertexAttributeDescriptions[1].format, VK_FORMAT_R8G8B8A8_UNORM);
+    EXPECT_EQ(vertex_input.pVertexAttributeDescriptions[1].offset, 12u);
+    EXPECT_TRUE(d.at_end());
+}
+
+// With the vertex input dynamic, pVertexInputState is ignored; with blend enable, equation and
+// write mask all dynamic (EDS3), the colour blend state's pAttachments are: neither is read. The
+// pipeline's extension structures (rasterization stream, provoking vertex, depth clip control,
+// colour write enables) cross the wire.
+TEST(CodecRoundTrip, GraphicsPipelineWithEngineExtensionState) {
+    Session s;
+    const PipelineObjects objs(s);
+    VkPipelineShaderStageCreateInfo stage{};
+    stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+    stage.stage = VK_SHADER_STAGE_VERTEX_BIT;
+    stage.module = objs.vs;
+    stage.pName = "main";
+    const VkDynamicState dynamic_states[5] = {
+        VK_DYNAMIC_STATE_VERTEX_INPUT_EXT, VK_DYNAMIC_STATE_COLOR_BLEND_ENABLE_EXT,
+        VK_DYNAMIC_STATE_COLOR_BLEND_EQUATION_EXT, VK_DYNAMIC_STATE_COLOR_WRITE_MASK_EXT,
+        VK_DYNAMIC_STATE_POLYGON_MODE_EXT};
+    const VkPipelineDynamicStateCreateInfo dynamic{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO,
+                                                   nullptr, 0, 5, dynamic_states};
+    VkPipelineRasterizationProvokingVertexStateCreateInfoEXT provoking{};
+    provoking.sType = VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_PROVOKING_VERTEX_STATE_CREATE_INFO_EXT;
+    provoking.provokingVertexMode = VK_PROVOKING_VERTEX_MODE_LAST_VERTEX_EXT;
+    VkPipelineRasterizationStateStreamCreateInfoEXT stream{};
+    stream.sType = VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_STREAM_CREATE_INFO_EXT;
+    stream.pNext = &provoking;
+    stream.rasterizationStream = 1;
+    VkPipelineRasterizationStateCreateInfo raster{};
+    raster.sType = VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO;
+    raster.pNext = &stream;
+    raster.lineWidth = 1.0f;
+    VkPipelineViewportDepthClipControlCreateInfoEXT clip_control{};
+    clip_control.sType = VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_DEPTH_CLIP_CONTROL_CREATE_INFO_EXT;
+    clip_control.negativeOneToOne = VK_TRUE;
+    const VkViewport viewport{0, 0, 64, 64, 0, 1};
+    const VkRect2D scissor{{0, 0}, {64, 64}};
+    const VkPipelineViewportStateCreateInfo viewport_state{
+        VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO, &clip_control, 0, 1, &viewport, 1, &scissor};
+    VkPipelineMultisampleStateCreateInfo multisample{};
+    multisample.sType = VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO;
+    multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+    const VkBool32 write_enables[2] = {VK_TRUE, VK_FALSE};
+    const VkPipelineColorWriteCreateInfoEXT color_write{
+        VK_STRUCTURE_TYPE_PIPELINE_COLOR_WRITE_CREATE_INFO_EXT, nullptr, 2, write_enables};
+    const VkPipelineColorBlendStateCreateInfo color_blend{
+        VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO,
+        &color_write,
+        0,
+        VK_FALSE,
+        VK_LOGIC_OP_CLEAR,
+        2,
+        invalid_pointer<VkPipelineColorBlendAttachmentState>(),
+        {}};
+    VkGraphicsPipelineCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO;
+    info.stageCount = 1;
+    info.pStages = &stage;
+    info.pVertexInputState = invalid_pointer<VkPipelineVertexInputStateCreateInfo>();
+    info.pViewportState = &viewport_state;
+    info.pRasterizationState = &raster;
+    info.pMultisampleState = &multisample;
+    info.pColorBlendState = &color_blend;
+    info.pDynamicState = &dynamic;
+    info.layout = objs.layout;
+    info.renderPass = objs.render_pass;
+    info.basePipelineIndex = -1;
+    VkPipeline created = to_handle<VkPipeline>(0x61);
+    encode_vkCreateGraphicsPipelines(s.enc, objs.device, VK_NULL_HANDLE, 1, &info, nullptr, &created);
+
+    Decoder d(s.bytes(), s.table, s.arena);
+    Decoded_vkCreateGraphicsPipelines out;
+    ASSERT_TRUE(decode_vkCreateGraphicsPipelines(d, out)) << d.error();
+    const VkGraphicsPipelineCreateInfo &ci = out.pCreateInfos[0];
+    EXPECT_EQ(ci.pVertexInputState, nullptr);
+    ASSERT_NE(ci.pColorBlendState, nullptr);
+    EXPECT_EQ(ci.pColorBlendState->attachmentCount, 2u);
+    EXPECT_EQ(ci.pColorBlendState->pAttachments, nullptr);
+    const auto *decoded_write =
+        static_cast<const VkPipelineColorWriteCreateInfoEXT *>(ci.pColorBlendState->pNext);
+    ASSERT_NE(decoded_write, nullptr);
+    EXPECT_EQ(decoded_write->sType, VK_STRUCTURE_TYPE_PIPELINE_COLOR_WRITE_CREATE_INFO_EXT);
+    ASSERT_EQ(decoded_write->attachmentCount, 2u);
+    EXPECT_EQ(decoded_write->pColorWriteEnables[1], VK_FALSE);
+    const auto *decoded_clip =
+        static_cast<const VkPipelineViewportDepthClipControlCreateInfoEXT *>(ci.pViewportState->pNext);
+    ASSERT_NE(decoded_clip, nullptr);
+    EXPECT_EQ(decoded_clip->negativeOneToOne, VK_TRUE);
+    const auto *decoded_stream =
+        static_cast<const VkPipelineRasterizationStateStreamCreateInfoEXT *>(ci.pRasterizationState->pNext);
+    ASSERT_NE(decoded_stream, nullptr);
+    EXPECT_EQ(decoded_stream->sType, VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_STREAM_CREATE_INFO_EXT);
+    EXPECT_EQ(decoded_stream->rasterizationStream, 1u);
+    const auto *decoded_provoking =
+        static_cast<const VkPipelineRasterizationProvokingVertexStateCreateInfoEXT *>(decoded_stream->pNext);
+    ASSERT_NE(decoded_provoking, nullptr);
+    EXPECT_EQ(decoded_provoking->provokingVertexMode, VK_PROVOKING_VERTEX_MODE_LAST_VERTEX_EXT);
+}
+
+// A secondary that inherits the primary's conditional rendering says so in its inheritance info.
+TEST(CodecRoundTrip, InheritedConditionalRendering) {
+    Session s;
+    const VkCommandBuffer secondary = s.client<VkCommandBuffer>(VK_OBJECT_TYPE_COMMAND_BUFFER, 0x11);
+    const VkCommandBufferInheritanceConditionalRenderingInfoEXT conditional{
+        VK_STRUCTURE_TYPE_COMMAND_BUFFER_INHERITANCE_CONDITIONAL_RENDERING_INFO_EXT, nullptr, VK_TRUE};
+    const VkCommandBufferInheritanceInfo inheritance{VK_STRUCTURE_TYPE_COMMAND_BUFFER_INHERITANCE_INFO,
+                                                     &conditional,
+                                                     VK_NULL_HANDLE,
+                                                     0,
+                                                     VK_NULL_HANDLE,
+                                                     VK_FALSE,
+                                                     0,
+                                                     0};
+    const VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO, nullptr, 0,
+                                         &inheritance};
+    encode_vkBeginCommandBuffer(s.enc, secondary, &begin, VK_COMMAND_BUFFER_LEVEL_SECONDARY);
+    Decoder d(s.bytes(), s.table, s.arena);
+    Decoded_vkBeginCommandBuffer out;
+    ASSERT_TRUE(decode_vkBeginCommandBuffer(d, out)) << d.error();
+    ASSERT_NE(out.pBeginInfo->pInheritanceInfo, nullptr);
+    const auto *decoded = static_cast<const VkCommandBufferInheritanceConditionalRenderingInfoEXT *>(
+        out.pBeginInfo->pInheritanceInfo->pNext);
+    ASSERT_NE(decoded, nullptr);
+    EXPECT_EQ(decoded->sType, VK_STRUCTURE_TYPE_COMMAND_BUFFER_INHERITANCE_CONDITIONAL_RENDERING_INFO_EXT);
+    EXPECT_EQ(decoded->conditionalRenderingEnable, VK_TRUE);
+}
+
 } // namespace
 } // namespace splitvk::codec

@@ -462,6 +462,247 @@ TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
     }
 }
 
+// An OpenXR runtime's eye image of two layers (one eye each, drawn with multiview): released in
+// COLOR_ATTACHMENT_OPTIMAL with no semaphore (the queue orders the composite), composited with no
+// signal. Each layer's periphery is its own top-left upsampled, each tile lands in its own layer
+// only (the same rectangle in both layers is no overlap), and a tile for a layer the image lacks is
+// dropped. Blit only: the draw writes one layer, so create() refuses the other filters.
+TEST_P(CompositorTest, LayeredRuntimeImageGetsEachLayersTilesAndPeriphery) {
+    const auto [format, filter, timed] = GetParam();
+    constexpr uint32_t kLayers = 2;
+    const bool srgb = format == VK_FORMAT_B8G8R8A8_SRGB;
+    const VkDevice d = device_.handle;
+    std::string why;
+    if (!Compositor::supports(device_, format, &why, kLayers)) GTEST_SKIP() << why;
+
+    SwapchainState sc;
+    sc.handle = reinterpret_cast<VkSwapchainKHR>(uintptr_t{0x5d});
+    sc.extent = {kWidth, kHeight};
+    sc.format = format;
+    sc.array_layers = kLayers;
+    sc.composable = true;
+    sc.runtime = true;
+    sc.present_layout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    if (filter != UpsampleFilter::BilinearBlit) {
+        // The draw writes one layer: a layered image is not offered it.
+        std::string refused;
+        EXPECT_FALSE(Compositor::create(device_, sc, family_, &refused, filter, timed));
+        EXPECT_FALSE(refused.empty());
+        return;
+    }
+    VkImageCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
+    info.imageType = VK_IMAGE_TYPE_2D;
+    info.format = format;
+    info.extent = {kWidth, kHeight, 1};
+    info.mipLevels = 1;
+    info.arrayLayers = kLayers;
+    info.samples = VK_SAMPLE_COUNT_1_BIT;
+    info.tiling = VK_IMAGE_TILING_OPTIMAL;
+    info.usage = Compositor::kSwapchainUsage;
+    VkImage image = VK_NULL_HANDLE;
+    ASSERT_EQ(vkCreateImage(d, &info, nullptr, &image), VK_SUCCESS);
+    VkMemoryRequirements req;
+    vkGetImageMemoryRequirements(d, image, &req);
+    VkMemoryAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    alloc.allocationSize = req.size;
+    alloc.memoryTypeIndex = memory_type(device_.memory_properties, req.memoryTypeBits, 0);
+    VkDeviceMemory image_memory = VK_NULL_HANDLE;
+    ASSERT_EQ(vkAllocateMemory(d, &alloc, nullptr, &image_memory), VK_SUCCESS);
+    ASSERT_EQ(vkBindImageMemory(d, image, image_memory, 0), VK_SUCCESS);
+    sc.images = {image};
+
+    // Layer after layer, as vkCmdCopyImageToBuffer of both lays them out.
+    const VkDeviceSize layer_bytes = VkDeviceSize{kWidth} * kHeight * 4;
+    VkBufferCreateInfo buffer_info{};
+    buffer_info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+    buffer_info.size = layer_bytes * kLayers;
+    buffer_info.usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    VkBuffer buffer = VK_NULL_HANDLE;
+    ASSERT_EQ(vkCreateBuffer(d, &buffer_info, nullptr, &buffer), VK_SUCCESS);
+    vkGetBufferMemoryRequirements(d, buffer, &req);
+    alloc.allocationSize = req.size;
+    alloc.memoryTypeIndex =
+        memory_type(device_.memory_properties, req.memoryTypeBits,
+                    VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
+    ASSERT_NE(alloc.memoryTypeIndex, UINT32_MAX);
+    VkDeviceMemory buffer_memory = VK_NULL_HANDLE;
+    ASSERT_EQ(vkAllocateMemory(d, &alloc, nullptr, &buffer_memory), VK_SUCCESS);
+    ASSERT_EQ(vkBindBufferMemory(d, buffer, buffer_memory, 0), VK_SUCCESS);
+    void *mapped_void = nullptr;
+    ASSERT_EQ(vkMapMemory(d, buffer_memory, 0, VK_WHOLE_SIZE, 0, &mapped_void), VK_SUCCESS);
+    auto *mapped = static_cast<uint8_t *>(mapped_void);
+
+    VkCommandPoolCreateInfo pool_info{};
+    pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+    pool_info.queueFamilyIndex = family_;
+    VkCommandPool pool = VK_NULL_HANDLE;
+    ASSERT_EQ(vkCreateCommandPool(d, &pool_info, nullptr, &pool), VK_SUCCESS);
+    VkCommandBufferAllocateInfo cb_info{};
+    cb_info.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    cb_info.commandPool = pool;
+    cb_info.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    cb_info.commandBufferCount = 1;
+    VkCommandBuffer cb = VK_NULL_HANDLE;
+    ASSERT_EQ(vkAllocateCommandBuffers(d, &cb_info, &cb), VK_SUCCESS);
+    VkFenceCreateInfo fence_info{};
+    fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+    VkFence fence = VK_NULL_HANDLE;
+    ASSERT_EQ(vkCreateFence(d, &fence_info, nullptr, &fence), VK_SUCCESS);
+
+    std::string error;
+    UploadPool uploads(device_);
+    auto compositor = Compositor::create(device_, sc, family_, &error, filter, timed);
+    ASSERT_TRUE(compositor) << error;
+
+    const auto barrier = [&](VkImageLayout from, VkImageLayout to, VkAccessFlags src_access,
+                             VkAccessFlags dst_access) {
+        VkImageMemoryBarrier b{};
+        b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+        b.srcAccessMask = src_access;
+        b.dstAccessMask = dst_access;
+        b.oldLayout = from;
+        b.newLayout = to;
+        b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+        b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+        b.image = image;
+        b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, kLayers};
+        vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, 0, 0,
+                             nullptr, 0, nullptr, 1, &b);
+    };
+    VkBufferImageCopy whole{};
+    whole.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, kLayers};
+    whole.imageExtent = {kWidth, kHeight, 1};
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    const auto submit_and_wait = [&] {
+        VkSubmitInfo submit{};
+        submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+        submit.commandBufferCount = 1;
+        submit.pCommandBuffers = &cb;
+        ASSERT_EQ(vkQueueSubmit(queue_, 1, &submit, fence), VK_SUCCESS);
+        ASSERT_EQ(vkWaitForFences(d, 1, &fence, VK_TRUE, 10'000'000'000ull), VK_SUCCESS);
+        vkResetFences(d, 1, &fence);
+    };
+
+    std::vector<uint8_t> rendered(layer_bytes * kLayers);
+    for (uint32_t frame = 0; frame < 2; ++frame) {
+        // The application's frame: each layer its own picture, left in COLOR_ATTACHMENT_OPTIMAL.
+        for (uint32_t layer = 0; layer < kLayers; ++layer)
+            for (uint32_t y = 0; y < kHeight; ++y)
+                for (uint32_t x = 0; x < kWidth; ++x)
+                    for (uint32_t c = 0; c < 4; ++c)
+                        rendered[layer * layer_bytes + (size_t{y} * kWidth + x) * 4 + c] =
+                            content(x, y, c, frame + 7 * layer);
+        std::memcpy(mapped, rendered.data(), rendered.size());
+        vkBeginCommandBuffer(cb, &begin);
+        barrier(VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0,
+                VK_ACCESS_TRANSFER_WRITE_BIT);
+        vkCmdCopyBufferToImage(cb, buffer, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &whole);
+        barrier(VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT);
+        vkEndCommandBuffer(cb);
+        submit_and_wait();
+
+        // Each layer's fovea at the same place, one more tile in layer 1, one for a layer it lacks.
+        const struct {
+            VkRect2D rect;
+            uint32_t layer;
+        } placed[4] = {{{{20, 15}, {17, 11}}, 0},
+                       {{{20, 15}, {17, 11}}, 1},
+                       {{{5, 30}, {8, 6}}, 1},
+                       {{{50, 5}, {6, 6}}, 2}};
+        std::vector<uint8_t> tile_pixels[4];
+        FoveaTile tiles[4];
+        for (int t = 0; t < 4; ++t) {
+            const VkRect2D &r = placed[t].rect;
+            tile_pixels[t].resize(size_t{r.extent.width} * r.extent.height * 4);
+            for (uint32_t y = 0; y < r.extent.height; ++y)
+                for (uint32_t x = 0; x < r.extent.width; ++x)
+                    for (uint32_t c = 0; c < 4; ++c)
+                        tile_pixels[t][(size_t{y} * r.extent.width + x) * 4 + c] =
+                            tile_byte(x, y, c + 4 * t, frame);
+            auto upload = uploads.take(tile_pixels[t].size(), &error);
+            ASSERT_TRUE(upload) << error;
+            std::memcpy(upload->mapped, tile_pixels[t].data(), tile_pixels[t].size());
+            uploads.flush(*upload);
+            tiles[t] = {r, upload->buffer, 0, upload, placed[t].layer};
+        }
+        ASSERT_EQ(compositor->composite(queue_, 0, {}, kPeriphery, tiles, nullptr), VK_SUCCESS);
+
+        // What the runtime's barrier would hand on: read back after it on the queue.
+        vkBeginCommandBuffer(cb, &begin);
+        barrier(VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                VK_ACCESS_MEMORY_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT);
+        vkCmdCopyImageToBuffer(cb, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, buffer, 1, &whole);
+        vkEndCommandBuffer(cb);
+        submit_and_wait();
+
+        for (uint32_t layer = 0; layer < kLayers; ++layer) {
+            const uint8_t *shown = mapped + layer * layer_bytes;
+            const uint8_t *mine = rendered.data() + layer * layer_bytes;
+            const auto tile_at = [&](uint32_t x, uint32_t y) -> int {
+                for (int t = 0; t < 3; ++t) {
+                    const VkRect2D &r = placed[t].rect;
+                    if (placed[t].layer == layer && int(x) >= r.offset.x &&
+                        int(x) < r.offset.x + int(r.extent.width) && int(y) >= r.offset.y &&
+                        int(y) < r.offset.y + int(r.extent.height))
+                        return t;
+                }
+                return -1;
+            };
+            const auto texel = [&](int x, int y, uint32_t c) {
+                x = std::clamp(x, 0, int(kPeriphery.width) - 1);
+                y = std::clamp(y, 0, int(kPeriphery.height) - 1);
+                const float v = mine[(size_t(y) * kWidth + x) * 4 + c] / 255.0f;
+                return srgb && c < 3 ? srgb_to_linear(v) : v;
+            };
+            uint64_t tile_mismatches = 0;
+            float worst = 0.0f;
+            for (uint32_t y = 0; y < kHeight; ++y)
+                for (uint32_t x = 0; x < kWidth; ++x) {
+                    if (const int t = tile_at(x, y); t >= 0) {
+                        const VkRect2D &r = placed[t].rect;
+                        const size_t at = (size_t(y - r.offset.y) * r.extent.width + (x - r.offset.x)) * 4;
+                        tile_mismatches += std::memcmp(shown + (size_t{y} * kWidth + x) * 4,
+                                                       tile_pixels[t].data() + at, 4) != 0;
+                        continue;
+                    }
+                    const float px =
+                        std::clamp((x + 0.5f) * kPeriphery.width / kWidth, 0.5f, kPeriphery.width - 0.5f);
+                    const float py =
+                        std::clamp((y + 0.5f) * kPeriphery.height / kHeight, 0.5f, kPeriphery.height - 0.5f);
+                    const int ix = int(std::floor(px - 0.5f)), iy = int(std::floor(py - 0.5f));
+                    const float fx = px - 0.5f - ix, fy = py - 0.5f - iy;
+                    for (uint32_t c = 0; c < 4; ++c) {
+                        const float v =
+                            (texel(ix, iy, c) * (1 - fx) + texel(ix + 1, iy, c) * fx) * (1 - fy) +
+                            (texel(ix, iy + 1, c) * (1 - fx) + texel(ix + 1, iy + 1, c) * fx) * fy;
+                        const float expected =
+                            255.0f * (srgb && c < 3 ? linear_to_srgb(v) : std::clamp(v, 0.0f, 1.0f));
+                        worst = std::max(worst, std::abs(expected - shown[(size_t{y} * kWidth + x) * 4 + c]));
+                    }
+                }
+            EXPECT_EQ(tile_mismatches, 0u) << "frame " << frame << " layer " << layer;
+            EXPECT_LE(worst, 2.0f) << "frame " << frame << " layer " << layer
+                                   << ": the periphery is not that layer's upsampled";
+        }
+    }
+
+    compositor.reset(); // waits for its submits
+    vkDestroyFence(d, fence, nullptr);
+    vkDestroyCommandPool(d, pool, nullptr);
+    vkDestroyBuffer(d, buffer, nullptr);
+    vkFreeMemory(d, buffer_memory, nullptr);
+    vkDestroyImage(d, image, nullptr);
+    vkFreeMemory(d, image_memory, nullptr);
+    if (validation_) {
+        EXPECT_EQ(g_messages, 0);
+    }
+}
+
 // The upsample's bands: together with the tiles they cover every pixel of the image exactly once.
 TEST(PeripheryBands, CoverTheImageAroundTheTilesExactlyOnce) {
     const auto tile = [](int32_t x, int32_t y, uint32_t w, uint32_t h) {

@@ -104,6 +104,40 @@ TEST(DeviceEnvelope, CombineTakesWhatBothHonour) {
     EXPECT_EQ(formats_narrowed(client, envelope), 1u);
 }
 
+// The forwarded extensions' own features (issue 19) are in the envelope like the core ones: an
+// agent without transform feedback hides it from the application, and a later one without it is
+// refused. The EDS3 features the layer always clears are not in it at all.
+TEST(DeviceEnvelope, ForwardedExtensionFeaturesAreInTheEnvelope) {
+    for (const char *name : {"transformFeedback", "geometryStreams", "conditionalRendering"}) {
+        EXPECT_TRUE(std::any_of(std::begin(envelope::kFeatureFields), std::end(envelope::kFeatureFields),
+                                [&](const auto &f) { return std::string(f.name) == name; }))
+            << name;
+    }
+    for (const auto &withheld : envelope::kWithheldFeatures) {
+        EXPECT_TRUE(std::none_of(std::begin(envelope::kFeatureFields), std::end(envelope::kFeatureFields),
+                                 [&](const auto &f) { return std::string(f.name) == withheld.name; }))
+            << withheld.name << " is cleared by the layer and must not be in the envelope";
+    }
+    const size_t xfb = feature("transformFeedback");
+    EXPECT_EQ(envelope::kFeatureFields[xfb].source, envelope::FeatureStruct::Extension);
+    EXPECT_STREQ(envelope::kExtensionFeatureStructs[envelope::kFeatureFields[xfb].extension].extension,
+                 "VK_EXT_transform_feedback");
+    EXPECT_EQ(envelope::kFeatureFields[feature("extendedDynamicState3PolygonMode")].source,
+              envelope::FeatureStruct::Extension);
+
+    const DeviceDescription client = device("client");
+    DeviceDescription agent = device("agent");
+    agent.features[xfb] = 0;
+    DeviceDescription envelope = client;
+    combine(envelope, agent);
+    EXPECT_EQ(envelope.features[xfb], 0);
+    const auto hidden = features_hidden(client, envelope);
+    EXPECT_NE(std::find(hidden.begin(), hidden.end(), "transformFeedback"), hidden.end());
+    const auto refused = violations(agent, client);
+    EXPECT_NE(std::find(refused.begin(), refused.end(), "feature transformFeedback is not supported"),
+              refused.end());
+}
+
 TEST(DeviceEnvelope, ViolationsNameWhatTheDeviceCannotHonour) {
     DeviceDescription told = device("client");
     DeviceDescription gpu = device("NVIDIA");

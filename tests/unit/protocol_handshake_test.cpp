@@ -280,6 +280,25 @@ TEST(ProtocolHandshake, CodecFingerprintMustMatch) {
     EXPECT_EQ(std::get<Reject>(verdict).reason, RejectReason::VersionMismatch);
 }
 
+// A peer built before the metadata layout changed sends the codec's fingerprint alone (or mixes in
+// an older kMetadataLayout): the server, which compares session_fingerprint, refuses it at the
+// handshake rather than misread its SwapchainView or Tiles mid-session.
+TEST(ProtocolHandshake, MetadataLayoutIsPartOfTheFingerprint) {
+    const uint64_t codec = sample_hello().codec_fingerprint;
+    ServerHandshakeConfig config;
+    config.codec_fingerprint = session_fingerprint(codec);
+    EXPECT_NE(session_fingerprint(codec), codec);
+    Hello hello = sample_hello();
+    hello.codec_fingerprint = session_fingerprint(codec);
+    EXPECT_TRUE(std::holds_alternative<Welcome>(evaluate_hello(hello, config)));
+    hello.codec_fingerprint = codec; // a peer that does not mix the layout in
+    const auto verdict = evaluate_hello(hello, config);
+    ASSERT_TRUE(std::holds_alternative<Reject>(verdict));
+    EXPECT_EQ(std::get<Reject>(verdict).reason, RejectReason::VersionMismatch);
+    EXPECT_NE(std::get<Reject>(verdict).message.find("message layouts"), std::string::npos)
+        << std::get<Reject>(verdict).message;
+}
+
 TEST(ProtocolHandshake, CapabilitiesAreTheIntersection) {
     ServerHandshakeConfig config;
     config.capabilities = 0b0110;

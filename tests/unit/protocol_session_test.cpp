@@ -75,19 +75,44 @@ TEST(ProtocolSession, RuntimeSwapchainImagesRoundTrip) {
 }
 
 TEST(ProtocolSession, SwapchainViewRoundTripAndRange) {
-    SwapchainView m{7, 0x55, -0.8f, 0.6f, 0.7f, -0.9f};
+    // The right eye of a side-by-side image 2400 wide, in layer 1.
+    SwapchainView m{7, 0x55, -0.8f, 0.6f, 0.7f, -0.9f, 1, 1200, 0, 1200, 1080};
     const auto bytes = encode(m);
     const auto back = decode_swapchain_view(bytes);
     ASSERT_TRUE(back.ok()) << back.error();
     EXPECT_EQ(back->swapchain_id, 0x55u);
     EXPECT_EQ(back->angle_left, -0.8f);
     EXPECT_EQ(back->angle_down, -0.9f);
+    EXPECT_EQ(back->array_layer, 1u);
+    EXPECT_EQ(back->x, 1200u);
+    EXPECT_EQ(back->y, 0u);
+    EXPECT_EQ(back->width, 1200u);
+    EXPECT_EQ(back->height, 1080u);
     expect_truncations_refused(bytes, decode_swapchain_view);
-    for (SwapchainView bad : {SwapchainView{7, 0x55, 0.6f, -0.8f, 0.7f, -0.9f}, // right < left
-                              SwapchainView{7, 0x55, -0.8f, 0.6f, -0.9f, 0.7f}, // up < down
-                              SwapchainView{7, 0x55, -1.6f, 0.6f, 0.7f, -0.9f}, // past -pi/2
-                              SwapchainView{7, 0x55, -0.8f, NAN, 0.7f, -0.9f}}) // not a number
-        EXPECT_FALSE(decode_swapchain_view(encode(bad)).ok());
+    auto longer = bytes;
+    longer.push_back(0);
+    EXPECT_FALSE(decode_swapchain_view(longer).ok()) << "trailing bytes";
+    const auto with = [&](auto change) {
+        SwapchainView v = m;
+        change(v);
+        return v;
+    };
+    for (SwapchainView bad : {
+             with([](SwapchainView &v) { std::swap(v.angle_left, v.angle_right); }), // right < left
+             with([](SwapchainView &v) { std::swap(v.angle_up, v.angle_down); }),    // up < down
+             with([](SwapchainView &v) { v.angle_left = -1.6f; }),                   // past -pi/2
+             with([](SwapchainView &v) { v.angle_right = NAN; }),                    // not a number
+             with([](SwapchainView &v) { v.width = 0; }),                            // an empty rectangle
+             with([](SwapchainView &v) { v.height = 0; }),
+             with([](SwapchainView &v) { v.x = kMaxImageExtent; }), // past the largest image
+             with([](SwapchainView &v) { v.width = kMaxImageExtent; }),
+             with([](SwapchainView &v) { v.y = 0xFFFFFFF0u; }), // y + height wraps around
+             with([](SwapchainView &v) { v.array_layer = kMaxImageArrayLayers; }),
+         }) {
+        const auto refused = decode_swapchain_view(encode(bad));
+        ASSERT_FALSE(refused.ok());
+        EXPECT_EQ(refused.error().find('\n'), std::string::npos) << "one line: " << refused.error();
+    }
 }
 
 TEST(ProtocolSession, BufferAddressRoundTripRefusesAddressZero) {
@@ -255,7 +280,7 @@ TEST(ProtocolSession, TilesRoundTripAndLimits) {
     m.format = 44;
     m.timings = {1000, 200, 3000, 4500};
     m.tiles.push_back({344, 360, 512, 360, TileCodec::X264, kTileKeyframe, {1, 2, 3}});
-    m.tiles.push_back({1544, 360, 512, 360, TileCodec::X264, 0, {4, 5}});
+    m.tiles.push_back({1544, 360, 512, 360, TileCodec::X264, 0, {4, 5}, 1}); // a layered eye image's layer 1
     const auto bytes = encode(m);
     const auto back = decode_tiles(bytes, 1 << 20);
     ASSERT_TRUE(back.ok()) << back.error();
@@ -265,12 +290,17 @@ TEST(ProtocolSession, TilesRoundTripAndLimits) {
     EXPECT_EQ(back->tiles[1].x, 1544u);
     EXPECT_EQ(back->tiles[0].flags, kTileKeyframe);
     EXPECT_EQ(back->tiles[1].data, (std::vector<uint8_t>{4, 5}));
+    EXPECT_EQ(back->tiles[0].array_layer, 0u);
+    EXPECT_EQ(back->tiles[1].array_layer, 1u);
     expect_truncations_refused(bytes, [](auto p) { return decode_tiles(p, 1 << 20); });
     EXPECT_FALSE(decode_tiles(bytes, 2).ok()) << "the per-tile byte cap is enforced";
 
     auto wide = m;
     wide.tiles[0].x = kMaxVerifyExtent - 10; // x + width overflows the largest image
     EXPECT_FALSE(decode_tiles(encode(wide), 1 << 20).ok());
+    auto deep = m;
+    deep.tiles[1].array_layer = kMaxImageArrayLayers;
+    EXPECT_FALSE(decode_tiles(encode(deep), 1 << 20).ok());
     auto flagged = m;
     flagged.tiles[0].flags = 0x80;
     EXPECT_FALSE(decode_tiles(encode(flagged), 1 << 20).ok());

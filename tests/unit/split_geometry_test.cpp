@@ -251,15 +251,74 @@ TEST(SplitGeometry, FoveaAtTheViewDirection) {
     EXPECT_RECT(fovea_at_view_direction(eye, {}, fovea), 1544, 360, 512u, 360u);
 }
 
-// An OpenXR eye image: one eye, the whole image; at the view direction once its field of view is
-// known, centred before (both sides place it with this one function).
-TEST(SplitGeometry, RuntimeEyeFovea) {
+#define EXPECT_LAYER_RECT(f, l, x, y, w, h)                                                                  \
+    do {                                                                                                     \
+        EXPECT_EQ((f).layer, l##u);                                                                          \
+        EXPECT_RECT((f).rect, x, y, w, h);                                                                   \
+    } while (0)
+
+// An OpenXR eye image: before the application's views, one eye per layer, the whole layer, centred;
+// then each eye the views placed, at its view direction within its rectangle (both sides place them
+// with this one function).
+TEST(SplitGeometry, RuntimeEyeFoveae) {
     const FoveaSize fovea;
-    const VkExtent2D image{1200, 1080};
-    EXPECT_RECT(runtime_eye_fovea(image, nullptr, fovea), 344, 360, 512u, 360u);
     const double a = 0.785398163397448, t = std::atan(0.5);
     const FieldOfView inner_narrow{-a, t, t, -a};
-    EXPECT_RECT(runtime_eye_fovea(image, &inner_narrow, fovea), 544, 180, 512u, 360u);
+    // A swapchain per eye.
+    auto f = runtime_eye_foveae({1200, 1080}, 1, {}, fovea);
+    ASSERT_EQ(f.size(), 1u);
+    EXPECT_LAYER_RECT(f[0], 0, 344, 360, 512u, 360u);
+    f = runtime_eye_foveae({1200, 1080}, 1, {{0, {{0, 0}, {1200, 1080}}, inner_narrow}}, fovea);
+    ASSERT_EQ(f.size(), 1u);
+    EXPECT_LAYER_RECT(f[0], 0, 544, 180, 512u, 360u);
+    // Layered (multiview): a fovea per layer, each from its own view, sorted by layer.
+    f = runtime_eye_foveae({1200, 1080}, 2, {}, fovea);
+    ASSERT_EQ(f.size(), 2u);
+    EXPECT_LAYER_RECT(f[0], 0, 344, 360, 512u, 360u);
+    EXPECT_LAYER_RECT(f[1], 1, 344, 360, 512u, 360u);
+    const FieldOfView mirrored{-t, a, t, -a};
+    f = runtime_eye_foveae({1200, 1080}, 2,
+                           {{1, {{0, 0}, {1200, 1080}}, mirrored}, {0, {{0, 0}, {1200, 1080}}, inner_narrow}},
+                           fovea);
+    ASSERT_EQ(f.size(), 2u);
+    EXPECT_LAYER_RECT(f[0], 0, 544, 180, 512u, 360u);
+    EXPECT_LAYER_RECT(f[1], 1, 144, 180, 512u, 360u);
+    // Side by side: two rectangles of one layer, each fovea within its own half, sorted by x.
+    f = runtime_eye_foveae(
+        {2400, 1080}, 1,
+        {{0, {{1200, 0}, {1200, 1080}}, mirrored}, {0, {{0, 0}, {1200, 1080}}, inner_narrow}}, fovea);
+    ASSERT_EQ(f.size(), 2u);
+    EXPECT_LAYER_RECT(f[0], 0, 544, 180, 512u, 360u);
+    EXPECT_LAYER_RECT(f[1], 0, 1344, 180, 512u, 360u);
+    // Before the views, a side-by-side image is one eye: the fovea of the whole image, centred.
+    f = runtime_eye_foveae({2400, 1080}, 1, {}, fovea);
+    ASSERT_EQ(f.size(), 1u);
+    EXPECT_LAYER_RECT(f[0], 0, 688, 360, 1024u, 360u); // the fovea's fractions of the whole width
+    // An eye in a layer the image lacks, or outside it, has no fovea; one reaching past it is clipped.
+    f = runtime_eye_foveae({1200, 1080}, 1,
+                           {{1, {{0, 0}, {1200, 1080}}, {}},
+                            {0, {{1300, 0}, {100, 100}}, {}},
+                            {0, {{600, 0}, {1200, 1080}}, {}}},
+                           fovea);
+    ASSERT_EQ(f.size(), 1u);
+    EXPECT_LAYER_RECT(f[0], 0, 772, 360, 256u, 360u);
+}
+
+// An eye replaces the eyes of its layer it overlaps (the same eye moved, resized or with another
+// field of view), and joins those it does not; the same eye again changes nothing.
+TEST(SplitGeometry, NoteRuntimeEye) {
+    const FieldOfView a{-0.5, 0.5, 0.5, -0.5}, b{-0.6, 0.4, 0.5, -0.5};
+    std::vector<RuntimeEye> eyes;
+    EXPECT_TRUE(note_runtime_eye(eyes, {0, {{0, 0}, {1200, 1080}}, a}));
+    EXPECT_FALSE(note_runtime_eye(eyes, {0, {{0, 0}, {1200, 1080}}, a}));
+    EXPECT_TRUE(note_runtime_eye(eyes, {0, {{1200, 0}, {1200, 1080}}, a})); // the other half
+    EXPECT_TRUE(note_runtime_eye(eyes, {1, {{0, 0}, {1200, 1080}}, a}));    // another layer
+    ASSERT_EQ(eyes.size(), 3u);
+    EXPECT_TRUE(note_runtime_eye(eyes, {0, {{0, 0}, {1200, 1080}}, b})); // another field of view
+    ASSERT_EQ(eyes.size(), 3u);
+    EXPECT_TRUE(note_runtime_eye(eyes, {0, {{0, 0}, {2400, 1080}}, b})); // one eye over both halves
+    ASSERT_EQ(eyes.size(), 2u);
+    EXPECT_EQ(eyes.back().rect.extent.width, 2400u);
 }
 
 TEST(SplitGeometry, FoveaSetIsSortedAndUnique) {

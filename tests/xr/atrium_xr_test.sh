@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # xr.AtriumThroughMonado: splitvk-atrium --xr --frames 10 against a real OpenXR runtime (Monado,
 # headless null compositor, through scripts/xr-runtime, which builds it into a cache on first use),
-# once with one swapchain per eye and once with --multiview, each under Khronos validation with
-# synchronization validation. Passes when both exit 0, print all 10 frames, the loader inserted
-# the validation layer and the layer logged no error. Validation covers the application only:
-# monado-service runs without it.
+# once with one swapchain per eye, once with --multiview and once with --side-by-side, each under
+# Khronos validation with synchronization validation. Passes when all exit 0, print all 10 frames,
+# the loader inserted the validation layer and the layer logged no error. Validation covers the
+# application only: monado-service runs without it.
 #
 # usage: atrium_xr_test.sh SOURCE_DIR ATRIUM_BINARY       (exit 77: skipped)
 set -u
@@ -27,9 +27,9 @@ khronos_validation.report_flags = error,warn,perf
 SETTINGS
 
 failed=0
-for layout in per-eye multiview; do
+for layout in per-eye multiview side-by-side; do
   args=(--xr --frames 10)
-  [ "$layout" = multiview ] && args+=(--multiview)
+  [ "$layout" != per-eye ] && args+=("--$layout")
   rm -f "$work/validation.log"
   : >"$work/validation.log"
   bash "$runtime" run -- env VK_INSTANCE_LAYERS=VK_LAYER_KHRONOS_validation VK_LAYER_SETTINGS_PATH="$work" \

@@ -1,8 +1,7 @@
 #include "process.h"
 
-#include "vk_env.h"
-
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -48,6 +47,16 @@ std::string loaded_libasan() {
     return path;
 }
 
+// The build tree whose programs are linked with libasan already: this build's (the suites'
+// SPLITVK_E2E_BUILD_DIR override included, as vk_env.h's build_dir()).
+const std::filesystem::path &instrumented_build_dir() {
+    static const std::filesystem::path dir = [] {
+        const char *v = std::getenv("SPLITVK_E2E_BUILD_DIR");
+        return std::filesystem::path(v && *v ? v : SPLITVK_BUILD_DIR);
+    }();
+    return dir;
+}
+
 bool starts_with_path(const std::filesystem::path &p, const std::filesystem::path &dir) {
     std::error_code ec;
     const auto a = std::filesystem::weakly_canonical(p, ec).string();
@@ -76,7 +85,7 @@ void adapt_env_to_sanitizers([[maybe_unused]] const std::string &program, [[mayb
     const auto layers = env.find("VK_INSTANCE_LAYERS");
     const bool loads_ours = (layers != env.end() && layers->second.find("SPLITVK") != std::string::npos) ||
                             env.count("SPLITVK_ENABLE") != 0;
-    if (loads_ours && !starts_with_path(program, build_dir()) && !loaded_libasan().empty()) {
+    if (loads_ours && !starts_with_path(program, instrumented_build_dir()) && !loaded_libasan().empty()) {
         auto &preload = env["LD_PRELOAD"];
         preload = preload.empty() ? loaded_libasan() : loaded_libasan() + ":" + preload;
     }

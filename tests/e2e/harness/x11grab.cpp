@@ -1,5 +1,6 @@
 #include "x11grab.h"
 
+#include "screen_grab.h"
 #include "vk_env.h"
 
 #include <chrono>
@@ -12,27 +13,15 @@ namespace splitvk::e2e {
 
 bool grab_screen(const std::string &display, int x, int y, uint32_t w, uint32_t h,
                  const std::filesystem::path &raw_path, Image *out, std::string *error) {
-    ProcessSpec spec;
-    // -draw_mouse 0: x11grab paints the X pointer into the picture by default (Xvfb parks it in
-    // the middle of the screen, inside a 2400x1080 window); it is not the application's output.
-    spec.argv = {"ffmpeg",      "-nostdin",
-                 "-loglevel",   "error",
-                 "-f",          "x11grab",
-                 "-draw_mouse", "0",
-                 "-video_size", std::to_string(w) + "x" + std::to_string(h),
-                 "-i",          display + "+" + std::to_string(x) + "," + std::to_string(y),
-                 "-frames:v",   "1",
-                 "-f",          "rawvideo",
-                 "-pix_fmt",    "bgr0",
-                 "-y",          raw_path.string()};
-    spec.env = clean_env();
-    spec.out_dir = raw_path.parent_path();
-    spec.name = raw_path.filename().string() + ".ffmpeg";
-    auto r = run_process(spec, std::chrono::seconds(30));
-    if (!r.ok()) {
-        *error = "ffmpeg x11grab failed: " + r.describe() + "\n" + r.err();
-        return false;
-    }
+    ScreenGrab grab;
+    grab.display = display;
+    grab.x = x;
+    grab.y = y;
+    grab.width = w;
+    grab.height = h;
+    grab.pix_fmt = "bgr0";
+    grab.output = raw_path;
+    if (!grab_to_file(grab, clean_env(), error)) return false;
     std::string data = read_file(raw_path);
     const size_t expected = size_t{w} * h * 4;
     if (data.size() != expected) {

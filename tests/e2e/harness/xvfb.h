@@ -26,6 +26,7 @@ public:
     bool start(const std::filesystem::path &log_dir, const Env &env);
     void stop();
     bool running() const { return proc_ != nullptr; }
+    bool alive() { return proc_ && proc_->running(); } // started and not ended since
 
     int display_number() const { return display_; }
     std::string display() const; // ":N", for DISPLAY

@@ -1,10 +1,9 @@
 #pragma once
 
-// The chain plumbing shared by the e2e tests' present layers (hold_layer/, present_fault_layer/):
-// each intercepts vkQueuePresentKHR and nothing else, so all it writes is present() below;
-// present_layer.cpp, compiled into each, does the loader negotiation, vkCreateInstance and
-// vkCreateDevice down the chain, and the vkGet*ProcAddr that answer with present() for
-// vkQueuePresentKHR and the next layer's pointer for everything else.
+// What the e2e tests' present layers (hold_layer/, present_fault_layer/) share: each intercepts
+// vkQueuePresentKHR and nothing else, so all it writes is present() below; present_layer.cpp,
+// compiled into each, answers vkQueuePresentKHR with it, over the loader plumbing of every test
+// layer (test_layer/).
 
 #include <vulkan/vk_layer.h>
 #include <vulkan/vulkan.h>

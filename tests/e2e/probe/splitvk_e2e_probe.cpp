@@ -187,8 +187,9 @@ int run(const Options &options) {
     CHECK(vkQueueSubmit(queue, 1, &si, fence));
     CHECK(vkWaitForFences(device, 1, &fence, VK_TRUE, UINT64_MAX));
 
-    // A descriptor set layout and pool, created and destroyed (VK_LAYER_SPLITVK_test_reuse, below
-    // splitvk, hands their values to new ones at once; tests/e2e/reuse_layer).
+    // A descriptor set layout and pool, created and destroyed, and a set from the pool freed once
+    // and reset once (VK_LAYER_SPLITVK_test_reuse, below splitvk, hands their values to new ones at
+    // once; tests/e2e/reuse_layer).
     const VkDescriptorSetLayoutBinding binding{0, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1,
                                                VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
     VkDescriptorSetLayoutCreateInfo lci{};
@@ -200,11 +201,22 @@ int run(const Options &options) {
     const VkDescriptorPoolSize pool_size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1};
     VkDescriptorPoolCreateInfo dpci{};
     dpci.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+    dpci.flags = VK_DESCRIPTOR_POOL_CREATE_FREE_DESCRIPTOR_SET_BIT;
     dpci.maxSets = 1;
     dpci.poolSizeCount = 1;
     dpci.pPoolSizes = &pool_size;
     VkDescriptorPool descriptor_pool = VK_NULL_HANDLE;
     CHECK(vkCreateDescriptorPool(device, &dpci, nullptr, &descriptor_pool));
+    VkDescriptorSetAllocateInfo dsai{};
+    dsai.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+    dsai.descriptorPool = descriptor_pool;
+    dsai.descriptorSetCount = 1;
+    dsai.pSetLayouts = &set_layout;
+    VkDescriptorSet set = VK_NULL_HANDLE;
+    CHECK(vkAllocateDescriptorSets(device, &dsai, &set));
+    CHECK(vkFreeDescriptorSets(device, descriptor_pool, 1, &set));
+    CHECK(vkAllocateDescriptorSets(device, &dsai, &set));
+    CHECK(vkResetDescriptorPool(device, descriptor_pool, 0));
     vkDestroyDescriptorPool(device, descriptor_pool, nullptr);
     vkDestroyDescriptorSetLayout(device, set_layout, nullptr);
 

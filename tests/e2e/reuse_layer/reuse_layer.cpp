@@ -2,9 +2,10 @@
 // has destroyed an object it may hand the same handle value to an object that another thread
 // creates, before the destroying call has returned through the layers above. The tests put this
 // layer BELOW splitvk, next to the driver: right after the driver destroyed a command pool, a
-// descriptor pool or a descriptor set layout, it creates one of the same kind through the top of
-// the chain (the loader's entry point, so splitvk sees and captures the create, as it would another
-// thread's), then destroys that one again the same way. The create runs on the destroying thread,
+// descriptor pool or a descriptor set layout, or freed descriptor sets (vkFreeDescriptorSets,
+// vkResetDescriptorPool), it creates one of the same kind through the top of the chain (the
+// loader's entry point, so splitvk sees and captures the create, as it would another thread's),
+// then destroys that one again the same way. The create runs on the destroying thread,
 // with nothing allocated in between, so the driver's allocator (lavapipe: malloc, whose per-thread
 // cache hands back the chunk just freed) gives it the destroyed object's value. It prints, on
 // stderr, "reuse: <destroy>: the next <create> got the same handle value" (or "another handle
@@ -13,8 +14,7 @@
 // A splitvk that records (or forgets its state of) a destroy after the driver call records it after
 // the new object's create: the agent then holds two objects under one id, and ends the session.
 // Built into the build tree only and never installed.
-#include <vulkan/vk_layer.h>
-#include <vulkan/vulkan.h>
+#include "../test_layer/test_layer.h"
 
 #include <cstdio>
 #include <cstring>
@@ -26,22 +26,28 @@
 namespace splitvk::reuse_layer {
 namespace {
 
-using DispatchKey = void *;
-DispatchKey key(const void *dispatchable) {
-    return *static_cast<void *const *>(dispatchable);
-}
+using test_layer::key;
 
+// The next layer's commands this layer calls.
 struct Device {
-    PFN_vkGetDeviceProcAddr next_gdpa = nullptr;
     PFN_vkDestroyCommandPool destroy_command_pool = nullptr;
     PFN_vkDestroyDescriptorPool destroy_descriptor_pool = nullptr;
     PFN_vkDestroyDescriptorSetLayout destroy_set_layout = nullptr;
+    PFN_vkAllocateDescriptorSets allocate_sets = nullptr;
+    PFN_vkFreeDescriptorSets free_sets = nullptr;
+    PFN_vkResetDescriptorPool reset_pool = nullptr;
+};
+
+// The last set allocated from a pool, and its layout: what a staged allocation after a free or a
+// reset allocates again (the same layout, so the driver allocates the same size).
+struct PoolSet {
+    VkDescriptorSet set = VK_NULL_HANDLE;
+    VkDescriptorSetLayout layout = VK_NULL_HANDLE;
 };
 
 std::mutex g_mutex;
-std::unordered_map<DispatchKey, PFN_vkGetInstanceProcAddr> g_instances;
-std::unordered_map<DispatchKey, Device> g_devices;
-VkInstance g_instance = VK_NULL_HANDLE;
+std::unordered_map<test_layer::DispatchKey, Device> g_devices;
+std::unordered_map<VkDescriptorPool, PoolSet> g_pool_sets;
 // The queue family of the device's first queue: what a command pool is created for.
 uint32_t g_family = 0;
 thread_local bool t_staging = false; // inside a staged create/destroy: not staged again
@@ -104,6 +110,7 @@ VKAPI_ATTR void VKAPI_CALL DestroyDescriptorPool(VkDevice device, VkDescriptorPo
     static const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1};
     VkDescriptorPoolCreateInfo info{};
     info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+    info.flags = VK_DESCRIPTOR_POOL_CREATE_FREE_DESCRIPTOR_SET_BIT;
     info.maxSets = 1;
     info.poolSizeCount = 1;
     info.pPoolSizes = &size;
@@ -130,101 +137,121 @@ VKAPI_ATTR void VKAPI_CALL DestroyDescriptorSetLayout(VkDevice device, VkDescrip
           "vkDestroyDescriptorSetLayout");
 }
 
-// The loader's link info for this layer in a create info's pNext chain, moved on to the next layer.
-template <class LinkInfo>
-auto *take_link(const void *next, VkStructureType type) {
-    auto *chain = static_cast<LinkInfo *>(const_cast<void *>(next));
-    while (chain && !(chain->sType == type && chain->function == VK_LAYER_LINK_INFO))
-        chain = static_cast<LinkInfo *>(const_cast<void *>(chain->pNext));
-    if (!chain) return decltype(chain->u.pLayerInfo){nullptr};
-    auto *link = chain->u.pLayerInfo;
-    chain->u.pLayerInfo = link->pNext;
-    return link;
-}
-
-VKAPI_ATTR VkResult VKAPI_CALL CreateInstance(const VkInstanceCreateInfo *info,
-                                              const VkAllocationCallbacks *alloc, VkInstance *instance) {
-    const auto *link =
-        take_link<VkLayerInstanceCreateInfo>(info->pNext, VK_STRUCTURE_TYPE_LOADER_INSTANCE_CREATE_INFO);
-    if (!link) return VK_ERROR_INITIALIZATION_FAILED;
-    const PFN_vkGetInstanceProcAddr next = link->pfnNextGetInstanceProcAddr;
-    auto create = reinterpret_cast<PFN_vkCreateInstance>(next(VK_NULL_HANDLE, "vkCreateInstance"));
-    const VkResult result = create(info, alloc, instance);
-    if (result == VK_SUCCESS) {
+VKAPI_ATTR VkResult VKAPI_CALL AllocateDescriptorSets(VkDevice device,
+                                                      const VkDescriptorSetAllocateInfo *info,
+                                                      VkDescriptorSet *sets) {
+    const VkResult result = device_of(device).allocate_sets(device, info, sets);
+    if (result == VK_SUCCESS && !t_staging && info->descriptorSetCount > 0) {
         std::lock_guard lock(g_mutex);
-        g_instances[key(*instance)] = next;
-        g_instance = *instance;
+        g_pool_sets[info->descriptorPool] = {sets[0], info->pSetLayouts[0]};
     }
     return result;
 }
 
-VKAPI_ATTR VkResult VKAPI_CALL CreateDevice(VkPhysicalDevice gpu, const VkDeviceCreateInfo *info,
-                                            const VkAllocationCallbacks *alloc, VkDevice *device) {
-    const auto *link =
-        take_link<VkLayerDeviceCreateInfo>(info->pNext, VK_STRUCTURE_TYPE_LOADER_DEVICE_CREATE_INFO);
-    if (!link) return VK_ERROR_INITIALIZATION_FAILED;
-    const PFN_vkGetInstanceProcAddr next_gipa = link->pfnNextGetInstanceProcAddr;
-    const PFN_vkGetDeviceProcAddr next_gdpa = link->pfnNextGetDeviceProcAddr;
-    VkInstance instance = VK_NULL_HANDLE;
+// Right after the driver freed `freed` (from `pool`): one set of the same layout allocated from the
+// same pool through the top of the chain, then released again with `release` (a free or a reset).
+template <class Release>
+void stage_set(VkDevice device, VkDescriptorPool pool, VkDescriptorSet freed, Release release,
+               const char *destroy_name) {
+    PoolSet last;
     {
         std::lock_guard lock(g_mutex);
-        instance = g_instance;
+        last = g_pool_sets[pool];
     }
-    auto create = reinterpret_cast<PFN_vkCreateDevice>(next_gipa(instance, "vkCreateDevice"));
-    const VkResult result = create(gpu, info, alloc, device);
-    if (result == VK_SUCCESS) {
-        Device d;
-        d.next_gdpa = next_gdpa;
-        d.destroy_command_pool =
-            reinterpret_cast<PFN_vkDestroyCommandPool>(next_gdpa(*device, "vkDestroyCommandPool"));
-        d.destroy_descriptor_pool =
-            reinterpret_cast<PFN_vkDestroyDescriptorPool>(next_gdpa(*device, "vkDestroyDescriptorPool"));
-        d.destroy_set_layout = reinterpret_cast<PFN_vkDestroyDescriptorSetLayout>(
-            next_gdpa(*device, "vkDestroyDescriptorSetLayout"));
-        std::lock_guard lock(g_mutex);
-        g_devices[key(*device)] = d;
-        if (info->queueCreateInfoCount > 0) g_family = info->pQueueCreateInfos[0].queueFamilyIndex;
+    static const auto allocate = top<PFN_vkAllocateDescriptorSets>("vkAllocateDescriptorSets");
+    if (!allocate) {
+        std::fprintf(stderr, "reuse: the loader's vkAllocateDescriptorSets is not found\n");
+        return;
     }
+    if (last.layout == VK_NULL_HANDLE) return;
+    VkDescriptorSetAllocateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+    info.descriptorPool = pool;
+    info.descriptorSetCount = 1;
+    info.pSetLayouts = &last.layout;
+    t_staging = true;
+    VkDescriptorSet created = VK_NULL_HANDLE;
+    if (allocate(device, &info, &created) == VK_SUCCESS) {
+        report(destroy_name, "vkAllocateDescriptorSets", freed, created);
+        release(created);
+    }
+    t_staging = false;
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL FreeDescriptorSets(VkDevice device, VkDescriptorPool pool, uint32_t count,
+                                                  const VkDescriptorSet *sets) {
+    const auto free_next = device_of(device).free_sets;
+    if (t_staging || count == 0) return free_next(device, pool, count, sets);
+    const VkResult result = free_next(device, pool, count, sets);
+    static const auto free_top = top<PFN_vkFreeDescriptorSets>("vkFreeDescriptorSets");
+    if (!free_top) {
+        std::fprintf(stderr, "reuse: the loader's vkFreeDescriptorSets is not found\n");
+        return result;
+    }
+    stage_set(
+        device, pool, sets[0], [&](VkDescriptorSet created) { free_top(device, pool, 1, &created); },
+        "vkFreeDescriptorSets");
     return result;
 }
 
-VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetDeviceProcAddr(VkDevice device, const char *name);
-
-VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetInstanceProcAddr(VkInstance instance, const char *name) {
-    if (!std::strcmp(name, "vkGetInstanceProcAddr"))
-        return reinterpret_cast<PFN_vkVoidFunction>(GetInstanceProcAddr);
-    if (!std::strcmp(name, "vkCreateInstance")) return reinterpret_cast<PFN_vkVoidFunction>(CreateInstance);
-    if (!std::strcmp(name, "vkCreateDevice")) return reinterpret_cast<PFN_vkVoidFunction>(CreateDevice);
-    if (!std::strcmp(name, "vkGetDeviceProcAddr"))
-        return reinterpret_cast<PFN_vkVoidFunction>(GetDeviceProcAddr);
-    if (!instance) return nullptr;
-    std::lock_guard lock(g_mutex);
-    return g_instances[key(instance)](instance, name);
+VKAPI_ATTR VkResult VKAPI_CALL ResetDescriptorPool(VkDevice device, VkDescriptorPool pool,
+                                                   VkDescriptorPoolResetFlags flags) {
+    const auto reset_next = device_of(device).reset_pool;
+    if (t_staging) return reset_next(device, pool, flags);
+    VkDescriptorSet freed = VK_NULL_HANDLE;
+    {
+        std::lock_guard lock(g_mutex);
+        freed = g_pool_sets[pool].set;
+    }
+    const VkResult result = reset_next(device, pool, flags);
+    static const auto reset_top = top<PFN_vkResetDescriptorPool>("vkResetDescriptorPool");
+    if (!reset_top) {
+        std::fprintf(stderr, "reuse: the loader's vkResetDescriptorPool is not found\n");
+        return result;
+    }
+    stage_set(
+        device, pool, freed, [&](VkDescriptorSet) { reset_top(device, pool, flags); },
+        "vkResetDescriptorPool");
+    return result;
 }
 
-VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetDeviceProcAddr(VkDevice device, const char *name) {
-    if (!std::strcmp(name, "vkGetDeviceProcAddr"))
-        return reinterpret_cast<PFN_vkVoidFunction>(GetDeviceProcAddr);
+} // namespace
+} // namespace splitvk::reuse_layer
+
+namespace splitvk::test_layer {
+
+PFN_vkVoidFunction device_entry_point(const char *name) {
+    using namespace reuse_layer;
     if (!std::strcmp(name, "vkDestroyCommandPool"))
         return reinterpret_cast<PFN_vkVoidFunction>(DestroyCommandPool);
     if (!std::strcmp(name, "vkDestroyDescriptorPool"))
         return reinterpret_cast<PFN_vkVoidFunction>(DestroyDescriptorPool);
     if (!std::strcmp(name, "vkDestroyDescriptorSetLayout"))
         return reinterpret_cast<PFN_vkVoidFunction>(DestroyDescriptorSetLayout);
+    if (!std::strcmp(name, "vkAllocateDescriptorSets"))
+        return reinterpret_cast<PFN_vkVoidFunction>(AllocateDescriptorSets);
+    if (!std::strcmp(name, "vkFreeDescriptorSets"))
+        return reinterpret_cast<PFN_vkVoidFunction>(FreeDescriptorSets);
+    if (!std::strcmp(name, "vkResetDescriptorPool"))
+        return reinterpret_cast<PFN_vkVoidFunction>(ResetDescriptorPool);
+    return nullptr;
+}
+
+void device_created(VkDevice device, PFN_vkGetDeviceProcAddr next, const VkDeviceCreateInfo &info) {
+    using namespace reuse_layer;
+    Device d;
+    d.destroy_command_pool = reinterpret_cast<PFN_vkDestroyCommandPool>(next(device, "vkDestroyCommandPool"));
+    d.destroy_descriptor_pool =
+        reinterpret_cast<PFN_vkDestroyDescriptorPool>(next(device, "vkDestroyDescriptorPool"));
+    d.destroy_set_layout =
+        reinterpret_cast<PFN_vkDestroyDescriptorSetLayout>(next(device, "vkDestroyDescriptorSetLayout"));
+    d.allocate_sets =
+        reinterpret_cast<PFN_vkAllocateDescriptorSets>(next(device, "vkAllocateDescriptorSets"));
+    d.free_sets = reinterpret_cast<PFN_vkFreeDescriptorSets>(next(device, "vkFreeDescriptorSets"));
+    d.reset_pool = reinterpret_cast<PFN_vkResetDescriptorPool>(next(device, "vkResetDescriptorPool"));
     std::lock_guard lock(g_mutex);
-    return g_devices[key(device)].next_gdpa(device, name);
+    g_devices[key(device)] = d;
+    if (info.queueCreateInfoCount > 0) g_family = info.pQueueCreateInfos[0].queueFamilyIndex;
 }
 
-} // namespace
-} // namespace splitvk::reuse_layer
-
-extern "C" __attribute__((visibility("default"))) VKAPI_ATTR VkResult VKAPI_CALL
-vkNegotiateLoaderLayerInterfaceVersion(VkNegotiateLayerInterface *interface) {
-    if (!interface || interface->sType != LAYER_NEGOTIATE_INTERFACE_STRUCT)
-        return VK_ERROR_INITIALIZATION_FAILED;
-    if (interface->loaderLayerInterfaceVersion > 2) interface->loaderLayerInterfaceVersion = 2;
-    interface->pfnGetInstanceProcAddr = splitvk::reuse_layer::GetInstanceProcAddr;
-    interface->pfnGetDeviceProcAddr = splitvk::reuse_layer::GetDeviceProcAddr;
-    interface->pfnGetPhysicalDeviceProcAddr = nullptr;
-    return VK_SUCCESS;
-}
+} // namespace splitvk::test_layer

@@ -5,8 +5,9 @@
 //
 // VK_LAYER_SPLITVK_test_reuse (tests/e2e/reuse_layer), below splitvk, stages that window
 // deterministically: right after the driver destroyed a command pool, a descriptor pool or a
-// descriptor set layout, it creates one of the same kind, with the same handle value, through the
-// top of the chain, and destroys it again. The probe destroys one of each with an agent connected.
+// descriptor set layout, or freed a descriptor set (vkFreeDescriptorSets, vkResetDescriptorPool),
+// it creates one of the same kind, with the same handle value, through the top of the chain, and
+// destroys it again. The probe destroys one of each with an agent connected.
 // With the destroys captured after the driver call the agent sees the second create while the
 // first object still lives under that id, and ends the session with an error.
 #include "agent.h"
@@ -41,12 +42,13 @@ TEST_F(HandleReuse, DestroyIsCapturedBeforeTheDriverMayReuseTheValue) {
     EXPECT_FALSE(grep(r.err(), "replicating to splitvk-agent").empty()) << "no session\n" << tail(r.err());
     // The staging worked: each destroyed value went at once to a new object.
     for (const char *destroy :
-         {"vkDestroyCommandPool", "vkDestroyDescriptorPool", "vkDestroyDescriptorSetLayout"})
+         {"vkDestroyCommandPool", "vkDestroyDescriptorPool", "vkDestroyDescriptorSetLayout",
+          "vkFreeDescriptorSets", "vkResetDescriptorPool"})
         EXPECT_EQ(grep(r.err(), std::string("reuse: ") + destroy + ": the next ").size(), 1u)
             << destroy << " was not staged\n"
             << tail(r.err());
     const auto reused = grep(r.err(), "got the same handle value");
-    ASSERT_EQ(reused.size(), 3u) << "the driver did not hand a destroyed value out again, so this run "
+    ASSERT_EQ(reused.size(), 5u) << "the driver did not hand a destroyed value out again, so this run "
                                     "staged no race:\n"
                                  << tail(r.err());
 

@@ -1,6 +1,9 @@
 // Self-tests of the e2e harness: each check the other suites rely on is shown to fail when it
 // should, so a broken harness cannot make them pass.
+#include "agent.h"
 #include "e2e_test.h"
+
+#include <csignal>
 
 #include <unistd.h>
 
@@ -121,6 +124,113 @@ TEST_F(HarnessX, BlankScreenGrabIsOneColour) {
     EXPECT_EQ(img.width, 640u);
     EXPECT_EQ(img.height, 360u);
     EXPECT_EQ(distinct_colours(img), 1u);
+}
+
+// splitvk-harness: this harness on the command line, which scripts/common.sh and scripts/bench_lib
+// start Xvfb and the agent and hold apps with.
+std::filesystem::path harness_cli() {
+    return bin_dir() / "splitvk-harness";
+}
+
+// The value of `key` in a splitvk-harness report ("key=value" lines).
+std::string report_value(const std::string &report, const std::string &key) {
+    const auto lines = lines_starting_with(report, key + "=");
+    return lines.size() == 1 ? lines[0].substr(key.size() + 1) : std::string();
+}
+
+// A service reports, then says "ready"; SIGTERM to it stops what it started.
+TEST(HarnessCli, AgentServiceReportsItsAddressAndStopsTheAgentOnSigterm) {
+    using namespace std::chrono_literals;
+    const auto out = test_output_dir();
+    ASSERT_TRUE(built(harness_cli()));
+    ASSERT_TRUE(built(agent_path()));
+    ProcessSpec spec;
+    spec.argv = {harness_cli().string(), "agent", "--out-dir", out.string(), "--name", "agent", "--",
+                 agent_path().string()};
+    spec.env = clean_env();
+    spec.out_dir = out;
+    spec.name = "harness";
+    Process service(spec);
+    ASSERT_TRUE(service.start()) << service.error();
+    ASSERT_TRUE(service.wait_for_line("ready", 60s)) << service.result().describe() << "\n"
+                                                     << read_file(service.result().stderr_path);
+    const std::string report = read_file(service.result().stdout_path);
+    const std::string address = report_value(report, "address");
+    const int pid = std::atoi(report_value(report, "pid").c_str());
+    ASSERT_EQ(address.rfind("127.0.0.1:", 0), 0u) << report;
+    ASSERT_GT(pid, 0) << report;
+    EXPECT_EQ(report_value(report, "log"), (out / "agent.stderr").string()) << report;
+    EXPECT_FALSE(grep(read_file(out / "agent.stderr"), "listening on " + address).empty());
+    EXPECT_EQ(::kill(pid, 0), 0) << "the agent is not running";
+
+    const ProcessResult r = service.terminate(40s);
+    EXPECT_TRUE(r.ok()) << r.describe() << "\n" << r.err();
+    // Its own process group, which the service's SIGTERM did not reach: the service stopped it.
+    EXPECT_NE(::kill(pid, 0), 0) << "the agent outlived its service";
+    EXPECT_FALSE(grep(read_file(out / "agent.stderr"), "] info: stopped").empty())
+        << tail(read_file(out / "agent.stderr"));
+}
+
+// An app that ends before its hold: one error line and exit status 1, and no grab.
+TEST(HarnessCli, HoldSaysInOneLineThatTheAppEndedFirst) {
+    const auto out = test_output_dir();
+    ASSERT_TRUE(built(harness_cli()));
+    Env env = clean_env();
+    env["DISPLAY"] = ":0"; // never reached: the app ends first
+    const auto r = run_app({harness_cli().string(), "hold", "--out-dir", out.string(), "--name", "app",
+                            "--frame", "3", "--grab", (out / "never.png").string(), "--size", "8x8", "--",
+                            "sh", "-c", "echo 'holding frame 2'"},
+                           env, out, "harness", std::chrono::seconds(30));
+    ASSERT_TRUE(r.exited) << r.describe();
+    EXPECT_EQ(r.exit_code, 1) << r.describe();
+    const auto lines = split_lines(r.err());
+    ASSERT_EQ(lines.size(), 1u) << r.err();
+    EXPECT_EQ(lines[0].rfind("splitvk-harness: error: the app ended before 'holding frame 3'", 0), 0u)
+        << r.err();
+    EXPECT_FALSE(std::filesystem::exists(out / "never.png"));
+}
+
+// hold: the app runs to its "holding frame N", the screen is grabbed with the frame on it, the app
+// ends on SIGTERM.
+TEST_F(HarnessX, CliHoldGrabsTheHeldFrameThenEndsTheApp) {
+    ASSERT_TRUE(built(harness_cli()));
+    ASSERT_TRUE(built(atrium_path()));
+    const auto grab = out_ / "held.bgr0";
+    const auto r = run_app({harness_cli().string(),
+                            "hold",
+                            "--out-dir",
+                            out_.string(),
+                            "--name",
+                            "atrium",
+                            "--frame",
+                            "1",
+                            "--grab",
+                            grab.string(),
+                            "--size",
+                            "160x100",
+                            "--pix-fmt",
+                            "bgr0",
+                            "--",
+                            atrium_path().string(),
+                            "--width",
+                            "160",
+                            "--height",
+                            "100",
+                            "--frames",
+                            "2",
+                            "--hold"},
+                           env(), out_, "harness", std::chrono::seconds(180));
+    ASSERT_TRUE(r.ok()) << r.describe() << "\n" << r.err();
+    EXPECT_EQ(report_value(r.out(), "grab"), grab.string()) << r.out();
+    EXPECT_FALSE(grep(read_file(out_ / "atrium.stdout"), "holding frame 1").empty());
+    const std::string pixels = read_file(grab);
+    ASSERT_EQ(pixels.size(), 160u * 100u * 4u);
+    Image img;
+    img.width = 160;
+    img.height = 100;
+    img.bgr0.assign(pixels.begin(), pixels.end());
+    // The atrium, not an empty screen (BlankScreenGrabIsOneColour).
+    EXPECT_GT(distinct_colours(img), 16u);
 }
 
 } // namespace

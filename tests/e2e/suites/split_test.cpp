@@ -445,6 +445,53 @@ INSTANTIATE_TEST_SUITE_P(Paths, SplitEyesTwo,
                              return std::string(p.param);
                          });
 
+// Issue 19: an application that enables VK_EXT_conditional_rendering, VK_EXT_transform_feedback and
+// VK_EXT_extended_dynamic_state3 as engines do (atrium --engine-extensions) is split, and both foveae
+// equal native bit for bit. Atrium draws, at each eye's centre, a triangle that transform feedback
+// captured in an earlier pass, from the captured byte count, in orange under a GPU-written predicate
+// of 1 and in magenta under one of 0, with EDS3's polygon mode, sample mask, alpha-to-coverage and
+// write mask set dynamically. Without any one of them on the agent, its fovea would differ at the
+// centre: no triangle (no capture, no counter, or a zero sample or write mask), or a magenta one (no
+// predicate). The centre pixels are checked to be orange in both grabs, so that a native run that
+// drew no marker cannot pass. At 960x432 to keep the run short.
+TEST_F(Split, EngineExtensionsKeepFoveaeExact) {
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    auto argv = atrium_argv(2, kFrames, false);
+    argv[2] = std::to_string(kSmallWidth);  // --width
+    argv[4] = std::to_string(kSmallHeight); // --height
+    argv.push_back("--engine-extensions");
+    Grab native, split;
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, env(), "native", kFrames, &native, kSmallWidth, kSmallHeight));
+    ASSERT_NO_FATAL_FAILURE(
+        run_and_grab(argv, split_env(), "split", kFrames, &split, kSmallWidth, kSmallHeight));
+    const std::string &err = split.result.err();
+    EXPECT_TRUE(grep(err, "does not forward").empty()) << tail(err, 30);
+    const SplitSummary summary = split_summary(err);
+    ASSERT_TRUE(summary.found) << tail(err, 30);
+    EXPECT_GE(summary.frames, static_cast<uint64_t>(kFrames)) << tail(err, 30);
+    EXPECT_EQ(summary.late, 0u) << tail(err, 30);
+    EXPECT_TRUE(grep(err, "do not match the frame's foveae").empty()) << tail(err, 30);
+    const auto foveae = default_foveae(kSmallWidth, kSmallHeight, 2);
+    ASSERT_EQ(foveae.size(), 2u);
+    for (uint32_t eye = 0; eye < 2; ++eye) {
+        const Rect &f = foveae[eye];
+        const auto cmp = compare_exact(native.image, split.image, f.x, f.y, f.w, f.h);
+        std::cout << "  " << (eye == 0 ? "left" : "right") << " fovea at " << f.x << "," << f.y << ": "
+                  << cmp.summary() << "\n";
+        EXPECT_TRUE(cmp.equal()) << save_mismatch_artefacts(out_, "fovea", native.image, split.image);
+        const uint32_t cx = eye * (kSmallWidth / 2) + kSmallWidth / 4, cy = kSmallHeight / 2;
+        for (const Grab *g : {&native, &split}) {
+            const uint8_t *bgr = g->image.pixel(cx, cy);
+            EXPECT_TRUE(bgr[0] < 8 && bgr[1] > 112 && bgr[1] < 144 && bgr[2] > 247)
+                << (g == &native ? "native" : "split") << ": eye " << eye << "'s centre is (B, G, R) ("
+                << int(bgr[0]) << ", " << int(bgr[1]) << ", " << int(bgr[2]) << "), not the orange marker";
+        }
+    }
+    const auto whole = compare_exact(native.image, split.image);
+    EXPECT_GT(whole.mismatched_pixels, whole.pixels / 100) << "the frame equals native: was it split?";
+    expect_clean_validation();
+}
+
 // SPLITVK_TARGETS=swapchain keeps the first version's behaviour: only the pass into the swapchain
 // image is scaled, every offscreen target stays full size, and the foveae are still exact.
 TEST_F(Split, TargetsSwapchainScalesOnlyTheSwapchainPass) {
@@ -1150,6 +1197,80 @@ TEST_F(SplitAgentScissorLayers, ScreenSizedLayersUnderOneEyeReplayWhole) {
         << tail(agent_log, 20);
     expect_clean_validation();
 }
+
+// Issue 19, item 5: passes whose contents are in secondary command buffers are scissored on the
+// agent as inline ones are. A secondary reaches the agent before the primary that executes it, so
+// the agent records it again for each scissored pass that executes it; before, such passes were
+// replayed whole (atrium --path secondary: late on 34 of 36 frames at the default tile wait). The
+// cases: the direct pass in secondaries (render pass; dynamic rendering with static-scissor
+// pipelines bound inside the secondaries) with the default settings, and hdr's offscreen scene pass
+// in secondaries under guard:64. Each must keep its foveae bit-exact against native with clean
+// validation, and the agent must say that it scissored secondaries (it says nothing when it
+// replays them whole). Each case is one native and one split run of kFrames frames (~20 s): the
+// render pass, dynamic rendering with static state, and guard each take their own path in the agent.
+struct SecondaryCase {
+    const char *name;
+    std::vector<std::string> args; // atrium's, after the common ones
+    const char *eyes;              // SPLITVK_EYES
+    const char *scissor;           // SPLITVK_AGENT_SCISSOR
+    const char *pass;              // the agent's line: "split" (swapchain image) or "guarded" (offscreen)
+    int foveae;                    // one centred fovea, or one per eye
+};
+void PrintTo(const SecondaryCase &c, std::ostream *os) {
+    *os << c.name;
+}
+class SplitSecondaryScissor : public Split, public ::testing::WithParamInterface<SecondaryCase> {};
+
+TEST_P(SplitSecondaryScissor, ScissoredLikeInlinePassesAndExact) {
+    const SecondaryCase &c = GetParam();
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    auto argv = atrium_argv(2, kFrames, false);
+    argv.insert(argv.end(), c.args.begin(), c.args.end());
+    Grab native, split;
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, env(), "native", kFrames, &native));
+    ASSERT_GT(distinct_colours(native.image), 1000u) << "the native grab looks blank";
+    Env e = split_env();
+    e["SPLITVK_EYES"] = c.eyes;
+    e["SPLITVK_AGENT_SCISSOR"] = c.scissor;
+    e["SPLITVK_STATS"] = (out_ / "stats.csv").string();
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, e, "split", kFrames, &split));
+    const std::string &err = split.result.err();
+    EXPECT_TRUE(split_summary(err).found) << tail(err, 30);
+    EXPECT_TRUE(grep(err, "do not match the frame's foveae").empty()) << tail(err, 30);
+    for (const Rect &f : default_foveae(kWidth, kHeight, c.foveae)) {
+        const auto cmp = compare_exact(native.image, split.image, f.x, f.y, f.w, f.h);
+        std::cout << "  fovea at " << f.x << "," << f.y << ": " << cmp.summary() << "\n";
+        EXPECT_TRUE(cmp.equal()) << save_mismatch_artefacts(out_, "fovea", native.image, split.image);
+    }
+    const std::string agent_log = read_file(out_ / "splitvk-agent.stderr");
+    const std::string scissored = std::string("secondaries executed in a ") + c.pass + " pass of " +
+                                  std::to_string(kWidth) + "x" + std::to_string(kHeight) +
+                                  ": recorded again, scissored for the pass";
+    EXPECT_NE(agent_log.find(scissored), std::string::npos) << "the agent replayed the secondaries whole\n"
+                                                            << tail(agent_log, 20);
+    EXPECT_EQ(agent_log.find("secondaries in scissored passes:"), std::string::npos) << tail(agent_log, 20);
+    std::vector<double> draw;
+    for (const auto &row : stats_rows(read_file(out_ / "stats.csv")))
+        if (row.at("frame") >= 1 && row.at("agent_draw_ms") > 0) draw.push_back(row.at("agent_draw_ms"));
+    std::sort(draw.begin(), draw.end());
+    std::cout << "  " << c.name << ": agent draw median " << (draw.empty() ? -1.0 : draw[draw.size() / 2])
+              << " ms over " << draw.size() << " frames\n";
+    expect_clean_validation();
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Paths, SplitSecondaryScissor,
+    ::testing::Values(
+        SecondaryCase{"render_pass", {"--path", "secondary"}, "auto", "off", "split", 2},
+        SecondaryCase{"dynamic_rendering_static_scissors",
+                      {"--path", "secondary", "--dynamic-rendering", "--static-viewports"},
+                      "auto",
+                      "off",
+                      "split",
+                      2},
+        SecondaryCase{
+            "offscreen_guard", {"--path", "hdr", "--scene-in-secondaries"}, "1", "guard:64", "guarded", 1}),
+    [](const ::testing::TestParamInfo<SecondaryCase> &p) { return std::string(p.param.name); });
 
 } // namespace
 } // namespace splitvk::e2e

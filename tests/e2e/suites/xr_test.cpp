@@ -22,8 +22,13 @@
 //  - With XR_APILAYER_SPLITVK_test_skew_fov (xr_fov_layer/) above splitvk's API layer, an asymmetric
 //    field of view at xrEndFrame: the fovea at the projection of the view direction is bit-exact
 //    against native, the centred one is not.
-//  - --multiview (one swapchain of two layers, which splitvk replicates but does not split yet):
-//    runs to its end, exit 0, the agent gets its frames, no splitvk error.
+//  - One swapchain holding both eyes, frame by frame against native: --multiview (two layers, one
+//    eye each, drawn in one VK_KHR_multiview pass; the readback layer writes the layers one below
+//    the other) and --side-by-side (one layer twice an eye's width, each eye a half, two imageRects).
+//    Every eye's fovea is bit-exact where its own projection view puts it (in its layer, within its
+//    rectangle), and every eye's periphery differs from native: both eyes were split. Multiview
+//    runs twice, with Monado's fields of view and with the skew layer's asymmetric ones (each layer
+//    its own); side by side with the skew layer, whose foveae sit off each half's centre.
 #include "agent.h"
 #include "e2e_test.h"
 #include "fovea.h"
@@ -32,6 +37,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <regex>
 #include <set>
@@ -415,13 +421,31 @@ protected:
         return all;
     }
 
-    // The frames the agent replicated, from the layer's closing 'session to ...: N frames' line.
-    static int session_frames(const std::string &err) {
-        const std::regex line(R"(session to [^ ]+: (\d+) frames)");
-        std::smatch m;
-        return std::regex_search(err, m, line) ? std::stoi(m[1]) : -1;
-    }
+    void expect_both_eyes_split(const std::string &native_run, const std::string &split_run, bool layered,
+                                const std::function<Rect(int eye)> &at, bool moved);
+    static Env with_skewed_fov(Env e);
 };
+
+// The fovea of an eye image w x h centred on the view direction of `fov` (XrFovf's left, right, up,
+// down): on the image plane the edges lie at tan(angle) and the view direction at 0, so its centre
+// is at (0 - tan l) / (tan r - tan l) of the width and tan u / (tan u - tan d) of the height; the
+// offset is that less half the fovea, rounded down, kept inside the image.
+Rect fovea_at_view(const float (&fov)[4], uint32_t w, uint32_t h) {
+    const Rect centred = default_foveae(w, h, 1)[0];
+    const double l = std::tan(double(fov[0])), r = std::tan(double(fov[1]));
+    const double u = std::tan(double(fov[2])), d = std::tan(double(fov[3]));
+    const double x = std::floor(-l / (r - l) * w - centred.w / 2.0);
+    const double y = std::floor(u / (u - d) * h - centred.h / 2.0);
+    return {static_cast<uint32_t>(std::clamp(x, 0.0, double(w - centred.w))),
+            static_cast<uint32_t>(std::clamp(y, 0.0, double(h - centred.h))), centred.w, centred.h};
+}
+
+// The skew layer's angles, as the XrFovf floats it writes (left, right, up, down; view 1 mirrored).
+float skew_radians(double degrees) {
+    return static_cast<float>(degrees * M_PI / 180.0);
+}
+const float kSkewedFov[2][4] = {{skew_radians(-45), skew_radians(20), skew_radians(20), skew_radians(-45)},
+                                {skew_radians(-20), skew_radians(45), skew_radians(20), skew_radians(-45)}};
 
 // Image K's release N is the same frame in both runs: the runtime hands out each eye's images in the
 // same order, and atrium draws frame N alike on every run.
@@ -500,25 +524,11 @@ TEST_F(XrAtrium, AsymmetricFieldOfViewMovesTheFovea) {
     ASSERT_NE(ours, std::string::npos) << "splitvk's API layer was not loaded\n" << tail(out, 20);
     EXPECT_LT(skew, ours) << "the skew layer must be above splitvk's API layer";
 
-    // The layer's angles, as the XrFovf floats it writes (left, right, up, down; view 1 mirrored).
-    const auto rad = [](double degrees) { return static_cast<float>(degrees * M_PI / 180.0); };
-    const float skewed[2][4] = {{rad(-45), rad(20), rad(20), rad(-45)},
-                                {rad(-20), rad(45), rad(20), rad(-45)}};
     const uint32_t w = 192, h = 160;
     const Rect centred = default_foveae(w, h, 1)[0];
-    // The fovea centred on the view direction's projection: on the image plane the edges lie at
-    // tan(angle) and the view direction at 0, so its centre is at (0 - tan l) / (tan r - tan l) of the
-    // width and tan u / (tan u - tan d) of the height; the offset is that less half the fovea,
-    // rounded down, kept inside the image.
     Rect at_view[2];
     for (int eye = 0; eye < 2; ++eye) {
-        const double l = std::tan(double(skewed[eye][0])), r = std::tan(double(skewed[eye][1]));
-        const double u = std::tan(double(skewed[eye][2])), d = std::tan(double(skewed[eye][3]));
-        const double x = std::floor(-l / (r - l) * w - centred.w / 2.0);
-        const double y = std::floor(u / (u - d) * h - centred.h / 2.0);
-        at_view[eye] = {static_cast<uint32_t>(std::clamp(x, 0.0, double(w - centred.w))),
-                        static_cast<uint32_t>(std::clamp(y, 0.0, double(h - centred.h))), centred.w,
-                        centred.h};
+        at_view[eye] = fovea_at_view(kSkewedFov[eye], w, h);
         std::cout << "  eye " << eye << ": fovea " << at_view[eye].w << "x" << at_view[eye].h << " at "
                   << at_view[eye].x << "," << at_view[eye].y << " (centred: " << centred.x << "," << centred.y
                   << ")\n";
@@ -580,19 +590,116 @@ TEST_F(XrAtrium, AsymmetricFieldOfViewMovesTheFovea) {
     expect_split_stats("split", 2 * kFrames);
 }
 
-// A layered swapchain is replicated only: the agent gets the frames, the app its own pictures.
-TEST_F(XrAtrium, MultiviewRunsToTheEndReplicated) {
+// Both eyes in one swapchain of three images (--multiview: two layers; --side-by-side: two halves),
+// native against split for the same image and release (release N of image K is frame 3N + K). Per
+// frame, each eye's fovea (`at(eye, frame)`, in that eye's coordinates) is bit-exact and the eye
+// holds texels that differ (its periphery was rendered at reduced scale); with `moved`, the centred
+// fovea of each eye is not exact (the periphery covers part of it: the fovea moved). Frame 0 is
+// released before any xrEndFrame said where the eyes are: one fovea centred in each layer, so the
+// whole side-by-side image's centred fovea.
+void XrAtrium::expect_both_eyes_split(const std::string &native_run, const std::string &split_run,
+                                      bool layered, const std::function<Rect(int eye)> &at, bool moved) {
+    const uint32_t w = 192, h = 160; // kEyeSize
+    const auto n = readbacks(out_ / native_run / "images");
+    const auto s = readbacks(out_ / split_run / "images");
+    ASSERT_EQ(n.size(), static_cast<size_t>(kFrames)) << "native images read back";
+    ASSERT_EQ(s.size(), n.size()) << "split images read back";
+    uint64_t compared = 0, mismatched = 0;
+    for (const auto &[key, native_path] : n) {
+        SCOPED_TRACE(split_run + ": " + native_path.filename().string());
+        const auto it = s.find(key);
+        ASSERT_NE(it, s.end()) << "no split readback of the same image and release";
+        EyeImage a, b;
+        ASSERT_TRUE(load_pam(native_path, &a) && load_pam(it->second, &b));
+        ASSERT_EQ(a.width, layered ? w : 2 * w);
+        ASSERT_EQ(a.height, layered ? 2 * h : h);
+        ASSERT_EQ(b.width, a.width);
+        ASSERT_EQ(b.height, a.height);
+        const int frame = 3 * key.second + key.first;
+        for (int eye = 0; eye < 2; ++eye) {
+            // Where the eye lies in the file: its layer's rows, or its half.
+            const uint32_t ex = layered ? 0 : eye * w, ey = layered ? eye * h : 0;
+            Rect f = at(eye);
+            if (frame == 0) f = layered ? default_foveae(w, h, 1)[0] : default_foveae(2 * w, h, 1)[0];
+            if (frame != 0 || layered) f.x += ex, f.y += ey;
+            // Frame 0 side by side: the one fovea across both halves, compared once.
+            const Mismatch m = frame == 0 && !layered && eye == 1 ? Mismatch{} : compare_rect(a, b, f);
+            compared += m.pixels;
+            mismatched += m.mismatched;
+            EXPECT_EQ(m.mismatched, 0u)
+                << "frame " << frame << " eye " << eye << ": fovea " << f.w << "x" << f.h << " at " << f.x
+                << "," << f.y << ": " << m.mismatched << " of " << m.pixels << " texels differ\n"
+                << save_mismatch_artefacts(out_, split_run + "-" + native_path.stem().string(), to_image(a),
+                                           to_image(b));
+            EXPECT_GT(compare_rect(a, b, Rect{ex, ey, w, h}).mismatched, 0u)
+                << "frame " << frame << " eye " << eye << ": native's picture: that eye was not split";
+            if (moved && frame > 0) {
+                Rect c = default_foveae(w, h, 1)[0];
+                c.x += ex, c.y += ey;
+                EXPECT_GT(compare_rect(a, b, c).mismatched, 0u)
+                    << "frame " << frame << " eye " << eye << ": the centred fovea is exact: it did not move";
+            }
+        }
+    }
+    std::cout << "  " << split_run << ": " << compared << " fovea texels compared in " << n.size()
+              << " images of two eyes, " << mismatched << " differ\n";
+    RecordProperty(split_run + "_fovea_texels", std::to_string(compared));
+    RecordProperty(split_run + "_fovea_mismatches", std::to_string(mismatched));
+    expect_split_stats(split_run, kFrames);
+}
+
+// The skew layer (XR_APILAYER_SPLITVK_test_skew_fov) above splitvk's API layer, nearest the app.
+Env XrAtrium::with_skewed_fov(Env e) {
+    e["XR_API_LAYER_PATH"] = std::string(SPLITVK_E2E_XR_FOV_LAYER_DIR) + ":" + e["XR_API_LAYER_PATH"];
+    e["XR_ENABLE_API_LAYERS"] = std::string(kXrSkewFovName) + ":" + kXrLayerName;
+    return e;
+}
+
+// One swapchain of two layers drawn with multiview: each layer's fovea exact, with Monado's fields of
+// view (centred) and with the skew layer's (each layer at its own view direction).
+TEST_F(XrAtrium, MultiviewLayersFoveaeExactAgainstNative) {
+    const auto native = run_atrium(atrium_native_env("native"), "native", {"--multiview"});
+    ASSERT_TRUE(native.ok()) << native.describe() << "\n" << tail(native.err(), 30);
     Agent agent;
     ASSERT_TRUE(agent.start(clean_env(), out_)) << agent.error();
     const auto split = run_atrium(atrium_split_env("split", agent), "split", {"--multiview"});
     ASSERT_TRUE(split.ok()) << split.describe() << "\n" << tail(split.err(), 30);
-    EXPECT_FALSE(grep(split.out(), "frame-time: ").empty()) << tail(split.out(), 10);
     EXPECT_TRUE(grep(split.err(), "[splitvk] error:").empty()) << tail(split.err(), 30);
-    EXPECT_FALSE(grep(split.err(), "XR_APILAYER_SPLITVK_split_render active").empty())
-        << tail(split.err(), 30);
-    const int frames = session_frames(split.err());
-    std::cout << "  multiview: the agent replicated " << frames << " frames\n";
-    EXPECT_GE(frames, kFrames) << "the agent did not get the frames\n" << tail(split.err(), 30);
+    EXPECT_TRUE(grep(split.err(), "is not composable").empty()) << tail(split.err(), 30);
+    const Rect centred = default_foveae(192, 160, 1)[0];
+    expect_both_eyes_split(
+        "native", "split", true, [&](int) { return centred; }, false);
+
+    ASSERT_TRUE(built(SPLITVK_E2E_XR_FOV_LAYER_DIR));
+    const auto skewed =
+        run_atrium(with_skewed_fov(atrium_split_env("skewed", agent)), "skewed", {"--multiview"});
+    ASSERT_TRUE(skewed.ok()) << skewed.describe() << "\n" << tail(skewed.err(), 30);
+    EXPECT_TRUE(grep(skewed.err(), "[splitvk] error:").empty()) << tail(skewed.err(), 30);
+    expect_both_eyes_split(
+        "native", "skewed", true, [&](int eye) { return fovea_at_view(kSkewedFov[eye], 192, 160); }, true);
+}
+
+// One swapchain twice an eye's width, each eye a half (two imageRects), with the skew layer's
+// asymmetric fields of view: each eye's fovea sits at its view direction within its own half.
+TEST_F(XrAtrium, SideBySideFoveaeExactAgainstNative) {
+    const auto native = run_atrium(atrium_native_env("native"), "native", {"--side-by-side"});
+    ASSERT_TRUE(native.ok()) << native.describe() << "\n" << tail(native.err(), 30);
+    EXPECT_FALSE(grep(native.out(), "one swapchain, the eyes side by side").empty())
+        << tail(native.out(), 10);
+    Agent agent;
+    ASSERT_TRUE(agent.start(clean_env(), out_)) << agent.error();
+    ASSERT_TRUE(built(SPLITVK_E2E_XR_FOV_LAYER_DIR));
+    const auto split =
+        run_atrium(with_skewed_fov(atrium_split_env("split", agent)), "split", {"--side-by-side"});
+    ASSERT_TRUE(split.ok()) << split.describe() << "\n" << tail(split.err(), 30);
+    EXPECT_TRUE(grep(split.err(), "[splitvk] error:").empty()) << tail(split.err(), 30);
+    for (int eye = 0; eye < 2; ++eye) {
+        const Rect f = fovea_at_view(kSkewedFov[eye], 192, 160);
+        std::cout << "  eye " << eye << ": fovea " << f.w << "x" << f.h << " at " << f.x << "," << f.y
+                  << " of its half\n";
+    }
+    expect_both_eyes_split(
+        "native", "split", false, [&](int eye) { return fovea_at_view(kSkewedFov[eye], 192, 160); }, true);
 }
 
 TEST_F(Xr, HelloXrFoveaeExactAgainstNative) {

@@ -11,7 +11,9 @@
 // releases it from, transitioned there and back with a command buffer of its own) to a host buffer
 // and writes it to $TEST_XR_READBACK_DIR/image<K>-<N>.pam: K numbers the images with external memory
 // (the runtime's) in the order they were created, N counts that image's releases from 0. A PAM file
-// (P7, TUPLTYPE RGB_ALPHA for 4-byte texels, GRAYSCALE otherwise) holds the texels unconverted.
+// (P7, TUPLTYPE RGB_ALPHA for 4-byte texels, GRAYSCALE otherwise) holds the texels unconverted; the
+// layers the barrier releases (both eyes of a layered image drawn with multiview) one below the
+// other, so that a file of an image of L layers is L times its height.
 // With TEST_XR_READBACK_KEEP=M only each image's last M files are kept.
 //
 // Its own Vulkan calls go to the next layer (the driver), so that no layer above it sees them.
@@ -19,6 +21,7 @@
 #include <vulkan/vk_layer.h>
 #include <vulkan/vulkan.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -81,6 +84,7 @@ struct Device {
 struct ImageInfo {
     VkFormat format = VK_FORMAT_UNDEFINED;
     VkExtent3D extent{};
+    uint32_t layers = 1;   // the image's array layers
     int ordinal = -1;      // among images with external memory, in creation order; -1 for others
     uint64_t releases = 0; // readbacks written so far
 };
@@ -155,10 +159,12 @@ void write_pam(const std::filesystem::path &path, const ImageInfo &info, const u
     const auto tmp = path.string() + ".tmp";
     {
         std::ofstream out(tmp, std::ios::binary);
-        out << "P7\nWIDTH " << info.extent.width << "\nHEIGHT " << info.extent.height << "\nDEPTH " << size
-            << "\nMAXVAL 255\nTUPLTYPE " << (size == 4 ? "RGB_ALPHA" : "GRAYSCALE") << "\nENDHDR\n";
+        out << "P7\nWIDTH " << info.extent.width << "\nHEIGHT " << info.extent.height * info.layers
+            << "\nDEPTH " << size << "\nMAXVAL 255\nTUPLTYPE " << (size == 4 ? "RGB_ALPHA" : "GRAYSCALE")
+            << "\nENDHDR\n";
         out.write(reinterpret_cast<const char *>(texels),
-                  static_cast<std::streamsize>(size_t{info.extent.width} * info.extent.height * size));
+                  static_cast<std::streamsize>(size_t{info.extent.width} * info.extent.height * info.layers *
+                                               size));
     }
     std::filesystem::rename(tmp, path); // a reader sees whole files only
 }
@@ -169,8 +175,8 @@ std::filesystem::path readback_path(const std::string &dir, int ordinal, uint64_
     return std::filesystem::path(dir) / name;
 }
 
-// Copies the image level 0, layer 0 to a file. The queue is idle; the image is in r.layout. Called
-// under g_readback_mutex (the layer's command pools are used from one thread at a time).
+// Copies level 0 of the layers the release names to a file. The queue is idle; the image is in r.layout.
+// Called under g_readback_mutex (the layer's command pools are used from one thread at a time).
 void read_back(Device &d, VkQueue queue, const Release &r, const std::string &dir) {
     ImageInfo info;
     {
@@ -180,7 +186,13 @@ void read_back(Device &d, VkQueue queue, const Release &r, const std::string &di
         info = it->second;
         ++it->second.releases;
     }
-    const VkDeviceSize bytes = VkDeviceSize{info.extent.width} * info.extent.height * texel_size(info.format);
+    const uint32_t base = r.range.baseArrayLayer;
+    if (base >= info.layers) return;
+    info.layers = r.range.layerCount == VK_REMAINING_ARRAY_LAYERS
+                      ? info.layers - base
+                      : std::min(r.range.layerCount, info.layers - base);
+    const VkDeviceSize bytes =
+        VkDeviceSize{info.extent.width} * info.extent.height * info.layers * texel_size(info.format);
     VkCommandPool &pool = d.pools[r.family];
     if (!pool) {
         VkCommandPoolCreateInfo pool_info{};
@@ -226,7 +238,7 @@ void read_back(Device &d, VkQueue queue, const Release &r, const std::string &di
         d.BeginCommandBuffer(cb, &begin);
         barrier(d, cb, r, r.layout, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
         VkBufferImageCopy copy{};
-        copy.imageSubresource = {r.range.aspectMask, 0, 0, 1};
+        copy.imageSubresource = {r.range.aspectMask, 0, base, info.layers}; // layer after layer
         copy.imageExtent = {info.extent.width, info.extent.height, 1};
         d.CmdCopyImageToBuffer(cb, r.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, buffer, 1, &copy);
         barrier(d, cb, r, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, r.layout);
@@ -271,6 +283,7 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateImage(VkDevice device, const VkImageCreateI
         ImageInfo i;
         i.format = info->format;
         i.extent = info->extent;
+        i.layers = info->arrayLayers;
         if (external) i.ordinal = g_external_images++;
         g_images[*image] = i;
     }

@@ -1,0 +1,32 @@
+#pragma once
+
+// The loader plumbing of the e2e tests' own Vulkan layers (present_layer/ with hold_layer/ and
+// present_fault_layer/, reuse_layer/): vkNegotiateLoaderLayerInterfaceVersion, vkCreateInstance
+// and vkCreateDevice down the chain, and the vkGet*ProcAddr that answer with the layer's own entry
+// points and the next layer's for everything else. test_layer.cpp, linked into each layer, holds
+// it; a layer writes only the two functions declared at the bottom.
+
+#include <vulkan/vk_layer.h>
+#include <vulkan/vulkan.h>
+
+namespace splitvk::test_layer {
+
+// Every dispatchable handle starts with the loader's dispatch-table pointer, shared by a device's
+// queues and command buffers: the key to its device.
+using DispatchKey = void *;
+inline DispatchKey key(const void *dispatchable) {
+    return *static_cast<void *const *>(dispatchable);
+}
+
+// The next layer's vkGetDeviceProcAddr for `device` (or any queue or command buffer of it).
+PFN_vkGetDeviceProcAddr next_device_proc_addr(const void *dispatchable);
+
+// Defined by each layer:
+// Its own device-level entry point for `name` (vkQueuePresentKHR, ...), or nullptr to hand the
+// next layer's out.
+PFN_vkVoidFunction device_entry_point(const char *name);
+// Called once the next layer created `device`: the layer resolves the next layer's commands it
+// calls (with `next`) and keeps what it needs of `info`.
+void device_created(VkDevice device, PFN_vkGetDeviceProcAddr next, const VkDeviceCreateInfo &info);
+
+} // namespace splitvk::test_layer
