@@ -116,12 +116,16 @@ bool FoveaShading::PassScissor::same_as(const PassScissor &other) const {
                a.extent.height == b.extent.height;
     };
     // A split pass's scissors follow from the viewports, the image's extent and, for a runtime's
-    // image, its fovea: which of a swapchain's images it is does not matter.
+    // image, its eyes' foveae: which of a swapchain's images it is does not matter.
     if (swapchain != other.swapchain || generation != other.generation) return false;
     if (extent.width != other.extent.width || extent.height != other.extent.height) return false;
     if (!swapchain) return same_rect(guard, other.guard);
-    if (eye.has_value() != other.eye.has_value()) return false;
-    return !eye || same_rect(*eye, *other.eye);
+    if (eyes.has_value() != other.eyes.has_value()) return false;
+    if (!eyes) return true;
+    return std::equal(eyes->begin(), eyes->end(), other.eyes->begin(), other.eyes->end(),
+                      [&](const split::LayerFovea &a, const split::LayerFovea &b) {
+                          return a.layer == b.layer && same_rect(a.rect, b.rect);
+                      });
 }
 
 std::optional<FoveaShading::PassScissor> FoveaShading::pass_scissor(VkCommandBuffer primary) const {
@@ -135,7 +139,7 @@ std::optional<FoveaShading::PassScissor> FoveaShading::pass_scissor(VkCommandBuf
     s.extent = t.extent();
     s.generation = generation_;
     if (s.swapchain) {
-        s.eye = runtime_fovea(t.image(), t.extent());
+        s.eyes = runtime_foveae(t.image(), t.extent());
     } else {
         const auto guard = guard_rects_.find(primary);
         if (guard == guard_rects_.end()) return std::nullopt;

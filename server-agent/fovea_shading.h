@@ -102,9 +102,9 @@ public:
         bool swapchain = false; // a split pass into swapchain image `image`; else a guarded one
         uint64_t image = 0;
         VkExtent2D extent{};
-        std::optional<VkRect2D> eye; // an OpenXR runtime's image: its one fovea
-        VkRect2D guard{};            // a guarded pass: its scissor
-        uint64_t generation = 0;     // of configure(): a variant is for one eye layout and fovea size
+        std::optional<std::vector<split::LayerFovea>> eyes; // an OpenXR runtime's image: its eyes' foveae
+        VkRect2D guard{};                                   // a guarded pass: its scissor
+        uint64_t generation = 0; // of configure(): a variant is for one eye layout and fovea size
         // Whether a variant recorded for `other` narrows exactly as one for this pass would.
         bool same_as(const PassScissor &other) const;
     };
