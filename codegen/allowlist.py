@@ -90,6 +90,12 @@ DEVICE_EXTENSIONS = [
     "VK_EXT_line_rasterization",
     "VK_EXT_tooling_info",
 ] + [
+    # Buffer device addresses (core 1.2's bufferDeviceAddress by its extension name). The agent's
+    # addresses are not the client's: the layer sends what vkGetBufferDeviceAddress returned, and
+    # the agent translates the addresses it can see (server-agent/buffer_addresses.h). The
+    # capture/replay and multi-device features stay hidden (layer/physical_device.cpp).
+    "VK_KHR_buffer_device_address",
+] + [
     # Sharing memory, semaphores and fences with another process: what an OpenXR runtime's client
     # compositor needs on the application's device (Monado imports its eye images with opaque fds;
     # DESIGN §9). CLIENT_ONLY_EXTENSIONS says what the agent does with them.
@@ -186,7 +192,6 @@ WITHHELD_REASONS = {
         "swapchain images viewed in a second format, which the agent's offscreen swapchain images are not made for",
     "VK_EXT_multi_draw":
         "pVertexInfo is a strided array (vk.xml's stride=), which the generated codec does not encode yet",
-    "VK_KHR_buffer_device_address": "buffer addresses differ between the GPUs (separate work, issue 19)",
 }
 
 # Forwarded device extensions that only the client's device enables: the agent has no other

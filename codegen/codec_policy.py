@@ -95,7 +95,11 @@ POLICY = {
     "vkGetDeviceBufferMemoryRequirements": LOCAL,
     "vkGetDeviceImageMemoryRequirements": LOCAL,
     "vkGetDeviceImageSparseMemoryRequirements": LOCAL,
-    "vkGetBufferDeviceAddress": LOCAL,   # NB: addresses differ between the two GPUs; not replicated
+    # The client's address for a buffer: answered by the client's driver, and sent to the agent
+    # (BufferAddress), which maps it to its own buffer's (server-agent/buffer_addresses.h).
+    "vkGetBufferDeviceAddress": MANUAL,
+    # Capture/replay addresses are only portable within one driver: the feature is hidden from
+    # applications (layer/physical_device.cpp), and the answer stays the client's.
     "vkGetBufferOpaqueCaptureAddress": LOCAL,
 
     # --- Resources and views. ------------------------------------------------------------------

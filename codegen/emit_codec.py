@@ -38,6 +38,9 @@ C_SCALARS = {
 BULK = {"uint32_t": "u32_array", "float": "f32_array", "uint64_t": "u64_array"}
 
 
+DEVICE_ADDRESS_TYPES = {"VkDeviceAddress", "VkDeviceOrHostAddressKHR", "VkDeviceOrHostAddressConstKHR"}
+
+
 class CodecError(SystemExit):
     pass
 
@@ -205,6 +208,12 @@ class Codec:
         return self._field(m, t, where, names, pointers, cond, struct.members, index, is_member=True)
 
     def _field(self, m, t, where, names, pointers, cond, members, index, is_member) -> Field:
+        # A buffer device address is the client driver's number: replayed as it is, the agent's GPU
+        # reads whatever lies there (server-agent/buffer_addresses.h). Nothing forwarded today has
+        # one; an extension that brings one must translate it in the replayer or drop the structure.
+        if DEVICE_ADDRESS_TYPES & {m.type, t}:
+            raise CodecError(f"codec: {where} is a device address, which the agent must translate "
+                             "(buffer_addresses.h) or never receive (codec_overrides.DROPPED_EXTENSIONS)")
         cat = self.category(t)
         opt0 = bool(m.optional_levels and m.optional_levels[0])
         opt1 = bool(len(m.optional_levels) > 1 and m.optional_levels[1])

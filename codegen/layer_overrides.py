@@ -76,6 +76,9 @@ MANUAL_COMMANDS = {
     # resource.cpp: TRANSFER_SRC added down the chain, so that a snapshot can read contents back.
     "vkCreateBuffer",
     "vkCreateImage",
+    # resource.cpp: the client's buffer address, sent to the agent (BufferAddress).
+    "vkGetBufferDeviceAddress",
+    "vkGetBufferDeviceAddressKHR",
     # The split rewrite (layer/split.h): these capture the app's original call and pass a
     # rewritten one down. render_pass.cpp: which passes draw into swapchain images (views,
     # framebuffers, swapchain images), their scaled render area and clear rects, and the

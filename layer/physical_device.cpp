@@ -37,6 +37,18 @@ void log_envelope(const PhysicalDeviceState &state, const std::string &sources) 
                  join(hidden, 12).c_str(), formats);
 }
 
+// Features whose promise the agent cannot keep on another driver, whatever its GPU supports:
+// opaque capture addresses are portable only within one driver, and the agent replays on one
+// device. Buffer device addresses themselves are translated (server-agent/buffer_addresses.h).
+constexpr const char *kUnreplayableFeatures[] = {"bufferDeviceAddressCaptureReplay",
+                                                 "bufferDeviceAddressMultiDevice"};
+
+void withhold_unreplayable_features(protocol::DeviceDescription &envelope) {
+    for (size_t f = 0; f < std::size(envelope::kFeatureFields); ++f)
+        for (const char *name : kUnreplayableFeatures)
+            if (std::strcmp(envelope::kFeatureFields[f].name, name) == 0) envelope.features[f] = 0;
+}
+
 std::unique_ptr<PhysicalDeviceState> make_state(InstanceState &instance, VkPhysicalDevice physical_device) {
     auto state = std::make_unique<PhysicalDeviceState>();
     protocol::DeviceQueries queries;
@@ -59,6 +71,7 @@ std::unique_ptr<PhysicalDeviceState> make_state(InstanceState &instance, VkPhysi
     }
     protocol::DeviceDescription envelope = state->client;
     protocol::apply(envelope, protocol::agent_baseline());
+    withhold_unreplayable_features(envelope);
     std::string sources = "the client, the agent baseline";
     if (instance.early_agent) {
         if (const auto &agent = instance.early_agent->agent_device()) {

@@ -30,6 +30,7 @@ struct BufferState {
     bool readable = false; // created with TRANSFER_SRC
     VkDeviceMemory memory = VK_NULL_HANDLE;
     VkDeviceSize memory_offset = 0;
+    VkDeviceAddress address_sent = 0; // what the agent was told vkGetBufferDeviceAddress returned
 };
 
 struct ImageState {
@@ -348,6 +349,47 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateBuffer(VkDevice device, const VkBufferCreat
         encode_vkCreateBuffer(e, device, pCreateInfo, pAllocator, pBuffer);
     });
     return result;
+}
+
+// The client's address of a buffer means nothing on the agent's GPU: the agent learns it here and
+// maps it to its own buffer's (server-agent/buffer_addresses.h), once per buffer (a bound buffer's
+// address never changes). Sent before the application can record a command that uses it. The log
+// entry dies with the buffer or its memory, after which the address names nothing.
+static VkDeviceAddress get_buffer_device_address(VkDevice device, const VkBufferDeviceAddressInfo *pInfo,
+                                                 PFN_vkGetBufferDeviceAddress next) {
+    DeviceState &dev = device_state(device);
+    const VkDeviceAddress address = next(device, pInfo);
+    if (!dev.session || address == 0) return address;
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    {
+        std::lock_guard lock(g_mutex);
+        const auto it = g_buffers.find(pInfo->buffer);
+        if (it == g_buffers.end() || it->second.address_sent == address) return address;
+        memory = it->second.memory;
+    }
+    protocol::BufferAddress message;
+    message.device_id = dev.session->device_id();
+    message.buffer_id = codec::handle_value(pInfo->buffer);
+    message.address = address;
+    const uint64_t killers[] = {message.buffer_id, codec::handle_value(memory)};
+    dev.session->send_metadata_logged(protocol::MessageType::BufferAddress, protocol::encode(message),
+                                      message.buffer_id, std::span(killers, memory ? 2 : 1));
+    // Marked sent only now: another thread asking meanwhile sends it again (the agent keeps the
+    // last), rather than returning an address whose message could follow that thread's submit.
+    std::lock_guard lock(g_mutex);
+    if (const auto it = g_buffers.find(pInfo->buffer); it != g_buffers.end())
+        it->second.address_sent = address;
+    return address;
+}
+
+VKAPI_ATTR VkDeviceAddress VKAPI_CALL GetBufferDeviceAddress(VkDevice device,
+                                                             const VkBufferDeviceAddressInfo *pInfo) {
+    return get_buffer_device_address(device, pInfo, device_dispatch(device).GetBufferDeviceAddress);
+}
+
+VKAPI_ATTR VkDeviceAddress VKAPI_CALL GetBufferDeviceAddressKHR(VkDevice device,
+                                                                const VkBufferDeviceAddressInfo *pInfo) {
+    return get_buffer_device_address(device, pInfo, device_dispatch(device).GetBufferDeviceAddressKHR);
 }
 
 VKAPI_ATTR VkResult VKAPI_CALL CreateImage(VkDevice device, const VkImageCreateInfo *pCreateInfo,

@@ -747,6 +747,13 @@ std::string check_replay(const LiveSnapshot &snapshot, uint64_t physical_device_
             if (!image || image->type != VK_OBJECT_TYPE_IMAGE) return "ImageLayouts before its image";
             continue;
         }
+        if (message.type == protocol::MessageType::BufferAddress) {
+            auto address = protocol::decode_buffer_address(message.payload);
+            if (!address) return "BufferAddress: " + address.error();
+            const auto *buffer = table.find(address->buffer_id);
+            if (!buffer || buffer->type != VK_OBJECT_TYPE_BUFFER) return "BufferAddress before its buffer";
+            continue;
+        }
         codec::Arena arena;
         codec::Decoder decoder(message.payload, table, arena);
         while (!decoder.at_end()) {

@@ -430,4 +430,22 @@ Result<ImageLayouts> decode_image_layouts(std::span<const uint8_t> payload) {
     return finish(r, std::move(m), "ImageLayouts");
 }
 
+std::vector<uint8_t> encode(const BufferAddress &m) {
+    WireWriter w(24);
+    w.u64(m.device_id);
+    w.u64(m.buffer_id);
+    w.u64(m.address);
+    return w.take();
+}
+
+Result<BufferAddress> decode_buffer_address(std::span<const uint8_t> payload) {
+    WireReader r(payload);
+    BufferAddress m;
+    m.device_id = r.u64("device_id");
+    m.buffer_id = r.u64("buffer_id");
+    m.address = r.u64("address");
+    if (r.ok() && m.address == 0) r.fail("address 0 names no buffer");
+    return finish(r, m, "BufferAddress");
+}
+
 } // namespace splitvk::protocol

@@ -18,6 +18,8 @@
 //   client -> server  ImageLayouts      a linear image was created: where the client's driver puts
 //                                       each of its subresources, so that the agent can re-lay
 //                                       MemoryData into its own driver's layout (issue 10)
+//   client -> server  BufferAddress     vkGetBufferDeviceAddress returned an address on the client:
+//                                       the agent maps it to its own buffer's (buffer_addresses.h)
 
 #include "result.h"
 #include "settings.h"
@@ -198,6 +200,14 @@ struct ImageLayouts {
     std::vector<SubresourceLayout> subresources; // each (aspect, mip, layer) at most once
 };
 
+// What the client's vkGetBufferDeviceAddress returned for a bound buffer. The agent asks its own
+// driver for the same buffer's address and translates the client's addresses in what it replays.
+struct BufferAddress {
+    uint64_t device_id = 0;
+    uint64_t buffer_id = 0;
+    uint64_t address = 0; // VkDeviceAddress on the client, never 0
+};
+
 std::vector<uint8_t> encode(const MemoryData &m);
 std::vector<uint8_t> encode(const SwapchainImages &m);
 std::vector<uint8_t> encode(const SwapchainDestroyed &m);
@@ -208,6 +218,7 @@ std::vector<uint8_t> encode(const VerifyFrame &m);
 std::vector<uint8_t> encode(const SplitConfig &m);
 std::vector<uint8_t> encode(const Tiles &m);
 std::vector<uint8_t> encode(const ImageLayouts &m);
+std::vector<uint8_t> encode(const BufferAddress &m);
 
 // Decoders check every length against the bytes present and the caps above, and reject trailing
 // bytes; errors are one line. `max_bytes` caps MemoryData and VerifyFrame payloads.
@@ -222,5 +233,6 @@ Result<SplitConfig> decode_split_config(std::span<const uint8_t> payload);
 // `max_bytes` caps each tile's data.
 Result<Tiles> decode_tiles(std::span<const uint8_t> payload, uint32_t max_bytes);
 Result<ImageLayouts> decode_image_layouts(std::span<const uint8_t> payload);
+Result<BufferAddress> decode_buffer_address(std::span<const uint8_t> payload);
 
 } // namespace splitvk::protocol

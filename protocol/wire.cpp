@@ -57,6 +57,8 @@ const char *message_type_name(uint16_t type) {
         return "ImageLayouts";
     case MessageType::SwapchainView:
         return "SwapchainView";
+    case MessageType::BufferAddress:
+        return "BufferAddress";
     default:
         break;
     }
@@ -72,7 +74,7 @@ bool is_defined_type(uint16_t type) {
     case MessageClass::Control:
         return type >= to_wire(MessageType::Hello) && type <= to_wire(MessageType::Pong);
     case MessageClass::Metadata:
-        return type >= to_wire(MessageType::MemoryData) && type <= to_wire(MessageType::ImageLayouts);
+        return type >= to_wire(MessageType::MemoryData) && type <= to_wire(MessageType::BufferAddress);
     }
     return false;
 }

@@ -67,6 +67,7 @@ enum class MessageType : uint16_t {
     SplitConfig = 0x1007,        // the client's split settings: eyes, fovea, codec (client -> server)
     ImageLayouts = 0x1008,       // the client's VkSubresourceLayouts of a linear image (client -> server)
     SwapchainView = 0x1009,      // an OpenXR eye's field of view: where its fovea sits (client -> server)
+    BufferAddress = 0x100A,      // a buffer's device address on the client (client -> server)
 };
 
 enum class MessageClass { Invalid, Control, Vulkan, Metadata };

@@ -39,6 +39,7 @@ bool client_type(uint16_t type) {
     case MessageType::SplitConfig:
     case MessageType::ImageLayouts:
     case MessageType::SwapchainView:
+    case MessageType::BufferAddress:
         return true;
     default:
         return false;
@@ -284,6 +285,14 @@ bool Session::handle(protocol::Message &message, bool *done, std::string *error)
             return false;
         }
         return replayer_.image_layouts(*m, error);
+    }
+    case MessageType::BufferAddress: {
+        auto m = protocol::decode_buffer_address(message.payload);
+        if (!m) {
+            *error = "BufferAddress: " + m.error();
+            return false;
+        }
+        return replayer_.buffer_address(*m, error);
     }
     case MessageType::SwapchainView: {
         auto m = protocol::decode_swapchain_view(message.payload);

@@ -137,6 +137,34 @@ void LimitGuard::command_buffer_begun(VkCommandBuffer command_buffer) {
     command_buffers_[command_buffer] = Recorded{};
 }
 
+void LimitGuard::untranslatable_address(VkCommandBuffer command_buffer, const std::string &detail) {
+    if (logged_.insert("untranslatable address").second)
+        SPLITVK_ERROR("session %llu: %s, which the agent cannot translate; it skips the command buffers that "
+                      "use it, and sends every frame from now on flagged invalid: the client shows its "
+                      "periphery there",
+                      static_cast<unsigned long long>(session_id_), detail.c_str());
+    Recorded &recorded = command_buffers_[command_buffer];
+    recorded.tainted = true;
+    recorded.skip = true;
+}
+
+bool LimitGuard::must_skip(VkCommandBuffer command_buffer) const {
+    const auto it = command_buffers_.find(command_buffer);
+    return it != command_buffers_.end() && it->second.skip;
+}
+
+void LimitGuard::executed(VkCommandBuffer primary, uint32_t count, const VkCommandBuffer *secondaries) {
+    for (uint32_t i = 0; i < count && secondaries; ++i) {
+        const auto it = command_buffers_.find(secondaries[i]);
+        if (it == command_buffers_.end()) continue;
+        const Recorded secondary = it->second; // the primary's entry may rehash the map
+        Recorded &recorded = command_buffers_[primary];
+        recorded.tainted = recorded.tainted || secondary.tainted;
+        recorded.skip = recorded.skip || secondary.skip;
+        recorded.sets.insert(recorded.sets.end(), secondary.sets.begin(), secondary.sets.end());
+    }
+}
+
 void LimitGuard::sets_bound(VkCommandBuffer command_buffer, uint32_t set_count, const VkDescriptorSet *sets,
                             uint32_t dynamic_count, const uint32_t *dynamic_offsets) {
     Recorded &recorded = command_buffers_[command_buffer];
@@ -200,6 +228,8 @@ bool LimitGuard::set_tainted(VkDescriptorSet set) const {
 }
 
 void LimitGuard::submitted(uint32_t count, const VkCommandBuffer *command_buffers) {
+    for (uint32_t i = 0; i < count; ++i)
+        if (must_skip(command_buffers[i])) session_tainted_ = true;
     if (session_tainted_) frame_invalid_ = true;
     for (uint32_t i = 0; i < count && !frame_invalid_; ++i) {
         const auto it = command_buffers_.find(command_buffers[i]);

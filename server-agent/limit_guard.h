@@ -48,6 +48,15 @@ public:
     void sets_bound(VkCommandBuffer command_buffer, uint32_t set_count, const VkDescriptorSet *sets,
                     uint32_t dynamic_count, const uint32_t *dynamic_offsets);
     void image_created(const VkImageCreateInfo &info);
+    // A buffer device address recorded into `command_buffer` that the agent cannot translate
+    // (buffer_addresses.h): run, the command buffer would read or write wherever that number points
+    // on this GPU (a fault, or memory of anything else). It is never submitted (must_skip()), and,
+    // since later frames may read what it would have written, the session is tainted: every frame
+    // from now on is flagged invalid. `detail` is logged once per session.
+    void untranslatable_address(VkCommandBuffer command_buffer, const std::string &detail);
+    bool must_skip(VkCommandBuffer command_buffer) const;
+    // vkCmdExecuteCommands: what taints the secondaries taints the primary that executes them.
+    void executed(VkCommandBuffer primary, uint32_t count, const VkCommandBuffer *secondaries);
 
     void submitted(uint32_t count, const VkCommandBuffer *command_buffers);
     // Whether the frame now presented used anything this GPU cannot honour; resets for the next.
@@ -65,6 +74,7 @@ private:
     struct Recorded {
         std::vector<VkDescriptorSet> sets;
         bool tainted = false;
+        bool skip = false; // untranslatable_address()
     };
     std::unordered_map<VkCommandBuffer, Recorded> command_buffers_;
     bool session_tainted_ = false;

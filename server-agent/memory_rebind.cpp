@@ -67,7 +67,14 @@ void MemoryRebind::free(uint64_t memory_id) {
 void MemoryRebind::buffer_created(VkBuffer buffer, const VkBufferCreateInfo &info) {
     Resource r;
     r.client_size = info.size;
+    r.device_address = (info.usage & VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT) != 0;
     resources_[codec::handle_value(buffer)] = r;
+}
+
+std::optional<VkDeviceSize> MemoryRebind::bound_buffer_size(VkBuffer buffer) const {
+    const auto it = resources_.find(codec::handle_value(buffer));
+    if (it == resources_.end() || it->second.is_image || !it->second.memory) return std::nullopt;
+    return it->second.client_size;
 }
 
 void MemoryRebind::image_created(VkImage image, const VkImageCreateInfo &info) {
@@ -293,6 +300,12 @@ bool MemoryRebind::bind(uint64_t handle, uint64_t memory_id, VkDeviceSize offset
     info.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
     info.allocationSize = req.size;
     info.memoryTypeIndex = static_cast<uint32_t>(type);
+    // The client allocated with VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT for such a buffer; the agent's
+    // own allocation must allow the agent's vkGetBufferDeviceAddress too (buffer_addresses.h).
+    VkMemoryAllocateFlagsInfo flags_info{};
+    flags_info.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_FLAGS_INFO;
+    flags_info.flags = VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT;
+    if (resource.device_address) info.pNext = &flags_info;
     VkResult result = vkAllocateMemory(context_.device, &info, nullptr, &resource.memory);
     if (result != VK_SUCCESS) {
         resource.memory = VK_NULL_HANDLE;

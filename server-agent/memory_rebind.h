@@ -26,6 +26,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <unordered_map>
@@ -90,6 +91,8 @@ public:
     WritePlan plan_write(uint64_t memory_id, VkDeviceSize offset, VkDeviceSize size) const;
 
     size_t bound_resources() const { return resources_.size(); }
+    // A buffer bound to its own allocation: its size (the client's, which is the agent's too).
+    std::optional<VkDeviceSize> bound_buffer_size(VkBuffer buffer) const;
 
     void set_limits(const MemoryLimits &limits) { limits_ = limits; }
     uint64_t host_bytes() const { return host_bytes_; }             // shadow pages held
@@ -106,6 +109,7 @@ private:
     struct Resource {
         bool is_image = false;
         VkDeviceSize client_size = 0; // bytes of client memory the resource covers (buffers)
+        bool device_address = false;  // a buffer with VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT
         VkImageTiling tiling = VK_IMAGE_TILING_OPTIMAL;
         // Linear images: what ImageLayouts is checked against, and what it gave.
         VkImageType image_type = VK_IMAGE_TYPE_2D;

@@ -280,7 +280,17 @@ bool Replayer::vkGetDeviceQueue2(const codec::Decoded_vkGetDeviceQueue2 &c) {
 // --- submits: in order on one queue; the client's semaphores and fences are its own ------------
 
 bool Replayer::vkQueueSubmit(const codec::Decoded_vkQueueSubmit &c) {
-    const auto submits = codec::without_synchronization(c.pSubmits, c.submitCount);
+    auto submits = codec::without_synchronization(c.pSubmits, c.submitCount);
+    // Command buffers with addresses the agent cannot translate never run (LimitGuard::must_skip).
+    std::vector<std::vector<VkCommandBuffer>> kept(submits.size());
+    for (size_t s = 0; s < submits.size(); ++s) {
+        const VkSubmitInfo &submit = submits[s];
+        for (uint32_t i = 0; i < submit.commandBufferCount; ++i)
+            if (!guard_.must_skip(submit.pCommandBuffers[i])) kept[s].push_back(submit.pCommandBuffers[i]);
+        if (kept[s].size() == submit.commandBufferCount) continue;
+        submits[s].commandBufferCount = static_cast<uint32_t>(kept[s].size());
+        submits[s].pCommandBuffers = kept[s].data();
+    }
     if (!flush_writes()) return false; // the memory data the client wrote before this submit
     note_frame_submit();
     const VkFence fence = submit_fence();
@@ -293,9 +303,9 @@ bool Replayer::vkQueueSubmit(const codec::Decoded_vkQueueSubmit &c) {
             for (uint32_t i = 0; i < s.commandBufferCount; ++i)
                 note_submitted(s.pCommandBuffers[i]);
     }
-    for (const VkSubmitInfo &s : submits) {
-        fovea_.submitted(s.commandBufferCount, s.pCommandBuffers);
-        guard_.submitted(s.commandBufferCount, s.pCommandBuffers);
+    for (uint32_t s = 0; s < c.submitCount; ++s) {
+        fovea_.submitted(c.pSubmits[s].commandBufferCount, c.pSubmits[s].pCommandBuffers);
+        guard_.submitted(c.pSubmits[s].commandBufferCount, c.pSubmits[s].pCommandBuffers);
     }
     gpu_busy_ = true;
     ++submits_;
@@ -304,7 +314,17 @@ bool Replayer::vkQueueSubmit(const codec::Decoded_vkQueueSubmit &c) {
 
 bool Replayer::vkQueueSubmit2(const codec::Decoded_vkQueueSubmit2 &c) {
     if (!vk.QueueSubmit2) return missing("vkQueueSubmit2");
-    const auto submits = codec::without_synchronization(c.pSubmits, c.submitCount);
+    auto submits = codec::without_synchronization(c.pSubmits, c.submitCount);
+    std::vector<std::vector<VkCommandBufferSubmitInfo>> kept(submits.size());
+    for (size_t s = 0; s < submits.size(); ++s) {
+        const VkSubmitInfo2 &submit = submits[s];
+        for (uint32_t i = 0; i < submit.commandBufferInfoCount; ++i)
+            if (!guard_.must_skip(submit.pCommandBufferInfos[i].commandBuffer))
+                kept[s].push_back(submit.pCommandBufferInfos[i]);
+        if (kept[s].size() == submit.commandBufferInfoCount) continue;
+        submits[s].commandBufferInfoCount = static_cast<uint32_t>(kept[s].size());
+        submits[s].pCommandBufferInfos = kept[s].data();
+    }
     if (!flush_writes()) return false;
     note_frame_submit();
     const VkFence fence = submit_fence();
@@ -317,10 +337,10 @@ bool Replayer::vkQueueSubmit2(const codec::Decoded_vkQueueSubmit2 &c) {
             for (uint32_t i = 0; i < s.commandBufferInfoCount; ++i)
                 note_submitted(s.pCommandBufferInfos[i].commandBuffer);
     }
-    for (const VkSubmitInfo2 &s : submits)
-        for (uint32_t i = 0; i < s.commandBufferInfoCount; ++i) {
-            fovea_.submitted(1, &s.pCommandBufferInfos[i].commandBuffer);
-            guard_.submitted(1, &s.pCommandBufferInfos[i].commandBuffer);
+    for (uint32_t s = 0; s < c.submitCount; ++s)
+        for (uint32_t i = 0; i < c.pSubmits[s].commandBufferInfoCount; ++i) {
+            fovea_.submitted(1, &c.pSubmits[s].pCommandBufferInfos[i].commandBuffer);
+            guard_.submitted(1, &c.pSubmits[s].pCommandBufferInfos[i].commandBuffer);
         }
     gpu_busy_ = true;
     ++submits_;
@@ -415,6 +435,7 @@ bool Replayer::vkCreateBuffer(const codec::Decoded_vkCreateBuffer &c) {
 }
 
 bool Replayer::vkDestroyBuffer(const codec::Decoded_vkDestroyBuffer &c) {
+    addresses_.erase(codec::handle_value(c.buffer));
     if (!ReplayVisitorBase::vkDestroyBuffer(c)) return false;
     memory_.buffer_destroyed(c.buffer);
     return true;
@@ -443,13 +464,105 @@ bool Replayer::vkCreateGraphicsPipelines(const codec::Decoded_vkCreateGraphicsPi
     copy.pCreateInfos = fovea_.prepare_pipelines(c.createInfoCount, c.pCreateInfos);
     if (!ReplayVisitorBase::vkCreateGraphicsPipelines(copy)) return false;
     fovea_.pipelines_created(c.pPipelines_count, c.pPipelines);
+    for (uint32_t i = 0; i < c.createInfoCount && i < c.pPipelines_count; ++i)
+        note_pipeline_addresses(c.pPipelines[i], c.pCreateInfos[i].layout, c.pCreateInfos[i].stageCount,
+                                c.pCreateInfos[i].pStages);
     return true;
 }
 
 bool Replayer::vkCreateComputePipelines(const codec::Decoded_vkCreateComputePipelines &c) {
     auto copy = c;
     copy.pipelineCache = VK_NULL_HANDLE;
-    return ReplayVisitorBase::vkCreateComputePipelines(copy);
+    if (!ReplayVisitorBase::vkCreateComputePipelines(copy)) return false;
+    for (uint32_t i = 0; i < c.createInfoCount && i < c.pPipelines_count; ++i)
+        note_pipeline_addresses(c.pPipelines[i], c.pCreateInfos[i].layout, 1, &c.pCreateInfos[i].stage);
+    return true;
+}
+
+// --- buffer device addresses (buffer_addresses.h) --------------------------------------------
+
+bool Replayer::vkCreateShaderModule(const codec::Decoded_vkCreateShaderModule &c) {
+    if (!ReplayVisitorBase::vkCreateShaderModule(c)) return false;
+    ShaderAddresses found;
+    std::string error;
+    const std::span<const uint32_t> words(c.pCreateInfo->pCode, c.pCreateInfo->codeSize / sizeof(uint32_t));
+    if (!reflect_shader_addresses(words, &found, &error)) {
+        // The driver took it, this reader did not: whatever addresses it uses stay untranslated.
+        found.uses_addresses = true;
+        found.untranslatable = "a module splitvk cannot read (" + error + ")";
+    }
+    if (found.uses_addresses) shader_addresses_[c.pShaderModule[0]] = std::move(found);
+    return true;
+}
+
+bool Replayer::vkDestroyShaderModule(const codec::Decoded_vkDestroyShaderModule &c) {
+    shader_addresses_.erase(c.shaderModule);
+    return ReplayVisitorBase::vkDestroyShaderModule(c);
+}
+
+bool Replayer::vkDestroyPipelineLayout(const codec::Decoded_vkDestroyPipelineLayout &c) {
+    layout_address_fields_.erase(c.pipelineLayout);
+    return ReplayVisitorBase::vkDestroyPipelineLayout(c);
+}
+
+void Replayer::note_pipeline_addresses(VkPipeline pipeline, VkPipelineLayout layout, uint32_t stage_count,
+                                       const VkPipelineShaderStageCreateInfo *stages) {
+    untranslatable_pipelines_.erase(pipeline); // a reused handle value
+    for (uint32_t s = 0; s < stage_count; ++s) {
+        const auto it = shader_addresses_.find(stages[s].module);
+        if (it == shader_addresses_.end()) continue;
+        // One layout's push-constant block may be read as addresses by one of its pipelines only;
+        // the fields of all of them are translated, and a value counts as an address only when it
+        // lies inside a buffer the client asked the address of (BufferAddressMap).
+        auto &fields = layout_address_fields_[layout];
+        fields.insert(fields.end(), it->second.push_constant_pointers.begin(),
+                      it->second.push_constant_pointers.end());
+        std::sort(fields.begin(), fields.end());
+        fields.erase(std::unique(fields.begin(), fields.end()), fields.end());
+        if (!it->second.untranslatable.empty() && !untranslatable_pipelines_.count(pipeline))
+            untranslatable_pipelines_[pipeline] = it->second.untranslatable;
+    }
+}
+
+bool Replayer::vkCmdPushConstants(const codec::Decoded_vkCmdPushConstants &c) {
+    const auto fields = layout_address_fields_.find(c.layout);
+    if (fields == layout_address_fields_.end() || !c.pValues) return ReplayVisitorBase::vkCmdPushConstants(c);
+    std::vector<uint8_t> bytes(static_cast<const uint8_t *>(c.pValues),
+                               static_cast<const uint8_t *>(c.pValues) + c.size);
+    const PushTranslation t = translate_push_constants(addresses_, fields->second, c.offset, bytes);
+    if (t.unknown || t.partial)
+        guard_.untranslatable_address(
+            c.commandBuffer, t.unknown ? "a push constant holds a buffer device address inside no buffer "
+                                         "the client asked vkGetBufferDeviceAddress for"
+                                       : "vkCmdPushConstants updates part of a buffer device address");
+    auto copy = c;
+    copy.pValues = bytes.data();
+    return ReplayVisitorBase::vkCmdPushConstants(copy);
+}
+
+bool Replayer::buffer_address(const protocol::BufferAddress &message, std::string *error) {
+    const auto *entry = table_.find(message.buffer_id);
+    if (!entry || entry->type != VK_OBJECT_TYPE_BUFFER) {
+        *error = "BufferAddress: unknown VkBuffer id " + hex(message.buffer_id);
+        return false;
+    }
+    const auto buffer = codec::to_handle<VkBuffer>(entry->handle);
+    const auto size = memory_.bound_buffer_size(buffer);
+    if (!size) {
+        *error = "BufferAddress: buffer " + hex(message.buffer_id) + " is not bound to memory";
+        return false;
+    }
+    VkBufferDeviceAddressInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_BUFFER_DEVICE_ADDRESS_INFO;
+    info.buffer = buffer;
+    const VkDeviceAddress agent = ::vkGetBufferDeviceAddress(context_.device, &info);
+    if (agent == 0) {
+        *error = "BufferAddress: vkGetBufferDeviceAddress gave buffer " + hex(message.buffer_id) +
+                 " no address on this GPU";
+        return false;
+    }
+    addresses_.insert(entry->handle, message.address, *size, agent);
+    return true;
 }
 
 // --- metadata -------------------------------------------------------------------------------
@@ -643,6 +756,7 @@ bool Replayer::vkDestroyFramebuffer(const codec::Decoded_vkDestroyFramebuffer &c
 
 bool Replayer::vkDestroyPipeline(const codec::Decoded_vkDestroyPipeline &c) {
     fovea_.pipeline_destroyed(c.pipeline);
+    untranslatable_pipelines_.erase(c.pipeline);
     return ReplayVisitorBase::vkDestroyPipeline(c);
 }
 
@@ -880,6 +994,7 @@ bool Replayer::vkCmdExecuteCommands(const codec::Decoded_vkCmdExecuteCommands &c
     if (!executed.empty()) local.pCommandBuffers = executed.data();
     if (!ReplayVisitorBase::vkCmdExecuteCommands(local)) return false;
     fovea_.execute_commands(c.commandBuffer, c.commandBufferCount, c.pCommandBuffers);
+    guard_.executed(c.commandBuffer, c.commandBufferCount, c.pCommandBuffers);
     return true;
 }
 
@@ -913,6 +1028,8 @@ bool Replayer::vkCmdPipelineBarrier2(const codec::Decoded_vkCmdPipelineBarrier2 
 bool Replayer::vkCmdBindPipeline(const codec::Decoded_vkCmdBindPipeline &c) {
     if (!ReplayVisitorBase::vkCmdBindPipeline(c)) return false;
     fovea_.bind_pipeline(c.commandBuffer, c.pipelineBindPoint, c.pipeline);
+    if (const auto it = untranslatable_pipelines_.find(c.pipeline); it != untranslatable_pipelines_.end())
+        guard_.untranslatable_address(c.commandBuffer, "a pipeline's shaders use " + it->second);
     return true;
 }
 

@@ -6,11 +6,13 @@
 // queue, without the client's semaphores and fences), memory (memory_rebind.h), pipelines (no
 // pipeline cache), and the metadata messages (memory data, swapchains, frame marks).
 
+#include "buffer_addresses.h"
 #include "fovea_shading.h"
 #include "limit_guard.h"
 #include "memory_rebind.h"
 #include "queued_writes.h"
 #include "session.h"
+#include "spirv_pointers.h"
 #include "swapchain_images.h"
 #include "tile_streamer.h"
 #include "vk_codec.h"
@@ -50,6 +52,8 @@ public:
     bool swapchain_view(const protocol::SwapchainView &message, std::string *error);
     // The client's layout of a linear image, for MemoryData into it (memory_rebind.h).
     bool image_layouts(const protocol::ImageLayouts &message, std::string *error);
+    // The client's address of a bound buffer, mapped to the agent's own (buffer_addresses.h).
+    bool buffer_address(const protocol::BufferAddress &message, std::string *error);
     // FramePresent: hands the first presented image's fovea to the tile streamer (when tiles are
     // enabled); with kPresentVerify, also waits for the frame's work and reads each image back.
     bool frame_present(const protocol::FramePresent &message, std::vector<protocol::VerifyFrame> &verify,
@@ -108,6 +112,14 @@ public:
     bool vkCmdPipelineBarrier(const codec::Decoded_vkCmdPipelineBarrier &c) override;
     bool vkCmdPipelineBarrier2(const codec::Decoded_vkCmdPipelineBarrier2 &c) override;
 
+    // Buffer device addresses (buffer_addresses.h): which push-constant bytes each pipeline layout's
+    // shaders read as addresses, translated at vkCmdPushConstants; pipelines that get addresses the
+    // agent cannot translate taint the command buffers that bind them (limit_guard.h).
+    bool vkCreateShaderModule(const codec::Decoded_vkCreateShaderModule &c) override;
+    bool vkDestroyShaderModule(const codec::Decoded_vkDestroyShaderModule &c) override;
+    bool vkDestroyPipelineLayout(const codec::Decoded_vkDestroyPipelineLayout &c) override;
+    bool vkCmdPushConstants(const codec::Decoded_vkCmdPushConstants &c) override;
+
     // The split (fovea_shading.h): what makes a split pass, and the scissors narrowed inside one.
     bool vkCreateImageView(const codec::Decoded_vkCreateImageView &c) override;
     bool vkDestroyImageView(const codec::Decoded_vkDestroyImageView &c) override;
@@ -155,6 +167,10 @@ private:
     bool needs_quiesce(codec::VkCommandId id) const;
     void note_frame_submit();
     bool peek_create_device(std::span<const uint8_t> payload, size_t offset, std::string *error);
+    // After a pipeline's creation: its stages' address fields joined into its layout's, and why it
+    // is untranslatable, if it is.
+    void note_pipeline_addresses(VkPipeline pipeline, VkPipelineLayout layout, uint32_t stage_count,
+                                 const VkPipelineShaderStageCreateInfo *stages);
 
     // Secondaries in scissored passes (fovea_shading.h, FoveaShading::begin_variant): the stream of
     // each secondary that continues a render pass is kept, and recorded again into a variant of
@@ -207,7 +223,11 @@ private:
     bool recording_variant_ = false;
     bool variant_failed_logged_ = false;
     uint64_t kept_stream_bytes_ = 0; // of secondaries_' streams
-    QueuedWrites writes_{context_};  // last: destroyed first, with the device still there
+    BufferAddressMap addresses_;     // by the agent's buffer handle values
+    std::unordered_map<VkShaderModule, ShaderAddresses> shader_addresses_; // modules that use addresses
+    std::unordered_map<VkPipelineLayout, std::vector<uint32_t>> layout_address_fields_;
+    std::unordered_map<VkPipeline, std::string> untranslatable_pipelines_; // -> why
+    QueuedWrites writes_{context_}; // last: destroyed first, with the device still there
 };
 
 } // namespace splitvk::agent

@@ -75,7 +75,7 @@ int run(const Options &options) {
 
     XcbWindow window(options.width, options.height, "splitvk-atrium");
     VkContext context(window, options.dynamic_rendering, options.path == PathKind::multiview,
-                      options.engine_extensions);
+                      options.engine_extensions, options.buffer_address != BufferAddressMode::none);
     const Scene scene = options.model_path.empty() ? build_atrium() : load_obj(options.model_path);
     Swapchain swapchain(context, {options.srgb ? VK_FORMAT_B8G8R8A8_SRGB : VK_FORMAT_B8G8R8A8_UNORM,
                                   options.present_mode, options.screenshot_frame.has_value(),
@@ -89,7 +89,8 @@ int run(const Options &options) {
                          RendererOptions{options.eyes, options.screenshot_frame, options.static_viewports,
                                          options.clear_depth_per_eye, options.dynamic_rendering,
                                          options.linear_textures, options.path, options.screen_layers,
-                                         options.scene_in_secondaries, options.engine_extensions});
+                                         options.scene_in_secondaries, options.engine_extensions,
+                                         options.buffer_address});
     }
     const VkExtent2D extent = swapchain.extent();
     std::printf("atrium: %s triangles, %u textures, %ux%u per eye, path %s\n",

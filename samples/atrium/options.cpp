@@ -85,6 +85,11 @@ options:
   --linear-textures      upload the textures through linear-tiling images that the host writes at
                          the driver's row pitch, instead of a staging buffer (same picture, any
                          --path)
+  --buffer-address push|uniform
+                         the scene's vertex shader reads the view-projection matrices through a
+                         buffer device address (VK_KHR_buffer_device_address) passed in push
+                         constants, or written by the host into the frame's uniform block, instead
+                         of through the uniform descriptor (same picture; --path direct only)
   --screenshot N PATH    write frame N (0-based) as a PNG, read back from its swapchain image
                          before it is presented
   --resize-at N WxH      resize the window to WxH before frame N; the swapchain is recreated when
@@ -169,6 +174,15 @@ Options parse_options(int argc, char **argv) {
             o.scene_in_secondaries = true;
         } else if (arg == "--linear-textures") {
             o.linear_textures = true;
+        } else if (arg == "--buffer-address") {
+            const std::string_view mode = value();
+            if (mode == "push")
+                o.buffer_address = BufferAddressMode::push;
+            else if (mode == "uniform")
+                o.buffer_address = BufferAddressMode::uniform;
+            else
+                throw std::invalid_argument("--buffer-address: expected push or uniform, got '" +
+                                            std::string(mode) + "'");
         } else if (arg == "--path") {
             const std::string_view name = value();
             const auto known = std::find_if(std::begin(path_names), std::end(path_names),
@@ -261,6 +275,8 @@ Options parse_options(int argc, char **argv) {
         throw std::invalid_argument(
             "--engine-extensions goes with --path direct only (not --dynamic-rendering, "
             "--static-viewports or --xr)");
+    if ((o.path != PathKind::direct || o.xr) && o.buffer_address != BufferAddressMode::none)
+        throw std::invalid_argument("--buffer-address goes with --path direct in a window only");
     if (o.path != PathKind::direct && o.path != PathKind::secondary && o.dynamic_rendering)
         throw std::invalid_argument("--dynamic-rendering goes with --path direct or secondary only");
     return o;

@@ -13,6 +13,8 @@ namespace atrium {
 enum class PathKind { direct, hdr, deferred, multiview, secondary, compute };
 const char *path_name(PathKind kind);
 
+enum class BufferAddressMode { none, push, uniform };
+
 struct Options {
     uint32_t width = 2400;
     uint32_t height = 1080;
@@ -27,6 +29,10 @@ struct Options {
     // --engine-extensions (--path direct): conditional rendering, transform feedback and extended
     // dynamic state 3 markers over the scene (engine_markers.h).
     bool engine_extensions = false;
+    // --buffer-address push|uniform: the scene's vertex shader reads the frame's matrices through a
+    // buffer device address (VK_KHR_buffer_device_address) in push constants, or in the frame's
+    // uniform block.
+    BufferAddressMode buffer_address = BufferAddressMode::none;
     // --screen-layers (--path multiview): eye layers at the window's size, each squeezed into its half.
     bool screen_layers = false;
     // --scene-in-secondaries (--path hdr, deferred, compute): the offscreen scene pass's draws in

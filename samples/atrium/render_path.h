@@ -23,6 +23,7 @@ struct RendererOptions {
     bool screen_layers = false;        // multiview: eye layers at the window's size
     bool scene_in_secondaries = false; // hdr, deferred, compute: the scene pass's draws in secondaries
     bool engine_extensions = false;    // direct: the markers of engine_markers.h
+    BufferAddressMode buffer_address = BufferAddressMode::none; // the scene's matrices through an address
 };
 
 struct FrameContext {

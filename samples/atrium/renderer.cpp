@@ -32,7 +32,8 @@ Renderer::Renderer(VkContext &context, Swapchain &swapchain, const Scene &scene,
                    const std::vector<Texture> &textures, const CameraPath &camera,
                    const RendererOptions &options)
     : context_(context), swapchain_(swapchain), scene_(scene), camera_(camera), options_(options),
-      device_(context.device()), scene_gpu_(context, scene, textures, options.linear_textures),
+      device_(context.device()),
+      scene_gpu_(context, scene, textures, options.linear_textures, frames_in_flight, options.buffer_address),
       path_(make_render_path(scene_gpu_, swapchain, options)) {
     create_targets();
 
@@ -114,6 +115,7 @@ void Renderer::update_uniforms(uint32_t slot, uint64_t frame) {
         u.inv_view_proj[1] = u.inv_view_proj[0];
     }
     set_lighting(u, scene_);
+    u.frame_address = scene_gpu_.frame_address(slot);
     std::memcpy(&scene_gpu_.uniforms(slot), &u, sizeof(u));
 }
 

@@ -1,9 +1,11 @@
 #include "scene_gpu.h"
 
 #include "atrium_spirv.h"
+#include "error.h"
 #include "linear_upload.h"
 #include "pipeline.h"
 
+#include <cstddef>
 #include <cstring>
 #include <optional>
 
@@ -13,11 +15,21 @@ namespace {
 
 constexpr VkFormat texture_format = VK_FORMAT_R8G8B8A8_SRGB;
 
+// scene.vert/scene.frag read the first three; scene_address.vert also `frame` (--buffer-address).
 struct PushConstants {
     uint32_t eye;
     float specular;
     float shininess;
+    uint32_t pad = 0;
+    VkDeviceAddress frame = 0;
 };
+constexpr uint32_t push_bytes_without_address = offsetof(PushConstants, pad);
+
+static_assert(offsetof(FrameUniforms, frame_address) == 400, "scene_address_uniform.vert's std140 offset");
+
+uint32_t push_bytes(BufferAddressMode mode) {
+    return mode == BufferAddressMode::push ? uint32_t(sizeof(PushConstants)) : push_bytes_without_address;
+}
 
 VkDeviceSize align_up(VkDeviceSize value, VkDeviceSize alignment) {
     return (value + alignment - 1) / alignment * alignment;
@@ -36,8 +48,9 @@ float eye_split(VkExtent2D extent, uint32_t eyes) {
 }
 
 SceneGpu::SceneGpu(VkContext &context, const Scene &scene, const std::vector<Texture> &textures,
-                   bool linear_textures, uint32_t slots)
-    : context_(context), scene_(scene), device_(context.device()), frame_sets_(slots), uniforms_(slots) {
+                   bool linear_textures, uint32_t slots, BufferAddressMode buffer_address)
+    : context_(context), scene_(scene), device_(context.device()), frame_sets_(slots), uniforms_(slots),
+      buffer_address_(buffer_address) {
     upload(textures, linear_textures);
     create_descriptors(textures.size());
     create_pipeline_layout();
@@ -229,9 +242,22 @@ void SceneGpu::create_descriptors(size_t textures) {
     // host-coherent buffer: the CPU rewrites a slot's block only after waiting for the slot's fence.
     const VkDeviceSize stride =
         align_up(sizeof(FrameUniforms), context_.properties().limits.minUniformBufferOffsetAlignment);
-    uniform_buffer_ =
-        context_.create_buffer(stride * slots, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
-                               VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
+    uniform_buffer_ = context_.create_buffer(
+        stride * slots,
+        VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT |
+            (buffer_address_ != BufferAddressMode::none ? VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT : 0),
+        VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
+    if (buffer_address_ != BufferAddressMode::none) {
+        const auto get_address = reinterpret_cast<PFN_vkGetBufferDeviceAddressKHR>(
+            vkGetDeviceProcAddr(device_, "vkGetBufferDeviceAddressKHR"));
+        if (!get_address) throw Error("vkGetBufferDeviceAddressKHR is missing (--buffer-address)");
+        VkBufferDeviceAddressInfo info{};
+        info.sType = VK_STRUCTURE_TYPE_BUFFER_DEVICE_ADDRESS_INFO;
+        info.buffer = uniform_buffer_.buffer;
+        const VkDeviceAddress base = get_address(device_, &info);
+        for (uint32_t i = 0; i < slots; ++i)
+            frame_addresses_.push_back(base + i * stride); // each slot's block, inside the one buffer
+    }
 
     std::vector<VkDescriptorSetLayout> layouts(slots, frame_layout_);
     layouts.insert(layouts.end(), textures, material_layout_);
@@ -276,7 +302,7 @@ void SceneGpu::create_descriptors(size_t textures) {
 void SceneGpu::create_pipeline_layout() {
     const VkDescriptorSetLayout set_layouts[] = {frame_layout_, material_layout_};
     const VkPushConstantRange push{VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
-                                   sizeof(PushConstants)};
+                                   push_bytes(buffer_address_)};
     VkPipelineLayoutCreateInfo layout{};
     layout.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
     layout.setLayoutCount = 2;
@@ -289,8 +315,13 @@ void SceneGpu::create_pipeline_layout() {
 VkPipeline SceneGpu::create_pipeline(const ScenePipelineInfo &pipeline) const {
     GraphicsPipelineInfo info;
     const bool multiview = pipeline.shading == SceneShading::multiview;
-    info.vertex = multiview ? ShaderCode{spirv::scene_multiview_vert, sizeof(spirv::scene_multiview_vert)}
-                            : ShaderCode{spirv::scene_vert, sizeof(spirv::scene_vert)};
+    info.vertex =
+        multiview ? ShaderCode{spirv::scene_multiview_vert, sizeof(spirv::scene_multiview_vert)}
+        : buffer_address_ == BufferAddressMode::push
+            ? ShaderCode{spirv::scene_address_vert, sizeof(spirv::scene_address_vert)}
+        : buffer_address_ == BufferAddressMode::uniform
+            ? ShaderCode{spirv::scene_address_uniform_vert, sizeof(spirv::scene_address_uniform_vert)}
+            : ShaderCode{spirv::scene_vert, sizeof(spirv::scene_vert)};
     // scene.frag's constants: 0 encode_srgb, 1 display (false: linear HDR out).
     const VkBool32 constants[2] = {pipeline.encode_srgb ? VK_TRUE : VK_FALSE,
                                    pipeline.shading == SceneShading::hdr ? VK_FALSE : VK_TRUE};
@@ -337,6 +368,7 @@ VkPipeline SceneGpu::create_pipeline(const ScenePipelineInfo &pipeline) const {
 
 void SceneGpu::bind(VkCommandBuffer cmd, VkPipeline pipeline, uint32_t slot) const {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
+    bound_slot_ = slot;
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout_, 0, 1, &frame_sets_[slot],
                             0, nullptr);
     const VkDeviceSize zero = 0;
@@ -354,9 +386,10 @@ void SceneGpu::draw(VkCommandBuffer cmd, uint32_t eye, size_t first, size_t end)
             vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout_, 1, 1,
                                     &texture_sets_[bound_texture], 0, nullptr);
         }
-        const PushConstants push{eye, material.specular, material.shininess};
+        PushConstants push{eye, material.specular, material.shininess};
+        if (buffer_address_ == BufferAddressMode::push) push.frame = frame_addresses_[bound_slot_];
         vkCmdPushConstants(cmd, pipeline_layout_, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT,
-                           0, sizeof(push), &push);
+                           0, push_bytes(buffer_address_), &push);
         vkCmdDrawIndexed(cmd, draw.index_count, 1, draw.first_index, 0, 0);
     }
 }

@@ -2,6 +2,7 @@
 // the per-frame uniforms, the scene's pipeline layout and its pipelines, and the draw calls.
 #pragma once
 
+#include "options.h"
 #include "scene.h"
 #include "textures.h"
 #include "vk_context.h"
@@ -29,7 +30,9 @@ struct FrameUniforms {
     glm::vec4 sun_opening;
     glm::vec4 sun_facades;
     glm::vec4 sun_params;
-    glm::mat4 inv_view_proj[2]; // the deferred lighting pass rebuilds positions from depth
+    glm::mat4 inv_view_proj[2];        // the deferred lighting pass rebuilds positions from depth
+    VkDeviceAddress frame_address = 0; // --buffer-address uniform: this block's own address
+    uint64_t pad = 0;
 };
 
 // Eye `eye` of `eyes` side by side: eye 0 is the left half [0, W/2), eye 1 the right half.
@@ -60,8 +63,12 @@ public:
     // With `linear_textures` the textures reach the device through linear images (linear_upload.h)
     // instead of the staging buffer. `slots`: how many sets of frame uniforms (FrameContext::slot)
     // may be in use at once; one per frame in flight, or per submission of one (OpenXR: per eye).
+    // With `buffer_address` the scene's vertex shader reads the view-projection matrices through
+    // the frame slot's buffer device address, in push constants (scene_address.vert) or in the
+    // slot's uniform block (scene_address_uniform.vert, FrameUniforms::frame_address).
     SceneGpu(VkContext &context, const Scene &scene, const std::vector<Texture> &textures,
-             bool linear_textures, uint32_t slots = frames_in_flight);
+             bool linear_textures, uint32_t slots = frames_in_flight,
+             BufferAddressMode buffer_address = BufferAddressMode::none);
     ~SceneGpu();
     SceneGpu(const SceneGpu &) = delete;
     SceneGpu &operator=(const SceneGpu &) = delete;
@@ -76,6 +83,10 @@ public:
     size_t draw_count() const { return scene_.draws.size(); }
 
     FrameUniforms &uniforms(uint32_t slot) const { return *uniforms_[slot]; }
+    // Slot `slot`'s uniform block's buffer device address (0 without --buffer-address).
+    VkDeviceAddress frame_address(uint32_t slot) const {
+        return frame_addresses_.empty() ? 0 : frame_addresses_[slot];
+    }
     VkDescriptorSetLayout frame_layout() const { return frame_layout_; }
     VkDescriptorSet frame_set(uint32_t slot) const { return frame_sets_[slot]; }
     VkDevice device() const { return device_; }
@@ -98,6 +109,9 @@ private:
     std::vector<VkDescriptorSet> texture_sets_;
     std::vector<VkDescriptorSet> frame_sets_;
     std::vector<FrameUniforms *> uniforms_; // persistently mapped, host-coherent
+    BufferAddressMode buffer_address_ = BufferAddressMode::none;
+    std::vector<VkDeviceAddress> frame_addresses_; // per slot, with buffer_address_
+    mutable uint32_t bound_slot_ = 0;              // bind()'s slot, whose address draw() pushes
     VkPipelineLayout pipeline_layout_ = VK_NULL_HANDLE;
 };
 

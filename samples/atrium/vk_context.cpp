@@ -45,8 +45,8 @@ int device_type_rank(VkPhysicalDeviceType type) {
 
 } // namespace
 
-VkContext::VkContext(const XcbWindow &window, bool dynamic_rendering, bool multiview,
-                     bool engine_extensions) {
+VkContext::VkContext(const XcbWindow &window, bool dynamic_rendering, bool multiview, bool engine_extensions,
+                     bool buffer_address) {
     uint32_t loader_version = VK_API_VERSION_1_0;
     if (vkEnumerateInstanceVersion(&loader_version) != VK_SUCCESS || loader_version < VK_API_VERSION_1_1)
         throw Error("the Vulkan loader does not support Vulkan 1.1");
@@ -116,7 +116,7 @@ VkContext::VkContext(const XcbWindow &window, bool dynamic_rendering, bool multi
         }
     }
     if (physical_device_ == VK_NULL_HANDLE) throw Error("no Vulkan 1.1 device can present to the X window");
-    create_device(dynamic_rendering, multiview, engine_extensions, true, nullptr);
+    create_device(dynamic_rendering, multiview, engine_extensions, true, buffer_address, nullptr);
 }
 
 VkContext::VkContext(const VkCreators &creators, bool dynamic_rendering, bool multiview) {
@@ -145,11 +145,11 @@ VkContext::VkContext(const VkCreators &creators, bool dynamic_rendering, bool mu
     if (graphics == families.end())
         throw Error(std::string(properties_.deviceName) + " has no graphics queue");
     queue_family_ = uint32_t(graphics - families.begin());
-    create_device(dynamic_rendering, multiview, false, false, &creators.create_device);
+    create_device(dynamic_rendering, multiview, false, false, false, &creators.create_device);
 }
 
 void VkContext::create_device(
-    bool dynamic_rendering, bool multiview, bool engine_extensions, bool swapchain,
+    bool dynamic_rendering, bool multiview, bool engine_extensions, bool swapchain, bool buffer_address,
     const std::function<VkDevice(VkPhysicalDevice, const VkDeviceCreateInfo &)> *create) {
     vkGetPhysicalDeviceMemoryProperties(physical_device_, &memory_properties_);
 
@@ -216,6 +216,24 @@ void VkContext::create_device(
                                                            VK_EXT_TRANSFORM_FEEDBACK_EXTENSION_NAME,
                                                            VK_EXT_EXTENDED_DYNAMIC_STATE_3_EXTENSION_NAME});
     }
+    // --buffer-address, on a Vulkan 1.1 instance: the extension's name, feature structure and entry point.
+    VkPhysicalDeviceBufferDeviceAddressFeaturesKHR address_features{};
+    address_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_BUFFER_DEVICE_ADDRESS_FEATURES_KHR;
+    if (buffer_address) {
+        VkPhysicalDeviceFeatures2 supported{};
+        supported.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+        supported.pNext = &address_features;
+        vkGetPhysicalDeviceFeatures2(physical_device_, &supported);
+        if (!address_features.bufferDeviceAddress)
+            throw Error(std::string(properties_.deviceName) +
+                        " does not support bufferDeviceAddress (--buffer-address)");
+        address_features = {};
+        address_features.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_BUFFER_DEVICE_ADDRESS_FEATURES_KHR;
+        address_features.bufferDeviceAddress = VK_TRUE;
+        address_features.pNext = const_cast<void *>(device_info.pNext);
+        device_info.pNext = &address_features;
+        device_extensions.push_back(VK_KHR_BUFFER_DEVICE_ADDRESS_EXTENSION_NAME);
+    }
     device_info.queueCreateInfoCount = 1;
     device_info.pQueueCreateInfos = &queue_info;
     device_info.enabledExtensionCount = uint32_t(device_extensions.size());
@@ -257,6 +275,10 @@ Buffer VkContext::create_buffer(VkDeviceSize size, VkBufferUsageFlags usage,
     alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
     alloc.allocationSize = req.size;
     alloc.memoryTypeIndex = memory_type(req.memoryTypeBits, properties);
+    VkMemoryAllocateFlagsInfo flags{};
+    flags.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_FLAGS_INFO;
+    flags.flags = VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT;
+    if (usage & VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT) alloc.pNext = &flags;
     ATRIUM_VK_CHECK(vkAllocateMemory(device_, &alloc, nullptr, &b.memory));
     ATRIUM_VK_CHECK(vkBindBufferMemory(device_, b.buffer, b.memory, 0));
     if (properties & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT)

@@ -23,9 +23,10 @@ public:
     // Throws Error when there is no Vulkan driver or no device that can present to the window.
     // dynamic_rendering: enable VK_KHR_dynamic_rendering (and what it requires); multiview: the
     // core 1.1 multiview feature.
-    // engine_extensions: what EngineMarkers needs (engine_markers.h).
+    // engine_extensions: what EngineMarkers needs (engine_markers.h); buffer_address:
+    // VK_KHR_buffer_device_address and its bufferDeviceAddress feature.
     VkContext(const XcbWindow &window, bool dynamic_rendering, bool multiview = false,
-              bool engine_extensions = false);
+              bool engine_extensions = false, bool buffer_address = false);
     // No window: the instance and device come from `creators` (Vulkan 1.1, a graphics queue, no
     // swapchain extension); surface() is VK_NULL_HANDLE.
     VkContext(const VkCreators &creators, bool dynamic_rendering, bool multiview);
@@ -52,6 +53,7 @@ public:
 private:
     // The device on physical_device_ and queue_family_, through `create` when given.
     void create_device(bool dynamic_rendering, bool multiview, bool engine_extensions, bool swapchain,
+                       bool buffer_address,
                        const std::function<VkDevice(VkPhysicalDevice, const VkDeviceCreateInfo &)> *create);
     uint32_t memory_type(uint32_t type_bits, VkMemoryPropertyFlags properties) const;
 

@@ -190,6 +190,9 @@ void decode_metadata(const protocol::Message &m, codec::HandleTable &table) {
     case MessageType::SwapchainView:
         if (auto d = protocol::decode_swapchain_view(p)) touch(d->angle_left);
         break;
+    case MessageType::BufferAddress:
+        if (auto d = protocol::decode_buffer_address(p)) touch(d->address);
+        break;
     case MessageType::ImageLayouts:
         if (auto d = protocol::decode_image_layouts(p)) {
             // As the agent's ImageLayouts does: the id must name a live image.

@@ -115,6 +115,18 @@ TEST(ProtocolSession, SwapchainViewRoundTripAndRange) {
     }
 }
 
+TEST(ProtocolSession, BufferAddressRoundTripRefusesAddressZero) {
+    const BufferAddress m{7, 0xb0, 0x7f00'1234'5000};
+    const auto bytes = encode(m);
+    const auto back = decode_buffer_address(bytes);
+    ASSERT_TRUE(back.ok()) << back.error();
+    EXPECT_EQ(back->device_id, 7u);
+    EXPECT_EQ(back->buffer_id, 0xb0u);
+    EXPECT_EQ(back->address, 0x7f00'1234'5000u);
+    expect_truncations_refused(bytes, decode_buffer_address);
+    EXPECT_FALSE(decode_buffer_address(encode(BufferAddress{7, 0xb0, 0})).ok());
+}
+
 TEST(ProtocolSession, FrameMarksRoundTrip) {
     const FrameBegin begin{41, 0x55, 2};
     const auto b = decode_frame_begin(encode(begin));

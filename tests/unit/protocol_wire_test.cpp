@@ -101,7 +101,10 @@ TEST(ProtocolWire, TypeRanges) {
     EXPECT_FALSE(is_defined_type(0x7777));
     EXPECT_STREQ(message_type_name(to_wire(MessageType::MemoryData)), "MemoryData");
     EXPECT_TRUE(is_defined_type(to_wire(MessageType::ImageLayouts)));
-    EXPECT_FALSE(is_defined_type(to_wire(MessageType::ImageLayouts) + 1));
+    EXPECT_TRUE(is_defined_type(to_wire(MessageType::SwapchainView)));
+    EXPECT_TRUE(is_defined_type(to_wire(MessageType::BufferAddress)));
+    EXPECT_FALSE(is_defined_type(to_wire(MessageType::BufferAddress) + 1));
+    EXPECT_STREQ(message_type_name(to_wire(MessageType::BufferAddress)), "BufferAddress");
     EXPECT_STREQ(message_type_name(to_wire(MessageType::ImageLayouts)), "ImageLayouts");
     EXPECT_STREQ(message_type_name(0x0200), "Vulkan command");
     EXPECT_STREQ(message_type_name(0x7777), "unknown");

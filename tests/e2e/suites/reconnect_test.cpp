@@ -34,16 +34,18 @@ protected:
     }
 
     std::vector<std::string> argv(int frames) const {
-        return {atrium_path().string(),
-                "--width",
-                std::to_string(kWidth),
-                "--height",
-                std::to_string(kHeight),
-                "--eyes",
-                "2",
-                "--frames",
-                std::to_string(frames),
-                "--hold"};
+        std::vector<std::string> argv = {atrium_path().string(),
+                                         "--width",
+                                         std::to_string(kWidth),
+                                         "--height",
+                                         std::to_string(kHeight),
+                                         "--eyes",
+                                         "2",
+                                         "--frames",
+                                         std::to_string(frames),
+                                         "--hold"};
+        argv.insert(argv.end(), extra_args_.begin(), extra_args_.end());
+        return argv;
     }
 
     Env split_env() {
@@ -132,6 +134,7 @@ protected:
 
     uint16_t port_ = 0;
     std::filesystem::path validation_log_;
+    std::vector<std::string> extra_args_; // atrium options of one test
 };
 
 // Frame counts: the app must still be rendering when the new agent joins, several seconds after
@@ -146,6 +149,22 @@ TEST_F(Reconnect, AgentStartedAfterTheAppJoins) {
     Agent agent;
     ASSERT_TRUE(agent.start(env(), out_, {"--validate"}, port_)) << agent.error();
     ASSERT_NO_FATAL_FAILURE(expect_recovered(*app, kFrames, native, "splitvk-agent"));
+}
+
+// The same with buffer device addresses (atrium --buffer-address push): the agent that joins learns
+// the client's addresses from the snapshot (each BufferAddress is a live-state log entry), or it
+// would flag every frame invalid for an address it does not know, and no fovea would match.
+TEST_F(Reconnect, AgentStartedAfterTheAppLearnsItsBufferAddresses) {
+    constexpr int kFrames = 12; // started at frame 0's "running unsplit", the agent joins at frame 0 or 1
+    extra_args_ = {"--buffer-address", "push"};
+    const Image native = native_frame(kFrames);
+    auto app = start_split(kFrames);
+    ASSERT_TRUE(app);
+    ASSERT_TRUE(wait_for_log("running unsplit until one answers", 120s)) << read_file(out_ / "split.stderr");
+    Agent agent;
+    ASSERT_TRUE(agent.start(env(), out_, {"--validate"}, port_)) << agent.error();
+    ASSERT_NO_FATAL_FAILURE(expect_recovered(*app, kFrames, native, "splitvk-agent"));
+    EXPECT_TRUE(grep(agent.log(), "cannot translate").empty()) << tail(agent.log(), 30);
 }
 
 TEST_F(Reconnect, AgentKilledAndRestartedIsBroughtBackIn) {

@@ -908,6 +908,57 @@ TEST_F(Split, StricterAgentKeepsOffscreenPathFoveaeExact) {
     EXPECT_TRUE(grep(agent_.log(), "flagged invalid").empty()) << tail(agent_.log(), 30);
 }
 
+// VK_KHR_buffer_device_address (issue 19): atrium --buffer-address reads its view-projection
+// matrices through its frame slot's address, passed in push constants. The agent's lavapipe puts the
+// uniform buffer at another address than the client's (host pointers of two processes), so the
+// client's address replayed as it is would read nothing of the frame's: the agent translates it
+// (server-agent/buffer_addresses.h). The foveae equal native bit for bit, no frame is flagged
+// invalid, and neither side's validation says anything.
+TEST_F(Split, BufferDeviceAddressInPushConstantsKeepsFoveaeExact) {
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    auto argv = atrium_argv(2, kFrames, false);
+    argv.insert(argv.end(), {"--buffer-address", "push"});
+    Grab native, split;
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, env(), "native", kFrames, &native));
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, split_env(), "split", kFrames, &split));
+    const std::string &err = split.result.err();
+    EXPECT_TRUE(grep(err, "does not forward").empty()) << tail(err, 30);
+    EXPECT_TRUE(grep(err, "flagged invalid").empty()) << tail(err, 30);
+    EXPECT_EQ(split_summary(err).late, 0u) << tail(err, 30);
+    ASSERT_NO_FATAL_FAILURE(
+        expect_split_frame(native.image, split.image, default_foveae(kWidth, kHeight, 2)));
+    expect_clean_validation();
+    EXPECT_TRUE(grep(agent_.log(), "cannot translate").empty()) << tail(agent_.log(), 30);
+}
+
+// An address the host wrote into a uniform buffer (atrium --buffer-address uniform): bytes with no
+// type on the wire, which the agent cannot translate; run as they are, the agent's lavapipe would
+// dereference a pointer of the client's process. The agent says so once, never submits the command
+// buffers that bind the pipeline, and flags every frame invalid from then on, so the layer shows
+// the periphery in every frame's centre (what a flagged frame shows:
+// LooseEnvelopeNeverCompositesAWrongFovea).
+TEST_F(Split, BufferDeviceAddressInMemoryIsNeverDrawnByTheAgent) {
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    auto argv = atrium_argv(2, kFrames, false);
+    argv.insert(argv.end(), {"--buffer-address", "uniform"});
+    Grab split;
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, split_env(), "split", kFrames, &split));
+    const std::string &err = split.result.err();
+    const std::regex flagged(R"(split: (\d+) frames the agent flagged invalid)");
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(err, m, flagged)) << tail(err, 30);
+    const SplitSummary summary = split_summary(err);
+    EXPECT_TRUE(summary.found) << tail(err, 30);
+    EXPECT_EQ(std::stoull(m[1]), summary.frames) << tail(err, 30);
+    EXPECT_EQ(summary.late, 0u) << tail(err, 30);
+    EXPECT_EQ(grep(agent_.log(), "an address read from a uniform or storage buffer, which the agent cannot "
+                                 "translate; it skips the command buffers that use it")
+                  .size(),
+              1u)
+        << tail(agent_.log(), 30);
+    expect_clean_validation();
+}
+
 // The envelope made too loose on purpose (SPLITVK_ENVELOPE=client: the app is told lavapipe's 16)
 // against the same stricter agent: atrium's second uniform slot sits at 0x110, which the agent's
 // GPU cannot bind. The agent says so once and flags every frame that uses it; the layer shows
