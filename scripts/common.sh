@@ -35,15 +35,19 @@ phase() {
   local name=$1; shift
   local wall_start=$SECONDS cpu_start rc=0
   cpu_start=$(children_cpu_s)
+  SPLITVK_PHASE_RUNNING=$name
   "$@" || rc=$?
+  SPLITVK_PHASE_RUNNING=
   SPLITVK_PHASES+=("$(printf '%-24s %5d s wall %6d s CPU%s' "$name" $((SECONDS - wall_start)) \
     $(($(children_cpu_s) - cpu_start)) "$([ $rc -eq 0 ] || echo " (failed: exit $rc)")")")
   return $rc
 }
 print_phases() {
-  [ ${#SPLITVK_PHASES[@]} -eq 0 ] && return 0
+  [ ${#SPLITVK_PHASES[@]} -eq 0 ] && [ -z "${SPLITVK_PHASE_RUNNING:-}" ] && return 0
   log "time per phase (total ${SECONDS} s wall)"
-  printf '    %s\n' "${SPLITVK_PHASES[@]}"
+  [ ${#SPLITVK_PHASES[@]} -eq 0 ] || printf '    %s\n' "${SPLITVK_PHASES[@]}"
+  # A phase that called die (exit) never returned to phase().
+  [ -z "${SPLITVK_PHASE_RUNNING:-}" ] || printf '    %-24s stopped the run\n' "$SPLITVK_PHASE_RUNNING"
 }
 
 # Installs whatever of SPLITVK_PACKAGES is missing, or explains how to when not root.

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # scripts/common.sh's phase timing (scripts/test prints it): a phase that sleeps takes wall time and
 # no CPU, one that computes takes CPU, a failing one is marked failed with its status and its status
-# is returned, and print_phases lists all three in order.
+# is returned, and print_phases lists all three in order; a phase that exits the script is named.
 set -uo pipefail
 source "$(dirname "$0")/../../scripts/common.sh"
 
@@ -27,4 +27,10 @@ re='^    ([a-z]+) +([0-9]+) s wall +([0-9]+) s CPU(.*)$'
 [[ ${lines[3]} =~ $re ]] || fail "line: ${lines[3]}"
 [ "${BASH_REMATCH[1]}" = failing ] && [ "${BASH_REMATCH[4]}" = " (failed: exit 3)" ] ||
   fail "the failing phase: ${lines[3]}"
+# A phase that exits the script (die) is named as where the run stopped, after the phases done.
+summary=$(bash -c 'source "$1"; trap print_phases EXIT; phase "building" true; phase "dying" die "no compiler"' \
+  _ "$(dirname "$0")/../../scripts/common.sh" 2>/dev/null)
+mapfile -t lines <<<"$summary"
+[ ${#lines[@]} -eq 3 ] && [[ ${lines[1]} =~ ^"    building " ]] &&
+  [[ ${lines[2]} =~ ^"    dying "\ +"stopped the run"$ ]] || fail "a phase that called die is not named"
 echo "phase timing: ok"
