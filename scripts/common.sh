@@ -21,6 +21,35 @@ SPLITVK_PACKAGES=(
 log() { printf '==> %s\n' "$*"; }
 die() { printf 'error: %s\n' "$*" >&2; exit 1; }
 
+# Phase timing: `phase NAME command...` runs the command and records its wall time and the CPU time
+# (user+sys) of the processes it waited for; print_phases lists them. On a shared machine the wall
+# time is inflated by others' load, the CPU time much less: compare runs by the latter.
+SPLITVK_PHASES=()
+children_cpu_s() { # user+sys of the processes this shell has waited for, from /proc (cutime, cstime)
+  local stat
+  read -r stat </proc/$$/stat
+  set -- ${stat##*) }
+  echo $(((${14} + ${15}) / $(getconf CLK_TCK)))
+}
+phase() {
+  local name=$1; shift
+  local wall_start=$SECONDS cpu_start rc=0
+  cpu_start=$(children_cpu_s)
+  SPLITVK_PHASE_RUNNING=$name
+  "$@" || rc=$?
+  SPLITVK_PHASE_RUNNING=
+  SPLITVK_PHASES+=("$(printf '%-24s %5d s wall %6d s CPU%s' "$name" $((SECONDS - wall_start)) \
+    $(($(children_cpu_s) - cpu_start)) "$([ $rc -eq 0 ] || echo " (failed: exit $rc)")")")
+  return $rc
+}
+print_phases() {
+  [ ${#SPLITVK_PHASES[@]} -eq 0 ] && [ -z "${SPLITVK_PHASE_RUNNING:-}" ] && return 0
+  log "time per phase (total ${SECONDS} s wall)"
+  [ ${#SPLITVK_PHASES[@]} -eq 0 ] || printf '    %s\n' "${SPLITVK_PHASES[@]}"
+  # A phase that called die (exit) never returned to phase().
+  [ -z "${SPLITVK_PHASE_RUNNING:-}" ] || printf '    %-24s stopped the run\n' "$SPLITVK_PHASE_RUNNING"
+}
+
 # Installs whatever of SPLITVK_PACKAGES is missing, or explains how to when not root.
 ensure_packages() {
   local missing=() pkg

@@ -34,7 +34,8 @@ PFN_vkVoidFunction device_entry_point(const char *name) {
 
 void device_created(VkDevice device, PFN_vkGetDeviceProcAddr next, const VkDeviceCreateInfo &) {
     const present_layer::Next n{reinterpret_cast<PFN_vkQueuePresentKHR>(next(device, "vkQueuePresentKHR")),
-                                reinterpret_cast<PFN_vkQueueSubmit>(next(device, "vkQueueSubmit"))};
+                                reinterpret_cast<PFN_vkQueueSubmit>(next(device, "vkQueueSubmit")),
+                                reinterpret_cast<PFN_vkQueueWaitIdle>(next(device, "vkQueueWaitIdle"))};
     std::lock_guard lock(present_layer::g_mutex);
     present_layer::g_next[key(device)] = n;
 }

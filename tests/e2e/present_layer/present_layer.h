@@ -14,6 +14,7 @@ namespace splitvk::present_layer {
 struct Next {
     PFN_vkQueuePresentKHR present = nullptr;
     PFN_vkQueueSubmit submit = nullptr;
+    PFN_vkQueueWaitIdle wait_idle = nullptr;
 };
 
 // Defined by each layer: its vkQueuePresentKHR. The caller holds the queue, as for any present.

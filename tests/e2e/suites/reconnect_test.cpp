@@ -6,13 +6,20 @@
 //    brought in, and the held last frame has exact foveae again.
 // Both sides run under validation (sync on) and must stay silent. The resync time, from the new
 // agent answering to its first composited frame, is printed (the layer logs it).
+// The split app renders until the test has seen the new agent's first composited frame, and then
+// holds the next one (VK_LAYER_SPLITVK_test_hold, TEST_HOLD_WHEN_FILE); the native reference is
+// rendered afterwards up to that frame. A fixed frame count either ran out before the new agent
+// joined (a fast machine: nothing brought in) or rendered hundreds of frames after it (a slow one).
 #include "agent.h"
 #include "e2e_test.h"
 #include "fovea.h"
 
+#include <fstream>
 #include <memory>
 #include <regex>
 #include <thread>
+
+#include <signal.h>
 
 namespace splitvk::e2e {
 namespace {
@@ -21,6 +28,8 @@ using namespace std::chrono_literals;
 
 constexpr uint32_t kWidth = 1200;
 constexpr uint32_t kHeight = 540;
+// The split app's --frames: more than any run reaches; the hold layer ends it.
+constexpr int kUnbounded = 1'000'000;
 
 class Reconnect : public XTest {
 protected:
@@ -58,7 +67,7 @@ protected:
         return e;
     }
 
-    // Native frame `frames - 1`, grabbed from the X server.
+    // Native frame `frames - 1`, grabbed from the X server (once the split app is gone).
     Image native_frame(int frames) {
         ProcessSpec spec;
         spec.argv = argv(frames);
@@ -77,17 +86,36 @@ protected:
     }
 
     // The app with the layer and validation, its output in split.{stdout,stderr}; null (after a
-    // failure) when it does not start.
-    std::unique_ptr<Process> start_split(int frames) {
+    // failure) when it does not start. It renders until hold_file() exists.
+    std::unique_ptr<Process> start_split() {
         ProcessSpec spec;
-        spec.argv = argv(frames);
+        spec.argv = argv(kUnbounded);
         spec.env = split_env();
+        use_hold_layer(spec.env, -1); // no fixed frame: TEST_HOLD_WHEN_FILE
+        spec.env["TEST_HOLD_WHEN_FILE"] = hold_file().string();
         spec.out_dir = out_;
         spec.name = "split";
         auto app = std::make_unique<Process>(spec);
         if (app->start()) return app;
         ADD_FAILURE() << app->error();
         return nullptr;
+    }
+
+    std::filesystem::path hold_file() const { return out_ / "hold"; }
+
+    // The frame the split app holds once hold_file() exists ("holding frame N" on its stdout);
+    // -1 when it ended or did not get there in time.
+    int hold_split(Process &app, std::chrono::seconds timeout) {
+        std::ofstream{hold_file()}; // the hold layer polls for it
+        const std::regex holding(R"((?:^|\n)holding frame (\d+)\n)");
+        const auto deadline = Clock::now() + timeout;
+        while (Clock::now() < deadline && app.running()) {
+            std::smatch m;
+            const std::string out = read_file(out_ / "split.stdout");
+            if (std::regex_search(out, m, holding)) return std::stoi(m[1]);
+            std::this_thread::sleep_for(50ms);
+        }
+        return -1;
     }
 
     // Waits until the split run's stderr holds `text`.
@@ -100,28 +128,36 @@ protected:
         return false;
     }
 
-    // The held last frame's foveae equal native, the app ended well, validation stayed silent.
-    void expect_recovered(Process &app, int frames, const Image &native, const std::string &agent_name) {
-        const bool held = app.wait_for_line("holding frame " + std::to_string(frames - 1), 240s);
+    // The new agent's tiles reach the screen: the frame held after its first composited frame has
+    // foveae equal to native's same frame, the app ends well, validation stayed silent.
+    void expect_recovered(Process &app, const std::string &agent_name) {
+        const bool resynced = wait_for_log("the first split frame from the agent that joined", 240s);
+        const int held_frame = resynced ? hold_split(app, 240s) : -1;
+        const bool held = held_frame >= 0;
         Image image;
         std::string error;
         const bool grabbed =
             held && grab_stable(display(), 0, 0, kWidth, kHeight, out_ / "split.raw", &image, &error);
+        // SIGTERM while held, then the hold released: atrium ends its loop after that present.
+        if (held) ::kill(app.pid(), SIGTERM);
+        std::filesystem::remove(hold_file());
         const ProcessResult r = app.terminate(10s);
-        ASSERT_TRUE(held) << "the app did not complete every frame: " << r.describe() << "\n"
-                          << tail(r.err(), 30);
-        ASSERT_TRUE(grabbed) << error;
-        ASSERT_TRUE(r.ok()) << r.describe() << "\n" << tail(r.err(), 30);
         const std::string &err = r.err();
+        ASSERT_TRUE(resynced) << "no frame was composited with the new agent's tiles: " << r.describe()
+                              << "\n"
+                              << tail(err, 30);
+        ASSERT_TRUE(held) << "the app did not hold a frame: " << r.describe() << "\n" << tail(err, 30);
+        ASSERT_TRUE(grabbed) << error;
+        ASSERT_TRUE(r.ok()) << r.describe() << "\n" << tail(err, 30);
         EXPECT_FALSE(grep(err, "brought in at frame").empty()) << tail(err, 30);
         const std::regex first(
             R"(the first split frame from the agent that joined, (\d+) ms after it answered)");
         std::smatch m;
-        ASSERT_TRUE(std::regex_search(err, m, first))
-            << "no frame was composited with the new agent's tiles\n"
-            << tail(err, 30);
-        std::cout << "  resync: first composited frame " << m[1] << " ms after the new agent answered\n";
+        ASSERT_TRUE(std::regex_search(err, m, first)) << tail(err, 30);
+        std::cout << "  resync: first composited frame " << m[1] << " ms after the new agent answered; frame "
+                  << held_frame << " compared\n";
         RecordProperty("resync_ms", m[1].str());
+        const Image native = native_frame(held_frame + 1);
         for (const Rect &f : default_foveae(kWidth, kHeight, 2)) {
             const auto cmp = compare_exact(native, image, f.x, f.y, f.w, f.h);
             EXPECT_TRUE(cmp.equal()) << "fovea at " << f.x << "," << f.y
@@ -137,18 +173,13 @@ protected:
     std::vector<std::string> extra_args_; // atrium options of one test
 };
 
-// Frame counts: the app must still be rendering when the new agent joins, several seconds after
-// the split started on a fast machine (an app that finished first would prove nothing); a slower
-// machine or the sanitizer build only adds margin.
 TEST_F(Reconnect, AgentStartedAfterTheAppJoins) {
-    constexpr int kFrames = 120;
-    const Image native = native_frame(kFrames);
-    auto app = start_split(kFrames);
+    auto app = start_split();
     ASSERT_TRUE(app);
     ASSERT_TRUE(wait_for_log("running unsplit until one answers", 120s)) << read_file(out_ / "split.stderr");
     Agent agent;
     ASSERT_TRUE(agent.start(env(), out_, {"--validate"}, port_)) << agent.error();
-    ASSERT_NO_FATAL_FAILURE(expect_recovered(*app, kFrames, native, "splitvk-agent"));
+    ASSERT_NO_FATAL_FAILURE(expect_recovered(*app, "splitvk-agent"));
 }
 
 // The same with buffer device addresses (atrium --buffer-address push): the agent that joins learns
@@ -168,11 +199,9 @@ TEST_F(Reconnect, AgentStartedAfterTheAppLearnsItsBufferAddresses) {
 }
 
 TEST_F(Reconnect, AgentKilledAndRestartedIsBroughtBackIn) {
-    constexpr int kFrames = 300;
-    const Image native = native_frame(kFrames);
     Agent first;
     ASSERT_TRUE(first.start(env(), out_, {"--validate"}, port_, "first-agent")) << first.error();
-    auto app = start_split(kFrames);
+    auto app = start_split();
     ASSERT_TRUE(app);
     ASSERT_TRUE(wait_for_log("split: passes into", 120s)) << read_file(out_ / "split.stderr");
     std::this_thread::sleep_for(1s); // some frames with tiles first
@@ -181,7 +210,7 @@ TEST_F(Reconnect, AgentKilledAndRestartedIsBroughtBackIn) {
     std::this_thread::sleep_for(1s); // some frames with no agent at all
     Agent second;
     ASSERT_TRUE(second.start(env(), out_, {"--validate"}, port_, "second-agent")) << second.error();
-    ASSERT_NO_FATAL_FAILURE(expect_recovered(*app, kFrames, native, "second-agent"));
+    ASSERT_NO_FATAL_FAILURE(expect_recovered(*app, "second-agent"));
 }
 
 } // namespace
