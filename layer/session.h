@@ -49,8 +49,8 @@
 // the retired kinds above (an image view under a live framebuffer), and command buffer streams
 // naming objects destroyed since they were recorded (the app cannot submit those either).
 
-#include "../protocol/session.h" // the metadata messages (same file name as this one)
 #include "agent_link.h"
+#include "metadata.h" // the metadata messages
 #include "physical_device.h"
 #include "stats.h"
 #include "tile_stream.h"

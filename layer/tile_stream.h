@@ -13,8 +13,8 @@
 // Every Tiles message is decoded, also one that arrives after its present gave up on it: the next
 // frame's P-frames reference it. Frames older than the one a present asked for are dropped.
 
-#include "../protocol/session.h" // Tiles, AgentTimings (layer/session.h has the same name)
 #include "host_buffer.h"
+#include "metadata.h" // Tiles, AgentTimings
 #include "tile_codec.h"
 
 #include <vulkan/vulkan.h>

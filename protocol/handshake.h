@@ -39,7 +39,7 @@ constexpr uint16_t protocol_minor(uint32_t version) {
 }
 inline constexpr uint32_t kProtocolVersion = make_protocol_version(kProtocolMajor, kProtocolMinor);
 
-// The layouts of the metadata messages (session.h), which the generated codec's fingerprint does not
+// The layouts of the metadata messages (metadata.h), which the generated codec's fingerprint does not
 // cover. Bumped whenever one changes, and folded into the fingerprint Hello carries
 // (session_fingerprint), so that peers laying them out differently refuse each other at the
 // handshake instead of misreading a message mid-session.

@@ -2,8 +2,8 @@
 
 #include "corpus_recorder.h"
 #include "log.h"
+#include "metadata.h"
 #include "replayer.h"
-#include "session.h"
 #include "vk_codec.h"
 
 #include <algorithm>

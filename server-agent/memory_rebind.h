@@ -18,7 +18,7 @@
 // when both layouts are the same, bytes are copied 1:1 at the same offsets.
 
 #include "linear_layout.h"
-#include "session.h"
+#include "metadata.h"
 #include "vulkan_context.h"
 
 #include <vulkan/vulkan.h>

@@ -5,7 +5,7 @@
 // registered under the client's image ids. Presented images are read back for verification
 // (SPLITVK_VERIFY=full) here; the fovea readback of issue 4 reuses read_back() with a rectangle.
 
-#include "session.h"
+#include "metadata.h"
 #include "split_geometry.h"
 #include "vk_codec.h"
 #include "vulkan_context.h"

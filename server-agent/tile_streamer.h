@@ -14,7 +14,7 @@
 // oldest (bounded), which is the back-pressure that keeps the agent from running ahead of its
 // encoder.
 
-#include "session.h"
+#include "metadata.h"
 #include "split_geometry.h"
 #include "tile_codec.h"
 #include "vulkan_context.h"

@@ -4,7 +4,7 @@
 
 #include "codec.h"
 #include "handshake.h"
-#include "session.h"
+#include "metadata.h"
 #include "transport.h"
 #include "vk_codec.h"
 #include "wire.h"

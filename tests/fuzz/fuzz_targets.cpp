@@ -3,7 +3,7 @@
 #include "device_envelope.h"
 #include "handshake.h"
 #include "known_agents.h"
-#include "session.h"
+#include "metadata.h"
 #include "settings.h"
 #include "tile_codec.h"
 #include "tls.h"

@@ -1,4 +1,4 @@
-#include "session.h"
+#include "metadata.h"
 
 #include <cmath>
 
