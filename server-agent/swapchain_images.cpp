@@ -146,6 +146,20 @@ bool SwapchainImages::runtime_image(uint64_t image_id, const std::vector<split::
     return false;
 }
 
+std::vector<SwapchainImages::RuntimeSwapchain> SwapchainImages::runtime_swapchains(VkExtent2D extent,
+                                                                                   bool *window) const {
+    std::vector<RuntimeSwapchain> out;
+    if (window) *window = false;
+    for (const auto &[id, swapchain] : swapchains_) {
+        if (swapchain.info.width != extent.width || swapchain.info.height != extent.height) continue;
+        if (swapchain.info.source == protocol::SwapchainImages::Source::Runtime)
+            out.push_back({swapchain.info.array_layers, &swapchain.eyes});
+        else if (window)
+            *window = true;
+    }
+    return out;
+}
+
 bool SwapchainImages::note_eye(uint64_t swapchain_id, const split::RuntimeEye &eye, std::string *error) {
     const auto it = swapchains_.find(swapchain_id);
     if (it == swapchains_.end() || it->second.info.source != protocol::SwapchainImages::Source::Runtime) {

@@ -39,6 +39,14 @@ public:
     // images' array layers.
     bool runtime_image(uint64_t image_id, const std::vector<split::RuntimeEye> **eyes = nullptr,
                        uint32_t *layers = nullptr) const;
+    // The OpenXR runtime swapchains whose images are `extent` (what a screen-space target classified
+    // against that extent may be rendered for), each with its array layers and the eyes the client
+    // sent; *window (when given) says whether a window's swapchain has that extent too.
+    struct RuntimeSwapchain {
+        uint32_t layers = 1;
+        const std::vector<split::RuntimeEye> *eyes = nullptr;
+    };
+    std::vector<RuntimeSwapchain> runtime_swapchains(VkExtent2D extent, bool *window = nullptr) const;
     // SwapchainView: an eye of an OpenXR swapchain (split::note_runtime_eye). False with `error` for a
     // swapchain that is not a runtime's, or an eye outside its images (layer or rectangle).
     bool note_eye(uint64_t swapchain_id, const split::RuntimeEye &eye, std::string *error);

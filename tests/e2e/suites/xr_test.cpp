@@ -493,6 +493,7 @@ TEST_F(XrAtrium, PerEyeFoveaeExactAgainstNativeFrameByFrame) {
     RecordProperty("fovea_texels", std::to_string(compared));
     RecordProperty("fovea_mismatches", std::to_string(mismatched));
     expect_split_stats("split", 2 * kFrames);
+
 }
 
 // XR_APILAYER_SPLITVK_test_skew_fov (xr_fov_layer/) above splitvk's API layer gives every projection
@@ -587,6 +588,77 @@ TEST_F(XrAtrium, AsymmetricFieldOfViewMovesTheFovea) {
     RecordProperty("fovea_mismatches", std::to_string(mismatched));
     RecordProperty("centred_mismatches", std::to_string(centred_mismatched));
     EXPECT_EQ(images, 2 * (kFrames - 1));
+    expect_split_stats("split", 2 * kFrames);
+}
+
+// SPLITVK_AGENT_SCISSOR=guard:N under OpenXR. --path hdr renders each eye's scene into an offscreen
+// target of the eye image's size and blooms it at 1/2, 1/4 and 1/8 of that, passes the agent cuts
+// to the guard. The skew layer's fields of view put the foveae 37 rows above the centre and 45
+// columns beside it, farther than kGuard plus the bloom's reach: a guard around the centred fovea (a
+// window's) leaves the top rows of the skewed fovea with pixels the agent never rendered, a guard
+// around the eyes' own foveae (both eyes': a pass does not say which eye it renders for) keeps every
+// fovea bit-exact against native (kGuard covers the bloom's reach at this size).
+TEST_F(XrAtrium, AgentScissorGuardCutsAroundTheEyesFoveae) {
+    constexpr int kGuard = 8;
+    const auto native = run_atrium(atrium_native_env("native"), "native", {"--path", "hdr"});
+    ASSERT_TRUE(native.ok()) << native.describe() << "\n" << tail(native.err(), 30);
+    Agent agent;
+    ASSERT_TRUE(agent.start(clean_env(), out_)) << agent.error();
+    ASSERT_TRUE(built(SPLITVK_E2E_XR_FOV_LAYER_DIR));
+    Env e = with_skewed_fov(atrium_split_env("split", agent));
+    e["SPLITVK_AGENT_SCISSOR"] = "guard:" + std::to_string(kGuard);
+    const auto split = run_atrium(e, "split", {"--path", "hdr"});
+    ASSERT_TRUE(split.ok()) << split.describe() << "\n" << tail(split.err(), 30);
+    EXPECT_TRUE(grep(split.err(), "[splitvk] error:").empty()) << tail(split.err(), 30);
+    const std::string agent_log = agent.log();
+    EXPECT_NE(agent_log.find("SPLITVK_AGENT_SCISSOR=guard:" + std::to_string(kGuard) +
+                             ": scissoring passes into screen-space targets"),
+              std::string::npos)
+        << "the agent did not guard the offscreen passes\n"
+        << tail(agent_log, 20);
+    EXPECT_EQ(agent_log.find("replayed whole"), std::string::npos) << tail(agent_log, 20);
+
+    const uint32_t w = 192, h = 160;
+    const Rect centred = default_foveae(w, h, 1)[0];
+    Rect at_view[2];
+    for (int eye = 0; eye < 2; ++eye) {
+        at_view[eye] = fovea_at_view(kSkewedFov[eye], w, h);
+        // Farther from the centred fovea than the guard reaches: a guard there misses rows of it.
+        ASSERT_GT(centred.y, at_view[eye].y + 2 * kGuard);
+    }
+    const auto n = readbacks(out_ / "native" / "images");
+    const auto s = readbacks(out_ / "split" / "images");
+    ASSERT_EQ(n.size(), static_cast<size_t>(2 * kFrames)) << "native eye images read back";
+    ASSERT_EQ(s.size(), n.size()) << "split eye images read back";
+    uint64_t compared = 0, mismatched = 0;
+    for (const auto &[key, native_path] : n) {
+        SCOPED_TRACE(native_path.filename().string());
+        const auto it = s.find(key);
+        ASSERT_NE(it, s.end()) << "no split readback of the same image and release";
+        EyeImage a, b;
+        ASSERT_TRUE(load_pam(native_path, &a) && load_pam(it->second, &b));
+        ASSERT_EQ(a.width, w);
+        ASSERT_EQ(a.height, h);
+        ASSERT_EQ(b.width, w);
+        ASSERT_EQ(b.height, h);
+        // As in AsymmetricFieldOfViewMovesTheFovea: image K's release N is frame 3N + K % 3 of eye
+        // K / 3, and frame 0 (before any xrEndFrame) has the centred fovea.
+        const int eye = key.first / 3;
+        const int frame = 3 * key.second + key.first % 3;
+        const Rect f = frame == 0 ? centred : at_view[eye];
+        const Mismatch m = compare_rect(a, b, f);
+        compared += m.pixels;
+        mismatched += m.mismatched;
+        EXPECT_EQ(m.mismatched, 0u) << "eye " << eye << " frame " << frame << ": fovea " << f.w << "x" << f.h
+                                    << " at " << f.x << "," << f.y << ": " << m.mismatched << " of "
+                                    << m.pixels << " texels differ\n"
+                                    << save_mismatch_artefacts(out_, native_path.stem().string(), to_image(a),
+                                                               to_image(b));
+    }
+    std::cout << "  guard:" << kGuard << ", skewed foveae: " << compared << " texels compared in " << n.size()
+              << " eye images, " << mismatched << " differ\n";
+    RecordProperty("fovea_texels", std::to_string(compared));
+    RecordProperty("fovea_mismatches", std::to_string(mismatched));
     expect_split_stats("split", 2 * kFrames);
 }
 
