@@ -353,6 +353,8 @@ struct SplitPresent {
     std::chrono::steady_clock::time_point sent{}; // FramePresent
     double frame_ms = 0;                          // Session::frame_interval_ms() at the app's present
     double present_call_ms = 0;                   // the app's present, when the thread has the frame
+    int64_t xr_frame = -1;                        // an OpenXR eye image's (FrameRecord::xr_frame)
+    int32_t xr_view = -1;
     // Asynchronous: take_waits() has consumed the application's semaphores into `taken`, whose
     // batch signals `done`.
     Compositor *compositor = nullptr;
@@ -372,6 +374,8 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
     FrameRecord record;
     record.frame = p.frame;
     record.frame_ms = p.frame_ms;
+    record.xr_frame = p.xr_frame;
+    record.xr_view = p.xr_view;
     const bool stats = !session.settings().stats_path.empty();
 
     Compositor *compositor = p.compositor;
@@ -795,7 +799,7 @@ void begin_runtime_frame(DeviceState &dev, const SwapchainState &swapchain, uint
 }
 
 void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &swapchain, uint32_t image_index,
-                       const std::vector<split::RuntimeEye> &eyes) {
+                       const std::vector<split::RuntimeEye> &eyes, uint64_t xr_frame, int32_t xr_view) {
     if (!dev.session || image_index >= swapchain.images.size()) return;
     const auto called = std::chrono::steady_clock::now();
     Session &session = *dev.session;
@@ -831,6 +835,8 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     p.frame = frame;
     p.sent = std::chrono::steady_clock::now();
     p.frame_ms = session.frame_interval_ms();
+    p.xr_frame = static_cast<int64_t>(xr_frame);
+    p.xr_view = xr_view;
     composite_split_frame(dev, p, {}, /*lock=*/false, called);
 }
 

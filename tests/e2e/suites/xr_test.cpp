@@ -494,6 +494,42 @@ TEST_F(XrAtrium, PerEyeFoveaeExactAgainstNativeFrameByFrame) {
     RecordProperty("fovea_mismatches", std::to_string(mismatched));
     expect_split_stats("split", 2 * kFrames);
 
+    // SPLITVK_STATS has a row per released eye image: xr_frame groups a frame's two rows, xr_view says
+    // which eye each is (-1 before the first xrEndFrame named the swapchains), and the summary counts
+    // OpenXR frames.
+    const auto lines = split_lines(read_file(out_ / "split" / "stats.csv"));
+    ASSERT_FALSE(lines.empty());
+    std::vector<std::string> names;
+    std::stringstream header(lines[0]);
+    for (std::string f; std::getline(header, f, ',');)
+        names.push_back(f);
+    const auto column = [&](const std::string &name) {
+        return static_cast<size_t>(std::find(names.begin(), names.end(), name) - names.begin());
+    };
+    const size_t xr_frame = column("xr_frame"), xr_view = column("xr_view");
+    ASSERT_LT(xr_frame, names.size()) << lines[0];
+    ASSERT_LT(xr_view, names.size()) << lines[0];
+    std::map<int, std::multiset<int>> views_by_frame;
+    for (size_t i = 1; i < lines.size(); ++i) {
+        std::vector<std::string> fields;
+        std::stringstream row(lines[i]);
+        for (std::string f; std::getline(row, f, ',');)
+            fields.push_back(f);
+        if (fields.size() != names.size()) continue;
+        views_by_frame[std::stoi(fields[xr_frame])].insert(std::stoi(fields[xr_view]));
+    }
+    ASSERT_EQ(views_by_frame.size(), static_cast<size_t>(kFrames));
+    // One after the other (atrium ends a frame it does not render before its first: that one has no
+    // rows); the first rendered frame's swapchains were not named by any xrEndFrame yet.
+    EXPECT_EQ(views_by_frame.rbegin()->first - views_by_frame.begin()->first, kFrames - 1);
+    for (const auto &[frame, views] : views_by_frame) {
+        const bool first = frame == views_by_frame.begin()->first;
+        const std::multiset<int> expected = first ? std::multiset<int>{-1, -1} : std::multiset<int>{0, 1};
+        EXPECT_EQ(views, expected) << "OpenXR frame " << frame << "'s rows";
+    }
+    const std::string summary = "split: " + std::to_string(2 * kFrames) + " eye images in " +
+                                std::to_string(kFrames) + " OpenXR frames, OpenXR frame time median";
+    EXPECT_FALSE(grep(split.err(), summary).empty()) << "no \"" << summary << "\"\n" << tail(split.err(), 10);
 }
 
 // XR_APILAYER_SPLITVK_test_skew_fov (xr_fov_layer/) above splitvk's API layer gives every projection
