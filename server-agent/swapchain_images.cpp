@@ -243,16 +243,18 @@ bool SwapchainImages::read_back(uint64_t swapchain_id, uint32_t image_index, Rec
         *unsupported = true;
         return true;
     }
+    // The whole image is every layer of it (verification); a rectangle is one of layer 0.
+    const uint32_t layers = rect.width == 0 ? swapchain.info.array_layers : 1;
     if (rect.width == 0) rect = {0, 0, swapchain.info.width, swapchain.info.height};
     if (rect.x + rect.width > swapchain.info.width || rect.y + rect.height > swapchain.info.height) {
         *error = "readback rectangle outside the image";
         return false;
     }
-    const VkDeviceSize bytes = VkDeviceSize{rect.width} * rect.height * 4;
+    const VkDeviceSize bytes = VkDeviceSize{rect.width} * rect.height * 4 * layers;
     if (!ensure_readback(bytes, error)) return false;
 
     VkBufferImageCopy region{};
-    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, layers};
     region.imageOffset = {static_cast<int32_t>(rect.x), static_cast<int32_t>(rect.y), 0};
     region.imageExtent = {rect.width, rect.height, 1};
     VulkanContext::record_present_readback(command_buffer_, swapchain.images[image_index],
@@ -275,6 +277,7 @@ bool SwapchainImages::read_back(uint64_t swapchain_id, uint32_t image_index, Rec
     out.width = rect.width;
     out.height = rect.height;
     out.format = swapchain.info.format;
+    out.layers = layers;
     out.pixels.resize(static_cast<size_t>(bytes));
     std::memcpy(out.pixels.data(), staging_.mapped, out.pixels.size());
     return true;

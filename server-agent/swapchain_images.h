@@ -54,8 +54,9 @@ public:
     // classified against, as the client does (protocol/target_rule.h).
     VkExtent2D newest_extent() const { return newest_; }
 
-    // A rectangle of a presented image (left in its presented layout by the app), read
-    // back tightly packed, 4 bytes per pixel. The caller has made the frame's submits complete.
+    // A rectangle of layer 0 of a presented image (left in its presented layout by the app), or the
+    // whole image with every array layer, one after the other (width 0), read back tightly packed,
+    // 4 bytes per pixel. The caller has made the frame's submits complete.
     // Returns false with `error` on failure; sets *unsupported (and reads nothing) for formats
     // other than 8-bit BGRA/RGBA.
     struct Rect {

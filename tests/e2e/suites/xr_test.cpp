@@ -787,6 +787,25 @@ TEST_F(XrAtrium, MultiviewLayersFoveaeExactAgainstNative) {
         "native", "skewed", true, [&](int eye) { return fovea_at_view(kSkewedFov[eye], 192, 160); }, true);
 }
 
+// SPLITVK_VERIFY=full on a layered eye image (--multiview; the split is off while verifying): the
+// layer reads back every layer of each released image, as does the agent, and compares them all.
+// The pixel count covers both layers of every frame, and none differs (lavapipe on both sides).
+TEST_F(XrAtrium, VerifyComparesEveryLayerOfALayeredImage) {
+    Agent agent;
+    ASSERT_TRUE(agent.start(clean_env(), out_)) << agent.error();
+    Env e = atrium_split_env("verify", agent);
+    e["SPLITVK_VERIFY"] = "full";
+    const auto run = run_atrium(e, "verify", {"--multiview"});
+    ASSERT_TRUE(run.ok()) << run.describe() << "\n" << tail(run.err(), 30);
+    EXPECT_TRUE(grep(run.err(), "[splitvk] error:").empty()) << tail(run.err(), 30);
+    const std::string frames =
+        "[splitvk] verify: " + std::to_string(kFrames) + " frames, 0 mismatching pixels";
+    const std::string pixels = "[splitvk] verify: " + std::to_string(uint64_t{kFrames} * 192 * 160 * 2) +
+                               " pixels compared (every array layer of each image)";
+    EXPECT_FALSE(grep(run.err(), frames).empty()) << "no \"" << frames << "\"\n" << tail(run.err(), 10);
+    EXPECT_FALSE(grep(run.err(), pixels).empty()) << "no \"" << pixels << "\"\n" << tail(run.err(), 10);
+}
+
 // One swapchain twice an eye's width, each eye a half (two imageRects), with the skew layer's
 // asymmetric fields of view: each eye's fovea sits at its view direction within its own half.
 TEST_F(XrAtrium, SideBySideFoveaeExactAgainstNative) {
