@@ -29,6 +29,9 @@
 //    rectangle), and every eye's periphery differs from native: both eyes were split. Multiview
 //    runs twice, with Monado's fields of view and with the skew layer's asymmetric ones (each layer
 //    its own); side by side with the skew layer, whose foveae sit off each half's centre.
+//  - SPLITVK_AGENT_SCISSOR=guard:N with --path hdr and the skew layer: the offscreen passes are cut
+//    around the eyes' own foveae, which stay bit-exact. SPLITVK_VERIFY=full with --multiview: every
+//    layer of every released image is compared. SPLITVK_STATS' rows group by xr_frame.
 #include "agent.h"
 #include "e2e_test.h"
 #include "fovea.h"
