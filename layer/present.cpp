@@ -122,7 +122,7 @@ bool create(DeviceState &dev, const SwapchainState &sc, uint32_t family, Readbac
         return false;
 
     std::string error;
-    if (!create_host_buffer(dev, VkDeviceSize{sc.extent.width} * sc.extent.height * 4,
+    if (!create_host_buffer(dev, VkDeviceSize{sc.extent.width} * sc.extent.height * 4 * sc.array_layers,
                             VK_BUFFER_USAGE_TRANSFER_DST_BIT, HostAccess::Read, &r.staging, &error))
         return false;
     VkFenceCreateInfo fence_info{};
@@ -142,25 +142,28 @@ void record_copy(DeviceState &dev, const SwapchainState &sc, VkImage image, Read
     k.BeginCommandBuffer(r.command_buffer, &begin);
     VkImageMemoryBarrier barrier{};
     barrier.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
-    barrier.srcAccessMask = 0;
+    // A runtime's image comes with no semaphore, only after the application's rendering on the same
+    // queue: the barrier itself must make those writes visible to the copy.
+    barrier.srcAccessMask = sc.runtime ? VK_ACCESS_MEMORY_WRITE_BIT : 0;
     barrier.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
-    barrier.oldLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+    barrier.oldLayout = sc.present_layout;
     barrier.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
     barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
     barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
     barrier.image = image;
-    barrier.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    // Every layer, one after the other in the buffer, as the agent reads them (VerifyFrame::layers).
+    barrier.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, sc.array_layers};
     k.CmdPipelineBarrier(r.command_buffer, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
                          0, 0, nullptr, 0, nullptr, 1, &barrier);
     VkBufferImageCopy region{};
-    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, sc.array_layers};
     region.imageExtent = {sc.extent.width, sc.extent.height, 1};
     k.CmdCopyImageToBuffer(r.command_buffer, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, r.staging.buffer, 1,
                            &region);
     barrier.srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
     barrier.dstAccessMask = 0;
     barrier.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-    barrier.newLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+    barrier.newLayout = sc.present_layout;
     k.CmdPipelineBarrier(r.command_buffer, VK_PIPELINE_STAGE_TRANSFER_BIT,
                          VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, 0, 0, nullptr, 0, nullptr, 1, &barrier);
     k.EndCommandBuffer(r.command_buffer);
@@ -197,7 +200,8 @@ std::optional<protocol::VerifyFrame> wait_verify_frame(Session &session, uint64_
 void compare(DeviceState &dev, const PendingVerify &p) {
     Session &session = *dev.session;
     Readback &r = *p.readback;
-    const uint64_t pixels = uint64_t{p.swapchain->extent.width} * p.swapchain->extent.height;
+    const uint32_t layers = p.swapchain->array_layers;
+    const uint64_t pixels = uint64_t{p.swapchain->extent.width} * p.swapchain->extent.height * layers;
     const bool copied =
         dev.dispatch.WaitForFences(dev.handle, 1, &r.fence, VK_TRUE, kFenceWaitNs) == VK_SUCCESS;
     r.in_flight = !copied;
@@ -209,10 +213,11 @@ void compare(DeviceState &dev, const PendingVerify &p) {
     } else if (!theirs) {
         SPLITVK_INFO("verify: frame %llu: no frame from the agent", (unsigned long long)p.frame);
     } else if (theirs->width != p.swapchain->extent.width || theirs->height != p.swapchain->extent.height ||
-               theirs->pixels.size() != pixels * 4) {
-        SPLITVK_INFO("verify: frame %llu: the agent's frame is %ux%u, the client's %ux%u",
-                     (unsigned long long)p.frame, theirs->width, theirs->height, p.swapchain->extent.width,
-                     p.swapchain->extent.height);
+               theirs->layers != layers || theirs->pixels.size() != pixels * 4) {
+        SPLITVK_INFO(
+            "verify: frame %llu: the agent's frame is %ux%u in %u layer(s), the client's %ux%u in %u",
+            (unsigned long long)p.frame, theirs->width, theirs->height, theirs->layers,
+            p.swapchain->extent.width, p.swapchain->extent.height, layers);
     } else {
         mismatches = 0;
         const uint8_t *mine = r.staging.mapped;
@@ -238,6 +243,38 @@ void compare(DeviceState &dev, const PendingVerify &p) {
     }
     session.verified_frames.fetch_add(1);
     session.mismatching_pixels.fetch_add(mismatches);
+    session.compared_pixels.fetch_add(pixels);
+}
+
+// SPLITVK_VERIFY=full of an OpenXR eye image: the layer's copy of every layer of it, submitted on
+// `queue` after the application's rendering and before the runtime's release barrier (the queue
+// orders them: a runtime's image has no semaphores). None where it cannot be read back.
+std::optional<PendingVerify> read_back_runtime_image(DeviceState &dev, VkQueue queue,
+                                                     const SwapchainState &sc, uint32_t index,
+                                                     uint64_t frame) {
+    const uint32_t family = queue_family_of(queue);
+    if (!sc.transfer_src || !codec::is_verifiable_format(sc.format) || index >= sc.images.size() ||
+        family == UINT32_MAX)
+        return std::nullopt;
+    std::lock_guard lock(g_mutex);
+    Readback &r = g_readbacks[{sc.handle, index}];
+    bool ready = r.pool != VK_NULL_HANDLE;
+    if (!ready) {
+        ready = create(dev, sc, family, r);
+        if (!ready) destroy(dev, r);
+    }
+    if (ready && r.in_flight)
+        ready = dev.dispatch.WaitForFences(dev.handle, 1, &r.fence, VK_TRUE, kFenceWaitNs) == VK_SUCCESS;
+    if (!ready) return std::nullopt;
+    dev.dispatch.ResetFences(dev.handle, 1, &r.fence);
+    record_copy(dev, sc, sc.images[index], r);
+    VkSubmitInfo submit{};
+    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    submit.commandBufferCount = 1;
+    submit.pCommandBuffers = &r.command_buffer;
+    if (dev.dispatch.QueueSubmit(queue, 1, &submit, r.fence) != VK_SUCCESS) return std::nullopt;
+    r.in_flight = true;
+    return PendingVerify{frame, &sc, index, &r};
 }
 
 // The first split frame an agent replays after it (re)joined costs it many times a later one, and
@@ -353,6 +390,8 @@ struct SplitPresent {
     std::chrono::steady_clock::time_point sent{}; // FramePresent
     double frame_ms = 0;                          // Session::frame_interval_ms() at the app's present
     double present_call_ms = 0;                   // the app's present, when the thread has the frame
+    int64_t xr_frame = -1;                        // an OpenXR eye image's (FrameRecord::xr_frame)
+    int32_t xr_view = -1;
     // Asynchronous: take_waits() has consumed the application's semaphores into `taken`, whose
     // batch signals `done`.
     Compositor *compositor = nullptr;
@@ -372,6 +411,8 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
     FrameRecord record;
     record.frame = p.frame;
     record.frame_ms = p.frame_ms;
+    record.xr_frame = p.xr_frame;
+    record.xr_view = p.xr_view;
     const bool stats = !session.settings().stats_path.empty();
 
     Compositor *compositor = p.compositor;
@@ -795,7 +836,7 @@ void begin_runtime_frame(DeviceState &dev, const SwapchainState &swapchain, uint
 }
 
 void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &swapchain, uint32_t image_index,
-                       const std::vector<split::RuntimeEye> &eyes) {
+                       const std::vector<split::RuntimeEye> &eyes, uint64_t xr_frame, int32_t xr_view) {
     if (!dev.session || image_index >= swapchain.images.size()) return;
     const auto called = std::chrono::steady_clock::now();
     Session &session = *dev.session;
@@ -804,7 +845,7 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     // the runtime's release barrier follows at once on the same queue, and it must find the image
     // composited.
     drain_presents(dev);
-    const auto queue_lock = lock_queue(queue);
+    auto queue_lock = lock_queue(queue);
     if (session.resync_pending()) session.resync(dev, queue, frame);
     if (frame == 1) log_live_state(dev, "at frame 1"); // SPLITVK_LOG_LEVEL=debug
     SplitFrame split;
@@ -821,7 +862,15 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     message.frame = frame;
     message.queue_id = codec::handle_value(queue);
     message.images.push_back({codec::handle_value(swapchain.handle), image_index});
+    // Verification (the split is off then): every layer of the image, as the runtime gets it.
+    std::optional<PendingVerify> pending;
+    if (session.verify()) pending = read_back_runtime_image(dev, queue, swapchain, image_index, frame);
+    if (pending) message.flags |= protocol::kPresentVerify;
     session.send_metadata(protocol::MessageType::FramePresent, protocol::encode(message));
+    if (pending) {
+        queue_lock = {};
+        compare(dev, *pending);
+    }
     if (!split.split) return;
     SplitPresent p;
     p.queue = queue;
@@ -831,6 +880,8 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     p.frame = frame;
     p.sent = std::chrono::steady_clock::now();
     p.frame_ms = session.frame_interval_ms();
+    p.xr_frame = static_cast<int64_t>(xr_frame);
+    p.xr_view = xr_view;
     composite_split_frame(dev, p, {}, /*lock=*/false, called);
 }
 
@@ -946,6 +997,9 @@ void report_verify_summary(DeviceState &device) {
     splitvk::log_result("verify: %llu frames, %llu mismatching pixels",
                         static_cast<unsigned long long>(s.verified_frames.load()),
                         static_cast<unsigned long long>(mismatching));
+    // A line of its own: the one above is what scripts and tests match whole.
+    splitvk::log_result("verify: %llu pixels compared (every array layer of each image)",
+                        static_cast<unsigned long long>(s.compared_pixels.load()));
     if (mismatching)
         splitvk::log_result(
             "verify: largest channel difference %u of 255, mean %.3f over the differing pixels' channels",

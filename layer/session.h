@@ -207,6 +207,7 @@ public:
     // SPLITVK_VERIFY=full: frames compared and pixels that differed (present.cpp).
     std::atomic<uint64_t> verified_frames{0};
     std::atomic<uint64_t> mismatching_pixels{0};
+    std::atomic<uint64_t> compared_pixels{0};    // every layer of each verified image, mismatching included
     std::atomic<uint32_t> largest_difference{0}; // of one colour channel, over every verified frame
     std::atomic<uint64_t> difference_sum{0};     // of every differing pixel's colour channels
 

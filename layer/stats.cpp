@@ -30,7 +30,7 @@ const char *FrameStats::csv_header() {
     return "frame,frame_ms,periphery_ms,tile_wait_ms,exposed_wait_ms,network_ms,decode_ms,merge_ms,"
            "merge_gpu_ms,tile_bytes,raw_bytes,agent_draw_ms,agent_readback_ms,agent_encode_ms,present_call_"
            "ms,"
-           "late";
+           "late,xr_frame,xr_view";
 }
 
 FrameStats::FrameStats(const std::string &path) {
@@ -74,14 +74,23 @@ void FrameStats::record(const FrameRecord &r) {
     if (r.late) ++late_;
     tile_bytes_ += r.tile_bytes;
     if (r.frame_ms > 0) frame_ms_.push_back(r.frame_ms);
+    if (r.xr_frame >= 0 && r.xr_frame != last_xr_frame_) {
+        if (xr_frames_ > 0)
+            xr_frame_ms_.push_back(std::chrono::duration<double, std::milli>(now - xr_frame_start_).count());
+        ++xr_frames_;
+        last_xr_frame_ = r.xr_frame;
+        xr_frame_start_ = now;
+    }
     if (fd_ < 0) return;
     char row[512];
     const int length = std::snprintf(
-        row, sizeof(row), "%llu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%llu,%llu,%.3f,%.3f,%.3f,%.3f,%d\n",
+        row, sizeof(row),
+        "%llu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%llu,%llu,%.3f,%.3f,%.3f,%.3f,%d,%lld,%d\n",
         static_cast<unsigned long long>(r.frame), r.frame_ms, r.periphery_ms, r.tile_wait_ms,
         r.exposed_wait_ms, r.network_ms, r.decode_ms, r.merge_ms, r.merge_gpu_ms,
         static_cast<unsigned long long>(r.tile_bytes), static_cast<unsigned long long>(r.raw_bytes),
-        r.agent_draw_ms, r.agent_readback_ms, r.agent_encode_ms, r.present_call_ms, r.late ? 1 : 0);
+        r.agent_draw_ms, r.agent_readback_ms, r.agent_encode_ms, r.present_call_ms, r.late ? 1 : 0,
+        static_cast<long long>(r.xr_frame), r.xr_view);
     if (length > 0 && static_cast<size_t>(length) < sizeof(row))
         append(std::string(row, static_cast<size_t>(length)));
 }
@@ -89,11 +98,24 @@ void FrameStats::record(const FrameRecord &r) {
 std::string FrameStats::summary() {
     std::lock_guard lock(mutex_);
     if (frames_ == 0) return {};
-    auto sorted = frame_ms_;
-    std::sort(sorted.begin(), sorted.end());
     const double seconds = std::chrono::duration<double>(last_ - first_).count();
     const double mbits = seconds > 0 ? static_cast<double>(tile_bytes_) * 8 / seconds / 1e6 : 0;
     char line[256];
+    if (xr_frames_ > 0) {
+        // A release per eye image: the rows of one OpenXR frame are one frame to the viewer.
+        auto sorted = xr_frame_ms_;
+        std::sort(sorted.begin(), sorted.end());
+        std::snprintf(
+            line, sizeof(line),
+            "split: %llu eye images in %llu OpenXR frames, OpenXR frame time median %.1f ms (IQR %.1f "
+            "ms), %.1f Mbit/s of tiles, %llu late",
+            static_cast<unsigned long long>(frames_), static_cast<unsigned long long>(xr_frames_),
+            quantile(sorted, 0.5), quantile(sorted, 0.75) - quantile(sorted, 0.25), mbits,
+            static_cast<unsigned long long>(late_));
+        return line;
+    }
+    auto sorted = frame_ms_;
+    std::sort(sorted.begin(), sorted.end());
     std::snprintf(
         line, sizeof(line),
         "split: %llu frames, frame time median %.1f ms (IQR %.1f ms), %.1f Mbit/s of tiles, %llu late",

@@ -35,6 +35,12 @@ struct FrameRecord {
     // (SPLITVK_PRESENT_DEPTH > 0) only the wait for room in it, not this frame's tiles.
     double present_call_ms = 0;
     bool late = false; // composited from the periphery alone
+    // An OpenXR eye image (one row per xrReleaseSwapchainImage, so a swapchain per eye gives two
+    // rows per frame): the OpenXR frame it belongs to, counted by xrEndFrame from 0, and the index
+    // of the first projection view the image holds (0 the left eye, as applications order them).
+    // -1 for a window's present, and xr_view -1 too before an xrEndFrame named the image's swapchain.
+    int64_t xr_frame = -1;
+    int32_t xr_view = -1;
 };
 
 class FrameStats {
@@ -48,7 +54,9 @@ public:
     void record(const FrameRecord &record);
 
     // "split: 300 frames, frame time median 41.2 ms (IQR 3.1 ms), 87.5 Mbit/s of tiles, 0 late";
-    // empty when no frame was recorded.
+    // empty when no frame was recorded. With OpenXR eye images, the frames are counted as OpenXR
+    // frames and the frame time is theirs: "split: 16 eye images in 8 OpenXR frames, OpenXR frame
+    // time median ...".
     std::string summary();
 
     // The CSV header: column names with their units.
@@ -61,6 +69,11 @@ private:
 
     int fd_ = -1;
     std::vector<double> frame_ms_;
+    // OpenXR: frames seen (a new xr_frame), and the time from one's first row to the next one's.
+    uint64_t xr_frames_ = 0;
+    int64_t last_xr_frame_ = -1;
+    std::chrono::steady_clock::time_point xr_frame_start_{};
+    std::vector<double> xr_frame_ms_;
     uint64_t frames_ = 0;
     uint64_t late_ = 0;
     uint64_t tile_bytes_ = 0;

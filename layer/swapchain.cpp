@@ -135,6 +135,7 @@ void unregister_runtime_swapchain(DeviceState &dev, VkSwapchainKHR key) {
     if (!dev.session) return;
     drain_presents(dev);
     release_compositor(dev, key);
+    release_present_resources(dev, key); // verification's readbacks
     if (g_swapchains.remove(key)) send_swapchain_destroyed(dev, key);
 }
 

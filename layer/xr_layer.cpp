@@ -69,6 +69,7 @@ struct SessionState {
     // The Vulkan layer's state of the session's device; null where splitvk is not on it.
     DeviceState *device = nullptr;
     VkQueue queue = VK_NULL_HANDLE;
+    uint64_t ended_frames = 0; // xrEndFrame calls: the OpenXR frame a release belongs to (stats.h)
 };
 
 struct SwapchainState {
@@ -82,6 +83,9 @@ struct SwapchainState {
     // The eyes the projection views placed in its images so far (split::note_runtime_eye), each sent
     // to the agent (protocol::SwapchainView) as it changed: what both sides place the foveae with.
     std::vector<split::RuntimeEye> eyes;
+    // The first projection view that named this swapchain at the latest xrEndFrame that named it; -1
+    // before one (stats.h: xr_view).
+    int32_t first_view = -1;
 };
 
 // The layer's tables. Calls down are made without the lock: a runtime may call back into the
@@ -321,6 +325,8 @@ XRAPI_ATTR XrResult XRAPI_CALL ReleaseSwapchainImage(XrSwapchain swapchain,
         bool acquired = false;
         uint32_t index = 0;
         std::vector<split::RuntimeEye> eyes;
+        uint64_t xr_frame = 0;
+        int32_t xr_view = -1;
         {
             std::lock_guard lock(g_mutex);
             if (!state->acquired.empty()) {
@@ -329,10 +335,14 @@ XRAPI_ATTR XrResult XRAPI_CALL ReleaseSwapchainImage(XrSwapchain swapchain,
                 acquired = true;
             }
             eyes = state->eyes;
+            xr_frame = session->ended_frames;
+            xr_view = state->first_view;
         }
         // The application's rendering of this image has been submitted; the runtime's release
         // barrier has not: the composite goes between them on the queue.
-        if (acquired) end_runtime_frame(*session->device, session->queue, *state->split, index, eyes);
+        if (acquired)
+            end_runtime_frame(*session->device, session->queue, *state->split, index, eyes, xr_frame,
+                              xr_view);
     }
     return state->instance->release_swapchain_image(swapchain, info);
 }
@@ -398,6 +408,20 @@ XRAPI_ATTR XrResult XRAPI_CALL EndFrame(XrSession session, const XrFrameEndInfo 
         const auto it = g_sessions.find(session);
         if (it == g_sessions.end()) return XR_ERROR_HANDLE_INVALID;
         instance = it->second->instance;
+        // The releases from here on belong to the next frame.
+        ++it->second->ended_frames;
+        // Which eye each swapchain's images hold, for the stats: the first view naming it.
+        std::unordered_map<XrSwapchain, int32_t> first_view;
+        for (uint32_t i = 0; info && i < info->layerCount; ++i) {
+            const XrCompositionLayerBaseHeader *layer = info->layers[i];
+            if (!layer || layer->type != XR_TYPE_COMPOSITION_LAYER_PROJECTION) continue;
+            const auto *projection = reinterpret_cast<const XrCompositionLayerProjection *>(layer);
+            for (uint32_t v = 0; v < projection->viewCount; ++v)
+                first_view.emplace(projection->views[v].subImage.swapchain, static_cast<int32_t>(v));
+        }
+        for (const auto &[swapchain, view] : first_view)
+            if (const auto s = g_swapchains.find(swapchain); s != g_swapchains.end())
+                s->second->first_view = view;
     }
     // The views this frame was rendered with place the next frames' foveae (this frame's eye images
     // were released, and composited, before xrEndFrame).

@@ -44,7 +44,8 @@ inline constexpr uint32_t kProtocolVersion = make_protocol_version(kProtocolMajo
 // (session_fingerprint), so that peers laying them out differently refuse each other at the
 // handshake instead of misreading a message mid-session.
 //   2: SwapchainView carries the eye's array layer and sub-image rectangle, EncodedTile its layer.
-inline constexpr uint64_t kMetadataLayout = 2;
+//   3: VerifyFrame carries every array layer of the image, with their count.
+inline constexpr uint64_t kMetadataLayout = 3;
 
 // What Hello's codec_fingerprint carries and the server compares: the generated codec's
 // kCodecFingerprint with kMetadataLayout mixed in (FNV-1a over its 8 bytes).

@@ -206,6 +206,7 @@ std::vector<uint8_t> encode(const VerifyFrame &m) {
     w.u32(m.width);
     w.u32(m.height);
     w.u32(m.format);
+    w.u32(m.layers);
     w.blob(m.pixels);
     return w.take();
 }
@@ -219,11 +220,14 @@ Result<VerifyFrame> decode_verify_frame(std::span<const uint8_t> payload, uint32
     m.width = r.u32("width");
     m.height = r.u32("height");
     m.format = r.u32("format");
+    m.layers = r.u32("layers");
     const auto pixels = r.blob(max_bytes, "pixels");
-    if (r.ok() && (m.width > kMaxVerifyExtent || m.height > kMaxVerifyExtent ||
-                   pixels.size() != uint64_t{m.width} * m.height * 4))
-        r.fail("pixel data does not match " + std::to_string(m.width) + "x" + std::to_string(m.height) +
-               " at 4 bytes per pixel");
+    if (r.ok() && (m.layers == 0 || m.layers >= kMaxImageArrayLayers))
+        r.fail("layer count " + std::to_string(m.layers) + " out of range");
+    else if (r.ok() && (m.width > kMaxVerifyExtent || m.height > kMaxVerifyExtent ||
+                        pixels.size() != uint64_t{m.width} * m.height * m.layers * 4))
+        r.fail("pixel data does not match " + std::to_string(m.layers) + " layer(s) of " +
+               std::to_string(m.width) + "x" + std::to_string(m.height) + " at 4 bytes per pixel");
     m.pixels.assign(pixels.begin(), pixels.end());
     return finish(r, std::move(m), "VerifyFrame");
 }

@@ -129,7 +129,10 @@ struct VerifyFrame {
     uint32_t width = 0;
     uint32_t height = 0;
     uint32_t format = 0;
+    // Every array layer of the image (a layered OpenXR eye image holds an eye per layer), one after
+    // the other, each width x height, 4 bytes per pixel.
     std::vector<uint8_t> pixels;
+    uint32_t layers = 1;
 };
 
 // The settings both sides need to draw the same fovea rects from the same commands.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 
 namespace splitvk::split {
 namespace {
@@ -208,6 +209,36 @@ std::vector<LayerFovea> runtime_eye_foveae(VkExtent2D image, uint32_t layers,
         for (const VkRect2D &rect : by_layer[layer])
             out.push_back({layer, rect});
     return out;
+}
+
+bool runtime_guard_foveae(VkExtent2D image, uint32_t layers, const std::vector<RuntimeEye> &eyes,
+                          bool eye_sized, const FoveaSize &fovea, std::vector<VkRect2D> *out) {
+    out->clear();
+    const std::vector<LayerFovea> foveae = runtime_eye_foveae(image, layers, eyes, fovea);
+    if (!eye_sized) {
+        for (const LayerFovea &f : foveae)
+            add_fovea(*out, f.rect);
+        return true;
+    }
+    const VkRect2D halves[2] = {left_eye(image), right_eye(image)};
+    const auto is_half = [&](const VkRect2D &r) {
+        return std::any_of(std::begin(halves), std::end(halves), [&](const VkRect2D &h) {
+            return r.offset.x == h.offset.x && r.offset.y == h.offset.y && r.extent.width == h.extent.width &&
+                   r.extent.height == h.extent.height;
+        });
+    };
+    if (!std::all_of(eyes.begin(), eyes.end(), [&](const RuntimeEye &e) { return is_half(e.rect); }))
+        return false;
+    // Each eye's fovea lies in its half (fovea_at_view_direction keeps it inside); before the views,
+    // the centred fovea of each layer straddles both halves, and the part in each is that eye's.
+    for (const LayerFovea &f : foveae)
+        for (const VkRect2D &half : halves) {
+            VkRect2D in_half = intersect(f.rect, half);
+            if (in_half.extent.width == 0 || in_half.extent.height == 0) continue;
+            in_half.offset.x -= half.offset.x;
+            add_fovea(*out, in_half);
+        }
+    return true;
 }
 
 std::vector<LayerFovea> in_layer_zero(const std::vector<VkRect2D> &foveae) {

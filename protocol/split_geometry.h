@@ -125,6 +125,17 @@ bool note_runtime_eye(std::vector<RuntimeEye> &eyes, const RuntimeEye &eye);
 std::vector<LayerFovea> runtime_eye_foveae(VkExtent2D image, uint32_t layers,
                                            const std::vector<RuntimeEye> &eyes, const FoveaSize &fovea);
 
+// SPLITVK_AGENT_SCISSOR=guard:N under OpenXR: every place an eye's fovea can be in a screen-space
+// target classified against an OpenXR runtime's swapchain of `image` extent, `layers` layers and
+// `eyes` (as runtime_eye_foveae takes them), in the coordinates the target holds before its divisor:
+// the image's (a target of the image's size, any layer), or with `eye_sized` (a target half the
+// image's width) one eye's rectangle, with each fovea of that eye relative to it. An offscreen pass
+// does not say which eye image or layer it renders for, so every eye's fovea counts. False, with
+// nothing in *out, only where an eye-sized target cannot be mapped: an eye's rectangle is not a half of
+// the image (before the views, the halves are taken as the eyes, the centred fovea cut by them).
+bool runtime_guard_foveae(VkExtent2D image, uint32_t layers, const std::vector<RuntimeEye> &eyes,
+                          bool eye_sized, const FoveaSize &fovea, std::vector<VkRect2D> *out);
+
 // The foveae of a window's swapchain image, all in layer 0.
 std::vector<LayerFovea> in_layer_zero(const std::vector<VkRect2D> &foveae);
 

@@ -222,7 +222,7 @@ bool FoveaShading::target(VkImageView view, uint64_t *image_id, VkExtent2D *exte
 }
 
 bool FoveaShading::guard_rect(const std::vector<VkImageView> &views, VkExtent2D *extent, VkRect2D *rect,
-                              VkExtent2D *unmapped) const {
+                              GuardRefusal *refused) const {
     bool any = false;
     int64_t x0 = 0, y0 = 0, x1 = 0, y1 = 0;
     for (VkImageView view : views) {
@@ -236,36 +236,54 @@ bool FoveaShading::guard_rect(const std::vector<VkImageView> &views, VkExtent2D 
         const VkExtent2D newest = swapchains_.newest_extent();
         if (newest.width != target.screen.width || newest.height != target.screen.height) return false;
         const VkExtent2D e = split::mip_extent(target.extent, v->second.mip);
-        if (!split::guard_maps_target(target.kind, eyes_)) {
-            *unmapped = e;
-            return false;
-        }
         const uint32_t shift = std::min(v->second.mip, 31u);
         const int64_t divisor = int64_t{target.kind.divisor} << shift;
         const VkExtent2D s = target.screen;
-        // Every place a fovea can be (split::frame_foveae's) in the screen; an eye-sized
-        // target (a layer of an eye texture) holds either eye, so what of them lies in each eye,
-        // in that eye's coordinates (a centred fovea straddles both eyes).
-        const uint32_t left = s.width / 2;
-        std::vector<VkRect2D> screen;
-        if (eyes_ != EyeMode::Two) screen.push_back(split::fovea_of_eye({{0, 0}, s}, fovea_));
-        if (eyes_ != EyeMode::One) {
-            screen.push_back(split::fovea_of_eye({{0, 0}, {left, s.height}}, fovea_));
-            screen.push_back(
-                split::fovea_of_eye({{static_cast<int32_t>(left), 0}, {s.width - left, s.height}}, fovea_));
-        }
+        bool window = false;
+        const auto runtime = swapchains_.runtime_swapchains(s, &window);
         std::vector<VkRect2D> foveae;
-        for (const VkRect2D &f : screen) {
-            if (!target.kind.eye) {
-                foveae.push_back(f);
-                continue;
+        if (window || runtime.empty()) {
+            if (!split::guard_maps_target(target.kind, eyes_)) {
+                refused->extent = e;
+                return false;
             }
-            const VkRect2D in_left = split::intersect(f, {{0, 0}, {left, s.height}});
-            VkRect2D in_right =
-                split::intersect(f, {{static_cast<int32_t>(left), 0}, {s.width - left, s.height}});
-            in_right.offset.x -= static_cast<int32_t>(left);
-            for (const VkRect2D &r : {in_left, in_right})
-                if (r.extent.width && r.extent.height) foveae.push_back(r);
+            // Every place a fovea can be (split::frame_foveae's) in the screen; an eye-sized
+            // target (a layer of an eye texture) holds either eye, so what of them lies in each eye,
+            // in that eye's coordinates (a centred fovea straddles both eyes).
+            const uint32_t left = s.width / 2;
+            std::vector<VkRect2D> screen;
+            if (eyes_ != EyeMode::Two) screen.push_back(split::fovea_of_eye({{0, 0}, s}, fovea_));
+            if (eyes_ != EyeMode::One) {
+                screen.push_back(split::fovea_of_eye({{0, 0}, {left, s.height}}, fovea_));
+                screen.push_back(split::fovea_of_eye(
+                    {{static_cast<int32_t>(left), 0}, {s.width - left, s.height}}, fovea_));
+            }
+            for (const VkRect2D &f : screen) {
+                if (!target.kind.eye) {
+                    foveae.push_back(f);
+                    continue;
+                }
+                const VkRect2D in_left = split::intersect(f, {{0, 0}, {left, s.height}});
+                VkRect2D in_right =
+                    split::intersect(f, {{static_cast<int32_t>(left), 0}, {s.width - left, s.height}});
+                in_right.offset.x -= static_cast<int32_t>(left);
+                for (const VkRect2D &r : {in_left, in_right})
+                    if (r.extent.width && r.extent.height) foveae.push_back(r);
+            }
+        }
+        // OpenXR eye images of this extent: their eyes' foveae, where the split puts them (each at its
+        // view direction, SPLITVK_EYES aside), not a window's. The eyes are those of the views
+        // received so far, as at the composite of the frame this pass belongs to (a view is sent at
+        // xrEndFrame, before the next frame's passes; a command buffer recorded once and submitted
+        // again keeps the guard of its recording, as its split passes keep their scissors).
+        for (const SwapchainImages::RuntimeSwapchain &swapchain : runtime) {
+            std::vector<VkRect2D> eye_foveae;
+            if (!split::runtime_guard_foveae(s, swapchain.layers, *swapchain.eyes, target.kind.eye, fovea_,
+                                             &eye_foveae)) {
+                *refused = {e, true};
+                return false;
+            }
+            foveae.insert(foveae.end(), eye_foveae.begin(), eye_foveae.end());
         }
         if (foveae.empty()) return false;
         int64_t fx0 = INT64_MAX, fy0 = INT64_MAX, fx1 = 0, fy1 = 0;
@@ -299,14 +317,21 @@ void FoveaShading::enter_guarded(VkCommandBuffer cb, split::CommandTracker &t,
                                  const std::vector<VkImageView> &views, bool emit) {
     VkExtent2D extent{};
     VkRect2D rect{};
-    VkExtent2D unmapped{};
+    GuardRefusal refused;
     if (!scissor_.guard) return;
-    if (!guard_rect(views, &extent, &rect, &unmapped)) {
-        if (unmapped.width && !unmapped_logged_)
+    if (!guard_rect(views, &extent, &rect, &refused)) {
+        const VkExtent2D &e = refused.extent;
+        if (e.width && refused.runtime && !runtime_unmapped_logged_)
+            SPLITVK_INFO(
+                "SPLITVK_AGENT_SCISSOR=guard:%u: a target of %ux%u, half an OpenXR eye image's width, "
+                "cannot be mapped to its eyes (their sub-images are not the image's halves); "
+                "replayed whole",
+                scissor_.pixels, e.width, e.height);
+        else if (e.width && !refused.runtime && !unmapped_logged_)
             SPLITVK_INFO("SPLITVK_AGENT_SCISSOR=guard:%u: a layered target of %ux%u cannot be mapped to the "
                          "foveae with SPLITVK_EYES=1; replayed whole",
-                         scissor_.pixels, unmapped.width, unmapped.height);
-        unmapped_logged_ |= unmapped.width != 0;
+                         scissor_.pixels, e.width, e.height);
+        (refused.runtime ? runtime_unmapped_logged_ : unmapped_logged_) |= e.width != 0;
         return;
     }
     if (!guard_logged_)

@@ -25,8 +25,11 @@
 // stale contents; the foveae stay exact only while N covers the reach of every filter that carries
 // them towards the foveae (a bloom chain compounds: each halving doubles what it reads in its
 // source's pixels), and a pass whose shaders also write storage (a histogram) sees only the guarded
-// pixels. Passes with any other attachment run in full. Passes whose contents are in secondaries
-// are scissored alike through variants of their secondaries (begin_variant).
+// pixels. Passes with any other attachment run in full. Under OpenXR the targets of an eye image's
+// extent are cut around its eyes' foveae instead (split::runtime_guard_foveae: each at its view
+// direction, every eye and layer of that extent, as the pass does not say which it renders for); an
+// eye-sized target whose eyes are not the image's halves is replayed whole. Passes whose contents are in
+// secondaries are scissored alike through variants of their secondaries (begin_variant).
 
 #include "settings.h"
 #include "split_tracker.h"
@@ -129,10 +132,16 @@ public:
 private:
     bool target(VkImageView view, uint64_t *image_id, VkExtent2D *extent) const;
     // guard:N: the scissor of a pass whose attachments are all screen-space targets. False, with
-    // *unmapped set to its extent, where one is a target the foveae cannot be mapped to
-    // (split::guard_maps_target): that pass is replayed whole.
+    // *refused saying which, where one is a target the foveae cannot be mapped to: that pass is
+    // replayed whole.
+    struct GuardRefusal {
+        VkExtent2D extent{}; // of the target; {0, 0}: not guarded for another reason, said nowhere
+        // An eye-sized target of OpenXR eye images whose eyes are not their halves
+        // (split::runtime_guard_foveae); otherwise a window's (split::guard_maps_target).
+        bool runtime = false;
+    };
     bool guard_rect(const std::vector<VkImageView> &views, VkExtent2D *extent, VkRect2D *rect,
-                    VkExtent2D *unmapped) const;
+                    GuardRefusal *refused) const;
     // `emit`: false for a pass whose contents are in secondaries (no scissor may be set in it; its
     // secondaries' variants get the guard).
     void enter_guarded(VkCommandBuffer cb, split::CommandTracker &t, const std::vector<VkImageView> &views,
@@ -165,7 +174,8 @@ private:
     std::unordered_map<VkImage, Target> targets_;               // screen-space targets only
     std::unordered_map<VkCommandBuffer, VkRect2D> guard_rects_; // of the guarded pass in progress
     bool guard_logged_ = false;
-    bool unmapped_logged_ = false; // a pass replayed whole: said once
+    bool unmapped_logged_ = false;         // a pass replayed whole: said once
+    bool runtime_unmapped_logged_ = false; // one of OpenXR eye images' (GuardRefusal::runtime)
     bool variant_logged_ = false;
     uint64_t generation_ = 0;                                           // configure() calls
     std::unordered_map<VkCommandBuffer, PassScissor> pending_variants_; // begin_variant, until begun

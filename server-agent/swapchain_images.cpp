@@ -146,6 +146,20 @@ bool SwapchainImages::runtime_image(uint64_t image_id, const std::vector<split::
     return false;
 }
 
+std::vector<SwapchainImages::RuntimeSwapchain> SwapchainImages::runtime_swapchains(VkExtent2D extent,
+                                                                                   bool *window) const {
+    std::vector<RuntimeSwapchain> out;
+    if (window) *window = false;
+    for (const auto &[id, swapchain] : swapchains_) {
+        if (swapchain.info.width != extent.width || swapchain.info.height != extent.height) continue;
+        if (swapchain.info.source == protocol::SwapchainImages::Source::Runtime)
+            out.push_back({swapchain.info.array_layers, &swapchain.eyes});
+        else if (window)
+            *window = true;
+    }
+    return out;
+}
+
 bool SwapchainImages::note_eye(uint64_t swapchain_id, const split::RuntimeEye &eye, std::string *error) {
     const auto it = swapchains_.find(swapchain_id);
     if (it == swapchains_.end() || it->second.info.source != protocol::SwapchainImages::Source::Runtime) {
@@ -229,16 +243,18 @@ bool SwapchainImages::read_back(uint64_t swapchain_id, uint32_t image_index, Rec
         *unsupported = true;
         return true;
     }
+    // The whole image is every layer of it (verification); a rectangle is one of layer 0.
+    const uint32_t layers = rect.width == 0 ? swapchain.info.array_layers : 1;
     if (rect.width == 0) rect = {0, 0, swapchain.info.width, swapchain.info.height};
     if (rect.x + rect.width > swapchain.info.width || rect.y + rect.height > swapchain.info.height) {
         *error = "readback rectangle outside the image";
         return false;
     }
-    const VkDeviceSize bytes = VkDeviceSize{rect.width} * rect.height * 4;
+    const VkDeviceSize bytes = VkDeviceSize{rect.width} * rect.height * 4 * layers;
     if (!ensure_readback(bytes, error)) return false;
 
     VkBufferImageCopy region{};
-    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, layers};
     region.imageOffset = {static_cast<int32_t>(rect.x), static_cast<int32_t>(rect.y), 0};
     region.imageExtent = {rect.width, rect.height, 1};
     VulkanContext::record_present_readback(command_buffer_, swapchain.images[image_index],
@@ -261,6 +277,7 @@ bool SwapchainImages::read_back(uint64_t swapchain_id, uint32_t image_index, Rec
     out.width = rect.width;
     out.height = rect.height;
     out.format = swapchain.info.format;
+    out.layers = layers;
     out.pixels.resize(static_cast<size_t>(bytes));
     std::memcpy(out.pixels.data(), staging_.mapped, out.pixels.size());
     return true;

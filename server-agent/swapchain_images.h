@@ -39,6 +39,14 @@ public:
     // images' array layers.
     bool runtime_image(uint64_t image_id, const std::vector<split::RuntimeEye> **eyes = nullptr,
                        uint32_t *layers = nullptr) const;
+    // The OpenXR runtime swapchains whose images are `extent` (what a screen-space target classified
+    // against that extent may be rendered for), each with its array layers and the eyes the client
+    // sent; *window (when given) says whether a window's swapchain has that extent too.
+    struct RuntimeSwapchain {
+        uint32_t layers = 1;
+        const std::vector<split::RuntimeEye> *eyes = nullptr;
+    };
+    std::vector<RuntimeSwapchain> runtime_swapchains(VkExtent2D extent, bool *window = nullptr) const;
     // SwapchainView: an eye of an OpenXR swapchain (split::note_runtime_eye). False with `error` for a
     // swapchain that is not a runtime's, or an eye outside its images (layer or rectangle).
     bool note_eye(uint64_t swapchain_id, const split::RuntimeEye &eye, std::string *error);
@@ -46,8 +54,9 @@ public:
     // classified against, as the client does (protocol/target_rule.h).
     VkExtent2D newest_extent() const { return newest_; }
 
-    // A rectangle of a presented image (left in its presented layout by the app), read
-    // back tightly packed, 4 bytes per pixel. The caller has made the frame's submits complete.
+    // A rectangle of layer 0 of a presented image (left in its presented layout by the app), or the
+    // whole image with every array layer, one after the other (width 0), read back tightly packed,
+    // 4 bytes per pixel. The caller has made the frame's submits complete.
     // Returns false with `error` on failure; sets *unsupported (and reads nothing) for formats
     // other than 8-bit BGRA/RGBA.
     struct Rect {

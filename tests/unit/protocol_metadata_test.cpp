@@ -157,6 +157,18 @@ TEST(ProtocolSession, VerifyFrameChecksPixelCount) {
     expect_truncations_refused(encode(m), [](auto p) { return decode_verify_frame(p, 1 << 20); });
     m.pixels.pop_back();
     EXPECT_FALSE(decode_verify_frame(encode(m), 1 << 20).ok());
+    // A layered image: every layer, one after the other.
+    m.layers = 2;
+    m.pixels.assign(3 * 2 * 4 * 2, 9);
+    const auto layered = decode_verify_frame(encode(m), 1 << 20);
+    ASSERT_TRUE(layered.ok()) << layered.error();
+    EXPECT_EQ(layered->layers, 2u);
+    EXPECT_EQ(layered->pixels, m.pixels);
+    m.pixels.resize(3 * 2 * 4); // one layer's pixels for two layers
+    EXPECT_FALSE(decode_verify_frame(encode(m), 1 << 20).ok());
+    m.layers = 0;
+    m.pixels.clear();
+    EXPECT_FALSE(decode_verify_frame(encode(m), 1 << 20).ok());
 }
 
 TEST(ProtocolSession, ImageLayoutsRoundTripAndRanges) {

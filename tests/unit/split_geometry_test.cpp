@@ -304,6 +304,51 @@ TEST(SplitGeometry, RuntimeEyeFoveae) {
     EXPECT_LAYER_RECT(f[0], 0, 772, 360, 256u, 360u);
 }
 
+// SPLITVK_AGENT_SCISSOR=guard:N under OpenXR: an offscreen target of an eye image's size is cut
+// around the eyes' foveae where the split puts them (every eye and layer: the pass does not say
+// which it renders for), an eye-sized one around each eye's fovea within its half; an eye-sized
+// target of eyes that are not the halves cannot be mapped.
+TEST(SplitGeometry, RuntimeGuardFoveae) {
+    const FoveaSize fovea;
+    const double a = 0.785398163397448, t = std::atan(0.5);
+    const FieldOfView inner_narrow{-a, t, t, -a}, mirrored{-t, a, t, -a};
+    std::vector<VkRect2D> f;
+    // Before the views: the centred fovea of each layer (one rectangle for both layers).
+    ASSERT_TRUE(runtime_guard_foveae({1200, 1080}, 2, {}, false, fovea, &f));
+    ASSERT_EQ(f.size(), 1u);
+    EXPECT_RECT(f[0], 344, 360, 512u, 360u);
+    // Each layer's eye at its view direction.
+    ASSERT_TRUE(runtime_guard_foveae(
+        {1200, 1080}, 2, {{0, {{0, 0}, {1200, 1080}}, inner_narrow}, {1, {{0, 0}, {1200, 1080}}, mirrored}},
+        false, fovea, &f));
+    ASSERT_EQ(f.size(), 2u);
+    EXPECT_RECT(f[0], 144, 180, 512u, 360u);
+    EXPECT_RECT(f[1], 544, 180, 512u, 360u);
+    // Side by side, a target of the whole image: the foveae where they are in it.
+    const std::vector<RuntimeEye> halves{{0, {{0, 0}, {1200, 1080}}, inner_narrow},
+                                         {0, {{1200, 0}, {1200, 1080}}, mirrored}};
+    ASSERT_TRUE(runtime_guard_foveae({2400, 1080}, 1, halves, false, fovea, &f));
+    ASSERT_EQ(f.size(), 2u);
+    EXPECT_RECT(f[0], 544, 180, 512u, 360u);
+    EXPECT_RECT(f[1], 1344, 180, 512u, 360u);
+    // An eye-sized target: each eye's fovea within its half, in the half's coordinates.
+    ASSERT_TRUE(runtime_guard_foveae({2400, 1080}, 1, halves, true, fovea, &f));
+    ASSERT_EQ(f.size(), 2u);
+    EXPECT_RECT(f[0], 144, 180, 512u, 360u);
+    EXPECT_RECT(f[1], 544, 180, 512u, 360u);
+    // Before the views the image is one eye: its centred fovea, cut by the halves.
+    ASSERT_TRUE(runtime_guard_foveae({2400, 1080}, 1, {}, true, fovea, &f));
+    ASSERT_EQ(f.size(), 2u);
+    EXPECT_RECT(f[0], 0, 360, 512u, 360u);
+    EXPECT_RECT(f[1], 688, 360, 512u, 360u);
+    // Eyes in other rectangles than the halves: an eye-sized target holds no known eye.
+    EXPECT_FALSE(
+        runtime_guard_foveae({2400, 1080}, 1, {{0, {{0, 0}, {800, 1080}}, inner_narrow}}, true, fovea, &f));
+    EXPECT_TRUE(f.empty());
+    EXPECT_FALSE(
+        runtime_guard_foveae({1200, 1080}, 1, {{0, {{0, 0}, {1200, 1080}}, inner_narrow}}, true, fovea, &f));
+}
+
 // An eye replaces the eyes of its layer it overlaps (the same eye moved, resized or with another
 // field of view), and joins those it does not; the same eye again changes nothing.
 TEST(SplitGeometry, NoteRuntimeEye) {

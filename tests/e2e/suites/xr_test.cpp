@@ -29,6 +29,9 @@
 //    rectangle), and every eye's periphery differs from native: both eyes were split. Multiview
 //    runs twice, with Monado's fields of view and with the skew layer's asymmetric ones (each layer
 //    its own); side by side with the skew layer, whose foveae sit off each half's centre.
+//  - SPLITVK_AGENT_SCISSOR=guard:N with --path hdr and the skew layer: the offscreen passes are cut
+//    around the eyes' own foveae, which stay bit-exact. SPLITVK_VERIFY=full with --multiview: every
+//    layer of every released image is compared. SPLITVK_STATS' rows group by xr_frame.
 #include "agent.h"
 #include "e2e_test.h"
 #include "fovea.h"
@@ -493,6 +496,43 @@ TEST_F(XrAtrium, PerEyeFoveaeExactAgainstNativeFrameByFrame) {
     RecordProperty("fovea_texels", std::to_string(compared));
     RecordProperty("fovea_mismatches", std::to_string(mismatched));
     expect_split_stats("split", 2 * kFrames);
+
+    // SPLITVK_STATS has a row per released eye image: xr_frame groups a frame's two rows, xr_view says
+    // which eye each is (-1 before the first xrEndFrame named the swapchains), and the summary counts
+    // OpenXR frames.
+    const auto lines = split_lines(read_file(out_ / "split" / "stats.csv"));
+    ASSERT_FALSE(lines.empty());
+    std::vector<std::string> names;
+    std::stringstream header(lines[0]);
+    for (std::string f; std::getline(header, f, ',');)
+        names.push_back(f);
+    const auto column = [&](const std::string &name) {
+        return static_cast<size_t>(std::find(names.begin(), names.end(), name) - names.begin());
+    };
+    const size_t xr_frame = column("xr_frame"), xr_view = column("xr_view");
+    ASSERT_LT(xr_frame, names.size()) << lines[0];
+    ASSERT_LT(xr_view, names.size()) << lines[0];
+    std::map<int, std::multiset<int>> views_by_frame;
+    for (size_t i = 1; i < lines.size(); ++i) {
+        std::vector<std::string> fields;
+        std::stringstream row(lines[i]);
+        for (std::string f; std::getline(row, f, ',');)
+            fields.push_back(f);
+        if (fields.size() != names.size()) continue;
+        views_by_frame[std::stoi(fields[xr_frame])].insert(std::stoi(fields[xr_view]));
+    }
+    ASSERT_EQ(views_by_frame.size(), static_cast<size_t>(kFrames));
+    // One after the other (atrium ends a frame it does not render before its first: that one has no
+    // rows); the first rendered frame's swapchains were not named by any xrEndFrame yet.
+    EXPECT_EQ(views_by_frame.rbegin()->first - views_by_frame.begin()->first, kFrames - 1);
+    for (const auto &[frame, views] : views_by_frame) {
+        const bool first = frame == views_by_frame.begin()->first;
+        const std::multiset<int> expected = first ? std::multiset<int>{-1, -1} : std::multiset<int>{0, 1};
+        EXPECT_EQ(views, expected) << "OpenXR frame " << frame << "'s rows";
+    }
+    const std::string summary = "split: " + std::to_string(2 * kFrames) + " eye images in " +
+                                std::to_string(kFrames) + " OpenXR frames, OpenXR frame time median";
+    EXPECT_FALSE(grep(split.err(), summary).empty()) << "no \"" << summary << "\"\n" << tail(split.err(), 10);
 }
 
 // XR_APILAYER_SPLITVK_test_skew_fov (xr_fov_layer/) above splitvk's API layer gives every projection
@@ -590,6 +630,77 @@ TEST_F(XrAtrium, AsymmetricFieldOfViewMovesTheFovea) {
     expect_split_stats("split", 2 * kFrames);
 }
 
+// SPLITVK_AGENT_SCISSOR=guard:N under OpenXR. --path hdr renders each eye's scene into an offscreen
+// target of the eye image's size and blooms it at 1/2, 1/4 and 1/8 of that, passes the agent cuts
+// to the guard. The skew layer's fields of view put the foveae 37 rows above the centre and 45
+// columns beside it, farther than kGuard plus the bloom's reach: a guard around the centred fovea (a
+// window's) leaves the top rows of the skewed fovea with pixels the agent never rendered, a guard
+// around the eyes' own foveae (both eyes': a pass does not say which eye it renders for) keeps every
+// fovea bit-exact against native (kGuard covers the bloom's reach at this size).
+TEST_F(XrAtrium, AgentScissorGuardCutsAroundTheEyesFoveae) {
+    constexpr int kGuard = 8;
+    const auto native = run_atrium(atrium_native_env("native"), "native", {"--path", "hdr"});
+    ASSERT_TRUE(native.ok()) << native.describe() << "\n" << tail(native.err(), 30);
+    Agent agent;
+    ASSERT_TRUE(agent.start(clean_env(), out_)) << agent.error();
+    ASSERT_TRUE(built(SPLITVK_E2E_XR_FOV_LAYER_DIR));
+    Env e = with_skewed_fov(atrium_split_env("split", agent));
+    e["SPLITVK_AGENT_SCISSOR"] = "guard:" + std::to_string(kGuard);
+    const auto split = run_atrium(e, "split", {"--path", "hdr"});
+    ASSERT_TRUE(split.ok()) << split.describe() << "\n" << tail(split.err(), 30);
+    EXPECT_TRUE(grep(split.err(), "[splitvk] error:").empty()) << tail(split.err(), 30);
+    const std::string agent_log = agent.log();
+    EXPECT_NE(agent_log.find("SPLITVK_AGENT_SCISSOR=guard:" + std::to_string(kGuard) +
+                             ": scissoring passes into screen-space targets"),
+              std::string::npos)
+        << "the agent did not guard the offscreen passes\n"
+        << tail(agent_log, 20);
+    EXPECT_EQ(agent_log.find("replayed whole"), std::string::npos) << tail(agent_log, 20);
+
+    const uint32_t w = 192, h = 160;
+    const Rect centred = default_foveae(w, h, 1)[0];
+    Rect at_view[2];
+    for (int eye = 0; eye < 2; ++eye) {
+        at_view[eye] = fovea_at_view(kSkewedFov[eye], w, h);
+        // Farther from the centred fovea than the guard reaches: a guard there misses rows of it.
+        ASSERT_GT(centred.y, at_view[eye].y + 2 * kGuard);
+    }
+    const auto n = readbacks(out_ / "native" / "images");
+    const auto s = readbacks(out_ / "split" / "images");
+    ASSERT_EQ(n.size(), static_cast<size_t>(2 * kFrames)) << "native eye images read back";
+    ASSERT_EQ(s.size(), n.size()) << "split eye images read back";
+    uint64_t compared = 0, mismatched = 0;
+    for (const auto &[key, native_path] : n) {
+        SCOPED_TRACE(native_path.filename().string());
+        const auto it = s.find(key);
+        ASSERT_NE(it, s.end()) << "no split readback of the same image and release";
+        EyeImage a, b;
+        ASSERT_TRUE(load_pam(native_path, &a) && load_pam(it->second, &b));
+        ASSERT_EQ(a.width, w);
+        ASSERT_EQ(a.height, h);
+        ASSERT_EQ(b.width, w);
+        ASSERT_EQ(b.height, h);
+        // As in AsymmetricFieldOfViewMovesTheFovea: image K's release N is frame 3N + K % 3 of eye
+        // K / 3, and frame 0 (before any xrEndFrame) has the centred fovea.
+        const int eye = key.first / 3;
+        const int frame = 3 * key.second + key.first % 3;
+        const Rect f = frame == 0 ? centred : at_view[eye];
+        const Mismatch m = compare_rect(a, b, f);
+        compared += m.pixels;
+        mismatched += m.mismatched;
+        EXPECT_EQ(m.mismatched, 0u) << "eye " << eye << " frame " << frame << ": fovea " << f.w << "x" << f.h
+                                    << " at " << f.x << "," << f.y << ": " << m.mismatched << " of "
+                                    << m.pixels << " texels differ\n"
+                                    << save_mismatch_artefacts(out_, native_path.stem().string(), to_image(a),
+                                                               to_image(b));
+    }
+    std::cout << "  guard:" << kGuard << ", skewed foveae: " << compared << " texels compared in " << n.size()
+              << " eye images, " << mismatched << " differ\n";
+    RecordProperty("fovea_texels", std::to_string(compared));
+    RecordProperty("fovea_mismatches", std::to_string(mismatched));
+    expect_split_stats("split", 2 * kFrames);
+}
+
 // Both eyes in one swapchain of three images (--multiview: two layers; --side-by-side: two halves),
 // native against split for the same image and release (release N of image K is frame 3N + K). Per
 // frame, each eye's fovea (`at(eye, frame)`, in that eye's coordinates) is bit-exact and the eye
@@ -677,6 +788,25 @@ TEST_F(XrAtrium, MultiviewLayersFoveaeExactAgainstNative) {
     EXPECT_TRUE(grep(skewed.err(), "[splitvk] error:").empty()) << tail(skewed.err(), 30);
     expect_both_eyes_split(
         "native", "skewed", true, [&](int eye) { return fovea_at_view(kSkewedFov[eye], 192, 160); }, true);
+}
+
+// SPLITVK_VERIFY=full on a layered eye image (--multiview; the split is off while verifying): the
+// layer reads back every layer of each released image, as does the agent, and compares them all.
+// The pixel count covers both layers of every frame, and none differs (lavapipe on both sides).
+TEST_F(XrAtrium, VerifyComparesEveryLayerOfALayeredImage) {
+    Agent agent;
+    ASSERT_TRUE(agent.start(clean_env(), out_)) << agent.error();
+    Env e = atrium_split_env("verify", agent);
+    e["SPLITVK_VERIFY"] = "full";
+    const auto run = run_atrium(e, "verify", {"--multiview"});
+    ASSERT_TRUE(run.ok()) << run.describe() << "\n" << tail(run.err(), 30);
+    EXPECT_TRUE(grep(run.err(), "[splitvk] error:").empty()) << tail(run.err(), 30);
+    const std::string frames =
+        "[splitvk] verify: " + std::to_string(kFrames) + " frames, 0 mismatching pixels";
+    const std::string pixels = "[splitvk] verify: " + std::to_string(uint64_t{kFrames} * 192 * 160 * 2) +
+                               " pixels compared (every array layer of each image)";
+    EXPECT_FALSE(grep(run.err(), frames).empty()) << "no \"" << frames << "\"\n" << tail(run.err(), 10);
+    EXPECT_FALSE(grep(run.err(), pixels).empty()) << "no \"" << pixels << "\"\n" << tail(run.err(), 10);
 }
 
 // One swapchain twice an eye's width, each eye a half (two imageRects), with the skew layer's
