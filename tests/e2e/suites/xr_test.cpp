@@ -88,6 +88,16 @@ bool load_pam(const std::filesystem::path &path, EyeImage *image) {
     return in.gcount() == static_cast<std::streamsize>(image->rgba.size());
 }
 
+// The native and split readbacks of one released image, both `width` x `height`.
+void load_pair(const std::filesystem::path &native, const std::filesystem::path &split, uint32_t width,
+               uint32_t height, EyeImage *a, EyeImage *b) {
+    ASSERT_TRUE(load_pam(native, a) && load_pam(split, b));
+    ASSERT_EQ(a->width, width);
+    ASSERT_EQ(a->height, height);
+    ASSERT_EQ(b->width, width);
+    ASSERT_EQ(b->height, height);
+}
+
 // The bgr0 Image of the harness (for its PNG artefacts), alpha in the fourth byte.
 Image to_image(const EyeImage &e) {
     Image image;
@@ -473,11 +483,7 @@ TEST_F(XrAtrium, PerEyeFoveaeExactAgainstNativeFrameByFrame) {
         const auto it = s.find(key);
         ASSERT_NE(it, s.end()) << "no split readback of the same image and release";
         EyeImage a, b;
-        ASSERT_TRUE(load_pam(native_path, &a) && load_pam(it->second, &b));
-        ASSERT_EQ(a.width, 192u);
-        ASSERT_EQ(a.height, 160u);
-        ASSERT_EQ(b.width, a.width);
-        ASSERT_EQ(b.height, a.height);
+        ASSERT_NO_FATAL_FAILURE(load_pair(native_path, it->second, 192u, 160u, &a, &b));
         const Rect f = default_foveae(a.width, a.height, 1)[0];
         const Mismatch m = compare_rect(a, b, f);
         compared += m.pixels;
@@ -589,11 +595,7 @@ TEST_F(XrAtrium, AsymmetricFieldOfViewMovesTheFovea) {
         const auto it = s.find(key);
         ASSERT_NE(it, s.end()) << "no split readback of the same image and release";
         EyeImage a, b;
-        ASSERT_TRUE(load_pam(native_path, &a) && load_pam(it->second, &b));
-        ASSERT_EQ(a.width, w);
-        ASSERT_EQ(a.height, h);
-        ASSERT_EQ(b.width, w);
-        ASSERT_EQ(b.height, h);
+        ASSERT_NO_FATAL_FAILURE(load_pair(native_path, it->second, w, h, &a, &b));
         // Images 0-2 are view 0's swapchain (created first), 3-5 view 1's; each swapchain's images
         // are released in turn, so release N of image K is frame 3N + K % 3 of its eye.
         const int eye = key.first / 3;
@@ -675,11 +677,7 @@ TEST_F(XrAtrium, AgentScissorGuardCutsAroundTheEyesFoveae) {
         const auto it = s.find(key);
         ASSERT_NE(it, s.end()) << "no split readback of the same image and release";
         EyeImage a, b;
-        ASSERT_TRUE(load_pam(native_path, &a) && load_pam(it->second, &b));
-        ASSERT_EQ(a.width, w);
-        ASSERT_EQ(a.height, h);
-        ASSERT_EQ(b.width, w);
-        ASSERT_EQ(b.height, h);
+        ASSERT_NO_FATAL_FAILURE(load_pair(native_path, it->second, w, h, &a, &b));
         // As in AsymmetricFieldOfViewMovesTheFovea: image K's release N is frame 3N + K % 3 of eye
         // K / 3, and frame 0 (before any xrEndFrame) has the centred fovea.
         const int eye = key.first / 3;
@@ -721,11 +719,8 @@ void XrAtrium::expect_both_eyes_split(const std::string &native_run, const std::
         const auto it = s.find(key);
         ASSERT_NE(it, s.end()) << "no split readback of the same image and release";
         EyeImage a, b;
-        ASSERT_TRUE(load_pam(native_path, &a) && load_pam(it->second, &b));
-        ASSERT_EQ(a.width, layered ? w : 2 * w);
-        ASSERT_EQ(a.height, layered ? 2 * h : h);
-        ASSERT_EQ(b.width, a.width);
-        ASSERT_EQ(b.height, a.height);
+        ASSERT_NO_FATAL_FAILURE(
+            load_pair(native_path, it->second, layered ? w : 2 * w, layered ? 2 * h : h, &a, &b));
         const int frame = 3 * key.second + key.first;
         for (int eye = 0; eye < 2; ++eye) {
             // Where the eye lies in the file: its layer's rows, or its half.
