@@ -184,6 +184,17 @@ protected:
         if (instance_) vkDestroyInstance(instance_, nullptr);
     }
 
+    // Memory for `req` of a type with `properties`, freed in TearDown.
+    void allocate(const VkMemoryRequirements &req, VkMemoryPropertyFlags properties, VkDeviceMemory *memory) {
+        VkMemoryAllocateInfo alloc{};
+        alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+        alloc.allocationSize = req.size;
+        alloc.memoryTypeIndex = memory_type(device_.memory_properties, req.memoryTypeBits, properties);
+        ASSERT_NE(alloc.memoryTypeIndex, UINT32_MAX);
+        ASSERT_EQ(vkAllocateMemory(device_.handle, &alloc, nullptr, memory), VK_SUCCESS);
+        made_.memories.push_back(*memory);
+    }
+
     // An image standing in for a swapchain's (or, of several layers, for an OpenXR runtime's eye
     // image), bound to memory of its own.
     void make_image(VkFormat format, VkExtent2D extent, uint32_t layers, VkImageUsageFlags usage,
@@ -203,13 +214,8 @@ protected:
         made_.images.push_back(*image);
         VkMemoryRequirements req;
         vkGetImageMemoryRequirements(d, *image, &req);
-        VkMemoryAllocateInfo alloc{};
-        alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-        alloc.allocationSize = req.size;
-        alloc.memoryTypeIndex = memory_type(device_.memory_properties, req.memoryTypeBits, 0);
         VkDeviceMemory memory = VK_NULL_HANDLE;
-        ASSERT_EQ(vkAllocateMemory(d, &alloc, nullptr, &memory), VK_SUCCESS);
-        made_.memories.push_back(memory);
+        ASSERT_NO_FATAL_FAILURE(allocate(req, 0, &memory));
         ASSERT_EQ(vkBindImageMemory(d, *image, memory, 0), VK_SUCCESS);
     }
 
@@ -224,16 +230,9 @@ protected:
         made_.buffers.push_back(*buffer);
         VkMemoryRequirements req;
         vkGetBufferMemoryRequirements(d, *buffer, &req);
-        VkMemoryAllocateInfo alloc{};
-        alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-        alloc.allocationSize = req.size;
-        alloc.memoryTypeIndex =
-            memory_type(device_.memory_properties, req.memoryTypeBits,
-                        VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
-        ASSERT_NE(alloc.memoryTypeIndex, UINT32_MAX);
         VkDeviceMemory memory = VK_NULL_HANDLE;
-        ASSERT_EQ(vkAllocateMemory(d, &alloc, nullptr, &memory), VK_SUCCESS);
-        made_.memories.push_back(memory);
+        ASSERT_NO_FATAL_FAILURE(allocate(
+            req, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT, &memory));
         ASSERT_EQ(vkBindBufferMemory(d, *buffer, memory, 0), VK_SUCCESS);
         void *mapped_void = nullptr;
         ASSERT_EQ(vkMapMemory(d, memory, 0, VK_WHOLE_SIZE, 0, &mapped_void), VK_SUCCESS);
