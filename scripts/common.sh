@@ -9,7 +9,7 @@ SPLITVK_ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 SPLITVK_PACKAGES=(
   cmake make g++ pkg-config python3 python3-matplotlib
   libvulkan-dev vulkan-validationlayers mesa-vulkan-drivers vulkan-tools
-  glslang-tools spirv-tools mangohud gfxreconstruct
+  glslang-tools spirv-tools spirv-headers mangohud gfxreconstruct
   libx264-dev libavcodec-dev libavutil-dev libasio-dev libglm-dev libzstd-dev libssl-dev libgtest-dev
   libxcb1-dev libx11-dev xvfb xauth x11-utils ffmpeg
   systemd ccache

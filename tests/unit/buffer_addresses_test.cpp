@@ -143,8 +143,7 @@ TEST(SpirvAddresses, ShaderWithoutAddressesHasNone) {
 }
 
 // A client's module is untrusted: nested arrays of addresses (64 of 64 of ... ten deep) must not
-// make the walk over the push-constant block exponential, nor a struct instruction without members
-// read past its words.
+// make the walk over the push-constant block exponential.
 TEST(SpirvAddresses, HostileTypesAreReadInBoundedTime) {
     auto op = [](uint32_t opcode, std::initializer_list<uint32_t> operands) {
         std::vector<uint32_t> words = {uint32_t(operands.size() + 1) << 16 | opcode};
@@ -168,10 +167,9 @@ TEST(SpirvAddresses, HostileTypesAreReadInBoundedTime) {
     }
     add(op(30, {50, element}));  // %50 = OpTypeStruct
     add(op(72, {50, 0, 35, 0})); // OpMemberDecorate %50 0 Offset 0
-    add(op(30, {60}));           // %60 = OpTypeStruct with no members, and one cut short
-    add({1u << 16 | 30});
-    add(op(32, {51, 9, 50})); // %51 = OpTypePointer PushConstant %50
-    add(op(59, {51, 52, 9})); // %52 = OpVariable %51 PushConstant
+    add(op(30, {60}));           // %60 = OpTypeStruct with no members
+    add(op(32, {51, 9, 50}));    // %51 = OpTypePointer PushConstant %50
+    add(op(59, {51, 52, 9}));    // %52 = OpVariable %51 PushConstant
     ShaderAddresses out;
     std::string error;
     ASSERT_TRUE(reflect_shader_addresses(module, &out, &error)) << error;
@@ -187,12 +185,50 @@ TEST(SpirvAddresses, MalformedModulesAreOneLineErrors) {
     const uint32_t not_spirv[] = {1, 2, 3, 4, 5, 6};
     EXPECT_FALSE(reflect_shader_addresses(not_spirv, &out, &error));
     EXPECT_EQ(error, "not a SPIR-V module (no magic number)");
-    std::vector<uint32_t> truncated(std::begin(test_spirv::address_push_pointers_vert),
-                                    std::end(test_spirv::address_push_pointers_vert));
-    truncated[5] = (0xffffu << 16) | (truncated[5] & 0xffff); // the first instruction claims 65535 words
-    EXPECT_FALSE(reflect_shader_addresses(truncated, &out, &error));
-    EXPECT_NE(error.find("runs past the module"), std::string::npos) << error;
     EXPECT_FALSE(reflect_shader_addresses({}, &out, &error));
+}
+
+// Whatever is wrong with a module, the whole of it is refused with one line saying where, and
+// nothing read from it before the fault is reported as found.
+TEST(SpirvAddresses, TruncatedOrMalformedModulesAreRejectedWhole) {
+    const std::vector<uint32_t> good(std::begin(test_spirv::address_push_pointers_vert),
+                                     std::end(test_spirv::address_push_pointers_vert));
+    auto expect_rejected = [](const std::vector<uint32_t> &module, const char *what) {
+        ShaderAddresses out;
+        out.push_constant_pointers = {1234};
+        std::string error;
+        EXPECT_FALSE(reflect_shader_addresses(module, &out, &error)) << what;
+        EXPECT_EQ(error.rfind("malformed SPIR-V: ", 0), 0u) << what << ": " << error;
+        EXPECT_EQ(error.find('\n'), std::string::npos) << what << ": " << error;
+        EXPECT_FALSE(out.uses_addresses) << what;
+        EXPECT_TRUE(out.push_constant_pointers.empty()) << what;
+    };
+    {
+        std::vector<uint32_t> module = good;
+        module[5] = (0xffffu << 16) | (module[5] & 0xffff); // the first instruction claims 65535 words
+        expect_rejected(module, "instruction longer than the module");
+    }
+    {
+        std::vector<uint32_t> module = good;
+        module[5] &= 0xffff; // the first instruction claims no words at all
+        expect_rejected(module, "instruction of zero words");
+    }
+    {
+        // Cut inside the first instruction: the header is well formed.
+        ASSERT_GT(good[5] >> 16, 1u);
+        const std::vector<uint32_t> module(good.begin(), good.begin() + 6);
+        expect_rejected(module, "module cut short");
+    }
+    {
+        std::vector<uint32_t> module = good;
+        module.push_back(1u << 16 | 30); // OpTypeStruct without its result id
+        expect_rejected(module, "instruction shorter than its operands");
+    }
+    {
+        std::vector<uint32_t> module = good;
+        module.push_back(1u << 16 | 0xfff0); // no opcode SPIR-V defines
+        expect_rejected(module, "unknown opcode");
+    }
 }
 
 } // namespace

@@ -162,8 +162,19 @@ protected:
 
     void TearDown() override {
         if (device_.handle) {
-            vkDeviceWaitIdle(device_.handle);
-            vkDestroyDevice(device_.handle, nullptr);
+            const VkDevice d = device_.handle;
+            vkDeviceWaitIdle(d);
+            for (const VkFence fence : made_.fences)
+                vkDestroyFence(d, fence, nullptr);
+            for (const VkCommandPool pool : made_.pools)
+                vkDestroyCommandPool(d, pool, nullptr);
+            for (const VkBuffer buffer : made_.buffers)
+                vkDestroyBuffer(d, buffer, nullptr);
+            for (const VkImage image : made_.images)
+                vkDestroyImage(d, image, nullptr);
+            for (const VkDeviceMemory memory : made_.memories)
+                vkFreeMemory(d, memory, nullptr);
+            vkDestroyDevice(d, nullptr);
         }
         if (messenger_) {
             auto destroy = reinterpret_cast<PFN_vkDestroyDebugUtilsMessengerEXT>(
@@ -173,6 +184,92 @@ protected:
         if (instance_) vkDestroyInstance(instance_, nullptr);
     }
 
+    // Memory for `req` of a type with `properties`, freed in TearDown.
+    void allocate(const VkMemoryRequirements &req, VkMemoryPropertyFlags properties, VkDeviceMemory *memory) {
+        VkMemoryAllocateInfo alloc{};
+        alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+        alloc.allocationSize = req.size;
+        alloc.memoryTypeIndex = memory_type(device_.memory_properties, req.memoryTypeBits, properties);
+        ASSERT_NE(alloc.memoryTypeIndex, UINT32_MAX);
+        ASSERT_EQ(vkAllocateMemory(device_.handle, &alloc, nullptr, memory), VK_SUCCESS);
+        made_.memories.push_back(*memory);
+    }
+
+    // An image standing in for a swapchain's (or, of several layers, for an OpenXR runtime's eye
+    // image), bound to memory of its own.
+    void make_image(VkFormat format, VkExtent2D extent, uint32_t layers, VkImageUsageFlags usage,
+                    VkImage *image) {
+        const VkDevice d = device_.handle;
+        VkImageCreateInfo info{};
+        info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
+        info.imageType = VK_IMAGE_TYPE_2D;
+        info.format = format;
+        info.extent = {extent.width, extent.height, 1};
+        info.mipLevels = 1;
+        info.arrayLayers = layers;
+        info.samples = VK_SAMPLE_COUNT_1_BIT;
+        info.tiling = VK_IMAGE_TILING_OPTIMAL;
+        info.usage = usage;
+        ASSERT_EQ(vkCreateImage(d, &info, nullptr, image), VK_SUCCESS);
+        made_.images.push_back(*image);
+        VkMemoryRequirements req;
+        vkGetImageMemoryRequirements(d, *image, &req);
+        VkDeviceMemory memory = VK_NULL_HANDLE;
+        ASSERT_NO_FATAL_FAILURE(allocate(req, 0, &memory));
+        ASSERT_EQ(vkBindImageMemory(d, *image, memory, 0), VK_SUCCESS);
+    }
+
+    // The application's staging and readback buffer: host-visible, coherent, mapped.
+    void make_host_buffer(VkDeviceSize bytes, VkBuffer *buffer, uint8_t **mapped) {
+        const VkDevice d = device_.handle;
+        VkBufferCreateInfo info{};
+        info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+        info.size = bytes;
+        info.usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+        ASSERT_EQ(vkCreateBuffer(d, &info, nullptr, buffer), VK_SUCCESS);
+        made_.buffers.push_back(*buffer);
+        VkMemoryRequirements req;
+        vkGetBufferMemoryRequirements(d, *buffer, &req);
+        VkDeviceMemory memory = VK_NULL_HANDLE;
+        ASSERT_NO_FATAL_FAILURE(allocate(
+            req, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT, &memory));
+        ASSERT_EQ(vkBindBufferMemory(d, *buffer, memory, 0), VK_SUCCESS);
+        void *mapped_void = nullptr;
+        ASSERT_EQ(vkMapMemory(d, memory, 0, VK_WHOLE_SIZE, 0, &mapped_void), VK_SUCCESS);
+        *mapped = static_cast<uint8_t *>(mapped_void);
+    }
+
+    // A resettable command buffer on the graphics queue's family, and a fence for its submits.
+    void make_command_buffer(VkCommandBuffer *cb, VkFence *fence) {
+        const VkDevice d = device_.handle;
+        VkCommandPoolCreateInfo pool_info{};
+        pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+        pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+        pool_info.queueFamilyIndex = family_;
+        VkCommandPool pool = VK_NULL_HANDLE;
+        ASSERT_EQ(vkCreateCommandPool(d, &pool_info, nullptr, &pool), VK_SUCCESS);
+        made_.pools.push_back(pool);
+        VkCommandBufferAllocateInfo cb_info{};
+        cb_info.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+        cb_info.commandPool = pool;
+        cb_info.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+        cb_info.commandBufferCount = 1;
+        ASSERT_EQ(vkAllocateCommandBuffers(d, &cb_info, cb), VK_SUCCESS);
+        VkFenceCreateInfo fence_info{};
+        fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+        ASSERT_EQ(vkCreateFence(d, &fence_info, nullptr, fence), VK_SUCCESS);
+        made_.fences.push_back(*fence);
+    }
+
+    // What the make_* helpers made, destroyed in TearDown before the device (the compositor, which
+    // uses them, is gone by then).
+    struct Made {
+        std::vector<VkImage> images;
+        std::vector<VkBuffer> buffers;
+        std::vector<VkDeviceMemory> memories;
+        std::vector<VkCommandPool> pools;
+        std::vector<VkFence> fences;
+    } made_;
     bool validation_ = false;
     VkInstance instance_ = VK_NULL_HANDLE;
     VkDebugUtilsMessengerEXT messenger_ = VK_NULL_HANDLE;
@@ -205,76 +302,20 @@ TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
     sc.extent = {kWidth, kHeight};
     sc.format = format;
     sc.composable = true;
-    std::vector<VkDeviceMemory> memories;
-    for (uint32_t i = 0; i < kImages; ++i) {
-        VkImageCreateInfo info{};
-        info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
-        info.imageType = VK_IMAGE_TYPE_2D;
-        info.format = format;
-        info.extent = {kWidth, kHeight, 1};
-        info.mipLevels = 1;
-        info.arrayLayers = 1;
-        info.samples = VK_SAMPLE_COUNT_1_BIT;
-        info.tiling = VK_IMAGE_TILING_OPTIMAL;
-        info.usage = Compositor::kSwapchainUsage;
-        VkImage image = VK_NULL_HANDLE;
-        ASSERT_EQ(vkCreateImage(d, &info, nullptr, &image), VK_SUCCESS);
-        VkMemoryRequirements req;
-        vkGetImageMemoryRequirements(d, image, &req);
-        VkMemoryAllocateInfo alloc{};
-        alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-        alloc.allocationSize = req.size;
-        alloc.memoryTypeIndex = memory_type(device_.memory_properties, req.memoryTypeBits, 0);
-        VkDeviceMemory memory = VK_NULL_HANDLE;
-        ASSERT_EQ(vkAllocateMemory(d, &alloc, nullptr, &memory), VK_SUCCESS);
-        ASSERT_EQ(vkBindImageMemory(d, image, memory, 0), VK_SUCCESS);
-        sc.images.push_back(image);
-        memories.push_back(memory);
-    }
+    sc.images.resize(kImages);
+    for (VkImage &image : sc.images)
+        ASSERT_NO_FATAL_FAILURE(make_image(format, sc.extent, 1, Compositor::kSwapchainUsage, &image));
     const VkDeviceSize bytes = VkDeviceSize{kWidth} * kHeight * 4;
-    VkBufferCreateInfo buffer_info{};
-    buffer_info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
-    buffer_info.size = bytes;
-    buffer_info.usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
     VkBuffer buffer = VK_NULL_HANDLE;
-    ASSERT_EQ(vkCreateBuffer(d, &buffer_info, nullptr, &buffer), VK_SUCCESS);
-    VkMemoryRequirements req;
-    vkGetBufferMemoryRequirements(d, buffer, &req);
-    VkMemoryAllocateInfo alloc{};
-    alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-    alloc.allocationSize = req.size;
-    alloc.memoryTypeIndex =
-        memory_type(device_.memory_properties, req.memoryTypeBits,
-                    VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
-    ASSERT_NE(alloc.memoryTypeIndex, UINT32_MAX);
-    VkDeviceMemory buffer_memory = VK_NULL_HANDLE;
-    ASSERT_EQ(vkAllocateMemory(d, &alloc, nullptr, &buffer_memory), VK_SUCCESS);
-    ASSERT_EQ(vkBindBufferMemory(d, buffer, buffer_memory, 0), VK_SUCCESS);
-    void *mapped_void = nullptr;
-    ASSERT_EQ(vkMapMemory(d, buffer_memory, 0, VK_WHOLE_SIZE, 0, &mapped_void), VK_SUCCESS);
-    auto *mapped = static_cast<uint8_t *>(mapped_void);
-
-    VkCommandPoolCreateInfo pool_info{};
-    pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
-    pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-    pool_info.queueFamilyIndex = family_;
-    VkCommandPool pool = VK_NULL_HANDLE;
-    ASSERT_EQ(vkCreateCommandPool(d, &pool_info, nullptr, &pool), VK_SUCCESS);
-    VkCommandBufferAllocateInfo cb_info{};
-    cb_info.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
-    cb_info.commandPool = pool;
-    cb_info.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-    cb_info.commandBufferCount = 1;
+    uint8_t *mapped = nullptr;
+    ASSERT_NO_FATAL_FAILURE(make_host_buffer(bytes, &buffer, &mapped));
     VkCommandBuffer cb = VK_NULL_HANDLE;
-    ASSERT_EQ(vkAllocateCommandBuffers(d, &cb_info, &cb), VK_SUCCESS);
+    VkFence fence = VK_NULL_HANDLE;
+    ASSERT_NO_FATAL_FAILURE(make_command_buffer(&cb, &fence));
     VkSemaphoreCreateInfo semaphore_info{};
     semaphore_info.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
     VkSemaphore rendered = VK_NULL_HANDLE;
     ASSERT_EQ(vkCreateSemaphore(d, &semaphore_info, nullptr, &rendered), VK_SUCCESS);
-    VkFenceCreateInfo fence_info{};
-    fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
-    VkFence fence = VK_NULL_HANDLE;
-    ASSERT_EQ(vkCreateFence(d, &fence_info, nullptr, &fence), VK_SUCCESS);
 
     std::string error;
     UploadPool uploads(device_); // outlives the compositor, which holds its buffers
@@ -448,15 +489,7 @@ TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
     }
     compositor.reset(); // waits for its submits
     release_gpu_timing(device_);
-    vkDestroyFence(d, fence, nullptr);
     vkDestroySemaphore(d, rendered, nullptr);
-    vkDestroyCommandPool(d, pool, nullptr);
-    vkDestroyBuffer(d, buffer, nullptr);
-    vkFreeMemory(d, buffer_memory, nullptr);
-    for (uint32_t i = 0; i < kImages; ++i) {
-        vkDestroyImage(d, sc.images[i], nullptr);
-        vkFreeMemory(d, memories[i], nullptr);
-    }
     if (validation_) {
         EXPECT_EQ(g_messages, 0);
     }
@@ -490,67 +523,17 @@ TEST_P(CompositorTest, LayeredRuntimeImageGetsEachLayersTilesAndPeriphery) {
         EXPECT_FALSE(refused.empty());
         return;
     }
-    VkImageCreateInfo info{};
-    info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
-    info.imageType = VK_IMAGE_TYPE_2D;
-    info.format = format;
-    info.extent = {kWidth, kHeight, 1};
-    info.mipLevels = 1;
-    info.arrayLayers = kLayers;
-    info.samples = VK_SAMPLE_COUNT_1_BIT;
-    info.tiling = VK_IMAGE_TILING_OPTIMAL;
-    info.usage = Compositor::kSwapchainUsage;
     VkImage image = VK_NULL_HANDLE;
-    ASSERT_EQ(vkCreateImage(d, &info, nullptr, &image), VK_SUCCESS);
-    VkMemoryRequirements req;
-    vkGetImageMemoryRequirements(d, image, &req);
-    VkMemoryAllocateInfo alloc{};
-    alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-    alloc.allocationSize = req.size;
-    alloc.memoryTypeIndex = memory_type(device_.memory_properties, req.memoryTypeBits, 0);
-    VkDeviceMemory image_memory = VK_NULL_HANDLE;
-    ASSERT_EQ(vkAllocateMemory(d, &alloc, nullptr, &image_memory), VK_SUCCESS);
-    ASSERT_EQ(vkBindImageMemory(d, image, image_memory, 0), VK_SUCCESS);
+    ASSERT_NO_FATAL_FAILURE(make_image(format, sc.extent, kLayers, Compositor::kSwapchainUsage, &image));
     sc.images = {image};
-
     // Layer after layer, as vkCmdCopyImageToBuffer of both lays them out.
     const VkDeviceSize layer_bytes = VkDeviceSize{kWidth} * kHeight * 4;
-    VkBufferCreateInfo buffer_info{};
-    buffer_info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
-    buffer_info.size = layer_bytes * kLayers;
-    buffer_info.usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
     VkBuffer buffer = VK_NULL_HANDLE;
-    ASSERT_EQ(vkCreateBuffer(d, &buffer_info, nullptr, &buffer), VK_SUCCESS);
-    vkGetBufferMemoryRequirements(d, buffer, &req);
-    alloc.allocationSize = req.size;
-    alloc.memoryTypeIndex =
-        memory_type(device_.memory_properties, req.memoryTypeBits,
-                    VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
-    ASSERT_NE(alloc.memoryTypeIndex, UINT32_MAX);
-    VkDeviceMemory buffer_memory = VK_NULL_HANDLE;
-    ASSERT_EQ(vkAllocateMemory(d, &alloc, nullptr, &buffer_memory), VK_SUCCESS);
-    ASSERT_EQ(vkBindBufferMemory(d, buffer, buffer_memory, 0), VK_SUCCESS);
-    void *mapped_void = nullptr;
-    ASSERT_EQ(vkMapMemory(d, buffer_memory, 0, VK_WHOLE_SIZE, 0, &mapped_void), VK_SUCCESS);
-    auto *mapped = static_cast<uint8_t *>(mapped_void);
-
-    VkCommandPoolCreateInfo pool_info{};
-    pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
-    pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-    pool_info.queueFamilyIndex = family_;
-    VkCommandPool pool = VK_NULL_HANDLE;
-    ASSERT_EQ(vkCreateCommandPool(d, &pool_info, nullptr, &pool), VK_SUCCESS);
-    VkCommandBufferAllocateInfo cb_info{};
-    cb_info.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
-    cb_info.commandPool = pool;
-    cb_info.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-    cb_info.commandBufferCount = 1;
+    uint8_t *mapped = nullptr;
+    ASSERT_NO_FATAL_FAILURE(make_host_buffer(layer_bytes * kLayers, &buffer, &mapped));
     VkCommandBuffer cb = VK_NULL_HANDLE;
-    ASSERT_EQ(vkAllocateCommandBuffers(d, &cb_info, &cb), VK_SUCCESS);
-    VkFenceCreateInfo fence_info{};
-    fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
     VkFence fence = VK_NULL_HANDLE;
-    ASSERT_EQ(vkCreateFence(d, &fence_info, nullptr, &fence), VK_SUCCESS);
+    ASSERT_NO_FATAL_FAILURE(make_command_buffer(&cb, &fence));
 
     std::string error;
     UploadPool uploads(device_);
@@ -692,12 +675,6 @@ TEST_P(CompositorTest, LayeredRuntimeImageGetsEachLayersTilesAndPeriphery) {
     }
 
     compositor.reset(); // waits for its submits
-    vkDestroyFence(d, fence, nullptr);
-    vkDestroyCommandPool(d, pool, nullptr);
-    vkDestroyBuffer(d, buffer, nullptr);
-    vkFreeMemory(d, buffer_memory, nullptr);
-    vkDestroyImage(d, image, nullptr);
-    vkFreeMemory(d, image_memory, nullptr);
     if (validation_) {
         EXPECT_EQ(g_messages, 0);
     }
@@ -760,57 +737,19 @@ TEST_P(CompositorTest, DISABLED_Cost) {
     const VkDevice d = device_.handle;
     constexpr int kRuns = 12;
     const VkExtent2D periphery{(width * 3 + 4) / 5, (height * 3 + 4) / 5};
-    const auto make_image = [&](VkExtent2D extent, VkImageUsageFlags usage, VkImage *image,
-                                VkDeviceMemory *memory) {
-        VkImageCreateInfo info{};
-        info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
-        info.imageType = VK_IMAGE_TYPE_2D;
-        info.format = format;
-        info.extent = {extent.width, extent.height, 1};
-        info.mipLevels = 1;
-        info.arrayLayers = 1;
-        info.samples = VK_SAMPLE_COUNT_1_BIT;
-        info.tiling = VK_IMAGE_TILING_OPTIMAL;
-        info.usage = usage;
-        ASSERT_EQ(vkCreateImage(d, &info, nullptr, image), VK_SUCCESS);
-        VkMemoryRequirements req;
-        vkGetImageMemoryRequirements(d, *image, &req);
-        VkMemoryAllocateInfo alloc{};
-        alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-        alloc.allocationSize = req.size;
-        alloc.memoryTypeIndex = memory_type(device_.memory_properties, req.memoryTypeBits, 0);
-        ASSERT_EQ(vkAllocateMemory(d, &alloc, nullptr, memory), VK_SUCCESS);
-        ASSERT_EQ(vkBindImageMemory(d, *image, *memory, 0), VK_SUCCESS);
-    };
     SwapchainState sc;
     sc.handle = reinterpret_cast<VkSwapchainKHR>(uintptr_t{0x5d});
     sc.extent = {width, height};
     sc.format = format;
     sc.composable = true;
     VkImage image = VK_NULL_HANDLE, small = VK_NULL_HANDLE;
-    VkDeviceMemory image_memory = VK_NULL_HANDLE, small_memory = VK_NULL_HANDLE;
-    ASSERT_NO_FATAL_FAILURE(make_image(sc.extent, Compositor::kSwapchainUsage, &image, &image_memory));
+    ASSERT_NO_FATAL_FAILURE(make_image(format, sc.extent, 1, Compositor::kSwapchainUsage, &image));
     ASSERT_NO_FATAL_FAILURE(make_image(
-        periphery, VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, &small, &small_memory));
+        format, periphery, 1, VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, &small));
     sc.images = {image};
-
-    VkCommandPoolCreateInfo pool_info{};
-    pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
-    pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-    pool_info.queueFamilyIndex = family_;
-    VkCommandPool pool = VK_NULL_HANDLE;
-    ASSERT_EQ(vkCreateCommandPool(d, &pool_info, nullptr, &pool), VK_SUCCESS);
-    VkCommandBufferAllocateInfo cb_info{};
-    cb_info.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
-    cb_info.commandPool = pool;
-    cb_info.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-    cb_info.commandBufferCount = 1;
     VkCommandBuffer cb = VK_NULL_HANDLE;
-    ASSERT_EQ(vkAllocateCommandBuffers(d, &cb_info, &cb), VK_SUCCESS);
-    VkFenceCreateInfo fence_info{};
-    fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
     VkFence fence = VK_NULL_HANDLE;
-    ASSERT_EQ(vkCreateFence(d, &fence_info, nullptr, &fence), VK_SUCCESS);
+    ASSERT_NO_FATAL_FAILURE(make_command_buffer(&cb, &fence));
     const auto submit_and_wait = [&](VkSemaphore wait) {
         const VkPipelineStageFlags stage = VK_PIPELINE_STAGE_ALL_COMMANDS_BIT;
         VkSubmitInfo submit{};
@@ -893,13 +832,7 @@ TEST_P(CompositorTest, DISABLED_Cost) {
     std::printf("cost %ux%u filter %d: composite, whole image %.2f ms; around the foveae with tiles %.2f ms; "
                 "vkCmdBlitImage (linear) alone %.2f ms\n",
                 width, height, int(filter), whole, around, blit);
-    compositor.reset();
-    vkDestroyFence(d, fence, nullptr);
-    vkDestroyCommandPool(d, pool, nullptr);
-    vkDestroyImage(d, image, nullptr);
-    vkDestroyImage(d, small, nullptr);
-    vkFreeMemory(d, image_memory, nullptr);
-    vkFreeMemory(d, small_memory, nullptr);
+    compositor.reset(); // before the upload pool, whose buffer its last tiles hold
 }
 
 // The blit's regions: around the tiles (shrunk to the scale's period) and each scaled exactly as

@@ -32,12 +32,18 @@ PFN_vkVoidFunction device_entry_point(const char *name) {
     return nullptr;
 }
 
-void device_created(VkDevice device, PFN_vkGetDeviceProcAddr next, const VkDeviceCreateInfo &) {
+void device_created(VkPhysicalDevice, VkDevice device, PFN_vkGetDeviceProcAddr next,
+                    const VkDeviceCreateInfo &) {
     const present_layer::Next n{reinterpret_cast<PFN_vkQueuePresentKHR>(next(device, "vkQueuePresentKHR")),
                                 reinterpret_cast<PFN_vkQueueSubmit>(next(device, "vkQueueSubmit")),
                                 reinterpret_cast<PFN_vkQueueWaitIdle>(next(device, "vkQueueWaitIdle"))};
     std::lock_guard lock(present_layer::g_mutex);
     present_layer::g_next[key(device)] = n;
+}
+
+void device_destroying(VkDevice device) {
+    std::lock_guard lock(present_layer::g_mutex);
+    present_layer::g_next.erase(key(device));
 }
 
 } // namespace splitvk::test_layer

@@ -237,7 +237,8 @@ PFN_vkVoidFunction device_entry_point(const char *name) {
     return nullptr;
 }
 
-void device_created(VkDevice device, PFN_vkGetDeviceProcAddr next, const VkDeviceCreateInfo &info) {
+void device_created(VkPhysicalDevice, VkDevice device, PFN_vkGetDeviceProcAddr next,
+                    const VkDeviceCreateInfo &info) {
     using namespace reuse_layer;
     Device d;
     d.destroy_command_pool = reinterpret_cast<PFN_vkDestroyCommandPool>(next(device, "vkDestroyCommandPool"));
@@ -252,6 +253,12 @@ void device_created(VkDevice device, PFN_vkGetDeviceProcAddr next, const VkDevic
     std::lock_guard lock(g_mutex);
     g_devices[key(device)] = d;
     if (info.queueCreateInfoCount > 0) g_family = info.pQueueCreateInfos[0].queueFamilyIndex;
+}
+
+void device_destroying(VkDevice device) {
+    using namespace reuse_layer;
+    std::lock_guard lock(g_mutex);
+    g_devices.erase(key(device));
 }
 
 } // namespace splitvk::test_layer

@@ -18,8 +18,7 @@
 //
 // Its own Vulkan calls go to the next layer (the driver), so that no layer above it sees them.
 // Built into the build tree only and never installed.
-#include <vulkan/vk_layer.h>
-#include <vulkan/vulkan.h>
+#include "../test_layer/test_layer.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -35,18 +34,9 @@
 namespace splitvk::xr_readback_layer {
 namespace {
 
-using DispatchKey = void *;
-DispatchKey key(const void *dispatchable) {
-    return *static_cast<void *const *>(dispatchable);
-}
-
-struct Instance {
-    VkInstance handle = VK_NULL_HANDLE;
-    PFN_vkGetInstanceProcAddr next_gipa = nullptr;
-};
+using test_layer::key;
 
 #define XR_READBACK_DEVICE_FUNCTIONS(X)                                                                      \
-    X(DestroyDevice)                                                                                         \
     X(CreateImage)                                                                                           \
     X(DestroyImage)                                                                                          \
     X(BeginCommandBuffer)                                                                                    \
@@ -69,8 +59,6 @@ struct Instance {
 
 struct Device {
     VkDevice handle = VK_NULL_HANDLE;
-    PFN_vkGetDeviceProcAddr next_gdpa = nullptr;
-    PFN_vkSetDeviceLoaderData set_loader_data = nullptr;
     VkPhysicalDeviceMemoryProperties memory{};
 #define X(name) PFN_vk##name name = nullptr;
     XR_READBACK_DEVICE_FUNCTIONS(X)
@@ -98,9 +86,8 @@ struct Release {
 };
 
 std::mutex g_mutex;
-std::unordered_map<DispatchKey, Instance> g_instances; // a physical device shares its instance's key
-std::unordered_map<DispatchKey, Device> g_devices;     // so do a device's queues and command buffers
-VkInstance g_instance = VK_NULL_HANDLE;
+std::unordered_map<test_layer::DispatchKey, Device>
+    g_devices; // a device's queues and command buffers share its key
 std::unordered_map<VkImage, ImageInfo> g_images;
 int g_external_images = 0;
 std::unordered_map<VkCommandBuffer, std::vector<Release>> g_releases;
@@ -229,7 +216,7 @@ void read_back(Device &d, VkQueue queue, const Release &r, const std::string &di
         cb_info.commandBufferCount = 1;
         // A dispatchable object made below the loader gets its dispatch pointer from the loader.
         ok = d.AllocateCommandBuffers(d.handle, &cb_info, &cb) == VK_SUCCESS &&
-             d.set_loader_data(d.handle, cb) == VK_SUCCESS;
+             test_layer::set_loader_data(d.handle, cb) == VK_SUCCESS;
     }
     if (ok) {
         VkCommandBufferBeginInfo begin{};
@@ -368,7 +355,52 @@ VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit(VkQueue queue, uint32_t count, const 
     return d.QueueSubmit(queue, count, submits, fence);
 }
 
-VKAPI_ATTR void VKAPI_CALL DestroyDevice(VkDevice device, const VkAllocationCallbacks *alloc) {
+} // namespace
+} // namespace splitvk::xr_readback_layer
+
+namespace splitvk::test_layer {
+
+PFN_vkVoidFunction device_entry_point(const char *name) {
+    using namespace xr_readback_layer;
+    struct Intercepted {
+        const char *name;
+        PFN_vkVoidFunction function;
+    };
+    static const Intercepted intercepted[] = {
+        {"vkCreateImage", reinterpret_cast<PFN_vkVoidFunction>(CreateImage)},
+        {"vkDestroyImage", reinterpret_cast<PFN_vkVoidFunction>(DestroyImage)},
+        {"vkBeginCommandBuffer", reinterpret_cast<PFN_vkVoidFunction>(BeginCommandBuffer)},
+        {"vkCmdPipelineBarrier", reinterpret_cast<PFN_vkVoidFunction>(CmdPipelineBarrier)},
+        {"vkCmdPipelineBarrier2", reinterpret_cast<PFN_vkVoidFunction>(CmdPipelineBarrier2)},
+        {"vkCmdPipelineBarrier2KHR", reinterpret_cast<PFN_vkVoidFunction>(CmdPipelineBarrier2KHR)},
+        {"vkQueueSubmit", reinterpret_cast<PFN_vkVoidFunction>(QueueSubmit)},
+    };
+    for (const Intercepted &i : intercepted)
+        if (!std::strcmp(name, i.name)) return i.function;
+    return nullptr;
+}
+
+void device_created(VkPhysicalDevice gpu, VkDevice device, PFN_vkGetDeviceProcAddr next,
+                    const VkDeviceCreateInfo &) {
+    using namespace xr_readback_layer;
+    Device d;
+    d.handle = device;
+    auto memory_properties = reinterpret_cast<PFN_vkGetPhysicalDeviceMemoryProperties>(
+        next_instance_proc(gpu, "vkGetPhysicalDeviceMemoryProperties"));
+    memory_properties(gpu, &d.memory);
+#define X(name) d.name = reinterpret_cast<PFN_vk##name>(next(device, "vk" #name));
+    XR_READBACK_DEVICE_FUNCTIONS(X)
+#undef X
+    d.CmdPipelineBarrier2 =
+        reinterpret_cast<PFN_vkCmdPipelineBarrier2>(next(device, "vkCmdPipelineBarrier2"));
+    d.CmdPipelineBarrier2KHR =
+        reinterpret_cast<PFN_vkCmdPipelineBarrier2>(next(device, "vkCmdPipelineBarrier2KHR"));
+    std::lock_guard lock(g_mutex);
+    g_devices[key(device)] = d;
+}
+
+void device_destroying(VkDevice device) {
+    using namespace xr_readback_layer;
     Device d;
     {
         std::lock_guard lock(g_mutex);
@@ -377,130 +409,6 @@ VKAPI_ATTR void VKAPI_CALL DestroyDevice(VkDevice device, const VkAllocationCall
     }
     for (const auto &[family, pool] : d.pools)
         d.DestroyCommandPool(device, pool, nullptr);
-    d.DestroyDevice(device, alloc);
 }
 
-// The loader's link info for this layer in a create info's pNext chain, moved on to the next layer.
-template <class LinkInfo>
-auto *take_link(const void *next, VkStructureType type) {
-    auto *chain = static_cast<LinkInfo *>(const_cast<void *>(next));
-    while (chain && !(chain->sType == type && chain->function == VK_LAYER_LINK_INFO))
-        chain = static_cast<LinkInfo *>(const_cast<void *>(chain->pNext));
-    if (!chain) return decltype(chain->u.pLayerInfo){nullptr};
-    auto *link = chain->u.pLayerInfo;
-    chain->u.pLayerInfo = link->pNext;
-    return link;
-}
-
-PFN_vkSetDeviceLoaderData loader_data_callback(const VkDeviceCreateInfo *info) {
-    for (auto *s = static_cast<const VkLayerDeviceCreateInfo *>(info->pNext); s;
-         s = static_cast<const VkLayerDeviceCreateInfo *>(s->pNext))
-        if (s->sType == VK_STRUCTURE_TYPE_LOADER_DEVICE_CREATE_INFO && s->function == VK_LOADER_DATA_CALLBACK)
-            return s->u.pfnSetDeviceLoaderData;
-    return nullptr;
-}
-
-VKAPI_ATTR VkResult VKAPI_CALL CreateInstance(const VkInstanceCreateInfo *info,
-                                              const VkAllocationCallbacks *alloc, VkInstance *instance) {
-    const auto *link =
-        take_link<VkLayerInstanceCreateInfo>(info->pNext, VK_STRUCTURE_TYPE_LOADER_INSTANCE_CREATE_INFO);
-    if (!link) return VK_ERROR_INITIALIZATION_FAILED;
-    const PFN_vkGetInstanceProcAddr next = link->pfnNextGetInstanceProcAddr;
-    auto create = reinterpret_cast<PFN_vkCreateInstance>(next(VK_NULL_HANDLE, "vkCreateInstance"));
-    const VkResult result = create(info, alloc, instance);
-    if (result == VK_SUCCESS) {
-        std::lock_guard lock(g_mutex);
-        g_instances[key(*instance)] = {*instance, next};
-        g_instance = *instance;
-    }
-    return result;
-}
-
-VKAPI_ATTR VkResult VKAPI_CALL CreateDevice(VkPhysicalDevice gpu, const VkDeviceCreateInfo *info,
-                                            const VkAllocationCallbacks *alloc, VkDevice *device) {
-    const PFN_vkSetDeviceLoaderData set_loader_data = loader_data_callback(info);
-    const auto *link =
-        take_link<VkLayerDeviceCreateInfo>(info->pNext, VK_STRUCTURE_TYPE_LOADER_DEVICE_CREATE_INFO);
-    if (!link || !set_loader_data) return VK_ERROR_INITIALIZATION_FAILED;
-    const PFN_vkGetInstanceProcAddr next_gipa = link->pfnNextGetInstanceProcAddr;
-    const PFN_vkGetDeviceProcAddr next_gdpa = link->pfnNextGetDeviceProcAddr;
-    Instance instance;
-    {
-        std::lock_guard lock(g_mutex);
-        const auto it = g_instances.find(key(gpu));
-        instance = it != g_instances.end() ? it->second : Instance{g_instance, next_gipa};
-    }
-    auto create = reinterpret_cast<PFN_vkCreateDevice>(next_gipa(instance.handle, "vkCreateDevice"));
-    const VkResult result = create(gpu, info, alloc, device);
-    if (result != VK_SUCCESS) return result;
-    Device d;
-    d.handle = *device;
-    d.next_gdpa = next_gdpa;
-    d.set_loader_data = set_loader_data;
-    auto memory_properties = reinterpret_cast<PFN_vkGetPhysicalDeviceMemoryProperties>(
-        next_gipa(instance.handle, "vkGetPhysicalDeviceMemoryProperties"));
-    memory_properties(gpu, &d.memory);
-#define X(name) d.name = reinterpret_cast<PFN_vk##name>(next_gdpa(*device, "vk" #name));
-    XR_READBACK_DEVICE_FUNCTIONS(X)
-#undef X
-    d.CmdPipelineBarrier2 =
-        reinterpret_cast<PFN_vkCmdPipelineBarrier2>(next_gdpa(*device, "vkCmdPipelineBarrier2"));
-    d.CmdPipelineBarrier2KHR =
-        reinterpret_cast<PFN_vkCmdPipelineBarrier2>(next_gdpa(*device, "vkCmdPipelineBarrier2KHR"));
-    std::lock_guard lock(g_mutex);
-    g_devices[key(*device)] = d;
-    return result;
-}
-
-VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetDeviceProcAddr(VkDevice device, const char *name);
-
-VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetInstanceProcAddr(VkInstance instance, const char *name) {
-    if (!std::strcmp(name, "vkGetInstanceProcAddr"))
-        return reinterpret_cast<PFN_vkVoidFunction>(GetInstanceProcAddr);
-    if (!std::strcmp(name, "vkCreateInstance")) return reinterpret_cast<PFN_vkVoidFunction>(CreateInstance);
-    if (!std::strcmp(name, "vkCreateDevice")) return reinterpret_cast<PFN_vkVoidFunction>(CreateDevice);
-    if (!std::strcmp(name, "vkGetDeviceProcAddr"))
-        return reinterpret_cast<PFN_vkVoidFunction>(GetDeviceProcAddr);
-    if (!instance) return nullptr;
-    std::lock_guard lock(g_mutex);
-    return g_instances[key(instance)].next_gipa(instance, name);
-}
-
-VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetDeviceProcAddr(VkDevice device, const char *name) {
-    Device &d = device_of(device);
-    struct Intercepted {
-        const char *name;
-        PFN_vkVoidFunction function;
-        bool present; // the next layer has it
-    };
-    const Intercepted intercepted[] = {
-        {"vkGetDeviceProcAddr", reinterpret_cast<PFN_vkVoidFunction>(GetDeviceProcAddr), true},
-        {"vkDestroyDevice", reinterpret_cast<PFN_vkVoidFunction>(DestroyDevice), true},
-        {"vkCreateImage", reinterpret_cast<PFN_vkVoidFunction>(CreateImage), true},
-        {"vkDestroyImage", reinterpret_cast<PFN_vkVoidFunction>(DestroyImage), true},
-        {"vkBeginCommandBuffer", reinterpret_cast<PFN_vkVoidFunction>(BeginCommandBuffer), true},
-        {"vkCmdPipelineBarrier", reinterpret_cast<PFN_vkVoidFunction>(CmdPipelineBarrier), true},
-        {"vkCmdPipelineBarrier2", reinterpret_cast<PFN_vkVoidFunction>(CmdPipelineBarrier2),
-         d.CmdPipelineBarrier2 != nullptr},
-        {"vkCmdPipelineBarrier2KHR", reinterpret_cast<PFN_vkVoidFunction>(CmdPipelineBarrier2KHR),
-         d.CmdPipelineBarrier2KHR != nullptr},
-        {"vkQueueSubmit", reinterpret_cast<PFN_vkVoidFunction>(QueueSubmit), true},
-    };
-    for (const Intercepted &i : intercepted)
-        if (!std::strcmp(name, i.name)) return i.present ? i.function : nullptr;
-    return d.next_gdpa(device, name);
-}
-
-} // namespace
-} // namespace splitvk::xr_readback_layer
-
-extern "C" __attribute__((visibility("default"))) VKAPI_ATTR VkResult VKAPI_CALL
-vkNegotiateLoaderLayerInterfaceVersion(VkNegotiateLayerInterface *interface) {
-    if (!interface || interface->sType != LAYER_NEGOTIATE_INTERFACE_STRUCT)
-        return VK_ERROR_INITIALIZATION_FAILED;
-    if (interface->loaderLayerInterfaceVersion > 2) interface->loaderLayerInterfaceVersion = 2;
-    interface->pfnGetInstanceProcAddr = splitvk::xr_readback_layer::GetInstanceProcAddr;
-    interface->pfnGetDeviceProcAddr = splitvk::xr_readback_layer::GetDeviceProcAddr;
-    interface->pfnGetPhysicalDeviceProcAddr = nullptr;
-    return VK_SUCCESS;
-}
+} // namespace splitvk::test_layer
