@@ -488,7 +488,7 @@ bool Replayer::vkCreateShaderModule(const codec::Decoded_vkCreateShaderModule &c
     const std::span<const uint32_t> words(c.pCreateInfo->pCode, c.pCreateInfo->codeSize / sizeof(uint32_t));
     if (!reflect_shader_addresses(words, &found, &error)) {
         // The driver took it, this reader did not: whatever addresses it uses stay untranslated.
-        found.uses_addresses = true;
+        found.uses_addresses = may_use_addresses(words);
         found.untranslatable = "a module splitvk cannot read (" + error + ")";
     }
     if (found.uses_addresses) shader_addresses_[c.pShaderModule[0]] = std::move(found);

@@ -377,6 +377,23 @@ private:
 
 } // namespace
 
+bool may_use_addresses(std::span<const uint32_t> words) {
+    struct Capabilities {
+        bool addresses = false;
+        static spv_result_t next(void *user, const spv_parsed_instruction_t *parsed) {
+            if (parsed->opcode != static_cast<uint16_t>(Op::OpCapability)) return SPV_REQUESTED_TERMINATION;
+            if (parsed->num_words > 1 && static_cast<spv::Capability>(parsed->words[1]) ==
+                                             spv::Capability::PhysicalStorageBufferAddresses)
+                static_cast<Capabilities *>(user)->addresses = true;
+            return SPV_SUCCESS;
+        }
+    } found;
+    if (words.size() < 5 || words[0] != spv::MagicNumber) return true;
+    const spv_result_t result =
+        spvBinaryParse(grammar(), &found, words.data(), words.size(), nullptr, &Capabilities::next, nullptr);
+    return found.addresses || (result != SPV_SUCCESS && result != SPV_REQUESTED_TERMINATION);
+}
+
 bool reflect_shader_addresses(std::span<const uint32_t> words, ShaderAddresses *out, std::string *error) {
     *out = {};
     Reader reader(words, *out);

@@ -36,4 +36,10 @@ struct ShaderAddresses {
 // `error` when the words are not a well-formed module as far as this reader goes.
 bool reflect_shader_addresses(std::span<const uint32_t> words, ShaderAddresses *out, std::string *error);
 
+// Whether a module declares PhysicalStorageBufferAddresses, read from its capabilities alone
+// (SPIR-V puts them first). For a module reflect_shader_addresses refuses, such as one with an
+// instruction newer than this SPIRV-Tools' grammar: one that declares no addresses cannot use
+// any, and its pipelines replay as they are. True when even the capabilities cannot be read.
+bool may_use_addresses(std::span<const uint32_t> words);
+
 } // namespace splitvk::agent

@@ -231,5 +231,32 @@ TEST(SpirvAddresses, TruncatedOrMalformedModulesAreRejectedWhole) {
     }
 }
 
+// A module the reader refuses (here: an opcode newer than its grammar) still replays untouched when
+// its capabilities, which SPIR-V puts first, declare no addresses; otherwise, or when even those
+// cannot be read, its addresses count as untranslatable.
+TEST(SpirvAddresses, RefusedModulesMayUseAddressesOnlyIfTheyDeclareThem) {
+    constexpr uint32_t kOpCapability = 2u << 16 | 17, kShader = 1, kPhysicalStorageBufferAddresses = 5347;
+    constexpr uint32_t kUnknownOpcode = 1u << 16 | 0xfff0;
+    constexpr uint32_t kOpMemoryModel = 3u << 16 | 14, kLogical = 0, kGlsl450 = 1;
+    const uint32_t header[] = {0x07230203, 0x00010500, 0, 16, 0};
+    auto module = [&](std::initializer_list<uint32_t> body) {
+        std::vector<uint32_t> words(std::begin(header), std::end(header));
+        words.insert(words.end(), body);
+        return words;
+    };
+    const auto shader_only =
+        module({kOpCapability, kShader, kOpMemoryModel, kLogical, kGlsl450, kUnknownOpcode});
+    const auto with_addresses =
+        module({kOpCapability, kShader, kOpCapability, kPhysicalStorageBufferAddresses, kUnknownOpcode});
+    ShaderAddresses out;
+    std::string error;
+    ASSERT_FALSE(reflect_shader_addresses(shader_only, &out, &error));
+    ASSERT_FALSE(reflect_shader_addresses(with_addresses, &out, &error));
+    EXPECT_FALSE(may_use_addresses(shader_only));
+    EXPECT_TRUE(may_use_addresses(with_addresses));
+    EXPECT_TRUE(may_use_addresses(module({kOpCapability & 0xffff})));        // a capability of zero words
+    EXPECT_TRUE(may_use_addresses(std::vector<uint32_t>{1, 2, 3, 4, 5, 6})); // not SPIR-V at all
+}
+
 } // namespace
 } // namespace splitvk::agent
