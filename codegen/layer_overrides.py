@@ -104,7 +104,6 @@ MANUAL_COMMANDS = {
     "vkDestroyPipeline",
     "vkCmdBindPipeline",
     # viewport.cpp: the app's dynamic viewports/scissors, kept unscaled, passed down scaled in a split pass.
-    "vkCmdSetViewport",
     "vkCmdSetViewportWithCount",
     "vkCmdSetViewportWithCountEXT",
     "vkCmdSetScissor",
@@ -164,6 +163,20 @@ OBSERVED_COMMANDS = {
     "vkCmdDispatchIndirect",
     # render_pass.cpp: the foveae of the viewports that executed secondaries drew with.
     "vkCmdExecuteCommands",
+}
+
+# Commands the split rewrites (layer/split.h), by canonical name: their aliases follow. The
+# generated entry point captures the application's original call (a command buffer's stream, or
+# the global stream with its live-state change: a destroy's before the call goes down, a create's
+# after it, on success), then calls the hand-written hook
+# rewrite::<Name>(DeviceState &, PFN_<name> down, <the command's parameters>) in the namespace
+# splitvk::rewrite, which changes only what the split changes and makes the driver call through
+# `down` (the called alias's own dispatch slot). Called only on a device with a session: without
+# one the call goes down as made. For changes to what the driver is told; state the layer only
+# tracks is observed (above).
+REWRITTEN_COMMANDS = {
+    # viewport.cpp: the app's dynamic viewports/scissors, kept unscaled, passed down scaled in a split pass.
+    "vkCmdSetViewport",
 }
 
 # Global commands are answered by the loader from the manifest for interface version 2 layers;

@@ -48,19 +48,17 @@ void set_scissors(DeviceState &dev, VkCommandBuffer cb, uint32_t first, uint32_t
 
 } // namespace
 
-namespace entry {
+namespace rewrite {
 
-VKAPI_ATTR void VKAPI_CALL CmdSetViewport(VkCommandBuffer commandBuffer, uint32_t firstViewport,
-                                          uint32_t viewportCount, const VkViewport *pViewports) {
-    DeviceState &dev = device_state(commandBuffer);
-    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdSetViewport(e, commandBuffer, firstViewport, viewportCount, pViewports);
-    });
+void CmdSetViewport(DeviceState &dev, PFN_vkCmdSetViewport down, VkCommandBuffer commandBuffer,
+                    uint32_t firstViewport, uint32_t viewportCount, const VkViewport *pViewports) {
     set_viewports(dev, commandBuffer, firstViewport, viewportCount, pViewports, false,
-                  [&](const VkViewport *v) {
-                      dev.dispatch.CmdSetViewport(commandBuffer, firstViewport, viewportCount, v);
-                  });
+                  [&](const VkViewport *v) { down(commandBuffer, firstViewport, viewportCount, v); });
 }
+
+} // namespace rewrite
+
+namespace entry {
 
 VKAPI_ATTR void VKAPI_CALL CmdSetViewportWithCount(VkCommandBuffer commandBuffer, uint32_t viewportCount,
                                                    const VkViewport *pViewports) {
