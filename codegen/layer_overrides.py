@@ -103,12 +103,6 @@ MANUAL_COMMANDS = {
     "vkCreateGraphicsPipelines",
     "vkDestroyPipeline",
     "vkCmdBindPipeline",
-    # viewport.cpp: the app's dynamic viewports/scissors, kept unscaled, passed down scaled in a split pass.
-    "vkCmdSetViewportWithCount",
-    "vkCmdSetViewportWithCountEXT",
-    "vkCmdSetScissor",
-    "vkCmdSetScissorWithCount",
-    "vkCmdSetScissorWithCountEXT",
     # transfer.cpp: regions of screen-space targets scaled, copies and blits into swapchain images
     # drawn into the scaled top-left, dispatches over scaled storage images scaled.
     "vkCmdCopyImage",
@@ -177,6 +171,9 @@ OBSERVED_COMMANDS = {
 REWRITTEN_COMMANDS = {
     # viewport.cpp: the app's dynamic viewports/scissors, kept unscaled, passed down scaled in a split pass.
     "vkCmdSetViewport",
+    "vkCmdSetViewportWithCount",
+    "vkCmdSetScissor",
+    "vkCmdSetScissorWithCount",
 }
 
 # Global commands are answered by the loader from the manifest for interface version 2 layers;
