@@ -103,25 +103,6 @@ MANUAL_COMMANDS = {
     "vkCreateGraphicsPipelines",
     "vkDestroyPipeline",
     "vkCmdBindPipeline",
-    # transfer.cpp: regions of screen-space targets scaled, copies and blits into swapchain images
-    # drawn into the scaled top-left, dispatches over scaled storage images scaled.
-    "vkCmdCopyImage",
-    "vkCmdCopyImage2",
-    "vkCmdCopyImage2KHR",
-    "vkCmdResolveImage",
-    "vkCmdResolveImage2",
-    "vkCmdResolveImage2KHR",
-    "vkCmdBlitImage",
-    "vkCmdBlitImage2",
-    "vkCmdBlitImage2KHR",
-    "vkCmdCopyBufferToImage",
-    "vkCmdCopyBufferToImage2",
-    "vkCmdCopyBufferToImage2KHR",
-    "vkCmdCopyImageToBuffer",
-    "vkCmdCopyImageToBuffer2",
-    "vkCmdCopyImageToBuffer2KHR",
-    "vkCmdDispatch",
-    "vkCmdDispatchBase",
 }
 
 # Commands whose generated entry point also tells a hand-written observer, after the call went down
@@ -174,6 +155,20 @@ REWRITTEN_COMMANDS = {
     "vkCmdSetViewportWithCount",
     "vkCmdSetScissor",
     "vkCmdSetScissorWithCount",
+    # transfer.cpp: regions of screen-space targets scaled, copies and blits into swapchain images
+    # drawn into the scaled top-left, dispatches over scaled storage images scaled.
+    "vkCmdCopyImage",
+    "vkCmdCopyImage2",
+    "vkCmdResolveImage",
+    "vkCmdResolveImage2",
+    "vkCmdBlitImage",
+    "vkCmdBlitImage2",
+    "vkCmdCopyBufferToImage",
+    "vkCmdCopyBufferToImage2",
+    "vkCmdCopyImageToBuffer",
+    "vkCmdCopyImageToBuffer2",
+    "vkCmdDispatch",
+    "vkCmdDispatchBase",
 }
 
 # Global commands are answered by the loader from the manifest for interface version 2 layers;
