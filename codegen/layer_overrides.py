@@ -79,26 +79,6 @@ MANUAL_COMMANDS = {
     # resource.cpp: the client's buffer address, sent to the agent (BufferAddress).
     "vkGetBufferDeviceAddress",
     "vkGetBufferDeviceAddressKHR",
-    # The split rewrite (layer/split.h): these capture the app's original call and pass a
-    # rewritten one down. render_pass.cpp: which passes draw into swapchain images (views,
-    # framebuffers, swapchain images), their scaled render area and clear rects, and the
-    # viewport/scissor state re-emitted at their begin and end.
-    "vkGetSwapchainImagesKHR",
-    "vkCreateImageView",
-    "vkDestroyImageView",
-    "vkCreateFramebuffer",
-    "vkDestroyFramebuffer",
-    "vkCmdBeginRenderPass",
-    "vkCmdBeginRenderPass2",
-    "vkCmdBeginRenderPass2KHR",
-    "vkCmdEndRenderPass",
-    "vkCmdEndRenderPass2",
-    "vkCmdEndRenderPass2KHR",
-    "vkCmdBeginRendering",
-    "vkCmdBeginRenderingKHR",
-    "vkCmdEndRendering",
-    "vkCmdEndRenderingKHR",
-    "vkCmdClearAttachments",
     # pipeline.cpp: static viewport/scissor state made dynamic down the chain, set at bind.
     "vkCreateGraphicsPipelines",
     "vkDestroyPipeline",
@@ -136,8 +116,13 @@ OBSERVED_COMMANDS = {
     "vkCmdBindDescriptorSets",
     # transfer.cpp: an indirect dispatch over a screen-space target, said once (not scaled).
     "vkCmdDispatchIndirect",
-    # render_pass.cpp: the foveae of the viewports that executed secondaries drew with.
+    # render_pass.cpp: the foveae of the viewports that executed secondaries drew with, and which
+    # passes draw into swapchain images (their views and swapchain images; framebuffers: below).
     "vkCmdExecuteCommands",
+    "vkGetSwapchainImagesKHR",
+    "vkCreateImageView",
+    "vkDestroyImageView",
+    "vkDestroyFramebuffer",
 }
 
 # Commands the split rewrites (layer/split.h), by canonical name: their aliases follow. The
@@ -169,6 +154,17 @@ REWRITTEN_COMMANDS = {
     "vkCmdCopyImageToBuffer2",
     "vkCmdDispatch",
     "vkCmdDispatchBase",
+    # render_pass.cpp: passes into swapchain images and screen-space targets (split passes), their
+    # scaled render area and clear rects, the viewport/scissor state re-emitted at their begin and
+    # end, and framebuffers holding a screen-space target created at the scaled size.
+    "vkCreateFramebuffer",
+    "vkCmdBeginRenderPass",
+    "vkCmdBeginRenderPass2",
+    "vkCmdEndRenderPass",
+    "vkCmdEndRenderPass2",
+    "vkCmdBeginRendering",
+    "vkCmdEndRendering",
+    "vkCmdClearAttachments",
 }
 
 # Global commands are answered by the loader from the manifest for interface version 2 layers;
