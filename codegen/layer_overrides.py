@@ -1,7 +1,10 @@
-"""Commands whose layer entry point is written by hand, in the layer file of their Vulkan concept.
+"""Which layer entry points call hand-written code, listed under the layer file of their Vulkan concept.
 
-Everything else gets a generated entry point. Keep this list to real semantics: object lifetime
-of the dispatchable handles, the loader interface, and (later) what the split rewrite changes.
+Everything not listed here gets a generated forwarded entry point (emit_layer.py). Three lists:
+OBSERVED_COMMANDS (generated, and a hand-written observer of state the layer tracks),
+REWRITTEN_COMMANDS (generated capture, and a hand-written hook that passes down the split's changed
+call) and MANUAL_COMMANDS (whole entry points by hand). Keep the manual list to what the other two
+cannot express: object lifetime of the dispatchable handles, the loader interface, memory, queues.
 """
 
 MANUAL_COMMANDS = {
@@ -79,10 +82,6 @@ MANUAL_COMMANDS = {
     # resource.cpp: the client's buffer address, sent to the agent (BufferAddress).
     "vkGetBufferDeviceAddress",
     "vkGetBufferDeviceAddressKHR",
-    # pipeline.cpp: static viewport/scissor state made dynamic down the chain, set at bind.
-    "vkCreateGraphicsPipelines",
-    "vkDestroyPipeline",
-    "vkCmdBindPipeline",
 }
 
 # Commands whose generated entry point also tells a hand-written observer, after the call went down
@@ -123,6 +122,8 @@ OBSERVED_COMMANDS = {
     "vkCreateImageView",
     "vkDestroyImageView",
     "vkDestroyFramebuffer",
+    # pipeline.cpp: the static viewport/scissor state of pipelines the layer made dynamic.
+    "vkDestroyPipeline",
 }
 
 # Commands the split rewrites (layer/split.h), by canonical name: their aliases follow. The
@@ -165,6 +166,9 @@ REWRITTEN_COMMANDS = {
     "vkCmdBeginRendering",
     "vkCmdEndRendering",
     "vkCmdClearAttachments",
+    # pipeline.cpp: static viewport/scissor state made dynamic down the chain, set at bind.
+    "vkCreateGraphicsPipelines",
+    "vkCmdBindPipeline",
 }
 
 # Global commands are answered by the loader from the manifest for interface version 2 layers;
