@@ -1,8 +1,14 @@
 """The layer's entry points and the name lookup behind its vkGet*ProcAddr.
 
-Every forwarded command gets an entry point in namespace splitvk::entry. Those listed in
-layer_overrides.MANUAL_COMMANDS are declared here and defined by hand in layer/; the rest are
-generated as calls through the dispatch table of the object they are called on.
+Every forwarded command gets an entry point in namespace splitvk::entry, of one of four kinds
+(layer/README.md, step 3; the lists are in layer_overrides.py):
+- forwarded: the call down through the dispatch table of the object it is called on, then its
+  capture (a destroy's before the call);
+- observed (OBSERVED_COMMANDS): the same, and a call to the hand-written observe::<Name>;
+- rewritten (REWRITTEN_COMMANDS, canonical names, aliases follow): the capture of the application's
+  call, then the hand-written rewrite::<Name>, which makes the driver call with the split's changes;
+- manual (MANUAL_COMMANDS): declared here, defined by hand in layer/.
+The observe:: and rewrite:: hooks are declared in the generated header.
 """
 from allowlist import DEVICE_EXTENSIONS
 from codec_policy import FORWARD, POLICY
