@@ -1,13 +1,19 @@
 """The layer's entry points and the name lookup behind its vkGet*ProcAddr.
 
-Every forwarded command gets an entry point in namespace splitvk::entry. Those listed in
-layer_overrides.MANUAL_COMMANDS are declared here and defined by hand in layer/; the rest are
-generated as calls through the dispatch table of the object they are called on.
+Every forwarded command gets an entry point in namespace splitvk::entry, of one of four kinds
+(layer/README.md, step 3; the lists are in layer_overrides.py):
+- forwarded: the call down through the dispatch table of the object it is called on, then its
+  capture (a destroy's before the call);
+- observed (OBSERVED_COMMANDS): the same, and a call to the hand-written observe::<Name>;
+- rewritten (REWRITTEN_COMMANDS, canonical names, aliases follow): the capture of the application's
+  call, then the hand-written rewrite::<Name>, which makes the driver call with the split's changes;
+- manual (MANUAL_COMMANDS): declared here, defined by hand in layer/.
+The observe:: and rewrite:: hooks are declared in the generated header.
 """
 from allowlist import DEVICE_EXTENSIONS
 from codec_policy import FORWARD, POLICY
 from cpp import HEADER, guarded
-from layer_overrides import LOADER_ANSWERED, MANUAL_COMMANDS, OBSERVED_COMMANDS
+from layer_overrides import LOADER_ANSWERED, MANUAL_COMMANDS, OBSERVED_COMMANDS, REWRITTEN_COMMANDS
 
 _LEVEL_ENUM = {
     "global": "EntryLevel::Global",
@@ -72,17 +78,61 @@ def _logged_call(c):
     return None
 
 
-def _forward_body(c, by_name, handle_types):
-    """Entry point body of a forwarded command: the down-call, then (with a live session) its encoding.
+def _capture_block(c, canon, handle_types, ok):
+    """The capture of the application's call `c` (encoded under its canonical command `canon`), as
+    the lines of one `if (capturing(dev)...)` block.
 
     Command-buffer commands go into the command buffer's own stream (command_buffer.cpp); other
-    device-level commands into the device's global stream (session.cpp), in call order.
+    device-level commands into the device's global stream (session.cpp), in call order, with their
+    effect on the live-state log.
     """
+    handle = c.params[0]
+    encode = f"encode_{canon.name}(e, {c.arguments});"
+    if handle.type == "VkCommandBuffer":
+        return [f"    if (capturing(dev){ok}) [[unlikely]] {{",
+                f"        if (codec::Encoder *enc = command_buffer_encoder({handle.name})) {{",
+                "            codec::Encoder &e = *enc;",
+                f"            {encode}",
+                "        }",
+                "    }"]
+    created = _created_handle(c, handle_types)
+    destroyed = _destroyed_handle(c)
+    logged = _logged_call(canon)
+    lines = [f"    if (capturing(dev){ok}) [[unlikely]] {{"]
+    if logged:
+        lines += logged
+        lines.append(f"        record_logged(dev, holders, killers, [&](codec::Encoder &e) {{ {encode} }});")
+    else:
+        if created:
+            live = f"LiveChange::Created, codec::handle_value(*{created})"
+        elif destroyed:
+            kind = "Retired" if canon.name in _RETIRED else "Destroyed"
+            live = f"LiveChange::{kind}, codec::handle_value({destroyed})"
+        else:
+            live = "LiveChange::Unchanged, 0"
+        lines.append(f"        record_global(dev, {live}, [&](codec::Encoder &e) {{ {encode} }});")
+    if canon.name == "vkUpdateDescriptorSets":
+        lines.append("        note_descriptor_updates(descriptorWriteCount, pDescriptorWrites, "
+                     "descriptorCopyCount, pDescriptorCopies);")
+    lines.append("    }")
+    return lines
+
+
+def _records_first(c, canon):
+    """Whether the capture goes in front of the driver call: a destroy's, since once the object is
+    gone another thread may create one with the same handle value, and a destroy logged after that
+    create would end the new object on the agent and in the live state."""
+    return (c.params[0].type != "VkCommandBuffer" and _destroyed_handle(c) is not None
+            and c.return_type == "void" and not _logged_call(canon))
+
+
+def _forward_body(c, by_name, handle_types, captured=True):
+    """Entry point body of a forwarded command: the down-call, then (with a live session) its
+    observer and its capture (none when `captured` is false: a command the codec does not encode)."""
     canon = _canonical(c, by_name)
     handle = c.params[0]
     ret = c.return_type
     call = f"dev.dispatch.{c.short_name}({c.arguments})"
-    encode = f"encode_{canon.name}(e, {c.arguments});"
     lines = [f"    DeviceState &dev = device_state({handle.name});"]
     observe = f"observe::{c.short_name}(dev, {c.arguments});"
     # A destroy's observer runs before the driver call: once the driver has destroyed the object it
@@ -91,64 +141,78 @@ def _forward_body(c, by_name, handle_types):
     observe_first = c.name in OBSERVED_COMMANDS and ret == "void" and _destroyed_handle(c) is not None
     if observe_first:
         lines.append(f"    if (dev.session) [[unlikely]] {observe}")
+    ok = " && result >= 0" if ret == "VkResult" else ""
+    capture = _capture_block(c, canon, handle_types, ok) if captured else []
+    if captured and _records_first(c, canon):
+        lines += capture
+        capture = []
     if ret == "void":
         lines.append(f"    {call};")
-        ok = ""
     else:
         lines.append(f"    const {ret} result = {call};")
-        ok = " && result >= 0" if ret == "VkResult" else ""
     if c.name in OBSERVED_COMMANDS and not observe_first:
         lines.append(f"    if (dev.session{ok}) [[unlikely]] {observe}")
-    if handle.type == "VkCommandBuffer":
-        lines += [f"    if (capturing(dev){ok}) [[unlikely]] {{",
-                  f"        if (codec::Encoder *enc = command_buffer_encoder({handle.name})) {{",
-                  "            codec::Encoder &e = *enc;",
-                  f"            {encode}",
-                  "        }",
-                  "    }"]
-    else:
-        created = _created_handle(c, handle_types)
-        destroyed = _destroyed_handle(c)
-        logged = _logged_call(canon)
-        # A destroy is recorded before the driver call, for the observer's reason above: once the
-        # object is gone another thread may create one with the same handle value, and a destroy
-        # logged after that create would end the new object on the agent and in the live state.
-        record_first = destroyed is not None and ret == "void" and not logged
-        record_at = len(lines) - 1 if record_first else len(lines)
-        lines.append(f"    if (capturing(dev){ok}) [[unlikely]] {{")
-        if logged:
-            lines += logged
-            lines.append(f"        record_logged(dev, holders, killers, [&](codec::Encoder &e) {{ {encode} }});")
-        else:
-            if created:
-                live = f"LiveChange::Created, codec::handle_value(*{created})"
-            elif destroyed:
-                kind = "Retired" if canon.name in _RETIRED else "Destroyed"
-                live = f"LiveChange::{kind}, codec::handle_value({destroyed})"
-            else:
-                live = "LiveChange::Unchanged, 0"
-            lines.append(f"        record_global(dev, {live}, [&](codec::Encoder &e) {{ {encode} }});")
-        if canon.name == "vkUpdateDescriptorSets":
-            lines.append("        note_descriptor_updates(descriptorWriteCount, pDescriptorWrites, "
-                         "descriptorCopyCount, pDescriptorCopies);")
-        lines.append("    }")
-        if record_first:  # move the capture block in front of the driver call
-            block = lines[record_at + 1:]
-            del lines[record_at + 1:]
-            lines[record_at:record_at] = block
+    lines += capture
     if ret != "void":
         lines.append("    return result;")
     return lines
 
 
+def _rewritten_body(c, by_name, handle_types):
+    """Entry point body of a rewritten command (REWRITTEN_COMMANDS): with a session, the capture of
+    the application's original call, and the hand-written hook that passes the rewritten call down
+    through `c`'s own dispatch slot (an alias's hook is its canonical command's)."""
+    canon = _canonical(c, by_name)
+    handle = c.params[0]
+    ret = c.return_type
+    hook = f"rewrite::{canon.short_name}(dev, dev.dispatch.{c.short_name}, {c.arguments})"
+    # The session is fixed for the device's lifetime (device.h): without one nothing is rewritten or
+    # captured, and the hook is not called at all.
+    lines = [f"    DeviceState &dev = device_state({handle.name});",
+             f"    if (!dev.session) return dev.dispatch.{c.short_name}({c.arguments});"]
+    if handle.type == "VkCommandBuffer":
+        if ret != "void":
+            raise SystemExit(f"rewritten command {c.name}: no capture rule for a command-buffer command "
+                             f"that returns {ret}")
+        # The stream gets the application's call before the hook runs: it is the layer's own, the
+        # driver never reads it, so this is the stream a capture after the down-call would give, and
+        # it holds what the app recorded whatever the hook passes down (scaled, as another command,
+        # or nothing).
+        return lines + _capture_block(c, canon, handle_types, "") + [f"    {hook};"]
+    if _records_first(c, canon):
+        return lines + _capture_block(c, canon, handle_types, "") + [f"    {hook};"]
+    if ret != "VkResult" or not (_created_handle(c, handle_types) or _logged_call(canon)):
+        raise SystemExit(f"rewritten command {c.name}: no capture rule (command-buffer commands, creates "
+                         "and destroys have one)")
+    # A create is captured after the hook, on success: its capture names the handle the driver made.
+    return (lines + [f"    const VkResult result = {hook};"] +
+            _capture_block(c, canon, handle_types, " && result >= 0") + ["    return result;"])
+
+
 def emit(model):
     commands = [c for c in model.commands if c.name not in LOADER_ANSWERED]
-    missing = (MANUAL_COMMANDS | OBSERVED_COMMANDS) - {c.name for c in commands}
+    by_name = {c.name: c for c in model.commands}
+    forwarded = {c.name for c in commands}
+    missing = (MANUAL_COMMANDS | OBSERVED_COMMANDS | REWRITTEN_COMMANDS) - forwarded
     if missing:
-        raise SystemExit(f"manual or observed commands not in the forwarded set: {', '.join(sorted(missing))}")
+        raise SystemExit(f"manual, observed or rewritten commands not in the forwarded set: {', '.join(sorted(missing))}")
     both = MANUAL_COMMANDS & OBSERVED_COMMANDS
     if both:
         raise SystemExit(f"commands both manual and observed (observe in the manual code): {', '.join(sorted(both))}")
+    not_device = {c.name for c in commands if c.name in OBSERVED_COMMANDS and c.level != "device"}
+    if not_device:
+        raise SystemExit(f"observed commands that are not device-level: {', '.join(sorted(not_device))}")
+    rewritten = [c for c in commands if _canonical(c, by_name).name in REWRITTEN_COMMANDS]
+    not_canonical = {n for n in REWRITTEN_COMMANDS if by_name[n].alias}
+    if not_canonical:
+        raise SystemExit(f"rewritten commands named by an alias (name the canonical one): {', '.join(sorted(not_canonical))}")
+    clash = {c.name for c in rewritten} & (MANUAL_COMMANDS | OBSERVED_COMMANDS)
+    if clash:
+        raise SystemExit(f"commands (or aliases of commands) both rewritten and manual or observed: {', '.join(sorted(clash))}")
+    not_forwarded = {c.name for c in rewritten if POLICY.get(_canonical(c, by_name).name) != FORWARD}
+    if not_forwarded:
+        raise SystemExit(f"rewritten commands the codec does not encode: {', '.join(sorted(not_forwarded))}")
+    rewritten = {c.name for c in rewritten}
 
     header = [HEADER.format(script="emit_layer.py"), "#pragma once", "",
               "#include <vulkan/vulkan.h>", "", "namespace splitvk {", "",
@@ -174,17 +238,29 @@ def emit(model):
     for c in commands:
         if c.name in OBSERVED_COMMANDS:
             header += guarded(c.protect, [f"void {c.short_name}(DeviceState &dev, {c.signature});"])
-    header += ["", "} // namespace observe", "} // namespace splitvk", ""]
+    header += ["", "} // namespace observe", "",
+               "// Hand-written rewrites of generated entry points (layer_overrides.REWRITTEN_COMMANDS), one",
+               "// per canonical command, called only on a device with a session. The application's call is",
+               "// captured before it (a create's after it, on success); `down` is the dispatch slot of the",
+               "// command the application called (an alias's own), which the rewritten call goes down through.",
+               "namespace rewrite {", ""]
+    for name in sorted(REWRITTEN_COMMANDS):
+        c = by_name[name]
+        header += guarded(c.protect, [
+            f"{c.return_type} {c.short_name}(DeviceState &dev, PFN_{c.name} down, {c.signature});"])
+    header += ["", "} // namespace rewrite", "} // namespace splitvk", ""]
 
-    by_name = {c.name: c for c in model.commands}
     source = [HEADER.format(script="emit_layer.py"), '#include "layer_entry_points.h"', "",
               '#include "capture.h"', '#include "dispatch.h"', '#include "vk_codec.h"', "", "#include <algorithm>", "#include <cstring>", "#include <iterator>", "#include <span>", "#include <vector>", "",
               "namespace splitvk {", "namespace entry {", ""]
     for c in commands:
         if c.name in MANUAL_COMMANDS:
             continue
-        if c.level == "device" and POLICY.get(_canonical(c, by_name).name) == FORWARD:
-            body = _forward_body(c, by_name, model.handle_types)
+        forward = POLICY.get(_canonical(c, by_name).name) == FORWARD
+        if c.name in rewritten:
+            body = _rewritten_body(c, by_name, model.handle_types)
+        elif c.level == "device" and (forward or c.name in OBSERVED_COMMANDS):
+            body = _forward_body(c, by_name, model.handle_types, captured=forward)
         else:
             body = [f"    return {_dispatch_expr(c)}.{c.short_name}({c.arguments});"]
         source += guarded(c.protect, [

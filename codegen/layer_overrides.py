@@ -1,7 +1,10 @@
-"""Commands whose layer entry point is written by hand, in the layer file of their Vulkan concept.
+"""Which layer entry points call hand-written code, listed under the layer file of their Vulkan concept.
 
-Everything else gets a generated entry point. Keep this list to real semantics: object lifetime
-of the dispatchable handles, the loader interface, and (later) what the split rewrite changes.
+Everything not listed here gets a generated forwarded entry point (emit_layer.py). Three lists:
+OBSERVED_COMMANDS (generated, and a hand-written observer of state the layer tracks),
+REWRITTEN_COMMANDS (generated capture, and a hand-written hook that passes down the split's changed
+call) and MANUAL_COMMANDS (whole entry points by hand). Keep the manual list to what the other two
+cannot express: object lifetime of the dispatchable handles, the loader interface, memory, queues.
 """
 
 MANUAL_COMMANDS = {
@@ -79,56 +82,6 @@ MANUAL_COMMANDS = {
     # resource.cpp: the client's buffer address, sent to the agent (BufferAddress).
     "vkGetBufferDeviceAddress",
     "vkGetBufferDeviceAddressKHR",
-    # The split rewrite (layer/split.h): these capture the app's original call and pass a
-    # rewritten one down. render_pass.cpp: which passes draw into swapchain images (views,
-    # framebuffers, swapchain images), their scaled render area and clear rects, and the
-    # viewport/scissor state re-emitted at their begin and end.
-    "vkGetSwapchainImagesKHR",
-    "vkCreateImageView",
-    "vkDestroyImageView",
-    "vkCreateFramebuffer",
-    "vkDestroyFramebuffer",
-    "vkCmdBeginRenderPass",
-    "vkCmdBeginRenderPass2",
-    "vkCmdBeginRenderPass2KHR",
-    "vkCmdEndRenderPass",
-    "vkCmdEndRenderPass2",
-    "vkCmdEndRenderPass2KHR",
-    "vkCmdBeginRendering",
-    "vkCmdBeginRenderingKHR",
-    "vkCmdEndRendering",
-    "vkCmdEndRenderingKHR",
-    "vkCmdClearAttachments",
-    # pipeline.cpp: static viewport/scissor state made dynamic down the chain, set at bind.
-    "vkCreateGraphicsPipelines",
-    "vkDestroyPipeline",
-    "vkCmdBindPipeline",
-    # viewport.cpp: the app's dynamic viewports/scissors, kept unscaled, passed down scaled in a split pass.
-    "vkCmdSetViewport",
-    "vkCmdSetViewportWithCount",
-    "vkCmdSetViewportWithCountEXT",
-    "vkCmdSetScissor",
-    "vkCmdSetScissorWithCount",
-    "vkCmdSetScissorWithCountEXT",
-    # transfer.cpp: regions of screen-space targets scaled, copies and blits into swapchain images
-    # drawn into the scaled top-left, dispatches over scaled storage images scaled.
-    "vkCmdCopyImage",
-    "vkCmdCopyImage2",
-    "vkCmdCopyImage2KHR",
-    "vkCmdResolveImage",
-    "vkCmdResolveImage2",
-    "vkCmdResolveImage2KHR",
-    "vkCmdBlitImage",
-    "vkCmdBlitImage2",
-    "vkCmdBlitImage2KHR",
-    "vkCmdCopyBufferToImage",
-    "vkCmdCopyBufferToImage2",
-    "vkCmdCopyBufferToImage2KHR",
-    "vkCmdCopyImageToBuffer",
-    "vkCmdCopyImageToBuffer2",
-    "vkCmdCopyImageToBuffer2KHR",
-    "vkCmdDispatch",
-    "vkCmdDispatchBase",
 }
 
 # Commands whose generated entry point also tells a hand-written observer, after the call went down
@@ -162,8 +115,60 @@ OBSERVED_COMMANDS = {
     "vkCmdBindDescriptorSets",
     # transfer.cpp: an indirect dispatch over a screen-space target, said once (not scaled).
     "vkCmdDispatchIndirect",
-    # render_pass.cpp: the foveae of the viewports that executed secondaries drew with.
+    # render_pass.cpp: the foveae of the viewports that executed secondaries drew with, and which
+    # passes draw into swapchain images (their views and swapchain images; framebuffers: below).
     "vkCmdExecuteCommands",
+    "vkGetSwapchainImagesKHR",
+    "vkCreateImageView",
+    "vkDestroyImageView",
+    "vkDestroyFramebuffer",
+    # pipeline.cpp: the static viewport/scissor state of pipelines the layer made dynamic.
+    "vkDestroyPipeline",
+}
+
+# Commands the split rewrites (layer/split.h), by canonical name: their aliases follow. The
+# generated entry point captures the application's original call (a command buffer's stream, or
+# the global stream with its live-state change: a destroy's before the call goes down, a create's
+# after it, on success), then calls the hand-written hook
+# rewrite::<Name>(DeviceState &, PFN_<name> down, <the command's parameters>) in the namespace
+# splitvk::rewrite, which changes only what the split changes and makes the driver call through
+# `down` (the called alias's own dispatch slot). Called only on a device with a session: without
+# one the call goes down as made. For changes to what the driver is told; state the layer only
+# tracks is observed (above).
+REWRITTEN_COMMANDS = {
+    # viewport.cpp: the app's dynamic viewports/scissors, kept unscaled, passed down scaled in a split pass.
+    "vkCmdSetViewport",
+    "vkCmdSetViewportWithCount",
+    "vkCmdSetScissor",
+    "vkCmdSetScissorWithCount",
+    # transfer.cpp: regions of screen-space targets scaled, copies and blits into swapchain images
+    # drawn into the scaled top-left, dispatches over scaled storage images scaled.
+    "vkCmdCopyImage",
+    "vkCmdCopyImage2",
+    "vkCmdResolveImage",
+    "vkCmdResolveImage2",
+    "vkCmdBlitImage",
+    "vkCmdBlitImage2",
+    "vkCmdCopyBufferToImage",
+    "vkCmdCopyBufferToImage2",
+    "vkCmdCopyImageToBuffer",
+    "vkCmdCopyImageToBuffer2",
+    "vkCmdDispatch",
+    "vkCmdDispatchBase",
+    # render_pass.cpp: passes into swapchain images and screen-space targets (split passes), their
+    # scaled render area and clear rects, the viewport/scissor state re-emitted at their begin and
+    # end, and framebuffers holding a screen-space target created at the scaled size.
+    "vkCreateFramebuffer",
+    "vkCmdBeginRenderPass",
+    "vkCmdBeginRenderPass2",
+    "vkCmdEndRenderPass",
+    "vkCmdEndRenderPass2",
+    "vkCmdBeginRendering",
+    "vkCmdEndRendering",
+    "vkCmdClearAttachments",
+    # pipeline.cpp: static viewport/scissor state made dynamic down the chain, set at bind.
+    "vkCreateGraphicsPipelines",
+    "vkCmdBindPipeline",
 }
 
 # Global commands are answered by the loader from the manifest for interface version 2 layers;

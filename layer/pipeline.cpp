@@ -26,14 +26,22 @@ std::shared_ptr<const split::StaticViewportState> pipeline_static_state(VkPipeli
     return state ? state->viewport_state : nullptr;
 }
 
-namespace entry {
+namespace observe {
 
-VKAPI_ATTR VkResult VKAPI_CALL CreateGraphicsPipelines(VkDevice device, VkPipelineCache pipelineCache,
-                                                       uint32_t createInfoCount,
-                                                       const VkGraphicsPipelineCreateInfo *pCreateInfos,
-                                                       const VkAllocationCallbacks *pAllocator,
-                                                       VkPipeline *pPipelines) {
-    DeviceState &dev = device_state(device);
+// Forgotten before the driver may hand the value to a pipeline another thread creates (as every
+// destroy: codegen/emit_layer.py).
+void DestroyPipeline(DeviceState &, VkDevice, VkPipeline pipeline, const VkAllocationCallbacks *) {
+    if (pipeline != VK_NULL_HANDLE) g_pipelines.remove(pipeline);
+}
+
+} // namespace observe
+
+namespace rewrite {
+
+VkResult CreateGraphicsPipelines(DeviceState &dev, PFN_vkCreateGraphicsPipelines down, VkDevice device,
+                                 VkPipelineCache pipelineCache, uint32_t createInfoCount,
+                                 const VkGraphicsPipelineCreateInfo *pCreateInfos,
+                                 const VkAllocationCallbacks *pAllocator, VkPipeline *pPipelines) {
     std::vector<std::shared_ptr<split::StaticViewportState>> statics;
     std::vector<VkGraphicsPipelineCreateInfo> infos;
     std::vector<split::DynamicStateStorage> storage;
@@ -48,45 +56,21 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateGraphicsPipelines(VkDevice device, VkPipeli
             split::add_dynamic_states(pCreateInfos[i], viewports, scissors, storage[i], infos[i]);
         }
     }
-    const VkResult result = dev.dispatch.CreateGraphicsPipelines(device, pipelineCache, createInfoCount,
-                                                                 infos.empty() ? pCreateInfos : infos.data(),
-                                                                 pAllocator, pPipelines);
+    const VkResult result = down(device, pipelineCache, createInfoCount,
+                                 infos.empty() ? pCreateInfos : infos.data(), pAllocator, pPipelines);
     for (uint32_t i = 0; i < statics.size(); ++i)
         if (statics[i] && pPipelines[i] != VK_NULL_HANDLE) {
             auto state = std::make_unique<PipelineState>();
             state->viewport_state = std::move(statics[i]);
             g_pipelines.insert(pPipelines[i], std::move(state));
         }
-    if (capturing(dev) && result >= 0) [[unlikely]] {
-        const std::vector<uint64_t> holders = handle_ids(pPipelines, createInfoCount);
-        record_logged(dev, holders, {}, [&](codec::Encoder &e) {
-            encode_vkCreateGraphicsPipelines(e, device, pipelineCache, createInfoCount, pCreateInfos,
-                                             pAllocator, pPipelines);
-        });
-    }
     return result;
 }
 
-VKAPI_ATTR void VKAPI_CALL DestroyPipeline(VkDevice device, VkPipeline pipeline,
-                                           const VkAllocationCallbacks *pAllocator) {
-    DeviceState &dev = device_state(device);
-    // Recorded and forgotten before the driver may hand the value to a pipeline another thread
-    // creates (as every destroy: codegen/emit_layer.py).
-    if (capturing(dev)) [[unlikely]]
-        record_global(dev, LiveChange::Destroyed, codec::handle_value(pipeline),
-                      [&](codec::Encoder &e) { encode_vkDestroyPipeline(e, device, pipeline, pAllocator); });
-    if (pipeline != VK_NULL_HANDLE && dev.session) g_pipelines.remove(pipeline);
-    dev.dispatch.DestroyPipeline(device, pipeline, pAllocator);
-}
-
-VKAPI_ATTR void VKAPI_CALL CmdBindPipeline(VkCommandBuffer commandBuffer,
-                                           VkPipelineBindPoint pipelineBindPoint, VkPipeline pipeline) {
-    DeviceState &dev = device_state(commandBuffer);
-    dev.dispatch.CmdBindPipeline(commandBuffer, pipelineBindPoint, pipeline);
-    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdBindPipeline(e, commandBuffer, pipelineBindPoint, pipeline);
-    });
-    if (pipelineBindPoint != VK_PIPELINE_BIND_POINT_GRAPHICS || !dev.session) return;
+void CmdBindPipeline(DeviceState &dev, PFN_vkCmdBindPipeline down, VkCommandBuffer commandBuffer,
+                     VkPipelineBindPoint pipelineBindPoint, VkPipeline pipeline) {
+    down(commandBuffer, pipelineBindPoint, pipeline);
+    if (pipelineBindPoint != VK_PIPELINE_BIND_POINT_GRAPHICS) return;
     split::CommandTracker *tracker = split_tracker(commandBuffer);
     if (!tracker) return;
     const bool had_viewports = tracker->static_viewports(), had_scissors = tracker->static_scissors();
@@ -98,5 +82,5 @@ VKAPI_ATTR void VKAPI_CALL CmdBindPipeline(VkCommandBuffer commandBuffer,
     if (had_viewports || tracker->static_viewports()) tracker->note_foveae();
 }
 
-} // namespace entry
+} // namespace rewrite
 } // namespace splitvk

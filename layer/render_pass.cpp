@@ -160,7 +160,7 @@ void enter_split(DeviceState &dev, VkCommandBuffer cb, split::CommandTracker &tr
 }
 
 void leave_split(DeviceState &dev, VkCommandBuffer cb) {
-    split::CommandTracker *tracker = dev.session ? split_tracker(cb) : nullptr;
+    split::CommandTracker *tracker = split_tracker(cb);
     if (!tracker || !tracker->in_split()) return;
     // The periphery's GPU time runs from the first scaled pass to the end of the swapchain's.
     if (tracker->swapchain_pass()) time_split_pass_ended(dev, cb);
@@ -175,8 +175,7 @@ VkRect2D scaled_area(const VkRect2D &area, VkExtent2D extent) {
 }
 
 // The images of a render pass instance's attachments, for their final layouts (resource.h).
-void note_attachments(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassBeginInfo *begin) {
-    if (!dev.session) return;
+void note_attachments(VkCommandBuffer cb, const VkRenderPassBeginInfo *begin) {
     std::span<const VkImageView> views;
     for (auto *p = static_cast<const VkBaseInStructure *>(begin->pNext); p; p = p->pNext)
         if (p->sType == VK_STRUCTURE_TYPE_RENDER_PASS_ATTACHMENT_BEGIN_INFO) {
@@ -194,7 +193,7 @@ void note_attachments(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassBe
 }
 
 void end_render_pass(DeviceState &dev, VkCommandBuffer cb) {
-    if (dev.session) note_render_pass_end(cb);
+    note_render_pass_end(cb);
     leave_split(dev, cb);
 }
 
@@ -223,11 +222,9 @@ void begin_split_of_secondaries(DeviceState &dev, VkCommandBuffer cb, split::Com
 template <class Down>
 void begin_render_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassBeginInfo *begin,
                        bool secondary, Down &&down) {
-    note_attachments(dev, cb, begin);
-    PassTarget target = dev.session ? pass_target(dev, begin) : PassTarget{};
-    if (dev.session)
-        g_pass_predictions.note_begin(codec::handle_value(begin->renderPass),
-                                      {target.split(), target.extent});
+    note_attachments(cb, begin);
+    const PassTarget target = pass_target(dev, begin);
+    g_pass_predictions.note_begin(codec::handle_value(begin->renderPass), {target.split(), target.extent});
     split::CommandTracker *tracker = target.split() ? split_tracker(cb) : nullptr;
     if (!tracker && !target.scaled) return down(begin);
     VkRenderPassBeginInfo scaled = *begin;
@@ -264,11 +261,10 @@ uint64_t rendering_key(const VkRenderingInfo &info) {
 
 template <class Down>
 void begin_rendering(DeviceState &dev, VkCommandBuffer cb, const VkRenderingInfo *info, Down &&down) {
-    PassTarget target = dev.session ? rendering_target(dev, info) : PassTarget{};
+    const PassTarget target = rendering_target(dev, info);
     const bool secondary = info->flags & VK_RENDERING_CONTENTS_SECONDARY_COMMAND_BUFFERS_BIT;
     // Noted unscaled too, so that a kind of rendering that stops being scaled predicts so.
-    if (dev.session && secondary)
-        g_rendering_predictions.note_begin(rendering_key(*info), {target.split(), target.extent});
+    if (secondary) g_rendering_predictions.note_begin(rendering_key(*info), {target.split(), target.extent});
     split::CommandTracker *tracker = target.split() ? split_tracker(cb) : nullptr;
     if (!tracker && !target.scaled) return down(info);
     VkRenderingInfo scaled = *info;
@@ -367,89 +363,75 @@ void CmdExecuteCommands(DeviceState &, VkCommandBuffer cb, uint32_t count,
 
 } // namespace observe
 
-namespace entry {
+namespace observe {
 
-VKAPI_ATTR VkResult VKAPI_CALL GetSwapchainImagesKHR(VkDevice device, VkSwapchainKHR swapchain,
-                                                     uint32_t *pSwapchainImageCount,
-                                                     VkImage *pSwapchainImages) {
-    DeviceState &dev = device_state(device);
-    const VkResult result =
-        dev.dispatch.GetSwapchainImagesKHR(device, swapchain, pSwapchainImageCount, pSwapchainImages);
-    if (dev.session && pSwapchainImages && result >= 0)
-        note_swapchain_images(swapchain, *pSwapchainImageCount, pSwapchainImages);
-    return result;
+void GetSwapchainImagesKHR(DeviceState &, VkDevice, VkSwapchainKHR swapchain, uint32_t *pSwapchainImageCount,
+                           VkImage *pSwapchainImages) {
+    if (pSwapchainImages) note_swapchain_images(swapchain, *pSwapchainImageCount, pSwapchainImages);
 }
 
-VKAPI_ATTR VkResult VKAPI_CALL CreateImageView(VkDevice device, const VkImageViewCreateInfo *pCreateInfo,
-                                               const VkAllocationCallbacks *pAllocator, VkImageView *pView) {
-    DeviceState &dev = device_state(device);
-    const VkResult result = dev.dispatch.CreateImageView(device, pCreateInfo, pAllocator, pView);
-    if (dev.session && result == VK_SUCCESS) {
-        auto state = std::make_unique<ImageViewState>();
-        state->image = pCreateInfo->image;
-        state->range = pCreateInfo->subresourceRange;
-        state->format = pCreateInfo->format;
-        g_views.insert(*pView, std::move(state));
-    }
-    if (capturing(dev) && result >= 0) [[unlikely]]
-        record_global(dev, LiveChange::Created, codec::handle_value(*pView), [&](codec::Encoder &e) {
-            encode_vkCreateImageView(e, device, pCreateInfo, pAllocator, pView);
-        });
-    return result;
+void CreateImageView(DeviceState &, VkDevice, const VkImageViewCreateInfo *pCreateInfo,
+                     const VkAllocationCallbacks *, VkImageView *pView) {
+    auto state = std::make_unique<ImageViewState>();
+    state->image = pCreateInfo->image;
+    state->range = pCreateInfo->subresourceRange;
+    state->format = pCreateInfo->format;
+    g_views.insert(*pView, std::move(state));
 }
 
-VKAPI_ATTR void VKAPI_CALL DestroyImageView(VkDevice device, VkImageView imageView,
-                                            const VkAllocationCallbacks *pAllocator) {
-    DeviceState &dev = device_state(device);
-    // Forgotten and recorded before the driver may hand the value out again: a view created
-    // meanwhile on another thread must lose neither its state nor, on the agent, itself.
-    if (dev.session && imageView != VK_NULL_HANDLE) g_views.remove(imageView);
-    if (capturing(dev)) [[unlikely]]
-        record_global(dev, LiveChange::Destroyed, codec::handle_value(imageView), [&](codec::Encoder &e) {
-            encode_vkDestroyImageView(e, device, imageView, pAllocator);
-        });
-    dev.dispatch.DestroyImageView(device, imageView, pAllocator);
+// Forgotten before the driver may hand the value out again (codegen/emit_layer.py): a view created
+// meanwhile on another thread must not lose its state.
+void DestroyImageView(DeviceState &, VkDevice, VkImageView imageView, const VkAllocationCallbacks *) {
+    if (imageView != VK_NULL_HANDLE) g_views.remove(imageView);
 }
 
-VKAPI_ATTR VkResult VKAPI_CALL CreateFramebuffer(VkDevice device, const VkFramebufferCreateInfo *pCreateInfo,
-                                                 const VkAllocationCallbacks *pAllocator,
-                                                 VkFramebuffer *pFramebuffer) {
-    DeviceState &dev = device_state(device);
+// Forgotten before the driver may hand the value out again: a framebuffer created meanwhile on
+// another thread at the scaled size would otherwise lose its state (its passes would go down with
+// unscaled render areas).
+void DestroyFramebuffer(DeviceState &, VkDevice, VkFramebuffer framebuffer, const VkAllocationCallbacks *) {
+    if (framebuffer != VK_NULL_HANDLE) g_framebuffers.remove(framebuffer);
+}
+
+} // namespace observe
+
+namespace rewrite {
+
+VkResult CreateFramebuffer(DeviceState &dev, PFN_vkCreateFramebuffer down, VkDevice device,
+                           const VkFramebufferCreateInfo *pCreateInfo,
+                           const VkAllocationCallbacks *pAllocator, VkFramebuffer *pFramebuffer) {
     // A framebuffer holding a screen-space target is created at the scaled size, which every
     // attachment then covers (the others are at least that large).
-    VkFramebufferCreateInfo down = *pCreateInfo;
+    VkFramebufferCreateInfo info_down = *pCreateInfo;
     VkFramebufferAttachmentsCreateInfo attachments_down{};
     std::vector<VkFramebufferAttachmentImageInfo> image_infos;
     bool scaled = false;
-    if (dev.session) {
-        if (!(pCreateInfo->flags & VK_FRAMEBUFFER_CREATE_IMAGELESS_BIT) && pCreateInfo->pAttachments) {
-            scaled = any_screen_space({pCreateInfo->pAttachments, pCreateInfo->attachmentCount});
-        } else if (auto *info = static_cast<const VkFramebufferAttachmentsCreateInfo *>(pCreateInfo->pNext);
-                   info && info->sType == VK_STRUCTURE_TYPE_FRAMEBUFFER_ATTACHMENTS_CREATE_INFO) {
-            // Imageless: the attachment infos describe the images, which the rule scaled alike.
-            image_infos.assign(info->pAttachmentImageInfos,
-                               info->pAttachmentImageInfos + info->attachmentImageInfoCount);
-            for (VkFramebufferAttachmentImageInfo &image : image_infos)
-                if (screen_space_attachment(dev, image)) {
-                    const VkExtent2D e =
-                        split::scaled_extent({image.width, image.height}, split_settings().scale);
-                    image.width = e.width;
-                    image.height = e.height;
-                    scaled = true;
-                }
-            attachments_down = *info;
-            attachments_down.pAttachmentImageInfos = image_infos.data();
-            down.pNext = &attachments_down;
-        }
-        if (scaled) {
-            const VkExtent2D e =
-                split::scaled_extent({pCreateInfo->width, pCreateInfo->height}, split_settings().scale);
-            down.width = e.width;
-            down.height = e.height;
-        }
+    if (!(pCreateInfo->flags & VK_FRAMEBUFFER_CREATE_IMAGELESS_BIT) && pCreateInfo->pAttachments) {
+        scaled = any_screen_space({pCreateInfo->pAttachments, pCreateInfo->attachmentCount});
+    } else if (auto *info = static_cast<const VkFramebufferAttachmentsCreateInfo *>(pCreateInfo->pNext);
+               info && info->sType == VK_STRUCTURE_TYPE_FRAMEBUFFER_ATTACHMENTS_CREATE_INFO) {
+        // Imageless: the attachment infos describe the images, which the rule scaled alike.
+        image_infos.assign(info->pAttachmentImageInfos,
+                           info->pAttachmentImageInfos + info->attachmentImageInfoCount);
+        for (VkFramebufferAttachmentImageInfo &image : image_infos)
+            if (screen_space_attachment(dev, image)) {
+                const VkExtent2D e =
+                    split::scaled_extent({image.width, image.height}, split_settings().scale);
+                image.width = e.width;
+                image.height = e.height;
+                scaled = true;
+            }
+        attachments_down = *info;
+        attachments_down.pAttachmentImageInfos = image_infos.data();
+        info_down.pNext = &attachments_down;
     }
-    const VkResult result = dev.dispatch.CreateFramebuffer(device, &down, pAllocator, pFramebuffer);
-    if (dev.session && result == VK_SUCCESS) {
+    if (scaled) {
+        const VkExtent2D e =
+            split::scaled_extent({pCreateInfo->width, pCreateInfo->height}, split_settings().scale);
+        info_down.width = e.width;
+        info_down.height = e.height;
+    }
+    const VkResult result = down(device, &info_down, pAllocator, pFramebuffer);
+    if (result == VK_SUCCESS) {
         auto state = std::make_unique<FramebufferState>();
         if (!(pCreateInfo->flags & VK_FRAMEBUFFER_CREATE_IMAGELESS_BIT) && pCreateInfo->pAttachments)
             state->attachments.assign(pCreateInfo->pAttachments,
@@ -458,140 +440,51 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateFramebuffer(VkDevice device, const VkFrameb
         state->scaled = scaled;
         g_framebuffers.insert(*pFramebuffer, std::move(state));
     }
-    if (capturing(dev) && result >= 0) [[unlikely]]
-        record_global(dev, LiveChange::Created, codec::handle_value(*pFramebuffer), [&](codec::Encoder &e) {
-            encode_vkCreateFramebuffer(e, device, pCreateInfo, pAllocator, pFramebuffer);
-        });
     return result;
 }
 
-VKAPI_ATTR void VKAPI_CALL DestroyFramebuffer(VkDevice device, VkFramebuffer framebuffer,
-                                              const VkAllocationCallbacks *pAllocator) {
-    DeviceState &dev = device_state(device);
-    // Forgotten and recorded before the driver may hand the value out again: a framebuffer created
-    // meanwhile on another thread at the scaled size would otherwise lose its state (its passes would
-    // go down with unscaled render areas), and the agent would destroy it.
-    if (dev.session && framebuffer != VK_NULL_HANDLE) g_framebuffers.remove(framebuffer);
-    if (capturing(dev)) [[unlikely]]
-        record_global(dev, LiveChange::Destroyed, codec::handle_value(framebuffer), [&](codec::Encoder &e) {
-            encode_vkDestroyFramebuffer(e, device, framebuffer, pAllocator);
-        });
-    dev.dispatch.DestroyFramebuffer(device, framebuffer, pAllocator);
+void CmdBeginRenderPass(DeviceState &dev, PFN_vkCmdBeginRenderPass down, VkCommandBuffer commandBuffer,
+                        const VkRenderPassBeginInfo *pRenderPassBegin, VkSubpassContents contents) {
+    begin_render_pass(dev, commandBuffer, pRenderPassBegin, contents != VK_SUBPASS_CONTENTS_INLINE,
+                      [&](const VkRenderPassBeginInfo *b) { down(commandBuffer, b, contents); });
 }
 
-VKAPI_ATTR void VKAPI_CALL CmdBeginRenderPass(VkCommandBuffer commandBuffer,
-                                              const VkRenderPassBeginInfo *pRenderPassBegin,
-                                              VkSubpassContents contents) {
-    DeviceState &dev = device_state(commandBuffer);
-    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdBeginRenderPass(e, commandBuffer, pRenderPassBegin, contents);
-    });
-    begin_render_pass(
-        dev, commandBuffer, pRenderPassBegin, contents != VK_SUBPASS_CONTENTS_INLINE,
-        [&](const VkRenderPassBeginInfo *b) { dev.dispatch.CmdBeginRenderPass(commandBuffer, b, contents); });
-}
-
-VKAPI_ATTR void VKAPI_CALL CmdBeginRenderPass2(VkCommandBuffer commandBuffer,
-                                               const VkRenderPassBeginInfo *pRenderPassBegin,
-                                               const VkSubpassBeginInfo *pSubpassBeginInfo) {
-    DeviceState &dev = device_state(commandBuffer);
-    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdBeginRenderPass2(e, commandBuffer, pRenderPassBegin, pSubpassBeginInfo);
-    });
+void CmdBeginRenderPass2(DeviceState &dev, PFN_vkCmdBeginRenderPass2 down, VkCommandBuffer commandBuffer,
+                         const VkRenderPassBeginInfo *pRenderPassBegin,
+                         const VkSubpassBeginInfo *pSubpassBeginInfo) {
     begin_render_pass(dev, commandBuffer, pRenderPassBegin,
                       pSubpassBeginInfo->contents != VK_SUBPASS_CONTENTS_INLINE,
-                      [&](const VkRenderPassBeginInfo *b) {
-                          dev.dispatch.CmdBeginRenderPass2(commandBuffer, b, pSubpassBeginInfo);
-                      });
+                      [&](const VkRenderPassBeginInfo *b) { down(commandBuffer, b, pSubpassBeginInfo); });
 }
 
-VKAPI_ATTR void VKAPI_CALL CmdBeginRenderPass2KHR(VkCommandBuffer commandBuffer,
-                                                  const VkRenderPassBeginInfo *pRenderPassBegin,
-                                                  const VkSubpassBeginInfo *pSubpassBeginInfo) {
-    DeviceState &dev = device_state(commandBuffer);
-    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdBeginRenderPass2(e, commandBuffer, pRenderPassBegin, pSubpassBeginInfo);
-    });
-    begin_render_pass(dev, commandBuffer, pRenderPassBegin,
-                      pSubpassBeginInfo->contents != VK_SUBPASS_CONTENTS_INLINE,
-                      [&](const VkRenderPassBeginInfo *b) {
-                          dev.dispatch.CmdBeginRenderPass2KHR(commandBuffer, b, pSubpassBeginInfo);
-                      });
-}
-
-VKAPI_ATTR void VKAPI_CALL CmdEndRenderPass(VkCommandBuffer commandBuffer) {
-    DeviceState &dev = device_state(commandBuffer);
-    dev.dispatch.CmdEndRenderPass(commandBuffer);
-    capture_command(dev, commandBuffer,
-                    [&](codec::Encoder &e) { encode_vkCmdEndRenderPass(e, commandBuffer); });
+void CmdEndRenderPass(DeviceState &dev, PFN_vkCmdEndRenderPass down, VkCommandBuffer commandBuffer) {
+    down(commandBuffer);
     end_render_pass(dev, commandBuffer);
 }
 
-VKAPI_ATTR void VKAPI_CALL CmdEndRenderPass2(VkCommandBuffer commandBuffer,
-                                             const VkSubpassEndInfo *pSubpassEndInfo) {
-    DeviceState &dev = device_state(commandBuffer);
-    dev.dispatch.CmdEndRenderPass2(commandBuffer, pSubpassEndInfo);
-    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdEndRenderPass2(e, commandBuffer, pSubpassEndInfo);
-    });
+void CmdEndRenderPass2(DeviceState &dev, PFN_vkCmdEndRenderPass2 down, VkCommandBuffer commandBuffer,
+                       const VkSubpassEndInfo *pSubpassEndInfo) {
+    down(commandBuffer, pSubpassEndInfo);
     end_render_pass(dev, commandBuffer);
 }
 
-VKAPI_ATTR void VKAPI_CALL CmdEndRenderPass2KHR(VkCommandBuffer commandBuffer,
-                                                const VkSubpassEndInfo *pSubpassEndInfo) {
-    DeviceState &dev = device_state(commandBuffer);
-    dev.dispatch.CmdEndRenderPass2KHR(commandBuffer, pSubpassEndInfo);
-    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdEndRenderPass2(e, commandBuffer, pSubpassEndInfo);
-    });
-    end_render_pass(dev, commandBuffer);
-}
-
-VKAPI_ATTR void VKAPI_CALL CmdBeginRendering(VkCommandBuffer commandBuffer,
-                                             const VkRenderingInfo *pRenderingInfo) {
-    DeviceState &dev = device_state(commandBuffer);
-    capture_command(dev, commandBuffer,
-                    [&](codec::Encoder &e) { encode_vkCmdBeginRendering(e, commandBuffer, pRenderingInfo); });
+void CmdBeginRendering(DeviceState &dev, PFN_vkCmdBeginRendering down, VkCommandBuffer commandBuffer,
+                       const VkRenderingInfo *pRenderingInfo) {
     begin_rendering(dev, commandBuffer, pRenderingInfo,
-                    [&](const VkRenderingInfo *i) { dev.dispatch.CmdBeginRendering(commandBuffer, i); });
+                    [&](const VkRenderingInfo *i) { down(commandBuffer, i); });
 }
 
-VKAPI_ATTR void VKAPI_CALL CmdBeginRenderingKHR(VkCommandBuffer commandBuffer,
-                                                const VkRenderingInfo *pRenderingInfo) {
-    DeviceState &dev = device_state(commandBuffer);
-    capture_command(dev, commandBuffer,
-                    [&](codec::Encoder &e) { encode_vkCmdBeginRendering(e, commandBuffer, pRenderingInfo); });
-    begin_rendering(dev, commandBuffer, pRenderingInfo,
-                    [&](const VkRenderingInfo *i) { dev.dispatch.CmdBeginRenderingKHR(commandBuffer, i); });
-}
-
-VKAPI_ATTR void VKAPI_CALL CmdEndRendering(VkCommandBuffer commandBuffer) {
-    DeviceState &dev = device_state(commandBuffer);
-    dev.dispatch.CmdEndRendering(commandBuffer);
-    capture_command(dev, commandBuffer,
-                    [&](codec::Encoder &e) { encode_vkCmdEndRendering(e, commandBuffer); });
+void CmdEndRendering(DeviceState &dev, PFN_vkCmdEndRendering down, VkCommandBuffer commandBuffer) {
+    down(commandBuffer);
     leave_split(dev, commandBuffer);
 }
 
-VKAPI_ATTR void VKAPI_CALL CmdEndRenderingKHR(VkCommandBuffer commandBuffer) {
-    DeviceState &dev = device_state(commandBuffer);
-    dev.dispatch.CmdEndRenderingKHR(commandBuffer);
-    capture_command(dev, commandBuffer,
-                    [&](codec::Encoder &e) { encode_vkCmdEndRendering(e, commandBuffer); });
-    leave_split(dev, commandBuffer);
-}
-
-VKAPI_ATTR void VKAPI_CALL CmdClearAttachments(VkCommandBuffer commandBuffer, uint32_t attachmentCount,
-                                               const VkClearAttachment *pAttachments, uint32_t rectCount,
-                                               const VkClearRect *pRects) {
-    DeviceState &dev = device_state(commandBuffer);
-    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdClearAttachments(e, commandBuffer, attachmentCount, pAttachments, rectCount, pRects);
-    });
-    const split::CommandTracker *tracker = dev.session ? split_tracker(commandBuffer) : nullptr;
+void CmdClearAttachments(DeviceState &, PFN_vkCmdClearAttachments down, VkCommandBuffer commandBuffer,
+                         uint32_t attachmentCount, const VkClearAttachment *pAttachments, uint32_t rectCount,
+                         const VkClearRect *pRects) {
+    const split::CommandTracker *tracker = split_tracker(commandBuffer);
     if (!tracker || !tracker->in_split())
-        return dev.dispatch.CmdClearAttachments(commandBuffer, attachmentCount, pAttachments, rectCount,
-                                                pRects);
+        return down(commandBuffer, attachmentCount, pAttachments, rectCount, pRects);
     std::vector<VkClearRect> rects;
     for (uint32_t i = 0; i < rectCount; ++i) {
         VkClearRect r = pRects[i];
@@ -600,9 +493,8 @@ VKAPI_ATTR void VKAPI_CALL CmdClearAttachments(VkCommandBuffer commandBuffer, ui
         if (r.rect.extent.width && r.rect.extent.height) rects.push_back(r);
     }
     if (!rects.empty())
-        dev.dispatch.CmdClearAttachments(commandBuffer, attachmentCount, pAttachments,
-                                         static_cast<uint32_t>(rects.size()), rects.data());
+        down(commandBuffer, attachmentCount, pAttachments, static_cast<uint32_t>(rects.size()), rects.data());
 }
 
-} // namespace entry
+} // namespace rewrite
 } // namespace splitvk

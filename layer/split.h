@@ -62,13 +62,6 @@ void forget_render_pass(VkRenderPass render_pass);
 // vkBeginCommandBuffer); nullptr otherwise (command_buffer.cpp).
 split::CommandTracker *split_tracker(VkCommandBuffer command_buffer);
 
-// Sends a command buffer command to its capture stream, if captured.
-template <class F>
-inline void capture_command(DeviceState &device, VkCommandBuffer command_buffer, F &&encode) {
-    if (capturing(device)) [[unlikely]]
-        if (codec::Encoder *e = command_buffer_encoder(command_buffer)) encode(*e);
-}
-
 // Sets the viewports / scissors in effect (the bound pipeline's static ones or the app's dynamic
 // ones), scaled inside a split pass and unscaled outside it.
 void emit_viewports(DeviceState &device, VkCommandBuffer command_buffer,

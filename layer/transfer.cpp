@@ -249,243 +249,134 @@ void CmdDispatchIndirect(DeviceState &, VkCommandBuffer cb, VkBuffer, VkDeviceSi
 
 } // namespace observe
 
-namespace entry {
+namespace rewrite {
 
-VKAPI_ATTR void VKAPI_CALL CmdCopyImage(VkCommandBuffer commandBuffer, VkImage srcImage,
-                                        VkImageLayout srcImageLayout, VkImage dstImage,
-                                        VkImageLayout dstImageLayout, uint32_t regionCount,
-                                        const VkImageCopy *pRegions) {
-    DeviceState &dev = device_state(commandBuffer);
-    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdCopyImage(e, commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
-                              regionCount, pRegions);
-    });
-    if (dev.session && copy_as_blit(dev, commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
-                                    regionCount, pRegions))
+void CmdCopyImage(DeviceState &dev, PFN_vkCmdCopyImage down, VkCommandBuffer commandBuffer, VkImage srcImage,
+                  VkImageLayout srcImageLayout, VkImage dstImage, VkImageLayout dstImageLayout,
+                  uint32_t regionCount, const VkImageCopy *pRegions) {
+    if (copy_as_blit(dev, commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout, regionCount,
+                     pRegions))
         return after_transfer(dev, commandBuffer, dstImage);
     std::vector<VkImageCopy> out;
-    if (!dev.session || !scale_copies(dev, commandBuffer, srcImage, dstImage, regionCount, pRegions, out))
-        return dev.dispatch.CmdCopyImage(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
-                                         regionCount, pRegions);
+    if (!scale_copies(dev, commandBuffer, srcImage, dstImage, regionCount, pRegions, out))
+        return down(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout, regionCount, pRegions);
     if (!out.empty())
-        dev.dispatch.CmdCopyImage(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
-                                  static_cast<uint32_t>(out.size()), out.data());
+        down(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
+             static_cast<uint32_t>(out.size()), out.data());
     after_transfer(dev, commandBuffer, dstImage);
 }
 
-template <class Next>
-void copy_image2(DeviceState &dev, VkCommandBuffer cb, const VkCopyImageInfo2 *info, Next next) {
-    capture_command(dev, cb, [&](codec::Encoder &e) { encode_vkCmdCopyImage2(e, cb, info); });
-    if (dev.session && copy_as_blit(dev, cb, info->srcImage, info->srcImageLayout, info->dstImage,
-                                    info->dstImageLayout, info->regionCount, info->pRegions))
-        return after_transfer(dev, cb, info->dstImage);
+void CmdCopyImage2(DeviceState &dev, PFN_vkCmdCopyImage2 down, VkCommandBuffer commandBuffer,
+                   const VkCopyImageInfo2 *info) {
+    if (copy_as_blit(dev, commandBuffer, info->srcImage, info->srcImageLayout, info->dstImage,
+                     info->dstImageLayout, info->regionCount, info->pRegions))
+        return after_transfer(dev, commandBuffer, info->dstImage);
     std::vector<VkImageCopy2> out;
-    const bool scaled = dev.session && scale_copies(dev, cb, info->srcImage, info->dstImage,
-                                                    info->regionCount, info->pRegions, out);
-    pass_down_regions2(cb, info, scaled, out, next);
-    after_transfer(dev, cb, info->dstImage);
+    const bool scaled = scale_copies(dev, commandBuffer, info->srcImage, info->dstImage, info->regionCount,
+                                     info->pRegions, out);
+    pass_down_regions2(commandBuffer, info, scaled, out, down);
+    after_transfer(dev, commandBuffer, info->dstImage);
 }
 
-VKAPI_ATTR void VKAPI_CALL CmdCopyImage2(VkCommandBuffer commandBuffer,
-                                         const VkCopyImageInfo2 *pCopyImageInfo) {
-    DeviceState &dev = device_state(commandBuffer);
-    copy_image2(dev, commandBuffer, pCopyImageInfo, dev.dispatch.CmdCopyImage2);
-}
-
-VKAPI_ATTR void VKAPI_CALL CmdCopyImage2KHR(VkCommandBuffer commandBuffer,
-                                            const VkCopyImageInfo2 *pCopyImageInfo) {
-    DeviceState &dev = device_state(commandBuffer);
-    copy_image2(dev, commandBuffer, pCopyImageInfo, dev.dispatch.CmdCopyImage2KHR);
-}
-
-VKAPI_ATTR void VKAPI_CALL CmdResolveImage(VkCommandBuffer commandBuffer, VkImage srcImage,
-                                           VkImageLayout srcImageLayout, VkImage dstImage,
-                                           VkImageLayout dstImageLayout, uint32_t regionCount,
-                                           const VkImageResolve *pRegions) {
-    DeviceState &dev = device_state(commandBuffer);
-    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdResolveImage(e, commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
-                                 regionCount, pRegions);
-    });
+void CmdResolveImage(DeviceState &dev, PFN_vkCmdResolveImage down, VkCommandBuffer commandBuffer,
+                     VkImage srcImage, VkImageLayout srcImageLayout, VkImage dstImage,
+                     VkImageLayout dstImageLayout, uint32_t regionCount, const VkImageResolve *pRegions) {
     std::vector<VkImageResolve> out;
-    if (!dev.session || !scale_copies(dev, commandBuffer, srcImage, dstImage, regionCount, pRegions, out))
-        return dev.dispatch.CmdResolveImage(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
-                                            regionCount, pRegions);
+    if (!scale_copies(dev, commandBuffer, srcImage, dstImage, regionCount, pRegions, out))
+        return down(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout, regionCount, pRegions);
     if (!out.empty())
-        dev.dispatch.CmdResolveImage(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
-                                     static_cast<uint32_t>(out.size()), out.data());
+        down(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
+             static_cast<uint32_t>(out.size()), out.data());
     after_transfer(dev, commandBuffer, dstImage);
 }
 
-template <class Next>
-void resolve_image2(DeviceState &dev, VkCommandBuffer cb, const VkResolveImageInfo2 *info, Next next) {
-    capture_command(dev, cb, [&](codec::Encoder &e) { encode_vkCmdResolveImage2(e, cb, info); });
+void CmdResolveImage2(DeviceState &dev, PFN_vkCmdResolveImage2 down, VkCommandBuffer commandBuffer,
+                      const VkResolveImageInfo2 *info) {
     std::vector<VkImageResolve2> out;
-    const bool scaled = dev.session && scale_copies(dev, cb, info->srcImage, info->dstImage,
-                                                    info->regionCount, info->pRegions, out);
-    pass_down_regions2(cb, info, scaled, out, next);
-    after_transfer(dev, cb, info->dstImage);
+    const bool scaled = scale_copies(dev, commandBuffer, info->srcImage, info->dstImage, info->regionCount,
+                                     info->pRegions, out);
+    pass_down_regions2(commandBuffer, info, scaled, out, down);
+    after_transfer(dev, commandBuffer, info->dstImage);
 }
 
-VKAPI_ATTR void VKAPI_CALL CmdResolveImage2(VkCommandBuffer commandBuffer, const VkResolveImageInfo2 *pInfo) {
-    DeviceState &dev = device_state(commandBuffer);
-    resolve_image2(dev, commandBuffer, pInfo, dev.dispatch.CmdResolveImage2);
-}
-
-VKAPI_ATTR void VKAPI_CALL CmdResolveImage2KHR(VkCommandBuffer commandBuffer,
-                                               const VkResolveImageInfo2 *pInfo) {
-    DeviceState &dev = device_state(commandBuffer);
-    resolve_image2(dev, commandBuffer, pInfo, dev.dispatch.CmdResolveImage2KHR);
-}
-
-VKAPI_ATTR void VKAPI_CALL CmdBlitImage(VkCommandBuffer commandBuffer, VkImage srcImage,
-                                        VkImageLayout srcImageLayout, VkImage dstImage,
-                                        VkImageLayout dstImageLayout, uint32_t regionCount,
-                                        const VkImageBlit *pRegions, VkFilter filter) {
-    DeviceState &dev = device_state(commandBuffer);
-    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdBlitImage(e, commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
-                              regionCount, pRegions, filter);
-    });
+void CmdBlitImage(DeviceState &dev, PFN_vkCmdBlitImage down, VkCommandBuffer commandBuffer, VkImage srcImage,
+                  VkImageLayout srcImageLayout, VkImage dstImage, VkImageLayout dstImageLayout,
+                  uint32_t regionCount, const VkImageBlit *pRegions, VkFilter filter) {
     std::vector<VkImageBlit> out;
-    if (!dev.session || !scale_blits(dev, commandBuffer, srcImage, dstImage, regionCount, pRegions, out))
-        return dev.dispatch.CmdBlitImage(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
-                                         regionCount, pRegions, filter);
+    if (!scale_blits(dev, commandBuffer, srcImage, dstImage, regionCount, pRegions, out))
+        return down(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout, regionCount, pRegions,
+                    filter);
     if (!out.empty())
-        dev.dispatch.CmdBlitImage(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
-                                  static_cast<uint32_t>(out.size()), out.data(), filter);
+        down(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
+             static_cast<uint32_t>(out.size()), out.data(), filter);
     after_transfer(dev, commandBuffer, dstImage);
 }
 
-template <class Next>
-void blit_image2(DeviceState &dev, VkCommandBuffer cb, const VkBlitImageInfo2 *info, Next next) {
-    capture_command(dev, cb, [&](codec::Encoder &e) { encode_vkCmdBlitImage2(e, cb, info); });
+void CmdBlitImage2(DeviceState &dev, PFN_vkCmdBlitImage2 down, VkCommandBuffer commandBuffer,
+                   const VkBlitImageInfo2 *info) {
     std::vector<VkImageBlit2> out;
-    const bool scaled = dev.session && scale_blits(dev, cb, info->srcImage, info->dstImage, info->regionCount,
-                                                   info->pRegions, out);
-    pass_down_regions2(cb, info, scaled, out, next);
-    after_transfer(dev, cb, info->dstImage);
+    const bool scaled = scale_blits(dev, commandBuffer, info->srcImage, info->dstImage, info->regionCount,
+                                    info->pRegions, out);
+    pass_down_regions2(commandBuffer, info, scaled, out, down);
+    after_transfer(dev, commandBuffer, info->dstImage);
 }
 
-VKAPI_ATTR void VKAPI_CALL CmdBlitImage2(VkCommandBuffer commandBuffer,
-                                         const VkBlitImageInfo2 *pBlitImageInfo) {
-    DeviceState &dev = device_state(commandBuffer);
-    blit_image2(dev, commandBuffer, pBlitImageInfo, dev.dispatch.CmdBlitImage2);
-}
-
-VKAPI_ATTR void VKAPI_CALL CmdBlitImage2KHR(VkCommandBuffer commandBuffer,
-                                            const VkBlitImageInfo2 *pBlitImageInfo) {
-    DeviceState &dev = device_state(commandBuffer);
-    blit_image2(dev, commandBuffer, pBlitImageInfo, dev.dispatch.CmdBlitImage2KHR);
-}
-
-VKAPI_ATTR void VKAPI_CALL CmdCopyBufferToImage(VkCommandBuffer commandBuffer, VkBuffer srcBuffer,
-                                                VkImage dstImage, VkImageLayout dstImageLayout,
-                                                uint32_t regionCount, const VkBufferImageCopy *pRegions) {
-    DeviceState &dev = device_state(commandBuffer);
-    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdCopyBufferToImage(e, commandBuffer, srcBuffer, dstImage, dstImageLayout, regionCount,
-                                      pRegions);
-    });
+void CmdCopyBufferToImage(DeviceState &, PFN_vkCmdCopyBufferToImage down, VkCommandBuffer commandBuffer,
+                          VkBuffer srcBuffer, VkImage dstImage, VkImageLayout dstImageLayout,
+                          uint32_t regionCount, const VkBufferImageCopy *pRegions) {
     std::vector<VkBufferImageCopy> out;
-    if (!dev.session || !scale_buffer_copies(dstImage, regionCount, pRegions, out))
-        return dev.dispatch.CmdCopyBufferToImage(commandBuffer, srcBuffer, dstImage, dstImageLayout,
-                                                 regionCount, pRegions);
+    if (!scale_buffer_copies(dstImage, regionCount, pRegions, out))
+        return down(commandBuffer, srcBuffer, dstImage, dstImageLayout, regionCount, pRegions);
     if (!out.empty())
-        dev.dispatch.CmdCopyBufferToImage(commandBuffer, srcBuffer, dstImage, dstImageLayout,
-                                          static_cast<uint32_t>(out.size()), out.data());
+        down(commandBuffer, srcBuffer, dstImage, dstImageLayout, static_cast<uint32_t>(out.size()),
+             out.data());
 }
 
-template <class Next>
-void copy_buffer_to_image2(DeviceState &dev, VkCommandBuffer cb, const VkCopyBufferToImageInfo2 *info,
-                           Next next) {
-    capture_command(dev, cb, [&](codec::Encoder &e) { encode_vkCmdCopyBufferToImage2(e, cb, info); });
+void CmdCopyBufferToImage2(DeviceState &, PFN_vkCmdCopyBufferToImage2 down, VkCommandBuffer commandBuffer,
+                           const VkCopyBufferToImageInfo2 *info) {
     std::vector<VkBufferImageCopy2> out;
-    const bool scaled =
-        dev.session && scale_buffer_copies(info->dstImage, info->regionCount, info->pRegions, out);
-    pass_down_regions2(cb, info, scaled, out, next);
+    const bool scaled = scale_buffer_copies(info->dstImage, info->regionCount, info->pRegions, out);
+    pass_down_regions2(commandBuffer, info, scaled, out, down);
 }
 
-VKAPI_ATTR void VKAPI_CALL CmdCopyBufferToImage2(VkCommandBuffer commandBuffer,
-                                                 const VkCopyBufferToImageInfo2 *pInfo) {
-    DeviceState &dev = device_state(commandBuffer);
-    copy_buffer_to_image2(dev, commandBuffer, pInfo, dev.dispatch.CmdCopyBufferToImage2);
-}
-
-VKAPI_ATTR void VKAPI_CALL CmdCopyBufferToImage2KHR(VkCommandBuffer commandBuffer,
-                                                    const VkCopyBufferToImageInfo2 *pInfo) {
-    DeviceState &dev = device_state(commandBuffer);
-    copy_buffer_to_image2(dev, commandBuffer, pInfo, dev.dispatch.CmdCopyBufferToImage2KHR);
-}
-
-VKAPI_ATTR void VKAPI_CALL CmdCopyImageToBuffer(VkCommandBuffer commandBuffer, VkImage srcImage,
-                                                VkImageLayout srcImageLayout, VkBuffer dstBuffer,
-                                                uint32_t regionCount, const VkBufferImageCopy *pRegions) {
-    DeviceState &dev = device_state(commandBuffer);
-    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdCopyImageToBuffer(e, commandBuffer, srcImage, srcImageLayout, dstBuffer, regionCount,
-                                      pRegions);
-    });
+void CmdCopyImageToBuffer(DeviceState &, PFN_vkCmdCopyImageToBuffer down, VkCommandBuffer commandBuffer,
+                          VkImage srcImage, VkImageLayout srcImageLayout, VkBuffer dstBuffer,
+                          uint32_t regionCount, const VkBufferImageCopy *pRegions) {
     std::vector<VkBufferImageCopy> out;
-    if (!dev.session || !scale_buffer_copies(srcImage, regionCount, pRegions, out))
-        return dev.dispatch.CmdCopyImageToBuffer(commandBuffer, srcImage, srcImageLayout, dstBuffer,
-                                                 regionCount, pRegions);
+    if (!scale_buffer_copies(srcImage, regionCount, pRegions, out))
+        return down(commandBuffer, srcImage, srcImageLayout, dstBuffer, regionCount, pRegions);
     if (!out.empty())
-        dev.dispatch.CmdCopyImageToBuffer(commandBuffer, srcImage, srcImageLayout, dstBuffer,
-                                          static_cast<uint32_t>(out.size()), out.data());
+        down(commandBuffer, srcImage, srcImageLayout, dstBuffer, static_cast<uint32_t>(out.size()),
+             out.data());
 }
 
-template <class Next>
-void copy_image_to_buffer2(DeviceState &dev, VkCommandBuffer cb, const VkCopyImageToBufferInfo2 *info,
-                           Next next) {
-    capture_command(dev, cb, [&](codec::Encoder &e) { encode_vkCmdCopyImageToBuffer2(e, cb, info); });
+void CmdCopyImageToBuffer2(DeviceState &, PFN_vkCmdCopyImageToBuffer2 down, VkCommandBuffer commandBuffer,
+                           const VkCopyImageToBufferInfo2 *info) {
     std::vector<VkBufferImageCopy2> out;
-    const bool scaled =
-        dev.session && scale_buffer_copies(info->srcImage, info->regionCount, info->pRegions, out);
-    pass_down_regions2(cb, info, scaled, out, next);
-}
-
-VKAPI_ATTR void VKAPI_CALL CmdCopyImageToBuffer2(VkCommandBuffer commandBuffer,
-                                                 const VkCopyImageToBufferInfo2 *pInfo) {
-    DeviceState &dev = device_state(commandBuffer);
-    copy_image_to_buffer2(dev, commandBuffer, pInfo, dev.dispatch.CmdCopyImageToBuffer2);
-}
-
-VKAPI_ATTR void VKAPI_CALL CmdCopyImageToBuffer2KHR(VkCommandBuffer commandBuffer,
-                                                    const VkCopyImageToBufferInfo2 *pInfo) {
-    DeviceState &dev = device_state(commandBuffer);
-    copy_image_to_buffer2(dev, commandBuffer, pInfo, dev.dispatch.CmdCopyImageToBuffer2KHR);
+    const bool scaled = scale_buffer_copies(info->srcImage, info->regionCount, info->pRegions, out);
+    pass_down_regions2(commandBuffer, info, scaled, out, down);
 }
 
 // A dispatch with a screen-space storage image bound covers the scaled image with ceil(n·s)
 // groups. Shaders that bound-check against imageSize() then shade exactly the scaled target; a
 // shader that takes the extent from a uniform shades the scaled image's top-left part of it (a
 // periphery artefact; DESIGN §4, the agent replays it full size).
-VKAPI_ATTR void VKAPI_CALL CmdDispatch(VkCommandBuffer commandBuffer, uint32_t groupCountX,
-                                       uint32_t groupCountY, uint32_t groupCountZ) {
-    DeviceState &dev = device_state(commandBuffer);
-    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdDispatch(e, commandBuffer, groupCountX, groupCountY, groupCountZ);
-    });
-    if (dev.session && dispatch_writes_screen_space(commandBuffer)) {
+void CmdDispatch(DeviceState &, PFN_vkCmdDispatch down, VkCommandBuffer commandBuffer, uint32_t groupCountX,
+                 uint32_t groupCountY, uint32_t groupCountZ) {
+    if (dispatch_writes_screen_space(commandBuffer)) {
         const double s = split_settings().scale;
         groupCountX = split::scaled_group_count(groupCountX, s);
         groupCountY = split::scaled_group_count(groupCountY, s);
     }
-    dev.dispatch.CmdDispatch(commandBuffer, groupCountX, groupCountY, groupCountZ);
+    down(commandBuffer, groupCountX, groupCountY, groupCountZ);
 }
 
 // Base and counts scale together (split::scaled_group_range), so that a dispatch split in parts
 // over a scaled target still covers all of it; Z, like vkCmdDispatch's, is layers, not pixels.
-VKAPI_ATTR void VKAPI_CALL CmdDispatchBase(VkCommandBuffer commandBuffer, uint32_t baseGroupX,
-                                           uint32_t baseGroupY, uint32_t baseGroupZ, uint32_t groupCountX,
-                                           uint32_t groupCountY, uint32_t groupCountZ) {
-    DeviceState &dev = device_state(commandBuffer);
-    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdDispatchBase(e, commandBuffer, baseGroupX, baseGroupY, baseGroupZ, groupCountX,
-                                 groupCountY, groupCountZ);
-    });
-    if (dev.session && dispatch_writes_screen_space(commandBuffer)) {
+void CmdDispatchBase(DeviceState &, PFN_vkCmdDispatchBase down, VkCommandBuffer commandBuffer,
+                     uint32_t baseGroupX, uint32_t baseGroupY, uint32_t baseGroupZ, uint32_t groupCountX,
+                     uint32_t groupCountY, uint32_t groupCountZ) {
+    if (dispatch_writes_screen_space(commandBuffer)) {
         const double s = split_settings().scale;
         const split::GroupRange x = split::scaled_group_range(baseGroupX, groupCountX, s);
         const split::GroupRange y = split::scaled_group_range(baseGroupY, groupCountY, s);
@@ -494,9 +385,8 @@ VKAPI_ATTR void VKAPI_CALL CmdDispatchBase(VkCommandBuffer commandBuffer, uint32
         baseGroupY = y.base;
         groupCountY = y.count;
     }
-    dev.dispatch.CmdDispatchBase(commandBuffer, baseGroupX, baseGroupY, baseGroupZ, groupCountX, groupCountY,
-                                 groupCountZ);
+    down(commandBuffer, baseGroupX, baseGroupY, baseGroupZ, groupCountX, groupCountY, groupCountZ);
 }
 
-} // namespace entry
+} // namespace rewrite
 } // namespace splitvk

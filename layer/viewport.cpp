@@ -15,9 +15,9 @@ namespace splitvk {
 namespace {
 
 template <class Down>
-void set_viewports(DeviceState &dev, VkCommandBuffer cb, uint32_t first, uint32_t count,
-                   const VkViewport *viewports, bool with_count, Down &&down) {
-    split::CommandTracker *tracker = dev.session ? split_tracker(cb) : nullptr;
+void set_viewports(VkCommandBuffer cb, uint32_t first, uint32_t count, const VkViewport *viewports,
+                   bool with_count, Down &&down) {
+    split::CommandTracker *tracker = split_tracker(cb);
     if (!tracker) return down(viewports);
     tracker->set_viewports(first, count, viewports, with_count);
     if (tracker->static_viewports()) return;
@@ -31,9 +31,9 @@ void set_viewports(DeviceState &dev, VkCommandBuffer cb, uint32_t first, uint32_
 }
 
 template <class Down>
-void set_scissors(DeviceState &dev, VkCommandBuffer cb, uint32_t first, uint32_t count,
-                  const VkRect2D *scissors, bool with_count, Down &&down) {
-    split::CommandTracker *tracker = dev.session ? split_tracker(cb) : nullptr;
+void set_scissors(VkCommandBuffer cb, uint32_t first, uint32_t count, const VkRect2D *scissors,
+                  bool with_count, Down &&down) {
+    split::CommandTracker *tracker = split_tracker(cb);
     if (!tracker) return down(scissors);
     tracker->set_scissors(first, count, scissors, with_count);
     if (tracker->static_scissors()) return;
@@ -48,74 +48,31 @@ void set_scissors(DeviceState &dev, VkCommandBuffer cb, uint32_t first, uint32_t
 
 } // namespace
 
-namespace entry {
+namespace rewrite {
 
-VKAPI_ATTR void VKAPI_CALL CmdSetViewport(VkCommandBuffer commandBuffer, uint32_t firstViewport,
-                                          uint32_t viewportCount, const VkViewport *pViewports) {
-    DeviceState &dev = device_state(commandBuffer);
-    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdSetViewport(e, commandBuffer, firstViewport, viewportCount, pViewports);
-    });
-    set_viewports(dev, commandBuffer, firstViewport, viewportCount, pViewports, false,
-                  [&](const VkViewport *v) {
-                      dev.dispatch.CmdSetViewport(commandBuffer, firstViewport, viewportCount, v);
-                  });
+void CmdSetViewport(DeviceState &, PFN_vkCmdSetViewport down, VkCommandBuffer commandBuffer,
+                    uint32_t firstViewport, uint32_t viewportCount, const VkViewport *pViewports) {
+    set_viewports(commandBuffer, firstViewport, viewportCount, pViewports, false,
+                  [&](const VkViewport *v) { down(commandBuffer, firstViewport, viewportCount, v); });
 }
 
-VKAPI_ATTR void VKAPI_CALL CmdSetViewportWithCount(VkCommandBuffer commandBuffer, uint32_t viewportCount,
-                                                   const VkViewport *pViewports) {
-    DeviceState &dev = device_state(commandBuffer);
-    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdSetViewportWithCount(e, commandBuffer, viewportCount, pViewports);
-    });
-    set_viewports(dev, commandBuffer, 0, viewportCount, pViewports, true, [&](const VkViewport *v) {
-        dev.dispatch.CmdSetViewportWithCount(commandBuffer, viewportCount, v);
-    });
+void CmdSetViewportWithCount(DeviceState &, PFN_vkCmdSetViewportWithCount down, VkCommandBuffer commandBuffer,
+                             uint32_t viewportCount, const VkViewport *pViewports) {
+    set_viewports(commandBuffer, 0, viewportCount, pViewports, true,
+                  [&](const VkViewport *v) { down(commandBuffer, viewportCount, v); });
 }
 
-VKAPI_ATTR void VKAPI_CALL CmdSetViewportWithCountEXT(VkCommandBuffer commandBuffer, uint32_t viewportCount,
-                                                      const VkViewport *pViewports) {
-    DeviceState &dev = device_state(commandBuffer);
-    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdSetViewportWithCount(e, commandBuffer, viewportCount, pViewports);
-    });
-    set_viewports(dev, commandBuffer, 0, viewportCount, pViewports, true, [&](const VkViewport *v) {
-        dev.dispatch.CmdSetViewportWithCountEXT(commandBuffer, viewportCount, v);
-    });
+void CmdSetScissor(DeviceState &, PFN_vkCmdSetScissor down, VkCommandBuffer commandBuffer,
+                   uint32_t firstScissor, uint32_t scissorCount, const VkRect2D *pScissors) {
+    set_scissors(commandBuffer, firstScissor, scissorCount, pScissors, false,
+                 [&](const VkRect2D *r) { down(commandBuffer, firstScissor, scissorCount, r); });
 }
 
-VKAPI_ATTR void VKAPI_CALL CmdSetScissor(VkCommandBuffer commandBuffer, uint32_t firstScissor,
-                                         uint32_t scissorCount, const VkRect2D *pScissors) {
-    DeviceState &dev = device_state(commandBuffer);
-    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdSetScissor(e, commandBuffer, firstScissor, scissorCount, pScissors);
-    });
-    set_scissors(dev, commandBuffer, firstScissor, scissorCount, pScissors, false, [&](const VkRect2D *r) {
-        dev.dispatch.CmdSetScissor(commandBuffer, firstScissor, scissorCount, r);
-    });
+void CmdSetScissorWithCount(DeviceState &, PFN_vkCmdSetScissorWithCount down, VkCommandBuffer commandBuffer,
+                            uint32_t scissorCount, const VkRect2D *pScissors) {
+    set_scissors(commandBuffer, 0, scissorCount, pScissors, true,
+                 [&](const VkRect2D *r) { down(commandBuffer, scissorCount, r); });
 }
 
-VKAPI_ATTR void VKAPI_CALL CmdSetScissorWithCount(VkCommandBuffer commandBuffer, uint32_t scissorCount,
-                                                  const VkRect2D *pScissors) {
-    DeviceState &dev = device_state(commandBuffer);
-    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdSetScissorWithCount(e, commandBuffer, scissorCount, pScissors);
-    });
-    set_scissors(dev, commandBuffer, 0, scissorCount, pScissors, true, [&](const VkRect2D *r) {
-        dev.dispatch.CmdSetScissorWithCount(commandBuffer, scissorCount, r);
-    });
-}
-
-VKAPI_ATTR void VKAPI_CALL CmdSetScissorWithCountEXT(VkCommandBuffer commandBuffer, uint32_t scissorCount,
-                                                     const VkRect2D *pScissors) {
-    DeviceState &dev = device_state(commandBuffer);
-    capture_command(dev, commandBuffer, [&](codec::Encoder &e) {
-        encode_vkCmdSetScissorWithCount(e, commandBuffer, scissorCount, pScissors);
-    });
-    set_scissors(dev, commandBuffer, 0, scissorCount, pScissors, true, [&](const VkRect2D *r) {
-        dev.dispatch.CmdSetScissorWithCountEXT(commandBuffer, scissorCount, r);
-    });
-}
-
-} // namespace entry
+} // namespace rewrite
 } // namespace splitvk
