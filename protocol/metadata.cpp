@@ -176,6 +176,12 @@ std::vector<uint8_t> encode(const FramePresent &m) {
         w.u64(image.swapchain_id);
         w.u32(image.image_index);
     }
+    w.u32(m.gaze.fixed ? 0 : 1);
+    if (!m.gaze.fixed)
+        for (const split::GazePoint &eye : m.gaze.eyes) {
+            w.u32(eye.x);
+            w.u32(eye.y);
+        }
     return w.take();
 }
 
@@ -194,6 +200,18 @@ Result<FramePresent> decode_frame_present(std::span<const uint8_t> payload) {
         image.swapchain_id = r.u64("swapchain_id");
         image.image_index = r.u32("image_index");
         m.images.push_back(image);
+    }
+    const uint32_t gaze = r.u32("gaze");
+    if (r.ok() && gaze > 1) r.fail("gaze kind " + std::to_string(gaze) + " unknown");
+    m.gaze.fixed = gaze == 0;
+    for (int eye = 0; r.ok() && !m.gaze.fixed && eye < 2; ++eye) {
+        split::GazePoint &point = m.gaze.eyes[eye];
+        point.x = r.u32("gaze x");
+        point.y = r.u32("gaze y");
+        // Never trusted: a fovea placed from it must lie inside the eye.
+        if (r.ok() && (point.x > split::kGazeOne || point.y > split::kGazeOne))
+            r.fail("gaze point (" + std::to_string(point.x) + ", " + std::to_string(point.y) + ") of eye " +
+                   std::to_string(eye) + " outside the eye (0.." + std::to_string(split::kGazeOne) + ")");
     }
     return finish(r, std::move(m), "FramePresent");
 }
@@ -239,6 +257,7 @@ std::vector<uint8_t> encode(const SplitConfig &m) {
     w.f64(m.fovea.width);
     w.f64(m.fovea.height);
     w.u32(static_cast<uint32_t>(m.codec));
+    w.u32(m.moving_gaze ? 1 : 0);
     if (m.agent_scissor.guard) {
         w.u32(1);
         w.u32(m.agent_scissor.pixels);
@@ -254,6 +273,9 @@ Result<SplitConfig> decode_split_config(std::span<const uint8_t> payload) {
     m.fovea.width = r.f64("fovea width");
     m.fovea.height = r.f64("fovea height");
     const uint32_t codec = r.u32("codec");
+    const uint32_t gaze = r.u32("gaze");
+    if (r.ok() && gaze > 1) r.fail("gaze " + std::to_string(gaze) + " unknown");
+    m.moving_gaze = gaze == 1;
     if (!r.at_end()) {
         const uint32_t guard = r.u32("agent scissor");
         m.agent_scissor.pixels = r.u32("agent scissor guard");
