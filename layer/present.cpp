@@ -58,6 +58,7 @@
 
 #include "capture.h"
 #include "compositor.h"
+#include "gaze.h"
 #include "gpu_timing.h"
 #include "host_buffer.h"
 #include "layer_entry_points.h"
@@ -413,6 +414,7 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
     record.frame_ms = p.frame_ms;
     record.xr_frame = p.xr_frame;
     record.xr_view = p.xr_view;
+    if (!p.split.foveae.empty()) record.fovea = p.split.foveae.front().rect;
     const bool stats = !session.settings().stats_path.empty();
 
     Compositor *compositor = p.compositor;
@@ -1059,6 +1061,8 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
     protocol::FramePresent message;
     message.frame = frame;
     message.queue_id = codec::handle_value(queue);
+    // Read here, once per frame: both sides place this frame's foveae with it.
+    message.gaze = gaze::frame_gaze(session.settings());
     for (uint32_t i = 0; i < pPresentInfo->swapchainCount && i < protocol::kMaxPresentedImages; ++i)
         message.images.push_back(
             {codec::handle_value(pPresentInfo->pSwapchains[i]), pPresentInfo->pImageIndices[i]});
@@ -1075,11 +1079,13 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         split_swapchain = find_swapchain(pPresentInfo->pSwapchains[0]);
         const uint32_t index = pPresentInfo->pImageIndices[0];
         if (split_swapchain && index < split_swapchain->images.size())
-            split = take_split_frame(dev, split_swapchain->images[index], split_settings().eyes);
+            split =
+                take_split_frame(dev, split_swapchain->images[index], split_settings().eyes, message.gaze);
         if (split_swapchain && !split.split)
             if (const auto stray = take_stray(split_swapchain->handle, index);
                 stray && *stray < split_swapchain->images.size()) {
-                split = take_split_frame(dev, split_swapchain->images[*stray], split_settings().eyes);
+                split = take_split_frame(dev, split_swapchain->images[*stray], split_settings().eyes,
+                                         message.gaze);
                 if (split.split) {
                     drawn = *stray;
                     // The agent's foveae are those of the image drawn.

@@ -118,7 +118,8 @@ void Session::adopt_locked(AgentLink &&agent) {
     failure_logged_.store(false);
     live_.store(true);
     if (splitting()) {
-        protocol::SplitConfig config{settings_.eyes, settings_.fovea, settings_.codec, {}};
+        protocol::SplitConfig config{settings_.eyes, settings_.fovea, settings_.codec, {}, {}};
+        config.moving_gaze = settings_.gaze != GazeMode::Fixed;
         if (capabilities & protocol::capability::kAgentScissor) {
             config.agent_scissor = settings_.agent_scissor;
         } else if (settings_.agent_scissor.guard) {

@@ -44,7 +44,7 @@ const Settings &split_settings() {
     return layer_settings().settings;
 }
 
-SplitFrame take_split_frame(DeviceState &, VkImage image, EyeMode eyes) {
+SplitFrame take_split_frame(DeviceState &, VkImage image, EyeMode eyes, const split::Gaze &gaze) {
     SplitFrame frame;
     std::lock_guard lock(g_frames_mutex);
     const auto it = g_frames.find(codec::handle_value(image));
@@ -52,7 +52,7 @@ SplitFrame take_split_frame(DeviceState &, VkImage image, EyeMode eyes) {
     frame.split = true;
     frame.periphery = split::scaled_extent(it->second.extent, split_settings().scale);
     // The whole frame's coverage decides its foveae (split::frame_foveae), as the agent's does.
-    frame.foveae = split::in_layer_zero(it->second.foveae(eyes, split_settings().fovea));
+    frame.foveae = split::in_layer_zero(it->second.foveae(eyes, split_settings().fovea, gaze));
     g_frames.erase(it);
     return frame;
 }

@@ -6,6 +6,8 @@
 // write(2) by the presenting thread, so an application killed at any point (SIGTERM, SIGKILL)
 // leaves the header and whole rows only; a write into the page cache does not wait for the disk.
 
+#include <vulkan/vulkan.h>
+
 #include <chrono>
 #include <cstdint>
 #include <mutex>
@@ -41,6 +43,9 @@ struct FrameRecord {
     // -1 for a window's present, and xr_view -1 too before an xrEndFrame named the image's swapchain.
     int64_t xr_frame = -1;
     int32_t xr_view = -1;
+    // The first fovea the frame asked for (the left eye's of a stereo frame; the first layer's of a
+    // layered OpenXR eye image), which follows SPLITVK_GAZE; width 0 when the frame had none.
+    VkRect2D fovea{};
 };
 
 class FrameStats {

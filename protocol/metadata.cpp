@@ -180,6 +180,16 @@ void fields(auto &io, MessageOf<FramePresent> auto &m) {
     io.u64(m.queue_id, "queue_id");
     io.u32(m.flags, "flags");
     io.array(m.images, 1, kMaxPresentedImages, "presented image count");
+    // Where the foveae sit this frame: fixed (where the split config puts them), or at a gaze
+    // point per eye.
+    bool moving = !m.gaze.fixed;
+    io.flag(moving, "gaze kind");
+    if constexpr (!std::is_const_v<std::remove_reference_t<decltype(m)>>) m.gaze.fixed = !moving;
+    if (moving)
+        for (auto &eye : m.gaze.eyes) {
+            io.u32(eye.x, "gaze x");
+            io.u32(eye.y, "gaze y");
+        }
 }
 
 void fields(auto &io, MessageOf<VerifyFrame> auto &m) {
@@ -199,6 +209,7 @@ void fields(auto &io, MessageOf<SplitConfig> auto &m) {
     io.f64(m.fovea.width, "fovea width");
     io.f64(m.fovea.height, "fovea height");
     io.enumeration(m.codec, TileCodec::Raw, "codec");
+    io.flag(m.moving_gaze, "gaze");
     io.trailer(m.agent_scissor.guard, [&] {
         io.constant(1, "agent scissor"); // its kind: a guard band
         io.u32(m.agent_scissor.pixels, "agent scissor guard");
@@ -340,13 +351,20 @@ Result<FrameBegin> decode_frame_begin(std::span<const uint8_t> payload) {
 }
 
 std::vector<uint8_t> encode(const FramePresent &m) {
-    return encode_fields(m, 24 + 12 * m.images.size());
+    return encode_fields(m, 44 + 12 * m.images.size());
 }
 
 Result<FramePresent> decode_frame_present(std::span<const uint8_t> payload) {
     Decoder d(payload);
     FramePresent m;
     fields(d, m);
+    for (int eye = 0; d.ok() && !m.gaze.fixed && eye < 2; ++eye) {
+        const split::GazePoint &point = m.gaze.eyes[eye];
+        // Never trusted: a fovea placed from it must lie inside the eye.
+        if (point.x > split::kGazeOne || point.y > split::kGazeOne)
+            d.fail("gaze point (" + std::to_string(point.x) + ", " + std::to_string(point.y) + ") of eye " +
+                   std::to_string(eye) + " outside the eye (0.." + std::to_string(split::kGazeOne) + ")");
+    }
     return d.finish(std::move(m), "FramePresent");
 }
 
@@ -368,7 +386,7 @@ Result<VerifyFrame> decode_verify_frame(std::span<const uint8_t> payload, uint32
 }
 
 std::vector<uint8_t> encode(const SplitConfig &m) {
-    return encode_fields(m, 36);
+    return encode_fields(m, 40);
 }
 
 Result<SplitConfig> decode_split_config(std::span<const uint8_t> payload) {

@@ -23,6 +23,7 @@
 
 #include "result.h"
 #include "settings.h"
+#include "split_geometry.h"
 
 #include <vulkan/vulkan.h>
 
@@ -118,6 +119,13 @@ struct FramePresent {
     uint64_t queue_id = 0;
     uint32_t flags = 0;
     std::vector<PresentedImage> images;
+    // Where the eyes looked for this frame (SPLITVK_GAZE): both sides place the foveae of the
+    // window images it presents with it (split::frame_foveae), so that the tiles the agent sends are
+    // the rectangles this frame's composite expects. Carried by every frame, so that an agent that
+    // joins mid-run has it from its first frame. The decoder refuses a point outside the eye
+    // (coordinates beyond split::kGazeOne); an OpenXR runtime's eye images keep their foveae at
+    // their view directions.
+    split::Gaze gaze;
 };
 
 // Pixels are tightly packed rows of the image's format (4 bytes per pixel for the 8-bit BGRA/RGBA
@@ -140,6 +148,10 @@ struct SplitConfig {
     EyeMode eyes = EyeMode::Auto;
     FoveaSize fovea;
     TileCodec codec = TileCodec::X264;
+    // SPLITVK_GAZE other than fixed: FramePresent may move the foveae from frame to frame, so the
+    // agent's fovea scissors cover every place they can move to (split::fovea_scissor); a frame
+    // that carries a gaze without it is refused.
+    bool moving_gaze = false;
     // A trailer, encoded only when guard is on (capability::kAgentScissor); absent: off.
     AgentScissor agent_scissor;
 };

@@ -39,6 +39,9 @@ const SettingInfo kSettings[] = {
     {"AGENT_SCISSOR", "off or guard:N (N pixels, 0 to 4096)", "off",
      "guard:N: the agent also scissors its passes into screen-space targets to the foveae grown by N "
      "pixels of each target; exact only if N covers the reach of every blur or filter"},
+    {"GAZE", "fixed or fifo:PATH", "fixed",
+     "where the foveae sit: fixed, centred in each eye; fifo:PATH, at the gaze points another process writes "
+     "into the named pipe PATH (one line per point: x y, or lx ly rx ry, 0.5 0.5 the eye's centre)"},
     {"CODEC", "x264, zstd or raw", "x264", "lossless codec for the fovea tiles"},
     {"TILE_WAIT", "milliseconds, 1 to 60000", "250",
      "longest a present waits for its frame's tiles; later, the centre comes from the periphery"},
@@ -217,6 +220,17 @@ bool apply(std::string_view name, std::string_view raw, Settings &s) {
         const auto pixels = parse_uint(std::string_view(v).substr(6));
         if (!pixels || *pixels > kMaxAgentScissorGuard) return false;
         s.agent_scissor = {true, *pixels};
+        return true;
+    }
+    if (name == "GAZE") {
+        if (v == "fixed" || v == "openxr") { // openxr: not available yet, load_settings says so
+            s.gaze = GazeMode::Fixed;
+            s.gaze_fifo.clear();
+            return true;
+        }
+        if (!v.starts_with("fifo:") || value.size() <= 5) return false;
+        s.gaze = GazeMode::Fifo;
+        s.gaze_fifo = std::string(value.substr(5)); // the path as written, not lower-cased
         return true;
     }
     if (name == "CODEC") {
@@ -457,6 +471,12 @@ LoadedSettings load_settings(const Environment &environment, const std::string &
         if (!apply(info->name, source.value, result.settings)) {
             result.errors.push_back(source.label + "='" + source.value + "' is invalid: expected " +
                                     info->accepted);
+        } else if (std::string_view(info->name) == "GAZE" && lower(trim(source.value)) == "openxr") {
+            // Not a bad value, one not built yet: the split goes on with the fixed fovea.
+            result.warnings.push_back(source.label +
+                                      "=openxr: the OpenXR runtime's eye gaze is not available yet; "
+                                      "using fixed (expected " +
+                                      info->accepted + ")");
         }
     }
 
@@ -512,6 +532,10 @@ const char *to_string(TileCodec codec) {
 
 std::string to_string(const AgentScissor &scissor) {
     return scissor.guard ? "guard:" + std::to_string(scissor.pixels) : "off";
+}
+
+std::string to_string(GazeMode mode, const std::string &fifo) {
+    return mode == GazeMode::Fifo ? "fifo:" + fifo : "fixed";
 }
 
 const char *to_string(UnsupportedMode mode) {

@@ -39,6 +39,11 @@ struct AgentScissor {
 };
 inline constexpr uint32_t kMaxAgentScissorGuard = 4096;
 
+// SPLITVK_GAZE (issue 22): where the foveae sit. Fixed: centred in each eye (at the view direction
+// under OpenXR), the same every frame; Fifo: at the gaze points another process writes into a named
+// pipe (layer/gaze.h).
+enum class GazeMode { Fixed, Fifo };
+
 struct ServerAddress {
     std::string host = "127.0.0.1";
     uint16_t port = 7447;
@@ -62,6 +67,8 @@ struct Settings {
     EyeMode eyes = EyeMode::Auto;
     TargetMode targets = TargetMode::Auto;
     AgentScissor agent_scissor;
+    GazeMode gaze = GazeMode::Fixed;
+    std::string gaze_fifo; // GazeMode::Fifo: the pipe's path
     TileCodec codec = TileCodec::X264;
     // Lockstep bound: a present waits at most this long for its own frame's tiles. Generous for a
     // LAN (a frame is ~10-20 ms), short enough that a stalled agent costs seconds, not a hang.
@@ -126,7 +133,8 @@ LoadedSettings load_process_settings();
 
 const char *to_string(EyeMode mode);
 const char *to_string(TileCodec codec);
-std::string to_string(const AgentScissor &scissor); // "off", "guard:64"
+std::string to_string(const AgentScissor &scissor);            // "off", "guard:64"
+std::string to_string(GazeMode mode, const std::string &fifo); // "fixed", "fifo:/run/gaze"
 const char *to_string(LogLevel level);
 const char *to_string(UnsupportedMode mode);
 

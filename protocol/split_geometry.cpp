@@ -130,24 +130,47 @@ VkRect2D fovea_of_eye(const VkRect2D &eye, const FoveaSize &fovea) {
             {fw, fh}};
 }
 
+VkRect2D fovea_at_gaze(const VkRect2D &eye, const GazePoint &point, const FoveaSize &fovea) {
+    const VkRect2D centred = fovea_of_eye(eye, fovea);
+    const uint32_t fw = centred.extent.width, fh = centred.extent.height;
+    const uint64_t gx = std::min(point.x, kGazeOne), gy = std::min(point.y, kGazeOne);
+    const int64_t cx = static_cast<int64_t>(gx * eye.extent.width / kGazeOne);
+    const int64_t cy = static_cast<int64_t>(gy * eye.extent.height / kGazeOne);
+    const int64_t x = std::clamp<int64_t>(cx - fw / 2, 0, int64_t{eye.extent.width} - fw);
+    const int64_t y = std::clamp<int64_t>(cy - fh / 2, 0, int64_t{eye.extent.height} - fh);
+    return {{eye.offset.x + static_cast<int32_t>(x), eye.offset.y + static_cast<int32_t>(y)}, {fw, fh}};
+}
+
 std::vector<VkRect2D> frame_foveae(const EyeCoverage &drawn, VkExtent2D image, EyeMode mode,
-                                   const FoveaSize &fovea) {
+                                   const FoveaSize &fovea, const Gaze &gaze) {
+    const auto place = [&](const VkRect2D &eye, int index) {
+        return gaze.fixed ? fovea_of_eye(eye, fovea) : fovea_at_gaze(eye, gaze.eyes[index], fovea);
+    };
     std::vector<VkRect2D> foveae;
     if (!drawn.any()) return foveae;
     // An image one pixel wide has no left half: its one eye is the whole image.
     const bool two =
         image.width >= 2 && (mode == EyeMode::Two || (mode == EyeMode::Auto && drawn.stereo_pair()));
     if (!two) {
-        foveae.push_back(fovea_of_eye({{0, 0}, image}, fovea));
+        foveae.push_back(place({{0, 0}, image}, 0));
         return foveae;
     }
-    if (drawn.left) add_fovea(foveae, fovea_of_eye(left_eye(image), fovea));
-    if (drawn.right) add_fovea(foveae, fovea_of_eye(right_eye(image), fovea));
+    if (drawn.left) add_fovea(foveae, place(left_eye(image), 0));
+    if (drawn.right) add_fovea(foveae, place(right_eye(image), 1));
     return foveae;
 }
 
-VkRect2D fovea_scissor(const VkViewport &viewport, VkExtent2D image, EyeMode mode, const FoveaSize &fovea) {
+VkRect2D fovea_scissor(const VkViewport &viewport, VkExtent2D image, EyeMode mode, const FoveaSize &fovea,
+                       bool moving_gaze) {
     const EyeCoverage c = viewport_coverage(viewport, image);
+    if (moving_gaze) {
+        // A mono fovea may sit anywhere in the image, so One and Auto cannot cut anything.
+        if (mode != EyeMode::Two || image.width < 2) return {{0, 0}, image};
+        VkRect2D box{};
+        if (c.left) box = left_eye(image);
+        if (c.right) box = c.left ? VkRect2D{{0, 0}, image} : right_eye(image);
+        return box;
+    }
     VkRect2D box{};
     if (mode != EyeMode::Two || image.width < 2) box = fovea_of_eye({{0, 0}, image}, fovea);
     if (mode == EyeMode::One) return box;

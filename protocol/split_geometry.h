@@ -57,6 +57,26 @@ VkRect2D right_eye(VkExtent2D image);
 // The fovea of an eye: FoveaSize::pixels_for_eye, centred in the eye (rounded down).
 VkRect2D fovea_of_eye(const VkRect2D &eye, const FoveaSize &fovea);
 
+// Where the eyes look in a frame (SPLITVK_GAZE, DESIGN §9): per eye a point of that eye's image in
+// units of 1/kGazeOne of its width and height, so that both sides place the fovea with the same
+// integer arithmetic (kGazeOne/2, kGazeOne/2 is the centre). A fixed gaze places every fovea where
+// fovea_of_eye does, pixel for pixel what the split did before gaze existed.
+inline constexpr uint32_t kGazeOne = 65536;
+struct GazePoint {
+    uint32_t x = kGazeOne / 2; // 0 (left edge) .. kGazeOne (right edge)
+    uint32_t y = kGazeOne / 2; // 0 (top edge) .. kGazeOne (bottom edge)
+};
+struct Gaze {
+    bool fixed = true;
+    // The left eye (the only eye of a mono frame, whose one eye is the whole image), the right eye.
+    GazePoint eyes[2];
+};
+
+// The fovea of an eye (FoveaSize::pixels_for_eye) centred on `point`: its offset is the point's
+// pixel (floor(x·W / kGazeOne)) less half the fovea's size (rounded down), clamped so that the
+// fovea stays inside the eye. Coordinates beyond kGazeOne are clamped too.
+VkRect2D fovea_at_gaze(const VkRect2D &eye, const GazePoint &point, const FoveaSize &fovea);
+
 // The foveae of a frame whose split passes drew `drawn` into `image` (sorted by x, as add_fovea
 // keeps them; none when nothing was drawn). DESIGN §4, §9:
 // - EyeMode::One: the fovea of the whole image, centred.
@@ -65,8 +85,10 @@ VkRect2D fovea_of_eye(const VkRect2D &eye, const FoveaSize &fovea);
 // - Auto: as Two when the frame's viewports include a stereo pair (one that is the left half and
 //   one that is the right half), otherwise as One: a mono frame's fovea belongs at the centre of
 //   the screen, however many panels it draws side by side.
+// A gaze that is not fixed moves each eye's fovea to its point (fovea_at_gaze; a mono frame's one
+// eye takes the left eye's point).
 std::vector<VkRect2D> frame_foveae(const EyeCoverage &drawn, VkExtent2D image, EyeMode mode,
-                                   const FoveaSize &fovea);
+                                   const FoveaSize &fovea, const Gaze &gaze = {});
 
 // The rectangle the agent cuts a viewport's scissors to in a pass into the swapchain image: the
 // bounding box of every fovea the viewport's draws can end up in, whatever else the frame draws.
@@ -74,7 +96,11 @@ std::vector<VkRect2D> frame_foveae(const EyeCoverage &drawn, VkExtent2D image, E
 // viewport). Auto: those and the centred fovea, since the frame may or may not turn out to be a
 // stereo pair (set SPLITVK_EYES to shade less). Both sides composite only frame_foveae, which
 // always lies within the scissors of the viewports that drew it.
-VkRect2D fovea_scissor(const VkViewport &viewport, VkExtent2D image, EyeMode mode, const FoveaSize &fovea);
+// `moving_gaze` (SPLITVK_GAZE other than fixed): the scissor is recorded before the frame's gaze is
+// known and may be replayed for many frames, so it covers every place the fovea can move to: the
+// whole image (One, Auto) or the halves the viewport draws into (Two).
+VkRect2D fovea_scissor(const VkViewport &viewport, VkExtent2D image, EyeMode mode, const FoveaSize &fovea,
+                       bool moving_gaze = false);
 
 // An eye's field of view as OpenXR gives it (XrFovf): the angles of the image's edges from the
 // view direction, in radians, within (-pi/2, pi/2); left and down are negative.

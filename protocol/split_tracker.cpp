@@ -19,8 +19,8 @@ void merge_drawn(std::vector<DrawnImage> &into, const std::vector<DrawnImage> &f
     }
 }
 
-std::vector<VkRect2D> DrawnImage::foveae(EyeMode mode, const FoveaSize &fovea) const {
-    return frame_foveae(coverage, extent, mode, fovea);
+std::vector<VkRect2D> DrawnImage::foveae(EyeMode mode, const FoveaSize &fovea, const Gaze &gaze) const {
+    return frame_foveae(coverage, extent, mode, fovea, gaze);
 }
 
 void CommandTracker::bind_pipeline(std::shared_ptr<const StaticViewportState> state) {

@@ -42,7 +42,7 @@ struct DrawnImage {
     VkExtent2D extent{};
     EyeCoverage coverage;
 
-    std::vector<VkRect2D> foveae(EyeMode mode, const FoveaSize &fovea) const;
+    std::vector<VkRect2D> foveae(EyeMode mode, const FoveaSize &fovea, const Gaze &gaze = {}) const;
 };
 
 // Unions `from` into `into` (one entry per image; the coverages are joined).

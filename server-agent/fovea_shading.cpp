@@ -8,11 +8,11 @@
 
 namespace splitvk::agent {
 
-std::vector<split::LayerFovea> FoveaShading::take_drawn_foveae(uint64_t image_id) {
+std::vector<split::LayerFovea> FoveaShading::take_drawn_foveae(uint64_t image_id, const split::Gaze &gaze) {
     const auto it = drawn_.find(image_id);
     if (it == drawn_.end()) return {};
     // The whole frame's coverage decides its foveae (split::frame_foveae), as the client's does.
-    std::vector<split::LayerFovea> foveae = split::in_layer_zero(it->second.foveae(eyes_, fovea_));
+    std::vector<split::LayerFovea> foveae = split::in_layer_zero(it->second.foveae(eyes_, fovea_, gaze));
     // An OpenXR eye image: its eyes' foveae, wherever its passes drew, as the client composites them.
     if (auto eyes = runtime_foveae(image_id, it->second.extent); eyes && !foveae.empty())
         foveae = std::move(*eyes);
@@ -251,12 +251,15 @@ bool FoveaShading::guard_rect(const std::vector<VkImageView> &views, VkExtent2D 
             // target (a layer of an eye texture) holds either eye, so what of them lies in each eye,
             // in that eye's coordinates (a centred fovea straddles both eyes).
             const uint32_t left = s.width / 2;
+            // A moving gaze can put an eye's fovea anywhere in that eye.
+            const auto anywhere = [&](const VkRect2D &eye) {
+                return moving_gaze_ ? eye : split::fovea_of_eye(eye, fovea_);
+            };
             std::vector<VkRect2D> screen;
-            if (eyes_ != EyeMode::Two) screen.push_back(split::fovea_of_eye({{0, 0}, s}, fovea_));
+            if (eyes_ != EyeMode::Two) screen.push_back(anywhere({{0, 0}, s}));
             if (eyes_ != EyeMode::One) {
-                screen.push_back(split::fovea_of_eye({{0, 0}, {left, s.height}}, fovea_));
-                screen.push_back(split::fovea_of_eye(
-                    {{static_cast<int32_t>(left), 0}, {s.width - left, s.height}}, fovea_));
+                screen.push_back(anywhere({{0, 0}, {left, s.height}}));
+                screen.push_back(anywhere({{static_cast<int32_t>(left), 0}, {s.width - left, s.height}}));
             }
             for (const VkRect2D &f : screen) {
                 if (!target.kind.eye) {
@@ -460,7 +463,7 @@ void FoveaShading::emit_scissors(VkCommandBuffer cb, const split::CommandTracker
         const VkViewport *v = t.viewport(i);
         // Without viewport i the eye is unknown; the scissor is narrowed once the viewport is set.
         if (runtime) return split::intersect(r, runtime_scissor(*runtime, v));
-        return v ? split::intersect(r, split::fovea_scissor(*v, t.extent(), eyes_, fovea_)) : r;
+        return v ? split::intersect(r, split::fovea_scissor(*v, t.extent(), eyes_, fovea_, moving_gaze_)) : r;
     };
     std::vector<VkRect2D> values;
     if (t.static_scissors()) {

@@ -30,6 +30,16 @@
 // direction, every eye and layer of that extent, as the pass does not say which it renders for); an
 // eye-sized target whose eyes are not the image's halves is replayed whole. Passes whose contents are in
 // secondaries are scissored alike through variants of their secondaries (begin_variant).
+//
+// SPLITVK_GAZE other than fixed (issue 22) moves the foveae from frame to frame, by a gaze that only
+// the frame's FramePresent carries. Scissors are baked into command buffers when they are recorded,
+// and applications record once and submit many times (vkcube), so a scissor cut to one frame's
+// foveae would leave a later frame's fovea unshaded. Re-recording every split pass per frame would
+// re-record most of the frame on every present; instead the scissors stay conservative: every place
+// a fovea can be is the whole eye it belongs to (split::fovea_scissor with moving_gaze), so a split
+// pass is shaded over each eye it draws into (in full for SPLITVK_EYES=1 or auto) and guard:N cuts
+// offscreen passes to the eyes only. The agent shades more, and every fovea is exact wherever the
+// frame's gaze puts it.
 
 #include "settings.h"
 #include "split_tracker.h"
@@ -51,13 +61,18 @@ class FoveaShading {
 public:
     FoveaShading(ReplayDispatch &vk, SwapchainImages &swapchains) : vk_(vk), swapchains_(swapchains) {}
 
-    // The client's eye layout and fovea size; Settings' defaults until called.
-    void configure(EyeMode eyes, const FoveaSize &fovea, const AgentScissor &scissor = {}) {
+    // The client's eye layout and fovea size; Settings' defaults until called. `moving_gaze`: the
+    // foveae follow each frame's gaze (SplitConfig::moving_gaze), so the scissors of split passes
+    // and guarded passes cover every place a fovea can move to (see the top of this file).
+    void configure(EyeMode eyes, const FoveaSize &fovea, const AgentScissor &scissor = {},
+                   bool moving_gaze = false) {
         eyes_ = eyes;
         fovea_ = fovea;
         scissor_ = scissor;
+        moving_gaze_ = moving_gaze;
         ++generation_;
     }
+    bool moving_gaze() const { return moving_gaze_; }
     // Off: everything replays as recorded (SPLITVK_VERIFY compares whole frames, and the client
     // does not split then). Set before the first command.
     void set_enabled(bool enabled) { enabled_ = enabled; }
@@ -68,8 +83,8 @@ public:
     // coordinates, sorted by x then y, as the client's take_split_frame reports them). Clears the
     // record.
     // An OpenXR runtime's image gives its eyes' foveae instead (split::runtime_eye_foveae), in their
-    // array layers.
-    std::vector<split::LayerFovea> take_drawn_foveae(uint64_t image_id);
+    // array layers. A window image's foveae sit at `gaze`, the frame's (FramePresent::gaze).
+    std::vector<split::LayerFovea> take_drawn_foveae(uint64_t image_id, const split::Gaze &gaze = {});
 
     // Object tracking (after the driver call; destroys before it).
     void image_created(VkImage image, const VkImageCreateInfo &info);
@@ -161,6 +176,7 @@ private:
     static VkRect2D runtime_scissor(const std::vector<split::LayerFovea> &foveae, const VkViewport *viewport);
     FoveaSize fovea_ = Settings{}.fovea;
     AgentScissor scissor_;
+    bool moving_gaze_ = false;
     struct View {
         VkImage image = VK_NULL_HANDLE;
         uint32_t mip = 0;

@@ -656,7 +656,7 @@ bool Replayer::split_config(const protocol::SplitConfig &message, std::string *e
         return false;
     }
     if (!tiles_) tiles_ = std::make_unique<TileStreamer>(context_, tile_sender_);
-    fovea_.configure(message.eyes, message.fovea, message.agent_scissor);
+    fovea_.configure(message.eyes, message.fovea, message.agent_scissor, message.moving_gaze);
     fovea_.set_enabled(true);
     tiles_->set_codec(message.codec);
     return true;
@@ -673,6 +673,13 @@ bool Replayer::frame_present(const protocol::FramePresent &message,
     const auto received = std::chrono::steady_clock::now();
     const bool invalid = guard_.take_frame_invalid();
     if (tiles_) {
+        // Scissors recorded for the fixed foveae shaded nothing elsewhere: a fovea moved there
+        // would be read back unshaded.
+        if (!message.gaze.fixed && !fovea_.moving_gaze()) {
+            *error = "FramePresent " + std::to_string(message.frame) +
+                     " moves the foveae, but SplitConfig said the gaze is fixed";
+            return false;
+        }
         // The client composites the first swapchain of a present (layer/present.cpp); the fovea
         // record of every presented image is taken so that none carries over to a later frame.
         for (size_t i = 0; i < message.images.size(); ++i) {
@@ -682,7 +689,7 @@ bool Replayer::frame_present(const protocol::FramePresent &message,
                 *error = "FramePresent " + std::to_string(message.frame) + ": " + *error;
                 return false;
             }
-            auto foveae = fovea_.take_drawn_foveae(image.image_id);
+            auto foveae = fovea_.take_drawn_foveae(image.image_id, message.gaze);
             if (i > 0) continue;
             TileStreamer::Frame frame;
             frame.frame = message.frame;

@@ -742,6 +742,53 @@ TEST_F(AgentTest, ClosingWithPresentsInFlightEndsCleanly) {
         << agent_.log();
 }
 
+// SPLITVK_GAZE: the agent never trusts a frame's gaze. A point outside the eye is refused by the
+// decoder; a gaze that moves the foveae in a session whose SplitConfig said they are fixed is refused
+// too, since its scissors shaded only the fixed foveae and a moved one would be read back unshaded.
+class AgentGaze : public AgentTest {
+protected:
+    void present_with_gaze(const protocol::SplitConfig &config, const split::Gaze &gaze) {
+        Client client;
+        ASSERT_TRUE(client.connect(agent_)) << client.error;
+        codec::Encoder e;
+        encode_setup(e);
+        ASSERT_TRUE(client.commands(e));
+        protocol::SwapchainImages sc;
+        sc.device_id = kDevice;
+        sc.swapchain_id = kSwapchain;
+        sc.width = kWidth;
+        sc.height = kHeight;
+        sc.format = VK_FORMAT_R8G8B8A8_UNORM;
+        sc.usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+        sc.image_ids = {kImage};
+        ASSERT_TRUE(client.send(MessageType::SwapchainImages, protocol::encode(sc)));
+        ASSERT_TRUE(client.send(MessageType::SplitConfig, protocol::encode(config)));
+        protocol::FramePresent present;
+        present.queue_id = kQueue;
+        present.images = {{kSwapchain, 0}};
+        present.gaze = gaze;
+        ASSERT_TRUE(client.send(MessageType::FramePresent, protocol::encode(present)));
+        client.connection->flush(5000ms);
+    }
+};
+
+TEST_F(AgentGaze, AGazeOutsideTheEyeEndsOnlyThatSession) {
+    protocol::SplitConfig config;
+    config.moving_gaze = true;
+    split::Gaze gaze;
+    gaze.fixed = false;
+    gaze.eyes[0] = {split::kGazeOne + 1, 0};
+    ASSERT_NO_FATAL_FAILURE(present_with_gaze(config, gaze));
+    expect_error_then_recovery(1, "gaze point (65537, 0) of eye 0 outside the eye");
+}
+
+TEST_F(AgentGaze, AMovedFoveaInAFixedSessionEndsOnlyThatSession) {
+    split::Gaze gaze;
+    gaze.fixed = false;
+    ASSERT_NO_FATAL_FAILURE(present_with_gaze(protocol::SplitConfig{}, gaze));
+    expect_error_then_recovery(1, "FramePresent 0 moves the foveae, but SplitConfig said the gaze is fixed");
+}
+
 TEST_F(AgentTest, TruncatedMessageEndsOnlyThatSession) {
     const int fd = raw_connect(agent_);
     ASSERT_GE(fd, 0);

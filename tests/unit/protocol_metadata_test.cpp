@@ -135,7 +135,7 @@ TEST(ProtocolSession, FrameMarksRoundTrip) {
     EXPECT_EQ(b->image_index, 2u);
     expect_truncations_refused(encode(begin), decode_frame_begin);
 
-    const FramePresent present{41, 0x99, kPresentVerify, {{0x55, 2}, {0x66, 0}}};
+    const FramePresent present{41, 0x99, kPresentVerify, {{0x55, 2}, {0x66, 0}}, {}};
     const auto p = decode_frame_present(encode(present));
     ASSERT_TRUE(p.ok());
     EXPECT_EQ(p->flags, kPresentVerify);
@@ -143,10 +143,53 @@ TEST(ProtocolSession, FrameMarksRoundTrip) {
     EXPECT_EQ(p->images[1].swapchain_id, 0x66u);
     expect_truncations_refused(encode(present), decode_frame_present);
 
-    EXPECT_FALSE(decode_frame_present(encode(FramePresent{1, 1, 0, {}})).ok()) << "a present shows something";
+    EXPECT_FALSE(decode_frame_present(encode(FramePresent{1, 1, 0, {}, {}})).ok())
+        << "a present shows something";
     const auto d = decode_swapchain_destroyed(encode(SwapchainDestroyed{3, 4}));
     ASSERT_TRUE(d.ok());
     EXPECT_EQ(d->swapchain_id, 4u);
+}
+
+// SPLITVK_GAZE: every FramePresent carries its frame's gaze, fixed or a point per eye.
+TEST(ProtocolSession, FramePresentCarriesTheGaze) {
+    FramePresent present{7, 0x99, 0, {{0x55, 1}}, {}};
+    const auto fixed = decode_frame_present(encode(present));
+    ASSERT_TRUE(fixed.ok()) << fixed.error();
+    EXPECT_TRUE(fixed->gaze.fixed);
+
+    present.gaze.fixed = false;
+    present.gaze.eyes[0] = {0, split::kGazeOne};
+    present.gaze.eyes[1] = {split::kGazeOne / 4, 12345};
+    const auto bytes = encode(present);
+    const auto moved = decode_frame_present(bytes);
+    ASSERT_TRUE(moved.ok()) << moved.error();
+    EXPECT_FALSE(moved->gaze.fixed);
+    EXPECT_EQ(moved->gaze.eyes[0].x, 0u);
+    EXPECT_EQ(moved->gaze.eyes[0].y, split::kGazeOne);
+    EXPECT_EQ(moved->gaze.eyes[1].x, split::kGazeOne / 4);
+    EXPECT_EQ(moved->gaze.eyes[1].y, 12345u);
+    expect_truncations_refused(bytes, decode_frame_present);
+}
+
+// A gaze point outside the eye would place a fovea outside it: refused, never clamped into a
+// rectangle the agent did not shade or the layer did not ask for.
+TEST(ProtocolSession, FramePresentRefusesAGazeOutsideTheEye) {
+    FramePresent present{7, 0x99, 0, {{0x55, 1}}, {}};
+    present.gaze.fixed = false;
+    present.gaze.eyes[1] = {split::kGazeOne + 1, 0};
+    const auto wide = decode_frame_present(encode(present));
+    ASSERT_FALSE(wide.ok());
+    EXPECT_NE(wide.error().find("outside the eye"), std::string::npos) << wide.error();
+    EXPECT_EQ(wide.error().find('\n'), std::string::npos);
+    present.gaze.eyes[1] = {0, 0xFFFFFFFFu};
+    EXPECT_FALSE(decode_frame_present(encode(present)).ok()) << "y beyond the eye";
+
+    present.gaze = {};
+    auto bytes = encode(present);
+    bytes[bytes.size() - 4] = 2; // the gaze kind: neither fixed (0) nor points (1)
+    const auto unknown = decode_frame_present(bytes);
+    ASSERT_FALSE(unknown.ok());
+    EXPECT_NE(unknown.error().find("gaze kind 2 unknown"), std::string::npos) << unknown.error();
 }
 
 TEST(ProtocolSession, VerifyFrameChecksPixelCount) {
@@ -261,14 +304,24 @@ TEST(ProtocolSession, SplitConfigRoundTripAndRanges) {
     auto bad = encode(SplitConfig{});
     bad[0] = 9; // eyes
     EXPECT_FALSE(decode_split_config(bad).ok());
+
+    m.fovea = FoveaSize{};
+    EXPECT_FALSE(decode_split_config(encode(m))->moving_gaze);
+    m.moving_gaze = true;
+    const auto moving = decode_split_config(encode(m));
+    ASSERT_TRUE(moving.ok()) << moving.error();
+    EXPECT_TRUE(moving->moving_gaze);
+    auto unknown = encode(m);
+    unknown[unknown.size() - 4] = 5; // the gaze, last without the guard trailer
+    EXPECT_FALSE(decode_split_config(unknown).ok());
 }
 
-// SPLITVK_AGENT_SCISSOR rides as a trailer: off encodes exactly the older message (which older
-// agents accept), and a message without it decodes as off.
+// SPLITVK_AGENT_SCISSOR rides as a trailer: off encodes no trailer, and a message without it decodes
+// as off.
 TEST(ProtocolSession, SplitConfigAgentScissorTrailer) {
     SplitConfig m;
     const auto off = encode(m);
-    EXPECT_EQ(off.size(), 28u) << "off must stay the message older agents decode";
+    EXPECT_EQ(off.size(), 32u) << "off adds no trailer";
     ASSERT_TRUE(decode_split_config(off).ok());
     EXPECT_FALSE(decode_split_config(off)->agent_scissor.guard);
     m.agent_scissor = {true, 64};

@@ -117,6 +117,28 @@ TEST_F(SettingsTest, UnsupportedExtensions) {
     EXPECT_STREQ(to_string(UnsupportedMode::Passthrough), "passthrough");
 }
 
+// SPLITVK_GAZE: fixed (the default), fifo:PATH with the path as written; openxr is not built yet: one
+// warning, and the fixed fovea (not an error, which would leave the application unsplit).
+TEST_F(SettingsTest, GazeSources) {
+    EXPECT_EQ(load({}).settings.gaze, GazeMode::Fixed);
+    auto loaded = load({{"SPLITVK_GAZE", "fifo:/run/User/Gaze"}});
+    ASSERT_TRUE(loaded.valid());
+    EXPECT_EQ(loaded.settings.gaze, GazeMode::Fifo);
+    EXPECT_EQ(loaded.settings.gaze_fifo, "/run/User/Gaze");
+    EXPECT_EQ(to_string(loaded.settings.gaze, loaded.settings.gaze_fifo), "fifo:/run/User/Gaze");
+    EXPECT_EQ(load({{"SPLITVK_GAZE", "Fixed"}}).settings.gaze, GazeMode::Fixed);
+    write_file("vk_layer_settings.txt", "splitvk_split_render.gaze = fifo:/tmp/g\n");
+    EXPECT_EQ(load({}).settings.gaze_fifo, "/tmp/g");
+
+    loaded = load({{"SPLITVK_GAZE", "openxr"}});
+    EXPECT_TRUE(loaded.valid());
+    EXPECT_EQ(loaded.settings.gaze, GazeMode::Fixed);
+    ASSERT_EQ(loaded.warnings.size(), 1u);
+    EXPECT_NE(loaded.warnings[0].find("SPLITVK_GAZE=openxr"), std::string::npos) << loaded.warnings[0];
+    EXPECT_NE(loaded.warnings[0].find("using fixed"), std::string::npos) << loaded.warnings[0];
+    EXPECT_EQ(loaded.warnings[0].find('\n'), std::string::npos);
+}
+
 TEST_F(SettingsTest, FractionalFovea) {
     const auto loaded = load({{"SPLITVK_FOVEA", "0.5x0.25"}});
     ASSERT_TRUE(loaded.valid());
@@ -135,6 +157,7 @@ TEST_F(SettingsTest, InvalidValuesAreOneLineErrorsNamingTheSetting) {
         {"EYES", {"", "0", "3", "both", "two"}},
         {"TARGETS", {"", "all", "offscreen", "1"}},
         {"AGENT_SCISSOR", {"", "on", "guard", "guard:", "guard:-1", "guard:4097", "guard:1.5", "64"}},
+        {"GAZE", {"", "fifo:", "fifo", "pipe:/tmp/gaze", "eyes", "1"}},
         {"CODEC", {"", "h264", "x265", "lz4"}},
         {"TILE_WAIT", {"", "0", "-5", "60001", "1.5", "soon"}},
         {"PRESENT_DEPTH", {"", "3", "-1", "1.5", "two"}},

@@ -220,6 +220,70 @@ TEST(SplitGeometry, FoveaScissorHoldsEveryFoveaAViewportCanDrawInto) {
         }
 }
 
+// SPLITVK_GAZE: a fovea centred on the eye's gaze point, clamped into the eye; the centre point
+// gives the fixed fovea's pixels.
+TEST(SplitGeometry, FoveaAtTheGaze) {
+    const FoveaSize fovea;
+    const VkRect2D left = left_eye({2400, 1080}), right = right_eye({2400, 1080});
+    EXPECT_RECT(fovea_at_gaze(left, {kGazeOne / 2, kGazeOne / 2}, fovea), 344, 360, 512u, 360u);
+    EXPECT_RECT(fovea_at_gaze(right, {kGazeOne / 2, kGazeOne / 2}, fovea), 1544, 360, 512u, 360u);
+    // A quarter across and down the left eye: its pixel (300, 270) at the fovea's centre.
+    EXPECT_RECT(fovea_at_gaze(left, {kGazeOne / 4, kGazeOne / 4}, fovea), 44, 90, 512u, 360u);
+    // Corners and beyond hold the fovea at the eye's edges, inside the eye.
+    EXPECT_RECT(fovea_at_gaze(left, {0, 0}, fovea), 0, 0, 512u, 360u);
+    EXPECT_RECT(fovea_at_gaze(right, {kGazeOne, kGazeOne}, fovea), 1888, 720, 512u, 360u);
+    EXPECT_RECT(fovea_at_gaze(right, {0xFFFFFFFFu, 0}, fovea), 1888, 0, 512u, 360u);
+    // A fovea as large as the eye has nowhere to move.
+    EXPECT_RECT(fovea_at_gaze(left, {0, kGazeOne}, FoveaSize{false, 5000, 5000}), 0, 0, 1200u, 1080u);
+
+    // frame_foveae: each eye at its own point; a mono frame's one eye at the left eye's point.
+    Gaze gaze;
+    gaze.fixed = false;
+    gaze.eyes[0] = {0, 0};
+    gaze.eyes[1] = {kGazeOne, kGazeOne / 2};
+    const EyeCoverage stereo{true, true, true, true};
+    auto f = frame_foveae(stereo, {2400, 1080}, EyeMode::Auto, fovea, gaze);
+    ASSERT_EQ(f.size(), 2u);
+    EXPECT_RECT(f[0], 0, 0, 512u, 360u);
+    EXPECT_RECT(f[1], 1888, 360, 512u, 360u);
+    f = frame_foveae(EyeCoverage{true, true, false, false}, {2400, 1080}, EyeMode::Auto, fovea, gaze);
+    ASSERT_EQ(f.size(), 1u);
+    EXPECT_RECT(f[0], 0, 0, 1024u, 360u);
+    // Fixed: the centred foveae, whatever points it holds.
+    gaze.fixed = true;
+    f = frame_foveae(stereo, {2400, 1080}, EyeMode::Two, fovea, gaze);
+    ASSERT_EQ(f.size(), 2u);
+    EXPECT_RECT(f[0], 344, 360, 512u, 360u);
+}
+
+// With a moving gaze, the agent's scissor (recorded before any frame's gaze is known) holds every
+// fovea any gaze can give the viewport's eyes.
+TEST(SplitGeometry, FoveaScissorForAMovingGazeHoldsTheWholeEye) {
+    const FoveaSize fovea;
+    const VkExtent2D image{2400, 1080};
+    const VkViewport left{0.f, 0.f, 1200.f, 1080.f, 0.f, 1.f}, right{1200.f, 0.f, 1200.f, 1080.f, 0.f, 1.f},
+        whole{0.f, 0.f, 2400.f, 1080.f, 0.f, 1.f};
+    EXPECT_RECT(fovea_scissor(left, image, EyeMode::Two, fovea, true), 0, 0, 1200u, 1080u);
+    EXPECT_RECT(fovea_scissor(right, image, EyeMode::Two, fovea, true), 1200, 0, 1200u, 1080u);
+    EXPECT_RECT(fovea_scissor(whole, image, EyeMode::Two, fovea, true), 0, 0, 2400u, 1080u);
+    EXPECT_RECT(fovea_scissor(left, image, EyeMode::Auto, fovea, true), 0, 0, 2400u, 1080u);
+    EXPECT_RECT(fovea_scissor(left, image, EyeMode::One, fovea, true), 0, 0, 2400u, 1080u);
+    for (EyeMode mode : {EyeMode::One, EyeMode::Two, EyeMode::Auto})
+        for (const VkViewport &v : {left, right, whole})
+            for (uint32_t x : {0u, kGazeOne / 3, kGazeOne})
+                for (uint32_t y : {0u, kGazeOne / 2, kGazeOne}) {
+                    Gaze gaze;
+                    gaze.fixed = false;
+                    gaze.eyes[0] = gaze.eyes[1] = {x, y};
+                    const EyeCoverage drawn = viewport_coverage(v, image);
+                    const VkRect2D scissor = fovea_scissor(v, image, mode, fovea, true);
+                    for (const VkRect2D &f : frame_foveae(drawn, image, mode, fovea, gaze))
+                        EXPECT_TRUE(same(intersect(f, scissor), f))
+                            << "mode " << static_cast<int>(mode) << ", viewport at " << v.x << ", gaze " << x
+                            << "," << y;
+                }
+}
+
 // DESIGN §9: an eye's fovea at the projection of its view direction (for the OpenXR layer).
 TEST(SplitGeometry, FoveaAtTheViewDirection) {
     const FoveaSize fovea; // 512x360 of a 1200x1080 eye

@@ -112,6 +112,7 @@ const std::map<std::string, std::string> &bad_values() {
         {"EYES", "3"},                                    // auto, 1 or 2
         {"TARGETS", "offscreen"},                         // auto or swapchain
         {"AGENT_SCISSOR", "guard:-8"},                    // off or guard:N
+        {"GAZE", "pipe:/tmp/gaze"},                       // not a gaze source
         {"CODEC", "h265"},                                // not a codec splitvk has
         {"TILE_WAIT", "0"},                               // 1 to 60000
         {"PRESENT_DEPTH", "3"},                           // 0, 1 or 2

@@ -13,15 +13,22 @@
 #include "fovea.h"
 
 #include <algorithm>
+#include <atomic>
+#include <cerrno>
 #include <cmath>
 #include <csignal>
+#include <cstring>
 #include <map>
 #include <optional>
 #include <regex>
+#include <set>
 #include <sstream>
 #include <thread>
 
+#include <fcntl.h>
+#include <sys/stat.h>
 #include <sys/types.h>
+#include <unistd.h>
 
 namespace splitvk::e2e {
 namespace {
@@ -1301,6 +1308,145 @@ INSTANTIATE_TEST_SUITE_P(
         SecondaryCase{
             "offscreen_guard", {"--path", "hdr", "--scene-in-secondaries"}, "1", "guard:64", "guarded", 1}),
     [](const ::testing::TestParamInfo<SecondaryCase> &p) { return std::string(p.param.name); });
+
+// SPLITVK_GAZE=fifo:PATH (issue 22): the foveae follow gaze points written into a named pipe. The
+// script's points are multiples of 1/8, so the fovea each gives (centred on floor(p·W), clamped into
+// the eye) is computed here from that definition, not from splitvk's code.
+Rect fovea_at(double gx, double gy, uint32_t eye_x, uint32_t eye_w, uint32_t height) {
+    const Rect centred = default_foveae(eye_w, height, 1)[0];
+    const int64_t cx = static_cast<int64_t>(std::floor(gx * eye_w));
+    const int64_t cy = static_cast<int64_t>(std::floor(gy * height));
+    const int64_t x = std::clamp<int64_t>(cx - centred.w / 2, 0, eye_w - centred.w);
+    const int64_t y = std::clamp<int64_t>(cy - centred.h / 2, 0, height - centred.h);
+    return {eye_x + static_cast<uint32_t>(x), static_cast<uint32_t>(y), centred.w, centred.h};
+}
+
+struct GazeLine {
+    double lx, ly, rx, ry;
+    std::string text() const {
+        std::ostringstream s;
+        s << lx << " " << ly << " " << rx << " " << ry << "\n";
+        return s.str();
+    }
+    std::vector<Rect> foveae() const {
+        return {fovea_at(lx, ly, 0, kWidth / 2, kHeight), fovea_at(rx, ry, kWidth / 2, kWidth / 2, kHeight)};
+    }
+};
+
+bool same_rect(const Rect &a, const std::map<std::string, double> &row) {
+    return row.count("fovea_x") && row.count("fovea_h") && row.at("fovea_x") == a.x &&
+           row.at("fovea_y") == a.y && row.at("fovea_w") == a.w && row.at("fovea_h") == a.h;
+}
+
+// A gaze path over a FIFO while atrium renders in stereo: every frame's first fovea (the stats'
+// fovea_* columns) is the left eye's of a line of the script, the fovea moved during the run, no
+// frame was late (so each composited the agent's tiles, which the layer accepts only at the
+// rectangles that frame asked for), and the frame on screen at the end has both eyes' foveae, where
+// its line put them, bit for bit equal to native. The test keeps the pipe open for writing itself,
+// so the layer never sees it without a writer. About 15 s (30 s on a loaded 2-core machine).
+TEST_F(Split, GazeFromAFifoMovesExactFoveae) {
+    constexpr int kGazeFrames = 6;
+    const std::vector<GazeLine> script = {{0.25, 0.25, 0.75, 0.75},
+                                          {0.125, 0.75, 0.5, 0.25},
+                                          {0.75, 0.5, 0.25, 0.5},
+                                          {0.5, 0.125, 0.875, 0.875}};
+    const auto fifo = out_ / "gaze";
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0) << std::strerror(errno);
+    const int writer = ::open(fifo.c_str(), O_RDWR | O_NONBLOCK | O_CLOEXEC);
+    ASSERT_GE(writer, 0) << std::strerror(errno);
+    const auto write_line = [&](const GazeLine &line) {
+        const std::string text = line.text();
+        return ::write(writer, text.data(), text.size()) == static_cast<ssize_t>(text.size());
+    };
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    Grab native, split;
+    ASSERT_NO_FATAL_FAILURE(
+        run_and_grab(atrium_argv(2, kGazeFrames, false), env(), "native", kGazeFrames, &native));
+
+    Env e = split_env();
+    e["SPLITVK_GAZE"] = "fifo:" + fifo.string();
+    e["SPLITVK_STATS"] = (out_ / "stats.csv").string();
+    // The first present finds the first line; later ones whatever the writer got to.
+    ASSERT_TRUE(write_line(script[0]));
+    std::atomic<bool> stop{false};
+    std::thread gaze_writer([&] {
+        for (size_t i = 1; !stop.load(); ++i) {
+            std::this_thread::sleep_for(20ms);
+            write_line(script[i % script.size()]); // a full pipe (nobody reading) drops the line
+        }
+    });
+    run_and_grab(atrium_argv(2, kGazeFrames, false), e, "split", kGazeFrames, &split);
+    stop.store(true);
+    gaze_writer.join();
+    ::close(writer);
+    if (HasFatalFailure()) return;
+
+    const std::string &err = split.result.err();
+    EXPECT_TRUE(grep(err, "running unsplit").empty()) << tail(err, 30);
+    EXPECT_FALSE(grep(err, "gaze: reading gaze points from").empty()) << tail(err, 30);
+    EXPECT_TRUE(grep(err, "SPLITVK_GAZE").empty()) << "no gaze warning expected:\n" << tail(err, 30);
+    const std::string csv = read_file(out_ / "stats.csv");
+    const auto rows = stats_rows(csv);
+    ASSERT_EQ(rows.size(), static_cast<size_t>(kGazeFrames)) << csv;
+    std::set<size_t> lines_seen;
+    std::optional<size_t> last_line;
+    for (const auto &row : rows) {
+        EXPECT_EQ(row.at("late"), 0) << "frame " << row.at("frame") << " was late:\n" << csv;
+        last_line.reset();
+        for (size_t i = 0; i < script.size(); ++i)
+            if (same_rect(script[i].foveae()[0], row)) last_line = i;
+        ASSERT_TRUE(last_line) << "frame " << row.at("frame") << " has a fovea no gaze line gives:\n" << csv;
+        lines_seen.insert(*last_line);
+    }
+    EXPECT_GE(lines_seen.size(), 2u) << "the fovea never moved:\n" << csv;
+    ASSERT_NO_FATAL_FAILURE(expect_split_frame(native.image, split.image, script[*last_line].foveae()));
+    expect_clean_validation();
+}
+
+// Bad gaze input never moves the fovea nor stops the split: lines that are not gaze points get one
+// warning each and a pipe that does not exist one line; both runs keep the fixed foveae, exact.
+TEST_F(Split, BadGazeInputKeepsTheFixedFovea) {
+    const auto fifo = out_ / "gaze";
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0) << std::strerror(errno);
+    const int writer = ::open(fifo.c_str(), O_RDWR | O_NONBLOCK | O_CLOEXEC);
+    ASSERT_GE(writer, 0) << std::strerror(errno);
+    const std::string garbage = "look left\n0.5\n0.1 0.2 0.3\nnan 0.5\n";
+    ASSERT_EQ(::write(writer, garbage.data(), garbage.size()), static_cast<ssize_t>(garbage.size()));
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    Grab native, bad_lines, missing;
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(atrium_argv(2, kFrames, false), env(), "native", kFrames, &native));
+    Env e = split_env();
+    e["SPLITVK_GAZE"] = "fifo:" + fifo.string();
+    e["SPLITVK_STATS"] = (out_ / "stats.csv").string();
+    run_and_grab(atrium_argv(2, kFrames, false), e, "split-bad-lines", kFrames, &bad_lines);
+    ::close(writer);
+    if (HasFatalFailure()) return;
+    const auto fixed = default_foveae(kWidth, kHeight, 2);
+    std::string err = bad_lines.result.err();
+    EXPECT_EQ(grep(err, "SPLITVK_GAZE=fifo:" + fifo.string() + ": ignoring the line").size(), 4u)
+        << tail(err, 30);
+    EXPECT_EQ(grep(err, "'look left': 'look' is not a finite number").size(), 1u) << tail(err, 30);
+    EXPECT_TRUE(grep(err, "running unsplit").empty()) << tail(err, 30);
+    const std::string csv = read_file(out_ / "stats.csv");
+    const auto rows = stats_rows(csv);
+    ASSERT_EQ(rows.size(), static_cast<size_t>(kFrames)) << csv;
+    for (const auto &row : rows)
+        EXPECT_TRUE(same_rect(fixed[0], row)) << "frame " << row.at("frame") << " moved its fovea:\n" << csv;
+    ASSERT_NO_FATAL_FAILURE(expect_split_frame(native.image, bad_lines.image, fixed));
+
+    e["SPLITVK_GAZE"] = "fifo:" + (out_ / "no-such-pipe").string();
+    ASSERT_NO_FATAL_FAILURE(
+        run_and_grab(atrium_argv(2, kFrames, false), e, "split-missing", kFrames, &missing));
+    err = missing.result.err();
+    EXPECT_EQ(grep(err, "SPLITVK_GAZE").size(), 1u) << tail(err, 30);
+    EXPECT_EQ(
+        grep(err, "no-such-pipe: cannot open it (No such file or directory); the foveae stay fixed").size(),
+        1u)
+        << tail(err, 30);
+    EXPECT_TRUE(grep(err, "running unsplit").empty()) << tail(err, 30);
+    ASSERT_NO_FATAL_FAILURE(expect_split_frame(native.image, missing.image, fixed));
+    expect_clean_validation();
+}
 
 } // namespace
 } // namespace splitvk::e2e

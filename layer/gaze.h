@@ -1,0 +1,64 @@
+#pragma once
+
+// Gaze sources of the layer (SPLITVK_GAZE, issue 22): where each eye looks in the frame being
+// presented, which places that frame's foveae on both sides (split::frame_foveae, carried to the
+// agent in FramePresent).
+//
+// fifo:PATH: another process (an eye tracker's bridge) writes gaze points into a named pipe, one
+// line each: "x y" (both eyes) or "lx ly rx ry", normalised to the eye's image (0 0 its top-left
+// corner, 0.5 0.5 its centre, 1 1 its bottom-right). The layer creates nothing: it opens the path
+// read-only and non-blocking at the first present, and at every present reads what the pipe holds
+// without waiting, so the application never blocks on the writer. The newest good line applies from
+// the present that reads it until the next one; a writer may close and reopen the pipe. No
+// smoothing: the fovea jumps to each point (a filter would only add latency to a saccade), and
+// the fovea itself is the margin for the gaze's latency (see docs/settings.md, SPLITVK_GAZE).
+
+#include "split_geometry.h"
+
+#include <optional>
+#include <string>
+#include <string_view>
+
+namespace splitvk::gaze {
+
+// One line of a gaze pipe, without its newline: "x y" or "lx ly rx ry", separated by spaces or tabs.
+// Each number is finite and clamped to [0, 1] (a point off the eye holds the fovea at its edge), then
+// taken in split::kGazeOne units. Nothing, with *error saying why in a few words, for anything
+// else. An empty line (or one of blanks) is nothing with no error.
+std::optional<split::Gaze> parse_line(std::string_view line, std::string *error);
+
+// Reads one pipe (or any file) of gaze lines without ever blocking.
+class FifoReader {
+public:
+    explicit FifoReader(std::string path) : path_(std::move(path)) {}
+    ~FifoReader();
+    FifoReader(const FifoReader &) = delete;
+    FifoReader &operator=(const FifoReader &) = delete;
+
+    // Everything the pipe holds now, line by line: the gaze of the newest good line, or the one
+    // before when none came; fixed until the first. A bad line gets one warning (the first
+    // kMaxBadLineWarnings, then one saying that the rest go unreported); a path that cannot be
+    // opened, one line, and the gaze stays fixed.
+    split::Gaze poll();
+
+    static constexpr size_t kMaxLine = 256;
+    static constexpr uint32_t kMaxBadLineWarnings = 20;
+
+private:
+    void take_line(std::string_view line);
+    void bad_line(std::string_view line, const std::string &why);
+
+    std::string path_;
+    int fd_ = -1;
+    bool opened_ = false;   // tried: a missing pipe is said once
+    std::string pending_;   // a line not finished yet
+    bool overlong_ = false; // discarding the rest of a line past kMaxLine
+    uint32_t bad_lines_ = 0;
+    split::Gaze current_;
+};
+
+// The gaze for the frame being presented now: fixed for SPLITVK_GAZE=fixed, otherwise the
+// process's one reader of the pipe polled (thread-safe; every device of the process shares it).
+split::Gaze frame_gaze(const Settings &settings);
+
+} // namespace splitvk::gaze
