@@ -46,9 +46,6 @@ const Settings &split_settings();
 // image of a live composable swapchain (with its extent).
 VkImage image_of_view(VkImageView view);
 bool swapchain_image_extent(VkImage image, VkExtent2D *extent);
-// vkGetSwapchainImagesKHR, or an OpenXR runtime's swapchain (swapchain.h): `images` belong to
-// `swapchain`, so passes into them are split passes while it is composable.
-void note_swapchain_images(VkSwapchainKHR swapchain, uint32_t count, const VkImage *images);
 // vkBeginCommandBuffer of a secondary that continues a render pass: scaled like that pass's target
 // (its inheritance's framebuffer, or the render pass's latest instance, or for a dynamic rendering
 // the latest one with the formats and view mask it inherits), its viewports kept for the foveae of
