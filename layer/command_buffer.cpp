@@ -1,12 +1,15 @@
-// VkCommandBuffer: per-command-buffer streams (DESIGN §3). A command buffer's commands are encoded
-// into its own stream while it is recorded (vkBeginCommandBuffer resets it) and sent as one
-// Commands message at vkEndCommandBuffer; a resubmit sends nothing again. The last recorded
-// stream stays here as the command buffer's part of the live-state log.
+// VkCommandBuffer: one CommandBufferState each (command_buffer.h), and per-command-buffer streams
+// (DESIGN §3). A command buffer's commands are encoded into its own stream while it is recorded
+// (vkBeginCommandBuffer resets it) and sent as one Commands message at vkEndCommandBuffer; a
+// resubmit sends nothing again. The last recorded stream stays here as the command buffer's part of
+// the live-state log.
 //
 // State exists only for command buffers allocated while the device has a session, so a device
 // that runs unsplit never allocates any. Each command buffer is externally synchronised by the
 // application (one recording thread at a time); the maps have their own lock, held only for the
 // lookup.
+
+#include "command_buffer.h"
 
 #include "capture.h"
 #include "gpu_timing.h"

@@ -1,12 +1,6 @@
-// Render pass instances and dynamic renderings: which are split passes (split.h), and their
-// rewrite. A split pass draws into a swapchain image, found through the image views of its
-// framebuffer (or of its VkRenderPassAttachmentBeginInfo when imageless, or of its dynamic
-// rendering attachments); the layer tracks views -> images and framebuffers -> views here, and
-// swapchain images -> their swapchain in each image's ImageState (image.h). A pass whose attachments include a
-// screen-space target (screen_space.h) is scaled the same way, without foveae of its own: its
-// framebuffer was created at the scaled size. Inside a split or scaled pass the render area and
-// clear rects are scaled, and the viewports/scissors in effect are re-emitted scaled at its begin
-// and unscaled at its end, because dynamic state outlives the pass (viewport.cpp).
+// Render pass instances and dynamic renderings, and their rewrite (render_pass.h).
+
+#include "render_pass.h"
 
 #include "gpu_timing.h"
 #include "image.h"

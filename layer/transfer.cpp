@@ -1,13 +1,6 @@
-// Copies, blits, resolves and dispatches that name regions of screen-space targets (screen_space.h)
-// or write a swapchain image. Each side of a transfer is one of three kinds, looked up by handle:
-// a screen-space target (its regions scale into the scaled image), a swapchain image written while
-// splitting (the region lands in the scaled top-left, like a split pass, and the foveae of the eyes
-// it covers are noted, as the agent notes them: fovea_shading.cpp), or any other image (unchanged).
-// The capture keeps the application's call.
-//
-// Copies and resolves need the same extent on both sides; where only one side is scaled the
-// periphery holds the scaled picture in the other image's top-left (one info line): a copy into a
-// swapchain image from a full-size image is left whole and unsplit instead, which is exact.
+// Copies, blits, resolves and dispatches over screen-space targets and swapchain images (transfer.h).
+
+#include "transfer.h"
 
 #include "gpu_timing.h"
 #include "layer_entry_points.h"
