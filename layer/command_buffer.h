@@ -5,8 +5,8 @@
 // vkBeginCommandBuffer / vkResetCommandBuffer / vkResetCommandPool, and dropped at
 // vkFreeCommandBuffers / vkDestroyCommandPool (before the driver call) or vkDestroyDevice. It holds
 // what the layer keeps of one recording: its capture stream (DESIGN §3), its split tracker (the
-// split's viewports and scissors, the split passes it drew, its bound compute sets: split.h) and
-// its image layout transitions (resource.h).
+// split's viewports and scissors, the split passes it drew, its bound compute sets: split.h), its
+// image layout transitions (resource.h) and its split pass's timestamp pair (gpu_timing.h).
 //
 // The accessors below return the state's parts for the command buffer's recording thread, which
 // Vulkan's external synchronisation makes the only user while it records; a submit reads them
@@ -27,6 +27,7 @@ namespace split {
 class CommandTracker;
 }
 struct CommandLayouts;
+struct CommandTiming;
 
 // The stream a command buffer is being recorded into; nullptr when it is not captured
 // (allocated before the session, or not between begin and end).
@@ -35,6 +36,8 @@ codec::Encoder *command_buffer_encoder(VkCommandBuffer command_buffer);
 CommandLayouts *command_buffer_layouts(VkCommandBuffer command_buffer);
 // Its split tracker (split.h); nullptr without state.
 split::CommandTracker *split_tracker(VkCommandBuffer command_buffer);
+// Its split pass's timestamp pair (gpu_timing.h); nullptr without state.
+CommandTiming *command_buffer_timing(VkCommandBuffer command_buffer);
 
 // Snapshot part (session.h: build_live_snapshot): the last stream of each command buffer whose id
 // is in `live`.
