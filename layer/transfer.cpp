@@ -193,10 +193,7 @@ bool scale_buffer_copies(VkImage image, uint32_t count, const Region *regions, s
 // its previous recording bound does not count) writes a screen-space target.
 bool dispatch_writes_screen_space(VkCommandBuffer cb) {
     const split::CommandTracker *tracker = split_tracker(cb);
-    if (!tracker) return false;
-    for (VkDescriptorSet set : tracker->compute_sets())
-        if (set && set_writes_screen_space(set)) return true;
-    return false;
+    return tracker && tracker->dispatch_writes_screen_space(set_writes_screen_space);
 }
 
 // The periphery's GPU time (SPLITVK_STATS) ends with the write into the swapchain image when that is
