@@ -27,7 +27,9 @@ void time_split_pass_ended(DeviceState &device, VkCommandBuffer command_buffer);
 // The timestamp pair of a command buffer's current recording, if it times one. An application's
 // command buffer keeps it in its CommandBufferState (command_buffer.h), which begins it afresh with
 // every recording: a new recording has no split pass timed yet. The compositor keeps one per slot.
-// Read and written only by this file's functions, under their lock.
+// Read and written by this file's functions under their lock; cleared without it only by its owner
+// as a recording begins, when Vulkan's external synchronisation lets no other thread record or
+// submit the command buffer.
 struct CommandTiming {
     bool timed = false; // `pair` is this recording's
     uint32_t pair = 0;
