@@ -3,6 +3,7 @@
 // What the generated entry points (emit_layer.py) call to capture a forwarded command. With no
 // session the whole cost is one pointer check.
 
+#include "command_buffer.h"
 #include "device.h"
 #include "session.h"
 
@@ -48,19 +49,13 @@ void note_descriptor_updates(uint32_t write_count, const VkWriteDescriptorSet *w
 void note_descriptor_template_update(VkDescriptorSet set, const codec::DescriptorTemplateLayout &layout,
                                      const void *data);
 
-// Snapshot parts (session.h: build_live_snapshot), naming only ids in `live`: one
-// vkUpdateDescriptorSets per set with contents, and the last stream of each command buffer.
+// Snapshot part (session.h: build_live_snapshot), naming only ids in `live`: one
+// vkUpdateDescriptorSets per set with contents (command_buffer.h gives the command buffers').
 void snapshot_descriptor_contents(DeviceState &device, const std::unordered_set<uint64_t> &live,
                                   codec::Encoder &out, size_t *set_count);
-void snapshot_command_buffers(DeviceState &device, const std::unordered_set<uint64_t> &live,
-                              std::vector<std::vector<uint8_t>> &streams);
 
 // memory.cpp: a new agent was given the current contents of every buffer; the shadows of mapped
 // memory become those contents, so that later diffs are against what it has.
 void resync_mapped_shadows(DeviceState &device);
-
-// The stream a command buffer is being recorded into; nullptr when it is not captured
-// (allocated before the session, or not between begin and end).
-codec::Encoder *command_buffer_encoder(VkCommandBuffer command_buffer);
 
 } // namespace splitvk

@@ -1,12 +1,15 @@
-// VkCommandBuffer: per-command-buffer streams (DESIGN §3). A command buffer's commands are encoded
-// into its own stream while it is recorded (vkBeginCommandBuffer resets it) and sent as one
-// Commands message at vkEndCommandBuffer; a resubmit sends nothing again. The last recorded
-// stream stays here as the command buffer's part of the live-state log.
+// VkCommandBuffer: one CommandBufferState each (command_buffer.h), and per-command-buffer streams
+// (DESIGN §3). A command buffer's commands are encoded into its own stream while it is recorded
+// (vkBeginCommandBuffer resets it) and sent as one Commands message at vkEndCommandBuffer; a
+// resubmit sends nothing again. The last recorded stream stays here as the command buffer's part of
+// the live-state log.
 //
 // State exists only for command buffers allocated while the device has a session, so a device
 // that runs unsplit never allocates any. Each command buffer is externally synchronised by the
 // application (one recording thread at a time); the maps have their own lock, held only for the
 // lookup.
+
+#include "command_buffer.h"
 
 #include "capture.h"
 #include "gpu_timing.h"
@@ -33,6 +36,7 @@ struct CommandBufferState {
     // read at submit (a resubmitted command buffer draws the same split passes again).
     split::CommandTracker split;
     CommandLayouts layouts; // the image layout transitions it records (resource.h); reset at begin
+    CommandTiming timing;   // its split pass's timestamps (gpu_timing.h); reset at begin
 };
 
 std::shared_mutex g_mutex;
@@ -48,6 +52,16 @@ CommandBufferState *find_state(VkCommandBuffer command_buffer) {
 void discard_stream(CommandBufferState &state) {
     state.recording = false;
     (void)state.encoder.take();
+}
+
+// vkBeginCommandBuffer, vkResetCommandBuffer, vkResetCommandPool: what the previous recording
+// left is gone (its stream, split passes, bound compute sets, layouts and timestamps), so that
+// nothing of it applies to the next one (issue 20: a stale compute set scaled a later dispatch).
+void begin_afresh(CommandBufferState &state) {
+    discard_stream(state);
+    state.split.reset();
+    state.layouts = {};
+    state.timing = {};
 }
 
 // Under g_mutex (exclusive).
@@ -72,6 +86,11 @@ codec::Encoder *command_buffer_encoder(VkCommandBuffer command_buffer) {
 CommandLayouts *command_buffer_layouts(VkCommandBuffer command_buffer) {
     CommandBufferState *state = find_state(command_buffer);
     return state ? &state->layouts : nullptr;
+}
+
+CommandTiming *command_buffer_timing(VkCommandBuffer command_buffer) {
+    CommandBufferState *state = find_state(command_buffer);
+    return state ? &state->timing : nullptr;
 }
 
 split::CommandTracker *split_tracker(VkCommandBuffer command_buffer) {
@@ -159,12 +178,9 @@ VKAPI_ATTR VkResult VKAPI_CALL BeginCommandBuffer(VkCommandBuffer commandBuffer,
     if (!dev.session) return result;
     CommandBufferState *state = find_state(commandBuffer);
     if (!state) return result;
-    discard_stream(*state);
-    state->split.reset();
+    begin_afresh(*state);
     if (state->level == VK_COMMAND_BUFFER_LEVEL_SECONDARY && result == VK_SUCCESS && split_enabled(dev))
         begin_secondary(dev, commandBuffer, *pBeginInfo);
-    state->layouts = {};
-    reset_split_pass_timing(commandBuffer);
     if (result == VK_SUCCESS && capturing(dev)) {
         encode_vkBeginCommandBuffer(state->encoder, commandBuffer, pBeginInfo, state->level);
         state->recording = true;
@@ -195,9 +211,8 @@ VKAPI_ATTR VkResult VKAPI_CALL ResetCommandBuffer(VkCommandBuffer commandBuffer,
     const VkResult result = dev.dispatch.ResetCommandBuffer(commandBuffer, flags);
     if (!dev.session) return result;
     if (CommandBufferState *state = find_state(commandBuffer)) {
-        discard_stream(*state);
+        begin_afresh(*state);
         state->last_stream.clear();
-        state->split.reset(); // what it recorded is gone: its bound compute sets too
     }
     // Not sent: the agent's vkBeginCommandBuffer resets implicitly, as the client's did.
     return result;
@@ -214,9 +229,8 @@ VKAPI_ATTR VkResult VKAPI_CALL ResetCommandPool(VkDevice device, VkCommandPool c
         if (pool != g_pools.end())
             for (VkCommandBuffer cb : pool->second) {
                 auto &state = *g_command_buffers.at(cb);
-                discard_stream(state);
+                begin_afresh(state);
                 state.last_stream.clear();
-                state.split.reset();
             }
     }
     if (result == VK_SUCCESS && capturing(dev))

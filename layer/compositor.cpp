@@ -206,6 +206,7 @@ struct Compositor::Slot {
     std::vector<std::shared_ptr<const void>> tiles_in_use;
     // Timed: the composite's two timestamps, copied by the GPU (gpu_timing.h).
     HostBuffer timing;
+    CommandTiming timestamps;     // the query pair of the recording (record())
     bool timing_recorded = false; // by record()
     bool timing_pending = false;  // submitted, not read yet
     // take_waits(): the empty submit that stands in for the application's semaphores.
@@ -640,7 +641,8 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
     begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
     k.BeginCommandBuffer(cb, &begin);
     s.timing_recorded = false;
-    if (timed_ && s.timing.buffer) time_composite_begin(device_, cb);
+    s.timestamps = {};
+    if (timed_ && s.timing.buffer) time_composite_begin(device_, cb, s.timestamps);
 
     // The submit waits on the application's semaphores at the TRANSFER stage; the first barrier's
     // source stage is TRANSFER too, so its layout transition happens after that wait (a semaphore
@@ -786,7 +788,8 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
         k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, done_stages_, 0, 0, nullptr, 0, nullptr, 1,
                              &b);
     }
-    if (timed_ && s.timing.buffer) s.timing_recorded = time_composite_end(device_, cb, s.timing.buffer);
+    if (timed_ && s.timing.buffer)
+        s.timing_recorded = time_composite_end(device_, cb, s.timestamps, s.timing.buffer);
     k.EndCommandBuffer(cb);
 }
 
@@ -947,7 +950,7 @@ VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<co
     // On failure the semaphores and the fence are left as they were (except after device loss).
     result = k.QueueSubmit(queue, 1, &submit, s.fence);
     if (result != VK_SUCCESS) return result;
-    note_timed_submit(device_, 1, &s.command_buffer);
+    note_timed_submit(device_, s.timestamps);
     s.in_flight = true;
     s.timing_pending = s.timing_recorded;
     if (signal) *signal = s.semaphore;

@@ -3,6 +3,7 @@
 #include "device.h"
 
 #include "chain_info.h"
+#include "command_buffer.h"
 #include "compositor.h"
 #include "gpu_timing.h"
 #include "instance.h"
@@ -62,10 +63,9 @@ DeviceState &device_state_by_key(DispatchKey key) {
 
 } // namespace
 
-void forget_command_buffers(DeviceState &device); // command_buffer.cpp
-void forget_memory(DeviceState &device);          // memory.cpp
-void forget_resources(DeviceState &device);       // resource.cpp
-void forget_queues(DeviceState &device);          // queue.cpp
+void forget_memory(DeviceState &device);    // memory.cpp
+void forget_resources(DeviceState &device); // resource.cpp
+void forget_queues(DeviceState &device);    // queue.cpp
 
 void forget_device_objects(DeviceState &device) {
     if (!device.session) return;

@@ -1,5 +1,6 @@
 #include "gpu_timing.h"
 
+#include "command_buffer.h"
 #include "instance.h"
 
 #include <mutex>
@@ -23,15 +24,8 @@ struct DeviceTiming {
     uint64_t calls = 0;
 };
 
-struct CommandTiming {
-    uint32_t pair = 0;
-    bool begun = false; // this recording wrote the begin timestamp
-    bool ended = false;
-};
-
-std::mutex g_mutex;
+std::mutex g_mutex; // g_devices, and every CommandTiming while a function of this file uses it
 std::unordered_map<DeviceState *, DeviceTiming> g_devices;
-std::unordered_map<VkCommandBuffer, CommandTiming> g_recording; // current recordings with a timed pass
 
 // Under g_mutex: the device's pool, created on first use; nullptr when timestamps are unusable.
 DeviceTiming *timing_locked(DeviceState &dev) {
@@ -66,34 +60,36 @@ const uint32_t *pair_locked(DeviceTiming &t, VkCommandBuffer cb) {
 } // namespace
 
 void time_before_split_pass(DeviceState &dev, VkCommandBuffer cb) {
+    CommandTiming *timing = command_buffer_timing(cb);
+    if (!timing) return;
     std::lock_guard lock(g_mutex);
-    if (g_recording.count(cb)) return; // only the first split pass of a recording is timed
+    if (timing->timed) return; // only the first split pass of a recording is timed
     DeviceTiming *t = timing_locked(dev);
     const uint32_t *pair = t ? pair_locked(*t, cb) : nullptr;
     if (!pair) return;
     t->composite[*pair] = false; // a handle a freed compositor's command buffer once had
-    g_recording[cb] = CommandTiming{*pair, false, false};
+    *timing = CommandTiming{true, *pair, false, false};
     dev.dispatch.CmdResetQueryPool(cb, t->pool, 2 * *pair, 2);
 }
 
-void time_composite_begin(DeviceState &dev, VkCommandBuffer cb) {
+void time_composite_begin(DeviceState &dev, VkCommandBuffer cb, CommandTiming &timing) {
     std::lock_guard lock(g_mutex);
+    timing = {};
     DeviceTiming *t = timing_locked(dev);
     const uint32_t *pair = t ? pair_locked(*t, cb) : nullptr;
     if (!pair) return;
     t->composite[*pair] = true;
-    g_recording[cb] = CommandTiming{*pair, true, false};
+    timing = CommandTiming{true, *pair, true, false};
     dev.dispatch.CmdResetQueryPool(cb, t->pool, 2 * *pair, 2);
     dev.dispatch.CmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, t->pool, 2 * *pair);
 }
 
-bool time_composite_end(DeviceState &dev, VkCommandBuffer cb, VkBuffer results) {
+bool time_composite_end(DeviceState &dev, VkCommandBuffer cb, CommandTiming &timing, VkBuffer results) {
     std::lock_guard lock(g_mutex);
-    const auto it = g_recording.find(cb);
-    if (it == g_recording.end() || !it->second.begun || it->second.ended) return false;
-    it->second.ended = true;
+    if (!timing.timed || !timing.begun || timing.ended) return false;
+    timing.ended = true;
     const VkQueryPool pool = g_devices[&dev].pool;
-    const uint32_t first = 2 * it->second.pair;
+    const uint32_t first = 2 * timing.pair;
     dev.dispatch.CmdWriteTimestamp(cb, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, pool, first + 1);
     // WAIT_BIT: the copy waits on the queue for both timestamps, not the host.
     dev.dispatch.CmdCopyQueryPoolResults(cb, pool, first, 2, results, 0, sizeof(uint64_t),
@@ -109,36 +105,35 @@ double timestamps_ms(DeviceState &dev, uint64_t begin, uint64_t end) {
 }
 
 void time_split_pass_begun(DeviceState &dev, VkCommandBuffer cb) {
+    CommandTiming *timing = command_buffer_timing(cb);
+    if (!timing) return;
     std::lock_guard lock(g_mutex);
-    const auto it = g_recording.find(cb);
-    if (it == g_recording.end() || it->second.begun) return;
-    it->second.begun = true;
+    if (!timing->timed || timing->begun) return;
+    timing->begun = true;
     dev.dispatch.CmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, g_devices[&dev].pool,
-                                   2 * it->second.pair);
+                                   2 * timing->pair);
 }
 
 void time_split_pass_ended(DeviceState &dev, VkCommandBuffer cb) {
+    CommandTiming *timing = command_buffer_timing(cb);
+    if (!timing) return;
     std::lock_guard lock(g_mutex);
-    const auto it = g_recording.find(cb);
-    if (it == g_recording.end() || !it->second.begun || it->second.ended) return;
-    it->second.ended = true;
+    if (!timing->timed || !timing->begun || timing->ended) return;
+    timing->ended = true;
     dev.dispatch.CmdWriteTimestamp(cb, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, g_devices[&dev].pool,
-                                   2 * it->second.pair + 1);
+                                   2 * timing->pair + 1);
 }
 
 void note_timed_submit(DeviceState &dev, uint32_t count, const VkCommandBuffer *cbs) {
-    std::lock_guard lock(g_mutex);
-    const auto found = g_devices.find(&dev);
-    if (found == g_devices.end()) return;
-    for (uint32_t i = 0; i < count; ++i) {
-        const auto it = g_recording.find(cbs[i]);
-        if (it != g_recording.end() && it->second.ended) found->second.submitted[it->second.pair] = true;
-    }
+    for (uint32_t i = 0; i < count; ++i)
+        if (const CommandTiming *timing = command_buffer_timing(cbs[i])) note_timed_submit(dev, *timing);
 }
 
-void reset_split_pass_timing(VkCommandBuffer cb) {
+void note_timed_submit(DeviceState &dev, const CommandTiming &timing) {
     std::lock_guard lock(g_mutex);
-    g_recording.erase(cb);
+    const auto found = g_devices.find(&dev);
+    if (found == g_devices.end() || !timing.timed || !timing.ended) return;
+    found->second.submitted[timing.pair] = true;
 }
 
 double latest_periphery_ms(DeviceState &dev) {
@@ -166,8 +161,6 @@ void release_gpu_timing(DeviceState &dev) {
     std::lock_guard lock(g_mutex);
     const auto found = g_devices.find(&dev);
     if (found == g_devices.end()) return;
-    for (const auto &[cb, pair] : found->second.pairs)
-        g_recording.erase(cb);
     if (found->second.pool) dev.dispatch.DestroyQueryPool(dev.handle, found->second.pool, nullptr);
     g_devices.erase(found);
 }

@@ -24,12 +24,24 @@ void time_before_split_pass(DeviceState &device, VkCommandBuffer command_buffer)
 void time_split_pass_begun(DeviceState &device, VkCommandBuffer command_buffer);
 void time_split_pass_ended(DeviceState &device, VkCommandBuffer command_buffer);
 
-// vkQueueSubmit: these command buffers' timestamps will be written (only submitted pairs are read:
-// a query is uninitialised until its reset executes).
-void note_timed_submit(DeviceState &device, uint32_t count, const VkCommandBuffer *command_buffers);
+// The timestamp pair of a command buffer's current recording, if it times one. An application's
+// command buffer keeps it in its CommandBufferState (command_buffer.h), which begins it afresh with
+// every recording: a new recording has no split pass timed yet. The compositor keeps one per slot.
+// Read and written by this file's functions under their lock; cleared without it only by its owner
+// as a recording begins, when Vulkan's external synchronisation lets no other thread record or
+// submit the command buffer.
+struct CommandTiming {
+    bool timed = false; // `pair` is this recording's
+    uint32_t pair = 0;
+    bool begun = false; // this recording wrote the begin timestamp
+    bool ended = false;
+};
 
-// vkBeginCommandBuffer: a new recording has no split pass timed yet.
-void reset_split_pass_timing(VkCommandBuffer command_buffer);
+// A command buffer's submit: its timestamps will be written (only submitted pairs are read: a
+// query is uninitialised until its reset executes).
+void note_timed_submit(DeviceState &device, const CommandTiming &timing);
+// vkQueueSubmit: the same for each of these command buffers.
+void note_timed_submit(DeviceState &device, uint32_t count, const VkCommandBuffer *command_buffers);
 
 // compositor.cpp: the first and the last command of a composite. The begin timestamp is written
 // at the transfer stage, the stage the composite's semaphore waits block, so that it does not
@@ -38,8 +50,9 @@ void reset_split_pass_timing(VkCommandBuffer command_buffer);
 // fence has signalled: it waits for that fence anyway before it reuses the image's slot, so
 // reading costs no stall (vkGetQueryPoolResults would make lavapipe wait for idle). False when
 // the composite is not timed.
-void time_composite_begin(DeviceState &device, VkCommandBuffer command_buffer);
-bool time_composite_end(DeviceState &device, VkCommandBuffer command_buffer, VkBuffer results);
+void time_composite_begin(DeviceState &device, VkCommandBuffer command_buffer, CommandTiming &timing);
+bool time_composite_end(DeviceState &device, VkCommandBuffer command_buffer, CommandTiming &timing,
+                        VkBuffer results);
 // Milliseconds between two timestamps of this device; 0 when they make no sense.
 double timestamps_ms(DeviceState &device, uint64_t begin, uint64_t end);
 

@@ -1,14 +1,9 @@
-// Render pass instances and dynamic renderings: which are split passes (split.h), and their
-// rewrite. A split pass draws into a swapchain image, found through the image views of its
-// framebuffer (or of its VkRenderPassAttachmentBeginInfo when imageless, or of its dynamic
-// rendering attachments); the layer tracks views -> images, framebuffers -> views, and swapchain
-// images -> their swapchain (vkGetSwapchainImagesKHR). A pass whose attachments include a
-// screen-space target (screen_space.h) is scaled the same way, without foveae of its own: its
-// framebuffer was created at the scaled size. Inside a split or scaled pass the render area and
-// clear rects are scaled, and the viewports/scissors in effect are re-emitted scaled at its begin
-// and unscaled at its end, because dynamic state outlives the pass (viewport.cpp).
+// Render pass instances and dynamic renderings, and their rewrite (render_pass.h).
+
+#include "render_pass.h"
 
 #include "gpu_timing.h"
+#include "image.h"
 #include "layer_entry_points.h"
 #include "object_map.h"
 #include "resource.h"
@@ -35,30 +30,16 @@ struct FramebufferState {
     VkExtent2D extent{};                  // the app's
     bool scaled = false;                  // created at the scaled size: it holds a screen-space target
 };
-struct SwapchainImageState {
-    VkSwapchainKHR swapchain = VK_NULL_HANDLE;
-};
 
 ObjectMap<VkImageView, ImageViewState> g_views;
 ObjectMap<VkFramebuffer, FramebufferState> g_framebuffers;
-ObjectMap<VkImage, SwapchainImageState> g_swapchain_images;
 
 // The extent of `view`'s image when it is an image of a live composable swapchain.
 bool split_target(VkImageView view, VkImage *image, VkExtent2D *extent) {
     const ImageViewState *v = view ? g_views.find(view) : nullptr;
-    if (!v) return false;
-    const SwapchainImageState *s = g_swapchain_images.find(v->image);
-    if (!s) return false;
-    const SwapchainState *swapchain = find_swapchain(s->swapchain);
-    // The handle value may have been reused since vkGetSwapchainImagesKHR: check it still belongs.
-    if (!swapchain || !swapchain_composable(*swapchain)) return false;
-    for (VkImage i : swapchain->images)
-        if (i == v->image) {
-            *image = i;
-            *extent = swapchain->extent;
-            return true;
-        }
-    return false;
+    if (!v || !swapchain_image_extent(v->image, extent)) return false;
+    *image = v->image;
+    return true;
 }
 
 bool find_target(uint32_t count, const VkImageView *views, VkImage *image, VkExtent2D *extent) {
@@ -286,9 +267,10 @@ VkImage image_of_view(VkImageView view) {
 }
 
 bool swapchain_image_extent(VkImage image, VkExtent2D *extent) {
-    const SwapchainImageState *s = image ? g_swapchain_images.find(image) : nullptr;
-    if (!s) return false;
-    const SwapchainState *swapchain = find_swapchain(s->swapchain);
+    VkSwapchainKHR member = VK_NULL_HANDLE;
+    read_image(image, [&](const ImageState &state) { member = state.swapchain; });
+    const SwapchainState *swapchain = member ? find_swapchain(member) : nullptr;
+    // The swapchain's handle value may have been reused since: check the image still belongs.
     if (!swapchain || !swapchain_composable(*swapchain)) return false;
     for (VkImage i : swapchain->images)
         if (i == image) {
@@ -296,14 +278,6 @@ bool swapchain_image_extent(VkImage image, VkExtent2D *extent) {
             return true;
         }
     return false;
-}
-
-void note_swapchain_images(VkSwapchainKHR swapchain, uint32_t count, const VkImage *images) {
-    for (uint32_t i = 0; i < count; ++i) {
-        auto state = std::make_unique<SwapchainImageState>();
-        state->swapchain = swapchain;
-        g_swapchain_images.insert(images[i], std::move(state));
-    }
 }
 
 void begin_secondary(DeviceState &dev, VkCommandBuffer cb, const VkCommandBufferBeginInfo &begin) {
@@ -365,9 +339,9 @@ void CmdExecuteCommands(DeviceState &, VkCommandBuffer cb, uint32_t count,
 
 namespace observe {
 
-void GetSwapchainImagesKHR(DeviceState &, VkDevice, VkSwapchainKHR swapchain, uint32_t *pSwapchainImageCount,
-                           VkImage *pSwapchainImages) {
-    if (pSwapchainImages) note_swapchain_images(swapchain, *pSwapchainImageCount, pSwapchainImages);
+void GetSwapchainImagesKHR(DeviceState &dev, VkDevice, VkSwapchainKHR swapchain,
+                           uint32_t *pSwapchainImageCount, VkImage *pSwapchainImages) {
+    if (pSwapchainImages) note_swapchain_images(dev, swapchain, *pSwapchainImageCount, pSwapchainImages);
 }
 
 void CreateImageView(DeviceState &, VkDevice, const VkImageViewCreateInfo *pCreateInfo,

@@ -5,6 +5,7 @@
 
 #include "capture.h"
 #include "host_buffer.h"
+#include "image.h"
 #include "instance.h"
 #include "layer_entry_points.h"
 #include "log.h"
@@ -33,34 +34,14 @@ struct BufferState {
     VkDeviceAddress address_sent = 0; // what the agent was told vkGetBufferDeviceAddress returned
 };
 
-struct ImageState {
-    DeviceState *device = nullptr;
-    VkImageType type = VK_IMAGE_TYPE_2D;
-    VkFormat format = VK_FORMAT_UNDEFINED;
-    VkExtent3D extent{};
-    uint32_t mips = 1;
-    uint32_t layers = 1;
-    VkSampleCountFlagBits samples = VK_SAMPLE_COUNT_1_BIT;
-    bool readable = false; // created with TRANSFER_SRC
-    bool bound = false;
-    // Rendered scaled on the client (screen_space.h): its contents are not the agent's image's, and
-    // every frame rewrites them, so a snapshot leaves them out.
-    bool screen_space = false;
-    std::vector<VkImageLayout> layouts; // [layer * mips + mip], as the GPU will have them
-
-    VkImageLayout &layout(uint32_t mip, uint32_t layer) { return layouts[size_t{layer} * mips + mip]; }
-};
-
-std::mutex g_mutex;
+std::mutex g_mutex; // g_buffers, g_final_layouts; images have their own table (image.h)
 std::unordered_map<VkBuffer, BufferState> g_buffers;
-std::unordered_map<VkImage, ImageState> g_images;
 std::unordered_map<VkRenderPass, std::vector<VkImageLayout>> g_final_layouts; // per attachment
 
-// Under g_mutex.
-void apply_locked(const LayoutTransition &t) {
-    const auto it = g_images.find(t.image);
-    if (it == g_images.end()) return; // a swapchain image, or one created before the session
-    ImageState &image = it->second;
+void apply(LockedImages &images, const LayoutTransition &t) {
+    ImageState *found = images.find(t.image);
+    if (!found || !found->created) return; // a swapchain image, or one created before the session
+    ImageState &image = *found;
     const uint32_t mip_end = t.range.levelCount == VK_REMAINING_MIP_LEVELS
                                  ? image.mips
                                  : std::min(image.mips, t.range.baseMipLevel + t.range.levelCount);
@@ -91,11 +72,11 @@ void record_dependency(VkCommandBuffer cb, const VkDependencyInfo &info) {
     }
 }
 
-void apply_command_buffers(uint32_t count, const VkCommandBuffer *command_buffers) {
+void apply_command_buffers(LockedImages &images, uint32_t count, const VkCommandBuffer *command_buffers) {
     for (uint32_t i = 0; i < count; ++i)
         if (const CommandLayouts *layouts = command_buffer_layouts(command_buffers[i]))
             for (const LayoutTransition &t : layouts->transitions)
-                apply_locked(t);
+                apply(images, t);
 }
 
 void bind_buffer(VkBuffer buffer, VkDeviceMemory memory, VkDeviceSize offset) {
@@ -107,8 +88,8 @@ void bind_buffer(VkBuffer buffer, VkDeviceMemory memory, VkDeviceSize offset) {
 }
 
 void bind_image(VkImage image) {
-    std::lock_guard lock(g_mutex);
-    if (const auto it = g_images.find(image); it != g_images.end()) it->second.bound = true;
+    LockedImages images;
+    if (ImageState *state = images.find(image)) state->bound = true;
 }
 
 // A linear image: what the host writes into its memory is laid out as this driver says, which the
@@ -200,22 +181,22 @@ void note_render_pass_end(VkCommandBuffer command_buffer) {
 }
 
 void note_layout_submit(DeviceState &, uint32_t count, const VkSubmitInfo *submits) {
-    std::lock_guard lock(g_mutex);
+    LockedImages images;
     for (uint32_t i = 0; i < count; ++i)
-        apply_command_buffers(submits[i].commandBufferCount, submits[i].pCommandBuffers);
+        apply_command_buffers(images, submits[i].commandBufferCount, submits[i].pCommandBuffers);
 }
 
 void note_layout_submit(DeviceState &, uint32_t count, const VkSubmitInfo2 *submits) {
-    std::lock_guard lock(g_mutex);
+    LockedImages images;
     for (uint32_t i = 0; i < count; ++i)
         for (uint32_t j = 0; j < submits[i].commandBufferInfoCount; ++j)
-            apply_command_buffers(1, &submits[i].pCommandBufferInfos[j].commandBuffer);
+            apply_command_buffers(images, 1, &submits[i].pCommandBufferInfos[j].commandBuffer);
 }
 
 void forget_resources(DeviceState &device) {
     std::lock_guard lock(g_mutex);
     std::erase_if(g_buffers, [&](const auto &entry) { return entry.second.device == &device; });
-    std::erase_if(g_images, [&](const auto &entry) { return entry.second.device == &device; });
+    forget_images(device);
     forget_screen_space(device);
 }
 
@@ -227,9 +208,7 @@ void DestroyBuffer(DeviceState &, VkDevice, VkBuffer buffer, const VkAllocationC
 }
 
 void DestroyImage(DeviceState &, VkDevice, VkImage image, const VkAllocationCallbacks *) {
-    screen_space_image_destroyed(image);
-    std::lock_guard lock(g_mutex);
-    g_images.erase(image);
+    remove_image(image);
 }
 
 void BindBufferMemory(DeviceState &, VkDevice, VkBuffer buffer, VkDeviceMemory memory, VkDeviceSize offset) {
@@ -406,10 +385,10 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateImage(VkDevice device, const VkImageCreateI
         result = dev.dispatch.CreateImage(device, &info, pAllocator, pImage);
     }
     if (result != VK_SUCCESS) return result;
-    if (screen_space) screen_space_image_created(dev, *pImage, *pCreateInfo);
     {
         ImageState state;
         state.device = &dev;
+        state.created = true;
         state.type = info.imageType;
         state.format = info.format;
         state.extent = info.extent;
@@ -417,10 +396,12 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateImage(VkDevice device, const VkImageCreateI
         state.layers = std::max(info.arrayLayers, 1u);
         state.samples = info.samples;
         state.readable = info.usage & VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
-        state.screen_space = screen_space;
         state.layouts.assign(size_t{state.mips} * state.layers, info.initialLayout);
-        std::lock_guard lock(g_mutex);
-        g_images[*pImage] = std::move(state);
+        // Rendered scaled on the client: its contents are not the agent's image's, and every frame
+        // rewrites them, so a snapshot leaves them out.
+        state.screen_space = screen_space;
+        state.full = {pCreateInfo->extent.width, pCreateInfo->extent.height};
+        add_image(*pImage, std::move(state));
     }
     record_global(dev, LiveChange::Created, codec::handle_value(*pImage), [&](codec::Encoder &e) {
         encode_vkCreateImage(e, device, pCreateInfo, pAllocator, pImage);
@@ -478,7 +459,7 @@ std::vector<MipCopy> copyable_mips(const ImageState &state, const FormatInfo &fo
     for (uint32_t mip = 0; mip < state.mips; ++mip) {
         bool defined = true;
         for (uint32_t layer = 0; layer < state.layers && defined; ++layer) {
-            const VkImageLayout layout = const_cast<ImageState &>(state).layout(mip, layer);
+            const VkImageLayout layout = state.layout(mip, layer);
             defined = layout != VK_IMAGE_LAYOUT_UNDEFINED && layout != VK_IMAGE_LAYOUT_PREINITIALIZED;
         }
         if (!defined) continue;
@@ -739,29 +720,29 @@ bool snapshot_contents(DeviceState &dev, VkQueue queue, uint32_t family, Content
             buffers.push_back({buffer, state.memory, state.memory_offset, state.size, total});
             total += state.size;
         }
-        for (const auto &[image, state] : g_images) {
-            if (state.device != &dev || !state.bound) continue;
-            if (state.screen_space) {
-                ++out->screen_space_images;
-                continue;
-            }
-            const FormatInfo format = format_info(state.format);
-            if (!state.readable || state.samples != VK_SAMPLE_COUNT_1_BIT || format.block_bytes == 0 ||
-                format.depth || format.stencil) {
-                ++out->skipped_images;
-                continue;
-            }
-            ImageCopy copy;
-            copy.image = image;
-            copy.state = state;
-            copy.mips = copyable_mips(state, format, &copy.size);
-            if (copy.mips.empty()) continue; // never written: nothing to give
-            total = align_up(total, std::lcm(VkDeviceSize{format.block_bytes}, VkDeviceSize{16}));
-            copy.staging_offset = total;
-            total += copy.size;
-            images.push_back(std::move(copy));
-        }
     }
+    for_each_image(dev, [&](VkImage image, const ImageState &state) {
+        if (!state.created || !state.bound) return;
+        if (state.screen_space) {
+            ++out->screen_space_images;
+            return;
+        }
+        const FormatInfo format = format_info(state.format);
+        if (!state.readable || state.samples != VK_SAMPLE_COUNT_1_BIT || format.block_bytes == 0 ||
+            format.depth || format.stencil) {
+            ++out->skipped_images;
+            return;
+        }
+        ImageCopy copy;
+        copy.image = image;
+        copy.state = state;
+        copy.mips = copyable_mips(state, format, &copy.size);
+        if (copy.mips.empty()) return; // never written: nothing to give
+        total = align_up(total, std::lcm(VkDeviceSize{format.block_bytes}, VkDeviceSize{16}));
+        copy.staging_offset = total;
+        total += copy.size;
+        images.push_back(std::move(copy));
+    });
     if (total == 0) return true;
     if (total > kMaxSnapshotBytes) {
         *error = "buffer and image contents of " + std::to_string(total >> 20) +

@@ -26,13 +26,12 @@ struct LayoutTransition {
     VkImageLayout layout = VK_IMAGE_LAYOUT_UNDEFINED;
 };
 
-// What a command buffer recorded of image layouts (command_buffer.cpp keeps it with the command
-// buffer and clears it at vkBeginCommandBuffer): applied at every submit of the command buffer.
+// What a command buffer recorded of image layouts (its CommandBufferState keeps it, begun afresh
+// with each recording: command_buffer.h): applied at every submit of the command buffer.
 struct CommandLayouts {
     std::vector<LayoutTransition> transitions;
     std::vector<LayoutTransition> at_pass_end; // the render pass instance's final layouts
 };
-CommandLayouts *command_buffer_layouts(VkCommandBuffer command_buffer);
 
 // render_pass.cpp: a render pass instance begins on these attachments (attachment i's image and
 // the subresources its view covers); its final layouts apply at its end.

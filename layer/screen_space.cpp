@@ -2,8 +2,8 @@
 
 #include "screen_space.h"
 
+#include "image.h"
 #include "log.h"
-#include "object_map.h"
 #include "split.h"
 #include "split_geometry.h"
 
@@ -14,13 +14,6 @@
 
 namespace splitvk {
 namespace {
-
-struct TargetState {
-    DeviceState *device = nullptr;
-    VkExtent2D full{}; // what the app asked for
-};
-
-ObjectMap<VkImage, TargetState> g_targets;
 
 std::mutex g_mutex;
 std::unordered_map<const DeviceState *, VkExtent2D> g_screens; // newest composable swapchain
@@ -69,28 +62,18 @@ bool screen_space_create_info(DeviceState &device, const VkImageCreateInfo &app,
     return true;
 }
 
-void screen_space_image_created(DeviceState &device, VkImage image, const VkImageCreateInfo &app) {
-    auto state = std::make_unique<TargetState>();
-    state->device = &device;
-    state->full = {app.extent.width, app.extent.height};
-    g_targets.insert(image, std::move(state));
-}
-
-void screen_space_image_destroyed(VkImage image) {
-    if (image != VK_NULL_HANDLE) g_targets.remove(image);
-}
-
 void forget_screen_space(DeviceState &device) {
     std::lock_guard lock(g_mutex);
     g_screens.erase(&device);
-    // Images outlive nothing past vkDestroyDevice; their handles are removed as the app destroys them.
 }
 
 bool screen_space_extent(VkImage image, VkExtent2D *full) {
-    const TargetState *state = g_targets.find(image);
-    if (!state) return false;
-    *full = state->full;
-    return true;
+    bool screen_space = false;
+    read_image(image, [&](const ImageState &state) {
+        screen_space = state.screen_space;
+        if (screen_space) *full = state.full;
+    });
+    return screen_space;
 }
 
 VkRect2D scale_image_rect(VkImage image, uint32_t mip, const VkRect2D &rect) {

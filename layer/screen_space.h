@@ -4,7 +4,7 @@
 // a composable swapchain and splits, each image is classified by protocol/target_rule.h's rule; a
 // screen-space target is created down the chain at SPLITVK_SCALE (the capture keeps the app's create
 // info: the agent replays it full size), and every command that names a region of one scales that
-// region through this file's table, looked up by image handle:
+// region by the image's ImageState (image.h), looked up by handle:
 //
 //   framebuffers and imageless attachment infos   extent scaled (render_pass.cpp)
 //   render pass / dynamic rendering areas          scale_rect, viewports/scissors/clear rects
@@ -32,14 +32,13 @@ namespace splitvk {
 void note_screen_extent(DeviceState &device, VkExtent2D extent);
 
 // vkCreateImage: whether `app` is a screen-space target; if so `*down` (a copy of it) gets the
-// scaled extent. Logs the classification at info level.
+// scaled extent. Logs the classification at info level. resource.cpp keeps the answer and the
+// app's extent in the image's ImageState (image.h).
 bool screen_space_create_info(DeviceState &device, const VkImageCreateInfo &app, VkImageCreateInfo *down);
-// After the driver created it.
-void screen_space_image_created(DeviceState &device, VkImage image, const VkImageCreateInfo &app);
-void screen_space_image_destroyed(VkImage image);
 void forget_screen_space(DeviceState &device);
 
-// The app-visible extent of a screen-space target (its mip 0); false for any other image.
+// The app-visible extent of a screen-space target (its mip 0, from its ImageState); false for any
+// other image.
 bool screen_space_extent(VkImage image, VkExtent2D *full);
 inline bool is_screen_space(VkImage image) {
     VkExtent2D e;

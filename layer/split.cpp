@@ -2,30 +2,34 @@
 
 #include "split.h"
 
+#include "image.h"
 #include "layer_settings.h"
 #include "split_geometry.h"
 #include "swapchain.h"
 
-#include <mutex>
-#include <unordered_map>
+#include <optional>
 
 namespace splitvk {
 namespace {
 
-std::mutex g_frames_mutex;
-// Swapchain image handle value -> what the submitted split passes drew into it since the last take.
-std::unordered_map<uint64_t, split::DrawnImage> g_frames;
-
+// What the submitted split passes drew goes into each swapchain image's ImageState (image.h), to be
+// taken at its present. Every image a split pass draws into is a swapchain image the table knows
+// (split_target, swapchain_image_extent): one whose swapchain was destroyed since has no present
+// to take it.
 void note_command_buffers(uint32_t count, const VkCommandBuffer *command_buffers) {
     for (uint32_t i = 0; i < count; ++i) {
         const split::CommandTracker *tracker = split_tracker(command_buffers[i]);
         if (!tracker || tracker->drawn().empty()) continue;
-        std::lock_guard lock(g_frames_mutex);
+        LockedImages images;
         for (const split::DrawnImage &drawn : tracker->drawn()) {
-            auto [it, inserted] = g_frames.try_emplace(drawn.image, drawn);
-            if (inserted) continue;
-            it->second.extent = drawn.extent;
-            it->second.coverage |= drawn.coverage;
+            ImageState *image = images.find(codec::to_handle<VkImage>(drawn.image));
+            if (!image) continue;
+            if (!image->drawn) {
+                image->drawn = drawn;
+                continue;
+            }
+            image->drawn->extent = drawn.extent;
+            image->drawn->coverage |= drawn.coverage;
         }
     }
 }
@@ -46,14 +50,18 @@ const Settings &split_settings() {
 
 SplitFrame take_split_frame(DeviceState &, VkImage image, EyeMode eyes, const split::Gaze &gaze) {
     SplitFrame frame;
-    std::lock_guard lock(g_frames_mutex);
-    const auto it = g_frames.find(codec::handle_value(image));
-    if (it == g_frames.end()) return frame;
+    std::optional<split::DrawnImage> drawn;
+    {
+        LockedImages images;
+        ImageState *state = images.find(image);
+        if (!state || !state->drawn) return frame;
+        drawn = std::move(state->drawn);
+        state->drawn.reset();
+    }
     frame.split = true;
-    frame.periphery = split::scaled_extent(it->second.extent, split_settings().scale);
+    frame.periphery = split::scaled_extent(drawn->extent, split_settings().scale);
     // The whole frame's coverage decides its foveae (split::frame_foveae), as the agent's does.
-    frame.foveae = split::in_layer_zero(it->second.foveae(eyes, split_settings().fovea, gaze));
-    g_frames.erase(it);
+    frame.foveae = split::in_layer_zero(drawn->foveae(eyes, split_settings().fovea, gaze));
     return frame;
 }
 

@@ -11,6 +11,7 @@
 // (what is re-emitted, and the per-image record the present path takes).
 
 #include "capture.h"
+#include "render_pass.h" // the split passes
 #include "split_tracker.h"
 
 #include <vector>
@@ -41,27 +42,6 @@ bool split_enabled(const DeviceState &device);
 bool swapchain_composable(const SwapchainState &swapchain);
 
 const Settings &split_settings();
-
-// render_pass.cpp: the image a view was created for (null if unknown), and whether `image` is an
-// image of a live composable swapchain (with its extent).
-VkImage image_of_view(VkImageView view);
-bool swapchain_image_extent(VkImage image, VkExtent2D *extent);
-// vkGetSwapchainImagesKHR, or an OpenXR runtime's swapchain (swapchain.h): `images` belong to
-// `swapchain`, so passes into them are split passes while it is composable.
-void note_swapchain_images(VkSwapchainKHR swapchain, uint32_t count, const VkImage *images);
-// vkBeginCommandBuffer of a secondary that continues a render pass: scaled like that pass's target
-// (its inheritance's framebuffer, or the render pass's latest instance, or for a dynamic rendering
-// the latest one with the formats and view mask it inherits), its viewports kept for the foveae of
-// the pass that executes it (split_tracker.h).
-void begin_secondary(DeviceState &device, VkCommandBuffer command_buffer,
-                     const VkCommandBufferBeginInfo &begin);
-// vkCreateRenderPass* and vkDestroyRenderPass (resource.cpp): the handle value's prediction for
-// secondaries is dropped, since a driver may reuse the value for an unrelated render pass.
-void forget_render_pass(VkRenderPass render_pass);
-
-// The split tracker of a command buffer allocated while the device had a session (reset at
-// vkBeginCommandBuffer); nullptr otherwise (command_buffer.cpp).
-split::CommandTracker *split_tracker(VkCommandBuffer command_buffer);
 
 // Sets the viewports / scissors in effect (the bound pipeline's static ones or the app's dynamic
 // ones), scaled inside a split pass and unscaled outside it.

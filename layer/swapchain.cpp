@@ -21,6 +21,7 @@
 
 #include "capture.h"
 #include "compositor.h"
+#include "image.h"
 #include "instance.h"
 #include "layer_entry_points.h"
 #include "log.h"
@@ -96,6 +97,15 @@ void send_swapchain_destroyed(DeviceState &dev, VkSwapchainKHR swapchain) {
     }
 }
 
+// Before the driver (or the OpenXR runtime) destroys the swapchain's images: the agent is told, and
+// the images stop being split targets (image.h).
+void forget_swapchain(DeviceState &dev, VkSwapchainKHR swapchain) {
+    const std::unique_ptr<SwapchainState> state = g_swapchains.remove(swapchain);
+    if (!state) return;
+    forget_swapchain_images(swapchain, static_cast<uint32_t>(state->images.size()), state->images.data());
+    send_swapchain_destroyed(dev, swapchain);
+}
+
 } // namespace
 
 SwapchainState *register_runtime_swapchain(DeviceState &dev, VkSwapchainKHR key,
@@ -123,7 +133,7 @@ SwapchainState *register_runtime_swapchain(DeviceState &dev, VkSwapchainKHR key,
     if (!state->composable)
         SPLITVK_INFO("OpenXR swapchain %ux%u is not composable (%s): it will not be split", info.extent.width,
                      info.extent.height, why.c_str());
-    note_swapchain_images(key, static_cast<uint32_t>(state->images.size()), state->images.data());
+    note_swapchain_images(dev, key, static_cast<uint32_t>(state->images.size()), state->images.data());
     if (state->composable) note_screen_extent(dev, info.extent);
     SwapchainState *registered = g_swapchains.insert(key, std::move(state));
     // Logged like a window's, so that an agent joining later adopts the images too.
@@ -136,7 +146,7 @@ void unregister_runtime_swapchain(DeviceState &dev, VkSwapchainKHR key) {
     drain_presents(dev);
     release_compositor(dev, key);
     release_present_resources(dev, key); // verification's readbacks
-    if (g_swapchains.remove(key)) send_swapchain_destroyed(dev, key);
+    forget_swapchain(dev, key);
 }
 
 namespace entry {
@@ -225,7 +235,7 @@ VKAPI_ATTR void VKAPI_CALL DestroySwapchainKHR(VkDevice device, VkSwapchainKHR s
         drain_presents(dev); // its frames still in the present thread
         release_present_resources(dev, swapchain);
         release_compositor(dev, swapchain);
-        if (g_swapchains.remove(swapchain)) send_swapchain_destroyed(dev, swapchain);
+        forget_swapchain(dev, swapchain);
     }
     dev.dispatch.DestroySwapchainKHR(device, swapchain, pAllocator);
 }

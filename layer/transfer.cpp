@@ -1,13 +1,6 @@
-// Copies, blits, resolves and dispatches that name regions of screen-space targets (screen_space.h)
-// or write a swapchain image. Each side of a transfer is one of three kinds, looked up by handle:
-// a screen-space target (its regions scale into the scaled image), a swapchain image written while
-// splitting (the region lands in the scaled top-left, like a split pass, and the foveae of the eyes
-// it covers are noted, as the agent notes them: fovea_shading.cpp), or any other image (unchanged).
-// The capture keeps the application's call.
-//
-// Copies and resolves need the same extent on both sides; where only one side is scaled the
-// periphery holds the scaled picture in the other image's top-left (one info line): a copy into a
-// swapchain image from a full-size image is left whole and unsplit instead, which is exact.
+// Copies, blits, resolves and dispatches over screen-space targets and swapchain images (transfer.h).
+
+#include "transfer.h"
 
 #include "gpu_timing.h"
 #include "layer_entry_points.h"
@@ -200,10 +193,7 @@ bool scale_buffer_copies(VkImage image, uint32_t count, const Region *regions, s
 // its previous recording bound does not count) writes a screen-space target.
 bool dispatch_writes_screen_space(VkCommandBuffer cb) {
     const split::CommandTracker *tracker = split_tracker(cb);
-    if (!tracker) return false;
-    for (VkDescriptorSet set : tracker->compute_sets())
-        if (set && set_writes_screen_space(set)) return true;
-    return false;
+    return tracker && tracker->dispatch_writes_screen_space(set_writes_screen_space);
 }
 
 // The periphery's GPU time (SPLITVK_STATS) ends with the write into the swapchain image when that is

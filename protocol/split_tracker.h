@@ -154,6 +154,15 @@ public:
         std::copy(sets, sets + count, compute_sets_.begin() + first);
     }
     const std::vector<VkDescriptorSet> &compute_sets() const { return compute_sets_; }
+    // Whether a dispatch recorded now writes a screen-space target, so that its group counts are
+    // scaled: one of the bound compute sets does, as `writes_screen_space(set)` says (the layer's
+    // descriptor_set.cpp).
+    template <class WritesScreenSpace>
+    bool dispatch_writes_screen_space(WritesScreenSpace &&writes_screen_space) const {
+        for (VkDescriptorSet set : compute_sets_)
+            if (set != VK_NULL_HANDLE && writes_screen_space(set)) return true;
+        return false;
+    }
 
 private:
     DrawnImage &drawn_entry(uint64_t image, VkExtent2D extent);

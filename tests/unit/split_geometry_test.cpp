@@ -698,5 +698,28 @@ TEST(SplitTracker, ComputeSetsEndWithTheRecording) {
     EXPECT_EQ(t.compute_sets()[0], set(0x40));
 }
 
+// Issue 20, item 5: a command buffer that dispatched over a screen-space target, reset or begun
+// again, then dispatches over an ordinary image: that dispatch's group counts must stay as recorded
+// (the layer scales them only when the tracker says a bound set writes a screen-space target).
+TEST(SplitTracker, ReusedCommandBufferDoesNotScaleAPlainDispatch) {
+    const auto set = [](uint64_t v) { return reinterpret_cast<VkDescriptorSet>(v); };
+    const VkDescriptorSet target_set = set(0x10), plain_set = set(0x40);
+    const auto writes_screen_space = [&](VkDescriptorSet s) { return s == target_set; };
+    CommandTracker t;
+    EXPECT_FALSE(t.dispatch_writes_screen_space(writes_screen_space));
+    t.bind_compute_sets(0, 1, &target_set);
+    EXPECT_TRUE(t.dispatch_writes_screen_space(writes_screen_space));
+
+    t.reset(); // vkResetCommandBuffer, vkResetCommandPool or vkBeginCommandBuffer again
+    EXPECT_FALSE(t.dispatch_writes_screen_space(writes_screen_space));
+    t.bind_compute_sets(0, 1, &plain_set);
+    EXPECT_FALSE(t.dispatch_writes_screen_space(writes_screen_space));
+    // A set bound at another set number alone does not make it scaled either.
+    t.bind_compute_sets(2, 1, &plain_set);
+    EXPECT_FALSE(t.dispatch_writes_screen_space(writes_screen_space));
+    t.bind_compute_sets(1, 1, &target_set);
+    EXPECT_TRUE(t.dispatch_writes_screen_space(writes_screen_space));
+}
+
 } // namespace
 } // namespace splitvk::split
