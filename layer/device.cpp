@@ -11,6 +11,7 @@
 #include "log.h"
 #include "object_map.h"
 #include "session.h"
+#include "verification.h"
 #include "vk_codec.h"
 
 #include <vulkan/vk_layer.h>

@@ -58,8 +58,6 @@ void stop_presents(DeviceState &device);
 // application has not acquired marks its swapchain as one whose application uses its images in an
 // order of its own, and one the present thread still holds is presented first (present.cpp).
 void order_swapchain_writes(DeviceState &device, std::span<const uint64_t> images);
-// SPLITVK_VERIFY=full: the one summary line at vkDestroyDevice (present.cpp).
-void report_verify_summary(DeviceState &device);
 // Split mode: the one summary line at vkDestroyDevice (present.cpp).
 void report_split_summary(DeviceState &device);
 
