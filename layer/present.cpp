@@ -55,6 +55,7 @@
 #include "gpu_timing.h"
 #include "layer_entry_points.h"
 #include "log.h"
+#include "queue.h"
 #include "session.h"
 #include "split.h"
 #include "stats.h"

@@ -3,11 +3,14 @@
 #include "session.h"
 
 #include "capture.h"
+#include "descriptor_set.h"
 #include "device.h"
 #include "instance.h"
 #include "layer_settings.h"
 #include "log.h"
+#include "memory.h"
 #include "physical_device.h"
+#include "queue.h"
 #include "resource.h"
 
 #include <algorithm>
@@ -46,8 +49,6 @@ void CaptureHooks::skipped_structure(VkStructureType stype, const char *parent) 
             "cannot forward structure type %u in the pNext chain of %s; the agent replays without it",
             static_cast<unsigned>(stype), parent);
 }
-
-bool set_binding_has_immutable_samplers(VkDescriptorSet set, uint32_t binding); // descriptor_set.cpp
 
 bool CaptureHooks::has_immutable_samplers(VkDescriptorSet set, uint32_t binding) {
     return set_binding_has_immutable_samplers(set, binding);

@@ -12,6 +12,7 @@
 
 #include "host_buffer.h"
 #include "log.h"
+#include "queue.h"
 #include "session.h"
 #include "submit_rules.h"
 #include "swapchain.h"
