@@ -163,7 +163,7 @@ public:
     // Time the application's threads spent comparing mapped memory at submits (memory.cpp).
     std::atomic<uint64_t> memory_compare_ns{0};
 
-    // SPLITVK_VERIFY=full: frames compared and pixels that differed (present.cpp).
+    // SPLITVK_VERIFY=full: frames compared and pixels that differed (verification.cpp).
     std::atomic<uint64_t> verified_frames{0};
     std::atomic<uint64_t> mismatching_pixels{0};
     std::atomic<uint64_t> compared_pixels{0};    // every layer of each verified image, mismatching included
