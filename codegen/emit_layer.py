@@ -251,7 +251,7 @@ def emit(model):
     header += ["", "} // namespace rewrite", "} // namespace splitvk", ""]
 
     source = [HEADER.format(script="emit_layer.py"), '#include "layer_entry_points.h"', "",
-              '#include "capture.h"', '#include "dispatch.h"', '#include "vk_codec.h"', "", "#include <algorithm>", "#include <cstring>", "#include <iterator>", "#include <span>", "#include <vector>", "",
+              '#include "capture.h"', '#include "descriptor_set.h"', '#include "dispatch.h"', '#include "vk_codec.h"', "", "#include <algorithm>", "#include <cstring>", "#include <iterator>", "#include <span>", "#include <vector>", "",
               "namespace splitvk {", "namespace entry {", ""]
     for c in commands:
         if c.name in MANUAL_COMMANDS:

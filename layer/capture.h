@@ -41,21 +41,4 @@ inline void record_logged(DeviceState &device, std::span<const uint64_t> holders
     device.session->record_logged(holders, killers, std::forward<F>(encode));
 }
 
-// vkUpdateDescriptorSets: the descriptor contents part of the live-state log (descriptor_set.cpp).
-void note_descriptor_updates(uint32_t write_count, const VkWriteDescriptorSet *writes, uint32_t copy_count,
-                             const VkCopyDescriptorSet *copies);
-
-// vkUpdateDescriptorSetWithTemplate: the same, through a template's layout.
-void note_descriptor_template_update(VkDescriptorSet set, const codec::DescriptorTemplateLayout &layout,
-                                     const void *data);
-
-// Snapshot part (session.h: build_live_snapshot), naming only ids in `live`: one
-// vkUpdateDescriptorSets per set with contents (command_buffer.h gives the command buffers').
-void snapshot_descriptor_contents(DeviceState &device, const std::unordered_set<uint64_t> &live,
-                                  codec::Encoder &out, size_t *set_count);
-
-// memory.cpp: a new agent was given the current contents of every buffer; the shadows of mapped
-// memory become those contents, so that later diffs are against what it has.
-void resync_mapped_shadows(DeviceState &device);
-
 } // namespace splitvk

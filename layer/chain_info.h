@@ -20,9 +20,4 @@ LayerCreateInfo *find_layer_link(const void *p_next, VkStructureType loader_s_ty
     return nullptr;
 }
 
-// Says once, at info level, when a layer known to draw at present (MangoHud, the Mesa overlay) is
-// above splitvk in the instance chain: what it draws then becomes part of the periphery
-// (layer_chain.cpp). `link` is this layer's own link, before the chain is advanced past it.
-void report_layer_position(const VkLayerInstanceLink *link);
-
 } // namespace splitvk

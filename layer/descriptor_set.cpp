@@ -9,6 +9,8 @@
 // into the next binding as the specification says), copies (the source's content at copy time)
 // and template updates (descriptor_template.cpp). snapshot_descriptor_contents() re-encodes them.
 
+#include "descriptor_set.h"
+
 #include "capture.h"
 #include "layer_entry_points.h"
 #include "screen_space.h"

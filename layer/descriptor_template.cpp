@@ -4,6 +4,7 @@
 #include "descriptor_template.h"
 
 #include "capture.h"
+#include "descriptor_set.h"
 #include "layer_entry_points.h"
 #include "object_map.h"
 

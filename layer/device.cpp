@@ -10,8 +10,13 @@
 #include "layer_entry_points.h"
 #include "layer_settings.h"
 #include "log.h"
+#include "memory.h"
 #include "object_map.h"
+#include "present.h"
+#include "queue.h"
+#include "resource.h"
 #include "session.h"
+#include "verification.h"
 #include "vk_codec.h"
 
 #include <vulkan/vk_layer.h>
@@ -62,10 +67,6 @@ DeviceState &device_state_by_key(DispatchKey key) {
 }
 
 } // namespace
-
-void forget_memory(DeviceState &device);    // memory.cpp
-void forget_resources(DeviceState &device); // resource.cpp
-void forget_queues(DeviceState &device);    // queue.cpp
 
 void forget_device_objects(DeviceState &device) {
     if (!device.session) return;

@@ -42,25 +42,5 @@ DeviceState &device_state(VkCommandBuffer command_buffer);
 
 // vkDestroyDevice: drops the per-object state (command buffers, memory, swapchains) of a device.
 void forget_device_objects(DeviceState &device);
-// The queue family a queue was got from (queue.cpp); UINT32_MAX if unknown.
-uint32_t queue_family_of(VkQueue queue);
-// The lock of a queue (queue.cpp): Vulkan requires a queue's operations to be externally
-// synchronised, and the layer's present thread (present.cpp) uses the application's queues, so the
-// layer takes it around every queue operation it makes or passes down. Not owning (no lock) for a
-// queue got without a session. Never held while waiting for the present thread.
-std::unique_lock<std::mutex> lock_queue(VkQueue queue);
-// Split mode's asynchronous presents (present.cpp): waits until the present thread has presented
-// every frame handed to it (each bounded by SPLITVK_TILE_WAIT); stop_presents() then ends the
-// thread (vkDestroyDevice).
-void drain_presents(DeviceState &device);
-void stop_presents(DeviceState &device);
-// Before a submit that draws into these swapchain images (handle values; split.h): an image the
-// application has not acquired marks its swapchain as one whose application uses its images in an
-// order of its own, and one the present thread still holds is presented first (present.cpp).
-void order_swapchain_writes(DeviceState &device, std::span<const uint64_t> images);
-// SPLITVK_VERIFY=full: the one summary line at vkDestroyDevice (present.cpp).
-void report_verify_summary(DeviceState &device);
-// Split mode: the one summary line at vkDestroyDevice (present.cpp).
-void report_split_summary(DeviceState &device);
 
 } // namespace splitvk

@@ -3,6 +3,7 @@
 #include "instance.h"
 
 #include "chain_info.h"
+#include "layer_chain.h"
 #include "layer_entry_points.h"
 #include "layer_settings.h"
 #include "log.h"

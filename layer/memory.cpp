@@ -9,6 +9,8 @@
 // persistent maps and maps with an offset, with no signal handlers. The application's pointer
 // never crosses the wire.
 
+#include "memory.h"
+
 #include "capture.h"
 #include "layer_entry_points.h"
 #include "memory_diff.h"

@@ -4,6 +4,8 @@
 // state (the capture keeps the app's create info: the agent decides for itself), the static
 // values are kept here, and binding such a pipeline sets them (scaled inside a split pass).
 
+#include "pipeline.h"
+
 #include "layer_entry_points.h"
 #include "object_map.h"
 #include "split.h"

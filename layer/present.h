@@ -1,17 +1,37 @@
 #pragma once
 
-// Frame marks of an OpenXR runtime's swapchain (present.cpp; DESIGN §9). A runtime's frame never
-// reaches vkQueuePresentKHR: the application acquires an image with xrAcquireSwapchainImage and hands
-// it back with xrReleaseSwapchainImage, after which the runtime's barrier gives it to the
-// compositor. Each release ends one splitvk frame of that image.
+// Acquire and present (present.cpp): frame marks, split mode's asynchronous presents and composite.
 
 #include "device.h"
 #include "session.h"
 #include "split_geometry.h"
 
+#include <cstdint>
+#include <span>
+
 namespace splitvk {
 
 struct SwapchainState;
+
+// Split mode's asynchronous presents: waits until the present thread has presented every frame
+// handed to it (each bounded by SPLITVK_TILE_WAIT); stop_presents() then ends the thread
+// (vkDestroyDevice).
+void drain_presents(DeviceState &device);
+void stop_presents(DeviceState &device);
+// Before a submit that draws into these swapchain images (handle values; split.h): an image the
+// application has not acquired marks its swapchain as one whose application uses its images in an
+// order of its own, and one the present thread still holds is presented first.
+void order_swapchain_writes(DeviceState &device, std::span<const uint64_t> images);
+// Frees the readback resources verification keeps for a swapchain's images (verification.h), and
+// what the asynchronous present knows of the swapchain (after drain_presents()).
+void release_present_resources(DeviceState &device, VkSwapchainKHR swapchain);
+// Split mode: the one summary line at vkDestroyDevice.
+void report_split_summary(DeviceState &device);
+
+// Frame marks of an OpenXR runtime's swapchain (DESIGN §9). A runtime's frame never
+// reaches vkQueuePresentKHR: the application acquires an image with xrAcquireSwapchainImage and hands
+// it back with xrReleaseSwapchainImage, after which the runtime's barrier gives it to the
+// compositor. Each release ends one splitvk frame of that image.
 
 // xrAcquireSwapchainImage: FrameBegin for the image the runtime handed out.
 void begin_runtime_frame(DeviceState &device, const SwapchainState &swapchain, uint32_t image_index);

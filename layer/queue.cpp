@@ -11,10 +11,14 @@
 // on the client, are frame marks on the agent): the layer sends each submit with its
 // semaphores and pNext removed, keeping the command buffers and the fence.
 
+#include "queue.h"
+
 #include "capture.h"
 #include "gpu_timing.h"
 #include "layer_entry_points.h"
+#include "memory.h"
 #include "object_map.h"
+#include "present.h"
 #include "resource.h"
 #include "split.h"
 #include "submit_rules.h"
@@ -25,8 +29,6 @@
 #include <vector>
 
 namespace splitvk {
-
-void sync_mapped_memory(DeviceState &device); // memory.cpp
 
 namespace {
 

@@ -3,11 +3,14 @@
 #include "session.h"
 
 #include "capture.h"
+#include "descriptor_set.h"
 #include "device.h"
 #include "instance.h"
 #include "layer_settings.h"
 #include "log.h"
+#include "memory.h"
 #include "physical_device.h"
+#include "queue.h"
 #include "resource.h"
 
 #include <algorithm>
@@ -46,8 +49,6 @@ void CaptureHooks::skipped_structure(VkStructureType stype, const char *parent) 
             "cannot forward structure type %u in the pNext chain of %s; the agent replays without it",
             static_cast<unsigned>(stype), parent);
 }
-
-bool set_binding_has_immutable_samplers(VkDescriptorSet set, uint32_t binding); // descriptor_set.cpp
 
 bool CaptureHooks::has_immutable_samplers(VkDescriptorSet set, uint32_t binding) {
     return set_binding_has_immutable_samplers(set, binding);
@@ -194,7 +195,7 @@ std::unique_ptr<Session> Session::open(const DeviceState &device, const VkDevice
         session->adopt_locked(std::move(agent).value());
         size_t entries = 0;
         std::unordered_set<uint64_t> live_ids;
-        for (auto &message : session->object_log_locked(&entries, &live_ids))
+        for (auto &message : session->log_.messages(&entries, &live_ids))
             session->send_locked(message.type, std::move(message.payload));
     } else if (final) {
         // An agent answered and refused (a wrong or missing token, another protocol): say so in the
@@ -284,7 +285,7 @@ void Session::resync(DeviceState &device, VkQueue queue, uint64_t frame) {
     (void)encoder_.take(); // already in the log, and so in the snapshot
     size_t entries = 0;
     std::unordered_set<uint64_t> live_ids;
-    std::vector<LiveMessage> snapshot = object_log_locked(&entries, &live_ids);
+    std::vector<LiveMessage> snapshot = log_.messages(&entries, &live_ids);
     for (auto &message : contents.messages)
         snapshot.push_back(std::move(message));
     codec::Encoder descriptors;
@@ -390,168 +391,24 @@ void Session::fail(const std::string &reason) {
         SPLITVK_WARN("splitvk-agent at %s went away (%s); %s", address_.c_str(), reason.c_str(), fallback());
 }
 
-void Session::note_live_change(LiveChange change, uint64_t id, size_t start) {
-    if (id == 0 || change == LiveChange::Unchanged) return;
-    const auto bytes = encoder_.data().subspan(start);
-    if (change == LiveChange::Created) {
-        const uint64_t ids[] = {id};
-        add_entry_locked(std::vector<uint8_t>(bytes.begin(), bytes.end()), ids, {});
-    } else {
-        forget_locked(id, bytes, change == LiveChange::Retired);
-    }
-}
-
-uint64_t Session::add_entry_locked(std::vector<uint8_t> &&bytes, std::span<const uint64_t> holders,
-                                   std::span<const uint64_t> killers) {
-    // A creation naming a handle value seen before (vkGetDeviceQueue returns the same queue; a
-    // driver reuses the value of a retired object) names the new object from now on. Binds (the
-    // entries with killers) only add to what their resources hold.
-    for (uint64_t id : holders) {
-        if (id == 0 || !killers.empty()) continue;
-        const auto held = held_by_.find(id);
-        if (held != held_by_.end() && !held->second.empty()) forget_locked(id, {}, false);
-        // The retired object with this value is destroyed, on replay, just before this creation:
-        // what was created in between still names it.
-        const auto retired = retired_.find(id);
-        if (retired != retired_.end()) {
-            log_[retired->second].destroy_seq = next_seq_++;
-            retired_.erase(retired);
-        }
-    }
-    const uint64_t seq = next_seq_++;
-    LogEntry &entry = log_[seq];
-    entry.bytes = std::move(bytes);
-    for (uint64_t id : holders)
-        if (id != 0) {
-            entry.holders.push_back(id);
-            held_by_[id].push_back(seq);
-        }
-    for (uint64_t id : killers)
-        if (id != 0) {
-            entry.killers.push_back(id);
-            killed_by_[id].insert(seq);
-        }
-    if (entry.holders.empty()) {
-        erase_entry_locked(seq);
-        return 0;
-    }
-    return seq;
-}
-
 void Session::send_metadata_logged(protocol::MessageType type, std::vector<uint8_t> &&payload,
                                    uint64_t holder, std::span<const uint64_t> killers) {
     std::lock_guard lock(mutex_);
     const uint64_t ids[] = {holder};
-    const uint64_t seq = add_entry_locked(std::vector<uint8_t>(payload), ids, killers);
-    if (seq != 0) log_[seq].type = type;
+    log_.add(std::vector<uint8_t>(payload), ids, killers, type);
     flush_locked();
     send_locked(type, std::move(payload));
-}
-
-void Session::erase_entry_locked(uint64_t seq) {
-    const auto it = log_.find(seq);
-    if (it == log_.end()) return;
-    for (uint64_t id : it->second.holders)
-        if (const auto found = held_by_.find(id); found != held_by_.end()) {
-            std::erase(found->second, seq);
-            if (found->second.empty()) held_by_.erase(found);
-        }
-    // A set: many resources may be bound to one allocation.
-    for (uint64_t id : it->second.killers)
-        if (const auto found = killed_by_.find(id); found != killed_by_.end()) {
-            found->second.erase(seq);
-            if (found->second.empty()) killed_by_.erase(found);
-        }
-    if (it->second.retired_id != 0) {
-        const auto retired = retired_.find(it->second.retired_id);
-        if (retired != retired_.end() && retired->second == seq) retired_.erase(retired);
-    }
-    log_.erase(it);
-}
-
-void Session::forget_locked(uint64_t id, std::span<const uint8_t> retire_bytes, bool retire) {
-    if (const auto killed = killed_by_.find(id); killed != killed_by_.end()) {
-        const std::vector<uint64_t> seqs(killed->second.begin(), killed->second.end());
-        for (uint64_t seq : seqs)
-            erase_entry_locked(seq);
-    }
-    const auto held = held_by_.find(id);
-    if (held == held_by_.end()) return;
-    const std::vector<uint64_t> seqs = std::move(held->second);
-    held_by_.erase(held);
-    for (uint64_t seq : seqs) {
-        const auto it = log_.find(seq);
-        if (it == log_.end()) continue;
-        std::erase(it->second.holders, id);
-        if (!it->second.holders.empty()) continue;
-        // Only a single-handle creation retires (the entry `id` alone held).
-        if (retire && it->second.killers.empty() && seq == seqs.front()) {
-            it->second.retired_id = id;
-            it->second.destroy.assign(retire_bytes.begin(), retire_bytes.end());
-            retired_[id] = seq;
-        } else {
-            erase_entry_locked(seq);
-        }
-    }
-    if (retire) prune_retired_locked();
-}
-
-void Session::prune_retired_locked() {
-    // A retired object can only be named by entries created after it (and, when its value was
-    // reused, before its destroy): it goes once no live entry is in that range.
-    std::vector<uint64_t> live;
-    for (const auto &[seq, entry] : log_)
-        if (entry.retired_id == 0) live.push_back(seq); // ascending
-    std::vector<uint64_t> stale;
-    for (const auto &[seq, entry] : log_) {
-        if (entry.retired_id == 0) continue;
-        const auto after = std::upper_bound(live.begin(), live.end(), seq);
-        if (after == live.end() || (entry.destroy_seq != 0 && *after > entry.destroy_seq))
-            stale.push_back(seq);
-    }
-    for (uint64_t seq : stale)
-        erase_entry_locked(seq);
 }
 
 void Session::forget(std::span<const uint64_t> ids) {
     std::lock_guard lock(mutex_);
     for (uint64_t id : ids)
-        if (id != 0) forget_locked(id, {}, false);
+        log_.forget(id);
 }
 
 std::vector<LiveMessage> Session::object_log(size_t *entries, std::unordered_set<uint64_t> *live_ids) {
     std::lock_guard lock(mutex_);
-    return object_log_locked(entries, live_ids);
-}
-
-std::vector<LiveMessage> Session::object_log_locked(size_t *entries, std::unordered_set<uint64_t> *live_ids) {
-    prune_retired_locked();
-    std::vector<LiveMessage> out;
-    const auto append = [&out](protocol::MessageType type, const std::vector<uint8_t> &bytes) {
-        if (bytes.empty()) return;
-        if (type != protocol::MessageType::Commands || out.empty() ||
-            out.back().type != protocol::MessageType::Commands)
-            out.push_back({type, {}});
-        out.back().payload.insert(out.back().payload.end(), bytes.begin(), bytes.end());
-    };
-    // Creations in order, with the destroys of retired objects whose value a later creation
-    // reuses just before that creation; the other retired objects' destroys at the end.
-    std::map<uint64_t, std::pair<protocol::MessageType, const std::vector<uint8_t> *>> order;
-    for (const auto &[seq, entry] : log_) {
-        order[seq] = {entry.type, &entry.bytes};
-        if (entry.retired_id != 0 && entry.destroy_seq != 0)
-            order[entry.destroy_seq] = {protocol::MessageType::Commands, &entry.destroy};
-    }
-    for (const auto &[seq, emit] : order)
-        append(emit.first, *emit.second);
-    for (const auto &[seq, entry] : log_)
-        if (entry.retired_id != 0 && entry.destroy_seq == 0)
-            append(protocol::MessageType::Commands, entry.destroy);
-    if (entries) *entries = log_.size();
-    if (live_ids)
-        for (const auto &[id, seqs] : held_by_)
-            live_ids->insert(id);
-    return out;
+    return log_.messages(entries, live_ids);
 }
 
 size_t Session::live_object_count() {
@@ -646,11 +503,6 @@ void Session::close() {
 } // namespace splitvk
 
 namespace splitvk {
-
-void snapshot_descriptor_contents(DeviceState &device, const std::unordered_set<uint64_t> &live,
-                                  codec::Encoder &out, size_t *set_count); // descriptor_set.cpp
-void snapshot_command_buffers(DeviceState &device, const std::unordered_set<uint64_t> &live,
-                              std::vector<std::vector<uint8_t>> &streams); // command_buffer.cpp
 
 LiveSnapshot build_live_snapshot(DeviceState &device) {
     LiveSnapshot snapshot;

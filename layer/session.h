@@ -23,33 +23,11 @@
 // batch. Since encoding and enqueueing happen under the same lock, the agent sees messages in the
 // order the calls returned, across threads.
 //
-// Live-state log (DESIGN §3, replayed by the reliability issue): what is needed to rebuild the
-// device's current state on a fresh agent, bounded by the live objects themselves.
-//  - Objects: the encoded call that created each live object, one entry per call with a sequence
-//    number (creation order). A single-handle vkCreate*, vkAllocateMemory and vkGetDeviceQueue*
-//    are held by their one id; batches (vkAllocateCommandBuffers, vkAllocateDescriptorSets,
-//    vkCreate*Pipelines) by each of their ids, and dropped when the last of them is destroyed or
-//    freed (pool destroy/reset frees the pool's children). vkBind*Memory* entries are held by
-//    their resources and die with the memory they bind. Objects that later creations may name
-//    (shader modules, render passes, pipeline and set layouts, pipeline caches) are "retired" at
-//    destroy: kept while anything created after them lives, their destroy replayed after the
-//    live objects (or, when a new object reuses the handle value, just before its creation).
-//    A live swapchain is its SwapchainImages message (held by the swapchain).
-//  - Descriptor contents (descriptor_set.cpp): per set, the latest descriptor per (binding, array
-//    element), from vkUpdateDescriptorSets writes, copies (resolved at copy time) and template
-//    updates, re-encoded as one vkUpdateDescriptorSets per set in the snapshot; descriptors that
-//    name a destroyed object are left out.
-//  - Command buffers (command_buffer.cpp): the last recorded stream of each.
-//  - Linear images (resource.cpp): the ImageLayouts message sent after the creation, held by the
-//    image and dropped with it.
-// build_live_snapshot() turns it into messages in that order. Out of scope: memory contents.
-// Host-visible memory is shadowed only while mapped (memory.cpp); device-local buffers and
-// images are read back on the client by the reliability issue when it sends a snapshot.
-// Not covered: an object destroyed while a live one created later still names it, other than
-// the retired kinds above (an image view under a live framebuffer), and command buffer streams
-// naming objects destroyed since they were recorded (the app cannot submit those either).
+// Live-state log (live_state_log.h): the session keeps it and changes it under the mutex above,
+// in the same critical section as it encodes the call, so that the log's order is the stream's.
 
 #include "agent_link.h"
+#include "live_state_log.h"
 #include "metadata.h" // the metadata messages
 #include "physical_device.h"
 #include "stats.h"
@@ -75,25 +53,6 @@
 namespace splitvk {
 
 struct DeviceState;
-
-// Created: a new log entry held by `id`. Destroyed: `id` lets go of its entries. Retired: as
-// Destroyed, but an entry created by `id` is kept while later entries live, with this call's
-// bytes replayed as its destroy (see the live-state log above).
-enum class LiveChange { Unchanged, Created, Destroyed, Retired };
-
-// One message of a snapshot: Commands, the SwapchainImages metadata of a live swapchain, or the
-// ImageLayouts of a live linear image.
-using LiveMessage = protocol::OutboundMessage;
-
-// A snapshot of the live-state log: the messages to replay in order (objects in creation order,
-// descriptor contents, then one Commands message per command buffer stream).
-struct LiveSnapshot {
-    std::vector<LiveMessage> messages;
-    size_t objects = 0;         // log entries (creation calls, binds, retired objects)
-    size_t descriptor_sets = 0; // sets with contents
-    size_t command_buffers = 0; // recorded streams
-    size_t bytes = 0;
-};
 
 // What the codec reports while encoding: an extension structure it cannot forward is logged
 // once per structure type (DESIGN §3: "logs once when an app uses something it cannot forward").
@@ -140,7 +99,7 @@ public:
         std::lock_guard lock(mutex_);
         const size_t start = encoder_.size();
         encode(encoder_);
-        note_live_change(change, id, start);
+        log_.note_change(change, id, encoder_.data().subspan(start));
         after_record_locked();
     }
 
@@ -152,7 +111,7 @@ public:
         const size_t start = encoder_.size();
         encode(encoder_);
         const auto bytes = encoder_.data().subspan(start);
-        add_entry_locked(std::vector<uint8_t>(bytes.begin(), bytes.end()), holders, killers);
+        log_.add(std::vector<uint8_t>(bytes.begin(), bytes.end()), holders, killers);
         after_record_locked();
     }
 
@@ -204,7 +163,7 @@ public:
     // Time the application's threads spent comparing mapped memory at submits (memory.cpp).
     std::atomic<uint64_t> memory_compare_ns{0};
 
-    // SPLITVK_VERIFY=full: frames compared and pixels that differed (present.cpp).
+    // SPLITVK_VERIFY=full: frames compared and pixels that differed (verification.cpp).
     std::atomic<uint64_t> verified_frames{0};
     std::atomic<uint64_t> mismatching_pixels{0};
     std::atomic<uint64_t> compared_pixels{0};    // every layer of each verified image, mismatching included
@@ -269,7 +228,6 @@ private:
     void adopt_locked(AgentLink &&agent);
     void stop_receiver();
     void run_reconnect();
-    std::vector<LiveMessage> object_log_locked(size_t *entries, std::unordered_set<uint64_t> *live_ids);
     const char *fallback() const; // what the app gets once the agent is gone, for log lines
     // The agent's messages, on a thread of the layer's: Tiles to the decoders, VerifyFrame to
     // receive_verify_frame(), Goodbye ends the session.
@@ -277,22 +235,6 @@ private:
     void send_locked(protocol::MessageType type, std::vector<uint8_t> &&payload);
     void send_all_locked(std::vector<LiveMessage> &&messages); // a snapshot: compressed on every core
     void note_send_locked(protocol::SendResult result);
-    void note_live_change(LiveChange change, uint64_t id, size_t start);
-
-    struct LogEntry {
-        protocol::MessageType type = protocol::MessageType::Commands;
-        std::vector<uint8_t> bytes;
-        std::vector<uint64_t> holders; // ids still holding it
-        std::vector<uint64_t> killers;
-        uint64_t retired_id = 0;      // non-zero: destroyed, kept for later entries
-        std::vector<uint8_t> destroy; // retired: the encoded destroy
-        uint64_t destroy_seq = 0;     // retired: where the destroy replays (0: after all entries)
-    };
-    uint64_t add_entry_locked(std::vector<uint8_t> &&bytes, std::span<const uint64_t> holders,
-                              std::span<const uint64_t> killers);
-    void forget_locked(uint64_t id, std::span<const uint8_t> retire_bytes, bool retire);
-    void erase_entry_locked(uint64_t seq);
-    void prune_retired_locked();
 
     std::mutex mutex_;
     std::atomic<bool> live_{false};
@@ -312,12 +254,7 @@ private:
     std::unique_ptr<protocol::Connection> connection_;
     CaptureHooks hooks_;
     codec::Encoder encoder_;
-    // The object log (see the top of this file): entries by sequence number (creation order).
-    std::map<uint64_t, LogEntry> log_;
-    std::unordered_map<uint64_t, std::vector<uint64_t>> held_by_;          // id -> entries it holds
-    std::unordered_map<uint64_t, std::unordered_set<uint64_t>> killed_by_; // id -> entries dying with it
-    std::unordered_map<uint64_t, uint64_t> retired_;                       // retired id -> its entry
-    uint64_t next_seq_ = 1;
+    LiveStateLog log_; // under mutex_, changed with each encode into encoder_
 
     std::unique_ptr<UploadPool> uploads_; // what tiles_ decodes into; made by open()
     std::unique_ptr<TileStream> tiles_;

@@ -49,10 +49,6 @@ void emit_viewports(DeviceState &device, VkCommandBuffer command_buffer,
                     const split::CommandTracker &tracker);
 void emit_scissors(DeviceState &device, VkCommandBuffer command_buffer, const split::CommandTracker &tracker);
 
-// The static viewport/scissor state of a pipeline the layer made dynamic (pipeline.cpp); null
-// for every other pipeline.
-std::shared_ptr<const split::StaticViewportState> pipeline_static_state(VkPipeline pipeline);
-
 // queue.cpp, before the submit: the swapchain images (handle values) split passes in these
 // submits draw into; empty unless split_enabled().
 std::vector<uint64_t> swapchain_images_drawn(const DeviceState &device, uint32_t count,

@@ -26,6 +26,7 @@
 #include "layer_entry_points.h"
 #include "log.h"
 #include "object_map.h"
+#include "present.h"
 #include "screen_space.h"
 #include "session.h"
 #include "split.h"

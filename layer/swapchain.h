@@ -58,9 +58,3 @@ SwapchainState *register_runtime_swapchain(DeviceState &device, VkSwapchainKHR k
 void unregister_runtime_swapchain(DeviceState &device, VkSwapchainKHR key);
 
 } // namespace splitvk
-
-namespace splitvk {
-// present.cpp: frees the readback resources verification keeps for a swapchain's images, and what
-// the asynchronous present knows of the swapchain (after drain_presents()).
-void release_present_resources(DeviceState &device, VkSwapchainKHR swapchain);
-} // namespace splitvk

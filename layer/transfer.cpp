@@ -2,6 +2,7 @@
 
 #include "transfer.h"
 
+#include "descriptor_set.h"
 #include "gpu_timing.h"
 #include "layer_entry_points.h"
 #include "screen_space.h"
@@ -12,8 +13,6 @@
 #include <vector>
 
 namespace splitvk {
-
-bool set_writes_screen_space(VkDescriptorSet set); // descriptor_set.cpp
 
 namespace {
 

@@ -1,0 +1,19 @@
+#pragma once
+
+// VkDeviceMemory (memory.cpp): the shadow copies of mapped memory behind MemoryData (DESIGN §3).
+
+#include "device.h"
+
+namespace splitvk {
+
+// Before a submit: compares every mapped range of the device with its shadow and sends what changed.
+void sync_mapped_memory(DeviceState &device);
+
+// A new agent was given the current contents of every buffer; the shadows of mapped memory become
+// those contents, so that later diffs are against what it has.
+void resync_mapped_shadows(DeviceState &device);
+
+// vkDestroyDevice: drops the device's allocations and shadows.
+void forget_memory(DeviceState &device);
+
+} // namespace splitvk

@@ -1,0 +1,24 @@
+#pragma once
+
+// VkQueue (queue.cpp): the queues a device was got, their families and locks, and the submits.
+
+#include "device.h"
+
+#include <cstdint>
+#include <mutex>
+
+namespace splitvk {
+
+// The queue family a queue was got from; UINT32_MAX if unknown.
+uint32_t queue_family_of(VkQueue queue);
+
+// The lock of a queue: Vulkan requires a queue's operations to be externally synchronised, and the
+// layer's present thread (present.cpp) uses the application's queues, so the layer takes it around
+// every queue operation it makes or passes down. Not owning (no lock) for a queue got without a
+// session. Never held while waiting for the present thread.
+std::unique_lock<std::mutex> lock_queue(VkQueue queue);
+
+// vkDestroyDevice: forgets the device's queues.
+void forget_queues(DeviceState &device);
+
+} // namespace splitvk

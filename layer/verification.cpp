@@ -1,0 +1,286 @@
+// SPLITVK_VERIFY=full. At present the layer reads the presented image back with a copy of its own,
+// submitted on the present queue: it waits on the application's wait semaphores and signals a
+// semaphore of the layer's, which the present then waits on instead. Each swapchain image has
+// its own command buffer, readback buffer, fence and semaphore (the Mesa overlay's scheme, minus
+// its bug of reusing one slot per submit index, which lets a frame overwrite a copy still in
+// flight). The layer then waits (bounded) for its copy and for the agent's VerifyFrame of the
+// same frame, compares the two pixel by pixel, logs mismatching frames at info level, and
+// vkDestroyDevice logs `[splitvk] verify: F frames, M mismatching pixels` once. A frame the agent
+// does not return in time counts as all of its pixels mismatching.
+
+#include "verification.h"
+
+#include "host_buffer.h"
+#include "log.h"
+#include "queue.h"
+#include "session.h"
+#include "submit_rules.h"
+#include "swapchain.h"
+#include "vk_util.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace splitvk {
+
+// One swapchain image's: the command buffer of the layer's copy, the buffer it copies into, and
+// the fence and semaphore the copy signals.
+struct VerifyReadback {
+    VkCommandPool pool = VK_NULL_HANDLE;
+    VkCommandBuffer command_buffer = VK_NULL_HANDLE;
+    HostBuffer staging; // the whole image, read back
+    VkFence fence = VK_NULL_HANDLE;
+    VkSemaphore semaphore = VK_NULL_HANDLE;
+    bool in_flight = false;
+};
+
+namespace {
+
+using namespace std::chrono_literals;
+constexpr auto kVerifyWait = 5000ms;             // per frame
+constexpr uint64_t kFenceWaitNs = 5'000'000'000; // the layer's own copy
+
+std::mutex g_mutex;
+std::map<std::pair<VkSwapchainKHR, uint32_t>, VerifyReadback> g_readbacks;
+
+void destroy(DeviceState &dev, VerifyReadback &r) {
+    const VkDevice d = dev.handle;
+    if (r.in_flight) dev.dispatch.WaitForFences(d, 1, &r.fence, VK_TRUE, kFenceWaitNs);
+    if (r.semaphore) dev.dispatch.DestroySemaphore(d, r.semaphore, nullptr);
+    if (r.fence) dev.dispatch.DestroyFence(d, r.fence, nullptr);
+    destroy_host_buffer(dev, r.staging);
+    if (r.pool) dev.dispatch.DestroyCommandPool(d, r.pool, nullptr);
+    r = VerifyReadback{};
+}
+
+bool create(DeviceState &dev, const SwapchainState &sc, uint32_t family, VerifyReadback &r) {
+    const VkDevice d = dev.handle;
+    const auto &k = dev.dispatch;
+    if (create_command_pool(dev, family, VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT, &r.pool) !=
+            VK_SUCCESS ||
+        allocate_primary_command_buffer(dev, r.pool, &r.command_buffer) != VK_SUCCESS)
+        return false;
+
+    std::string error;
+    if (!create_host_buffer(dev, VkDeviceSize{sc.extent.width} * sc.extent.height * 4 * sc.array_layers,
+                            VK_BUFFER_USAGE_TRANSFER_DST_BIT, HostAccess::Read, &r.staging, &error))
+        return false;
+    VkFenceCreateInfo fence_info{};
+    fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+    if (k.CreateFence(d, &fence_info, nullptr, &r.fence) != VK_SUCCESS) return false;
+    VkSemaphoreCreateInfo sem_info{};
+    sem_info.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
+    return k.CreateSemaphore(d, &sem_info, nullptr, &r.semaphore) == VK_SUCCESS;
+}
+
+void record_copy(DeviceState &dev, const SwapchainState &sc, VkImage image, VerifyReadback &r) {
+    const auto &k = dev.dispatch;
+    k.ResetCommandBuffer(r.command_buffer, 0);
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    k.BeginCommandBuffer(r.command_buffer, &begin);
+    VkImageMemoryBarrier barrier{};
+    barrier.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+    // A runtime's image comes with no semaphore, only after the application's rendering on the same
+    // queue: the barrier itself must make those writes visible to the copy.
+    barrier.srcAccessMask = sc.runtime ? VK_ACCESS_MEMORY_WRITE_BIT : 0;
+    barrier.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+    barrier.oldLayout = sc.present_layout;
+    barrier.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    barrier.image = image;
+    // Every layer, one after the other in the buffer, as the agent reads them (VerifyFrame::layers).
+    barrier.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, sc.array_layers};
+    k.CmdPipelineBarrier(r.command_buffer, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                         0, 0, nullptr, 0, nullptr, 1, &barrier);
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, sc.array_layers};
+    region.imageExtent = {sc.extent.width, sc.extent.height, 1};
+    k.CmdCopyImageToBuffer(r.command_buffer, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, r.staging.buffer, 1,
+                           &region);
+    barrier.srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+    barrier.dstAccessMask = 0;
+    barrier.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    barrier.newLayout = sc.present_layout;
+    k.CmdPipelineBarrier(r.command_buffer, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                         VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, 0, 0, nullptr, 0, nullptr, 1, &barrier);
+    k.EndCommandBuffer(r.command_buffer);
+}
+
+// The agent's VerifyFrame for `frame`, waiting at most kVerifyWait.
+std::optional<protocol::VerifyFrame> wait_verify_frame(Session &session, uint64_t frame) {
+    const auto deadline = std::chrono::steady_clock::now() + kVerifyWait;
+    while (session.live()) {
+        const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+            deadline - std::chrono::steady_clock::now());
+        if (left.count() <= 0) break;
+        auto payload = session.receive_verify_frame(left);
+        if (!payload) continue;
+        auto decoded = protocol::decode_verify_frame(*payload, UINT32_MAX);
+        if (!decoded) {
+            SPLITVK_INFO("verify: bad VerifyFrame from the agent: %s", decoded.error().c_str());
+            continue;
+        }
+        if (decoded->frame < frame) continue;
+        if (decoded->frame == frame) return std::move(decoded.value());
+        break;
+    }
+    return std::nullopt;
+}
+
+} // namespace
+
+void compare_verified_frame(DeviceState &dev, const PendingVerify &p) {
+    Session &session = *dev.session;
+    VerifyReadback &r = *p.readback;
+    const uint32_t layers = p.swapchain->array_layers;
+    const uint64_t pixels = uint64_t{p.swapchain->extent.width} * p.swapchain->extent.height * layers;
+    const bool copied =
+        dev.dispatch.WaitForFences(dev.handle, 1, &r.fence, VK_TRUE, kFenceWaitNs) == VK_SUCCESS;
+    r.in_flight = !copied;
+    if (copied) invalidate_host_buffer(dev, r.staging);
+    const auto theirs = wait_verify_frame(session, p.frame);
+    uint64_t mismatches = pixels;
+    if (!copied) {
+        SPLITVK_INFO("verify: frame %llu: the layer's readback did not finish", (unsigned long long)p.frame);
+    } else if (!theirs) {
+        SPLITVK_INFO("verify: frame %llu: no frame from the agent", (unsigned long long)p.frame);
+    } else if (theirs->width != p.swapchain->extent.width || theirs->height != p.swapchain->extent.height ||
+               theirs->layers != layers || theirs->pixels.size() != pixels * 4) {
+        SPLITVK_INFO(
+            "verify: frame %llu: the agent's frame is %ux%u in %u layer(s), the client's %ux%u in %u",
+            (unsigned long long)p.frame, theirs->width, theirs->height, theirs->layers,
+            p.swapchain->extent.width, p.swapchain->extent.height, layers);
+    } else {
+        mismatches = 0;
+        const uint8_t *mine = r.staging.mapped;
+        const uint8_t *other = theirs->pixels.data();
+        uint32_t largest = 0;
+        uint64_t channel_sum = 0;
+        for (uint64_t i = 0; i < pixels; ++i) {
+            if (std::memcmp(mine + i * 4, other + i * 4, 4) == 0) continue;
+            ++mismatches;
+            // Another GPU rasterises differently (issue 10): by how much is what tells a rounding
+            // difference from a wrong picture.
+            for (int c = 0; c < 3; ++c) {
+                const auto d = static_cast<uint32_t>(std::abs(int{mine[i * 4 + c]} - int{other[i * 4 + c]}));
+                largest = std::max(largest, d);
+                channel_sum += d;
+            }
+        }
+        session.largest_difference.store(std::max(session.largest_difference.load(), largest));
+        session.difference_sum.fetch_add(channel_sum);
+        if (mismatches)
+            SPLITVK_INFO("verify: frame %llu: %llu of %llu pixels differ", (unsigned long long)p.frame,
+                         (unsigned long long)mismatches, (unsigned long long)pixels);
+    }
+    session.verified_frames.fetch_add(1);
+    session.mismatching_pixels.fetch_add(mismatches);
+    session.compared_pixels.fetch_add(pixels);
+}
+
+std::optional<PendingVerify> read_back_presented_image(DeviceState &dev, VkQueue queue,
+                                                       VkPresentInfoKHR &present, uint64_t frame) {
+    if (present.swapchainCount == 0) return std::nullopt;
+    const SwapchainState *sc = find_swapchain(present.pSwapchains[0]);
+    const uint32_t index = present.pImageIndices[0];
+    const uint32_t family = queue_family_of(queue);
+    if (!sc || !sc->transfer_src || !codec::is_verifiable_format(sc->format) || index >= sc->images.size() ||
+        family == UINT32_MAX)
+        return std::nullopt;
+    std::unique_lock lock(g_mutex);
+    VerifyReadback &r = g_readbacks[{sc->handle, index}];
+    bool ready = r.pool != VK_NULL_HANDLE;
+    if (!ready) {
+        ready = create(dev, *sc, family, r);
+        if (!ready) destroy(dev, r);
+    }
+    if (ready && r.in_flight)
+        ready = dev.dispatch.WaitForFences(dev.handle, 1, &r.fence, VK_TRUE, kFenceWaitNs) == VK_SUCCESS;
+    if (!ready) return std::nullopt;
+    dev.dispatch.ResetFences(dev.handle, 1, &r.fence);
+    record_copy(dev, *sc, sc->images[index], r);
+    std::vector<VkPipelineStageFlags> stages(present.waitSemaphoreCount, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT);
+    VkSubmitInfo submit{};
+    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    submit.waitSemaphoreCount = present.waitSemaphoreCount;
+    submit.pWaitSemaphores = present.pWaitSemaphores;
+    submit.pWaitDstStageMask = stages.data();
+    submit.commandBufferCount = 1;
+    submit.pCommandBuffers = &r.command_buffer;
+    submit.signalSemaphoreCount = 1;
+    submit.pSignalSemaphores = &r.semaphore;
+    if (dev.dispatch.QueueSubmit(queue, 1, &submit, r.fence) != VK_SUCCESS) return std::nullopt;
+    r.in_flight = true;
+    // A node of g_readbacks, which the lock the result holds keeps in place.
+    present.waitSemaphoreCount = 1;
+    present.pWaitSemaphores = &r.semaphore;
+    return PendingVerify{frame, sc, index, &r, std::move(lock)};
+}
+
+std::optional<PendingVerify> read_back_runtime_image(DeviceState &dev, VkQueue queue,
+                                                     const SwapchainState &sc, uint32_t index,
+                                                     uint64_t frame) {
+    const uint32_t family = queue_family_of(queue);
+    if (!sc.transfer_src || !codec::is_verifiable_format(sc.format) || index >= sc.images.size() ||
+        family == UINT32_MAX)
+        return std::nullopt;
+    std::lock_guard lock(g_mutex);
+    VerifyReadback &r = g_readbacks[{sc.handle, index}];
+    bool ready = r.pool != VK_NULL_HANDLE;
+    if (!ready) {
+        ready = create(dev, sc, family, r);
+        if (!ready) destroy(dev, r);
+    }
+    if (ready && r.in_flight)
+        ready = dev.dispatch.WaitForFences(dev.handle, 1, &r.fence, VK_TRUE, kFenceWaitNs) == VK_SUCCESS;
+    if (!ready) return std::nullopt;
+    dev.dispatch.ResetFences(dev.handle, 1, &r.fence);
+    record_copy(dev, sc, sc.images[index], r);
+    VkSubmitInfo submit{};
+    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    submit.commandBufferCount = 1;
+    submit.pCommandBuffers = &r.command_buffer;
+    if (dev.dispatch.QueueSubmit(queue, 1, &submit, r.fence) != VK_SUCCESS) return std::nullopt;
+    r.in_flight = true;
+    return PendingVerify{frame, &sc, index, &r, {}};
+}
+
+void release_verify_readbacks(DeviceState &device, VkSwapchainKHR swapchain) {
+    std::lock_guard lock(g_mutex);
+    for (auto it = g_readbacks.begin(); it != g_readbacks.end();) {
+        if (it->first.first == swapchain) {
+            destroy(device, it->second);
+            it = g_readbacks.erase(it);
+        } else {
+            ++it;
+        }
+    }
+}
+
+void report_verify_summary(DeviceState &device) {
+    if (!device.session || !device.session->verify()) return;
+    const Session &s = *device.session;
+    const uint64_t mismatching = s.mismatching_pixels.load();
+    splitvk::log_result("verify: %llu frames, %llu mismatching pixels",
+                        static_cast<unsigned long long>(s.verified_frames.load()),
+                        static_cast<unsigned long long>(mismatching));
+    // A line of its own: the one above is what scripts and tests match whole.
+    splitvk::log_result("verify: %llu pixels compared (every array layer of each image)",
+                        static_cast<unsigned long long>(s.compared_pixels.load()));
+    if (mismatching)
+        splitvk::log_result(
+            "verify: largest channel difference %u of 255, mean %.3f over the differing pixels' channels",
+            s.largest_difference.load(),
+            static_cast<double>(s.difference_sum.load()) / (3.0 * static_cast<double>(mismatching)));
+}
+
+} // namespace splitvk
