@@ -28,6 +28,7 @@ class CommandTracker;
 }
 struct CommandLayouts;
 struct CommandTiming;
+class LockedImages;
 
 // The stream a command buffer is being recorded into; nullptr when it is not captured
 // (allocated before the session, or not between begin and end).
@@ -38,6 +39,12 @@ CommandLayouts *command_buffer_layouts(VkCommandBuffer command_buffer);
 split::CommandTracker *split_tracker(VkCommandBuffer command_buffer);
 // Its split pass's timestamp pair (gpu_timing.h); nullptr without state.
 CommandTiming *command_buffer_timing(VkCommandBuffer command_buffer);
+
+// vkQueueSubmit*, after the driver call, for each submitted command buffer in submission order:
+// what it recorded reaches the images it names (layouts, resource.h; what its split passes drew,
+// split.h) and its split pass's timestamps are marked submitted (gpu_timing.h). The caller holds
+// `images` across the whole submit, so that its command buffers apply in order as one step.
+void note_submitted(DeviceState &device, LockedImages &images, VkCommandBuffer command_buffer);
 
 // Snapshot part (session.h: build_live_snapshot): the last stream of each command buffer whose id
 // is in `live`.

@@ -124,11 +124,6 @@ void time_split_pass_ended(DeviceState &dev, VkCommandBuffer cb) {
                                    2 * timing->pair + 1);
 }
 
-void note_timed_submit(DeviceState &dev, uint32_t count, const VkCommandBuffer *cbs) {
-    for (uint32_t i = 0; i < count; ++i)
-        if (const CommandTiming *timing = command_buffer_timing(cbs[i])) note_timed_submit(dev, *timing);
-}
-
 void note_timed_submit(DeviceState &dev, const CommandTiming &timing) {
     std::lock_guard lock(g_mutex);
     const auto found = g_devices.find(&dev);

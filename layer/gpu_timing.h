@@ -40,8 +40,6 @@ struct CommandTiming {
 // A command buffer's submit: its timestamps will be written (only submitted pairs are read: a
 // query is uninitialised until its reset executes).
 void note_timed_submit(DeviceState &device, const CommandTiming &timing);
-// vkQueueSubmit: the same for each of these command buffers.
-void note_timed_submit(DeviceState &device, uint32_t count, const VkCommandBuffer *command_buffers);
 
 // compositor.cpp: the first and the last command of a composite. The begin timestamp is written
 // at the transfer stage, the stage the composite's semaphore waits block, so that it does not

@@ -14,7 +14,8 @@
 #include "queue.h"
 
 #include "capture.h"
-#include "gpu_timing.h"
+#include "command_buffer.h"
+#include "image.h"
 #include "layer_entry_points.h"
 #include "memory.h"
 #include "object_map.h"
@@ -83,21 +84,20 @@ std::vector<std::unique_lock<std::mutex>> lock_device_queues(const DeviceState &
     return locks;
 }
 
-// What the submitted command buffers recorded, in submission order: split passes (split.h),
-// image layouts (resource.h) and split-pass timestamps (gpu_timing.h).
+// What the submitted command buffers recorded, in submission order, in one walk under one hold of
+// the image table (command_buffer.h: note_submitted).
 void note_submit(DeviceState &dev, uint32_t count, const VkSubmitInfo *submits) {
-    note_split_submit(dev, count, submits);
-    note_layout_submit(dev, count, submits);
+    LockedImages images;
     for (uint32_t i = 0; i < count; ++i)
-        note_timed_submit(dev, submits[i].commandBufferCount, submits[i].pCommandBuffers);
+        for (uint32_t j = 0; j < submits[i].commandBufferCount; ++j)
+            note_submitted(dev, images, submits[i].pCommandBuffers[j]);
 }
 
 void note_submit(DeviceState &dev, uint32_t count, const VkSubmitInfo2 *submits) {
-    note_split_submit(dev, count, submits);
-    note_layout_submit(dev, count, submits);
+    LockedImages images;
     for (uint32_t i = 0; i < count; ++i)
         for (uint32_t j = 0; j < submits[i].commandBufferInfoCount; ++j)
-            note_timed_submit(dev, 1, &submits[i].pCommandBufferInfos[j].commandBuffer);
+            note_submitted(dev, images, submits[i].pCommandBufferInfos[j].commandBuffer);
 }
 
 } // namespace

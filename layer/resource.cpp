@@ -72,13 +72,6 @@ void record_dependency(VkCommandBuffer cb, const VkDependencyInfo &info) {
     }
 }
 
-void apply_command_buffers(LockedImages &images, uint32_t count, const VkCommandBuffer *command_buffers) {
-    for (uint32_t i = 0; i < count; ++i)
-        if (const CommandLayouts *layouts = command_buffer_layouts(command_buffers[i]))
-            for (const LayoutTransition &t : layouts->transitions)
-                apply(images, t);
-}
-
 void bind_buffer(VkBuffer buffer, VkDeviceMemory memory, VkDeviceSize offset) {
     std::lock_guard lock(g_mutex);
     if (const auto it = g_buffers.find(buffer); it != g_buffers.end()) {
@@ -180,17 +173,9 @@ void note_render_pass_end(VkCommandBuffer command_buffer) {
     layouts->at_pass_end.clear();
 }
 
-void note_layout_submit(DeviceState &, uint32_t count, const VkSubmitInfo *submits) {
-    LockedImages images;
-    for (uint32_t i = 0; i < count; ++i)
-        apply_command_buffers(images, submits[i].commandBufferCount, submits[i].pCommandBuffers);
-}
-
-void note_layout_submit(DeviceState &, uint32_t count, const VkSubmitInfo2 *submits) {
-    LockedImages images;
-    for (uint32_t i = 0; i < count; ++i)
-        for (uint32_t j = 0; j < submits[i].commandBufferInfoCount; ++j)
-            apply_command_buffers(images, 1, &submits[i].pCommandBufferInfos[j].commandBuffer);
+void apply_layouts(LockedImages &images, const CommandLayouts &layouts) {
+    for (const LayoutTransition &t : layouts.transitions)
+        apply(images, t);
 }
 
 void forget_resources(DeviceState &device) {

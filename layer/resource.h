@@ -20,6 +20,8 @@
 
 namespace splitvk {
 
+class LockedImages;
+
 struct LayoutTransition {
     VkImage image = VK_NULL_HANDLE;
     VkImageSubresourceRange range{};
@@ -43,9 +45,9 @@ void note_render_pass_begin(VkCommandBuffer command_buffer, VkRenderPass render_
                             std::span<const AttachmentImage> attachments);
 void note_render_pass_end(VkCommandBuffer command_buffer);
 
-// queue.cpp: the submitted command buffers' transitions, in submission order.
-void note_layout_submit(DeviceState &device, uint32_t count, const VkSubmitInfo *submits);
-void note_layout_submit(DeviceState &device, uint32_t count, const VkSubmitInfo2 *submits);
+// At submit (command_buffer.h: note_submitted): a submitted command buffer's transitions, applied
+// in submission order.
+void apply_layouts(LockedImages &images, const CommandLayouts &layouts);
 
 // vkDestroyDevice.
 void forget_resources(DeviceState &device);

@@ -16,24 +16,6 @@ namespace {
 // taken at its present. Every image a split pass draws into is a swapchain image the table knows
 // (split_target, swapchain_image_extent): one whose swapchain was destroyed since has no present
 // to take it.
-void note_command_buffers(uint32_t count, const VkCommandBuffer *command_buffers) {
-    for (uint32_t i = 0; i < count; ++i) {
-        const split::CommandTracker *tracker = split_tracker(command_buffers[i]);
-        if (!tracker || tracker->drawn().empty()) continue;
-        LockedImages images;
-        for (const split::DrawnImage &drawn : tracker->drawn()) {
-            ImageState *image = images.find(codec::to_handle<VkImage>(drawn.image));
-            if (!image) continue;
-            if (!image->drawn) {
-                image->drawn = drawn;
-                continue;
-            }
-            image->drawn->extent = drawn.extent;
-            image->drawn->coverage |= drawn.coverage;
-        }
-    }
-}
-
 } // namespace
 
 bool split_enabled(const DeviceState &device) {
@@ -97,17 +79,17 @@ std::vector<uint64_t> swapchain_images_drawn(const DeviceState &device, uint32_t
     return out;
 }
 
-void note_split_submit(DeviceState &device, uint32_t count, const VkSubmitInfo *submits) {
-    if (!split_enabled(device)) return;
-    for (uint32_t i = 0; i < count; ++i)
-        note_command_buffers(submits[i].commandBufferCount, submits[i].pCommandBuffers);
-}
-
-void note_split_submit(DeviceState &device, uint32_t count, const VkSubmitInfo2 *submits) {
-    if (!split_enabled(device)) return;
-    for (uint32_t i = 0; i < count; ++i)
-        for (uint32_t j = 0; j < submits[i].commandBufferInfoCount; ++j)
-            note_command_buffers(1, &submits[i].pCommandBufferInfos[j].commandBuffer);
+void note_split_drawn(LockedImages &images, const split::CommandTracker &tracker) {
+    for (const split::DrawnImage &drawn : tracker.drawn()) {
+        ImageState *image = images.find(codec::to_handle<VkImage>(drawn.image));
+        if (!image) continue;
+        if (!image->drawn) {
+            image->drawn = drawn;
+            continue;
+        }
+        image->drawn->extent = drawn.extent;
+        image->drawn->coverage |= drawn.coverage;
+    }
 }
 
 namespace {

@@ -18,6 +18,8 @@
 
 namespace splitvk {
 
+class LockedImages;
+
 struct SwapchainState;
 
 struct SplitFrame {
@@ -55,8 +57,8 @@ std::vector<uint64_t> swapchain_images_drawn(const DeviceState &device, uint32_t
                                              const VkSubmitInfo *submits);
 std::vector<uint64_t> swapchain_images_drawn(const DeviceState &device, uint32_t count,
                                              const VkSubmitInfo2 *submits);
-// queue.cpp: unions what the submitted command buffers' split passes drew into the per-image record.
-void note_split_submit(DeviceState &device, uint32_t count, const VkSubmitInfo *submits);
-void note_split_submit(DeviceState &device, uint32_t count, const VkSubmitInfo2 *submits);
+// At submit (command_buffer.h: note_submitted): unions what a submitted command buffer's split
+// passes drew into its images' records.
+void note_split_drawn(LockedImages &images, const split::CommandTracker &tracker);
 
 } // namespace splitvk
