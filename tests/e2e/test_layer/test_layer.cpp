@@ -88,9 +88,11 @@ VKAPI_ATTR void VKAPI_CALL DestroyDevice(VkDevice device, const VkAllocationCall
     if (!device) return;
     device_destroying(device);
     const PFN_vkGetDeviceProcAddr next = next_device_proc_addr(device);
+    // The key is read through the handle, which the driver frees: take it first.
+    const DispatchKey device_key = key(device);
     reinterpret_cast<PFN_vkDestroyDevice>(next(device, "vkDestroyDevice"))(device, alloc);
     std::lock_guard lock(g_mutex);
-    g_devices.erase(key(device));
+    g_devices.erase(device_key);
 }
 
 VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetDeviceProcAddr(VkDevice device, const char *name);
