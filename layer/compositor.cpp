@@ -73,13 +73,6 @@ bool four_bytes_per_texel(VkFormat format) {
     }
 }
 
-uint32_t find_memory_type(const DeviceState &dev, uint32_t bits, VkMemoryPropertyFlags want) {
-    for (uint32_t i = 0; i < dev.memory_properties.memoryTypeCount; ++i)
-        if ((bits & (1u << i)) && (dev.memory_properties.memoryTypes[i].propertyFlags & want) == want)
-            return i;
-    return UINT32_MAX;
-}
-
 // A tile clipped to the image.
 struct ClippedTile {
     const FoveaTile *tile = nullptr;

@@ -2,6 +2,13 @@
 
 namespace splitvk {
 
+uint32_t find_memory_type(const DeviceState &device, uint32_t bits, VkMemoryPropertyFlags want) {
+    for (uint32_t i = 0; i < device.memory_properties.memoryTypeCount; ++i)
+        if ((bits & (1u << i)) && (device.memory_properties.memoryTypes[i].propertyFlags & want) == want)
+            return i;
+    return UINT32_MAX;
+}
+
 VkImageMemoryBarrier colour_image_barrier(VkImage image, VkAccessFlags src, VkAccessFlags dst,
                                           VkImageLayout from, VkImageLayout to) {
     VkImageMemoryBarrier b{};

@@ -7,6 +7,10 @@
 
 namespace splitvk {
 
+// The first memory type allowed by `bits` (VkMemoryRequirements::memoryTypeBits) that has every
+// property in `want`, or UINT32_MAX when none has.
+uint32_t find_memory_type(const DeviceState &device, uint32_t bits, VkMemoryPropertyFlags want);
+
 // A barrier on level 0, layer 0 of a colour image, with no queue-family transfer.
 VkImageMemoryBarrier colour_image_barrier(VkImage image, VkAccessFlags src, VkAccessFlags dst,
                                           VkImageLayout from, VkImageLayout to);
