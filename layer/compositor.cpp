@@ -624,9 +624,7 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
     // Every layer of the image and of the periphery copy: a layered image is composited whole.
     const auto layered_barrier = [&](VkImage target, VkAccessFlags src, VkAccessFlags dst, VkImageLayout from,
                                      VkImageLayout to) {
-        VkImageMemoryBarrier b = colour_image_barrier(target, src, dst, from, to);
-        b.subresourceRange.layerCount = layers_;
-        return b;
+        return colour_image_barrier(target, src, dst, from, to, 0, 0, layers_);
     };
     k.ResetCommandBuffer(cb, 0);
     VkCommandBufferBeginInfo begin{};

@@ -464,21 +464,6 @@ std::vector<MipCopy> copyable_mips(const ImageState &state, const FormatInfo &fo
     return mips;
 }
 
-VkImageMemoryBarrier image_barrier(VkImage image, uint32_t mip, uint32_t layer, VkImageLayout from,
-                                   VkImageLayout to, VkAccessFlags src_access, VkAccessFlags dst_access) {
-    VkImageMemoryBarrier b{};
-    b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
-    b.srcAccessMask = src_access;
-    b.dstAccessMask = dst_access;
-    b.oldLayout = from;
-    b.newLayout = to;
-    b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    b.image = image;
-    b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, mip, 1, layer, 1};
-    return b;
-}
-
 VkBufferImageCopy image_region(const MipCopy &mip, uint32_t layers, VkDeviceSize base) {
     VkBufferImageCopy region{};
     region.bufferOffset = base + mip.offset; // rows tightly packed (bufferRowLength 0)
@@ -545,13 +530,13 @@ void record_readback(DeviceState &dev, VkCommandBuffer cb, VkBuffer staging,
             for (uint32_t layer = 0; layer < state.layers; ++layer) {
                 const VkImageLayout layout = state.layout(mip.mip, layer);
                 if (layout == VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL) continue;
-                to_src.push_back(image_barrier(image.image, mip.mip, layer, layout,
-                                               VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                                               VK_ACCESS_MEMORY_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT));
+                to_src.push_back(colour_image_barrier(image.image, VK_ACCESS_MEMORY_WRITE_BIT,
+                                                      VK_ACCESS_TRANSFER_READ_BIT, layout,
+                                                      VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, mip.mip, layer));
                 // Back to where the app left it, before anything the app submits later.
-                back.push_back(image_barrier(image.image, mip.mip, layer,
-                                             VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, layout, 0,
-                                             VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_MEMORY_WRITE_BIT));
+                back.push_back(colour_image_barrier(
+                    image.image, 0, VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_MEMORY_WRITE_BIT,
+                    VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, layout, mip.mip, layer));
             }
             regions.push_back(image_region(mip, state.layers, image.staging_offset));
         }
@@ -651,13 +636,13 @@ void push_image_uploads(DeviceState &dev, VkQueue queue, uint32_t family,
         for (const MipCopy &mip : image.mips) {
             for (uint32_t layer = 0; layer < state.layers; ++layer) {
                 // The agent's image holds nothing yet: its old contents can be discarded.
-                to_dst.push_back(image_barrier(image.image, mip.mip, layer, VK_IMAGE_LAYOUT_UNDEFINED,
-                                               VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0,
-                                               VK_ACCESS_TRANSFER_WRITE_BIT));
-                to_layout.push_back(image_barrier(image.image, mip.mip, layer,
-                                                  VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                                                  state.layout(mip.mip, layer), VK_ACCESS_TRANSFER_WRITE_BIT,
-                                                  VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_MEMORY_WRITE_BIT));
+                to_dst.push_back(colour_image_barrier(image.image, 0, VK_ACCESS_TRANSFER_WRITE_BIT,
+                                                      VK_IMAGE_LAYOUT_UNDEFINED,
+                                                      VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, mip.mip, layer));
+                to_layout.push_back(colour_image_barrier(
+                    image.image, VK_ACCESS_TRANSFER_WRITE_BIT,
+                    VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_MEMORY_WRITE_BIT,
+                    VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, state.layout(mip.mip, layer), mip.mip, layer));
             }
             regions.push_back(image_region(mip, state.layers, 0));
         }

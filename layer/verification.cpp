@@ -86,32 +86,24 @@ void record_copy(DeviceState &dev, const SwapchainState &sc, VkImage image, Veri
     begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
     begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
     k.BeginCommandBuffer(r.command_buffer, &begin);
-    VkImageMemoryBarrier barrier{};
-    barrier.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
     // A runtime's image comes with no semaphore, only after the application's rendering on the same
-    // queue: the barrier itself must make those writes visible to the copy.
-    barrier.srcAccessMask = sc.runtime ? VK_ACCESS_MEMORY_WRITE_BIT : 0;
-    barrier.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
-    barrier.oldLayout = sc.present_layout;
-    barrier.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-    barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    barrier.image = image;
-    // Every layer, one after the other in the buffer, as the agent reads them (VerifyFrame::layers).
-    barrier.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, sc.array_layers};
+    // queue: the barrier itself must make those writes visible to the copy. Every layer, one after
+    // the other in the buffer, as the agent reads them (VerifyFrame::layers).
+    const VkImageMemoryBarrier to_src =
+        colour_image_barrier(image, sc.runtime ? VK_ACCESS_MEMORY_WRITE_BIT : 0, VK_ACCESS_TRANSFER_READ_BIT,
+                             sc.present_layout, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, 0, 0, sc.array_layers);
     k.CmdPipelineBarrier(r.command_buffer, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                         0, 0, nullptr, 0, nullptr, 1, &barrier);
+                         0, 0, nullptr, 0, nullptr, 1, &to_src);
     VkBufferImageCopy region{};
     region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, sc.array_layers};
     region.imageExtent = {sc.extent.width, sc.extent.height, 1};
     k.CmdCopyImageToBuffer(r.command_buffer, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, r.staging.buffer, 1,
                            &region);
-    barrier.srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
-    barrier.dstAccessMask = 0;
-    barrier.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-    barrier.newLayout = sc.present_layout;
+    const VkImageMemoryBarrier back =
+        colour_image_barrier(image, VK_ACCESS_TRANSFER_READ_BIT, 0, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                             sc.present_layout, 0, 0, sc.array_layers);
     k.CmdPipelineBarrier(r.command_buffer, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                         VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, 0, 0, nullptr, 0, nullptr, 1, &barrier);
+                         VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, 0, 0, nullptr, 0, nullptr, 1, &back);
     k.EndCommandBuffer(r.command_buffer);
 }
 

@@ -10,7 +10,8 @@ uint32_t find_memory_type(const DeviceState &device, uint32_t bits, VkMemoryProp
 }
 
 VkImageMemoryBarrier colour_image_barrier(VkImage image, VkAccessFlags src, VkAccessFlags dst,
-                                          VkImageLayout from, VkImageLayout to) {
+                                          VkImageLayout from, VkImageLayout to, uint32_t mip, uint32_t layer,
+                                          uint32_t layer_count) {
     VkImageMemoryBarrier b{};
     b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
     b.srcAccessMask = src;
@@ -20,7 +21,7 @@ VkImageMemoryBarrier colour_image_barrier(VkImage image, VkAccessFlags src, VkAc
     b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
     b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
     b.image = image;
-    b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, mip, 1, layer, layer_count};
     return b;
 }
 

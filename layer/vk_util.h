@@ -11,9 +11,11 @@ namespace splitvk {
 // property in `want`, or UINT32_MAX when none has.
 uint32_t find_memory_type(const DeviceState &device, uint32_t bits, VkMemoryPropertyFlags want);
 
-// A barrier on level 0, layer 0 of a colour image, with no queue-family transfer.
+// A barrier on one mip level and `layer_count` array layers from `layer` of a colour image, with
+// no queue-family transfer; level 0, layer 0 unless told.
 VkImageMemoryBarrier colour_image_barrier(VkImage image, VkAccessFlags src, VkAccessFlags dst,
-                                          VkImageLayout from, VkImageLayout to);
+                                          VkImageLayout from, VkImageLayout to, uint32_t mip = 0,
+                                          uint32_t layer = 0, uint32_t layer_count = 1);
 
 // A command pool of `family` on `device`.
 VkResult create_command_pool(DeviceState &device, uint32_t family, VkCommandPoolCreateFlags flags,
