@@ -150,6 +150,18 @@ bool can_add_transfer_src(const DeviceState &dev, const VkImageCreateInfo &info)
                info.usage | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, info.flags, &properties) == VK_SUCCESS;
 }
 
+// vkCreateRenderPass and vkCreateRenderPass2 alike: the attachments' final layouts, which the
+// pass's end applies (note_render_pass_end).
+template <class RenderPassCreateInfo>
+void note_final_layouts(VkRenderPass render_pass, const RenderPassCreateInfo &info) {
+    forget_render_pass(render_pass);
+    std::vector<VkImageLayout> finals;
+    for (uint32_t i = 0; i < info.attachmentCount; ++i)
+        finals.push_back(info.pAttachments[i].finalLayout);
+    std::lock_guard lock(g_mutex);
+    g_final_layouts[render_pass] = std::move(finals);
+}
+
 } // namespace
 
 void note_render_pass_begin(VkCommandBuffer command_buffer, VkRenderPass render_pass,
@@ -258,22 +270,12 @@ void CmdWaitEvents2KHR(DeviceState &dev, VkCommandBuffer cb, uint32_t count, con
 
 void CreateRenderPass(DeviceState &, VkDevice, const VkRenderPassCreateInfo *info,
                       const VkAllocationCallbacks *, VkRenderPass *render_pass) {
-    forget_render_pass(*render_pass);
-    std::vector<VkImageLayout> finals;
-    for (uint32_t i = 0; i < info->attachmentCount; ++i)
-        finals.push_back(info->pAttachments[i].finalLayout);
-    std::lock_guard lock(g_mutex);
-    g_final_layouts[*render_pass] = std::move(finals);
+    note_final_layouts(*render_pass, *info);
 }
 
 void CreateRenderPass2(DeviceState &, VkDevice, const VkRenderPassCreateInfo2 *info,
                        const VkAllocationCallbacks *, VkRenderPass *render_pass) {
-    forget_render_pass(*render_pass);
-    std::vector<VkImageLayout> finals;
-    for (uint32_t i = 0; i < info->attachmentCount; ++i)
-        finals.push_back(info->pAttachments[i].finalLayout);
-    std::lock_guard lock(g_mutex);
-    g_final_layouts[*render_pass] = std::move(finals);
+    note_final_layouts(*render_pass, *info);
 }
 
 void CreateRenderPass2KHR(DeviceState &dev, VkDevice device, const VkRenderPassCreateInfo2 *info,
