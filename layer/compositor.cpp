@@ -626,6 +626,16 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
                                      VkImageLayout to) {
         return colour_image_barrier(target, src, dst, from, to, 0, 0, layers_);
     };
+    // The periphery's writes to the image (a blit's or a draw's) before the tile copies
+    // overwrite the fovea (write-after-write), or before the present.
+    const auto after_periphery = [&](VkPipelineStageFlags stage, VkAccessFlags access, VkImageLayout layout) {
+        const VkImageMemoryBarrier b = layered_barrier(
+            image, access, has_tiles ? VkAccessFlags{VK_ACCESS_TRANSFER_WRITE_BIT} : done_access_, layout,
+            has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
+        k.CmdPipelineBarrier(cb, stage,
+                             has_tiles ? VkPipelineStageFlags{VK_PIPELINE_STAGE_TRANSFER_BIT} : done_stages_,
+                             0, 0, nullptr, 0, nullptr, 1, &b);
+    };
     k.ResetCommandBuffer(cb, 0);
     VkCommandBufferBeginInfo begin{};
     begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
@@ -689,17 +699,8 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
             k.CmdBlitImage(cb, s.periphery, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, image,
                            VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, static_cast<uint32_t>(regions.size()),
                            regions.data(), VK_FILTER_LINEAR);
-            // The blit's writes before the tile copies overwrite the fovea (write-after-write), or
-            // before the present.
-            VkImageMemoryBarrier after_blit =
-                layered_barrier(image, VK_ACCESS_TRANSFER_WRITE_BIT,
-                                has_tiles ? VkAccessFlags{VK_ACCESS_TRANSFER_WRITE_BIT} : done_access_,
-                                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                                has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
-            k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                                 has_tiles ? VkPipelineStageFlags{VK_PIPELINE_STAGE_TRANSFER_BIT}
-                                           : done_stages_,
-                                 0, 0, nullptr, 0, nullptr, 1, &after_blit);
+            after_periphery(VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                            VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
         } else {
             // The copy's write of the periphery image before the fragment shader reads it; the
             // copy's read of the swapchain image before the draw overwrites it (write-after-read:
@@ -744,17 +745,8 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
             }
             k.CmdEndRenderPass(cb);
 
-            // The draw's writes before the tile copies overwrite the fovea (write-after-write), or
-            // before the present.
-            VkImageMemoryBarrier after_draw =
-                layered_barrier(image, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
-                                has_tiles ? VkAccessFlags{VK_ACCESS_TRANSFER_WRITE_BIT} : done_access_,
-                                VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
-                                has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
-            k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
-                                 has_tiles ? VkPipelineStageFlags{VK_PIPELINE_STAGE_TRANSFER_BIT}
-                                           : done_stages_,
-                                 0, 0, nullptr, 0, nullptr, 1, &after_draw);
+            after_periphery(VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
+                            VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
         }
     } else if (has_tiles) {
         // Tiles over what the application rendered: keep the contents (old layout, not UNDEFINED).
