@@ -467,14 +467,10 @@ bool Compositor::init_slot(Slot &s, uint32_t image_index, std::string *error) {
     if (allocate_primary_command_buffer(device_, pool_, &s.command_buffer) != VK_SUCCESS)
         return fail("command buffer");
 
-    VkFenceCreateInfo fence_info{};
-    fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
-    if (k.CreateFence(d, &fence_info, nullptr, &s.fence) != VK_SUCCESS) return fail("fence");
-    VkSemaphoreCreateInfo semaphore_info{};
-    semaphore_info.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
-    if (k.CreateSemaphore(d, &semaphore_info, nullptr, &s.semaphore) != VK_SUCCESS) return fail("semaphore");
-    if (k.CreateFence(d, &fence_info, nullptr, &s.taken_fence) != VK_SUCCESS) return fail("fence");
-    if (k.CreateSemaphore(d, &semaphore_info, nullptr, &s.taken) != VK_SUCCESS) return fail("semaphore");
+    if (create_fence(device_, &s.fence) != VK_SUCCESS) return fail("fence");
+    if (create_semaphore(device_, &s.semaphore) != VK_SUCCESS) return fail("semaphore");
+    if (create_fence(device_, &s.taken_fence) != VK_SUCCESS) return fail("fence");
+    if (create_semaphore(device_, &s.taken) != VK_SUCCESS) return fail("semaphore");
     std::string untimed; // without this buffer the slot's composites are not timed
     if (timed_)
         create_host_buffer(device_, 2 * sizeof(uint64_t), VK_BUFFER_USAGE_TRANSFER_DST_BIT, HostAccess::Read,
@@ -843,13 +839,7 @@ VkResult Compositor::take_waits(VkQueue queue, uint32_t image_index, std::span<c
     if (!s) return result;
     const auto &k = device_.dispatch;
     std::vector<VkPipelineStageFlags> stages(waits.size(), VK_PIPELINE_STAGE_ALL_COMMANDS_BIT);
-    VkSubmitInfo submit{};
-    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-    submit.waitSemaphoreCount = static_cast<uint32_t>(waits.size());
-    submit.pWaitSemaphores = waits.data();
-    submit.pWaitDstStageMask = stages.data();
-    submit.signalSemaphoreCount = 1;
-    submit.pSignalSemaphores = &s->taken;
+    const VkSubmitInfo submit = submit_info(nullptr, waits, stages.data(), &s->taken);
     k.ResetFences(device_.handle, 1, &s->taken_fence);
     result = k.QueueSubmit(queue, 1, &submit, s->taken_fence);
     if (result != VK_SUCCESS) return result;
@@ -918,17 +908,10 @@ VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<co
     record(s, image_index, upsample ? periphery : VkExtent2D{});
 
     std::vector<VkPipelineStageFlags> stages(waits.size(), VK_PIPELINE_STAGE_TRANSFER_BIT);
-    VkSubmitInfo submit{};
-    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-    submit.waitSemaphoreCount = static_cast<uint32_t>(waits.size());
-    submit.pWaitSemaphores = waits.data();
-    submit.pWaitDstStageMask = stages.data();
-    submit.commandBufferCount = 1;
-    submit.pCommandBuffers = &s.command_buffer;
     // No one to signal for (an OpenXR runtime's image, ordered by the queue): a binary semaphore
     // signalled and never waited on could not be signalled again.
-    submit.signalSemaphoreCount = signal ? 1 : 0;
-    submit.pSignalSemaphores = signal ? &s.semaphore : nullptr;
+    const VkSubmitInfo submit =
+        submit_info(&s.command_buffer, waits, stages.data(), signal ? &s.semaphore : nullptr);
     k.ResetFences(d, 1, &s.fence);
     // On failure the semaphores and the fence are left as they were (except after device loss).
     result = k.QueueSubmit(queue, 1, &submit, s.fence);

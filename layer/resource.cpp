@@ -494,11 +494,9 @@ struct Readback {
         if (!create_host_buffer(dev, size, VK_BUFFER_USAGE_TRANSFER_DST_BIT, HostAccess::Read, &staging,
                                 error))
             return false;
-        VkFenceCreateInfo fence_info{};
-        fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
         if (create_command_pool(dev, family, VK_COMMAND_POOL_CREATE_TRANSIENT_BIT, &pool) != VK_SUCCESS ||
             allocate_primary_command_buffer(dev, pool, &cb) != VK_SUCCESS ||
-            dev.dispatch.CreateFence(dev.handle, &fence_info, nullptr, &fence) != VK_SUCCESS) {
+            create_fence(dev, &fence) != VK_SUCCESS) {
             *error = "cannot create a command buffer for the readback";
             return false;
         }
@@ -659,10 +657,7 @@ void push_image_uploads(DeviceState &dev, VkQueue queue, uint32_t family,
                                     to_layout.data());
     }
     encode_vkEndCommandBuffer(e, cb);
-    VkSubmitInfo submit{};
-    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-    submit.commandBufferCount = 1;
-    submit.pCommandBuffers = &cb;
+    const VkSubmitInfo submit = submit_info(&cb);
     encode_vkQueueSubmit(e, queue, 1, &submit, VK_NULL_HANDLE);
     // The agent waits for its queue before a destroy or a free, so the copies are done by then.
     encode_vkDestroyCommandPool(e, device, pool, nullptr);
@@ -725,10 +720,7 @@ bool snapshot_contents(DeviceState &dev, VkQueue queue, uint32_t family, Content
     Readback readback(dev);
     if (!readback.create(total, family, error)) return false;
     record_readback(dev, readback.cb, readback.staging.buffer, buffers, images);
-    VkSubmitInfo submit{};
-    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-    submit.commandBufferCount = 1;
-    submit.pCommandBuffers = &readback.cb;
+    const VkSubmitInfo submit = submit_info(&readback.cb);
     VkResult r = dev.dispatch.QueueSubmit(queue, 1, &submit, readback.fence);
     if (r == VK_SUCCESS)
         r = dev.dispatch.WaitForFences(dev.handle, 1, &readback.fence, VK_TRUE, kFenceWaitNs);

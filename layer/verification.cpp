@@ -60,8 +60,6 @@ void destroy(DeviceState &dev, VerifyReadback &r) {
 }
 
 bool create(DeviceState &dev, const SwapchainState &sc, uint32_t family, VerifyReadback &r) {
-    const VkDevice d = dev.handle;
-    const auto &k = dev.dispatch;
     if (create_command_pool(dev, family, VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT, &r.pool) !=
             VK_SUCCESS ||
         allocate_primary_command_buffer(dev, r.pool, &r.command_buffer) != VK_SUCCESS)
@@ -71,12 +69,7 @@ bool create(DeviceState &dev, const SwapchainState &sc, uint32_t family, VerifyR
     if (!create_host_buffer(dev, VkDeviceSize{sc.extent.width} * sc.extent.height * 4 * sc.array_layers,
                             VK_BUFFER_USAGE_TRANSFER_DST_BIT, HostAccess::Read, &r.staging, &error))
         return false;
-    VkFenceCreateInfo fence_info{};
-    fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
-    if (k.CreateFence(d, &fence_info, nullptr, &r.fence) != VK_SUCCESS) return false;
-    VkSemaphoreCreateInfo sem_info{};
-    sem_info.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
-    return k.CreateSemaphore(d, &sem_info, nullptr, &r.semaphore) == VK_SUCCESS;
+    return create_fence(dev, &r.fence) == VK_SUCCESS && create_semaphore(dev, &r.semaphore) == VK_SUCCESS;
 }
 
 void record_copy(DeviceState &dev, const SwapchainState &sc, VkImage image, VerifyReadback &r) {
@@ -201,15 +194,9 @@ std::optional<PendingVerify> read_back_presented_image(DeviceState &dev, VkQueue
     dev.dispatch.ResetFences(dev.handle, 1, &r.fence);
     record_copy(dev, *sc, sc->images[index], r);
     std::vector<VkPipelineStageFlags> stages(present.waitSemaphoreCount, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT);
-    VkSubmitInfo submit{};
-    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-    submit.waitSemaphoreCount = present.waitSemaphoreCount;
-    submit.pWaitSemaphores = present.pWaitSemaphores;
-    submit.pWaitDstStageMask = stages.data();
-    submit.commandBufferCount = 1;
-    submit.pCommandBuffers = &r.command_buffer;
-    submit.signalSemaphoreCount = 1;
-    submit.pSignalSemaphores = &r.semaphore;
+    const VkSubmitInfo submit =
+        submit_info(&r.command_buffer, {present.pWaitSemaphores, present.waitSemaphoreCount}, stages.data(),
+                    &r.semaphore);
     if (dev.dispatch.QueueSubmit(queue, 1, &submit, r.fence) != VK_SUCCESS) return std::nullopt;
     r.in_flight = true;
     // A node of g_readbacks, which the lock the result holds keeps in place.
@@ -237,10 +224,7 @@ std::optional<PendingVerify> read_back_runtime_image(DeviceState &dev, VkQueue q
     if (!ready) return std::nullopt;
     dev.dispatch.ResetFences(dev.handle, 1, &r.fence);
     record_copy(dev, sc, sc.images[index], r);
-    VkSubmitInfo submit{};
-    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-    submit.commandBufferCount = 1;
-    submit.pCommandBuffers = &r.command_buffer;
+    const VkSubmitInfo submit = submit_info(&r.command_buffer);
     if (dev.dispatch.QueueSubmit(queue, 1, &submit, r.fence) != VK_SUCCESS) return std::nullopt;
     r.in_flight = true;
     return PendingVerify{frame, &sc, index, &r, {}};

@@ -25,6 +25,32 @@ VkImageMemoryBarrier colour_image_barrier(VkImage image, VkAccessFlags src, VkAc
     return b;
 }
 
+VkResult create_fence(DeviceState &device, VkFence *fence) {
+    VkFenceCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+    return device.dispatch.CreateFence(device.handle, &info, nullptr, fence);
+}
+
+VkResult create_semaphore(DeviceState &device, VkSemaphore *semaphore) {
+    VkSemaphoreCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
+    return device.dispatch.CreateSemaphore(device.handle, &info, nullptr, semaphore);
+}
+
+VkSubmitInfo submit_info(const VkCommandBuffer *command_buffer, std::span<const VkSemaphore> waits,
+                         const VkPipelineStageFlags *wait_stages, const VkSemaphore *signal) {
+    VkSubmitInfo submit{};
+    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    submit.waitSemaphoreCount = static_cast<uint32_t>(waits.size());
+    submit.pWaitSemaphores = waits.data();
+    submit.pWaitDstStageMask = wait_stages;
+    submit.commandBufferCount = command_buffer ? 1 : 0;
+    submit.pCommandBuffers = command_buffer;
+    submit.signalSemaphoreCount = signal ? 1 : 0;
+    submit.pSignalSemaphores = signal;
+    return submit;
+}
+
 VkResult create_command_pool(DeviceState &device, uint32_t family, VkCommandPoolCreateFlags flags,
                              VkCommandPool *pool) {
     VkCommandPoolCreateInfo info{};

@@ -5,6 +5,8 @@
 
 #include "device.h"
 
+#include <span>
+
 namespace splitvk {
 
 // The first memory type allowed by `bits` (VkMemoryRequirements::memoryTypeBits) that has every
@@ -35,6 +37,19 @@ T *find_in_chain(void *next, VkStructureType s_type) {
         if (s->sType == s_type) return reinterpret_cast<T *>(s);
     return nullptr;
 }
+
+// An unsignalled fence on `device`.
+VkResult create_fence(DeviceState &device, VkFence *fence);
+
+// A binary semaphore on `device`.
+VkResult create_semaphore(DeviceState &device, VkSemaphore *semaphore);
+
+// A submit of `command_buffer` (none where null) after `waits`, each waited on at its entry of
+// `wait_stages`, that signals `signal` where not null. It points at what it is given, which must
+// outlive the vkQueueSubmit.
+VkSubmitInfo submit_info(const VkCommandBuffer *command_buffer, std::span<const VkSemaphore> waits = {},
+                         const VkPipelineStageFlags *wait_stages = nullptr,
+                         const VkSemaphore *signal = nullptr);
 
 // A command pool of `family` on `device`.
 VkResult create_command_pool(DeviceState &device, uint32_t family, VkCommandPoolCreateFlags flags,
