@@ -286,11 +286,9 @@ bool Compositor::init(std::string *error) {
         return false;
     };
 
-    VkCommandPoolCreateInfo pool_info{};
-    pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
-    pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-    pool_info.queueFamilyIndex = queue_family_;
-    if (k.CreateCommandPool(d, &pool_info, nullptr, &pool_) != VK_SUCCESS) return fail("command pool");
+    if (create_command_pool(device_, queue_family_, VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT,
+                            &pool_) != VK_SUCCESS)
+        return fail("command pool");
 
     // Clamp to edge and the clamp in the shader keep taps inside the periphery; one mip level.
     VkSamplerCreateInfo sampler_info{};
