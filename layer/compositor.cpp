@@ -73,13 +73,6 @@ bool four_bytes_per_texel(VkFormat format) {
     }
 }
 
-uint32_t find_memory_type(const DeviceState &dev, uint32_t bits, VkMemoryPropertyFlags want) {
-    for (uint32_t i = 0; i < dev.memory_properties.memoryTypeCount; ++i)
-        if ((bits & (1u << i)) && (dev.memory_properties.memoryTypes[i].propertyFlags & want) == want)
-            return i;
-    return UINT32_MAX;
-}
-
 // A tile clipped to the image.
 struct ClippedTile {
     const FoveaTile *tile = nullptr;
@@ -293,11 +286,9 @@ bool Compositor::init(std::string *error) {
         return false;
     };
 
-    VkCommandPoolCreateInfo pool_info{};
-    pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
-    pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-    pool_info.queueFamilyIndex = queue_family_;
-    if (k.CreateCommandPool(d, &pool_info, nullptr, &pool_) != VK_SUCCESS) return fail("command pool");
+    if (create_command_pool(device_, queue_family_, VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT,
+                            &pool_) != VK_SUCCESS)
+        return fail("command pool");
 
     // Clamp to edge and the clamp in the shader keep taps inside the periphery; one mip level.
     VkSamplerCreateInfo sampler_info{};
@@ -474,14 +465,10 @@ bool Compositor::init_slot(Slot &s, uint32_t image_index, std::string *error) {
     if (allocate_primary_command_buffer(device_, pool_, &s.command_buffer) != VK_SUCCESS)
         return fail("command buffer");
 
-    VkFenceCreateInfo fence_info{};
-    fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
-    if (k.CreateFence(d, &fence_info, nullptr, &s.fence) != VK_SUCCESS) return fail("fence");
-    VkSemaphoreCreateInfo semaphore_info{};
-    semaphore_info.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
-    if (k.CreateSemaphore(d, &semaphore_info, nullptr, &s.semaphore) != VK_SUCCESS) return fail("semaphore");
-    if (k.CreateFence(d, &fence_info, nullptr, &s.taken_fence) != VK_SUCCESS) return fail("fence");
-    if (k.CreateSemaphore(d, &semaphore_info, nullptr, &s.taken) != VK_SUCCESS) return fail("semaphore");
+    if (create_fence(device_, &s.fence) != VK_SUCCESS) return fail("fence");
+    if (create_semaphore(device_, &s.semaphore) != VK_SUCCESS) return fail("semaphore");
+    if (create_fence(device_, &s.taken_fence) != VK_SUCCESS) return fail("fence");
+    if (create_semaphore(device_, &s.taken) != VK_SUCCESS) return fail("semaphore");
     std::string untimed; // without this buffer the slot's composites are not timed
     if (timed_)
         create_host_buffer(device_, 2 * sizeof(uint64_t), VK_BUFFER_USAGE_TRANSFER_DST_BIT, HostAccess::Read,
@@ -631,9 +618,17 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
     // Every layer of the image and of the periphery copy: a layered image is composited whole.
     const auto layered_barrier = [&](VkImage target, VkAccessFlags src, VkAccessFlags dst, VkImageLayout from,
                                      VkImageLayout to) {
-        VkImageMemoryBarrier b = colour_image_barrier(target, src, dst, from, to);
-        b.subresourceRange.layerCount = layers_;
-        return b;
+        return colour_image_barrier(target, src, dst, from, to, 0, 0, layers_);
+    };
+    // The periphery's writes to the image (a blit's or a draw's) before the tile copies
+    // overwrite the fovea (write-after-write), or before the present.
+    const auto after_periphery = [&](VkPipelineStageFlags stage, VkAccessFlags access, VkImageLayout layout) {
+        const VkImageMemoryBarrier b = layered_barrier(
+            image, access, has_tiles ? VkAccessFlags{VK_ACCESS_TRANSFER_WRITE_BIT} : done_access_, layout,
+            has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
+        k.CmdPipelineBarrier(cb, stage,
+                             has_tiles ? VkPipelineStageFlags{VK_PIPELINE_STAGE_TRANSFER_BIT} : done_stages_,
+                             0, 0, nullptr, 0, nullptr, 1, &b);
     };
     k.ResetCommandBuffer(cb, 0);
     VkCommandBufferBeginInfo begin{};
@@ -698,17 +693,8 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
             k.CmdBlitImage(cb, s.periphery, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, image,
                            VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, static_cast<uint32_t>(regions.size()),
                            regions.data(), VK_FILTER_LINEAR);
-            // The blit's writes before the tile copies overwrite the fovea (write-after-write), or
-            // before the present.
-            VkImageMemoryBarrier after_blit =
-                layered_barrier(image, VK_ACCESS_TRANSFER_WRITE_BIT,
-                                has_tiles ? VkAccessFlags{VK_ACCESS_TRANSFER_WRITE_BIT} : done_access_,
-                                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                                has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
-            k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                                 has_tiles ? VkPipelineStageFlags{VK_PIPELINE_STAGE_TRANSFER_BIT}
-                                           : done_stages_,
-                                 0, 0, nullptr, 0, nullptr, 1, &after_blit);
+            after_periphery(VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                            VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
         } else {
             // The copy's write of the periphery image before the fragment shader reads it; the
             // copy's read of the swapchain image before the draw overwrites it (write-after-read:
@@ -753,17 +739,8 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
             }
             k.CmdEndRenderPass(cb);
 
-            // The draw's writes before the tile copies overwrite the fovea (write-after-write), or
-            // before the present.
-            VkImageMemoryBarrier after_draw =
-                layered_barrier(image, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
-                                has_tiles ? VkAccessFlags{VK_ACCESS_TRANSFER_WRITE_BIT} : done_access_,
-                                VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
-                                has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
-            k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
-                                 has_tiles ? VkPipelineStageFlags{VK_PIPELINE_STAGE_TRANSFER_BIT}
-                                           : done_stages_,
-                                 0, 0, nullptr, 0, nullptr, 1, &after_draw);
+            after_periphery(VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
+                            VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
         }
     } else if (has_tiles) {
         // Tiles over what the application rendered: keep the contents (old layout, not UNDEFINED).
@@ -860,13 +837,7 @@ VkResult Compositor::take_waits(VkQueue queue, uint32_t image_index, std::span<c
     if (!s) return result;
     const auto &k = device_.dispatch;
     std::vector<VkPipelineStageFlags> stages(waits.size(), VK_PIPELINE_STAGE_ALL_COMMANDS_BIT);
-    VkSubmitInfo submit{};
-    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-    submit.waitSemaphoreCount = static_cast<uint32_t>(waits.size());
-    submit.pWaitSemaphores = waits.data();
-    submit.pWaitDstStageMask = stages.data();
-    submit.signalSemaphoreCount = 1;
-    submit.pSignalSemaphores = &s->taken;
+    const VkSubmitInfo submit = submit_info(nullptr, waits, stages.data(), &s->taken);
     k.ResetFences(device_.handle, 1, &s->taken_fence);
     result = k.QueueSubmit(queue, 1, &submit, s->taken_fence);
     if (result != VK_SUCCESS) return result;
@@ -935,17 +906,10 @@ VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<co
     record(s, image_index, upsample ? periphery : VkExtent2D{});
 
     std::vector<VkPipelineStageFlags> stages(waits.size(), VK_PIPELINE_STAGE_TRANSFER_BIT);
-    VkSubmitInfo submit{};
-    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-    submit.waitSemaphoreCount = static_cast<uint32_t>(waits.size());
-    submit.pWaitSemaphores = waits.data();
-    submit.pWaitDstStageMask = stages.data();
-    submit.commandBufferCount = 1;
-    submit.pCommandBuffers = &s.command_buffer;
     // No one to signal for (an OpenXR runtime's image, ordered by the queue): a binary semaphore
     // signalled and never waited on could not be signalled again.
-    submit.signalSemaphoreCount = signal ? 1 : 0;
-    submit.pSignalSemaphores = signal ? &s.semaphore : nullptr;
+    const VkSubmitInfo submit =
+        submit_info(&s.command_buffer, waits, stages.data(), signal ? &s.semaphore : nullptr);
     k.ResetFences(d, 1, &s.fence);
     // On failure the semaphores and the fence are left as they were (except after device loss).
     result = k.QueueSubmit(queue, 1, &submit, s.fence);

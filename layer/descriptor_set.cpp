@@ -15,6 +15,7 @@
 #include "layer_entry_points.h"
 #include "screen_space.h"
 #include "split.h"
+#include "vk_util.h"
 
 #include <cstring>
 #include <map>
@@ -145,13 +146,10 @@ void note_descriptor_updates(uint32_t write_count, const VkWriteDescriptorSet *w
             store_locked(set->second, write.dstBinding, write.dstArrayElement, write.descriptorCount, type,
                          [&](uint32_t i, Descriptor &d) { d.texel_view = write.pTexelBufferView[i]; });
         } else if (type == VK_DESCRIPTOR_TYPE_INLINE_UNIFORM_BLOCK) {
-            for (auto *next = static_cast<const VkBaseInStructure *>(write.pNext); next; next = next->pNext)
-                if (next->sType == VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET_INLINE_UNIFORM_BLOCK) {
-                    const auto *block =
-                        reinterpret_cast<const VkWriteDescriptorSetInlineUniformBlock *>(next);
-                    store_inline_locked(set->second, write.dstBinding, write.dstArrayElement, block->dataSize,
-                                        block->pData);
-                }
+            if (const auto *block = find_in_chain<VkWriteDescriptorSetInlineUniformBlock>(
+                    write.pNext, VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET_INLINE_UNIFORM_BLOCK))
+                store_inline_locked(set->second, write.dstBinding, write.dstArrayElement, block->dataSize,
+                                    block->pData);
         }
     }
     for (uint32_t c = 0; c < copy_count; ++c) {

@@ -114,8 +114,8 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateDevice(VkPhysicalDevice physicalDevice,
                                             const VkDeviceCreateInfo *pCreateInfo,
                                             const VkAllocationCallbacks *pAllocator, VkDevice *pDevice) {
     InstanceState *instance = find_instance(dispatch_key(physicalDevice));
-    auto *link = find_layer_link<VkLayerDeviceCreateInfo>(pCreateInfo->pNext,
-                                                          VK_STRUCTURE_TYPE_LOADER_DEVICE_CREATE_INFO);
+    auto *link = find_loader_info<VkLayerDeviceCreateInfo>(
+        pCreateInfo->pNext, VK_STRUCTURE_TYPE_LOADER_DEVICE_CREATE_INFO, VK_LAYER_LINK_INFO);
     if (!instance || !link || !link->u.pLayerInfo) return VK_ERROR_INITIALIZATION_FAILED;
 
     const PFN_vkGetInstanceProcAddr next_gipa = link->u.pLayerInfo->pfnNextGetInstanceProcAddr;
@@ -167,12 +167,9 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateDevice(VkPhysicalDevice physicalDevice,
     state->instance = instance;
     state->next_get_device_proc_addr = next_gdpa;
     load_device_dispatch_table(state->dispatch, *pDevice, next_gdpa);
-    for (auto *next = static_cast<const VkBaseInStructure *>(pCreateInfo->pNext); next; next = next->pNext) {
-        if (next->sType != VK_STRUCTURE_TYPE_LOADER_DEVICE_CREATE_INFO) continue;
-        const auto *info = reinterpret_cast<const VkLayerDeviceCreateInfo *>(next);
-        if (info->function == VK_LOADER_DATA_CALLBACK)
-            state->set_loader_data = info->u.pfnSetDeviceLoaderData;
-    }
+    if (const auto *info = find_loader_info<VkLayerDeviceCreateInfo>(
+            pCreateInfo->pNext, VK_STRUCTURE_TYPE_LOADER_DEVICE_CREATE_INFO, VK_LOADER_DATA_CALLBACK))
+        state->set_loader_data = info->u.pfnSetDeviceLoaderData;
     instance->dispatch.GetPhysicalDeviceMemoryProperties(physicalDevice, &state->memory_properties);
     state->session = Session::open(*state, pCreateInfo, instance->application_name);
     g_devices.insert(dispatch_key(*pDevice), std::move(state));

@@ -1,18 +1,12 @@
 #include "host_buffer.h"
 
 #include "log.h"
+#include "vk_util.h"
 
 #include <algorithm>
 
 namespace splitvk {
 namespace {
-
-uint32_t find_type(const DeviceState &dev, uint32_t bits, VkMemoryPropertyFlags want) {
-    for (uint32_t i = 0; i < dev.memory_properties.memoryTypeCount; ++i)
-        if ((bits & (1u << i)) && (dev.memory_properties.memoryTypes[i].propertyFlags & want) == want)
-            return i;
-    return UINT32_MAX;
-}
 
 VkMappedMemoryRange whole(const HostBuffer &buffer) {
     VkMappedMemoryRange range{};
@@ -41,8 +35,10 @@ bool create_host_buffer(const DeviceState &dev, VkDeviceSize size, VkBufferUsage
     k.GetBufferMemoryRequirements(d, b.buffer, &req);
     const VkMemoryPropertyFlags preferred = access == HostAccess::Read ? VK_MEMORY_PROPERTY_HOST_CACHED_BIT
                                                                        : VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
-    uint32_t type = find_type(dev, req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | preferred);
-    if (type == UINT32_MAX) type = find_type(dev, req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT);
+    uint32_t type =
+        find_memory_type(dev, req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | preferred);
+    if (type == UINT32_MAX)
+        type = find_memory_type(dev, req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT);
     VkMemoryAllocateInfo alloc{};
     alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
     alloc.allocationSize = req.size;

@@ -75,8 +75,8 @@ namespace entry {
 VKAPI_ATTR VkResult VKAPI_CALL CreateInstance(const VkInstanceCreateInfo *pCreateInfo,
                                               const VkAllocationCallbacks *pAllocator,
                                               VkInstance *pInstance) {
-    auto *link = find_layer_link<VkLayerInstanceCreateInfo>(pCreateInfo->pNext,
-                                                            VK_STRUCTURE_TYPE_LOADER_INSTANCE_CREATE_INFO);
+    auto *link = find_loader_info<VkLayerInstanceCreateInfo>(
+        pCreateInfo->pNext, VK_STRUCTURE_TYPE_LOADER_INSTANCE_CREATE_INFO, VK_LAYER_LINK_INFO);
     if (!link || !link->u.pLayerInfo) return VK_ERROR_INITIALIZATION_FAILED;
     report_layer_position(link->u.pLayerInfo);
 

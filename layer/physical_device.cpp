@@ -7,6 +7,7 @@
 #include "layer_settings.h"
 #include "log.h"
 #include "vk_envelope_tables.h"
+#include "vk_util.h"
 
 #include <algorithm>
 #include <cstring>
@@ -220,9 +221,8 @@ void narrow_format_properties2(VkPhysicalDevice physicalDevice, VkFormat format,
     properties->formatProperties = *narrowed;
     // VkFormatProperties3 repeats the 32 legacy bits in its 64-bit flags; the bits above are
     // features only the 2-flags know, outside the envelope.
-    for (auto *s = static_cast<VkBaseOutStructure *>(properties->pNext); s; s = s->pNext) {
-        if (s->sType != VK_STRUCTURE_TYPE_FORMAT_PROPERTIES_3) continue;
-        auto *p3 = reinterpret_cast<VkFormatProperties3 *>(s);
+    if (auto *p3 =
+            find_in_chain<VkFormatProperties3>(properties->pNext, VK_STRUCTURE_TYPE_FORMAT_PROPERTIES_3)) {
         constexpr VkFormatFeatureFlags2 kHigh = ~VkFormatFeatureFlags2{0xFFFFFFFFu};
         p3->linearTilingFeatures &= kHigh | narrowed->linearTilingFeatures;
         p3->optimalTilingFeatures &= kHigh | narrowed->optimalTilingFeatures;

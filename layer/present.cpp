@@ -530,18 +530,11 @@ void destroy(DeviceState &dev, Redirect &r) {
 }
 
 bool create(DeviceState &dev, uint32_t family, Redirect &r) {
-    const VkDevice d = dev.handle;
-    const auto &k = dev.dispatch;
     if (create_command_pool(dev, family, VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT, &r.pool) !=
             VK_SUCCESS ||
         allocate_primary_command_buffer(dev, r.pool, &r.command_buffer) != VK_SUCCESS)
         return false;
-    VkFenceCreateInfo fence_info{};
-    fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
-    if (k.CreateFence(d, &fence_info, nullptr, &r.fence) != VK_SUCCESS) return false;
-    VkSemaphoreCreateInfo sem_info{};
-    sem_info.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
-    return k.CreateSemaphore(d, &sem_info, nullptr, &r.semaphore) == VK_SUCCESS;
+    return create_fence(dev, &r.fence) == VK_SUCCESS && create_semaphore(dev, &r.semaphore) == VK_SUCCESS;
 }
 
 // Submits on `queue` (its lock held) a copy of the whole image `from` into image `to`, which the
@@ -596,15 +589,7 @@ VkSemaphore copy_swapchain_image(DeviceState &dev, VkQueue queue, const Swapchai
                          VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, 0, 0, nullptr, 0, nullptr, 2, after);
     if (k.EndCommandBuffer(r.command_buffer) != VK_SUCCESS) return VK_NULL_HANDLE;
     const std::vector<VkPipelineStageFlags> stages(waits.size(), VK_PIPELINE_STAGE_TRANSFER_BIT);
-    VkSubmitInfo submit{};
-    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-    submit.waitSemaphoreCount = static_cast<uint32_t>(waits.size());
-    submit.pWaitSemaphores = waits.data();
-    submit.pWaitDstStageMask = stages.data();
-    submit.commandBufferCount = 1;
-    submit.pCommandBuffers = &r.command_buffer;
-    submit.signalSemaphoreCount = 1;
-    submit.pSignalSemaphores = &r.semaphore;
+    const VkSubmitInfo submit = submit_info(&r.command_buffer, waits, stages.data(), &r.semaphore);
     if (k.QueueSubmit(queue, 1, &submit, r.fence) != VK_SUCCESS) return VK_NULL_HANDLE;
     r.in_flight = true;
     return r.semaphore;

@@ -41,8 +41,8 @@ void capture_submit(DeviceState &dev, VkQueue queue, uint32_t submitCount, const
         [&](codec::Encoder &e) { encode_vkQueueSubmit(e, queue, submitCount, submits.data(), fence); });
 }
 
-void capture_submit2(DeviceState &dev, VkQueue queue, uint32_t submitCount, const VkSubmitInfo2 *pSubmits,
-                     VkFence fence) {
+void capture_submit(DeviceState &dev, VkQueue queue, uint32_t submitCount, const VkSubmitInfo2 *pSubmits,
+                    VkFence fence) {
     sync_mapped_memory(dev);
     const auto submits = codec::without_synchronization(pSubmits, submitCount);
     dev.session->send_encoded(
@@ -100,6 +100,19 @@ void note_submit(DeviceState &dev, uint32_t count, const VkSubmitInfo2 *submits)
             note_submitted(dev, images, submits[i].pCommandBufferInfos[j].commandBuffer);
 }
 
+// vkQueueSubmit, vkQueueSubmit2 and its KHR alias, which differ only in their info type and the
+// driver's entry point `down`.
+template <class SubmitInfo, class Down>
+VkResult submit(DeviceState &dev, Down down, VkQueue queue, uint32_t count, const SubmitInfo *submits,
+                VkFence fence) {
+    if (capturing(dev)) [[unlikely]]
+        capture_submit(dev, queue, count, submits, fence);
+    if (dev.session) order_swapchain_writes(dev, swapchain_images_drawn(dev, count, submits));
+    const auto lock = lock_queue(queue);
+    if (dev.session) note_submit(dev, count, submits);
+    return down(queue, count, submits, fence);
+}
+
 } // namespace
 
 uint32_t queue_family_of(VkQueue queue) {
@@ -151,34 +164,19 @@ VKAPI_ATTR void VKAPI_CALL GetDeviceQueue2(VkDevice device, const VkDeviceQueueI
 VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit(VkQueue queue, uint32_t submitCount, const VkSubmitInfo *pSubmits,
                                            VkFence fence) {
     DeviceState &dev = device_state(queue);
-    if (capturing(dev)) [[unlikely]]
-        capture_submit(dev, queue, submitCount, pSubmits, fence);
-    if (dev.session) order_swapchain_writes(dev, swapchain_images_drawn(dev, submitCount, pSubmits));
-    const auto lock = lock_queue(queue);
-    if (dev.session) note_submit(dev, submitCount, pSubmits);
-    return dev.dispatch.QueueSubmit(queue, submitCount, pSubmits, fence);
+    return submit(dev, dev.dispatch.QueueSubmit, queue, submitCount, pSubmits, fence);
 }
 
 VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit2(VkQueue queue, uint32_t submitCount,
                                             const VkSubmitInfo2 *pSubmits, VkFence fence) {
     DeviceState &dev = device_state(queue);
-    if (capturing(dev)) [[unlikely]]
-        capture_submit2(dev, queue, submitCount, pSubmits, fence);
-    if (dev.session) order_swapchain_writes(dev, swapchain_images_drawn(dev, submitCount, pSubmits));
-    const auto lock = lock_queue(queue);
-    if (dev.session) note_submit(dev, submitCount, pSubmits);
-    return dev.dispatch.QueueSubmit2(queue, submitCount, pSubmits, fence);
+    return submit(dev, dev.dispatch.QueueSubmit2, queue, submitCount, pSubmits, fence);
 }
 
 VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit2KHR(VkQueue queue, uint32_t submitCount,
                                                const VkSubmitInfo2 *pSubmits, VkFence fence) {
     DeviceState &dev = device_state(queue);
-    if (capturing(dev)) [[unlikely]]
-        capture_submit2(dev, queue, submitCount, pSubmits, fence);
-    if (dev.session) order_swapchain_writes(dev, swapchain_images_drawn(dev, submitCount, pSubmits));
-    const auto lock = lock_queue(queue);
-    if (dev.session) note_submit(dev, submitCount, pSubmits);
-    return dev.dispatch.QueueSubmit2KHR(queue, submitCount, pSubmits, fence);
+    return submit(dev, dev.dispatch.QueueSubmit2KHR, queue, submitCount, pSubmits, fence);
 }
 
 // Sparse binding is not forwarded to the agent (codegen/codec_policy.py); it is a queue operation.

@@ -11,6 +11,7 @@
 #include "split.h"
 #include "split_geometry.h"
 #include "swapchain.h"
+#include "vk_util.h"
 
 #include <mutex>
 #include <set>
@@ -66,11 +67,9 @@ struct PassTarget {
 };
 
 std::span<const VkImageView> begin_views(const VkRenderPassBeginInfo *begin, const FramebufferState *fb) {
-    for (auto *p = static_cast<const VkBaseInStructure *>(begin->pNext); p; p = p->pNext)
-        if (p->sType == VK_STRUCTURE_TYPE_RENDER_PASS_ATTACHMENT_BEGIN_INFO) {
-            const auto *info = reinterpret_cast<const VkRenderPassAttachmentBeginInfo *>(p);
-            return {info->pAttachments, info->attachmentCount};
-        }
+    if (const auto *info = find_in_chain<VkRenderPassAttachmentBeginInfo>(
+            begin->pNext, VK_STRUCTURE_TYPE_RENDER_PASS_ATTACHMENT_BEGIN_INFO))
+        return {info->pAttachments, info->attachmentCount};
     if (fb) return fb->attachments;
     return {};
 }
@@ -158,11 +157,9 @@ VkRect2D scaled_area(const VkRect2D &area, VkExtent2D extent) {
 // The images of a render pass instance's attachments, for their final layouts (resource.h).
 void note_attachments(VkCommandBuffer cb, const VkRenderPassBeginInfo *begin) {
     std::span<const VkImageView> views;
-    for (auto *p = static_cast<const VkBaseInStructure *>(begin->pNext); p; p = p->pNext)
-        if (p->sType == VK_STRUCTURE_TYPE_RENDER_PASS_ATTACHMENT_BEGIN_INFO) {
-            const auto *info = reinterpret_cast<const VkRenderPassAttachmentBeginInfo *>(p);
-            views = {info->pAttachments, info->attachmentCount};
-        }
+    if (const auto *info = find_in_chain<VkRenderPassAttachmentBeginInfo>(
+            begin->pNext, VK_STRUCTURE_TYPE_RENDER_PASS_ATTACHMENT_BEGIN_INFO))
+        views = {info->pAttachments, info->attachmentCount};
     const FramebufferState *fb = g_framebuffers.find(begin->framebuffer);
     if (views.empty() && fb) views = fb->attachments;
     std::vector<AttachmentImage> attachments;
@@ -289,10 +286,8 @@ void begin_secondary(DeviceState &dev, VkCommandBuffer cb, const VkCommandBuffer
     split::PassPrediction target;
     if (inheritance.renderPass == VK_NULL_HANDLE) {
         // Dynamic rendering: predicted from the formats and view mask it inherits.
-        const VkCommandBufferInheritanceRenderingInfo *rendering = nullptr;
-        for (auto *p = static_cast<const VkBaseInStructure *>(inheritance.pNext); p; p = p->pNext)
-            if (p->sType == VK_STRUCTURE_TYPE_COMMAND_BUFFER_INHERITANCE_RENDERING_INFO)
-                rendering = reinterpret_cast<const VkCommandBufferInheritanceRenderingInfo *>(p);
+        const auto *rendering = find_in_chain<VkCommandBufferInheritanceRenderingInfo>(
+            inheritance.pNext, VK_STRUCTURE_TYPE_COMMAND_BUFFER_INHERITANCE_RENDERING_INFO);
         if (!rendering) return;
         const auto predicted = g_rendering_predictions.predict(split::rendering_key(
             rendering->pColorAttachmentFormats, rendering->colorAttachmentCount,

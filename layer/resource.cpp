@@ -150,6 +150,18 @@ bool can_add_transfer_src(const DeviceState &dev, const VkImageCreateInfo &info)
                info.usage | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, info.flags, &properties) == VK_SUCCESS;
 }
 
+// vkCreateRenderPass and vkCreateRenderPass2 alike: the attachments' final layouts, which the
+// pass's end applies (note_render_pass_end).
+template <class RenderPassCreateInfo>
+void note_final_layouts(VkRenderPass render_pass, const RenderPassCreateInfo &info) {
+    forget_render_pass(render_pass);
+    std::vector<VkImageLayout> finals;
+    for (uint32_t i = 0; i < info.attachmentCount; ++i)
+        finals.push_back(info.pAttachments[i].finalLayout);
+    std::lock_guard lock(g_mutex);
+    g_final_layouts[render_pass] = std::move(finals);
+}
+
 } // namespace
 
 void note_render_pass_begin(VkCommandBuffer command_buffer, VkRenderPass render_pass,
@@ -258,22 +270,12 @@ void CmdWaitEvents2KHR(DeviceState &dev, VkCommandBuffer cb, uint32_t count, con
 
 void CreateRenderPass(DeviceState &, VkDevice, const VkRenderPassCreateInfo *info,
                       const VkAllocationCallbacks *, VkRenderPass *render_pass) {
-    forget_render_pass(*render_pass);
-    std::vector<VkImageLayout> finals;
-    for (uint32_t i = 0; i < info->attachmentCount; ++i)
-        finals.push_back(info->pAttachments[i].finalLayout);
-    std::lock_guard lock(g_mutex);
-    g_final_layouts[*render_pass] = std::move(finals);
+    note_final_layouts(*render_pass, *info);
 }
 
 void CreateRenderPass2(DeviceState &, VkDevice, const VkRenderPassCreateInfo2 *info,
                        const VkAllocationCallbacks *, VkRenderPass *render_pass) {
-    forget_render_pass(*render_pass);
-    std::vector<VkImageLayout> finals;
-    for (uint32_t i = 0; i < info->attachmentCount; ++i)
-        finals.push_back(info->pAttachments[i].finalLayout);
-    std::lock_guard lock(g_mutex);
-    g_final_layouts[*render_pass] = std::move(finals);
+    note_final_layouts(*render_pass, *info);
 }
 
 void CreateRenderPass2KHR(DeviceState &dev, VkDevice device, const VkRenderPassCreateInfo2 *info,
@@ -464,21 +466,6 @@ std::vector<MipCopy> copyable_mips(const ImageState &state, const FormatInfo &fo
     return mips;
 }
 
-VkImageMemoryBarrier image_barrier(VkImage image, uint32_t mip, uint32_t layer, VkImageLayout from,
-                                   VkImageLayout to, VkAccessFlags src_access, VkAccessFlags dst_access) {
-    VkImageMemoryBarrier b{};
-    b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
-    b.srcAccessMask = src_access;
-    b.dstAccessMask = dst_access;
-    b.oldLayout = from;
-    b.newLayout = to;
-    b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    b.image = image;
-    b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, mip, 1, layer, 1};
-    return b;
-}
-
 VkBufferImageCopy image_region(const MipCopy &mip, uint32_t layers, VkDeviceSize base) {
     VkBufferImageCopy region{};
     region.bufferOffset = base + mip.offset; // rows tightly packed (bufferRowLength 0)
@@ -507,11 +494,9 @@ struct Readback {
         if (!create_host_buffer(dev, size, VK_BUFFER_USAGE_TRANSFER_DST_BIT, HostAccess::Read, &staging,
                                 error))
             return false;
-        VkFenceCreateInfo fence_info{};
-        fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
         if (create_command_pool(dev, family, VK_COMMAND_POOL_CREATE_TRANSIENT_BIT, &pool) != VK_SUCCESS ||
             allocate_primary_command_buffer(dev, pool, &cb) != VK_SUCCESS ||
-            dev.dispatch.CreateFence(dev.handle, &fence_info, nullptr, &fence) != VK_SUCCESS) {
+            create_fence(dev, &fence) != VK_SUCCESS) {
             *error = "cannot create a command buffer for the readback";
             return false;
         }
@@ -545,13 +530,13 @@ void record_readback(DeviceState &dev, VkCommandBuffer cb, VkBuffer staging,
             for (uint32_t layer = 0; layer < state.layers; ++layer) {
                 const VkImageLayout layout = state.layout(mip.mip, layer);
                 if (layout == VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL) continue;
-                to_src.push_back(image_barrier(image.image, mip.mip, layer, layout,
-                                               VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                                               VK_ACCESS_MEMORY_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT));
+                to_src.push_back(colour_image_barrier(image.image, VK_ACCESS_MEMORY_WRITE_BIT,
+                                                      VK_ACCESS_TRANSFER_READ_BIT, layout,
+                                                      VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, mip.mip, layer));
                 // Back to where the app left it, before anything the app submits later.
-                back.push_back(image_barrier(image.image, mip.mip, layer,
-                                             VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, layout, 0,
-                                             VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_MEMORY_WRITE_BIT));
+                back.push_back(colour_image_barrier(
+                    image.image, 0, VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_MEMORY_WRITE_BIT,
+                    VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, layout, mip.mip, layer));
             }
             regions.push_back(image_region(mip, state.layers, image.staging_offset));
         }
@@ -651,13 +636,13 @@ void push_image_uploads(DeviceState &dev, VkQueue queue, uint32_t family,
         for (const MipCopy &mip : image.mips) {
             for (uint32_t layer = 0; layer < state.layers; ++layer) {
                 // The agent's image holds nothing yet: its old contents can be discarded.
-                to_dst.push_back(image_barrier(image.image, mip.mip, layer, VK_IMAGE_LAYOUT_UNDEFINED,
-                                               VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0,
-                                               VK_ACCESS_TRANSFER_WRITE_BIT));
-                to_layout.push_back(image_barrier(image.image, mip.mip, layer,
-                                                  VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                                                  state.layout(mip.mip, layer), VK_ACCESS_TRANSFER_WRITE_BIT,
-                                                  VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_MEMORY_WRITE_BIT));
+                to_dst.push_back(colour_image_barrier(image.image, 0, VK_ACCESS_TRANSFER_WRITE_BIT,
+                                                      VK_IMAGE_LAYOUT_UNDEFINED,
+                                                      VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, mip.mip, layer));
+                to_layout.push_back(colour_image_barrier(
+                    image.image, VK_ACCESS_TRANSFER_WRITE_BIT,
+                    VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_MEMORY_WRITE_BIT,
+                    VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, state.layout(mip.mip, layer), mip.mip, layer));
             }
             regions.push_back(image_region(mip, state.layers, 0));
         }
@@ -672,10 +657,7 @@ void push_image_uploads(DeviceState &dev, VkQueue queue, uint32_t family,
                                     to_layout.data());
     }
     encode_vkEndCommandBuffer(e, cb);
-    VkSubmitInfo submit{};
-    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-    submit.commandBufferCount = 1;
-    submit.pCommandBuffers = &cb;
+    const VkSubmitInfo submit = submit_info(&cb);
     encode_vkQueueSubmit(e, queue, 1, &submit, VK_NULL_HANDLE);
     // The agent waits for its queue before a destroy or a free, so the copies are done by then.
     encode_vkDestroyCommandPool(e, device, pool, nullptr);
@@ -738,10 +720,7 @@ bool snapshot_contents(DeviceState &dev, VkQueue queue, uint32_t family, Content
     Readback readback(dev);
     if (!readback.create(total, family, error)) return false;
     record_readback(dev, readback.cb, readback.staging.buffer, buffers, images);
-    VkSubmitInfo submit{};
-    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-    submit.commandBufferCount = 1;
-    submit.pCommandBuffers = &readback.cb;
+    const VkSubmitInfo submit = submit_info(&readback.cb);
     VkResult r = dev.dispatch.QueueSubmit(queue, 1, &submit, readback.fence);
     if (r == VK_SUCCESS)
         r = dev.dispatch.WaitForFences(dev.handle, 1, &readback.fence, VK_TRUE, kFenceWaitNs);

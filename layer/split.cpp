@@ -92,26 +92,6 @@ void note_split_drawn(LockedImages &images, const split::CommandTracker &tracker
     }
 }
 
-namespace {
-
-// Passes down only the indices the app set, in runs: the others hold no valid value to pass.
-template <class State, class Value, class Set>
-void set_valid_runs(const State &dynamic, const std::vector<Value> &values, Set &&set) {
-    for (uint32_t first = 0; first < values.size();) {
-        if (!dynamic.valid(first)) {
-            ++first;
-            continue;
-        }
-        uint32_t end = first;
-        while (end < values.size() && dynamic.valid(end))
-            ++end;
-        set(first, end - first, values.data() + first);
-        first = end;
-    }
-}
-
-} // namespace
-
 void emit_viewports(DeviceState &device, VkCommandBuffer command_buffer,
                     const split::CommandTracker &tracker) {
     const double scale = split_settings().scale;
@@ -136,7 +116,7 @@ void emit_viewports(DeviceState &device, VkCommandBuffer command_buffer,
         if (set) set(command_buffer, static_cast<uint32_t>(values.size()), values.data());
         return;
     }
-    set_valid_runs(dynamic, values, [&](uint32_t first, uint32_t count, const VkViewport *v) {
+    split::for_each_valid_run(dynamic, values, [&](uint32_t first, uint32_t count, const VkViewport *v) {
         device.dispatch.CmdSetViewport(command_buffer, first, count, v);
     });
 }
@@ -165,7 +145,7 @@ void emit_scissors(DeviceState &device, VkCommandBuffer command_buffer,
         if (set) set(command_buffer, static_cast<uint32_t>(values.size()), values.data());
         return;
     }
-    set_valid_runs(dynamic, values, [&](uint32_t first, uint32_t count, const VkRect2D *r) {
+    split::for_each_valid_run(dynamic, values, [&](uint32_t first, uint32_t count, const VkRect2D *r) {
         device.dispatch.CmdSetScissor(command_buffer, first, count, r);
     });
 }

@@ -202,6 +202,16 @@ void after_transfer(DeviceState &dev, VkCommandBuffer cb, VkImage dst) {
     if (split_enabled(dev) && swapchain_image_extent(dst, &extent)) time_split_pass_ended(dev, cb);
 }
 
+// A region command goes down as the application recorded it when `scaled` is false; otherwise
+// with `regions` (the scaled ones; none left means nothing to do). `down` takes the count and
+// regions to pass.
+template <class Region, class Down>
+void pass_down_regions(bool scaled, uint32_t count, const Region *recorded,
+                       const std::vector<Region> &regions, Down &&down) {
+    if (!scaled) return down(count, recorded);
+    if (!regions.empty()) down(static_cast<uint32_t>(regions.size()), regions.data());
+}
+
 // A *2 region command goes down as the application recorded it when `scaled` is false; otherwise
 // with `regions` (the scaled ones; none left means nothing to do) in a copy of its info.
 template <class Info, class Region, class Next>
@@ -247,11 +257,10 @@ void CmdCopyImage(DeviceState &dev, PFN_vkCmdCopyImage down, VkCommandBuffer com
                      pRegions))
         return after_transfer(dev, commandBuffer, dstImage);
     std::vector<VkImageCopy> out;
-    if (!scale_copies(dev, commandBuffer, srcImage, dstImage, regionCount, pRegions, out))
-        return down(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout, regionCount, pRegions);
-    if (!out.empty())
-        down(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
-             static_cast<uint32_t>(out.size()), out.data());
+    const bool scaled = scale_copies(dev, commandBuffer, srcImage, dstImage, regionCount, pRegions, out);
+    pass_down_regions(scaled, regionCount, pRegions, out, [&](uint32_t count, const VkImageCopy *regions) {
+        down(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout, count, regions);
+    });
     after_transfer(dev, commandBuffer, dstImage);
 }
 
@@ -271,11 +280,10 @@ void CmdResolveImage(DeviceState &dev, PFN_vkCmdResolveImage down, VkCommandBuff
                      VkImage srcImage, VkImageLayout srcImageLayout, VkImage dstImage,
                      VkImageLayout dstImageLayout, uint32_t regionCount, const VkImageResolve *pRegions) {
     std::vector<VkImageResolve> out;
-    if (!scale_copies(dev, commandBuffer, srcImage, dstImage, regionCount, pRegions, out))
-        return down(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout, regionCount, pRegions);
-    if (!out.empty())
-        down(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
-             static_cast<uint32_t>(out.size()), out.data());
+    const bool scaled = scale_copies(dev, commandBuffer, srcImage, dstImage, regionCount, pRegions, out);
+    pass_down_regions(scaled, regionCount, pRegions, out, [&](uint32_t count, const VkImageResolve *regions) {
+        down(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout, count, regions);
+    });
     after_transfer(dev, commandBuffer, dstImage);
 }
 
@@ -292,12 +300,10 @@ void CmdBlitImage(DeviceState &dev, PFN_vkCmdBlitImage down, VkCommandBuffer com
                   VkImageLayout srcImageLayout, VkImage dstImage, VkImageLayout dstImageLayout,
                   uint32_t regionCount, const VkImageBlit *pRegions, VkFilter filter) {
     std::vector<VkImageBlit> out;
-    if (!scale_blits(dev, commandBuffer, srcImage, dstImage, regionCount, pRegions, out))
-        return down(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout, regionCount, pRegions,
-                    filter);
-    if (!out.empty())
-        down(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout,
-             static_cast<uint32_t>(out.size()), out.data(), filter);
+    const bool scaled = scale_blits(dev, commandBuffer, srcImage, dstImage, regionCount, pRegions, out);
+    pass_down_regions(scaled, regionCount, pRegions, out, [&](uint32_t count, const VkImageBlit *regions) {
+        down(commandBuffer, srcImage, srcImageLayout, dstImage, dstImageLayout, count, regions, filter);
+    });
     after_transfer(dev, commandBuffer, dstImage);
 }
 
@@ -314,11 +320,11 @@ void CmdCopyBufferToImage(DeviceState &, PFN_vkCmdCopyBufferToImage down, VkComm
                           VkBuffer srcBuffer, VkImage dstImage, VkImageLayout dstImageLayout,
                           uint32_t regionCount, const VkBufferImageCopy *pRegions) {
     std::vector<VkBufferImageCopy> out;
-    if (!scale_buffer_copies(dstImage, regionCount, pRegions, out))
-        return down(commandBuffer, srcBuffer, dstImage, dstImageLayout, regionCount, pRegions);
-    if (!out.empty())
-        down(commandBuffer, srcBuffer, dstImage, dstImageLayout, static_cast<uint32_t>(out.size()),
-             out.data());
+    const bool scaled = scale_buffer_copies(dstImage, regionCount, pRegions, out);
+    pass_down_regions(scaled, regionCount, pRegions, out,
+                      [&](uint32_t count, const VkBufferImageCopy *regions) {
+                          down(commandBuffer, srcBuffer, dstImage, dstImageLayout, count, regions);
+                      });
 }
 
 void CmdCopyBufferToImage2(DeviceState &, PFN_vkCmdCopyBufferToImage2 down, VkCommandBuffer commandBuffer,
@@ -332,11 +338,11 @@ void CmdCopyImageToBuffer(DeviceState &, PFN_vkCmdCopyImageToBuffer down, VkComm
                           VkImage srcImage, VkImageLayout srcImageLayout, VkBuffer dstBuffer,
                           uint32_t regionCount, const VkBufferImageCopy *pRegions) {
     std::vector<VkBufferImageCopy> out;
-    if (!scale_buffer_copies(srcImage, regionCount, pRegions, out))
-        return down(commandBuffer, srcImage, srcImageLayout, dstBuffer, regionCount, pRegions);
-    if (!out.empty())
-        down(commandBuffer, srcImage, srcImageLayout, dstBuffer, static_cast<uint32_t>(out.size()),
-             out.data());
+    const bool scaled = scale_buffer_copies(srcImage, regionCount, pRegions, out);
+    pass_down_regions(scaled, regionCount, pRegions, out,
+                      [&](uint32_t count, const VkBufferImageCopy *regions) {
+                          down(commandBuffer, srcImage, srcImageLayout, dstBuffer, count, regions);
+                      });
 }
 
 void CmdCopyImageToBuffer2(DeviceState &, PFN_vkCmdCopyImageToBuffer2 down, VkCommandBuffer commandBuffer,

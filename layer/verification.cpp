@@ -60,8 +60,6 @@ void destroy(DeviceState &dev, VerifyReadback &r) {
 }
 
 bool create(DeviceState &dev, const SwapchainState &sc, uint32_t family, VerifyReadback &r) {
-    const VkDevice d = dev.handle;
-    const auto &k = dev.dispatch;
     if (create_command_pool(dev, family, VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT, &r.pool) !=
             VK_SUCCESS ||
         allocate_primary_command_buffer(dev, r.pool, &r.command_buffer) != VK_SUCCESS)
@@ -71,12 +69,7 @@ bool create(DeviceState &dev, const SwapchainState &sc, uint32_t family, VerifyR
     if (!create_host_buffer(dev, VkDeviceSize{sc.extent.width} * sc.extent.height * 4 * sc.array_layers,
                             VK_BUFFER_USAGE_TRANSFER_DST_BIT, HostAccess::Read, &r.staging, &error))
         return false;
-    VkFenceCreateInfo fence_info{};
-    fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
-    if (k.CreateFence(d, &fence_info, nullptr, &r.fence) != VK_SUCCESS) return false;
-    VkSemaphoreCreateInfo sem_info{};
-    sem_info.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
-    return k.CreateSemaphore(d, &sem_info, nullptr, &r.semaphore) == VK_SUCCESS;
+    return create_fence(dev, &r.fence) == VK_SUCCESS && create_semaphore(dev, &r.semaphore) == VK_SUCCESS;
 }
 
 void record_copy(DeviceState &dev, const SwapchainState &sc, VkImage image, VerifyReadback &r) {
@@ -86,32 +79,24 @@ void record_copy(DeviceState &dev, const SwapchainState &sc, VkImage image, Veri
     begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
     begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
     k.BeginCommandBuffer(r.command_buffer, &begin);
-    VkImageMemoryBarrier barrier{};
-    barrier.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
     // A runtime's image comes with no semaphore, only after the application's rendering on the same
-    // queue: the barrier itself must make those writes visible to the copy.
-    barrier.srcAccessMask = sc.runtime ? VK_ACCESS_MEMORY_WRITE_BIT : 0;
-    barrier.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
-    barrier.oldLayout = sc.present_layout;
-    barrier.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-    barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    barrier.image = image;
-    // Every layer, one after the other in the buffer, as the agent reads them (VerifyFrame::layers).
-    barrier.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, sc.array_layers};
+    // queue: the barrier itself must make those writes visible to the copy. Every layer, one after
+    // the other in the buffer, as the agent reads them (VerifyFrame::layers).
+    const VkImageMemoryBarrier to_src =
+        colour_image_barrier(image, sc.runtime ? VK_ACCESS_MEMORY_WRITE_BIT : 0, VK_ACCESS_TRANSFER_READ_BIT,
+                             sc.present_layout, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, 0, 0, sc.array_layers);
     k.CmdPipelineBarrier(r.command_buffer, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                         0, 0, nullptr, 0, nullptr, 1, &barrier);
+                         0, 0, nullptr, 0, nullptr, 1, &to_src);
     VkBufferImageCopy region{};
     region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, sc.array_layers};
     region.imageExtent = {sc.extent.width, sc.extent.height, 1};
     k.CmdCopyImageToBuffer(r.command_buffer, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, r.staging.buffer, 1,
                            &region);
-    barrier.srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
-    barrier.dstAccessMask = 0;
-    barrier.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-    barrier.newLayout = sc.present_layout;
+    const VkImageMemoryBarrier back =
+        colour_image_barrier(image, VK_ACCESS_TRANSFER_READ_BIT, 0, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                             sc.present_layout, 0, 0, sc.array_layers);
     k.CmdPipelineBarrier(r.command_buffer, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                         VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, 0, 0, nullptr, 0, nullptr, 1, &barrier);
+                         VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, 0, 0, nullptr, 0, nullptr, 1, &back);
     k.EndCommandBuffer(r.command_buffer);
 }
 
@@ -209,15 +194,9 @@ std::optional<PendingVerify> read_back_presented_image(DeviceState &dev, VkQueue
     dev.dispatch.ResetFences(dev.handle, 1, &r.fence);
     record_copy(dev, *sc, sc->images[index], r);
     std::vector<VkPipelineStageFlags> stages(present.waitSemaphoreCount, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT);
-    VkSubmitInfo submit{};
-    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-    submit.waitSemaphoreCount = present.waitSemaphoreCount;
-    submit.pWaitSemaphores = present.pWaitSemaphores;
-    submit.pWaitDstStageMask = stages.data();
-    submit.commandBufferCount = 1;
-    submit.pCommandBuffers = &r.command_buffer;
-    submit.signalSemaphoreCount = 1;
-    submit.pSignalSemaphores = &r.semaphore;
+    const VkSubmitInfo submit =
+        submit_info(&r.command_buffer, {present.pWaitSemaphores, present.waitSemaphoreCount}, stages.data(),
+                    &r.semaphore);
     if (dev.dispatch.QueueSubmit(queue, 1, &submit, r.fence) != VK_SUCCESS) return std::nullopt;
     r.in_flight = true;
     // A node of g_readbacks, which the lock the result holds keeps in place.
@@ -245,10 +224,7 @@ std::optional<PendingVerify> read_back_runtime_image(DeviceState &dev, VkQueue q
     if (!ready) return std::nullopt;
     dev.dispatch.ResetFences(dev.handle, 1, &r.fence);
     record_copy(dev, sc, sc.images[index], r);
-    VkSubmitInfo submit{};
-    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-    submit.commandBufferCount = 1;
-    submit.pCommandBuffers = &r.command_buffer;
+    const VkSubmitInfo submit = submit_info(&r.command_buffer);
     if (dev.dispatch.QueueSubmit(queue, 1, &submit, r.fence) != VK_SUCCESS) return std::nullopt;
     r.in_flight = true;
     return PendingVerify{frame, &sc, index, &r, {}};

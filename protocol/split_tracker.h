@@ -74,6 +74,24 @@ struct StateArray {
     bool empty() const { return values.empty(); }
 };
 
+// Calls set(first, count, out.data() + first) for each run of consecutive indices that `state` holds
+// a value for; `out` has one entry per index of state.values (the values to pass down, perhaps
+// rewritten). The indices between runs were never set, so they hold no valid value to pass down.
+template <class T, class Out, class Set>
+void for_each_valid_run(const StateArray<T> &state, const std::vector<Out> &out, Set &&set) {
+    for (uint32_t first = 0; first < out.size();) {
+        if (!state.valid(first)) {
+            ++first;
+            continue;
+        }
+        uint32_t end = first;
+        while (end < out.size() && state.valid(end))
+            ++end;
+        set(first, end - first, out.data() + first);
+        first = end;
+    }
+}
+
 class CommandTracker {
 public:
     void reset() { *this = CommandTracker(); }

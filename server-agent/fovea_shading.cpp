@@ -481,17 +481,9 @@ void FoveaShading::emit_scissors(VkCommandBuffer cb, const split::CommandTracker
             vk_.CmdSetScissorWithCount(cb, static_cast<uint32_t>(values.size()), values.data());
         return;
     }
-    for (uint32_t first = 0; first < values.size();) {
-        if (!dynamic.valid(first)) {
-            ++first;
-            continue;
-        }
-        uint32_t end = first;
-        while (end < values.size() && dynamic.valid(end))
-            ++end;
-        vk_.CmdSetScissor(cb, first, end - first, values.data() + first);
-        first = end;
-    }
+    split::for_each_valid_run(dynamic, values, [&](uint32_t first, uint32_t count, const VkRect2D *r) {
+        vk_.CmdSetScissor(cb, first, count, r);
+    });
 }
 
 void FoveaShading::submitted(uint32_t count, const VkCommandBuffer *command_buffers) {

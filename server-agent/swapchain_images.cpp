@@ -114,22 +114,29 @@ bool SwapchainImages::create(const protocol::SwapchainImages &message, std::stri
     return true;
 }
 
-bool SwapchainImages::presented(uint64_t swapchain_id, uint32_t image_index, Presented *out,
-                                std::string *error) const {
+const SwapchainImages::Swapchain *
+SwapchainImages::presented_swapchain(uint64_t swapchain_id, uint32_t image_index, std::string *error) const {
     const auto it = swapchains_.find(swapchain_id);
     if (it == swapchains_.end()) {
         *error = "present of unknown swapchain id";
-        return false;
+        return nullptr;
     }
     const Swapchain &swapchain = it->second;
     if (image_index >= swapchain.images.size()) {
         *error = "present of image index " + std::to_string(image_index) + " of a swapchain with " +
                  std::to_string(swapchain.images.size()) + " images";
-        return false;
+        return nullptr;
     }
-    *out = {swapchain.images[image_index], swapchain.info.image_ids[image_index],
-            static_cast<VkFormat>(swapchain.info.format),
-            static_cast<VkImageLayout>(swapchain.info.presented_layout)};
+    return &swapchain;
+}
+
+bool SwapchainImages::presented(uint64_t swapchain_id, uint32_t image_index, Presented *out,
+                                std::string *error) const {
+    const Swapchain *swapchain = presented_swapchain(swapchain_id, image_index, error);
+    if (!swapchain) return false;
+    *out = {swapchain->images[image_index], swapchain->info.image_ids[image_index],
+            static_cast<VkFormat>(swapchain->info.format),
+            static_cast<VkImageLayout>(swapchain->info.presented_layout)};
     return true;
 }
 
@@ -228,17 +235,9 @@ bool SwapchainImages::ensure_readback(VkDeviceSize bytes, std::string *error) {
 bool SwapchainImages::read_back(uint64_t swapchain_id, uint32_t image_index, Rect rect,
                                 protocol::VerifyFrame &out, bool *unsupported, std::string *error) {
     *unsupported = false;
-    auto it = swapchains_.find(swapchain_id);
-    if (it == swapchains_.end()) {
-        *error = "present of unknown swapchain id";
-        return false;
-    }
-    const Swapchain &swapchain = it->second;
-    if (image_index >= swapchain.images.size()) {
-        *error = "present of image index " + std::to_string(image_index) + " of a swapchain with " +
-                 std::to_string(swapchain.images.size()) + " images";
-        return false;
-    }
+    const Swapchain *found = presented_swapchain(swapchain_id, image_index, error);
+    if (!found) return false;
+    const Swapchain &swapchain = *found;
     if (!codec::is_verifiable_format(static_cast<VkFormat>(swapchain.info.format))) {
         *unsupported = true;
         return true;

@@ -83,6 +83,9 @@ private:
         std::vector<split::RuntimeEye> eyes; // a runtime's swapchain: what SwapchainView said
     };
     void release(Swapchain &swapchain);
+    // The swapchain a present names, its image index checked; null, with `error` said, otherwise.
+    const Swapchain *presented_swapchain(uint64_t swapchain_id, uint32_t image_index,
+                                         std::string *error) const;
     bool ensure_readback(VkDeviceSize bytes, std::string *error);
 
     VulkanContext &context_;

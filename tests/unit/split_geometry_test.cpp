@@ -721,5 +721,40 @@ TEST(SplitTracker, ReusedCommandBufferDoesNotScaleAPlainDispatch) {
     EXPECT_TRUE(t.dispatch_writes_screen_space(writes_screen_space));
 }
 
+// Both the layer and the agent pass dynamic scissors down in runs of the indices the application
+// set: an index it never set holds no value and must not be passed, and a vkCmdSet*WithCount
+// call sets every index up to its count.
+TEST(SplitTracker, ValidRunsSkipTheIndicesNeverSet) {
+    struct Run {
+        uint32_t first, count;
+        int first_value;
+        bool operator==(const Run &) const = default;
+    };
+    const auto runs = [](const StateArray<int> &state) {
+        std::vector<int> out;
+        for (const int v : state.values)
+            out.push_back(v * 10); // what the split passes down is rewritten, not the state itself
+        std::vector<Run> found;
+        for_each_valid_run(state, out, [&](uint32_t first, uint32_t count, const int *v) {
+            found.push_back({first, count, *v});
+        });
+        return found;
+    };
+    StateArray<int> state;
+    EXPECT_TRUE(runs(state).empty());
+
+    const int a[] = {1, 2};
+    const int b[] = {5};
+    const int c[] = {7, 8};
+    state.assign(1, 2, a, false); // indices 1-2
+    state.assign(5, 1, b, false); // index 5
+    EXPECT_EQ(runs(state), (std::vector<Run>{{1, 2, 10}, {5, 1, 50}}));
+    state.assign(3, 2, c, false); // 3-4 join the runs either side into one
+    EXPECT_EQ(runs(state), (std::vector<Run>{{1, 5, 10}}));
+
+    state.assign(0, 2, c, true); // with count: exactly indices 0-1
+    EXPECT_EQ(runs(state), (std::vector<Run>{{0, 2, 70}}));
+}
+
 } // namespace
 } // namespace splitvk::split
