@@ -13,6 +13,7 @@
 #include "device.h"
 #include "session.h"
 
+#include <functional>
 #include <span>
 #include <string>
 #include <utility>
@@ -52,22 +53,11 @@ void apply_layouts(LockedImages &images, const CommandLayouts &layouts);
 // vkDestroyDevice.
 void forget_resources(DeviceState &device);
 
-// The contents of every live buffer and image, read back with a copy submitted on `queue` (of
-// family `family`), which must be idle; and the messages that give them to a fresh agent after the
-// object log: MemoryData for buffers, and for images a staging buffer with the bytes plus a
-// command buffer that copies them in and leaves each subresource in its tracked layout. Images the
-// layer cannot read back (no TRANSFER_SRC, multisampled, depth/stencil, a format vk.xml does not
-// describe as single-plane, or no known layout) are counted in `skipped_images`; screen-space
-// targets (screen_space.h) in `screen_space_images`.
-struct ContentSnapshot {
-    std::vector<LiveMessage> messages;
-    uint64_t buffers = 0;
-    uint64_t images = 0;
-    uint64_t skipped_images = 0;
-    uint64_t screen_space_images = 0; // left out: scaled on the client, rewritten every frame
-    uint64_t bytes = 0;
-};
-bool snapshot_contents(DeviceState &device, VkQueue queue, uint32_t family, ContentSnapshot *out,
-                       std::string *error);
+// Every buffer of `device` a snapshot can read back (created with TRANSFER_SRC, bound, not empty),
+// with its memory, its offset in it and its size; under the buffer table's lock, so `each` must not
+// call back into resource.h.
+void for_each_readable_buffer(
+    const DeviceState &device,
+    const std::function<void(VkBuffer, VkDeviceMemory, VkDeviceSize offset, VkDeviceSize size)> &each);
 
 } // namespace splitvk

@@ -3,6 +3,7 @@
 #include "session.h"
 
 #include "capture.h"
+#include "content_snapshot.h"
 #include "descriptor_set.h"
 #include "device.h"
 #include "instance.h"
