@@ -93,14 +93,15 @@ CommandTiming *command_buffer_timing(VkCommandBuffer command_buffer) {
     return state ? &state->timing : nullptr;
 }
 
-void note_submitted(DeviceState &device, LockedImages &images, VkCommandBuffer command_buffer) {
+const CommandTiming *note_submitted(DeviceState &device, LockedImages &images,
+                                    VkCommandBuffer command_buffer) {
     // The application may not free or re-record a command buffer while it is being submitted, so
     // its state stays put after the map's lock is released.
     const CommandBufferState *state = find_state(command_buffer);
-    if (!state) return;
+    if (!state) return nullptr;
     if (split_enabled(device)) note_split_drawn(images, state->split);
     apply_layouts(images, state->layouts);
-    note_timed_submit(device, state->timing);
+    return &state->timing;
 }
 
 split::CommandTracker *split_tracker(VkCommandBuffer command_buffer) {

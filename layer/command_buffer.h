@@ -40,11 +40,14 @@ split::CommandTracker *split_tracker(VkCommandBuffer command_buffer);
 // Its split pass's timestamp pair (gpu_timing.h); nullptr without state.
 CommandTiming *command_buffer_timing(VkCommandBuffer command_buffer);
 
-// vkQueueSubmit*, after the driver call, for each submitted command buffer in submission order:
-// what it recorded reaches the images it names (layouts, resource.h; what its split passes drew,
-// split.h) and its split pass's timestamps are marked submitted (gpu_timing.h). The caller holds
-// `images` across the whole submit, so that its command buffers apply in order as one step.
-void note_submitted(DeviceState &device, LockedImages &images, VkCommandBuffer command_buffer);
+// vkQueueSubmit*, under the queue's lock just before the driver call, for each submitted command
+// buffer in submission order: what it recorded reaches the images it names (layouts, resource.h;
+// what its split passes drew, split.h). The caller holds `images` across the whole submit, so that
+// its command buffers apply in order as one step. Returns its split pass's timing, which the
+// caller marks submitted (gpu_timing.h: note_timed_submit) only once `images` is released: that
+// lock can wait for the GPU (latest_periphery_ms), which the image table must never do.
+const CommandTiming *note_submitted(DeviceState &device, LockedImages &images,
+                                    VkCommandBuffer command_buffer);
 
 // Snapshot part (session.h: build_live_snapshot): the last stream of each command buffer whose id
 // is in `live`.

@@ -29,6 +29,7 @@ void note_swapchain_images(DeviceState &device, VkSwapchainKHR swapchain, uint32
     for (uint32_t i = 0; i < count; ++i) {
         ImageState &state = g_images[images[i]];
         if (!state.device) state.device = &device;
+        if (state.swapchain != swapchain) state.drawn.reset(); // drawn for another swapchain's frames
         state.swapchain = swapchain;
     }
 }

@@ -13,7 +13,9 @@
 // present, on the present path). Several queues may submit work that touches one image, and the
 // present path reads what a submit on another thread wrote, so the fields need the lock even where
 // Vulkan's external synchronisation would cover the handle. The lock is held only while a field is
-// read or written, never around a call into the driver or into another table's lock.
+// read or written, never around a call into the driver or into another table's lock, with one
+// exception: a submit looks its command buffers up (command_buffer.h: note_submitted) while it
+// holds the table, so the command-buffer table's lock nests inside this one and never around it.
 
 #include "device.h"
 #include "split_tracker.h"

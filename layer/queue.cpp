@@ -15,6 +15,7 @@
 
 #include "capture.h"
 #include "command_buffer.h"
+#include "gpu_timing.h"
 #include "image.h"
 #include "layer_entry_points.h"
 #include "memory.h"
@@ -85,19 +86,35 @@ std::vector<std::unique_lock<std::mutex>> lock_device_queues(const DeviceState &
 }
 
 // What the submitted command buffers recorded, in submission order, in one walk under one hold of
-// the image table (command_buffer.h: note_submitted).
+// the image table; their split-pass timestamps after it (command_buffer.h: note_submitted).
+void mark_timed(DeviceState &dev, const std::vector<const CommandTiming *> &timed) {
+    for (const CommandTiming *timing : timed)
+        note_timed_submit(dev, *timing);
+}
+
 void note_submit(DeviceState &dev, uint32_t count, const VkSubmitInfo *submits) {
-    LockedImages images;
-    for (uint32_t i = 0; i < count; ++i)
-        for (uint32_t j = 0; j < submits[i].commandBufferCount; ++j)
-            note_submitted(dev, images, submits[i].pCommandBuffers[j]);
+    std::vector<const CommandTiming *> timed;
+    {
+        LockedImages images;
+        for (uint32_t i = 0; i < count; ++i)
+            for (uint32_t j = 0; j < submits[i].commandBufferCount; ++j)
+                if (const CommandTiming *t = note_submitted(dev, images, submits[i].pCommandBuffers[j]))
+                    timed.push_back(t);
+    }
+    mark_timed(dev, timed);
 }
 
 void note_submit(DeviceState &dev, uint32_t count, const VkSubmitInfo2 *submits) {
-    LockedImages images;
-    for (uint32_t i = 0; i < count; ++i)
-        for (uint32_t j = 0; j < submits[i].commandBufferInfoCount; ++j)
-            note_submitted(dev, images, submits[i].pCommandBufferInfos[j].commandBuffer);
+    std::vector<const CommandTiming *> timed;
+    {
+        LockedImages images;
+        for (uint32_t i = 0; i < count; ++i)
+            for (uint32_t j = 0; j < submits[i].commandBufferInfoCount; ++j)
+                if (const CommandTiming *t =
+                        note_submitted(dev, images, submits[i].pCommandBufferInfos[j].commandBuffer))
+                    timed.push_back(t);
+    }
+    mark_timed(dev, timed);
 }
 
 // vkQueueSubmit, vkQueueSubmit2 and its KHR alias, which differ only in their info type and the

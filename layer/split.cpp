@@ -82,7 +82,9 @@ std::vector<uint64_t> swapchain_images_drawn(const DeviceState &device, uint32_t
 void note_split_drawn(LockedImages &images, const split::CommandTracker &tracker) {
     for (const split::DrawnImage &drawn : tracker.drawn()) {
         ImageState *image = images.find(codec::to_handle<VkImage>(drawn.image));
-        if (!image) continue;
+        // An image whose swapchain is gone (an OpenXR runtime may keep its images for the next
+        // one) takes no record: nothing would take it before it joins a new swapchain's frames.
+        if (!image || !image->swapchain) continue;
         if (!image->drawn) {
             image->drawn = drawn;
             continue;
