@@ -80,18 +80,24 @@ void FifoReader::take_line(std::string_view line) {
         bad_line(line, error);
 }
 
-split::Gaze FifoReader::poll() {
-    if (!opened_) {
-        opened_ = true;
-        // Non-blocking: opening a pipe for reading does not wait for a writer, and reads return
-        // what is there (or nothing) at once.
-        fd_ = ::open(path_.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
-        if (fd_ < 0)
-            SPLITVK_WARN("SPLITVK_GAZE=fifo:%s: cannot open it (%s); the foveae stay fixed", path_.c_str(),
-                         std::strerror(errno));
-        else
-            SPLITVK_INFO("gaze: reading gaze points from %s", path_.c_str());
+void FifoReader::try_open() {
+    const auto now = std::chrono::steady_clock::now();
+    if (now < next_open_) return;
+    next_open_ = now + retry_;
+    // Non-blocking: opening a pipe for reading does not wait for a writer, and reads return what
+    // is there (or nothing) at once.
+    fd_ = ::open(path_.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd_ >= 0) {
+        SPLITVK_INFO("gaze: reading gaze points from %s", path_.c_str());
+    } else if (!said_unopened_) {
+        said_unopened_ = true;
+        SPLITVK_WARN("SPLITVK_GAZE=fifo:%s: cannot open it (%s); the foveae stay fixed until it can be",
+                     path_.c_str(), std::strerror(errno));
     }
+}
+
+split::Gaze FifoReader::poll() {
+    if (fd_ < 0 && !read_failed_) try_open();
     if (fd_ < 0) return current_;
     char buffer[4096];
     for (;;) {
@@ -104,6 +110,7 @@ split::Gaze FifoReader::poll() {
                          std::strerror(errno));
             ::close(fd_);
             fd_ = -1;
+            read_failed_ = true;
             break;
         }
         for (const char c : std::string_view(buffer, static_cast<size_t>(n))) {

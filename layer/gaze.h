@@ -15,6 +15,7 @@
 
 #include "split_geometry.h"
 
+#include <chrono>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -30,7 +31,10 @@ std::optional<split::Gaze> parse_line(std::string_view line, std::string *error)
 // Reads one pipe (or any file) of gaze lines without ever blocking.
 class FifoReader {
 public:
-    explicit FifoReader(std::string path) : path_(std::move(path)) {}
+    // A path that cannot be opened yet (the tracker's bridge has not made its pipe) is tried again
+    // at most once per `retry`.
+    explicit FifoReader(std::string path, std::chrono::steady_clock::duration retry = std::chrono::seconds(1))
+        : path_(std::move(path)), retry_(retry) {}
     ~FifoReader();
     FifoReader(const FifoReader &) = delete;
     FifoReader &operator=(const FifoReader &) = delete;
@@ -38,21 +42,25 @@ public:
     // Everything the pipe holds now, line by line: the gaze of the newest good line, or the one
     // before when none came; fixed until the first. A bad line gets one warning (the first
     // kMaxBadLineWarnings, then one saying that the rest go unreported); a path that cannot be
-    // opened, one line, and the gaze stays fixed.
+    // opened, one line, and the gaze stays fixed until it can be.
     split::Gaze poll();
 
     static constexpr size_t kMaxLine = 256;
     static constexpr uint32_t kMaxBadLineWarnings = 20;
 
 private:
+    void try_open();
     void take_line(std::string_view line);
     void bad_line(std::string_view line, const std::string &why);
 
     std::string path_;
+    std::chrono::steady_clock::duration retry_;
     int fd_ = -1;
-    bool opened_ = false;   // tried: a missing pipe is said once
-    std::string pending_;   // a line not finished yet
-    bool overlong_ = false; // discarding the rest of a line past kMaxLine
+    std::chrono::steady_clock::time_point next_open_{}; // while fd_ < 0: when to try the path again
+    bool said_unopened_ = false;                        // a path that cannot be opened is said once
+    bool read_failed_ = false;                          // a read error ends the gaze for good
+    std::string pending_;                               // a line not finished yet
+    bool overlong_ = false;                             // discarding the rest of a line past kMaxLine
     uint32_t bad_lines_ = 0;
     split::Gaze current_;
 };

@@ -136,5 +136,32 @@ TEST_F(GazeFifo, AMissingPipeKeepsTheFoveaFixed) {
     EXPECT_TRUE(reader.poll().fixed);
 }
 
+TEST_F(GazeFifo, APipeMadeAfterTheFirstPresentIsReadOnceItExists) {
+    const std::string late = (dir_ / "late").string();
+    FifoReader reader(late, std::chrono::milliseconds(0));
+    EXPECT_TRUE(reader.poll().fixed) << "no pipe yet";
+    ASSERT_EQ(::mkfifo(late.c_str(), 0600), 0);
+    EXPECT_TRUE(reader.poll().fixed) << "the pipe, opened, with no writer";
+    // The reader has it open now, so a non-blocking writer's open succeeds.
+    writer_ = ::open(late.c_str(), O_WRONLY | O_NONBLOCK | O_CLOEXEC);
+    ASSERT_GE(writer_, 0);
+    ASSERT_NO_FATAL_FAILURE(write_text("0.25 0.75\n"));
+    const split::Gaze g = reader.poll();
+    EXPECT_FALSE(g.fixed);
+    EXPECT_EQ(g.eyes[0].x, kGazeOne / 4);
+    EXPECT_EQ(g.eyes[0].y, kGazeOne * 3 / 4);
+}
+
+TEST_F(GazeFifo, AMissingPipeIsTriedAgainAtMostOncePerInterval) {
+    const std::string late = (dir_ / "late").string();
+    FifoReader reader(late, std::chrono::hours(1));
+    EXPECT_TRUE(reader.poll().fixed);
+    ASSERT_EQ(::mkfifo(late.c_str(), 0600), 0);
+    EXPECT_TRUE(reader.poll().fixed);
+    // Not tried again within the hour: no reader has the pipe, so a non-blocking writer is refused.
+    EXPECT_LT(::open(late.c_str(), O_WRONLY | O_NONBLOCK | O_CLOEXEC), 0);
+    EXPECT_EQ(errno, ENXIO);
+}
+
 } // namespace
 } // namespace splitvk::gaze
