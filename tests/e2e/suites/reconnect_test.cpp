@@ -1,4 +1,5 @@
-// Reliability (issue 6): the agent dies or starts late, and the application goes on.
+// Reliability (issue 6): the agent dies or starts late, and the application goes on (with a moving
+// gaze too: the agent that joins is given the gaze it follows, issue 22).
 //  - Late join: splitvk-atrium starts with no agent (runs unsplit), an agent starts afterwards and
 //    is brought in with a snapshot of the live state; the held last frame has exact foveae.
 //  - Kill and restart: the agent is SIGKILLed mid-run (listener and session), the app keeps
@@ -14,12 +15,16 @@
 #include "e2e_test.h"
 #include "fovea.h"
 
+#include <cstring>
 #include <fstream>
 #include <memory>
 #include <regex>
 #include <thread>
 
+#include <fcntl.h>
 #include <signal.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 namespace splitvk::e2e {
 namespace {
@@ -64,6 +69,7 @@ protected:
         e["SPLITVK_SERVER"] = "127.0.0.1:" + std::to_string(port_);
         e["SPLITVK_TILE_WAIT"] = "60000"; // a slow machine must not turn the compared frame late
         e["SPLITVK_LOG_LEVEL"] = "info";
+        if (!gaze_fifo_.empty()) e["SPLITVK_GAZE"] = "fifo:" + gaze_fifo_.string();
         return e;
     }
 
@@ -158,7 +164,7 @@ protected:
                   << held_frame << " compared\n";
         RecordProperty("resync_ms", m[1].str());
         const Image native = native_frame(held_frame + 1);
-        for (const Rect &f : default_foveae(kWidth, kHeight, 2)) {
+        for (const Rect &f : foveae_.empty() ? default_foveae(kWidth, kHeight, 2) : foveae_) {
             const auto cmp = compare_exact(native, image, f.x, f.y, f.w, f.h);
             EXPECT_TRUE(cmp.equal()) << "fovea at " << f.x << "," << f.y
                                      << " after the resync: " << cmp.summary() << "\n"
@@ -171,6 +177,8 @@ protected:
     uint16_t port_ = 0;
     std::filesystem::path validation_log_;
     std::vector<std::string> extra_args_; // atrium options of one test
+    std::filesystem::path gaze_fifo_;     // SPLITVK_GAZE=fifo:, for one test
+    std::vector<Rect> foveae_;            // where that gaze puts the foveae (default: centred)
 };
 
 TEST_F(Reconnect, AgentStartedAfterTheAppJoins) {
@@ -209,6 +217,29 @@ TEST_F(Reconnect, AgentKilledAndRestartedIsBroughtBackIn) {
     Agent second;
     ASSERT_TRUE(second.start(env(), out_, {"--validate"}, port_, "second-agent")) << second.error();
     ASSERT_NO_FATAL_FAILURE(expect_recovered(*app, "second-agent"));
+}
+
+// A moving gaze (SPLITVK_GAZE=fifo, issue 22) and an agent that joins mid-run: it learns that the
+// gaze moves from the SplitConfig of its resync and each frame's rectangle from that frame's
+// FramePresent, so the held frame's foveae, where the pipe's point put them rather than centred, are
+// exact. The test keeps the pipe open for writing, so the one line stays the gaze of every frame.
+TEST_F(Reconnect, AgentThatJoinsFollowsAMovingGaze) {
+    gaze_fifo_ = out_ / "gaze";
+    ASSERT_EQ(::mkfifo(gaze_fifo_.c_str(), 0600), 0) << std::strerror(errno);
+    const int writer = ::open(gaze_fifo_.c_str(), O_RDWR | O_NONBLOCK | O_CLOEXEC);
+    ASSERT_GE(writer, 0) << std::strerror(errno);
+    const std::string line = "0.25 0.25 0.75 0.75\n";
+    ASSERT_EQ(::write(writer, line.data(), line.size()), static_cast<ssize_t>(line.size()));
+    foveae_ = {fovea_at_gaze(0.25, 0.25, 0, kWidth / 2, kHeight),
+               fovea_at_gaze(0.75, 0.75, kWidth / 2, kWidth / 2, kHeight)};
+    auto app = start_split();
+    ASSERT_TRUE(app);
+    ASSERT_TRUE(wait_for_log("running unsplit until one answers", 120s)) << read_file(out_ / "split.stderr");
+    Agent agent;
+    ASSERT_TRUE(agent.start(env(), out_, {"--validate"}, port_)) << agent.error();
+    expect_recovered(*app, "splitvk-agent");
+    ::close(writer);
+    EXPECT_FALSE(grep(read_file(out_ / "split.stderr"), "gaze: reading gaze points from").empty());
 }
 
 } // namespace

@@ -1310,17 +1310,8 @@ INSTANTIATE_TEST_SUITE_P(
     [](const ::testing::TestParamInfo<SecondaryCase> &p) { return std::string(p.param.name); });
 
 // SPLITVK_GAZE=fifo:PATH (issue 22): the foveae follow gaze points written into a named pipe. The
-// script's points are multiples of 1/8, so the fovea each gives (centred on floor(p·W), clamped into
-// the eye) is computed here from that definition, not from splitvk's code.
-Rect fovea_at(double gx, double gy, uint32_t eye_x, uint32_t eye_w, uint32_t height) {
-    const Rect centred = default_foveae(eye_w, height, 1)[0];
-    const int64_t cx = static_cast<int64_t>(std::floor(gx * eye_w));
-    const int64_t cy = static_cast<int64_t>(std::floor(gy * height));
-    const int64_t x = std::clamp<int64_t>(cx - centred.w / 2, 0, eye_w - centred.w);
-    const int64_t y = std::clamp<int64_t>(cy - centred.h / 2, 0, height - centred.h);
-    return {eye_x + static_cast<uint32_t>(x), static_cast<uint32_t>(y), centred.w, centred.h};
-}
-
+// script's points are multiples of 1/8, so the fovea each gives is computed from the definition
+// (fovea.h: fovea_at_gaze), not from splitvk's code.
 struct GazeLine {
     double lx, ly, rx, ry;
     std::string text() const {
@@ -1329,7 +1320,8 @@ struct GazeLine {
         return s.str();
     }
     std::vector<Rect> foveae() const {
-        return {fovea_at(lx, ly, 0, kWidth / 2, kHeight), fovea_at(rx, ry, kWidth / 2, kWidth / 2, kHeight)};
+        return {fovea_at_gaze(lx, ly, 0, kWidth / 2, kHeight),
+                fovea_at_gaze(rx, ry, kWidth / 2, kWidth / 2, kHeight)};
     }
 };
 
