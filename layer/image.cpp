@@ -69,9 +69,10 @@ void for_each_image(const DeviceState &device,
         if (state.device == &device) visit(image, state);
 }
 
-LockedImages::LockedImages() : lock_(g_mutex) {}
+LockedImages::LockedImages() : lock_(g_mutex, std::defer_lock) {}
 
 ImageState *LockedImages::find(VkImage image) {
+    if (!lock_.owns_lock()) lock_.lock();
     const auto it = g_images.find(image);
     return it == g_images.end() ? nullptr : &it->second;
 }

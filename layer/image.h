@@ -81,9 +81,11 @@ bool read_image(VkImage image, const std::function<void(const ImageState &)> &re
 // Under the shared lock: every image of `device`.
 void for_each_image(const DeviceState &device, const std::function<void(VkImage, const ImageState &)> &visit);
 
-// The table under its exclusive lock, for as long as this lives: changes made through find() (one
-// lock for several, so that a submit's layouts apply as a whole). Nothing else of this table may be
-// called meanwhile.
+// The table under its exclusive lock from the first find() for as long as this lives: changes made
+// through find() (one lock for several, so that a submit's layouts apply as a whole). The lock is
+// taken only when something is looked up, so a submit with no layouts to apply and nothing drawn
+// (most of them with the split off) never contends with the threads recording. Nothing else of
+// this table may be called meanwhile.
 class LockedImages {
 public:
     LockedImages();
