@@ -24,6 +24,7 @@
 #include "resource.h"
 #include "split.h"
 #include "submit_rules.h"
+#include "vk_util.h"
 
 #include <algorithm>
 #include <map>
@@ -87,34 +88,18 @@ std::vector<std::unique_lock<std::mutex>> lock_device_queues(const DeviceState &
 
 // What the submitted command buffers recorded, in submission order, in one walk under one hold of
 // the image table; their split-pass timestamps after it (command_buffer.h: note_submitted).
-void mark_timed(DeviceState &dev, const std::vector<const CommandTiming *> &timed) {
+template <class SubmitInfo>
+void note_submit(DeviceState &dev, uint32_t count, const SubmitInfo *submits) {
+    std::vector<const CommandTiming *> timed;
+    {
+        LockedImages images;
+        for_each_submitted(count, submits, [&](VkCommandBuffer command_buffer) {
+            if (const CommandTiming *timing = note_submitted(dev, images, command_buffer))
+                timed.push_back(timing);
+        });
+    }
     for (const CommandTiming *timing : timed)
         note_timed_submit(dev, *timing);
-}
-
-void note_submit(DeviceState &dev, uint32_t count, const VkSubmitInfo *submits) {
-    std::vector<const CommandTiming *> timed;
-    {
-        LockedImages images;
-        for (uint32_t i = 0; i < count; ++i)
-            for (uint32_t j = 0; j < submits[i].commandBufferCount; ++j)
-                if (const CommandTiming *t = note_submitted(dev, images, submits[i].pCommandBuffers[j]))
-                    timed.push_back(t);
-    }
-    mark_timed(dev, timed);
-}
-
-void note_submit(DeviceState &dev, uint32_t count, const VkSubmitInfo2 *submits) {
-    std::vector<const CommandTiming *> timed;
-    {
-        LockedImages images;
-        for (uint32_t i = 0; i < count; ++i)
-            for (uint32_t j = 0; j < submits[i].commandBufferInfoCount; ++j)
-                if (const CommandTiming *t =
-                        note_submitted(dev, images, submits[i].pCommandBufferInfos[j].commandBuffer))
-                    timed.push_back(t);
-    }
-    mark_timed(dev, timed);
 }
 
 // vkQueueSubmit, vkQueueSubmit2 and its KHR alias, which differ only in their info type and the

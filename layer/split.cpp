@@ -6,17 +6,12 @@
 #include "layer_settings.h"
 #include "split_geometry.h"
 #include "swapchain.h"
+#include "vk_util.h"
 
 #include <optional>
+#include <utility>
 
 namespace splitvk {
-namespace {
-
-// What the submitted split passes drew goes into each swapchain image's ImageState (image.h), to be
-// taken at its present. Every image a split pass draws into is a swapchain image the table knows
-// (split_target, swapchain_image_extent): one whose swapchain was destroyed since has no present
-// to take it.
-} // namespace
 
 bool split_enabled(const DeviceState &device) {
     return device.session != nullptr && device.session->splitting();
@@ -37,8 +32,7 @@ SplitFrame take_split_frame(DeviceState &, VkImage image, EyeMode eyes, const sp
         LockedImages images;
         ImageState *state = images.find(image);
         if (!state || !state->drawn) return frame;
-        drawn = std::move(state->drawn);
-        state->drawn.reset();
+        drawn = std::exchange(state->drawn, std::nullopt);
     }
     frame.split = true;
     frame.periphery = split::scaled_extent(drawn->extent, split_settings().scale);
@@ -49,35 +43,32 @@ SplitFrame take_split_frame(DeviceState &, VkImage image, EyeMode eyes, const sp
 
 namespace {
 
-void add_drawn(std::vector<uint64_t> &out, uint32_t count, const VkCommandBuffer *command_buffers) {
-    for (uint32_t i = 0; i < count; ++i) {
-        const split::CommandTracker *tracker = split_tracker(command_buffers[i]);
-        if (!tracker) continue;
-        for (const split::DrawnImage &drawn : tracker->drawn())
-            out.push_back(drawn.image);
-    }
+template <class SubmitInfo>
+std::vector<uint64_t> images_drawn(const DeviceState &device, uint32_t count, const SubmitInfo *submits) {
+    std::vector<uint64_t> out;
+    if (!split_enabled(device)) return out;
+    for_each_submitted(count, submits, [&](VkCommandBuffer command_buffer) {
+        if (const split::CommandTracker *tracker = split_tracker(command_buffer))
+            for (const split::DrawnImage &drawn : tracker->drawn())
+                out.push_back(drawn.image);
+    });
+    return out;
 }
 
 } // namespace
 
 std::vector<uint64_t> swapchain_images_drawn(const DeviceState &device, uint32_t count,
                                              const VkSubmitInfo *submits) {
-    std::vector<uint64_t> out;
-    if (!split_enabled(device)) return out;
-    for (uint32_t i = 0; i < count; ++i)
-        add_drawn(out, submits[i].commandBufferCount, submits[i].pCommandBuffers);
-    return out;
+    return images_drawn(device, count, submits);
 }
 
 std::vector<uint64_t> swapchain_images_drawn(const DeviceState &device, uint32_t count,
                                              const VkSubmitInfo2 *submits) {
-    std::vector<uint64_t> out;
-    if (!split_enabled(device)) return out;
-    for (uint32_t i = 0; i < count; ++i)
-        for (uint32_t j = 0; j < submits[i].commandBufferInfoCount; ++j)
-            add_drawn(out, 1, &submits[i].pCommandBufferInfos[j].commandBuffer);
-    return out;
+    return images_drawn(device, count, submits);
 }
+
+// What the submitted split passes drew goes into each swapchain image's ImageState (image.h), to be
+// taken at its present.
 
 void note_split_drawn(LockedImages &images, const split::CommandTracker &tracker) {
     for (const split::DrawnImage &drawn : tracker.drawn()) {

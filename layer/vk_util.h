@@ -38,6 +38,21 @@ T *find_in_chain(void *next, VkStructureType s_type) {
     return nullptr;
 }
 
+// Calls visit(command_buffer) for every command buffer of a vkQueueSubmit's or vkQueueSubmit2's
+// infos, in submission order.
+template <class Visit>
+void for_each_submitted(uint32_t count, const VkSubmitInfo *submits, Visit &&visit) {
+    for (uint32_t i = 0; i < count; ++i)
+        for (uint32_t j = 0; j < submits[i].commandBufferCount; ++j)
+            visit(submits[i].pCommandBuffers[j]);
+}
+template <class Visit>
+void for_each_submitted(uint32_t count, const VkSubmitInfo2 *submits, Visit &&visit) {
+    for (uint32_t i = 0; i < count; ++i)
+        for (uint32_t j = 0; j < submits[i].commandBufferInfoCount; ++j)
+            visit(submits[i].pCommandBufferInfos[j].commandBuffer);
+}
+
 // An unsignalled fence on `device`.
 VkResult create_fence(DeviceState &device, VkFence *fence);
 
