@@ -46,7 +46,8 @@ inline constexpr uint32_t kProtocolVersion = make_protocol_version(kProtocolMajo
 //   2: SwapchainView carries the eye's array layer and sub-image rectangle, EncodedTile its layer.
 //   3: VerifyFrame carries every array layer of the image, with their count.
 //   4: FramePresent carries the frame's gaze, SplitConfig whether the gaze moves (SPLITVK_GAZE).
-inline constexpr uint64_t kMetadataLayout = 4;
+//   5: FramePresent carries the frame's fovea size (SPLITVK_FOVEA=auto).
+inline constexpr uint64_t kMetadataLayout = 5;
 
 // What Hello's codec_fingerprint carries and the server compares: the generated codec's
 // kCodecFingerprint with kMetadataLayout mixed in (FNV-1a over its 8 bytes).

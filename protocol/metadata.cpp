@@ -190,6 +190,15 @@ void fields(auto &io, MessageOf<FramePresent> auto &m) {
             io.u32(eye.x, "gaze x");
             io.u32(eye.y, "gaze y");
         }
+    // The fovea's size this frame: SplitConfig's, or one the client picked (SPLITVK_FOVEA=auto).
+    bool sized = m.fovea_size.set();
+    io.flag(sized, "fovea size kind");
+    if (sized) {
+        io.u32(m.fovea_size.width, "fovea size width");
+        io.u32(m.fovea_size.height, "fovea size height");
+        if constexpr (!std::is_const_v<std::remove_reference_t<decltype(m)>>)
+            if (!m.fovea_size.set()) io.fail("a fovea size of zero");
+    }
 }
 
 void fields(auto &io, MessageOf<VerifyFrame> auto &m) {
@@ -351,7 +360,7 @@ Result<FrameBegin> decode_frame_begin(std::span<const uint8_t> payload) {
 }
 
 std::vector<uint8_t> encode(const FramePresent &m) {
-    return encode_fields(m, 44 + 12 * m.images.size());
+    return encode_fields(m, 56 + 12 * m.images.size());
 }
 
 Result<FramePresent> decode_frame_present(std::span<const uint8_t> payload) {
@@ -365,6 +374,10 @@ Result<FramePresent> decode_frame_present(std::span<const uint8_t> payload) {
             d.fail("gaze point (" + std::to_string(point.x) + ", " + std::to_string(point.y) + ") of eye " +
                    std::to_string(eye) + " outside the eye (0.." + std::to_string(split::kGazeOne) + ")");
     }
+    const split::FrameFoveaSize &size = m.fovea_size;
+    if (d.ok() && (size.width > split::kGazeOne || size.height > split::kGazeOne))
+        d.fail("fovea size " + std::to_string(size.width) + "x" + std::to_string(size.height) +
+               " outside the eye (1.." + std::to_string(split::kGazeOne) + ")");
     return d.finish(std::move(m), "FramePresent");
 }
 

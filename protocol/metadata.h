@@ -126,6 +126,10 @@ struct FramePresent {
     // (coordinates beyond split::kGazeOne); an OpenXR runtime's eye images keep their foveae at
     // their view directions.
     split::Gaze gaze;
+    // SPLITVK_FOVEA=auto: this frame's fovea size, for every fovea of the images it presents (an
+    // OpenXR runtime's eye images' too); unset: SplitConfig's. The decoder refuses one beyond the eye
+    // (above split::kGazeOne); the agent one larger than SplitConfig's.
+    split::FrameFoveaSize fovea_size;
 };
 
 // Pixels are tightly packed rows of the image's format (4 bytes per pixel for the 8-bit BGRA/RGBA

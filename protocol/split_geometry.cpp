@@ -130,6 +130,22 @@ VkRect2D fovea_of_eye(const VkRect2D &eye, const FoveaSize &fovea) {
             {fw, fh}};
 }
 
+FoveaSize frame_fovea_size(const FoveaSize &configured, const FrameFoveaSize &frame) {
+    if (!frame.set()) return configured;
+    FoveaSize size;
+    size.fractional = true;
+    size.width = static_cast<double>(frame.width) / kGazeOne;
+    size.height = static_cast<double>(frame.height) / kGazeOne;
+    return size;
+}
+
+bool frame_fovea_size_allowed(const FoveaSize &configured, const FrameFoveaSize &frame) {
+    if (!frame.set()) return frame.width == 0 && frame.height == 0;
+    if (frame.width > kGazeOne || frame.height > kGazeOne || !configured.fractional) return false;
+    const FoveaSize size = frame_fovea_size(configured, frame);
+    return size.width <= configured.width && size.height <= configured.height;
+}
+
 VkRect2D fovea_at_gaze(const VkRect2D &eye, const GazePoint &point, const FoveaSize &fovea) {
     const VkRect2D centred = fovea_of_eye(eye, fovea);
     const uint32_t fw = centred.extent.width, fh = centred.extent.height;

@@ -72,6 +72,25 @@ struct Gaze {
     GazePoint eyes[2];
 };
 
+// The size of one frame's foveae where the client picks it per frame (SPLITVK_FOVEA=auto, issue 22),
+// in 1/kGazeOne of each eye's width and height so that both sides compute the same pixels from it.
+// Unset (width 0): the size SplitConfig gives. A set size is never larger than SplitConfig's in
+// either dimension: the agent recorded its scissors for that one, and a smaller fovea, centred or
+// at any gaze, lies within them (fovea_scissor).
+struct FrameFoveaSize {
+    uint32_t width = 0; // 1..kGazeOne when set
+    uint32_t height = 0;
+    bool set() const { return width != 0 && height != 0; }
+    bool operator==(const FrameFoveaSize &) const = default;
+};
+
+// The size a frame's foveae take: `frame`'s as fractions of the eye when set, else `configured`.
+FoveaSize frame_fovea_size(const FoveaSize &configured, const FrameFoveaSize &frame);
+
+// Whether a frame may ask for `frame` in a session configured with `configured`: unset, or set,
+// within 1..kGazeOne, and no larger than `configured` (fractional) in either dimension.
+bool frame_fovea_size_allowed(const FoveaSize &configured, const FrameFoveaSize &frame);
+
 // The fovea of an eye (FoveaSize::pixels_for_eye) centred on `point`: its offset is the point's
 // pixel (floor(x·W / kGazeOne)) less half the fovea's size (rounded down), clamped so that the
 // fovea stays inside the eye. Coordinates beyond kGazeOne are clamped too.

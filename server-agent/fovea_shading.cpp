@@ -8,24 +8,26 @@
 
 namespace splitvk::agent {
 
-std::vector<split::LayerFovea> FoveaShading::take_drawn_foveae(uint64_t image_id, const split::Gaze &gaze) {
+std::vector<split::LayerFovea> FoveaShading::take_drawn_foveae(uint64_t image_id, const split::Gaze &gaze,
+                                                               const split::FrameFoveaSize &size) {
     const auto it = drawn_.find(image_id);
     if (it == drawn_.end()) return {};
+    const FoveaSize fovea = split::frame_fovea_size(fovea_, size);
     // The whole frame's coverage decides its foveae (split::frame_foveae), as the client's does.
-    std::vector<split::LayerFovea> foveae = split::in_layer_zero(it->second.foveae(eyes_, fovea_, gaze));
+    std::vector<split::LayerFovea> foveae = split::in_layer_zero(it->second.foveae(eyes_, fovea, gaze));
     // An OpenXR eye image: its eyes' foveae, wherever its passes drew, as the client composites them.
-    if (auto eyes = runtime_foveae(image_id, it->second.extent); eyes && !foveae.empty())
+    if (auto eyes = runtime_foveae(image_id, it->second.extent, fovea); eyes && !foveae.empty())
         foveae = std::move(*eyes);
     drawn_.erase(it);
     return foveae;
 }
 
-std::optional<std::vector<split::LayerFovea>> FoveaShading::runtime_foveae(uint64_t image_id,
-                                                                           VkExtent2D extent) const {
+std::optional<std::vector<split::LayerFovea>>
+FoveaShading::runtime_foveae(uint64_t image_id, VkExtent2D extent, const FoveaSize &fovea) const {
     const std::vector<split::RuntimeEye> *eyes = nullptr;
     uint32_t layers = 1;
     if (!swapchains_.runtime_image(image_id, &eyes, &layers)) return std::nullopt;
-    return split::runtime_eye_foveae(extent, layers, *eyes, fovea_);
+    return split::runtime_eye_foveae(extent, layers, *eyes, fovea);
 }
 
 void FoveaShading::image_created(VkImage image, const VkImageCreateInfo &info) {
@@ -139,7 +141,7 @@ std::optional<FoveaShading::PassScissor> FoveaShading::pass_scissor(VkCommandBuf
     s.extent = t.extent();
     s.generation = generation_;
     if (s.swapchain) {
-        s.eyes = runtime_foveae(t.image(), t.extent());
+        s.eyes = runtime_foveae(t.image(), t.extent(), fovea_);
     } else {
         const auto guard = guard_rects_.find(primary);
         if (guard == guard_rects_.end()) return std::nullopt;
@@ -455,8 +457,9 @@ VkRect2D FoveaShading::runtime_scissor(const std::vector<split::LayerFovea> &fov
 
 void FoveaShading::emit_scissors(VkCommandBuffer cb, const split::CommandTracker &t) {
     const auto guard = t.in_split() && !t.swapchain_pass() ? guard_rects_.find(cb) : guard_rects_.end();
-    const auto runtime =
-        t.in_split() && guard == guard_rects_.end() ? runtime_foveae(t.image(), t.extent()) : std::nullopt;
+    const auto runtime = t.in_split() && guard == guard_rects_.end()
+                             ? runtime_foveae(t.image(), t.extent(), fovea_)
+                             : std::nullopt;
     const auto out = [&](size_t i, const VkRect2D &r) {
         if (!t.in_split()) return r;
         if (guard != guard_rects_.end()) return split::intersect(r, guard->second);

@@ -73,6 +73,7 @@ public:
         ++generation_;
     }
     bool moving_gaze() const { return moving_gaze_; }
+    const FoveaSize &fovea() const { return fovea_; }
     // Off: everything replays as recorded (SPLITVK_VERIFY compares whole frames, and the client
     // does not split then). Set before the first command.
     void set_enabled(bool enabled) { enabled_ = enabled; }
@@ -83,8 +84,10 @@ public:
     // coordinates, sorted by x then y, as the client's take_split_frame reports them). Clears the
     // record.
     // An OpenXR runtime's image gives its eyes' foveae instead (split::runtime_eye_foveae), in their
-    // array layers. A window image's foveae sit at `gaze`, the frame's (FramePresent::gaze).
-    std::vector<split::LayerFovea> take_drawn_foveae(uint64_t image_id, const split::Gaze &gaze = {});
+    // array layers. A window image's foveae sit at `gaze`, the frame's (FramePresent::gaze). Every
+    // fovea takes `size`, the frame's (FramePresent::fovea_size), or the configured one when unset.
+    std::vector<split::LayerFovea> take_drawn_foveae(uint64_t image_id, const split::Gaze &gaze = {},
+                                                     const split::FrameFoveaSize &size = {});
 
     // Object tracking (after the driver call; destroys before it).
     void image_created(VkImage image, const VkImageCreateInfo &info);
@@ -172,7 +175,8 @@ private:
     EyeMode eyes_ = Settings{}.eyes;
     // The foveae of an OpenXR runtime's image (its eyes', at their view directions once known), or
     // none for a window's, whose foveae SPLITVK_EYES places.
-    std::optional<std::vector<split::LayerFovea>> runtime_foveae(uint64_t image_id, VkExtent2D extent) const;
+    std::optional<std::vector<split::LayerFovea>> runtime_foveae(uint64_t image_id, VkExtent2D extent,
+                                                                 const FoveaSize &fovea) const;
     static VkRect2D runtime_scissor(const std::vector<split::LayerFovea> &foveae, const VkViewport *viewport);
     FoveaSize fovea_ = Settings{}.fovea;
     AgentScissor scissor_;

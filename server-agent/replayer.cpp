@@ -680,6 +680,14 @@ bool Replayer::frame_present(const protocol::FramePresent &message,
                      " moves the foveae, but SplitConfig said the gaze is fixed";
             return false;
         }
+        // The same for a larger fovea than the one the scissors were recorded for.
+        if (!split::frame_fovea_size_allowed(fovea_.fovea(), message.fovea_size)) {
+            *error = "FramePresent " + std::to_string(message.frame) + " asks for a fovea of " +
+                     std::to_string(message.fovea_size.width) + "x" +
+                     std::to_string(message.fovea_size.height) + " /" + std::to_string(split::kGazeOne) +
+                     " of the eye, larger than SplitConfig's";
+            return false;
+        }
         // The client composites the first swapchain of a present (layer/present.cpp); the fovea
         // record of every presented image is taken so that none carries over to a later frame.
         for (size_t i = 0; i < message.images.size(); ++i) {
@@ -689,7 +697,7 @@ bool Replayer::frame_present(const protocol::FramePresent &message,
                 *error = "FramePresent " + std::to_string(message.frame) + ": " + *error;
                 return false;
             }
-            auto foveae = fovea_.take_drawn_foveae(image.image_id, message.gaze);
+            auto foveae = fovea_.take_drawn_foveae(image.image_id, message.gaze, message.fovea_size);
             if (i > 0) continue;
             TileStreamer::Frame frame;
             frame.frame = message.frame;

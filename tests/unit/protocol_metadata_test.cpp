@@ -135,7 +135,7 @@ TEST(ProtocolSession, FrameMarksRoundTrip) {
     EXPECT_EQ(b->image_index, 2u);
     expect_truncations_refused(encode(begin), decode_frame_begin);
 
-    const FramePresent present{41, 0x99, kPresentVerify, {{0x55, 2}, {0x66, 0}}, {}};
+    const FramePresent present{41, 0x99, kPresentVerify, {{0x55, 2}, {0x66, 0}}, {}, {}};
     const auto p = decode_frame_present(encode(present));
     ASSERT_TRUE(p.ok());
     EXPECT_EQ(p->flags, kPresentVerify);
@@ -143,7 +143,7 @@ TEST(ProtocolSession, FrameMarksRoundTrip) {
     EXPECT_EQ(p->images[1].swapchain_id, 0x66u);
     expect_truncations_refused(encode(present), decode_frame_present);
 
-    EXPECT_FALSE(decode_frame_present(encode(FramePresent{1, 1, 0, {}, {}})).ok())
+    EXPECT_FALSE(decode_frame_present(encode(FramePresent{1, 1, 0, {}, {}, {}})).ok())
         << "a present shows something";
     const auto d = decode_swapchain_destroyed(encode(SwapchainDestroyed{3, 4}));
     ASSERT_TRUE(d.ok());
@@ -152,7 +152,7 @@ TEST(ProtocolSession, FrameMarksRoundTrip) {
 
 // SPLITVK_GAZE: every FramePresent carries its frame's gaze, fixed or a point per eye.
 TEST(ProtocolSession, FramePresentCarriesTheGaze) {
-    FramePresent present{7, 0x99, 0, {{0x55, 1}}, {}};
+    FramePresent present{7, 0x99, 0, {{0x55, 1}}, {}, {}};
     const auto fixed = decode_frame_present(encode(present));
     ASSERT_TRUE(fixed.ok()) << fixed.error();
     EXPECT_TRUE(fixed->gaze.fixed);
@@ -174,7 +174,7 @@ TEST(ProtocolSession, FramePresentCarriesTheGaze) {
 // A gaze point outside the eye would place a fovea outside it: refused, never clamped into a
 // rectangle the agent did not shade or the layer did not ask for.
 TEST(ProtocolSession, FramePresentRefusesAGazeOutsideTheEye) {
-    FramePresent present{7, 0x99, 0, {{0x55, 1}}, {}};
+    FramePresent present{7, 0x99, 0, {{0x55, 1}}, {}, {}};
     present.gaze.fixed = false;
     present.gaze.eyes[1] = {split::kGazeOne + 1, 0};
     const auto wide = decode_frame_present(encode(present));
@@ -186,10 +186,34 @@ TEST(ProtocolSession, FramePresentRefusesAGazeOutsideTheEye) {
 
     present.gaze = {};
     auto bytes = encode(present);
-    bytes[bytes.size() - 4] = 2; // the gaze kind: neither fixed (0) nor points (1)
+    bytes[bytes.size() - 8] = 2; // the gaze kind: neither fixed (0) nor points (1)
     const auto unknown = decode_frame_present(bytes);
     ASSERT_FALSE(unknown.ok());
     EXPECT_NE(unknown.error().find("gaze kind 2 unknown"), std::string::npos) << unknown.error();
+}
+
+// SPLITVK_FOVEA=auto: a FramePresent may name its frame's fovea size, never beyond the eye.
+TEST(ProtocolSession, FramePresentCarriesTheFoveaSize) {
+    FramePresent present{7, 0x99, 0, {{0x55, 1}}, {}, {}};
+    const auto unset = decode_frame_present(encode(present));
+    ASSERT_TRUE(unset.ok()) << unset.error();
+    EXPECT_FALSE(unset->fovea_size.set());
+
+    present.fovea_size = {split::kGazeOne, 1234};
+    const auto bytes = encode(present);
+    const auto sized = decode_frame_present(bytes);
+    ASSERT_TRUE(sized.ok()) << sized.error();
+    EXPECT_EQ(sized->fovea_size, (split::FrameFoveaSize{split::kGazeOne, 1234}));
+    expect_truncations_refused(bytes, decode_frame_present);
+
+    present.fovea_size = {split::kGazeOne + 1, 1234};
+    const auto wide = decode_frame_present(encode(present));
+    ASSERT_FALSE(wide.ok());
+    EXPECT_NE(wide.error().find("outside the eye"), std::string::npos) << wide.error();
+    present.fovea_size = {5, 7};
+    auto zero = encode(present);
+    zero[zero.size() - 4] = 0; // the height: 5x0
+    EXPECT_FALSE(decode_frame_present(zero).ok()) << "a fovea of no pixels";
 }
 
 TEST(ProtocolSession, VerifyFrameChecksPixelCount) {

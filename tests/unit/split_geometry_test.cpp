@@ -183,6 +183,27 @@ TEST(SplitGeometry, AutoIsStereoOnlyForTwoViewportsThatTileTheImageInHalves) {
 }
 
 // The agent's scissor for a viewport holds every fovea the frame can give that viewport's pixels.
+// SPLITVK_FOVEA=auto: a frame's size replaces the configured one, and the agent takes none larger
+// than the one its scissors were recorded for.
+TEST(SplitGeometry, AFrameFoveaSizeIsAFractionOfTheEye) {
+    const FoveaSize configured{true, 1.0, 1.0};
+    EXPECT_EQ(frame_fovea_size(configured, {}).width, 1.0) << "unset: the configured size";
+    const FoveaSize half = frame_fovea_size(configured, {kGazeOne / 2, kGazeOne / 4});
+    EXPECT_TRUE(half.fractional);
+    EXPECT_EQ(half.pixels_for_eye(1200, 1080), std::make_pair(600u, 270u));
+    EXPECT_RECT(fovea_of_eye(left_eye({2400, 1080}), half), 300, 405, 600u, 270u);
+
+    EXPECT_TRUE(frame_fovea_size_allowed(configured, {}));
+    EXPECT_TRUE(frame_fovea_size_allowed(configured, {kGazeOne, kGazeOne}));
+    EXPECT_FALSE(frame_fovea_size_allowed(configured, {kGazeOne + 1, 1}));
+    EXPECT_FALSE(frame_fovea_size_allowed(configured, {0, 5})) << "half set";
+    const FoveaSize paper{}; // 512/1200 x 360/1080
+    EXPECT_TRUE(frame_fovea_size_allowed(paper, {kGazeOne / 4, kGazeOne / 4}));
+    EXPECT_FALSE(frame_fovea_size_allowed(paper, {kGazeOne / 2, kGazeOne / 4})) << "wider than configured";
+    EXPECT_FALSE(frame_fovea_size_allowed(FoveaSize{false, 512, 360}, {1, 1}))
+        << "pixels: no fraction to compare";
+}
+
 TEST(SplitGeometry, FoveaScissorHoldsEveryFoveaAViewportCanDrawInto) {
     const FoveaSize fovea;
     const VkExtent2D image{2400, 1080};
