@@ -222,16 +222,18 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
     record.xr_view = p.xr_view;
     if (!p.split.foveae.empty()) record.fovea = p.split.foveae.front().rect;
     const bool stats = !session.settings().stats_path.empty();
+    AutoFovea *sizing = session.auto_fovea();
 
     Compositor *compositor = p.compositor;
     if (!compositor) compositor = compositor_for(dev, *p.swapchain, queue_family_of(p.queue), stats);
-    // Synchronous, only for the CSV: the application's semaphores go to an empty submit of the
-    // compositor's, whose fence tells when the GPU has finished the frame (exposed_wait_ms).
+    // Synchronous, only for the CSV and the fovea's sizing: the application's semaphores go to an
+    // empty submit of the compositor's, whose fence tells when the GPU has finished the frame
+    // (exposed_wait_ms).
     Exposure exposure{&dev};
     VkSemaphore taken = p.taken;
-    if (stats) exposure.done = p.done;
+    if (stats || sizing) exposure.done = p.done;
     // A runtime's image has no semaphores to take (swapchain.h: the queue orders it).
-    if (!taken && stats && compositor && !p.swapchain->runtime &&
+    if (!taken && (stats || sizing) && compositor && !p.swapchain->runtime &&
         compositor->take_waits(p.queue, p.image_index, waits, &taken, &exposure.done) == VK_SUCCESS)
         waits = {&taken, 1};
 
@@ -285,6 +287,19 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
         if (compositor) record.merge_gpu_ms = compositor->latest_gpu_ms();
     }
     session.stats().record(record);
+    if (sizing && !p.split.foveae.empty()) {
+        FoveaFrameCost cost;
+        cost.size = p.split.fovea_size;
+        cost.late = record.late;
+        cost.frame_ms = record.frame_ms;
+        // A runtime's image has no semaphores to tell when the client's own work was done: all of
+        // its wait counts.
+        cost.exposed_wait_ms = exposure.seen ? record.exposed_wait_ms : record.tile_wait_ms;
+        cost.fovea_path_ms =
+            record.agent_readback_ms + record.agent_encode_ms + record.network_ms + record.decode_ms;
+        cost.tile_bytes = record.tile_bytes;
+        sizing->observe(cost);
+    }
     return composited;
 }
 
@@ -641,17 +656,19 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     auto queue_lock = lock_queue(queue);
     if (session.resync_pending()) session.resync(dev, queue, frame);
     if (frame == 1) log_live_state(dev, "at frame 1"); // SPLITVK_LOG_LEVEL=debug
+    protocol::FramePresent message;
+    if (AutoFovea *sizing = session.auto_fovea()) message.fovea_size = sizing->size();
     SplitFrame split;
     if (session.splitting() && swapchain.composable) {
-        split = take_split_frame(dev, swapchain.images[image_index], EyeMode::One);
+        split = take_split_frame(dev, swapchain.images[image_index], EyeMode::One, {}, message.fovea_size);
         // The eyes' foveae (one per layer before the application's views said where its eyes are),
         // each at its view direction, wherever the passes drew.
         if (!split.foveae.empty())
-            split.foveae = split::runtime_eye_foveae(swapchain.extent, swapchain.array_layers, eyes,
-                                                     split_settings().fovea);
+            split.foveae = split::runtime_eye_foveae(
+                swapchain.extent, swapchain.array_layers, eyes,
+                split::frame_fovea_size(split_settings().fovea, message.fovea_size));
         note_split_or_not(session, frame, split.split);
     }
-    protocol::FramePresent message;
     message.frame = frame;
     message.queue_id = codec::handle_value(queue);
     message.images.push_back({codec::handle_value(swapchain.handle), image_index});
@@ -832,6 +849,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
     message.queue_id = codec::handle_value(queue);
     // Read here, once per frame: both sides place this frame's foveae with it.
     message.gaze = gaze::frame_gaze(session.settings());
+    if (AutoFovea *sizing = session.auto_fovea()) message.fovea_size = sizing->size();
     for (uint32_t i = 0; i < pPresentInfo->swapchainCount && i < protocol::kMaxPresentedImages; ++i)
         message.images.push_back(
             {codec::handle_value(pPresentInfo->pSwapchains[i]), pPresentInfo->pImageIndices[i]});
@@ -848,13 +866,13 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         split_swapchain = find_swapchain(pPresentInfo->pSwapchains[0]);
         const uint32_t index = pPresentInfo->pImageIndices[0];
         if (split_swapchain && index < split_swapchain->images.size())
-            split =
-                take_split_frame(dev, split_swapchain->images[index], split_settings().eyes, message.gaze);
+            split = take_split_frame(dev, split_swapchain->images[index], split_settings().eyes, message.gaze,
+                                     message.fovea_size);
         if (split_swapchain && !split.split)
             if (const auto stray = take_stray(split_swapchain->handle, index);
                 stray && *stray < split_swapchain->images.size()) {
                 split = take_split_frame(dev, split_swapchain->images[*stray], split_settings().eyes,
-                                         message.gaze);
+                                         message.gaze, message.fovea_size);
                 if (split.split) {
                     drawn = *stray;
                     // The agent's foveae are those of the image drawn.

@@ -121,6 +121,9 @@ void Session::adopt_locked(AgentLink &&agent) {
     live_.store(true);
     if (splitting()) {
         protocol::SplitConfig config{settings_.eyes, settings_.fovea, settings_.codec, {}, {}};
+        // SPLITVK_FOVEA=auto: each FramePresent names its frame's size, at most the largest one
+        // (settings_.fovea's width and height), which the agent's scissors then cover.
+        if (auto_fovea_) config.fovea.automatic = false;
         config.moving_gaze = settings_.gaze != GazeMode::Fixed;
         if (capabilities & protocol::capability::kAgentScissor) {
             config.agent_scissor = settings_.agent_scissor;
@@ -144,6 +147,8 @@ std::unique_ptr<Session> Session::open(const DeviceState &device, const VkDevice
     if (!loaded.valid()) return nullptr;
     std::unique_ptr<Session> session(new Session());
     session->settings_ = loaded.settings;
+    if (loaded.settings.fovea.automatic)
+        session->auto_fovea_ = std::make_unique<AutoFovea>(loaded.settings.fovea, loaded.settings.max_mbps);
     session->address_ = loaded.settings.server.host + ":" + std::to_string(loaded.settings.server.port);
     session->device_id_ = codec::handle_value(device.handle);
     session->uploads_ = std::make_unique<UploadPool>(device);

@@ -27,6 +27,7 @@
 // in the same critical section as it encodes the call, so that the log's order is the stream's.
 
 #include "agent_link.h"
+#include "fovea_size.h"
 #include "live_state_log.h"
 #include "metadata.h" // the metadata messages
 #include "physical_device.h"
@@ -87,6 +88,8 @@ public:
     // Split mode: the decoded tiles of the agent (tile_stream.h), and per-frame statistics.
     TileStream *tiles() { return tiles_.get(); }
     FrameStats &stats() { return *stats_; }
+    // SPLITVK_FOVEA=auto: the size of every frame's foveae (fovea_size.h); nullptr otherwise.
+    AutoFovea *auto_fovea() { return auto_fovea_.get(); }
     // Milliseconds since the previous call (0 the first time): present-to-present frame time.
     double frame_interval_ms();
     codec::EncodeHooks *hooks() { return &hooks_; }
@@ -259,6 +262,7 @@ private:
     std::unique_ptr<UploadPool> uploads_; // what tiles_ decodes into; made by open()
     std::unique_ptr<TileStream> tiles_;
     std::unique_ptr<FrameStats> stats_;
+    std::unique_ptr<AutoFovea> auto_fovea_;
     std::chrono::steady_clock::time_point last_present_{};
     std::mutex verify_mutex_;
     std::condition_variable verify_ready_;

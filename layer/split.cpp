@@ -25,7 +25,8 @@ const Settings &split_settings() {
     return layer_settings().settings;
 }
 
-SplitFrame take_split_frame(DeviceState &, VkImage image, EyeMode eyes, const split::Gaze &gaze) {
+SplitFrame take_split_frame(DeviceState &, VkImage image, EyeMode eyes, const split::Gaze &gaze,
+                            const split::FrameFoveaSize &size) {
     SplitFrame frame;
     std::optional<split::DrawnImage> drawn;
     {
@@ -37,7 +38,9 @@ SplitFrame take_split_frame(DeviceState &, VkImage image, EyeMode eyes, const sp
     frame.split = true;
     frame.periphery = split::scaled_extent(drawn->extent, split_settings().scale);
     // The whole frame's coverage decides its foveae (split::frame_foveae), as the agent's does.
-    frame.foveae = split::in_layer_zero(drawn->foveae(eyes, split_settings().fovea, gaze));
+    frame.fovea_size = size;
+    frame.foveae = split::in_layer_zero(
+        drawn->foveae(eyes, split::frame_fovea_size(split_settings().fovea, size), gaze));
     return frame;
 }
 

@@ -26,15 +26,17 @@ struct SplitFrame {
     bool split = false;
     VkExtent2D periphery{};
     std::vector<split::LayerFovea> foveae; // layer 0 but in a layered OpenXR eye image
+    split::FrameFoveaSize fovea_size;      // the size they take (SPLITVK_FOVEA=auto); unset: SPLITVK_FOVEA
 };
 
 // What the submits since the last call rendered into swapchain image `image`: whether a split pass
 // drew into it, the scaled periphery extent, and the fovea rects (full-resolution image coordinates,
 // sorted by x then y: the agent's take_drawn_foveae order) that split::frame_foveae gives for what
 // the split passes drew, with `eyes` (SPLITVK_EYES for a window; for an OpenXR runtime's image the
-// caller replaces them with its eyes' foveae, as the agent does), each at `gaze` (the frame's, sent
-// in its FramePresent). Clears the image's record.
-SplitFrame take_split_frame(DeviceState &device, VkImage image, EyeMode eyes, const split::Gaze &gaze = {});
+// caller replaces them with its eyes' foveae, as the agent does), each at `gaze` and of `size` (the
+// frame's, sent in its FramePresent). Clears the image's record.
+SplitFrame take_split_frame(DeviceState &device, VkImage image, EyeMode eyes, const split::Gaze &gaze = {},
+                            const split::FrameFoveaSize &size = {});
 
 // Whether the layer rewrites split passes on this device: it has a session whose agent accepted the
 // split (Session::splitting(): SPLITVK_VERIFY is off, since verification compares whole frames with

@@ -30,8 +30,11 @@ const SettingInfo kSettings[] = {
      "address of the splitvk-agent to share frames with"},
     {"SCALE", "a number in [0.1, 1]", "0.6",
      "sampling rate of the periphery the client renders (0.6: 1440x648 of 2400x1080)"},
-    {"FOVEA", "WxH in pixels (512x360) or as fractions of the eye (0.43x0.33)", "512x360 of a 1200x1080 eye",
-     "size of the fovea the agent renders in each eye"},
+    {"FOVEA", "WxH in pixels (512x360), as fractions of the eye (0.43x0.33), or auto",
+     "512x360 of a 1200x1080 eye",
+     "size of the fovea the agent renders in each eye; auto: sized per frame from measured times, as large "
+     "as "
+     "the agent's path keeps up with the client's own frame"},
     {"EYES", "auto, 1 or 2", "auto",
      "eyes side by side in the swapchain image; auto: two when two viewports tile it in halves"},
     {"TARGETS", "auto or swapchain", "auto",
@@ -42,6 +45,8 @@ const SettingInfo kSettings[] = {
     {"GAZE", "fixed or fifo:PATH", "fixed",
      "where the foveae sit: fixed, centred in each eye; fifo:PATH, at the gaze points another process writes "
      "into the named pipe PATH (one line per point: x y, or lx ly rx ry, 0.5 0.5 the eye's centre)"},
+    {"MAX_MBPS", "Mbit/s, 0 (no bound) to 100000", "0",
+     "with FOVEA=auto: the most tile traffic the fovea may grow to"},
     {"CODEC", "x264, zstd or raw", "x264", "lossless codec for the fovea tiles"},
     {"TILE_WAIT", "milliseconds, 1 to 60000", "250",
      "longest a present waits for its frame's tiles; later, the centre comes from the periphery"},
@@ -138,6 +143,16 @@ bool parse_server(std::string_view value, ServerAddress &out) {
 }
 
 bool parse_fovea(std::string_view value, FoveaSize &out) {
+    const std::string text = lower(trim(value));
+    if (text == "auto" || text.starts_with("auto:")) {
+        FoveaSize largest{true, 1.0, 1.0};
+        if (text != "auto" && (!parse_fovea(std::string_view(text).substr(5), largest) ||
+                               !largest.fractional || largest.automatic))
+            return false;
+        out = largest;
+        out.automatic = true;
+        return true;
+    }
     const auto x = value.find_first_of("xX");
     if (x == std::string_view::npos) return false;
     const auto w = value.substr(0, x);
@@ -248,6 +263,12 @@ bool apply(std::string_view name, std::string_view raw, Settings &s) {
         const auto ms = parse_uint(value);
         if (!ms || *ms == 0 || *ms > 60000) return false;
         s.tile_wait_ms = *ms;
+        return true;
+    }
+    if (name == "MAX_MBPS") {
+        const auto mbps = parse_double(value);
+        if (!mbps || *mbps < 0 || *mbps > 100000) return false;
+        s.max_mbps = *mbps;
         return true;
     }
     if (name == "PRESENT_DEPTH") {

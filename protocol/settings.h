@@ -51,10 +51,14 @@ struct ServerAddress {
 
 // The fovea of one eye: either absolute pixels, or fractions of the eye's extent. The default,
 // 512x360 of a 1200x1080 eye, is the paper's, kept as fractions so other eye sizes scale alike.
+// SPLITVK_FOVEA=auto (issue 22) sizes it per frame from measured times (layer/fovea_size.h),
+// starting from the default; width and height are then the most it may grow to, as fractions (the
+// whole eye unless auto:WxH says less), since the agent shades that much of every eye.
 struct FoveaSize {
     bool fractional = true;
     double width = 512.0 / 1200.0;
     double height = 360.0 / 1080.0;
+    bool automatic = false;
 
     // The fovea's size in pixels for an eye of eye_width x eye_height, clamped to the eye.
     std::pair<uint32_t, uint32_t> pixels_for_eye(uint32_t eye_width, uint32_t eye_height) const;
@@ -69,6 +73,9 @@ struct Settings {
     AgentScissor agent_scissor;
     GazeMode gaze = GazeMode::Fixed;
     std::string gaze_fifo; // GazeMode::Fifo: the pipe's path
+    // SPLITVK_MAX_MBPS: the most tile traffic SPLITVK_FOVEA=auto may grow the fovea to, in Mbit/s;
+    // 0: no bound but the eye.
+    double max_mbps = 0;
     TileCodec codec = TileCodec::X264;
     // Lockstep bound: a present waits at most this long for its own frame's tiles. Generous for a
     // LAN (a frame is ~10-20 ms), short enough that a stalled agent costs seconds, not a hang.

@@ -50,6 +50,22 @@ TEST_F(SettingsTest, DefaultsAreThePapersConfiguration) {
     EXPECT_EQ(s.fovea.pixels_for_eye(600, 540), std::make_pair(256u, 180u));
 }
 
+// SPLITVK_FOVEA=auto grows to the whole eye, auto:WxH to that (fractions); SPLITVK_MAX_MBPS bounds it.
+TEST_F(SettingsTest, AutomaticFovea) {
+    const auto loaded = load({{"SPLITVK_FOVEA", " Auto "}, {"SPLITVK_MAX_MBPS", "250.5"}});
+    ASSERT_TRUE(loaded.valid()) << loaded.errors.front();
+    EXPECT_TRUE(loaded.settings.fovea.automatic);
+    EXPECT_DOUBLE_EQ(loaded.settings.max_mbps, 250.5);
+    EXPECT_EQ(loaded.settings.fovea.pixels_for_eye(1200, 1080), std::make_pair(1200u, 1080u))
+        << "it grows to the whole eye";
+    const auto largest = load({{"SPLITVK_FOVEA", "auto:0.6x0.5"}});
+    ASSERT_TRUE(largest.valid()) << largest.errors.front();
+    EXPECT_TRUE(largest.settings.fovea.automatic);
+    EXPECT_EQ(largest.settings.fovea.pixels_for_eye(1200, 1080), std::make_pair(720u, 540u));
+    EXPECT_FALSE(load({}).settings.fovea.automatic);
+    EXPECT_EQ(load({}).settings.max_mbps, 0.0);
+}
+
 TEST_F(SettingsTest, ValidEnvironmentValues) {
     const std::string token_file = write_file("token", "  s3cret\n");
     const auto loaded = load({{"SPLITVK_SERVER", "gpu-box:9000"},
@@ -153,7 +169,9 @@ TEST_F(SettingsTest, InvalidValuesAreOneLineErrorsNamingTheSetting) {
         {"SERVER", {"", ":7447", "host:", "host:0", "host:65536", "host:port", "::1:80", "[::1", "a b:1"}},
         {"SCALE", {"", "0", "0.05", "1.5", "2", "-0.6", "abc", "0.6x", "nan", "inf"}},
         {"FOVEA",
-         {"", "512", "512x", "x360", "0x360", "512x0", "0.5x360", "1.5x0.5", "-1x-1", "axb", "99999x1"}},
+         {"", "512", "512x", "x360", "0x360", "512x0", "0.5x360", "1.5x0.5", "-1x-1", "axb", "99999x1",
+          "automatic"}},
+        {"MAX_MBPS", {"", "-1", "100001", "fast", "nan", "50M"}},
         {"EYES", {"", "0", "3", "both", "two"}},
         {"TARGETS", {"", "all", "offscreen", "1"}},
         {"AGENT_SCISSOR", {"", "on", "guard", "guard:", "guard:-1", "guard:4097", "guard:1.5", "64"}},

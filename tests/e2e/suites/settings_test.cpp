@@ -116,6 +116,7 @@ const std::map<std::string, std::string> &bad_values() {
         {"CODEC", "h265"},                                // not a codec splitvk has
         {"TILE_WAIT", "0"},                               // 1 to 60000
         {"PRESENT_DEPTH", "3"},                           // 0, 1 or 2
+        {"MAX_MBPS", "-1"},                               // 0 to 100000
         {"STATS", "/nonexistent-splitvk-dir/stats.csv"},  // directory missing
         {"LOG_LEVEL", "verbose"},                         // not a level
         {"TOKEN", "two words"},                           // whitespace
