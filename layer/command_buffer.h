@@ -37,7 +37,8 @@ codec::Encoder *command_buffer_encoder(VkCommandBuffer command_buffer);
 CommandLayouts *command_buffer_layouts(VkCommandBuffer command_buffer);
 // Its split tracker (split.h); nullptr without state.
 split::CommandTracker *split_tracker(VkCommandBuffer command_buffer);
-// Its split pass's timestamp pair (gpu_timing.h); nullptr without state.
+// Its split pass's timestamp pair, for the split-pass timing functions (gpu_timing.h); nullptr without
+// state.
 CommandTiming *command_buffer_timing(VkCommandBuffer command_buffer);
 
 // vkQueueSubmit*, under the queue's lock just before the driver call, for each submitted command

@@ -1,6 +1,5 @@
 #include "gpu_timing.h"
 
-#include "command_buffer.h"
 #include "instance.h"
 
 #include <mutex>
@@ -59,16 +58,14 @@ const uint32_t *pair_locked(DeviceTiming &t, VkCommandBuffer cb) {
 
 } // namespace
 
-void time_before_split_pass(DeviceState &dev, VkCommandBuffer cb) {
-    CommandTiming *timing = command_buffer_timing(cb);
-    if (!timing) return;
+void time_before_split_pass(DeviceState &dev, VkCommandBuffer cb, CommandTiming &timing) {
     std::lock_guard lock(g_mutex);
-    if (timing->timed) return; // only the first split pass of a recording is timed
+    if (timing.timed) return; // only the first split pass of a recording is timed
     DeviceTiming *t = timing_locked(dev);
     const uint32_t *pair = t ? pair_locked(*t, cb) : nullptr;
     if (!pair) return;
     t->composite[*pair] = false; // a handle a freed compositor's command buffer once had
-    *timing = CommandTiming{true, *pair, false, false};
+    timing = CommandTiming{true, *pair, false, false};
     dev.dispatch.CmdResetQueryPool(cb, t->pool, 2 * *pair, 2);
 }
 
@@ -104,24 +101,20 @@ double timestamps_ms(DeviceState &dev, uint64_t begin, uint64_t end) {
     return static_cast<double>(end - begin) * found->second.period_ns / 1e6;
 }
 
-void time_split_pass_begun(DeviceState &dev, VkCommandBuffer cb) {
-    CommandTiming *timing = command_buffer_timing(cb);
-    if (!timing) return;
+void time_split_pass_begun(DeviceState &dev, VkCommandBuffer cb, CommandTiming &timing) {
     std::lock_guard lock(g_mutex);
-    if (!timing->timed || timing->begun) return;
-    timing->begun = true;
+    if (!timing.timed || timing.begun) return;
+    timing.begun = true;
     dev.dispatch.CmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, g_devices[&dev].pool,
-                                   2 * timing->pair);
+                                   2 * timing.pair);
 }
 
-void time_split_pass_ended(DeviceState &dev, VkCommandBuffer cb) {
-    CommandTiming *timing = command_buffer_timing(cb);
-    if (!timing) return;
+void time_split_pass_ended(DeviceState &dev, VkCommandBuffer cb, CommandTiming &timing) {
     std::lock_guard lock(g_mutex);
-    if (!timing->timed || !timing->begun || timing->ended) return;
-    timing->ended = true;
+    if (!timing.timed || !timing.begun || timing.ended) return;
+    timing.ended = true;
     dev.dispatch.CmdWriteTimestamp(cb, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, g_devices[&dev].pool,
-                                   2 * timing->pair + 1);
+                                   2 * timing.pair + 1);
 }
 
 void note_timed_submit(DeviceState &dev, const CommandTiming &timing) {

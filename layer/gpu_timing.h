@@ -19,11 +19,6 @@
 
 namespace splitvk {
 
-// render_pass.cpp, around the first split pass a command buffer records.
-void time_before_split_pass(DeviceState &device, VkCommandBuffer command_buffer);
-void time_split_pass_begun(DeviceState &device, VkCommandBuffer command_buffer);
-void time_split_pass_ended(DeviceState &device, VkCommandBuffer command_buffer);
-
 // The timestamp pair of a command buffer's current recording, if it times one. An application's
 // command buffer keeps it in its CommandBufferState (command_buffer.h), which begins it afresh with
 // every recording: a new recording has no split pass timed yet. The compositor keeps one per slot.
@@ -36,6 +31,13 @@ struct CommandTiming {
     bool begun = false; // this recording wrote the begin timestamp
     bool ended = false;
 };
+
+// render_pass.cpp (and transfer.cpp, for a split pass that ends in a copy or blit), around the first
+// split pass a command buffer records. `timing` is the command buffer's own, which the caller takes
+// from its CommandBufferState (command_buffer.h: command_buffer_timing) on its recording thread.
+void time_before_split_pass(DeviceState &device, VkCommandBuffer command_buffer, CommandTiming &timing);
+void time_split_pass_begun(DeviceState &device, VkCommandBuffer command_buffer, CommandTiming &timing);
+void time_split_pass_ended(DeviceState &device, VkCommandBuffer command_buffer, CommandTiming &timing);
 
 // A command buffer's submit: its timestamps will be written (only submitted pairs are read: a
 // query is uninitialised until its reset executes).

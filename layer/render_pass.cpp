@@ -2,6 +2,7 @@
 
 #include "render_pass.h"
 
+#include "command_buffer.h"
 #include "gpu_timing.h"
 #include "image.h"
 #include "layer_entry_points.h"
@@ -143,7 +144,8 @@ void leave_split(DeviceState &dev, VkCommandBuffer cb) {
     split::CommandTracker *tracker = split_tracker(cb);
     if (!tracker || !tracker->in_split()) return;
     // The periphery's GPU time runs from the first scaled pass to the end of the swapchain's.
-    if (tracker->swapchain_pass()) time_split_pass_ended(dev, cb);
+    if (tracker->swapchain_pass())
+        if (CommandTiming *timing = command_buffer_timing(cb)) time_split_pass_ended(dev, cb, *timing);
     tracker->end_split();
     emit_viewports(dev, cb, *tracker);
     emit_scissors(dev, cb, *tracker);
@@ -189,8 +191,10 @@ split::PassPredictions g_pass_predictions;
 template <class Begin>
 void begin_split_of_secondaries(DeviceState &dev, VkCommandBuffer cb, split::CommandTracker &tracker,
                                 const PassTarget &target, Begin &&begin) {
-    time_before_split_pass(dev, cb);
-    time_split_pass_begun(dev, cb);
+    if (CommandTiming *timing = command_buffer_timing(cb)) {
+        time_before_split_pass(dev, cb, *timing);
+        time_split_pass_begun(dev, cb, *timing);
+    }
     begin();
     if (target.swapchain) log_split_extent_once(target.extent);
     tracker.begin_split(codec::handle_value(target.image), target.extent, target.swapchain);
@@ -209,9 +213,10 @@ void begin_render_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassB
     scaled.renderArea = scaled_area(begin->renderArea, target.extent);
     if (!tracker) return down(&scaled);
     if (!secondary) {
-        time_before_split_pass(dev, cb);
+        CommandTiming *timing = command_buffer_timing(cb);
+        if (timing) time_before_split_pass(dev, cb, *timing);
         down(&scaled);
-        time_split_pass_begun(dev, cb);
+        if (timing) time_split_pass_begun(dev, cb, *timing);
         return enter_split(dev, cb, *tracker, target);
     }
     begin_split_of_secondaries(dev, cb, *tracker, target, [&] { down(&scaled); });
@@ -250,9 +255,10 @@ void begin_rendering(DeviceState &dev, VkCommandBuffer cb, const VkRenderingInfo
     // A resumed rendering continues the suspended one, which was scaled alike.
     if (!tracker) return down(&scaled);
     if (secondary) return begin_split_of_secondaries(dev, cb, *tracker, target, [&] { down(&scaled); });
-    time_before_split_pass(dev, cb);
+    CommandTiming *timing = command_buffer_timing(cb);
+    if (timing) time_before_split_pass(dev, cb, *timing);
     down(&scaled);
-    time_split_pass_begun(dev, cb);
+    if (timing) time_split_pass_begun(dev, cb, *timing);
     enter_split(dev, cb, *tracker, target);
 }
 

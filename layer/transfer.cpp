@@ -2,6 +2,7 @@
 
 #include "transfer.h"
 
+#include "command_buffer.h"
 #include "descriptor_set.h"
 #include "gpu_timing.h"
 #include "layer_entry_points.h"
@@ -199,7 +200,8 @@ bool dispatch_writes_screen_space(VkCommandBuffer cb) {
 // a copy or blit rather than a pass (atrium --path compute).
 void after_transfer(DeviceState &dev, VkCommandBuffer cb, VkImage dst) {
     VkExtent2D extent{};
-    if (split_enabled(dev) && swapchain_image_extent(dst, &extent)) time_split_pass_ended(dev, cb);
+    if (!split_enabled(dev) || !swapchain_image_extent(dst, &extent)) return;
+    if (CommandTiming *timing = command_buffer_timing(cb)) time_split_pass_ended(dev, cb, *timing);
 }
 
 // A region command goes down as the application recorded it when `scaled` is false; otherwise

@@ -8,7 +8,6 @@
 // Khronos validation layer with synchronization validation, when installed, says nothing. The
 // Timed variant goes the SPLITVK_STATS way: take_waits() first, and a measured composite GPU time.
 
-#include "command_buffer.h"
 #include "compositor.h"
 #include "gpu_timing.h"
 #include "host_buffer.h"
@@ -30,11 +29,6 @@ namespace splitvk {
 // DeviceState owns a std::unique_ptr<Session>; the compositor never touches the session, so a
 // complete (empty) type is all this binary needs to destroy a DeviceState.
 class Session {};
-// gpu_timing.cpp times an application's command buffer through its CommandBufferState
-// (command_buffer.cpp, not linked here); the compositor's own command buffers carry their timing.
-CommandTiming *command_buffer_timing(VkCommandBuffer) {
-    return nullptr;
-}
 
 namespace {
 
