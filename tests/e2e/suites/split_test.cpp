@@ -1440,5 +1440,122 @@ TEST_F(Split, BadGazeInputKeepsTheFixedFovea) {
     expect_clean_validation();
 }
 
+// SPLITVK_FOVEA=auto (issue 22, item 3): the fovea sizes itself from measured times. atrium runs
+// twice in stereo at 960x432, straight to the agent and behind splitvk-link with 3 Mbit/s from the
+// agent (the client's stream goes at 1 Gbit/s, so that the scene's upload takes no longer), where the
+// lossless tiles cost far more of each frame. In both runs every frame's foveae are centred in
+// their eyes (the stats' fovea_* columns, checked against the definition), the size settles (at most
+// the settled size and the one probed above it in the last frames, and no later than a bound from
+// the levels it moved: layer/fovea_size.h), and it settles smaller behind the slow link. The last
+// frame on screen is exact at its rectangles in both runs. About 25 s.
+TEST_F(Split, AutoFoveaSettlesSmallerBehindASlowLink) {
+    constexpr uint32_t kAutoWidth = 960, kAutoHeight = 432, kEye = kAutoWidth / 2;
+    constexpr int kAutoFrames = 120;
+    // (kSettle + kWindow) frames a level, the first frame's report a frame late, and the level the
+    // tiles of the frames in flight at each change cost; twice that, for a window on the way that
+    // fell between the growing and the shrinking share (the hysteresis) and held.
+    constexpr int kFramesPerLevel = 2 * 12;
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    const std::vector<std::string> argv = {atrium_path().string(),
+                                           "--width",
+                                           std::to_string(kAutoWidth),
+                                           "--height",
+                                           std::to_string(kAutoHeight),
+                                           "--eyes",
+                                           "2",
+                                           "--frames",
+                                           std::to_string(kAutoFrames),
+                                           "--hold"};
+    Grab native;
+    ASSERT_NO_FATAL_FAILURE(
+        run_and_grab(argv, env(), "native", kAutoFrames, &native, kAutoWidth, kAutoHeight));
+
+    const uint16_t link_port = free_loopback_port();
+    ASSERT_NE(link_port, 0);
+    ProcessSpec link_spec;
+    link_spec.argv = {(bin_dir() / "splitvk-link").string(),
+                      "--listen",
+                      "127.0.0.1:" + std::to_string(link_port),
+                      "--connect",
+                      agent_.address(),
+                      "--up-rate",
+                      "1G",
+                      "--down-rate",
+                      "3M",
+                      "--delay",
+                      "1ms"};
+    link_spec.env = env();
+    link_spec.env["SPLITVK_LOG_LEVEL"] = "info";
+    link_spec.out_dir = out_;
+    link_spec.name = "splitvk-link";
+    Process link(link_spec);
+    ASSERT_TRUE(link.start()) << link.error();
+    for (int i = 0;
+         i < 100 && read_file(out_ / "splitvk-link.stderr").find("listening on") == std::string::npos; ++i)
+        std::this_thread::sleep_for(100ms);
+    ASSERT_NE(read_file(out_ / "splitvk-link.stderr").find("listening on"), std::string::npos)
+        << read_file(out_ / "splitvk-link.stderr");
+
+    struct Run {
+        std::string name, server;
+        Grab grab;
+        std::vector<uint64_t> areas; // every frame's fovea, w*h
+        Rect last;
+    };
+    std::vector<Run> runs = {{"fast", agent_.address(), {}, {}, {}},
+                             {"slow-link", "127.0.0.1:" + std::to_string(link_port), {}, {}, {}}};
+    for (Run &run : runs) {
+        Env e = split_env();
+        e["SPLITVK_SERVER"] = run.server;
+        e["SPLITVK_FOVEA"] = "auto:0.75x0.75"; // some periphery left, so that the frame is split
+        // The client renders its periphery at nearly full resolution, so that on a machine where it
+        // shares two cores with the agent its own frame is the longer one, as a weak client's is next
+        // to a GPU agent: otherwise the frames' waits would be the agent's draw, not its fovea.
+        e["SPLITVK_SCALE"] = "0.9";
+        e["SPLITVK_STATS"] = (out_ / (run.name + ".csv")).string();
+        ASSERT_NO_FATAL_FAILURE(
+            run_and_grab(argv, e, "split-" + run.name, kAutoFrames, &run.grab, kAutoWidth, kAutoHeight));
+        const std::string &err = run.grab.result.err();
+        EXPECT_TRUE(grep(err, "running unsplit").empty()) << tail(err, 30);
+        const std::string csv = read_file(out_ / (run.name + ".csv"));
+        const auto rows = stats_rows(csv);
+        ASSERT_GE(rows.size(), static_cast<size_t>(kAutoFrames - 2)) << csv;
+        for (const auto &row : rows) {
+            const Rect f{static_cast<uint32_t>(row.at("fovea_x")), static_cast<uint32_t>(row.at("fovea_y")),
+                         static_cast<uint32_t>(row.at("fovea_w")), static_cast<uint32_t>(row.at("fovea_h"))};
+            ASSERT_TRUE(f.w > 0 && f.w <= kEye && f.h > 0 && f.h <= kAutoHeight && f.x == (kEye - f.w) / 2 &&
+                        f.y == (kAutoHeight - f.h) / 2)
+                << run.name << ": frame " << row.at("frame") << " has a fovea not centred in the left eye:\n"
+                << csv;
+            EXPECT_EQ(row.at("late"), 0) << run.name << ": frame " << row.at("frame") << " was late:\n"
+                                         << csv;
+            run.areas.push_back(uint64_t{f.w} * f.h);
+            run.last = f;
+        }
+        // Settled: the last 30 frames hold at most the settled size and the one probed above it, and
+        // it was reached within a bound of the sizes the fovea passed through to get there.
+        std::set<uint64_t> sizes(run.areas.end() - 30, run.areas.end());
+        EXPECT_LE(sizes.size(), 2u) << run.name << " did not settle:\n" << csv;
+        const uint64_t settled = *sizes.begin();
+        size_t reached = 0;
+        while (reached < run.areas.size() && run.areas[reached] != settled)
+            ++reached;
+        std::set<uint64_t> passed(run.areas.begin(),
+                                  run.areas.begin() + static_cast<std::ptrdiff_t>(reached));
+        EXPECT_LE(reached, (passed.size() + 1) * kFramesPerLevel)
+            << run.name << " took " << reached << " frames over " << passed.size() << " sizes:\n"
+            << csv;
+        std::cout << "  " << run.name << ": the fovea settled at " << run.last.w << "x" << run.last.h
+                  << " of a " << kEye << "x" << kAutoHeight << " eye by frame " << reached << "\n";
+        const Rect right{kEye + run.last.x, run.last.y, run.last.w, run.last.h};
+        ASSERT_NO_FATAL_FAILURE(expect_split_frame(native.image, run.grab.image, {run.last, right}, false));
+    }
+    link.terminate(5s);
+    EXPECT_LT(runs[1].areas.back(), runs[0].areas.back()) << "the slow link settled no smaller";
+    const Rect start = default_foveae(kAutoWidth, kAutoHeight, 2)[0];
+    EXPECT_LT(runs[1].areas.back(), uint64_t{start.w} * start.h) << "the slow link never shrank it";
+    expect_clean_validation();
+}
+
 } // namespace
 } // namespace splitvk::e2e
