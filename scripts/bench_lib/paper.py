@@ -16,7 +16,9 @@ round runs every path in turn, each path's native and split alternating as for o
 the split run beside the plain one in every round and path, each reported as VARIANT/split: --tls adds
 a split over TLS 1.3 (split-tls: SPLITVK_TLS=on, the agent pinned by its fingerprint), and
 --agent-scissor guard:N a split whose agent also cuts offscreen screen-space passes to the fovea
-(split-guard: SPLITVK_AGENT_SCISSOR=guard:N).
+(split-guard: SPLITVK_AGENT_SCISSOR=guard:N), and --fovea auto[:WxH] a split whose fovea sizes itself
+(split-auto: SPLITVK_FOVEA=auto, beside the plain split at 512x360), with the size it settled at and
+split-auto/native.
 
 --xr runs the experiment through OpenXR too: in every round and path, after the desktop runs,
 splitvk-atrium --xr (one swapchain per eye, each --eye-size, by default half the window: the
@@ -76,7 +78,7 @@ RENDER_PATHS = ("direct", "hdr", "deferred", "multiview", "secondary", "compute"
 # The periphery render is measured by the layer (SPLITVK_STATS' periphery_ms, GPU timestamps);
 # --periphery-frames N adds the older estimate, a native run at the periphery's size.
 # Variants of the split measured beside it (see measure): name -> how the tables call it.
-VARIANTS = {"split-tls": "split over TLS 1.3", "split-guard": "split, agent scissor"}
+VARIANTS = {"split-tls": "split over TLS 1.3", "split-guard": "split, agent scissor", "split-auto": "split, auto fovea"}
 XR_PATHS = ("direct", "hdr", "deferred")  # splitvk-atrium --xr, one swapchain per eye
 XR_LAYER_NAME = "XR_APILAYER_SPLITVK_split_render"
 XR_RUNTIME = os.path.join(common.REPO, "scripts", "xr-runtime")
@@ -173,7 +175,9 @@ def register(subparsers):
                    help=f"frames of the per-round periphery-size native run, 0 for none (default: {FULL['periphery_frames']})")
     p.add_argument("--width", type=int, default=2400, help="window width (default: %(default)s)")
     p.add_argument("--height", type=int, default=1080, help="window height (default: %(default)s)")
-    p.add_argument("--fovea", default="512x360", help="SPLITVK_FOVEA per eye (default: %(default)s)")
+    p.add_argument("--fovea", default="512x360",
+                   help="SPLITVK_FOVEA per eye (default: %(default)s); auto or auto:WxH runs SPLITVK_FOVEA=auto beside "
+                        "the split at 512x360 in every round (split-auto) and reports the size it settled at")
     p.add_argument("--scale", default="0.6", help="SPLITVK_SCALE (default: %(default)s)")
     p.add_argument("--codec", choices=("x264", "zstd", "raw"), default="x264", help="default: %(default)s")
     p.add_argument("--tile-wait", type=int, default=2000,
@@ -407,9 +411,11 @@ def measure(args):
               f"(scripts/bench paper: {FULL['frames']} x {FULL['rounds']}); its numbers are noisier", flush=True)
 
     # Per path: frame times of each run (after the warm-up), the split runs' stats rows, CPU per frame.
-    modes = ["native", "split"] + [v for v, on in (("split-tls", args.tls), ("split-guard", args.agent_scissor)) if on]
+    modes = ["native", "split"] + [v for v, on in (("split-tls", args.tls), ("split-guard", args.agent_scissor),
+                                                   ("split-auto", args.fovea_auto)) if on]
     modes += ["xr-native", "xr-split"] if args.xr else []
-    runs = {path: dict({m: [] for m in modes}, periphery=[], cpu={m: [] for m in modes}) for path in args.paths}
+    runs = {path: dict({m: [] for m in modes}, periphery=[], cpu={m: [] for m in modes}, auto_rows=[])
+            for path in args.paths}
     start = time.monotonic()
     with common.display(build) as disp:
         base = common.clean_env(args.icd)
@@ -430,6 +436,8 @@ def measure(args):
                 variant_env["split-tls"] = common.tls_split_env(split_env, agent, out_dir, base)
             if args.agent_scissor:
                 variant_env["split-guard"] = dict(split_env, SPLITVK_AGENT_SCISSOR=args.agent_scissor)
+            if args.fovea_auto:
+                variant_env["split-auto"] = dict(split_env, SPLITVK_FOVEA=args.fovea_auto)
             # Through OpenXR: splitvk's OpenXR layer too (docs/user-guide.md, "OpenXR applications").
             xr_split_env = dict(split_env, XR_API_LAYER_PATH=build.xr_manifest_dir, XR_ENABLE_API_LAYERS=XR_LAYER_NAME)
             for i in range(args.rounds):
@@ -472,8 +480,14 @@ def measure(args):
                             got["split"].append((read_frame_times(times, args.warmup),
                                                  split.read_stats(stats, args.warmup)))
                         else:
-                            r = cpu_run(argv(path, args.width, args.height, args.frames, times), variant_env[mode],
+                            env = variant_env[mode]
+                            if mode == "split-auto":  # its stats say what size the fovea settled at
+                                stats = os.path.join(out_dir, f"{prefix}split-auto-round{i + 1}.csv")
+                                env = dict(env, SPLITVK_STATS=stats)
+                            r = cpu_run(argv(path, args.width, args.height, args.frames, times), env,
                                         timeout_s, args.frames, got["cpu"][mode])
+                            if mode == "split-auto":
+                                got["auto_rows"].append(split.read_stats(stats, args.warmup))
                             if mode == "split-tls":
                                 common.check_tls_split(r)
                             elif "running unsplit" in r.stderr or "[splitvk] split:" not in r.stderr:
@@ -596,7 +610,25 @@ def path_summary(path, runs):
         "stages": stages,
         "client_cpu": {k: split.median(v) for k, v in runs["cpu"].items() if v},
         "xr": xr_summary(runs),
+        "auto": auto_summary(runs.get("auto_rows")),
     }
+
+
+def auto_summary(rounds):
+    """SPLITVK_FOVEA=auto's runs: the size it settled at (the median fovea of each round's last quarter
+    of frames, the first eye's), its late frames and its tile traffic; None when it did not run."""
+    if not rounds:
+        return None
+    settled = []
+    for rows in rounds:
+        tail = rows[len(rows) * 3 // 4:]
+        w = split.median([float(r["fovea_w"]) for r in tail])
+        h = split.median([float(r["fovea_h"]) for r in tail])
+        settled.append(f"{w:.0f}x{h:.0f}")
+    rows = [r for rnd in rounds for r in rnd]
+    seconds = sum(float(r["frame_ms"]) for r in rows) / 1000
+    return {"settled": settled, "late": sum(r["late"] != "0" for r in rows), "frames": len(rows),
+            "mbps": sum(int(r["tile_bytes"]) for r in rows) * 8 / 1e6 / seconds if seconds else 0.0}
 
 
 def xr_summary(runs):
@@ -632,7 +664,7 @@ def summarize(args, machine, runs, periphery_size, out_dir, wall_s):
                    "client_threads": args.client_threads, "tile_wait": args.tile_wait, "agent_cpus": args.agent_cpus, "link": args.link,
                    "quick": args.quick, "periphery_source": p["periphery_source"],
                    "paths": list(args.paths), "tls": args.tls,
-                   "agent_scissor": args.agent_scissor, "xr": args.xr,
+                   "agent_scissor": args.agent_scissor, "fovea_auto": args.fovea_auto, "xr": args.xr,
                    "eye_size": "{}x{}".format(*xr_eye_size(args)) if args.xr else None},
         "native": p["native"], "split": p["split"],
         "native_rounds": p["native_rounds"], "split_rounds": p["split_rounds"],
@@ -661,13 +693,17 @@ def variants_of(p):
 def run_variants(res):
     """The variants the run measured, in VARIANTS order."""
     config = res["config"]
-    on = {"split-tls": config.get("tls"), "split-guard": config.get("agent_scissor")}
+    on = {"split-tls": config.get("tls"), "split-guard": config.get("agent_scissor"),
+          "split-auto": config.get("fovea_auto")}
     return [v for v in VARIANTS if on[v]]
 
 
 def variant_label(res, name):
-    setting = res["config"].get("agent_scissor")
-    return f"{VARIANTS[name]} ({setting})" if name == "split-guard" and setting else VARIANTS[name]
+    setting = {"split-guard": res["config"].get("agent_scissor"),
+               "split-auto": res["config"].get("fovea_auto")}.get(name)
+    auto = ((res.get("per_path") or [{}])[0]).get("auto") if name == "split-auto" else None
+    settled = f", settled at {', '.join(auto['settled'])}" if auto else ""
+    return f"{VARIANTS[name]} ({setting}{settled})" if setting else VARIANTS[name]
 
 
 def variant_rows_markdown(res):
@@ -819,6 +855,11 @@ def print_ratio_lines(res):
         for name, value in path_ratios(per_path[0]).items():
             if name not in ("split/native", "split/native by means") and value is not None:
                 print(f"{name}: {value:.3f}")
+        auto, measured = per_path[0].get("auto"), variants_of(per_path[0])
+        if auto and "split-auto" in measured and per_path[0]["native"]["median"]:
+            print(f"auto fovea: settled at {', '.join(auto['settled'])} (each round's last quarter), "
+                  f"{auto['late']} late of {auto['frames']}, {auto['mbps']:.1f} Mbit/s")
+            print(f"split-auto/native: {measured['split-auto']['median'] / per_path[0]['native']['median']:.3f}")
 
 
 def plot(res, figures_dir, out_dir):
@@ -1096,6 +1137,10 @@ def analysis_text(res):
 
 def run(args):
     preset = QUICK if args.quick else FULL
+    # --fovea auto[:WxH]: the plain split keeps the paper's fovea and split-auto runs beside it.
+    args.fovea_auto = args.fovea if args.fovea.lower().startswith("auto") else None
+    if args.fovea_auto:
+        args.fovea = "512x360"
     for key, value in preset.items():
         if getattr(args, key) is None:
             setattr(args, key, value)
