@@ -19,11 +19,17 @@ uint32_t to_gaze_units(double fraction) {
     return static_cast<uint32_t>(std::clamp<long>(units, 1, split::kGazeOne));
 }
 
+// Rounded down: the agent refuses a size above the largest by any amount (0.6 is 39321.6 units).
+uint32_t to_gaze_units_below(double fraction) {
+    const auto units = static_cast<long>(std::floor(std::min(fraction, 1.0) * split::kGazeOne));
+    return static_cast<uint32_t>(std::clamp<long>(units, 1, split::kGazeOne));
+}
+
 } // namespace
 
 AutoFovea::AutoFovea(const FoveaSize &largest, double max_mbps) : largest_(largest), max_mbps_(max_mbps) {
-    const split::FrameFoveaSize top{to_gaze_units(largest_.width), to_gaze_units(largest_.height)};
-    while (max_level_ < 64 && !(size_at(max_level_) == top))
+    largest_units_ = {to_gaze_units_below(largest_.width), to_gaze_units_below(largest_.height)};
+    while (max_level_ < 64 && !(size_at(max_level_) == largest_units_))
         ++max_level_;
     ceiling_ = max_level_ + 1;
     size_ = size_at(level_);
@@ -32,8 +38,8 @@ AutoFovea::AutoFovea(const FoveaSize &largest, double max_mbps) : largest_(large
 split::FrameFoveaSize AutoFovea::size_at(int level) const {
     const FoveaSize start;
     const double factor = std::pow(kStep, level);
-    return {to_gaze_units(std::min(start.width * factor, largest_.width)),
-            to_gaze_units(std::min(start.height * factor, largest_.height))};
+    return {std::min(to_gaze_units(start.width * factor), largest_units_.width),
+            std::min(to_gaze_units(start.height * factor), largest_units_.height)};
 }
 
 split::FrameFoveaSize AutoFovea::size() const {

@@ -74,6 +74,7 @@ private:
 
     mutable std::mutex mutex_;
     FoveaSize largest_;
+    split::FrameFoveaSize largest_units_; // largest_, rounded down to what the agent accepts
     double max_mbps_ = 0;
     int max_level_ = 0; // the first level that is the largest size
     int level_ = 0;

@@ -157,8 +157,18 @@ TEST(AutoFovea, GrowsToTheLargestSizeAndNoFurther) {
     AutoFovea sizing(FoveaSize{true, 0.6, 0.5, true}, 0);
     ModelledPair fast;
     const auto levels = run(sizing, fast, 400);
-    EXPECT_EQ(sizing.size(), (split::FrameFoveaSize{39322, split::kGazeOne / 2}));
+    EXPECT_EQ(sizing.size(), (split::FrameFoveaSize{39321, split::kGazeOne / 2}));
     EXPECT_EQ(*std::max_element(levels.begin(), levels.end()), levels.back());
+
+    // 0.6 of the eye is 39321.6 units: every size must pass the agent's check against 0.6 itself.
+    const FoveaSize fractional_cap{true, 0.6, 0.6, true};
+    AutoFovea awkward(fractional_cap, 0);
+    for (int frame = 0; frame < 400; ++frame) {
+        const split::FrameFoveaSize size = awkward.size();
+        ASSERT_TRUE(split::frame_fovea_size_allowed(fractional_cap, size)) << "level " << awkward.level();
+        awkward.observe(fast.frame(size)); // reported at once: the window logic does not mind
+    }
+    EXPECT_EQ(awkward.size(), (split::FrameFoveaSize{39321, 39321}));
 
     AutoFovea below(FoveaSize{true, 0.25, 0.25, true}, 0); // smaller than the default: starts there
     EXPECT_EQ(below.size(), (split::FrameFoveaSize{split::kGazeOne / 4, split::kGazeOne / 4}));

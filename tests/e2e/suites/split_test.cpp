@@ -1507,7 +1507,7 @@ TEST_F(Split, AutoFoveaSettlesSmallerBehindASlowLink) {
     for (Run &run : runs) {
         Env e = split_env();
         e["SPLITVK_SERVER"] = run.server;
-        e["SPLITVK_FOVEA"] = "auto:0.75x0.75"; // some periphery left, so that the frame is split
+        e["SPLITVK_FOVEA"] = "auto:0.7x0.7"; // some periphery left; 0.7 is no whole number of units
         // The client renders its periphery at nearly full resolution, so that on a machine where it
         // shares two cores with the agent its own frame is the longer one, as a weak client's is next
         // to a GPU agent: otherwise the frames' waits would be the agent's draw, not its fovea.
