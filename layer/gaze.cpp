@@ -131,13 +131,25 @@ split::Gaze FifoReader::poll() {
     return current_;
 }
 
+split::Gaze hold_fixation(const split::Gaze &shown, const split::Gaze &measured) {
+    if (shown.fixed || measured.fixed) return measured;
+    const auto near = [](uint32_t a, uint32_t b) { return (a > b ? a - b : b - a) <= kFixationRadius; };
+    split::Gaze held = measured;
+    for (int eye = 0; eye < 2; ++eye)
+        if (near(shown.eyes[eye].x, measured.eyes[eye].x) && near(shown.eyes[eye].y, measured.eyes[eye].y))
+            held.eyes[eye] = shown.eyes[eye];
+    return held;
+}
+
 split::Gaze frame_gaze(const Settings &settings) {
     if (settings.gaze != GazeMode::Fifo) return {};
     static std::mutex mutex;
     static std::unique_ptr<FifoReader> reader;
+    static split::Gaze shown;
     std::lock_guard lock(mutex);
     if (!reader) reader = std::make_unique<FifoReader>(settings.gaze_fifo);
-    return reader->poll();
+    shown = hold_fixation(shown, reader->poll());
+    return shown;
 }
 
 } // namespace splitvk::gaze

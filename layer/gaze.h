@@ -9,9 +9,14 @@
 // corner, 0.5 0.5 its centre, 1 1 its bottom-right). The layer creates nothing: it opens the path
 // read-only and non-blocking at the first present, and at every present reads what the pipe holds
 // without waiting, so the application never blocks on the writer. The newest good line applies from
-// the present that reads it until the next one; a writer may close and reopen the pipe. No
-// smoothing: the fovea jumps to each point (a filter would only add latency to a saccade), and
-// the fovea itself is the margin for the gaze's latency (see docs/settings.md, SPLITVK_GAZE).
+// the present that reads it until the next one; a writer may close and reopen the pipe.
+//
+// No low-pass filter: it would only add latency to a saccade, after which the fovea must land at
+// once. Fixations are another matter: the eye drifts and trembles by fractions of a degree, and
+// trackers add noise of their own, and a fovea that follows every such point moves its tiles (each
+// move costs the encoder its prediction from the previous tile) and its seam for nothing. So a point
+// within kFixationRadius of where the fovea sits leaves it there (hold_fixation); the fovea itself
+// is the margin for the gaze's latency (see docs/user-guide.md, "Where the fovea sits").
 
 #include "split_geometry.h"
 
@@ -65,8 +70,18 @@ private:
     split::Gaze current_;
 };
 
+// A fixation's points, in each axis, within 1/64 of the eye (19 pixels of a 1200-pixel eye, about
+// 1.6 degrees of a 100-degree field of view: more than a microsaccade or a tracker's noise, less
+// than any saccade worth following).
+inline constexpr uint32_t kFixationRadius = split::kGazeOne / 64;
+
+// The gaze to show: `measured`, but each eye whose point lies within kFixationRadius of `shown`'s
+// in both axes keeps `shown`'s. A fixed gaze on either side is taken as it is.
+split::Gaze hold_fixation(const split::Gaze &shown, const split::Gaze &measured);
+
 // The gaze for the frame being presented now: fixed for SPLITVK_GAZE=fixed, otherwise the
-// process's one reader of the pipe polled (thread-safe; every device of the process shares it).
+// process's one reader of the pipe polled and held through fixations (thread-safe; every device of
+// the process shares it).
 split::Gaze frame_gaze(const Settings &settings);
 
 } // namespace splitvk::gaze

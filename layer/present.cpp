@@ -194,10 +194,11 @@ struct SplitPresent {
     uint32_t image_index = 0;
     SplitFrame split;
     uint64_t frame = 0;
-    std::chrono::steady_clock::time_point sent{}; // FramePresent
-    double frame_ms = 0;                          // Session::frame_interval_ms() at the app's present
-    double present_call_ms = 0;                   // the app's present, when the thread has the frame
-    int64_t xr_frame = -1;                        // an OpenXR eye image's (FrameRecord::xr_frame)
+    std::chrono::steady_clock::time_point sent{};   // FramePresent
+    double frame_ms = 0;                            // Session::frame_interval_ms() at the app's present
+    double present_call_ms = 0;                     // the app's present, when the thread has the frame
+    std::chrono::steady_clock::time_point called{}; // the app's present began (the thread's frames)
+    int64_t xr_frame = -1;                          // an OpenXR eye image's (FrameRecord::xr_frame)
     int32_t xr_view = -1;
     // Asynchronous: take_waits() has consumed the application's semaphores into `taken`, whose
     // batch signals `done`.
@@ -277,8 +278,10 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
     } else {
         composited = taken;
     }
-    record.merge_ms = ms_between(waited, Clock::now());
-    record.present_call_ms = p.taken ? p.present_call_ms : ms_between(called, Clock::now());
+    const auto composited_at = Clock::now();
+    record.merge_ms = ms_between(waited, composited_at);
+    record.present_call_ms = p.taken ? p.present_call_ms : ms_between(called, composited_at);
+    record.present_to_composite_ms = ms_between(called, composited_at);
     if (composited && composited != taken) session.composited_frames.fetch_add(1);
     // After the composite: reading the periphery's timestamps may stall the present on some
     // drivers (gpu_timing.h), and that must not count as tile wait or merge.
@@ -378,7 +381,7 @@ std::unordered_map<VkSwapchainKHR, SwapchainPresents> g_swapchain_presents;
 // The present thread's half of a frame: its tiles, the composite and the real present.
 VkResult present_split_frame(DeviceState &dev, SplitPresent &p) {
     const VkSemaphore taken = p.taken;
-    VkSemaphore wait = composite_split_frame(dev, p, {&taken, 1}, /*lock=*/true, {});
+    VkSemaphore wait = composite_split_frame(dev, p, {&taken, 1}, /*lock=*/true, p.called);
     if (!wait) wait = taken;
     VkPresentInfoKHR present{};
     present.sType = VK_STRUCTURE_TYPE_PRESENT_INFO_KHR;
@@ -456,6 +459,7 @@ std::optional<VkResult> present_async(DeviceState &dev, SplitPresent &p, std::sp
     const VkResult result = sc.deferred;
     sc.deferred = VK_SUCCESS;
     p.present_call_ms = ms_between(called, std::chrono::steady_clock::now());
+    p.called = called;
     t->frames.push_back(std::move(p));
     g_async_changed.notify_all();
     return result;

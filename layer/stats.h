@@ -46,6 +46,9 @@ struct FrameRecord {
     // The first fovea the frame asked for (the left eye's of a stereo frame; the first layer's of a
     // layered OpenXR eye image), which follows SPLITVK_GAZE; width 0 when the frame had none.
     VkRect2D fovea{};
+    // The application's present (where this frame's gaze was read) to its composite submitted: the
+    // layer's part of the latency from a gaze point to the screen, on the present thread too.
+    double present_to_composite_ms = 0;
 };
 
 class FrameStats {

@@ -47,6 +47,30 @@ TEST(LayerGaze, BothEyesOrEachEye) {
     EXPECT_EQ(g.eyes[0].x, 6554u); // round(0.1 * 65536)
 }
 
+// A fixation holds the fovea still; a saccade moves it at once, whole, with no lag; each eye alone.
+TEST(LayerGaze, AFixationHoldsTheFoveaAndASaccadeMovesIt) {
+    const split::Gaze shown = parsed("0.5 0.5");
+    const uint32_t half = kGazeOne / 2;
+    split::Gaze tremor = shown;
+    tremor.eyes[0] = {half + kFixationRadius, half - kFixationRadius};
+    tremor.eyes[1] = {half - 1, half + 1};
+    split::Gaze held = hold_fixation(shown, tremor);
+    EXPECT_EQ(held.eyes[0].x, half);
+    EXPECT_EQ(held.eyes[0].y, half);
+    EXPECT_EQ(held.eyes[1].x, half);
+
+    split::Gaze saccade = tremor;
+    saccade.eyes[0].x = half + kFixationRadius + 1; // the left eye moved; the right still fixates
+    held = hold_fixation(shown, saccade);
+    EXPECT_EQ(held.eyes[0].x, half + kFixationRadius + 1) << "the whole way, at once";
+    EXPECT_EQ(held.eyes[0].y, half - kFixationRadius);
+    EXPECT_EQ(held.eyes[1].x, half) << "the other eye holds";
+
+    EXPECT_FALSE(hold_fixation(split::Gaze{}, tremor).fixed) << "the first point is taken as it is";
+    EXPECT_EQ(hold_fixation(split::Gaze{}, tremor).eyes[0].x, half + kFixationRadius);
+    EXPECT_TRUE(hold_fixation(shown, split::Gaze{}).fixed);
+}
+
 TEST(LayerGaze, PointsOffTheEyeAreClampedToItsEdges) {
     const split::Gaze g = parsed("-3 1.5 2 -0.0001");
     EXPECT_EQ(g.eyes[0].x, 0u);
