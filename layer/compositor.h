@@ -121,7 +121,8 @@ public:
     VkResult composite(VkQueue queue, uint32_t image_index, std::span<const VkSemaphore> waits,
                        VkExtent2D periphery, std::span<const FoveaTile> tiles, VkSemaphore *signal);
 
-    // SPLITVK_STATS' exposed wait, before the tile wait: submits an empty batch to `queue` that
+    // SPLITVK_STATS' exposed wait (and SPLITVK_FOVEA=auto's, which sizes the fovea from it), before the
+    // tile wait: submits an empty batch to `queue` that
     // waits on `waits` and signals *taken and *done. A fence signal covers every command submitted
     // to the queue before it, so *done tells when the GPU has finished the application's frame.
     // On VK_SUCCESS `waits` are consumed: pass {*taken} to composite() instead, and present with

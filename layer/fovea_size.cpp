@@ -14,21 +14,18 @@ double median(std::vector<double> values) {
     return *middle;
 }
 
-uint32_t to_gaze_units(double fraction) {
-    const long units = std::lround(std::min(fraction, 1.0) * split::kGazeOne);
-    return static_cast<uint32_t>(std::clamp<long>(units, 1, split::kGazeOne));
-}
-
-// Rounded down: the agent refuses a size above the largest by any amount (0.6 is 39321.6 units).
-uint32_t to_gaze_units_below(double fraction) {
-    const auto units = static_cast<long>(std::floor(std::min(fraction, 1.0) * split::kGazeOne));
-    return static_cast<uint32_t>(std::clamp<long>(units, 1, split::kGazeOne));
+// A fraction of the eye in split::kGazeOne units, at least one. `down`: rounded down, for the
+// largest size, since the agent refuses a size above it by any amount (0.6 is 39321.6 units).
+uint32_t to_gaze_units(double fraction, bool down = false) {
+    const double units = std::min(fraction, 1.0) * split::kGazeOne;
+    const auto rounded = static_cast<long>(down ? std::floor(units) : std::round(units));
+    return static_cast<uint32_t>(std::clamp<long>(rounded, 1, split::kGazeOne));
 }
 
 } // namespace
 
 AutoFovea::AutoFovea(const FoveaSize &largest, double max_mbps) : largest_(largest), max_mbps_(max_mbps) {
-    largest_units_ = {to_gaze_units_below(largest_.width), to_gaze_units_below(largest_.height)};
+    largest_units_ = {to_gaze_units(largest_.width, true), to_gaze_units(largest_.height, true)};
     while (max_level_ < 64 && !(size_at(max_level_) == largest_units_))
         ++max_level_;
     ceiling_ = max_level_ + 1;
@@ -57,6 +54,7 @@ void AutoFovea::move_to(int level) {
     size_ = size_at(level_);
     settling_ = kSettle;
     window_.clear();
+    shrinking_ = false;
 }
 
 void AutoFovea::shrink() {
@@ -67,12 +65,18 @@ void AutoFovea::shrink() {
     held_windows_ = 0;
     ceiling_ = level_;
     move_to(level_ - 1);
+    shrinking_ = true;
 }
 
 void AutoFovea::observe(const FoveaFrameCost &cost) {
     std::lock_guard lock(mutex_);
     if (!(cost.size == size_)) return;
-    if (cost.late) return shrink();
+    // A late frame shrinks the fovea at once, but one stall makes several frames late in a row:
+    // those that come while a size entered by shrinking still settles are the same stall.
+    if (cost.late) {
+        if (!(shrinking_ && settling_ > 0)) shrink();
+        return;
+    }
     if (cost.frame_ms <= 0) return; // the first frame, with no interval to weigh it against
     if (settling_ > 0) {
         --settling_;

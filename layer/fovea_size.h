@@ -4,12 +4,13 @@
 //
 // A larger fovea is a sharper picture, and costs the agent's size-dependent path: the read-back, the
 // encode, the link and the client's decode all grow with its pixels, while the agent's draw does not
-// (under auto it shades whole eyes, since its scissors are recorded before any frame's size is
-// known). The fovea may grow while that path keeps up with the client's own frame: while the part of
-// each frame's wait for tiles that the fovea caused stays a small share of the frame. That part is
-// the wait the client saw with its own work done (FrameRecord::exposed_wait_ms), but no more than the
-// size-dependent path took: a wait that the agent's draw alone makes longer than the client's frame
-// is no reason to shrink the fovea, which cannot shorten it.
+// (under auto it shades the largest size, the whole eye or auto:WxH, in every frame, since its
+// scissors are recorded before any frame's size is known). The fovea may grow while that path keeps up with
+// the client's own frame: while the part of each frame's wait for tiles that the fovea caused stays a small
+// share of the frame. That part is the wait the client saw with its own work done
+// (FrameRecord::exposed_wait_ms; all of the wait for an OpenXR runtime's image, which has no semaphores to
+// tell), but no more than the size-dependent path took: a wait that the agent's draw alone makes longer than
+// the client's frame is no reason to shrink the fovea, which cannot shorten it.
 //
 // The size moves along a ladder of sizes of the default's shape (kStep apart in each dimension, from
 // kMinLevel below the default up to the largest, SPLITVK_FOVEA=auto:WxH or the whole eye, each
@@ -17,11 +18,12 @@
 // window of kWindow frames at the current size, after the kSettle frames that follow a change (they
 // carry the new size's keyframes). It shrinks a level when the fovea's share of the window's median
 // frame is above kShrinkShare, when the window's tile traffic is above SPLITVK_MAX_MBPS, or at once on
-// a late frame; it grows a level when the share is at most kGrowShare and the traffic the next level
-// would carry (its pixels' worth more) stays within SPLITVK_MAX_MBPS. Hysteresis: the level that
-// failed is a ceiling the fovea does not grow back to until it has held below it for a while (the
-// hold), and a ceiling that fails again doubles the hold. So the size settles within (kSettle +
-// kWindow) frames per level it moves, and probes upward ever more rarely while the times hold.
+// a late frame (but not again for the late frames of the same stall, which come while the size it
+// shrank to still settles); it grows a level when the share is at most kGrowShare and the traffic the next
+// level would carry (its pixels' worth more) stays within SPLITVK_MAX_MBPS. Hysteresis: the level that failed
+// is a ceiling the fovea does not grow back to until it has held below it for a while (the hold), and a
+// ceiling that fails again doubles the hold. So the size settles within (kSettle + kWindow) frames per level
+// it moves, and probes upward ever more rarely while the times hold.
 //
 // Thread-safe: the application's present reads the size of the frame it sends, and the present
 // thread reports the frames it composites.
@@ -85,6 +87,7 @@ private:
     uint32_t hold_windows_ = kFirstHoldWindows;
     uint32_t held_windows_ = 0; // decided windows spent just below the ceiling
     bool probing_ = false;      // at the ceiling's level again, after a hold
+    bool shrinking_ = false;    // this size was entered by shrinking
 };
 
 } // namespace splitvk

@@ -197,7 +197,8 @@ struct SplitPresent {
     std::chrono::steady_clock::time_point sent{};   // FramePresent
     double frame_ms = 0;                            // Session::frame_interval_ms() at the app's present
     double present_call_ms = 0;                     // the app's present, when the thread has the frame
-    std::chrono::steady_clock::time_point called{}; // the app's present began (the thread's frames)
+    std::chrono::steady_clock::time_point called{}; // the app's present began
+    Session::FrameSizing sizing;                    // SPLITVK_FOVEA=auto
     int64_t xr_frame = -1;                          // an OpenXR eye image's (FrameRecord::xr_frame)
     int32_t xr_view = -1;
     // Asynchronous: take_waits() has consumed the application's semaphores into `taken`, whose
@@ -213,7 +214,7 @@ struct SplitPresent {
 // untouched (the present then goes ahead as the app asked). `lock`: take the queue's lock around
 // the submits (the present thread; the application's thread holds it already).
 VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<const VkSemaphore> waits,
-                                  bool lock, std::chrono::steady_clock::time_point called) {
+                                  bool lock) {
     using Clock = std::chrono::steady_clock;
     Session &session = *dev.session;
     FrameRecord record;
@@ -240,6 +241,7 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
 
     const auto wait_start = Clock::now();
     const uint64_t invalid_before = session.invalid_frames.load();
+    const uint64_t late_before = session.late_frames.load();
     // Keeps the pixels alive through composite().
     const auto tiles = frame_tiles(session, p.frame, p.split, exposure);
     const auto waited = Clock::now();
@@ -280,8 +282,8 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
     }
     const auto composited_at = Clock::now();
     record.merge_ms = ms_between(waited, composited_at);
-    record.present_call_ms = p.taken ? p.present_call_ms : ms_between(called, composited_at);
-    record.present_to_composite_ms = ms_between(called, composited_at);
+    record.present_call_ms = p.taken ? p.present_call_ms : ms_between(p.called, composited_at);
+    record.present_to_composite_ms = ms_between(p.called, composited_at);
     if (composited && composited != taken) session.composited_frames.fetch_add(1);
     // After the composite: reading the periphery's timestamps may stall the present on some
     // drivers (gpu_timing.h), and that must not count as tile wait or merge.
@@ -290,14 +292,19 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
         if (compositor) record.merge_gpu_ms = compositor->latest_gpu_ms();
     }
     session.stats().record(record);
-    if (sizing && !p.split.foveae.empty()) {
+    // Late for the sizing only when an agent was there with this frame and its tiles did not come:
+    // frames without an agent (or before a joining one's first) say nothing about the fovea, and
+    // counting them would shrink it to nothing through every reconnect.
+    const bool late_from_agent = session.late_frames.load() != late_before && session.live();
+    if (sizing && p.sizing.heard && !p.split.foveae.empty() && (tiles || late_from_agent)) {
         FoveaFrameCost cost;
         cost.size = p.split.fovea_size;
-        cost.late = record.late;
-        cost.frame_ms = record.frame_ms;
-        // A runtime's image has no semaphores to tell when the client's own work was done: all of
-        // its wait counts.
-        cost.exposed_wait_ms = exposure.seen ? record.exposed_wait_ms : record.tile_wait_ms;
+        cost.late = !tiles;
+        cost.frame_ms = p.sizing.frame_ms;
+        // A runtime's image has no semaphores to tell when the client's own work was done (no
+        // fence to look at): all of its wait counts. With the fence, a wait that ended before it
+        // signalled exposed nothing.
+        cost.exposed_wait_ms = exposure.done ? record.exposed_wait_ms : record.tile_wait_ms;
         cost.fovea_path_ms =
             record.agent_readback_ms + record.agent_encode_ms + record.network_ms + record.decode_ms;
         cost.tile_bytes = record.tile_bytes;
@@ -381,7 +388,7 @@ std::unordered_map<VkSwapchainKHR, SwapchainPresents> g_swapchain_presents;
 // The present thread's half of a frame: its tiles, the composite and the real present.
 VkResult present_split_frame(DeviceState &dev, SplitPresent &p) {
     const VkSemaphore taken = p.taken;
-    VkSemaphore wait = composite_split_frame(dev, p, {&taken, 1}, /*lock=*/true, p.called);
+    VkSemaphore wait = composite_split_frame(dev, p, {&taken, 1}, /*lock=*/true);
     if (!wait) wait = taken;
     VkPresentInfoKHR present{};
     present.sType = VK_STRUCTURE_TYPE_PRESENT_INFO_KHR;
@@ -421,8 +428,7 @@ void run_present_thread(DeviceState &dev, PresentThread &t) {
 // The application's half: takes the frame (its semaphores) and queues it for the present thread,
 // after waiting for room. The result for the application: what the thread's earlier presents of
 // this swapchain answered. std::nullopt: nothing was taken, present synchronously.
-std::optional<VkResult> present_async(DeviceState &dev, SplitPresent &p, std::span<const VkSemaphore> waits,
-                                      std::chrono::steady_clock::time_point called) {
+std::optional<VkResult> present_async(DeviceState &dev, SplitPresent &p, std::span<const VkSemaphore> waits) {
     Session &session = *dev.session;
     p.compositor =
         compositor_for(dev, *p.swapchain, queue_family_of(p.queue), !session.settings().stats_path.empty());
@@ -458,8 +464,7 @@ std::optional<VkResult> present_async(DeviceState &dev, SplitPresent &p, std::sp
     sc.stray.reset();
     const VkResult result = sc.deferred;
     sc.deferred = VK_SUCCESS;
-    p.present_call_ms = ms_between(called, std::chrono::steady_clock::now());
-    p.called = called;
+    p.present_call_ms = ms_between(p.called, std::chrono::steady_clock::now());
     t->frames.push_back(std::move(p));
     g_async_changed.notify_all();
     return result;
@@ -661,7 +666,8 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     if (session.resync_pending()) session.resync(dev, queue, frame);
     if (frame == 1) log_live_state(dev, "at frame 1"); // SPLITVK_LOG_LEVEL=debug
     protocol::FramePresent message;
-    if (AutoFovea *sizing = session.auto_fovea()) message.fovea_size = sizing->size();
+    const Session::FrameSizing sizing = session.size_frame(static_cast<int64_t>(xr_frame), 0);
+    message.fovea_size = sizing.size;
     SplitFrame split;
     if (session.splitting() && swapchain.composable) {
         split = take_split_frame(dev, swapchain.images[image_index], EyeMode::One, {}, message.fovea_size);
@@ -694,9 +700,11 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     p.frame = frame;
     p.sent = std::chrono::steady_clock::now();
     p.frame_ms = session.frame_interval_ms();
+    p.called = called;
+    p.sizing = sizing;
     p.xr_frame = static_cast<int64_t>(xr_frame);
     p.xr_view = xr_view;
-    composite_split_frame(dev, p, {}, /*lock=*/false, called);
+    composite_split_frame(dev, p, {}, /*lock=*/false);
 }
 
 void send_runtime_view(DeviceState &dev, const SwapchainState &swapchain,
@@ -853,7 +861,8 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
     message.queue_id = codec::handle_value(queue);
     // Read here, once per frame: both sides place this frame's foveae with it.
     message.gaze = gaze::frame_gaze(session.settings());
-    if (AutoFovea *sizing = session.auto_fovea()) message.fovea_size = sizing->size();
+    Session::FrameSizing sizing = session.size_frame(-1, 0);
+    message.fovea_size = sizing.size;
     for (uint32_t i = 0; i < pPresentInfo->swapchainCount && i < protocol::kMaxPresentedImages; ++i)
         message.images.push_back(
             {codec::handle_value(pPresentInfo->pSwapchains[i]), pPresentInfo->pImageIndices[i]});
@@ -911,16 +920,19 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         p.frame = frame;
         p.sent = std::chrono::steady_clock::now();
         p.frame_ms = frame_ms;
+        p.called = called;
+        p.sizing = sizing;
+        p.sizing.frame_ms = frame_ms;
         const std::span<const VkSemaphore> waits{present.pWaitSemaphores, present.waitSemaphoreCount};
         if (async) {
-            if (const auto result = present_async(dev, p, waits, called)) {
+            if (const auto result = present_async(dev, p, waits)) {
                 if (pPresentInfo->pResults) pPresentInfo->pResults[0] = *result;
                 return *result;
             }
             drain_presents(dev); // nothing taken: this frame goes here, after the thread's
             queue_lock = lock_queue(queue);
         }
-        composited = composite_split_frame(dev, p, waits, /*lock=*/false, called);
+        composited = composite_split_frame(dev, p, waits, /*lock=*/false);
         if (composited) {
             present.waitSemaphoreCount = 1;
             present.pWaitSemaphores = &composited;

@@ -121,9 +121,8 @@ void Session::adopt_locked(AgentLink &&agent) {
     live_.store(true);
     if (splitting()) {
         protocol::SplitConfig config{settings_.eyes, settings_.fovea, settings_.codec, {}, {}};
-        // SPLITVK_FOVEA=auto: each FramePresent names its frame's size, at most the largest one
-        // (settings_.fovea's width and height), which the agent's scissors then cover.
-        if (auto_fovea_) config.fovea.automatic = false;
+        // With SPLITVK_FOVEA=auto its width and height are the largest size a FramePresent may name,
+        // which the agent's scissors then cover (`automatic` stays on this side).
         config.moving_gaze = settings_.gaze != GazeMode::Fixed;
         if (capabilities & protocol::capability::kAgentScissor) {
             config.agent_scissor = settings_.agent_scissor;
@@ -338,6 +337,22 @@ Session::~Session() {
     if (tiles_) tiles_->stop();
     current_connection_.store(nullptr);
     if (connection_) connection_->close();
+}
+
+Session::FrameSizing Session::size_frame(int64_t xr_frame, double frame_ms) {
+    FrameSizing sizing;
+    if (!auto_fovea_) return sizing;
+    if (xr_frame < 0) return {auto_fovea_->size(), true, frame_ms};
+    std::lock_guard lock(sizing_mutex_);
+    if (xr_frame == sized_xr_frame_) return {xr_frame_size_, false, 0};
+    const auto now = std::chrono::steady_clock::now();
+    sizing.heard = true;
+    if (xr_frame_start_ != std::chrono::steady_clock::time_point{})
+        sizing.frame_ms = std::chrono::duration<double, std::milli>(now - xr_frame_start_).count();
+    xr_frame_start_ = now;
+    sized_xr_frame_ = xr_frame;
+    xr_frame_size_ = sizing.size = auto_fovea_->size();
+    return sizing;
 }
 
 double Session::frame_interval_ms() {

@@ -90,6 +90,18 @@ public:
     FrameStats &stats() { return *stats_; }
     // SPLITVK_FOVEA=auto: the size of every frame's foveae (fovea_size.h); nullptr otherwise.
     AutoFovea *auto_fovea() { return auto_fovea_.get(); }
+    // SPLITVK_FOVEA=auto: the size the frame being presented takes, and whether the sizing hears its
+    // times, with the frame time it hears them against. A window's present takes the current size
+    // and is heard against `frame_ms`. Every eye image of one OpenXR frame (`xr_frame` >= 0) takes the
+    // size its first image took, so that both eyes of a frame match, and only that first image is
+    // heard, against the time since the previous frame's first image: a swapchain per eye would
+    // otherwise count each frame twice, once with the short gap between its eyes.
+    struct FrameSizing {
+        split::FrameFoveaSize size; // unset without auto
+        bool heard = false;
+        double frame_ms = 0;
+    };
+    FrameSizing size_frame(int64_t xr_frame, double frame_ms);
     // Milliseconds since the previous call (0 the first time): present-to-present frame time.
     double frame_interval_ms();
     codec::EncodeHooks *hooks() { return &hooks_; }
@@ -263,6 +275,10 @@ private:
     std::unique_ptr<TileStream> tiles_;
     std::unique_ptr<FrameStats> stats_;
     std::unique_ptr<AutoFovea> auto_fovea_;
+    std::mutex sizing_mutex_; // the OpenXR frame being sized, below
+    int64_t sized_xr_frame_ = -1;
+    split::FrameFoveaSize xr_frame_size_;
+    std::chrono::steady_clock::time_point xr_frame_start_{};
     std::chrono::steady_clock::time_point last_present_{};
     std::mutex verify_mutex_;
     std::condition_variable verify_ready_;

@@ -30,7 +30,9 @@ const SettingInfo kSettings[] = {
      "address of the splitvk-agent to share frames with"},
     {"SCALE", "a number in [0.1, 1]", "0.6",
      "sampling rate of the periphery the client renders (0.6: 1440x648 of 2400x1080)"},
-    {"FOVEA", "WxH in pixels (512x360), as fractions of the eye (0.43x0.33), or auto",
+    {"FOVEA",
+     "WxH in pixels (512x360), as fractions of the eye (0.43x0.33), auto, or auto:WxH (fractions, 0.01 to 1: "
+     "the largest)",
      "512x360 of a 1200x1080 eye",
      "size of the fovea the agent renders in each eye; auto: sized per frame from measured times, as large "
      "as "
@@ -146,8 +148,11 @@ bool parse_fovea(std::string_view value, FoveaSize &out) {
     const std::string text = lower(trim(value));
     if (text == "auto" || text.starts_with("auto:")) {
         FoveaSize largest{true, 1.0, 1.0};
-        if (text != "auto" && (!parse_fovea(std::string_view(text).substr(5), largest) ||
-                               !largest.fractional || largest.automatic))
+        // Fractions only, since each frame's size is one (split::FrameFoveaSize), and at least 1/100
+        // of the eye: a bound below a unit of those would be refused by the agent at every frame.
+        if (text != "auto" &&
+            (!parse_fovea(std::string_view(text).substr(5), largest) || !largest.fractional ||
+             largest.automatic || largest.width < 0.01 || largest.height < 0.01))
             return false;
         out = largest;
         out.automatic = true;

@@ -118,17 +118,27 @@ TEST(AutoFovea, AnAgentDrawSlowerThanTheClientIsNoReasonToShrink) {
     EXPECT_EQ(sizing.size().width, split::kGazeOne);
 }
 
-TEST(AutoFovea, ALateFrameShrinksItAtOnce) {
+// A late frame shrinks the fovea at once, without waiting for a window. One stall makes several
+// frames late in a row: the first shrinks it, the rest of that stall (while the smaller size
+// settles) do not; a late frame after a growth does.
+TEST(AutoFovea, ALateFrameShrinksItAtOnceAndOneStallOnlyOnce) {
     AutoFovea sizing(kWholeEye, 0);
     FoveaFrameCost late;
-    late.size = sizing.size();
     late.late = true;
     late.frame_ms = 20;
-    sizing.observe(late);
+    for (int i = 0; i < 3; ++i) {
+        late.size = sizing.size();
+        sizing.observe(late);
+    }
     EXPECT_EQ(sizing.level(), -1);
+
+    ModelledPair fast;
+    run(sizing, fast, 200); // grows again, a level at a time
+    ASSERT_GE(sizing.level(), 1);
+    const int grown = sizing.level();
     late.size = sizing.size();
     sizing.observe(late);
-    EXPECT_EQ(sizing.level(), -2);
+    EXPECT_EQ(sizing.level(), grown - 1);
 }
 
 TEST(AutoFovea, FramesOfAnEarlierSizeAreNotCounted) {
@@ -174,6 +184,37 @@ TEST(AutoFovea, GrowsToTheLargestSizeAndNoFurther) {
     EXPECT_EQ(below.size(), (split::FrameFoveaSize{split::kGazeOne / 4, split::kGazeOne / 4}));
     run(below, fast, 100);
     EXPECT_EQ(below.size(), (split::FrameFoveaSize{split::kGazeOne / 4, split::kGazeOne / 4}));
+}
+
+// Above SPLITVK_MAX_MBPS from the start: it shrinks until the traffic is within the bound.
+TEST(AutoFovea, MaxMbpsShrinksItBelowTheBound) {
+    AutoFovea sizing(kWholeEye, 20);
+    ModelledPair pair;
+    pair.bytes_per_eye = 1e6; // the default size: about 57 Mbit/s at 50 frames per second
+    ASSERT_GT(pair.frame(sizing.size()).tile_bytes * 8 / 1e6 / 0.02, 20);
+    run(sizing, pair, 600);
+    const FoveaFrameCost settled = pair.frame(sizing.size());
+    EXPECT_LT(sizing.level(), 0);
+    EXPECT_LE(settled.tile_bytes * 8 / 1e6 / (settled.frame_ms / 1000), 20);
+}
+
+// A size that keeps failing is tried again ever more rarely: the hold doubles with each failure.
+TEST(AutoFovea, EachFailedProbeDoublesTheHold) {
+    AutoFovea sizing(kWholeEye, 0);
+    ModelledPair slow;
+    slow.path_ms_per_eye = 200;
+    const auto levels = run(sizing, slow, 4000);
+    const int settled = levels.back();
+    std::vector<size_t> probes; // the frames at which it went up to the level above, again
+    for (size_t i = 1; i < levels.size(); ++i)
+        if (levels[i] == settled + 1 && levels[i - 1] == settled) probes.push_back(i);
+    ASSERT_GE(probes.size(), 4u);
+    std::vector<size_t> gaps;
+    for (size_t i = 1; i < probes.size(); ++i)
+        gaps.push_back(probes[i] - probes[i - 1]);
+    for (size_t i = 1; i < gaps.size(); ++i)
+        EXPECT_GE(gaps[i], gaps[i - 1]) << "probe " << i;
+    EXPECT_GE(gaps.back(), 4 * gaps.front());
 }
 
 TEST(AutoFovea, NeverLeavesItsLadder) {

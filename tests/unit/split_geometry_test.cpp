@@ -182,7 +182,6 @@ TEST(SplitGeometry, AutoIsStereoOnlyForTwoViewportsThatTileTheImageInHalves) {
               1u);
 }
 
-// The agent's scissor for a viewport holds every fovea the frame can give that viewport's pixels.
 // SPLITVK_FOVEA=auto: a frame's size replaces the configured one, and the agent takes none larger
 // than the one its scissors were recorded for.
 TEST(SplitGeometry, AFrameFoveaSizeIsAFractionOfTheEye) {
@@ -204,6 +203,7 @@ TEST(SplitGeometry, AFrameFoveaSizeIsAFractionOfTheEye) {
         << "pixels: no fraction to compare";
 }
 
+// The agent's scissor for a viewport holds every fovea the frame can give that viewport's pixels.
 TEST(SplitGeometry, FoveaScissorHoldsEveryFoveaAViewportCanDrawInto) {
     const FoveaSize fovea;
     const VkExtent2D image{2400, 1080};

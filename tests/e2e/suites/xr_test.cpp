@@ -541,6 +541,49 @@ TEST_F(XrAtrium, PerEyeFoveaeExactAgainstNativeFrameByFrame) {
     EXPECT_FALSE(grep(split.err(), summary).empty()) << "no \"" << summary << "\"\n" << tail(split.err(), 10);
 }
 
+// SPLITVK_FOVEA=auto through OpenXR (issue 22): both eyes of a frame take one size, whatever the
+// sizing decides between their two images, and the agent agrees on every eye image's size: none is
+// late and every one composited the agent's tiles, which the layer takes only at the rectangles it
+// asked for. SPLITVK_MAX_MBPS far below any traffic shrinks the fovea a step per window, so that the
+// size changes within the run.
+TEST_F(XrAtrium, AutoFoveaTakesOneSizeForBothEyesOfAFrame) {
+    constexpr int kAutoFrames = 40;
+    Agent agent;
+    ASSERT_TRUE(agent.start(clean_env(), out_)) << agent.error();
+    Env e = atrium_split_env("split", agent);
+    e["SPLITVK_FOVEA"] = "auto";
+    e["SPLITVK_MAX_MBPS"] = "0.001";
+    const auto split = run_atrium(e, "split", {"--frames", std::to_string(kAutoFrames)});
+    ASSERT_TRUE(split.ok()) << split.describe() << "\n" << tail(split.err(), 30);
+    EXPECT_TRUE(grep(split.err(), "[splitvk] error:").empty()) << tail(split.err(), 30);
+    expect_split_stats("split", 2 * kAutoFrames);
+
+    const std::string csv = read_file(out_ / "split" / "stats.csv");
+    const auto lines = split_lines(csv);
+    ASSERT_FALSE(lines.empty());
+    std::vector<std::string> names;
+    std::stringstream header(lines[0]);
+    for (std::string f; std::getline(header, f, ',');)
+        names.push_back(f);
+    std::map<int, std::set<std::pair<int, int>>> sizes_by_frame;
+    std::set<std::pair<int, int>> sizes;
+    for (size_t i = 1; i < lines.size(); ++i) {
+        std::map<std::string, double> row;
+        std::stringstream fields(lines[i]);
+        size_t c = 0;
+        for (std::string f; std::getline(fields, f, ',') && c < names.size(); ++c)
+            row[names[c]] = std::stod(f);
+        if (c != names.size()) continue;
+        const std::pair<int, int> size{static_cast<int>(row["fovea_w"]), static_cast<int>(row["fovea_h"])};
+        sizes_by_frame[static_cast<int>(row["xr_frame"])].insert(size);
+        sizes.insert(size);
+    }
+    for (const auto &[frame, in_frame] : sizes_by_frame)
+        EXPECT_EQ(in_frame.size(), 1u) << "OpenXR frame " << frame << "'s eyes took different sizes:\n"
+                                       << csv;
+    EXPECT_GE(sizes.size(), 2u) << "the size never changed:\n" << csv;
+}
+
 // XR_APILAYER_SPLITVK_test_skew_fov (xr_fov_layer/) above splitvk's API layer gives every projection
 // view at xrEndFrame an asymmetric field of view; atrium rendered with Monado's symmetric one, so
 // the pixels are native's and only where splitvk puts each eye's fovea changes. From the frame after
