@@ -3,6 +3,7 @@
 #include "render_pass.h"
 
 #include "command_buffer.h"
+#include "fovea_mask.h"
 #include "gpu_timing.h"
 #include "image.h"
 #include "layer_entry_points.h"
@@ -217,6 +218,7 @@ void begin_render_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassB
         if (timing) time_before_split_pass(dev, cb, *timing);
         down(&scaled);
         if (timing) time_split_pass_begun(dev, cb, *timing);
+        if (target.swapchain) mask_foveae(dev, cb, *begin, target.extent, scaled.renderArea);
         return enter_split(dev, cb, *tracker, target);
     }
     begin_split_of_secondaries(dev, cb, *tracker, target, [&] { down(&scaled); });
@@ -259,6 +261,7 @@ void begin_rendering(DeviceState &dev, VkCommandBuffer cb, const VkRenderingInfo
     if (timing) time_before_split_pass(dev, cb, *timing);
     down(&scaled);
     if (timing) time_split_pass_begun(dev, cb, *timing);
+    if (target.swapchain) mask_foveae(dev, cb, *info, target.extent, scaled.renderArea);
     enter_split(dev, cb, *tracker, target);
 }
 

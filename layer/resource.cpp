@@ -4,6 +4,7 @@
 #include "resource.h"
 
 #include "capture.h"
+#include "fovea_mask.h"
 #include "image.h"
 #include "instance.h"
 #include "layer_entry_points.h"
@@ -151,6 +152,7 @@ bool can_add_transfer_src(const DeviceState &dev, const VkImageCreateInfo &info)
 template <class RenderPassCreateInfo>
 void note_final_layouts(VkRenderPass render_pass, const RenderPassCreateInfo &info) {
     forget_render_pass(render_pass);
+    note_render_pass_depth(render_pass, info);
     std::vector<VkImageLayout> finals;
     for (uint32_t i = 0; i < info.attachmentCount; ++i)
         finals.push_back(info.pAttachments[i].finalLayout);
@@ -290,6 +292,7 @@ void CreateRenderPass2KHR(DeviceState &dev, VkDevice device, const VkRenderPassC
 
 void DestroyRenderPass(DeviceState &, VkDevice, VkRenderPass render_pass, const VkAllocationCallbacks *) {
     forget_render_pass(render_pass);
+    forget_render_pass_depth(render_pass);
     std::lock_guard lock(g_mutex);
     g_final_layouts.erase(render_pass);
 }

@@ -44,6 +44,10 @@ const SettingInfo kSettings[] = {
     {"AGENT_SCISSOR", "off or guard:N (N pixels, 0 to 4096)", "off",
      "guard:N: the agent also scissors its passes into screen-space targets to the foveae grown by N "
      "pixels of each target; exact only if N covers the reach of every blur or filter"},
+    {"FOVEA_MASK", "depth or off", "depth",
+     "depth: the client leaves the foveae out of the periphery it shades, by their depth in its passes into "
+     "the "
+     "swapchain image, where that is exact; off: it shades them, and the tiles cover them"},
     {"GAZE", "fixed or fifo:PATH", "fixed",
      "where the foveae sit: fixed, centred in each eye; fifo:PATH, at the gaze points another process writes "
      "into the named pipe PATH (one line per point: x y, or lx ly rx ry, 0.5 0.5 the eye's centre)"},
@@ -240,6 +244,11 @@ bool apply(std::string_view name, std::string_view raw, Settings &s) {
         const auto pixels = parse_uint(std::string_view(v).substr(6));
         if (!pixels || *pixels > kMaxAgentScissorGuard) return false;
         s.agent_scissor = {true, *pixels};
+        return true;
+    }
+    if (name == "FOVEA_MASK") {
+        if (v != "depth" && v != "off") return false;
+        s.fovea_mask = v == "depth";
         return true;
     }
     if (name == "GAZE") {

@@ -72,6 +72,9 @@ struct Settings {
     TargetMode targets = TargetMode::Auto;
     AgentScissor agent_scissor;
     GazeMode gaze = GazeMode::Fixed;
+    // SPLITVK_FOVEA_MASK (issue 22): the client leaves the foveae out of the periphery it shades,
+    // through the depth of its passes into the swapchain image, where that is exact (layer/fovea_mask.h).
+    bool fovea_mask = true;
     std::string gaze_fifo; // GazeMode::Fifo: the pipe's path
     // SPLITVK_MAX_MBPS: the most tile traffic SPLITVK_FOVEA=auto may grow the fovea to, in Mbit/s;
     // 0: no bound but the eye.

@@ -18,7 +18,9 @@ a split over TLS 1.3 (split-tls: SPLITVK_TLS=on, the agent pinned by its fingerp
 --agent-scissor guard:N a split whose agent also cuts offscreen screen-space passes to the fovea
 (split-guard: SPLITVK_AGENT_SCISSOR=guard:N), and --fovea auto[:WxH] a split whose fovea sizes itself
 (split-auto: SPLITVK_FOVEA=auto, beside the plain split at 512x360), with the size it settled at and
-split-auto/native.
+split-auto/native, and --shaded-foveae a split whose client shades its foveae (split-shaded:
+SPLITVK_FOVEA_MASK=off), with the periphery render of the plain split (whose depth mask leaves them
+unshaded) over its: periphery masked/shaded.
 
 --xr runs the experiment through OpenXR too: in every round and path, after the desktop runs,
 splitvk-atrium --xr (one swapchain per eye, each --eye-size, by default half the window: the
@@ -78,7 +80,8 @@ RENDER_PATHS = ("direct", "hdr", "deferred", "multiview", "secondary", "compute"
 # The periphery render is measured by the layer (SPLITVK_STATS' periphery_ms, GPU timestamps);
 # --periphery-frames N adds the older estimate, a native run at the periphery's size.
 # Variants of the split measured beside it (see measure): name -> how the tables call it.
-VARIANTS = {"split-tls": "split over TLS 1.3", "split-guard": "split, agent scissor", "split-auto": "split, auto fovea"}
+VARIANTS = {"split-tls": "split over TLS 1.3", "split-guard": "split, agent scissor", "split-auto": "split, auto fovea",
+            "split-shaded": "split, foveae shaded"}
 XR_PATHS = ("direct", "hdr", "deferred")  # splitvk-atrium --xr, one swapchain per eye
 XR_LAYER_NAME = "XR_APILAYER_SPLITVK_split_render"
 XR_RUNTIME = os.path.join(common.REPO, "scripts", "xr-runtime")
@@ -175,6 +178,9 @@ def register(subparsers):
                    help=f"frames of the per-round periphery-size native run, 0 for none (default: {FULL['periphery_frames']})")
     p.add_argument("--width", type=int, default=2400, help="window width (default: %(default)s)")
     p.add_argument("--height", type=int, default=1080, help="window height (default: %(default)s)")
+    p.add_argument("--shaded-foveae", action="store_true",
+                   help="also run each round's split with SPLITVK_FOVEA_MASK=off (split-shaded) and report the "
+                        "periphery render of the split, whose foveae the depth mask leaves unshaded, over its")
     p.add_argument("--fovea", default="512x360",
                    help="SPLITVK_FOVEA per eye (default: %(default)s); auto or auto:WxH runs SPLITVK_FOVEA=auto beside "
                         "the split at 512x360 in every round (split-auto) and reports the size it settled at")
@@ -412,9 +418,10 @@ def measure(args):
 
     # Per path: frame times of each run (after the warm-up), the split runs' stats rows, CPU per frame.
     modes = ["native", "split"] + [v for v, on in (("split-tls", args.tls), ("split-guard", args.agent_scissor),
-                                                   ("split-auto", args.fovea_auto)) if on]
+                                                   ("split-auto", args.fovea_auto),
+                                                   ("split-shaded", args.shaded_foveae)) if on]
     modes += ["xr-native", "xr-split"] if args.xr else []
-    runs = {path: dict({m: [] for m in modes}, periphery=[], cpu={m: [] for m in modes}, auto_rows=[])
+    runs = {path: dict({m: [] for m in modes}, periphery=[], cpu={m: [] for m in modes}, variant_rows={})
             for path in args.paths}
     start = time.monotonic()
     with common.display(build) as disp:
@@ -438,6 +445,8 @@ def measure(args):
                 variant_env["split-guard"] = dict(split_env, SPLITVK_AGENT_SCISSOR=args.agent_scissor)
             if args.fovea_auto:
                 variant_env["split-auto"] = dict(split_env, SPLITVK_FOVEA=args.fovea_auto)
+            if args.shaded_foveae:
+                variant_env["split-shaded"] = dict(split_env, SPLITVK_FOVEA_MASK="off")
             # Through OpenXR: splitvk's OpenXR layer too (docs/user-guide.md, "OpenXR applications").
             xr_split_env = dict(split_env, XR_API_LAYER_PATH=build.xr_manifest_dir, XR_ENABLE_API_LAYERS=XR_LAYER_NAME)
             for i in range(args.rounds):
@@ -480,14 +489,12 @@ def measure(args):
                             got["split"].append((read_frame_times(times, args.warmup),
                                                  split.read_stats(stats, args.warmup)))
                         else:
-                            env = variant_env[mode]
-                            if mode == "split-auto":  # its stats say what size the fovea settled at
-                                stats = os.path.join(out_dir, f"{prefix}split-auto-round{i + 1}.csv")
-                                env = dict(env, SPLITVK_STATS=stats)
-                            r = cpu_run(argv(path, args.width, args.height, args.frames, times), env,
-                                        timeout_s, args.frames, got["cpu"][mode])
-                            if mode == "split-auto":
-                                got["auto_rows"].append(split.read_stats(stats, args.warmup))
+                            # Its stats: the size an auto fovea settled at, a variant's periphery render.
+                            stats = os.path.join(out_dir, f"{prefix}{mode}-round{i + 1}.csv")
+                            r = cpu_run(argv(path, args.width, args.height, args.frames, times),
+                                        dict(variant_env[mode], SPLITVK_STATS=stats), timeout_s, args.frames,
+                                        got["cpu"][mode])
+                            got["variant_rows"].setdefault(mode, []).append(split.read_stats(stats, args.warmup))
                             if mode == "split-tls":
                                 common.check_tls_split(r)
                             elif "running unsplit" in r.stderr or "[splitvk] split:" not in r.stderr:
@@ -610,7 +617,11 @@ def path_summary(path, runs):
         "stages": stages,
         "client_cpu": {k: split.median(v) for k, v in runs["cpu"].items() if v},
         "xr": xr_summary(runs),
-        "auto": auto_summary(runs.get("auto_rows")),
+        "auto": auto_summary(runs.get("variant_rows", {}).get("split-auto")),
+        "variant_periphery": {v: q3(g) for v, g in
+                              ((v, [float(r["periphery_ms"]) for rnd in rounds for r in rnd
+                                    if float(r.get("periphery_ms") or 0) > 0])
+                               for v, rounds in runs.get("variant_rows", {}).items()) if g},
     }
 
 
@@ -664,7 +675,8 @@ def summarize(args, machine, runs, periphery_size, out_dir, wall_s):
                    "client_threads": args.client_threads, "tile_wait": args.tile_wait, "agent_cpus": args.agent_cpus, "link": args.link,
                    "quick": args.quick, "periphery_source": p["periphery_source"],
                    "paths": list(args.paths), "tls": args.tls,
-                   "agent_scissor": args.agent_scissor, "fovea_auto": args.fovea_auto, "xr": args.xr,
+                   "agent_scissor": args.agent_scissor, "fovea_auto": args.fovea_auto,
+                   "shaded_foveae": args.shaded_foveae, "xr": args.xr,
                    "eye_size": "{}x{}".format(*xr_eye_size(args)) if args.xr else None},
         "native": p["native"], "split": p["split"],
         "native_rounds": p["native_rounds"], "split_rounds": p["split_rounds"],
@@ -694,7 +706,7 @@ def run_variants(res):
     """The variants the run measured, in VARIANTS order."""
     config = res["config"]
     on = {"split-tls": config.get("tls"), "split-guard": config.get("agent_scissor"),
-          "split-auto": config.get("fovea_auto")}
+          "split-auto": config.get("fovea_auto"), "split-shaded": config.get("shaded_foveae")}
     return [v for v in VARIANTS if on[v]]
 
 
@@ -860,6 +872,11 @@ def print_ratio_lines(res):
             print(f"auto fovea: settled at {', '.join(auto['settled'])} (each round's last quarter), "
                   f"{auto['late']} late of {auto['frames']}, {auto['mbps']:.1f} Mbit/s")
             print(f"split-auto/native: {measured['split-auto']['median'] / per_path[0]['native']['median']:.3f}")
+        shaded = (per_path[0].get("variant_periphery") or {}).get("split-shaded")
+        if shaded and per_path[0].get("periphery") and shaded["median"]:
+            print(f"periphery (GPU) masked {per_path[0]['periphery']['median']:.2f} ms, foveae shaded "
+                  f"{shaded['median']:.2f} ms")
+            print(f"periphery masked/shaded: {per_path[0]['periphery']['median'] / shaded['median']:.3f}")
 
 
 def plot(res, figures_dir, out_dir):

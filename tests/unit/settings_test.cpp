@@ -171,6 +171,7 @@ TEST_F(SettingsTest, InvalidValuesAreOneLineErrorsNamingTheSetting) {
         {"FOVEA",
          {"", "512", "512x", "x360", "0x360", "512x0", "0.5x360", "1.5x0.5", "-1x-1", "axb", "99999x1",
           "automatic"}},
+        {"FOVEA_MASK", {"", "on", "stencil", "1"}},
         {"MAX_MBPS", {"", "-1", "100001", "fast", "nan", "50M"}},
         {"EYES", {"", "0", "3", "both", "two"}},
         {"TARGETS", {"", "all", "offscreen", "1"}},

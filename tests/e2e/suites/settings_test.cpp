@@ -106,17 +106,18 @@ TEST_F(Settings, EnvironmentWinsOverSettingsFile) {
 // SPLITVK_SERVER names.
 const std::map<std::string, std::string> &bad_values() {
     static const std::map<std::string, std::string> values = {
-        {"SERVER", "127.0.0.1:0"},                        // port 0
-        {"SCALE", "2"},                                   // above 1
-        {"FOVEA", "512"},                                 // no WxH
-        {"EYES", "3"},                                    // auto, 1 or 2
-        {"TARGETS", "offscreen"},                         // auto or swapchain
-        {"AGENT_SCISSOR", "guard:-8"},                    // off or guard:N
-        {"GAZE", "pipe:/tmp/gaze"},                       // not a gaze source
-        {"CODEC", "h265"},                                // not a codec splitvk has
-        {"TILE_WAIT", "0"},                               // 1 to 60000
-        {"PRESENT_DEPTH", "3"},                           // 0, 1 or 2
-        {"MAX_MBPS", "-1"},                               // 0 to 100000
+        {"SERVER", "127.0.0.1:0"},     // port 0
+        {"SCALE", "2"},                // above 1
+        {"FOVEA", "512"},              // no WxH
+        {"EYES", "3"},                 // auto, 1 or 2
+        {"TARGETS", "offscreen"},      // auto or swapchain
+        {"AGENT_SCISSOR", "guard:-8"}, // off or guard:N
+        {"GAZE", "pipe:/tmp/gaze"},    // not a gaze source
+        {"CODEC", "h265"},             // not a codec splitvk has
+        {"TILE_WAIT", "0"},            // 1 to 60000
+        {"PRESENT_DEPTH", "3"},        // 0, 1 or 2
+        {"MAX_MBPS", "-1"},
+        {"FOVEA_MASK", "stencil"},                        // 0 to 100000
         {"STATS", "/nonexistent-splitvk-dir/stats.csv"},  // directory missing
         {"LOG_LEVEL", "verbose"},                         // not a level
         {"TOKEN", "two words"},                           // whitespace

@@ -1,0 +1,147 @@
+#include "fovea_mask.h"
+
+#include "log.h"
+#include "object_map.h"
+#include "split.h"
+#include "split_geometry.h"
+#include "vk_format_info.h"
+#include "vk_util.h"
+
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+#include <set>
+#include <utility>
+#include <vector>
+
+namespace splitvk {
+
+namespace {
+
+// A render pass whose depth attachment (`attachment`) can carry the mask; absent otherwise.
+struct RenderPassDepth {
+    uint32_t attachment = 0;
+};
+ObjectMap<VkRenderPass, RenderPassDepth> g_render_pass_depth;
+
+bool depth_cleared_and_dropped(VkFormat format, VkAttachmentLoadOp load, VkAttachmentStoreOp store) {
+    return format_info(format).depth && load == VK_ATTACHMENT_LOAD_OP_CLEAR &&
+           store == VK_ATTACHMENT_STORE_OP_DONT_CARE;
+}
+
+template <class CreateInfo>
+void note_depth(VkRenderPass render_pass, const CreateInfo &info, uint32_t depth_attachment) {
+    forget_render_pass_depth(render_pass);
+    if (info.subpassCount != 1 || depth_attachment >= info.attachmentCount) return;
+    const auto &attachment = info.pAttachments[depth_attachment];
+    if (!depth_cleared_and_dropped(attachment.format, attachment.loadOp, attachment.storeOp)) return;
+    g_render_pass_depth.insert(render_pass,
+                               std::make_unique<RenderPassDepth>(RenderPassDepth{depth_attachment}));
+}
+
+// The foveae every frame of an image of `image` extent has, known while its passes are recorded;
+// none when a frame's foveae are decided later (see the top of fovea_mask.h).
+std::vector<VkRect2D> recorded_foveae(VkExtent2D image) {
+    const Settings &settings = split_settings();
+    if (!settings.fovea_mask || settings.gaze != GazeMode::Fixed || settings.fovea.automatic) return {};
+    switch (settings.eyes) {
+    case EyeMode::One:
+        return {split::fovea_of_eye({{0, 0}, image}, settings.fovea)};
+    case EyeMode::Two:
+        return {split::fovea_of_eye(split::left_eye(image), settings.fovea),
+                split::fovea_of_eye(split::right_eye(image), settings.fovea)};
+    case EyeMode::Auto:
+        break;
+    }
+    return {};
+}
+
+// The scaled texels that lie wholly inside `fovea`, less kFoveaMaskGuard on every side, within
+// `area`; zero extent when none.
+VkRect2D mask_of(const VkRect2D &fovea, double scale, const VkRect2D &area) {
+    const auto x0 = static_cast<int64_t>(std::ceil(fovea.offset.x * scale)) + kFoveaMaskGuard;
+    const auto y0 = static_cast<int64_t>(std::ceil(fovea.offset.y * scale)) + kFoveaMaskGuard;
+    const auto x1 =
+        static_cast<int64_t>(std::floor((fovea.offset.x + fovea.extent.width) * scale)) - kFoveaMaskGuard;
+    const auto y1 =
+        static_cast<int64_t>(std::floor((fovea.offset.y + fovea.extent.height) * scale)) - kFoveaMaskGuard;
+    if (x1 <= x0 || y1 <= y0) return {};
+    const VkRect2D inner{{static_cast<int32_t>(x0), static_cast<int32_t>(y0)},
+                         {static_cast<uint32_t>(x1 - x0), static_cast<uint32_t>(y1 - y0)}};
+    return split::intersect(inner, area);
+}
+
+void log_mask_once(VkExtent2D image) {
+    static std::mutex mutex;
+    static std::set<std::pair<uint32_t, uint32_t>> logged;
+    {
+        std::lock_guard lock(mutex);
+        if (!logged.emplace(image.width, image.height).second) return;
+    }
+    SPLITVK_INFO("split: the periphery of %ux%u swapchain images leaves its foveae unshaded (depth mask)",
+                 image.width, image.height);
+}
+
+// Clears the masks of `image`'s foveae in the pass's depth attachment to the end of the depth range
+// that its clear value is not at, which every LESS test (clear 1) or GREATER test (clear 0) fails.
+void record_mask(DeviceState &device, VkCommandBuffer command_buffer, VkExtent2D image, const VkRect2D &area,
+                 float cleared_depth) {
+    std::vector<VkClearRect> rects;
+    for (const VkRect2D &fovea : recorded_foveae(image)) {
+        const VkRect2D mask = mask_of(fovea, split_settings().scale, area);
+        if (mask.extent.width > 0 && mask.extent.height > 0) rects.push_back({mask, 0, 1});
+    }
+    if (rects.empty()) return;
+    VkClearAttachment clear{};
+    clear.aspectMask = VK_IMAGE_ASPECT_DEPTH_BIT;
+    clear.clearValue.depthStencil.depth = cleared_depth >= 0.5f ? 0.0f : 1.0f;
+    device.dispatch.CmdClearAttachments(command_buffer, 1, &clear, static_cast<uint32_t>(rects.size()),
+                                        rects.data());
+    log_mask_once(image);
+}
+
+} // namespace
+
+void note_render_pass_depth(VkRenderPass render_pass, const VkRenderPassCreateInfo &info) {
+    const VkAttachmentReference *depth =
+        info.subpassCount == 1 ? info.pSubpasses[0].pDepthStencilAttachment : nullptr;
+    note_depth(render_pass, info, depth ? depth->attachment : VK_ATTACHMENT_UNUSED);
+}
+
+void note_render_pass_depth(VkRenderPass render_pass, const VkRenderPassCreateInfo2 &info) {
+    const VkAttachmentReference2 *depth =
+        info.subpassCount == 1 ? info.pSubpasses[0].pDepthStencilAttachment : nullptr;
+    // A depth resolve would carry the mask into the resolved image.
+    const auto *resolve =
+        info.subpassCount == 1
+            ? find_in_chain<VkSubpassDescriptionDepthStencilResolve>(
+                  info.pSubpasses[0].pNext, VK_STRUCTURE_TYPE_SUBPASS_DESCRIPTION_DEPTH_STENCIL_RESOLVE)
+            : nullptr;
+    const bool resolves = resolve && resolve->pDepthStencilResolveAttachment &&
+                          resolve->pDepthStencilResolveAttachment->attachment != VK_ATTACHMENT_UNUSED;
+    note_depth(render_pass, info, depth && !resolves ? depth->attachment : VK_ATTACHMENT_UNUSED);
+}
+
+void forget_render_pass_depth(VkRenderPass render_pass) {
+    g_render_pass_depth.remove(render_pass);
+}
+
+void mask_foveae(DeviceState &device, VkCommandBuffer command_buffer, const VkRenderPassBeginInfo &begin,
+                 VkExtent2D image, const VkRect2D &area) {
+    const RenderPassDepth *depth = g_render_pass_depth.find(begin.renderPass);
+    if (!depth || depth->attachment >= begin.clearValueCount || !begin.pClearValues) return;
+    record_mask(device, command_buffer, image, area,
+                begin.pClearValues[depth->attachment].depthStencil.depth);
+}
+
+void mask_foveae(DeviceState &device, VkCommandBuffer command_buffer, const VkRenderingInfo &info,
+                 VkExtent2D image, const VkRect2D &area) {
+    const VkRenderingAttachmentInfo *depth = info.pDepthAttachment;
+    if (!depth || !depth->imageView || (info.flags & VK_RENDERING_RESUMING_BIT) ||
+        depth->resolveMode != VK_RESOLVE_MODE_NONE || depth->loadOp != VK_ATTACHMENT_LOAD_OP_CLEAR ||
+        depth->storeOp != VK_ATTACHMENT_STORE_OP_DONT_CARE)
+        return;
+    record_mask(device, command_buffer, image, area, depth->clearValue.depthStencil.depth);
+}
+
+} // namespace splitvk
