@@ -1310,29 +1310,36 @@ INSTANTIATE_TEST_SUITE_P(
     [](const ::testing::TestParamInfo<SecondaryCase> &p) { return std::string(p.param.name); });
 
 // SPLITVK_FOVEA_MASK=depth (issue 22, item 4): with SPLITVK_EYES=2 the client clears the inside of
-// each fovea in its pass's depth (atrium's direct pass clears depth to 1, tests LESS and does not
-// store it), so its draws skip the pixels the tiles replace. What the X server shows must not
-// change: the frame with the mask equals the frame without it bit for bit (the guard keeps the
-// upsample off the masked texels), and its foveae equal native's. The layer says once that it masks.
+// each fovea in its pass's depth (atrium's direct pass, a render pass or a dynamic rendering, clears
+// depth to 1, tests LESS and does not store it), so its draws skip the pixels the tiles replace. What the X
+// server shows must not change: the frame with the mask equals the frame without it bit for bit (the guard
+// keeps the upsample off the masked texels), and its foveae equal native's. The layer says once that it
+// masks.
 TEST_F(Split, FoveaMaskLeavesTheFrameUnchanged) {
     ASSERT_NO_FATAL_FAILURE(start_agent());
-    Grab native, masked, shaded;
-    ASSERT_NO_FATAL_FAILURE(run_and_grab(atrium_argv(2, kFrames, false), env(), "native", kFrames, &native));
-    Env e = split_env();
-    e["SPLITVK_EYES"] = "2";
-    ASSERT_NO_FATAL_FAILURE(
-        run_and_grab(atrium_argv(2, kFrames, false), e, "split-masked", kFrames, &masked));
-    e["SPLITVK_FOVEA_MASK"] = "off";
-    ASSERT_NO_FATAL_FAILURE(
-        run_and_grab(atrium_argv(2, kFrames, false), e, "split-shaded", kFrames, &shaded));
     const std::string said = "leaves its foveae unshaded (depth mask)";
-    EXPECT_EQ(grep(masked.result.err(), said).size(), 1u) << tail(masked.result.err(), 30);
-    EXPECT_TRUE(grep(shaded.result.err(), said).empty()) << tail(shaded.result.err(), 30);
-    const auto same = compare_exact(shaded.image, masked.image);
-    EXPECT_TRUE(same.equal()) << "the mask shows: " << same.summary() << "\n"
-                              << save_mismatch_artefacts(out_, "masked", shaded.image, masked.image);
-    ASSERT_NO_FATAL_FAILURE(
-        expect_split_frame(native.image, masked.image, default_foveae(kWidth, kHeight, 2)));
+    for (const auto &[name, option] :
+         {std::pair<std::string, std::string>{"render-pass", ""},
+          std::pair<std::string, std::string>{"dynamic-rendering", "--dynamic-rendering"}}) {
+        SCOPED_TRACE(name);
+        std::vector<std::string> argv = atrium_argv(2, kFrames, false);
+        if (!option.empty()) argv.push_back(option);
+        Grab native, masked, shaded;
+        ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, env(), name + "-native", kFrames, &native));
+        Env e = split_env();
+        e["SPLITVK_EYES"] = "2";
+        ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, e, name + "-masked", kFrames, &masked));
+        e["SPLITVK_FOVEA_MASK"] = "off";
+        ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, e, name + "-shaded", kFrames, &shaded));
+        EXPECT_EQ(grep(masked.result.err(), said).size(), 1u) << tail(masked.result.err(), 30);
+        EXPECT_TRUE(grep(shaded.result.err(), said).empty()) << tail(shaded.result.err(), 30);
+        const auto same = compare_exact(shaded.image, masked.image);
+        EXPECT_TRUE(same.equal()) << "the mask shows: " << same.summary() << "\n"
+                                  << save_mismatch_artefacts(out_, name + "-masked", shaded.image,
+                                                             masked.image);
+        ASSERT_NO_FATAL_FAILURE(
+            expect_split_frame(native.image, masked.image, default_foveae(kWidth, kHeight, 2)));
+    }
     expect_clean_validation();
 }
 
