@@ -1,15 +1,19 @@
 #include "fovea_mask.h"
 
+#include "image.h"
 #include "log.h"
 #include "object_map.h"
+#include "session.h"
 #include "split.h"
 #include "split_geometry.h"
+#include "swapchain.h"
 #include "vk_format_info.h"
 #include "vk_util.h"
 
 #include <algorithm>
 #include <cmath>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <utility>
 #include <vector>
@@ -39,21 +43,24 @@ void note_depth(VkRenderPass render_pass, const CreateInfo &info, uint32_t depth
                                std::make_unique<RenderPassDepth>(RenderPassDepth{depth_attachment}));
 }
 
-// The foveae every frame of an image of `image` extent has, known while its passes are recorded;
-// none when a frame's foveae are decided later (see the top of fovea_mask.h).
-std::vector<VkRect2D> recorded_foveae(VkExtent2D image) {
+// The size of the foveae every frame of the pass's image will have at least, known while the pass
+// is recorded: SPLITVK_FOVEA's, or with auto the size of the moment (`*sized`); none when a frame's
+// foveae are decided later (see the top of fovea_mask.h).
+std::optional<FoveaSize> recorded_size(DeviceState &device, split::FrameFoveaSize *sized) {
     const Settings &settings = split_settings();
-    if (!settings.fovea_mask || settings.gaze != GazeMode::Fixed || settings.fovea.automatic) return {};
-    switch (settings.eyes) {
-    case EyeMode::One:
-        return {split::fovea_of_eye({{0, 0}, image}, settings.fovea)};
-    case EyeMode::Two:
-        return {split::fovea_of_eye(split::left_eye(image), settings.fovea),
-                split::fovea_of_eye(split::right_eye(image), settings.fovea)};
-    case EyeMode::Auto:
-        break;
-    }
-    return {};
+    if (!settings.fovea_mask || settings.gaze != GazeMode::Fixed || settings.eyes == EyeMode::Auto)
+        return std::nullopt;
+    if (!settings.fovea.automatic) return settings.fovea;
+    AutoFovea *sizing = device.session ? device.session->auto_fovea() : nullptr;
+    if (!sizing) return std::nullopt;
+    *sized = sizing->size();
+    return split::frame_fovea_size(settings.fovea, *sized);
+}
+
+std::vector<VkRect2D> foveae_of(VkExtent2D image, EyeMode eyes, const FoveaSize &fovea) {
+    if (eyes == EyeMode::One) return {split::fovea_of_eye({{0, 0}, image}, fovea)};
+    return {split::fovea_of_eye(split::left_eye(image), fovea),
+            split::fovea_of_eye(split::right_eye(image), fovea)};
 }
 
 // The scaled texels that lie wholly inside `fovea`, less kFoveaMaskGuard on every side, within
@@ -71,6 +78,15 @@ VkRect2D mask_of(const VkRect2D &fovea, double scale, const VkRect2D &area) {
     return split::intersect(inner, area);
 }
 
+// An OpenXR runtime's eye image keeps its foveae at its eyes' view directions, which its views may
+// move from frame to frame: only a window's swapchain images are masked.
+bool window_image(VkImage image) {
+    VkSwapchainKHR member = VK_NULL_HANDLE;
+    read_image(image, [&](const ImageState &state) { member = state.swapchain; });
+    const SwapchainState *swapchain = member ? find_swapchain(member) : nullptr;
+    return swapchain && !swapchain->runtime;
+}
+
 void log_mask_once(VkExtent2D image) {
     static std::mutex mutex;
     static std::set<std::pair<uint32_t, uint32_t>> logged;
@@ -84,10 +100,13 @@ void log_mask_once(VkExtent2D image) {
 
 // Clears the masks of `image`'s foveae in the pass's depth attachment to the end of the depth range
 // that its clear value is not at, which every LESS test (clear 1) or GREATER test (clear 0) fails.
-void record_mask(DeviceState &device, VkCommandBuffer command_buffer, VkExtent2D image, const VkRect2D &area,
-                 float cleared_depth) {
+void record_mask(DeviceState &device, VkCommandBuffer command_buffer, split::CommandTracker &tracker,
+                 VkExtent2D image, const VkRect2D &area, float cleared_depth) {
+    split::FrameFoveaSize sized;
+    const std::optional<FoveaSize> size = recorded_size(device, &sized);
+    if (!size || !window_image(codec::to_handle<VkImage>(tracker.image()))) return;
     std::vector<VkClearRect> rects;
-    for (const VkRect2D &fovea : recorded_foveae(image)) {
+    for (const VkRect2D &fovea : foveae_of(image, split_settings().eyes, *size)) {
         const VkRect2D mask = mask_of(fovea, split_settings().scale, area);
         if (mask.extent.width > 0 && mask.extent.height > 0) rects.push_back({mask, 0, 1});
     }
@@ -97,6 +116,7 @@ void record_mask(DeviceState &device, VkCommandBuffer command_buffer, VkExtent2D
     clear.clearValue.depthStencil.depth = cleared_depth >= 0.5f ? 0.0f : 1.0f;
     device.dispatch.CmdClearAttachments(command_buffer, 1, &clear, static_cast<uint32_t>(rects.size()),
                                         rects.data());
+    if (sized.set()) tracker.note_mask(sized);
     log_mask_once(image);
 }
 
@@ -126,22 +146,22 @@ void forget_render_pass_depth(VkRenderPass render_pass) {
     g_render_pass_depth.remove(render_pass);
 }
 
-void mask_foveae(DeviceState &device, VkCommandBuffer command_buffer, const VkRenderPassBeginInfo &begin,
-                 VkExtent2D image, const VkRect2D &area) {
+void mask_foveae(DeviceState &device, VkCommandBuffer command_buffer, split::CommandTracker &tracker,
+                 const VkRenderPassBeginInfo &begin, VkExtent2D image, const VkRect2D &area) {
     const RenderPassDepth *depth = g_render_pass_depth.find(begin.renderPass);
     if (!depth || depth->attachment >= begin.clearValueCount || !begin.pClearValues) return;
-    record_mask(device, command_buffer, image, area,
+    record_mask(device, command_buffer, tracker, image, area,
                 begin.pClearValues[depth->attachment].depthStencil.depth);
 }
 
-void mask_foveae(DeviceState &device, VkCommandBuffer command_buffer, const VkRenderingInfo &info,
-                 VkExtent2D image, const VkRect2D &area) {
+void mask_foveae(DeviceState &device, VkCommandBuffer command_buffer, split::CommandTracker &tracker,
+                 const VkRenderingInfo &info, VkExtent2D image, const VkRect2D &area) {
     const VkRenderingAttachmentInfo *depth = info.pDepthAttachment;
     if (!depth || !depth->imageView || (info.flags & VK_RENDERING_RESUMING_BIT) ||
         depth->resolveMode != VK_RESOLVE_MODE_NONE || depth->loadOp != VK_ATTACHMENT_LOAD_OP_CLEAR ||
         depth->storeOp != VK_ATTACHMENT_STORE_OP_DONT_CARE)
         return;
-    record_mask(device, command_buffer, image, area, depth->clearValue.depthStencil.depth);
+    record_mask(device, command_buffer, tracker, image, area, depth->clearValue.depthStencil.depth);
 }
 
 } // namespace splitvk

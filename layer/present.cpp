@@ -893,6 +893,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
                 }
             }
         note_split_or_not(session, frame, split.split);
+        if (split.split) message.fovea_size = split.fovea_size; // perhaps larger: a mask's (fovea_mask.h)
     }
     const bool redirect = split.split && drawn != pPresentInfo->pImageIndices[0];
     const double frame_ms = split.split ? session.frame_interval_ms() : 0;

@@ -218,8 +218,9 @@ void begin_render_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassB
         if (timing) time_before_split_pass(dev, cb, *timing);
         down(&scaled);
         if (timing) time_split_pass_begun(dev, cb, *timing);
-        if (target.swapchain) mask_foveae(dev, cb, *begin, target.extent, scaled.renderArea);
-        return enter_split(dev, cb, *tracker, target);
+        enter_split(dev, cb, *tracker, target);
+        if (target.swapchain) mask_foveae(dev, cb, *tracker, *begin, target.extent, scaled.renderArea);
+        return;
     }
     begin_split_of_secondaries(dev, cb, *tracker, target, [&] { down(&scaled); });
 }
@@ -261,8 +262,8 @@ void begin_rendering(DeviceState &dev, VkCommandBuffer cb, const VkRenderingInfo
     if (timing) time_before_split_pass(dev, cb, *timing);
     down(&scaled);
     if (timing) time_split_pass_begun(dev, cb, *timing);
-    if (target.swapchain) mask_foveae(dev, cb, *info, target.extent, scaled.renderArea);
     enter_split(dev, cb, *tracker, target);
+    if (target.swapchain) mask_foveae(dev, cb, *tracker, *info, target.extent, scaled.renderArea);
 }
 
 } // namespace

@@ -38,9 +38,11 @@ SplitFrame take_split_frame(DeviceState &, VkImage image, EyeMode eyes, const sp
     frame.split = true;
     frame.periphery = split::scaled_extent(drawn->extent, split_settings().scale);
     // The whole frame's coverage decides its foveae (split::frame_foveae), as the agent's does.
-    frame.fovea_size = size;
+    // Never smaller than a fovea its passes left unshaded (fovea_mask.h): a mask recorded before the
+    // fovea shrank would otherwise show as a hole around the tiles.
+    frame.fovea_size = size.set() ? split::larger(size, drawn->masked) : size;
     frame.foveae = split::in_layer_zero(
-        drawn->foveae(eyes, split::frame_fovea_size(split_settings().fovea, size), gaze));
+        drawn->foveae(eyes, split::frame_fovea_size(split_settings().fovea, frame.fovea_size), gaze));
     return frame;
 }
 
@@ -85,6 +87,7 @@ void note_split_drawn(LockedImages &images, const split::CommandTracker &tracker
         }
         image->drawn->extent = drawn.extent;
         image->drawn->coverage |= drawn.coverage;
+        image->drawn->masked = split::larger(image->drawn->masked, drawn.masked);
     }
 }
 

@@ -34,7 +34,8 @@ struct SplitFrame {
 // sorted by x then y: the agent's take_drawn_foveae order) that split::frame_foveae gives for what
 // the split passes drew, with `eyes` (SPLITVK_EYES for a window; for an OpenXR runtime's image the
 // caller replaces them with its eyes' foveae, as the agent does), each at `gaze` and of `size` (the
-// frame's, sent in its FramePresent). Clears the image's record.
+// frame's), or larger where its passes left a larger fovea unshaded (SplitFrame::fovea_size: what
+// its FramePresent must name). Clears the image's record.
 SplitFrame take_split_frame(DeviceState &device, VkImage image, EyeMode eyes, const split::Gaze &gaze = {},
                             const split::FrameFoveaSize &size = {});
 

@@ -130,6 +130,12 @@ VkRect2D fovea_of_eye(const VkRect2D &eye, const FoveaSize &fovea) {
             {fw, fh}};
 }
 
+FrameFoveaSize larger(const FrameFoveaSize &a, const FrameFoveaSize &b) {
+    if (!a.set()) return b;
+    if (!b.set()) return a;
+    return {std::max(a.width, b.width), std::max(a.height, b.height)};
+}
+
 FoveaSize frame_fovea_size(const FoveaSize &configured, const FrameFoveaSize &frame) {
     if (!frame.set()) return configured;
     FoveaSize size;

@@ -84,6 +84,9 @@ struct FrameFoveaSize {
     bool operator==(const FrameFoveaSize &) const = default;
 };
 
+// Each dimension the larger of the two; the one that is set when the other is not.
+FrameFoveaSize larger(const FrameFoveaSize &a, const FrameFoveaSize &b);
+
 // The size a frame's foveae take: `frame`'s as fractions of the eye when set, else `configured`.
 FoveaSize frame_fovea_size(const FoveaSize &configured, const FrameFoveaSize &frame);
 

@@ -16,6 +16,7 @@ void merge_drawn(std::vector<DrawnImage> &into, const std::vector<DrawnImage> &f
         }
         it->extent = d.extent;
         it->coverage |= d.coverage;
+        it->masked = larger(it->masked, d.masked);
     }
 }
 
@@ -56,7 +57,7 @@ size_t CommandTracker::scissor_count() const {
 DrawnImage &CommandTracker::drawn_entry(uint64_t image, VkExtent2D extent) {
     auto it =
         std::find_if(drawn_.begin(), drawn_.end(), [&](const DrawnImage &x) { return x.image == image; });
-    if (it == drawn_.end()) return drawn_.emplace_back(DrawnImage{image, extent, {}});
+    if (it == drawn_.end()) return drawn_.emplace_back(DrawnImage{image, extent, {}, {}});
     it->extent = extent;
     return *it;
 }
@@ -87,6 +88,12 @@ void CommandTracker::note_foveae() {
     for (size_t i = 0; i < viewport_count(); ++i)
         if (const VkViewport *v = viewport(i)) entry.coverage |= viewport_coverage(*v, extent_);
     noted_in_pass_ = true;
+}
+
+void CommandTracker::note_mask(const FrameFoveaSize &size) {
+    if (!in_split_ || !swapchain_) return;
+    DrawnImage &entry = drawn_entry(image_, extent_);
+    entry.masked = larger(entry.masked, size);
 }
 
 void CommandTracker::note_transfer(uint64_t image, VkExtent2D extent, const VkRect2D &region) {

@@ -41,6 +41,9 @@ struct DrawnImage {
     uint64_t image = 0;
     VkExtent2D extent{};
     EyeCoverage coverage;
+    // The client alone, with SPLITVK_FOVEA=auto: the largest fovea size its passes left unshaded
+    // (layer/fovea_mask.h), which the frame's foveae must not be smaller than.
+    FrameFoveaSize masked;
 
     std::vector<VkRect2D> foveae(EyeMode mode, const FoveaSize &fovea, const Gaze &gaze = {}) const;
 };
@@ -151,6 +154,8 @@ public:
     // A copy or blit into swapchain image `image` (of `extent`) wrote `region`: it counts as drawing
     // there (issue 11), covering what a viewport of that rectangle would.
     void note_transfer(uint64_t image, VkExtent2D extent, const VkRect2D &region);
+    // Inside a split pass into a swapchain image: the client left the foveae of `size` unshaded.
+    void note_mask(const FrameFoveaSize &size);
     // Secondary command buffers (issue 11, item 4). A secondary that continues a render pass
     // (RENDER_PASS_CONTINUE) does not know the image it will draw into, so it keeps the viewports it
     // draws with as recorded; they count as drawn when a primary executes it inside a split pass

@@ -201,6 +201,11 @@ TEST(SplitGeometry, AFrameFoveaSizeIsAFractionOfTheEye) {
     EXPECT_FALSE(frame_fovea_size_allowed(paper, {kGazeOne / 2, kGazeOne / 4})) << "wider than configured";
     EXPECT_FALSE(frame_fovea_size_allowed(FoveaSize{false, 512, 360}, {1, 1}))
         << "pixels: no fraction to compare";
+
+    EXPECT_EQ(larger({10, 40}, {20, 30}), (FrameFoveaSize{20, 40}));
+    EXPECT_EQ(larger({}, {20, 30}), (FrameFoveaSize{20, 30}));
+    EXPECT_EQ(larger({10, 40}, {}), (FrameFoveaSize{10, 40}));
+    EXPECT_FALSE(larger({}, {}).set());
 }
 
 // The agent's scissor for a viewport holds every fovea the frame can give that viewport's pixels.
@@ -542,9 +547,9 @@ TEST(SplitTracker, UnsetIndicesAreNotViewports) {
 TEST(SplitTracker, MergeUnionsCoveragePerImage) {
     // Command buffers submitted apart, one per eye: their union is the stereo pair.
     std::vector<DrawnImage> all;
-    merge_drawn(all, {{1, kImage, viewport_coverage(kRight, kImage)}});
-    merge_drawn(
-        all, {{1, kImage, viewport_coverage(kLeft, kImage)}, {2, kImage, viewport_coverage(kLeft, kImage)}});
+    merge_drawn(all, {{1, kImage, viewport_coverage(kRight, kImage), {}}});
+    merge_drawn(all, {{1, kImage, viewport_coverage(kLeft, kImage), {}},
+                      {2, kImage, viewport_coverage(kLeft, kImage), {}}});
     ASSERT_EQ(all.size(), 2u);
     const auto both = all[0].foveae(EyeMode::Auto, FoveaSize{});
     ASSERT_EQ(both.size(), 2u);
@@ -553,6 +558,33 @@ TEST(SplitTracker, MergeUnionsCoveragePerImage) {
     const auto one = all[1].foveae(EyeMode::Auto, FoveaSize{}); // one eye alone: mono, centred
     ASSERT_EQ(one.size(), 1u);
     EXPECT_EQ(one[0].offset.x, 688);
+}
+
+// SPLITVK_FOVEA=auto with the depth mask: a pass notes the fovea it left unshaded in its image's
+// record, and the record of a frame keeps the largest, whichever command buffer masked it.
+TEST(SplitTracker, TheLargestMaskOfAFrameIsKept) {
+    CommandTracker tracker;
+    tracker.note_mask({5, 5}); // outside a split pass: nothing
+    EXPECT_TRUE(tracker.drawn().empty());
+    tracker.begin_split(1, kImage);
+    tracker.note_mask({100, 300});
+    tracker.note_mask({200, 200});
+    tracker.end_split();
+    ASSERT_EQ(tracker.drawn().size(), 1u);
+    EXPECT_EQ(tracker.drawn()[0].masked, (FrameFoveaSize{200, 300}));
+
+    CommandTracker offscreen;
+    offscreen.begin_split(2, kImage, /*swapchain=*/false);
+    offscreen.note_mask({100, 100});
+    offscreen.end_split();
+    EXPECT_TRUE(offscreen.drawn().empty()) << "a pass into screen-space targets has no foveae to mask";
+
+    std::vector<DrawnImage> frame;
+    merge_drawn(frame, {{1, kImage, viewport_coverage(kLeft, kImage), {}}});
+    merge_drawn(frame, tracker.drawn());
+    merge_drawn(frame, {{1, kImage, viewport_coverage(kRight, kImage), {300, 100}}});
+    ASSERT_EQ(frame.size(), 1u);
+    EXPECT_EQ(frame[0].masked, (FrameFoveaSize{300, 300}));
 }
 
 TEST(SplitTracker, StaticStateFromCreateInfo) {

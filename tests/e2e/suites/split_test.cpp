@@ -1547,11 +1547,15 @@ TEST_F(Split, AutoFoveaSettlesSmallerBehindASlowLink) {
         // shares two cores with the agent its own frame is the longer one, as a weak client's is next
         // to a GPU agent: otherwise the frames' waits would be the agent's draw, not its fovea.
         e["SPLITVK_SCALE"] = "0.9";
+        // Stereo for sure, so that the client leaves the fovea of the moment unshaded (fovea_mask.h)
+        // and every frame must be at least the size its passes masked.
+        e["SPLITVK_EYES"] = "2";
         e["SPLITVK_STATS"] = (out_ / (run.name + ".csv")).string();
         ASSERT_NO_FATAL_FAILURE(
             run_and_grab(argv, e, "split-" + run.name, kAutoFrames, &run.grab, kAutoWidth, kAutoHeight));
         const std::string &err = run.grab.result.err();
         EXPECT_TRUE(grep(err, "running unsplit").empty()) << tail(err, 30);
+        EXPECT_FALSE(grep(err, "leaves its foveae unshaded (depth mask)").empty()) << tail(err, 30);
         const std::string csv = read_file(out_ / (run.name + ".csv"));
         const auto rows = stats_rows(csv);
         ASSERT_GE(rows.size(), static_cast<size_t>(kAutoFrames - 2)) << csv;

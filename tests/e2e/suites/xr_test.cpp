@@ -541,11 +541,11 @@ TEST_F(XrAtrium, PerEyeFoveaeExactAgainstNativeFrameByFrame) {
     EXPECT_FALSE(grep(split.err(), summary).empty()) << "no \"" << summary << "\"\n" << tail(split.err(), 10);
 }
 
-// SPLITVK_FOVEA=auto through OpenXR (issue 22): both eyes of a frame take one size, whatever the
-// sizing decides between their two images, and the agent agrees on every eye image's size: none is
-// late and every one composited the agent's tiles, which the layer takes only at the rectangles it
-// asked for. SPLITVK_MAX_MBPS far below any traffic shrinks the fovea a step per window, so that the
-// size changes within the run.
+// SPLITVK_FOVEA=auto through OpenXR (issue 22): no depth mask on an eye image, and both eyes of a
+// frame take one size, whatever the sizing decides between their two images, and the agent agrees on every
+// eye image's size: none is late and every one composited the agent's tiles, which the layer takes only at
+// the rectangles it asked for. SPLITVK_MAX_MBPS far below any traffic shrinks the fovea a step per window, so
+// that the size changes within the run.
 TEST_F(XrAtrium, AutoFoveaTakesOneSizeForBothEyesOfAFrame) {
     constexpr int kAutoFrames = 40;
     Agent agent;
@@ -553,9 +553,13 @@ TEST_F(XrAtrium, AutoFoveaTakesOneSizeForBothEyesOfAFrame) {
     Env e = atrium_split_env("split", agent);
     e["SPLITVK_FOVEA"] = "auto";
     e["SPLITVK_MAX_MBPS"] = "0.001";
+    // Which would let the client mask a window's foveae (layer/fovea_mask.h); an eye image's foveae
+    // follow its views, so it must not mask them.
+    e["SPLITVK_EYES"] = "2";
     const auto split = run_atrium(e, "split", {"--frames", std::to_string(kAutoFrames)});
     ASSERT_TRUE(split.ok()) << split.describe() << "\n" << tail(split.err(), 30);
     EXPECT_TRUE(grep(split.err(), "[splitvk] error:").empty()) << tail(split.err(), 30);
+    EXPECT_TRUE(grep(split.err(), "depth mask").empty()) << tail(split.err(), 30);
     expect_split_stats("split", 2 * kAutoFrames);
 
     const std::string csv = read_file(out_ / "split" / "stats.csv");
