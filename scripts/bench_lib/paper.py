@@ -872,6 +872,8 @@ def print_ratio_lines(res):
             print(f"auto fovea: settled at {', '.join(auto['settled'])} (each round's last quarter), "
                   f"{auto['late']} late of {auto['frames']}, {auto['mbps']:.1f} Mbit/s")
             print(f"split-auto/native: {measured['split-auto']['median'] / per_path[0]['native']['median']:.3f}")
+        for name, t in (per_path[0].get("variant_periphery") or {}).items():
+            print(f"periphery (GPU) of {name}: {t['median']:.2f} ms")
         shaded = (per_path[0].get("variant_periphery") or {}).get("split-shaded")
         if shaded and per_path[0].get("periphery") and shaded["median"]:
             print(f"periphery (GPU) masked {per_path[0]['periphery']['median']:.2f} ms, foveae shaded "
