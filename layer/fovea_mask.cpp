@@ -1,12 +1,10 @@
 #include "fovea_mask.h"
 
-#include "image.h"
 #include "log.h"
 #include "object_map.h"
 #include "session.h"
 #include "split.h"
 #include "split_geometry.h"
-#include "swapchain.h"
 #include "vk_format_info.h"
 #include "vk_util.h"
 
@@ -78,15 +76,6 @@ VkRect2D mask_of(const VkRect2D &fovea, double scale, const VkRect2D &area) {
     return split::intersect(inner, area);
 }
 
-// An OpenXR runtime's eye image keeps its foveae at its eyes' view directions, which its views may
-// move from frame to frame: only a window's swapchain images are masked.
-bool window_image(VkImage image) {
-    VkSwapchainKHR member = VK_NULL_HANDLE;
-    read_image(image, [&](const ImageState &state) { member = state.swapchain; });
-    const SwapchainState *swapchain = member ? find_swapchain(member) : nullptr;
-    return swapchain && !swapchain->runtime;
-}
-
 void log_mask_once(VkExtent2D image) {
     static std::mutex mutex;
     static std::set<std::pair<uint32_t, uint32_t>> logged;
@@ -104,7 +93,7 @@ void record_mask(DeviceState &device, VkCommandBuffer command_buffer, split::Com
                  VkExtent2D image, const VkRect2D &area, float cleared_depth) {
     split::FrameFoveaSize sized;
     const std::optional<FoveaSize> size = recorded_size(device, &sized);
-    if (!size || !window_image(codec::to_handle<VkImage>(tracker.image()))) return;
+    if (!size) return;
     std::vector<VkClearRect> rects;
     for (const VkRect2D &fovea : foveae_of(image, split_settings().eyes, *size)) {
         const VkRect2D mask = mask_of(fovea, split_settings().scale, area);

@@ -38,7 +38,8 @@ void note_render_pass_depth(VkRenderPass render_pass, const VkRenderPassCreateIn
 void note_render_pass_depth(VkRenderPass render_pass, const VkRenderPassCreateInfo2 &info);
 void forget_render_pass_depth(VkRenderPass render_pass);
 
-// render_pass.cpp, right after a split pass into a window's swapchain image of `image` extent began
+// render_pass.cpp, right after a split pass into a window's swapchain image (never an OpenXR
+// runtime's) of `image` extent began
 // with inline contents (and `tracker` entered it), its render area scaled to `area`: records the
 // mask where it is exact.
 void mask_foveae(DeviceState &device, VkCommandBuffer command_buffer, split::CommandTracker &tracker,

@@ -38,16 +38,17 @@ ObjectMap<VkImageView, ImageViewState> g_views;
 ObjectMap<VkFramebuffer, FramebufferState> g_framebuffers;
 
 // The extent of `view`'s image when it is an image of a live composable swapchain.
-bool split_target(VkImageView view, VkImage *image, VkExtent2D *extent) {
+bool split_target(VkImageView view, VkImage *image, VkExtent2D *extent, bool *runtime) {
     const ImageViewState *v = view ? g_views.find(view) : nullptr;
-    if (!v || !swapchain_image_extent(v->image, extent)) return false;
+    if (!v || !swapchain_image_extent(v->image, extent, runtime)) return false;
     *image = v->image;
     return true;
 }
 
-bool find_target(uint32_t count, const VkImageView *views, VkImage *image, VkExtent2D *extent) {
+bool find_target(uint32_t count, const VkImageView *views, VkImage *image, VkExtent2D *extent,
+                 bool *runtime) {
     for (uint32_t i = 0; i < count; ++i)
-        if (split_target(views[i], image, extent)) return true;
+        if (split_target(views[i], image, extent, runtime)) return true;
     return false;
 }
 
@@ -62,6 +63,7 @@ bool any_screen_space(std::span<const VkImageView> views) {
 // What a render pass instance or dynamic rendering draws into, as the split sees it.
 struct PassTarget {
     bool swapchain = false; // a swapchain image of a composable swapchain, while splitting
+    bool runtime = false;   // that swapchain is an OpenXR runtime's (swapchain.h)
     bool scaled = false;    // a screen-space target among its attachments
     VkImage image = VK_NULL_HANDLE;
     VkExtent2D extent{}; // the swapchain's, else the full extent its scaled areas are relative to
@@ -81,8 +83,8 @@ PassTarget pass_target(DeviceState &dev, const VkRenderPassBeginInfo *begin) {
     const FramebufferState *fb = g_framebuffers.find(begin->framebuffer);
     if (!fb) return t;
     const std::span<const VkImageView> views = begin_views(begin, fb);
-    t.swapchain = split_enabled(dev) &&
-                  find_target(static_cast<uint32_t>(views.size()), views.data(), &t.image, &t.extent);
+    t.swapchain = split_enabled(dev) && find_target(static_cast<uint32_t>(views.size()), views.data(),
+                                                    &t.image, &t.extent, &t.runtime);
     t.scaled = fb->scaled;
     if (!t.swapchain) t.extent = fb->extent;
     return t;
@@ -93,7 +95,8 @@ PassTarget rendering_target(DeviceState &dev, const VkRenderingInfo *info) {
     const bool splitting = split_enabled(dev);
     const auto consider = [&](VkImageView view) {
         if (!view) return;
-        if (splitting && !t.swapchain && split_target(view, &t.image, &t.extent)) t.swapchain = true;
+        if (splitting && !t.swapchain && split_target(view, &t.image, &t.extent, &t.runtime))
+            t.swapchain = true;
         const ImageViewState *v = g_views.find(view);
         VkExtent2D full{};
         if (v && screen_space_extent(v->image, &full)) {
@@ -219,7 +222,8 @@ void begin_render_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassB
         down(&scaled);
         if (timing) time_split_pass_begun(dev, cb, *timing);
         enter_split(dev, cb, *tracker, target);
-        if (target.swapchain) mask_foveae(dev, cb, *tracker, *begin, target.extent, scaled.renderArea);
+        if (target.swapchain && !target.runtime)
+            mask_foveae(dev, cb, *tracker, *begin, target.extent, scaled.renderArea);
         return;
     }
     begin_split_of_secondaries(dev, cb, *tracker, target, [&] { down(&scaled); });
@@ -263,7 +267,8 @@ void begin_rendering(DeviceState &dev, VkCommandBuffer cb, const VkRenderingInfo
     down(&scaled);
     if (timing) time_split_pass_begun(dev, cb, *timing);
     enter_split(dev, cb, *tracker, target);
-    if (target.swapchain) mask_foveae(dev, cb, *tracker, *info, target.extent, scaled.renderArea);
+    if (target.swapchain && !target.runtime)
+        mask_foveae(dev, cb, *tracker, *info, target.extent, scaled.renderArea);
 }
 
 } // namespace
@@ -273,7 +278,7 @@ VkImage image_of_view(VkImageView view) {
     return v ? v->image : VK_NULL_HANDLE;
 }
 
-bool swapchain_image_extent(VkImage image, VkExtent2D *extent) {
+bool swapchain_image_extent(VkImage image, VkExtent2D *extent, bool *runtime) {
     VkSwapchainKHR member = VK_NULL_HANDLE;
     read_image(image, [&](const ImageState &state) { member = state.swapchain; });
     const SwapchainState *swapchain = member ? find_swapchain(member) : nullptr;
@@ -282,6 +287,7 @@ bool swapchain_image_extent(VkImage image, VkExtent2D *extent) {
     for (VkImage i : swapchain->images)
         if (i == image) {
             *extent = swapchain->extent;
+            if (runtime) *runtime = swapchain->runtime;
             return true;
         }
     return false;

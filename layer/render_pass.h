@@ -18,8 +18,9 @@ namespace splitvk {
 
 // The image a view was created for (null if unknown).
 VkImage image_of_view(VkImageView view);
-// Whether `image` is an image of a live composable swapchain (with its extent).
-bool swapchain_image_extent(VkImage image, VkExtent2D *extent);
+// Whether `image` is an image of a live composable swapchain (with its extent, and whether that is
+// an OpenXR runtime's swapchain).
+bool swapchain_image_extent(VkImage image, VkExtent2D *extent, bool *runtime = nullptr);
 // vkBeginCommandBuffer of a secondary that continues a render pass: scaled like that pass's target
 // (its inheritance's framebuffer, or the render pass's latest instance, or for a dynamic rendering
 // the latest one with the formats and view mask it inherits), its viewports kept for the foveae of
