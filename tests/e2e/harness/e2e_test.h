@@ -9,6 +9,8 @@
 
 #include <chrono>
 #include <filesystem>
+#include <map>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -63,6 +65,26 @@ inline std::string first_message(const std::string &log) {
         if (messages == 1) first += l + "\n";
     }
     return first + "(" + std::to_string(messages) + " message(s) in all)";
+}
+
+// A CSV of SPLITVK_STATS as rows of named numbers.
+inline std::vector<std::map<std::string, double>> stats_rows(const std::string &text) {
+    std::vector<std::map<std::string, double>> rows;
+    const auto lines = split_lines(text);
+    if (lines.empty()) return rows;
+    std::vector<std::string> names;
+    std::stringstream header(lines[0]);
+    for (std::string field; std::getline(header, field, ',');)
+        names.push_back(field);
+    for (size_t i = 1; i < lines.size(); ++i) {
+        std::map<std::string, double> row;
+        std::stringstream fields(lines[i]);
+        size_t column = 0;
+        for (std::string field; std::getline(fields, field, ',') && column < names.size(); ++column)
+            row[names[column]] = std::stod(field);
+        rows.push_back(std::move(row));
+    }
+    return rows;
 }
 
 // The last lines of a text, for failure messages.

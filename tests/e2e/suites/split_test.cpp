@@ -61,8 +61,6 @@ struct SplitSummary {
     uint64_t frames = 0, late = 0;
 };
 
-std::vector<std::map<std::string, double>> stats_rows(const std::string &text); // below
-
 SplitSummary split_summary(const std::string &err) {
     SplitSummary s;
     const std::regex line(R"(^\[splitvk\] split: (\d+) frames, .* (\d+) late$)");
@@ -165,11 +163,11 @@ protected:
         }
     }
 
-    std::vector<std::string> atrium_argv(int eyes, int frames, bool srgb) const {
-        std::vector<std::string> argv = {
-            atrium_path().string(),  "--width", std::to_string(kWidth), "--height",
-            std::to_string(kHeight), "--eyes",  std::to_string(eyes),   "--frames",
-            std::to_string(frames),  "--hold"};
+    std::vector<std::string> atrium_argv(int eyes, int frames, bool srgb, uint32_t width = kWidth,
+                                         uint32_t height = kHeight) const {
+        std::vector<std::string> argv = {atrium_path().string(), "--width", std::to_string(width), "--height",
+                                         std::to_string(height), "--eyes",  std::to_string(eyes),  "--frames",
+                                         std::to_string(frames), "--hold"};
         if (srgb) argv.push_back("--srgb");
         return argv;
     }
@@ -701,26 +699,6 @@ TEST_F(Split, LateAgentLeavesCompleteFrames) {
               << " dB\n";
     EXPECT_GE(s, kMinSsim) << save_mismatch_artefacts(out_, "late", native.image, grabbed);
     EXPECT_TRUE(client_validation_clean(validation_log_));
-}
-
-// A CSV of SPLITVK_STATS as rows of named numbers.
-std::vector<std::map<std::string, double>> stats_rows(const std::string &text) {
-    std::vector<std::map<std::string, double>> rows;
-    const auto lines = split_lines(text);
-    if (lines.empty()) return rows;
-    std::vector<std::string> names;
-    std::stringstream header(lines[0]);
-    for (std::string field; std::getline(header, field, ',');)
-        names.push_back(field);
-    for (size_t i = 1; i < lines.size(); ++i) {
-        std::map<std::string, double> row;
-        std::stringstream fields(lines[i]);
-        size_t column = 0;
-        for (std::string field; std::getline(fields, field, ',') && column < names.size(); ++column)
-            row[names[column]] = std::stod(field);
-        rows.push_back(std::move(row));
-    }
-    return rows;
 }
 
 // Issue 12, item 1: the application's vkQueuePresentKHR returns once the layer has taken the frame;
@@ -1554,16 +1532,7 @@ TEST_F(Split, AutoFoveaSettlesSmallerBehindASlowLink) {
     // fell between the growing and the shrinking share (the hysteresis) and held.
     constexpr int kFramesPerLevel = 2 * 12;
     ASSERT_NO_FATAL_FAILURE(start_agent());
-    const std::vector<std::string> argv = {atrium_path().string(),
-                                           "--width",
-                                           std::to_string(kAutoWidth),
-                                           "--height",
-                                           std::to_string(kAutoHeight),
-                                           "--eyes",
-                                           "2",
-                                           "--frames",
-                                           std::to_string(kAutoFrames),
-                                           "--hold"};
+    const std::vector<std::string> argv = atrium_argv(2, kAutoFrames, false, kAutoWidth, kAutoHeight);
     Grab native;
     ASSERT_NO_FATAL_FAILURE(
         run_and_grab(argv, env(), "native", kAutoFrames, &native, kAutoWidth, kAutoHeight));

@@ -174,19 +174,7 @@ struct StatsSummary {
 
 StatsSummary read_stats(const std::filesystem::path &csv) {
     StatsSummary s;
-    const auto lines = split_lines(read_file(csv));
-    if (lines.empty()) return s;
-    std::vector<std::string> names;
-    std::stringstream header(lines[0]);
-    for (std::string f; std::getline(header, f, ',');)
-        names.push_back(f);
-    for (size_t i = 1; i < lines.size(); ++i) {
-        if (lines[i].empty()) continue;
-        std::map<std::string, double> row;
-        std::stringstream fields(lines[i]);
-        size_t c = 0;
-        for (std::string f; std::getline(fields, f, ',') && c < names.size(); ++c)
-            row[names[c]] = std::stod(f);
+    for (auto &row : stats_rows(read_file(csv))) {
         ++s.frames;
         s.late += row["late"] != 0;
         s.last_with_tiles = row["tile_bytes"] > 0;
@@ -563,23 +551,12 @@ TEST_F(XrAtrium, AutoFoveaTakesOneSizeForBothEyesOfAFrame) {
     expect_split_stats("split", 2 * kAutoFrames);
 
     const std::string csv = read_file(out_ / "split" / "stats.csv");
-    const auto lines = split_lines(csv);
-    ASSERT_FALSE(lines.empty());
-    std::vector<std::string> names;
-    std::stringstream header(lines[0]);
-    for (std::string f; std::getline(header, f, ',');)
-        names.push_back(f);
     std::map<int, std::set<std::pair<int, int>>> sizes_by_frame;
     std::set<std::pair<int, int>> sizes;
-    for (size_t i = 1; i < lines.size(); ++i) {
-        std::map<std::string, double> row;
-        std::stringstream fields(lines[i]);
-        size_t c = 0;
-        for (std::string f; std::getline(fields, f, ',') && c < names.size(); ++c)
-            row[names[c]] = std::stod(f);
-        if (c != names.size()) continue;
-        const std::pair<int, int> size{static_cast<int>(row["fovea_w"]), static_cast<int>(row["fovea_h"])};
-        sizes_by_frame[static_cast<int>(row["xr_frame"])].insert(size);
+    for (const auto &row : stats_rows(csv)) {
+        const std::pair<int, int> size{static_cast<int>(row.at("fovea_w")),
+                                       static_cast<int>(row.at("fovea_h"))};
+        sizes_by_frame[static_cast<int>(row.at("xr_frame"))].insert(size);
         sizes.insert(size);
     }
     for (const auto &[frame, in_frame] : sizes_by_frame)
