@@ -404,9 +404,12 @@ const char *Session::fallback() const {
     return splitting_ ? "the periphery alone fills the frames from now on" : "running unsplit from now on";
 }
 
+// Whether the receiver or a send notices first, losing the agent ends alike: one line, nothing more
+// is sent, a present waiting for tiles stops waiting, and the reconnector (asleep while the session
+// is live) starts looking for a new agent.
 void Session::fail(const std::string &reason) {
     live_.store(false);
-    if (tiles_) tiles_->abandon(); // a present waiting for tiles stops waiting
+    if (tiles_) tiles_->abandon();
     reconnect_wake_.notify_all();
     if (!failure_logged_.exchange(true))
         SPLITVK_WARN("splitvk-agent at %s went away (%s); %s", address_.c_str(), reason.c_str(), fallback());
@@ -454,10 +457,7 @@ void Session::note_send_locked(protocol::SendResult result) {
     if (result == protocol::SendResult::Queued) return;
     std::string reason = protocol::to_string(result);
     if (result == protocol::SendResult::Closed) reason = connection_->close_reason();
-    live_.store(false);
-    if (!failure_logged_.exchange(true))
-        SPLITVK_WARN("splitvk-agent at %s: cannot send (%s); %s", address_.c_str(), reason.c_str(),
-                     fallback());
+    fail("cannot send: " + reason);
 }
 
 void Session::flush_locked() {
