@@ -653,7 +653,8 @@ void begin_runtime_frame(DeviceState &dev, const SwapchainState &swapchain, uint
 }
 
 void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &swapchain, uint32_t image_index,
-                       const std::vector<split::RuntimeEye> &eyes, uint64_t xr_frame, int32_t xr_view) {
+                       const std::vector<split::RuntimeEye> &eyes, const split::Gaze &gaze, uint64_t xr_frame,
+                       int32_t xr_view) {
     if (!dev.session || image_index >= swapchain.images.size()) return;
     const auto called = std::chrono::steady_clock::now();
     Session &session = *dev.session;
@@ -672,15 +673,16 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     if (session.splitting() && swapchain.composable) {
         split = take_split_frame(dev, swapchain.images[image_index], EyeMode::One, {}, message.fovea_size);
         // The eyes' foveae (one per layer before the application's views said where its eyes are),
-        // each at its view direction, wherever the passes drew.
+        // each at its view direction or gaze point, wherever the passes drew.
         if (!split.foveae.empty())
             split.foveae = split::runtime_eye_foveae(
                 swapchain.extent, swapchain.array_layers, eyes,
-                split::frame_fovea_size(split_settings().fovea, message.fovea_size));
+                split::frame_fovea_size(split_settings().fovea, message.fovea_size), gaze);
         note_split_or_not(session, frame, split.split);
     }
     message.frame = frame;
     message.queue_id = codec::handle_value(queue);
+    message.gaze = gaze;
     message.images.push_back({codec::handle_value(swapchain.handle), image_index});
     // Verification (the split is off then): every layer of the image, as the runtime gets it.
     std::optional<PendingVerify> pending;

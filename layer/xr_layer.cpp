@@ -22,18 +22,25 @@
 //                              asymmetric). A layered swapchain drawn with multiview holds an eye per
 //                              layer, a side-by-side one two rectangles of one layer;
 //   xrDestroySwapchain         the swapchain leaves the split before the runtime destroys its images.
+// With SPLITVK_GAZE=openxr, also xrSuggestInteractionProfileBindings, xrAttachSessionActionSets,
+// xrSyncActions, xrWaitFrame and xrBeginFrame: the layer's eye-gaze action rides along with the
+// application's (xr_gaze.h), and each frame's foveae go where the eyes look. With fifo:PATH, the
+// pipe's left and right points go to views 0 and 1 at xrBeginFrame.
 // Everything else goes straight to the next layer or the runtime. Where the Vulkan layer is not on
 // the session's device (it was disabled, or has no agent), this layer only forwards.
 
 #include "device.h"
+#include "gaze.h"
 #include "layer_settings.h"
 #include "log.h"
 #include "present.h"
 #include "swapchain.h"
+#include "xr_gaze.h"
 #include "xr_loader_interface.h"
 
 #include <vulkan/vulkan.h>
 #define XR_USE_GRAPHICS_API_VULKAN
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <deque>
@@ -62,6 +69,10 @@ struct InstanceState {
     PFN_xrAcquireSwapchainImage acquire_swapchain_image = nullptr;
     PFN_xrReleaseSwapchainImage release_swapchain_image = nullptr;
     PFN_xrEndFrame end_frame = nullptr;
+    PFN_xrWaitFrame wait_frame = nullptr;
+    PFN_xrBeginFrame begin_frame = nullptr;
+    // SPLITVK_GAZE=openxr where the runtime took XR_EXT_eye_gaze_interaction; null otherwise.
+    std::unique_ptr<InstanceGaze> gaze;
 };
 
 struct SessionState {
@@ -70,6 +81,18 @@ struct SessionState {
     DeviceState *device = nullptr;
     VkQueue queue = VK_NULL_HANDLE;
     uint64_t ended_frames = 0; // xrEndFrame calls: the OpenXR frame a release belongs to (stats.h)
+    // The runtime's eye gaze where its system tracks the eyes (SPLITVK_GAZE=openxr); null otherwise.
+    std::unique_ptr<SessionGaze> gaze;
+    // Where views 0 and 1 look in the frame begun last (from `gaze` or a SPLITVK_GAZE pipe).
+    ViewGaze view_gaze;
+};
+
+// An eye of a swapchain and the projection view that placed it there (views 0 and 1 are the left
+// and right eye for the gaze sources).
+struct EyeOfView {
+    uint32_t layer = 0;
+    VkRect2D rect{};
+    uint32_t view = 0;
 };
 
 struct SwapchainState {
@@ -83,6 +106,7 @@ struct SwapchainState {
     // The eyes the projection views placed in its images so far (split::note_runtime_eye), each sent
     // to the agent (protocol::SwapchainView) as it changed: what both sides place the foveae with.
     std::vector<split::RuntimeEye> eyes;
+    std::vector<EyeOfView> eye_views; // the view of each of `eyes`, by layer and rectangle
     // The first projection view that named this swapchain at the latest xrEndFrame that named it; -1
     // before one (stats.h: xr_view).
     int32_t first_view = -1;
@@ -152,6 +176,26 @@ VkSwapchainKHR split_key(XrSwapchain swapchain) {
     return reinterpret_cast<VkSwapchainKHR>(swapchain);
 }
 
+// The gaze of one of a swapchain's frames as FramePresent carries it: the points of the image's
+// first two eyes (in `eyes`' order, which the agent holds too), each its view's. Fixed unless every
+// one of those eyes has a view with a point this frame.
+split::Gaze image_gaze(const std::vector<split::RuntimeEye> &eyes, const std::vector<EyeOfView> &eye_views,
+                       const ViewGaze &view_gaze) {
+    split::Gaze gaze;
+    gaze.fixed = false;
+    for (size_t i = 0; i < eyes.size() && i < std::size(gaze.eyes); ++i) {
+        const auto of = std::find_if(eye_views.begin(), eye_views.end(), [&](const EyeOfView &e) {
+            return e.layer == eyes[i].layer && e.rect.offset.x == eyes[i].rect.offset.x &&
+                   e.rect.offset.y == eyes[i].rect.offset.y &&
+                   e.rect.extent.width == eyes[i].rect.extent.width &&
+                   e.rect.extent.height == eyes[i].rect.extent.height;
+        });
+        if (of == eye_views.end() || of->view >= view_gaze.size() || !view_gaze[of->view]) return {};
+        gaze.eyes[i] = *view_gaze[of->view];
+    }
+    return eyes.empty() ? split::Gaze{} : gaze;
+}
+
 void forget_swapchain(XrSwapchain swapchain) {
     std::unique_ptr<SwapchainState> state;
     SessionState *session = nullptr;
@@ -202,6 +246,14 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateSession(XrInstance instance, const XrSessio
             s->device = nullptr;
             SPLITVK_INFO("OpenXR session: its Vulkan device is not splitvk's; frames pass through");
         }
+    }
+    if (s->device && state->gaze) {
+        if (state->gaze->system_supports(info->systemId))
+            s->gaze = std::make_unique<SessionGaze>(*session, *state->gaze);
+        else
+            SPLITVK_WARN(
+                "SPLITVK_GAZE=openxr: the runtime's system does not track the eyes; the foveae stay at "
+                "the view directions");
     }
     std::lock_guard lock(g_mutex);
     g_sessions[*session] = std::move(s);
@@ -325,6 +377,7 @@ XRAPI_ATTR XrResult XRAPI_CALL ReleaseSwapchainImage(XrSwapchain swapchain,
         bool acquired = false;
         uint32_t index = 0;
         std::vector<split::RuntimeEye> eyes;
+        split::Gaze gaze;
         uint64_t xr_frame = 0;
         int32_t xr_view = -1;
         {
@@ -335,13 +388,14 @@ XRAPI_ATTR XrResult XRAPI_CALL ReleaseSwapchainImage(XrSwapchain swapchain,
                 acquired = true;
             }
             eyes = state->eyes;
+            gaze = image_gaze(eyes, state->eye_views, session->view_gaze);
             xr_frame = session->ended_frames;
             xr_view = state->first_view;
         }
         // The application's rendering of this image has been submitted; the runtime's release
         // barrier has not: the composite goes between them on the queue.
         if (acquired)
-            end_runtime_frame(*session->device, session->queue, *state->split, index, eyes, xr_frame,
+            end_runtime_frame(*session->device, session->queue, *state->split, index, eyes, gaze, xr_frame,
                               xr_view);
     }
     return state->instance->release_swapchain_image(swapchain, info);
@@ -350,7 +404,7 @@ XRAPI_ATTR XrResult XRAPI_CALL ReleaseSwapchainImage(XrSwapchain swapchain,
 // A projection view's eye, where its swapchain is one this layer splits: the array layer and
 // sub-image rectangle that hold it (the whole image of a swapchain per eye, a layer of one drawn
 // with multiview, a half of a side-by-side one) and its field of view.
-void note_projection_view(const XrCompositionLayerProjectionView &view) {
+void note_projection_view(const XrCompositionLayerProjectionView &view, uint32_t view_index) {
     SwapchainState *state = nullptr;
     SessionState *session = nullptr;
     if (!find_swapchain(view.subImage.swapchain, &state, &session) || !state->split || !session ||
@@ -396,6 +450,12 @@ void note_projection_view(const XrCompositionLayerProjectionView &view) {
     eye.fov = {sent.angle_left, sent.angle_right, sent.angle_up, sent.angle_down};
     {
         std::lock_guard lock(g_mutex);
+        // Which view drew where is the layer's own business (the agent needs the eyes only).
+        std::erase_if(state->eye_views, [&](const EyeOfView &e) {
+            return e.layer == eye.layer && split::intersect(e.rect, eye.rect).extent.width > 0 &&
+                   split::intersect(e.rect, eye.rect).extent.height > 0;
+        });
+        state->eye_views.push_back({eye.layer, eye.rect, view_index});
         if (!split::note_runtime_eye(state->eyes, eye)) return;
     }
     send_runtime_view(*session->device, *state->split, sent);
@@ -403,11 +463,13 @@ void note_projection_view(const XrCompositionLayerProjectionView &view) {
 
 XRAPI_ATTR XrResult XRAPI_CALL EndFrame(XrSession session, const XrFrameEndInfo *info) {
     InstanceState *instance = nullptr;
+    SessionGaze *gaze = nullptr;
     {
         std::lock_guard lock(g_mutex);
         const auto it = g_sessions.find(session);
         if (it == g_sessions.end()) return XR_ERROR_HANDLE_INVALID;
         instance = it->second->instance;
+        gaze = it->second->gaze.get();
         // The releases from here on belong to the next frame.
         ++it->second->ended_frames;
         // Which eye each swapchain's images hold, for the stats: the first view naming it.
@@ -430,9 +492,101 @@ XRAPI_ATTR XrResult XRAPI_CALL EndFrame(XrSession session, const XrFrameEndInfo 
         if (!layer || layer->type != XR_TYPE_COMPOSITION_LAYER_PROJECTION) continue;
         const auto *projection = reinterpret_cast<const XrCompositionLayerProjection *>(layer);
         for (uint32_t v = 0; v < projection->viewCount; ++v)
-            note_projection_view(projection->views[v]);
+            note_projection_view(projection->views[v], v);
     }
+    if (gaze)
+        for (uint32_t i = 0; info && i < info->layerCount; ++i) {
+            const XrCompositionLayerBaseHeader *layer = info->layers[i];
+            if (!layer || layer->type != XR_TYPE_COMPOSITION_LAYER_PROJECTION) continue;
+            const auto *projection = reinterpret_cast<const XrCompositionLayerProjection *>(layer);
+            gaze->note_views(projection->space, info->displayTime, projection->views, projection->viewCount);
+            break;
+        }
     return instance->end_frame(session, info);
+}
+
+// ------------------------------------------------------------------------- eye gaze (xr_gaze.h)
+
+SessionState *find_session(XrSession session) {
+    std::lock_guard lock(g_mutex);
+    const auto it = g_sessions.find(session);
+    return it == g_sessions.end() ? nullptr : it->second.get();
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL
+SuggestInteractionProfileBindings(XrInstance instance, const XrInteractionProfileSuggestedBinding *info) {
+    InstanceState *state = find_instance(instance);
+    if (!state) return XR_ERROR_HANDLE_INVALID;
+    if (!info) return XR_ERROR_VALIDATION_FAILURE;
+    return state->gaze->suggest(*info);
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL AttachSessionActionSets(XrSession session,
+                                                       const XrSessionActionSetsAttachInfo *info) {
+    SessionState *state = find_session(session);
+    if (!state) return XR_ERROR_HANDLE_INVALID;
+    const GazeDispatch &vk = state->instance->gaze->dispatch();
+    const XrActionSet ours = state->gaze && info ? state->instance->gaze->prepare_attach() : XR_NULL_HANDLE;
+    if (!ours) return vk.attach_action_sets(session, info);
+    std::vector<XrActionSet> sets(info->actionSets, info->actionSets + info->countActionSets);
+    sets.push_back(ours);
+    XrSessionActionSetsAttachInfo with_ours = *info;
+    with_ours.countActionSets = static_cast<uint32_t>(sets.size());
+    with_ours.actionSets = sets.data();
+    const XrResult result = vk.attach_action_sets(session, &with_ours);
+    if (XR_SUCCEEDED(result)) {
+        state->gaze->attached();
+        return result;
+    }
+    // Whatever the runtime has against the layer's set, the application's attach must not fail for it.
+    SPLITVK_WARN("SPLITVK_GAZE=openxr: the runtime would not attach the eye-gaze action (XrResult %d); the "
+                 "foveae stay at the view directions",
+                 static_cast<int>(result));
+    state->gaze.reset();
+    return vk.attach_action_sets(session, info);
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL SyncActions(XrSession session, const XrActionsSyncInfo *info) {
+    SessionState *state = find_session(session);
+    if (!state) return XR_ERROR_HANDLE_INVALID;
+    const GazeDispatch &vk = state->instance->gaze->dispatch();
+    if (!state->gaze || !state->gaze->is_attached() || !info) return vk.sync_actions(session, info);
+    // Only the sets the application names are active until its next sync: the layer's set is named
+    // with them, every time.
+    std::vector<XrActiveActionSet> active(info->activeActionSets,
+                                          info->activeActionSets + info->countActiveActionSets);
+    active.push_back({state->instance->gaze->prepare_attach(), XR_NULL_PATH});
+    XrActionsSyncInfo with_ours = *info;
+    with_ours.countActiveActionSets = static_cast<uint32_t>(active.size());
+    with_ours.activeActionSets = active.data();
+    return vk.sync_actions(session, &with_ours);
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL WaitFrame(XrSession session, const XrFrameWaitInfo *info,
+                                         XrFrameState *frame) {
+    SessionState *state = find_session(session);
+    if (!state) return XR_ERROR_HANDLE_INVALID;
+    const XrResult result = state->instance->wait_frame(session, info, frame);
+    if (XR_SUCCEEDED(result) && frame && state->gaze) state->gaze->frame_waited(frame->predictedDisplayTime);
+    return result;
+}
+
+XRAPI_ATTR XrResult XRAPI_CALL BeginFrame(XrSession session, const XrFrameBeginInfo *info) {
+    SessionState *state = find_session(session);
+    if (!state) return XR_ERROR_HANDLE_INVALID;
+    const XrResult result = state->instance->begin_frame(session, info);
+    if (XR_FAILED(result) || !state->device) return result;
+    // The frame's gaze, before the application renders it: its releases place the foveae with it.
+    ViewGaze view_gaze;
+    if (state->gaze) {
+        view_gaze = state->gaze->locate();
+    } else if (const Settings &settings = layer_settings().settings; settings.gaze == GazeMode::Fifo) {
+        const split::Gaze fifo = gaze::frame_gaze(settings);
+        if (!fifo.fixed) view_gaze = {fifo.eyes[0], fifo.eyes[1]};
+    }
+    std::lock_guard lock(g_mutex);
+    state->view_gaze = view_gaze;
+    return result;
 }
 
 XRAPI_ATTR XrResult XRAPI_CALL GetInstanceProcAddr(XrInstance instance, const char *name,
@@ -453,20 +607,32 @@ const Intercepted kIntercepted[] = {
     {"xrAcquireSwapchainImage", reinterpret_cast<PFN_xrVoidFunction>(AcquireSwapchainImage)},
     {"xrReleaseSwapchainImage", reinterpret_cast<PFN_xrVoidFunction>(ReleaseSwapchainImage)},
     {"xrEndFrame", reinterpret_cast<PFN_xrVoidFunction>(EndFrame)},
+    {"xrWaitFrame", reinterpret_cast<PFN_xrVoidFunction>(WaitFrame)},
+    {"xrBeginFrame", reinterpret_cast<PFN_xrVoidFunction>(BeginFrame)},
+};
+// The eye gaze's, handed out only for instances that have it: their InstanceState::gaze is never null.
+const Intercepted kInterceptedForGaze[] = {
+    {"xrSuggestInteractionProfileBindings",
+     reinterpret_cast<PFN_xrVoidFunction>(SuggestInteractionProfileBindings)},
+    {"xrAttachSessionActionSets", reinterpret_cast<PFN_xrVoidFunction>(AttachSessionActionSets)},
+    {"xrSyncActions", reinterpret_cast<PFN_xrVoidFunction>(SyncActions)},
 };
 
 XRAPI_ATTR XrResult XRAPI_CALL GetInstanceProcAddr(XrInstance instance, const char *name,
                                                    PFN_xrVoidFunction *function) {
     if (!name || !function) return XR_ERROR_VALIDATION_FAILURE;
     InstanceState *state = find_instance(instance);
+    const auto ours = [&](const Intercepted &i) {
+        // Ours only where the runtime has it too (an absent function must stay absent).
+        if (state && state->get_instance_proc_addr(instance, name, function) != XR_SUCCESS)
+            return XR_ERROR_FUNCTION_UNSUPPORTED;
+        *function = i.function;
+        return XR_SUCCESS;
+    };
     for (const Intercepted &i : kIntercepted)
-        if (std::strcmp(name, i.name) == 0) {
-            // Ours only where the runtime has it too (an absent function must stay absent).
-            if (state && state->get_instance_proc_addr(instance, name, function) != XR_SUCCESS)
-                return XR_ERROR_FUNCTION_UNSUPPORTED;
-            *function = i.function;
-            return XR_SUCCESS;
-        }
+        if (std::strcmp(name, i.name) == 0) return ours(i);
+    for (const Intercepted &i : kInterceptedForGaze)
+        if (state && state->gaze && std::strcmp(name, i.name) == 0) return ours(i);
     if (!state) {
         *function = nullptr;
         return XR_ERROR_HANDLE_INVALID;
@@ -487,7 +653,32 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
     const XrApiLayerNextInfo &next = *layer_info->nextInfo;
     XrApiLayerCreateInfo down = *layer_info;
     down.nextInfo = next.next;
-    const XrResult result = next.nextCreateApiLayerInstance(info, &down, instance);
+    // SPLITVK_GAZE=openxr: the eye-gaze extension, where the application did not enable it itself and
+    // the runtime has it (one that lacks it refuses the instance, which is then made as asked).
+    bool gaze = layer_settings().settings.gaze == GazeMode::OpenXR && info;
+    XrResult result = XR_ERROR_EXTENSION_NOT_PRESENT;
+    if (gaze) {
+        std::vector<const char *> extensions(info->enabledExtensionNames,
+                                             info->enabledExtensionNames + info->enabledExtensionCount);
+        if (std::none_of(extensions.begin(), extensions.end(), [](const char *e) {
+                return std::strcmp(e, XR_EXT_EYE_GAZE_INTERACTION_EXTENSION_NAME) == 0;
+            })) {
+            extensions.push_back(XR_EXT_EYE_GAZE_INTERACTION_EXTENSION_NAME);
+            XrInstanceCreateInfo with_gaze = *info;
+            with_gaze.enabledExtensionCount = static_cast<uint32_t>(extensions.size());
+            with_gaze.enabledExtensionNames = extensions.data();
+            result = next.nextCreateApiLayerInstance(&with_gaze, &down, instance);
+        } else {
+            result = next.nextCreateApiLayerInstance(info, &down, instance);
+        }
+        if (result == XR_ERROR_EXTENSION_NOT_PRESENT) {
+            SPLITVK_WARN(
+                "SPLITVK_GAZE=openxr: the OpenXR runtime lacks %s; the foveae stay at the view directions",
+                XR_EXT_EYE_GAZE_INTERACTION_EXTENSION_NAME);
+            gaze = false;
+        }
+    }
+    if (!gaze) result = next.nextCreateApiLayerInstance(info, &down, instance);
     if (XR_FAILED(result)) return result;
 
     auto state = std::make_unique<InstanceState>();
@@ -501,11 +692,22 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
         load(*state, *instance, "xrEnumerateSwapchainImages", &state->enumerate_swapchain_images) &&
         load(*state, *instance, "xrAcquireSwapchainImage", &state->acquire_swapchain_image) &&
         load(*state, *instance, "xrReleaseSwapchainImage", &state->release_swapchain_image) &&
-        load(*state, *instance, "xrEndFrame", &state->end_frame);
+        load(*state, *instance, "xrEndFrame", &state->end_frame) &&
+        load(*state, *instance, "xrWaitFrame", &state->wait_frame) &&
+        load(*state, *instance, "xrBeginFrame", &state->begin_frame);
     if (!loaded) {
         SPLITVK_ERROR("%s: the runtime lacks a core OpenXR function; instance not created", kApiLayerName);
         if (state->destroy_instance) state->destroy_instance(*instance);
         return XR_ERROR_INITIALIZATION_FAILED;
+    }
+    if (gaze) {
+        GazeDispatch dispatch;
+        if (dispatch.load(next.nextGetInstanceProcAddr, *instance))
+            state->gaze = std::make_unique<InstanceGaze>(*instance, dispatch);
+        else
+            SPLITVK_WARN(
+                "SPLITVK_GAZE=openxr: the runtime lacks an action function; the foveae stay at the view "
+                "directions");
     }
     SPLITVK_INFO("%s active in '%s'", kApiLayerName, info ? info->applicationInfo.applicationName : "?");
     std::lock_guard lock(g_mutex);

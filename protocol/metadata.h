@@ -123,8 +123,9 @@ struct FramePresent {
     // window images it presents with it (split::frame_foveae), so that the tiles the agent sends are
     // the rectangles this frame's composite expects. Carried by every frame, so that an agent that
     // joins mid-run has it from its first frame. The decoder refuses a point outside the eye
-    // (coordinates beyond split::kGazeOne); an OpenXR runtime's eye images keep their foveae at
-    // their view directions.
+    // (coordinates beyond split::kGazeOne). For an OpenXR runtime's eye image, the points are those
+    // of the image's first two eyes in the order both sides hold them (split::runtime_eye_foveae),
+    // whichever of the application's views they are: the client maps views to eyes.
     split::Gaze gaze;
     // SPLITVK_FOVEA=auto: this frame's fovea size, for every fovea of the images it presents (an
     // OpenXR runtime's eye images' too); unset: SplitConfig's. The decoder refuses one beyond the eye

@@ -48,8 +48,9 @@ const SettingInfo kSettings[] = {
      "depth: the client leaves the foveae out of the periphery it shades, by their depth in its passes into "
      "the "
      "swapchain image, where that is exact; off: it shades them, and the tiles cover them"},
-    {"GAZE", "fixed or fifo:PATH", "fixed",
-     "where the foveae sit: fixed, centred in each eye; fifo:PATH, at the gaze points another process writes "
+    {"GAZE", "fixed, openxr or fifo:PATH", "fixed",
+     "where the foveae sit: fixed, centred in each eye; openxr, where the OpenXR runtime's eye tracking "
+     "(XR_EXT_eye_gaze_interaction) says the eyes look; fifo:PATH, at the gaze points another process writes "
      "into the named pipe PATH (one line per point: x y, or lx ly rx ry, 0.5 0.5 the eye's centre)"},
     {"MAX_MBPS", "Mbit/s, 0 (no bound) to 100000", "0",
      "with FOVEA=auto: the most tile traffic the fovea may grow to"},
@@ -252,8 +253,8 @@ bool apply(std::string_view name, std::string_view raw, Settings &s) {
         return true;
     }
     if (name == "GAZE") {
-        if (v == "fixed" || v == "openxr") { // openxr: not available yet, load_settings says so
-            s.gaze = GazeMode::Fixed;
+        if (v == "fixed" || v == "openxr") {
+            s.gaze = v == "fixed" ? GazeMode::Fixed : GazeMode::OpenXR;
             s.gaze_fifo.clear();
             return true;
         }
@@ -506,12 +507,6 @@ LoadedSettings load_settings(const Environment &environment, const std::string &
         if (!apply(info->name, source.value, result.settings)) {
             result.errors.push_back(source.label + "='" + source.value + "' is invalid: expected " +
                                     info->accepted);
-        } else if (std::string_view(info->name) == "GAZE" && lower(trim(source.value)) == "openxr") {
-            // Not a bad value, one not built yet: the split goes on with the fixed fovea.
-            result.warnings.push_back(source.label +
-                                      "=openxr: the OpenXR runtime's eye gaze is not available yet; "
-                                      "using fixed (expected " +
-                                      info->accepted + ")");
         }
     }
 
@@ -570,7 +565,15 @@ std::string to_string(const AgentScissor &scissor) {
 }
 
 std::string to_string(GazeMode mode, const std::string &fifo) {
-    return mode == GazeMode::Fifo ? "fifo:" + fifo : "fixed";
+    switch (mode) {
+    case GazeMode::Fixed:
+        break;
+    case GazeMode::OpenXR:
+        return "openxr";
+    case GazeMode::Fifo:
+        return "fifo:" + fifo;
+    }
+    return "fixed";
 }
 
 const char *to_string(UnsupportedMode mode) {

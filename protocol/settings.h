@@ -40,9 +40,10 @@ struct AgentScissor {
 inline constexpr uint32_t kMaxAgentScissorGuard = 4096;
 
 // SPLITVK_GAZE (issue 22): where the foveae sit. Fixed: centred in each eye (at the view direction
-// under OpenXR), the same every frame; Fifo: at the gaze points another process writes into a named
-// pipe (layer/gaze.h).
-enum class GazeMode { Fixed, Fifo };
+// under OpenXR), the same every frame; OpenXR: where the runtime's eye tracking says the eyes look
+// (layer/xr_gaze.h; OpenXR eye images only); Fifo: at the gaze points another process writes into a
+// named pipe (layer/gaze.h).
+enum class GazeMode { Fixed, OpenXR, Fifo };
 
 struct ServerAddress {
     std::string host = "127.0.0.1";
@@ -144,7 +145,7 @@ LoadedSettings load_process_settings();
 const char *to_string(EyeMode mode);
 const char *to_string(TileCodec codec);
 std::string to_string(const AgentScissor &scissor);            // "off", "guard:64"
-std::string to_string(GazeMode mode, const std::string &fifo); // "fixed", "fifo:/run/gaze"
+std::string to_string(GazeMode mode, const std::string &fifo); // "fixed", "openxr", "fifo:/run/gaze"
 const char *to_string(LogLevel level);
 const char *to_string(UnsupportedMode mode);
 

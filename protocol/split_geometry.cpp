@@ -219,6 +219,21 @@ VkRect2D fovea_at_view_direction(const VkRect2D &eye, const FieldOfView &fov, co
             {fw, fh}};
 }
 
+std::optional<GazePoint> gaze_point_in_eye(const FieldOfView &fov, double x, double y, double z) {
+    const double l = std::tan(fov.angle_left), r = std::tan(fov.angle_right);
+    const double u = std::tan(fov.angle_up), d = std::tan(fov.angle_down);
+    if (!std::isfinite(l) || !std::isfinite(r) || !std::isfinite(u) || !std::isfinite(d) || !(r > l) ||
+        !(u > d) || !std::isfinite(x) || !std::isfinite(y) || !(z < 0))
+        return std::nullopt;
+    // The direction's crossing of the image plane at distance 1, then its place between the edges.
+    const double px = (x / -z - l) / (r - l), py = (u - y / -z) / (u - d);
+    const auto units = [](double fraction) {
+        if (!std::isfinite(fraction)) return fraction > 0 ? kGazeOne : 0u; // beyond a clamp either way
+        return static_cast<uint32_t>(std::lround(std::clamp(fraction, 0.0, 1.0) * kGazeOne));
+    };
+    return GazePoint{units(px), units(py)};
+}
+
 bool note_runtime_eye(std::vector<RuntimeEye> &eyes, const RuntimeEye &eye) {
     const auto same = [](const RuntimeEye &a, const RuntimeEye &b) {
         return a.layer == b.layer && a.rect.offset.x == b.rect.offset.x &&
@@ -238,16 +253,20 @@ bool note_runtime_eye(std::vector<RuntimeEye> &eyes, const RuntimeEye &eye) {
 }
 
 std::vector<LayerFovea> runtime_eye_foveae(VkExtent2D image, uint32_t layers,
-                                           const std::vector<RuntimeEye> &eyes, const FoveaSize &fovea) {
+                                           const std::vector<RuntimeEye> &eyes, const FoveaSize &fovea,
+                                           const Gaze &gaze) {
     std::vector<std::vector<VkRect2D>> by_layer(layers);
     const VkRect2D whole{{0, 0}, image};
     if (eyes.empty())
         for (auto &foveae : by_layer)
             foveae.push_back(fovea_of_eye(whole, fovea));
-    for (const RuntimeEye &eye : eyes) {
+    for (size_t i = 0; i < eyes.size(); ++i) {
+        const RuntimeEye &eye = eyes[i];
         const VkRect2D rect = intersect(eye.rect, whole);
         if (eye.layer >= layers || rect.extent.width == 0 || rect.extent.height == 0) continue;
-        add_fovea(by_layer[eye.layer], fovea_at_view_direction(rect, eye.fov, fovea));
+        const bool at_gaze = !gaze.fixed && i < std::size(gaze.eyes);
+        add_fovea(by_layer[eye.layer], at_gaze ? fovea_at_gaze(rect, gaze.eyes[i], fovea)
+                                               : fovea_at_view_direction(rect, eye.fov, fovea));
     }
     std::vector<LayerFovea> out;
     for (uint32_t layer = 0; layer < layers; ++layer)
@@ -256,10 +275,26 @@ std::vector<LayerFovea> runtime_eye_foveae(VkExtent2D image, uint32_t layers,
     return out;
 }
 
+std::vector<LayerFovea> runtime_fovea_areas(VkExtent2D image, uint32_t layers,
+                                            const std::vector<RuntimeEye> &eyes, const FoveaSize &fovea,
+                                            bool moving_gaze) {
+    if (!moving_gaze) return runtime_eye_foveae(image, layers, eyes, fovea);
+    std::vector<LayerFovea> out;
+    const VkRect2D whole{{0, 0}, image};
+    for (uint32_t layer = 0; eyes.empty() && layer < layers; ++layer)
+        out.push_back({layer, whole});
+    for (const RuntimeEye &eye : eyes)
+        if (const VkRect2D rect = intersect(eye.rect, whole);
+            eye.layer < layers && rect.extent.width && rect.extent.height)
+            out.push_back({eye.layer, rect});
+    return out;
+}
+
 bool runtime_guard_foveae(VkExtent2D image, uint32_t layers, const std::vector<RuntimeEye> &eyes,
-                          bool eye_sized, const FoveaSize &fovea, std::vector<VkRect2D> *out) {
+                          bool eye_sized, const FoveaSize &fovea, bool moving_gaze,
+                          std::vector<VkRect2D> *out) {
     out->clear();
-    const std::vector<LayerFovea> foveae = runtime_eye_foveae(image, layers, eyes, fovea);
+    const std::vector<LayerFovea> foveae = runtime_fovea_areas(image, layers, eyes, fovea, moving_gaze);
     if (!eye_sized) {
         for (const LayerFovea &f : foveae)
             add_fovea(*out, f.rect);

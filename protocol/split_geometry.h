@@ -9,6 +9,7 @@
 
 #include <vulkan/vulkan.h>
 
+#include <optional>
 #include <vector>
 
 namespace splitvk::split {
@@ -143,6 +144,12 @@ struct FieldOfView {
 // view that spans nothing (right <= left, up <= down, or not finite) gives fovea_of_eye's.
 VkRect2D fovea_at_view_direction(const VkRect2D &eye, const FieldOfView &fov, const FoveaSize &fovea);
 
+// The inverse of that projection: where `direction`, given in the eye's own frame (OpenXR's view
+// space: +x right, +y up, -z forward), crosses the eye's image, in units of 1/kGazeOne of its width
+// and height, clamped to the image. Nothing for a direction that does not point ahead (z >= 0, or
+// not finite) or a field of view that spans nothing.
+std::optional<GazePoint> gaze_point_in_eye(const FieldOfView &fov, double x, double y, double z);
+
 // One eye of an OpenXR runtime's swapchain (DESIGN §9): a projection view of xrEndFrame that names
 // the swapchain, with the array layer (imageArrayIndex) and sub-image rectangle (imageRect) that
 // hold that eye, and its field of view. A layered swapchain drawn with multiview has an eye per
@@ -170,8 +177,19 @@ bool note_runtime_eye(std::vector<RuntimeEye> &eyes, const RuntimeEye &eye);
 // image); then one per eye, fovea_at_view_direction of its rectangle (clipped to the image; an eye
 // in a layer the image does not have, or outside it, has none). Sorted by layer, then as add_fovea
 // sorts: the order both sides report them in. Both sides composite them and the agent shades them.
+// A gaze that is not fixed places the first two of `eyes` (in their order, which both sides share)
+// at its points instead (fovea_at_gaze of the eye's rectangle): the client names, per image, where
+// each of that image's eyes looks, whichever of the application's views it is.
 std::vector<LayerFovea> runtime_eye_foveae(VkExtent2D image, uint32_t layers,
-                                           const std::vector<RuntimeEye> &eyes, const FoveaSize &fovea);
+                                           const std::vector<RuntimeEye> &eyes, const FoveaSize &fovea,
+                                           const Gaze &gaze = {});
+
+// Every place a fovea of such an image can be in a session, which the agent's scissors of its split
+// passes must cover: runtime_eye_foveae's, or with `moving_gaze` (the gaze is only known per frame,
+// after the passes were recorded) each eye whole, and each layer whole before the views.
+std::vector<LayerFovea> runtime_fovea_areas(VkExtent2D image, uint32_t layers,
+                                            const std::vector<RuntimeEye> &eyes, const FoveaSize &fovea,
+                                            bool moving_gaze);
 
 // SPLITVK_AGENT_SCISSOR=guard:N under OpenXR: every place an eye's fovea can be in a screen-space
 // target classified against an OpenXR runtime's swapchain of `image` extent, `layers` layers and
@@ -181,8 +199,10 @@ std::vector<LayerFovea> runtime_eye_foveae(VkExtent2D image, uint32_t layers,
 // does not say which eye image or layer it renders for, so every eye's fovea counts. False, with
 // nothing in *out, only where an eye-sized target cannot be mapped: an eye's rectangle is not a half of
 // the image (before the views, the halves are taken as the eyes, the centred fovea cut by them).
+// `moving_gaze`: as runtime_fovea_areas.
 bool runtime_guard_foveae(VkExtent2D image, uint32_t layers, const std::vector<RuntimeEye> &eyes,
-                          bool eye_sized, const FoveaSize &fovea, std::vector<VkRect2D> *out);
+                          bool eye_sized, const FoveaSize &fovea, bool moving_gaze,
+                          std::vector<VkRect2D> *out);
 
 // The foveae of a window's swapchain image, all in layer 0.
 std::vector<LayerFovea> in_layer_zero(const std::vector<VkRect2D> &foveae);

@@ -16,18 +16,28 @@ std::vector<split::LayerFovea> FoveaShading::take_drawn_foveae(uint64_t image_id
     // The whole frame's coverage decides its foveae (split::frame_foveae), as the client's does.
     std::vector<split::LayerFovea> foveae = split::in_layer_zero(it->second.foveae(eyes_, fovea, gaze));
     // An OpenXR eye image: its eyes' foveae, wherever its passes drew, as the client composites them.
-    if (auto eyes = runtime_foveae(image_id, it->second.extent, fovea); eyes && !foveae.empty())
+    if (auto eyes = runtime_foveae(image_id, it->second.extent, fovea, gaze); eyes && !foveae.empty())
         foveae = std::move(*eyes);
     drawn_.erase(it);
     return foveae;
 }
 
-std::optional<std::vector<split::LayerFovea>>
-FoveaShading::runtime_foveae(uint64_t image_id, VkExtent2D extent, const FoveaSize &fovea) const {
+std::optional<std::vector<split::LayerFovea>> FoveaShading::runtime_foveae(uint64_t image_id,
+                                                                           VkExtent2D extent,
+                                                                           const FoveaSize &fovea,
+                                                                           const split::Gaze &gaze) const {
     const std::vector<split::RuntimeEye> *eyes = nullptr;
     uint32_t layers = 1;
     if (!swapchains_.runtime_image(image_id, &eyes, &layers)) return std::nullopt;
-    return split::runtime_eye_foveae(extent, layers, *eyes, fovea);
+    return split::runtime_eye_foveae(extent, layers, *eyes, fovea, gaze);
+}
+
+std::optional<std::vector<split::LayerFovea>> FoveaShading::runtime_fovea_areas(uint64_t image_id,
+                                                                                VkExtent2D extent) const {
+    const std::vector<split::RuntimeEye> *eyes = nullptr;
+    uint32_t layers = 1;
+    if (!swapchains_.runtime_image(image_id, &eyes, &layers)) return std::nullopt;
+    return split::runtime_fovea_areas(extent, layers, *eyes, fovea_, moving_gaze_);
 }
 
 void FoveaShading::image_created(VkImage image, const VkImageCreateInfo &info) {
@@ -141,7 +151,7 @@ std::optional<FoveaShading::PassScissor> FoveaShading::pass_scissor(VkCommandBuf
     s.extent = t.extent();
     s.generation = generation_;
     if (s.swapchain) {
-        s.eyes = runtime_foveae(t.image(), t.extent(), fovea_);
+        s.eyes = runtime_fovea_areas(t.image(), t.extent());
     } else {
         const auto guard = guard_rects_.find(primary);
         if (guard == guard_rects_.end()) return std::nullopt;
@@ -284,7 +294,7 @@ bool FoveaShading::guard_rect(const std::vector<VkImageView> &views, VkExtent2D 
         for (const SwapchainImages::RuntimeSwapchain &swapchain : runtime) {
             std::vector<VkRect2D> eye_foveae;
             if (!split::runtime_guard_foveae(s, swapchain.layers, *swapchain.eyes, target.kind.eye, fovea_,
-                                             &eye_foveae)) {
+                                             moving_gaze_, &eye_foveae)) {
                 *refused = {e, true};
                 return false;
             }
@@ -458,7 +468,7 @@ VkRect2D FoveaShading::runtime_scissor(const std::vector<split::LayerFovea> &fov
 void FoveaShading::emit_scissors(VkCommandBuffer cb, const split::CommandTracker &t) {
     const auto guard = t.in_split() && !t.swapchain_pass() ? guard_rects_.find(cb) : guard_rects_.end();
     const auto runtime = t.in_split() && guard == guard_rects_.end()
-                             ? runtime_foveae(t.image(), t.extent(), fovea_)
+                             ? runtime_fovea_areas(t.image(), t.extent())
                              : std::nullopt;
     const auto out = [&](size_t i, const VkRect2D &r) {
         if (!t.in_split()) return r;

@@ -123,8 +123,9 @@ public:
         bool swapchain = false; // a split pass into swapchain image `image`; else a guarded one
         uint64_t image = 0;
         VkExtent2D extent{};
-        std::optional<std::vector<split::LayerFovea>> eyes; // an OpenXR runtime's image: its eyes' foveae
-        VkRect2D guard{};                                   // a guarded pass: its scissor
+        std::optional<std::vector<split::LayerFovea>>
+            eyes;                // an OpenXR runtime's image: where its foveae can be
+        VkRect2D guard{};        // a guarded pass: its scissor
         uint64_t generation = 0; // of configure(): a variant is for one eye layout and fovea size
         // Whether a variant recorded for `other` narrows exactly as one for this pass would.
         bool same_as(const PassScissor &other) const;
@@ -173,10 +174,14 @@ private:
     SwapchainImages &swapchains_;
     bool enabled_ = true;
     EyeMode eyes_ = Settings{}.eyes;
-    // The foveae of an OpenXR runtime's image (its eyes', at their view directions once known), or
-    // none for a window's, whose foveae SPLITVK_EYES places.
+    // The foveae of an OpenXR runtime's image (its eyes', at the frame's gaze or their view
+    // directions once known), or none for a window's, whose foveae SPLITVK_EYES places.
     std::optional<std::vector<split::LayerFovea>> runtime_foveae(uint64_t image_id, VkExtent2D extent,
-                                                                 const FoveaSize &fovea) const;
+                                                                 const FoveaSize &fovea,
+                                                                 const split::Gaze &gaze) const;
+    // Where those foveae can be in this session (split::runtime_fovea_areas): what scissors cover.
+    std::optional<std::vector<split::LayerFovea>> runtime_fovea_areas(uint64_t image_id,
+                                                                      VkExtent2D extent) const;
     static VkRect2D runtime_scissor(const std::vector<split::LayerFovea> &foveae, const VkViewport *viewport);
     FoveaSize fovea_ = Settings{}.fovea;
     AgentScissor scissor_;

@@ -133,8 +133,7 @@ TEST_F(SettingsTest, UnsupportedExtensions) {
     EXPECT_STREQ(to_string(UnsupportedMode::Passthrough), "passthrough");
 }
 
-// SPLITVK_GAZE: fixed (the default), fifo:PATH with the path as written; openxr is not built yet: one
-// warning, and the fixed fovea (not an error, which would leave the application unsplit).
+// SPLITVK_GAZE: fixed (the default), openxr, fifo:PATH with the path as written.
 TEST_F(SettingsTest, GazeSources) {
     EXPECT_EQ(load({}).settings.gaze, GazeMode::Fixed);
     auto loaded = load({{"SPLITVK_GAZE", "fifo:/run/User/Gaze"}});
@@ -146,13 +145,12 @@ TEST_F(SettingsTest, GazeSources) {
     write_file("vk_layer_settings.txt", "splitvk_split_render.gaze = fifo:/tmp/g\n");
     EXPECT_EQ(load({}).settings.gaze_fifo, "/tmp/g");
 
-    loaded = load({{"SPLITVK_GAZE", "openxr"}});
-    EXPECT_TRUE(loaded.valid());
-    EXPECT_EQ(loaded.settings.gaze, GazeMode::Fixed);
-    ASSERT_EQ(loaded.warnings.size(), 1u);
-    EXPECT_NE(loaded.warnings[0].find("SPLITVK_GAZE=openxr"), std::string::npos) << loaded.warnings[0];
-    EXPECT_NE(loaded.warnings[0].find("using fixed"), std::string::npos) << loaded.warnings[0];
-    EXPECT_EQ(loaded.warnings[0].find('\n'), std::string::npos);
+    loaded = load({{"SPLITVK_GAZE", "OpenXR"}});
+    ASSERT_TRUE(loaded.valid());
+    EXPECT_TRUE(loaded.warnings.empty());
+    EXPECT_EQ(loaded.settings.gaze, GazeMode::OpenXR);
+    EXPECT_EQ(to_string(loaded.settings.gaze, loaded.settings.gaze_fifo), "openxr");
+    EXPECT_FALSE(load({{"SPLITVK_GAZE", "openxr:left"}}).valid());
 }
 
 TEST_F(SettingsTest, FractionalFovea) {

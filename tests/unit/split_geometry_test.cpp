@@ -4,6 +4,7 @@
 #include "split_geometry.h"
 #include "split_tracker.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <gtest/gtest.h>
@@ -404,39 +405,144 @@ TEST(SplitGeometry, RuntimeGuardFoveae) {
     const FieldOfView inner_narrow{-a, t, t, -a}, mirrored{-t, a, t, -a};
     std::vector<VkRect2D> f;
     // Before the views: the centred fovea of each layer (one rectangle for both layers).
-    ASSERT_TRUE(runtime_guard_foveae({1200, 1080}, 2, {}, false, fovea, &f));
+    ASSERT_TRUE(runtime_guard_foveae({1200, 1080}, 2, {}, false, fovea, false, &f));
     ASSERT_EQ(f.size(), 1u);
     EXPECT_RECT(f[0], 344, 360, 512u, 360u);
     // Each layer's eye at its view direction.
     ASSERT_TRUE(runtime_guard_foveae(
         {1200, 1080}, 2, {{0, {{0, 0}, {1200, 1080}}, inner_narrow}, {1, {{0, 0}, {1200, 1080}}, mirrored}},
-        false, fovea, &f));
+        false, fovea, false, &f));
     ASSERT_EQ(f.size(), 2u);
     EXPECT_RECT(f[0], 144, 180, 512u, 360u);
     EXPECT_RECT(f[1], 544, 180, 512u, 360u);
     // Side by side, a target of the whole image: the foveae where they are in it.
     const std::vector<RuntimeEye> halves{{0, {{0, 0}, {1200, 1080}}, inner_narrow},
                                          {0, {{1200, 0}, {1200, 1080}}, mirrored}};
-    ASSERT_TRUE(runtime_guard_foveae({2400, 1080}, 1, halves, false, fovea, &f));
+    ASSERT_TRUE(runtime_guard_foveae({2400, 1080}, 1, halves, false, fovea, false, &f));
     ASSERT_EQ(f.size(), 2u);
     EXPECT_RECT(f[0], 544, 180, 512u, 360u);
     EXPECT_RECT(f[1], 1344, 180, 512u, 360u);
     // An eye-sized target: each eye's fovea within its half, in the half's coordinates.
-    ASSERT_TRUE(runtime_guard_foveae({2400, 1080}, 1, halves, true, fovea, &f));
+    ASSERT_TRUE(runtime_guard_foveae({2400, 1080}, 1, halves, true, fovea, false, &f));
     ASSERT_EQ(f.size(), 2u);
     EXPECT_RECT(f[0], 144, 180, 512u, 360u);
     EXPECT_RECT(f[1], 544, 180, 512u, 360u);
     // Before the views the image is one eye: its centred fovea, cut by the halves.
-    ASSERT_TRUE(runtime_guard_foveae({2400, 1080}, 1, {}, true, fovea, &f));
+    ASSERT_TRUE(runtime_guard_foveae({2400, 1080}, 1, {}, true, fovea, false, &f));
     ASSERT_EQ(f.size(), 2u);
     EXPECT_RECT(f[0], 0, 360, 512u, 360u);
     EXPECT_RECT(f[1], 688, 360, 512u, 360u);
     // Eyes in other rectangles than the halves: an eye-sized target holds no known eye.
-    EXPECT_FALSE(
-        runtime_guard_foveae({2400, 1080}, 1, {{0, {{0, 0}, {800, 1080}}, inner_narrow}}, true, fovea, &f));
+    EXPECT_FALSE(runtime_guard_foveae({2400, 1080}, 1, {{0, {{0, 0}, {800, 1080}}, inner_narrow}}, true,
+                                      fovea, false, &f));
     EXPECT_TRUE(f.empty());
-    EXPECT_FALSE(
-        runtime_guard_foveae({1200, 1080}, 1, {{0, {{0, 0}, {1200, 1080}}, inner_narrow}}, true, fovea, &f));
+    EXPECT_FALSE(runtime_guard_foveae({1200, 1080}, 1, {{0, {{0, 0}, {1200, 1080}}, inner_narrow}}, true,
+                                      fovea, false, &f));
+}
+
+// SPLITVK_GAZE under OpenXR: a moving gaze places an image's first two eyes (in the order both sides
+// hold them) at its points; the agent's scissors and guards then cover each eye whole.
+TEST(SplitGeometry, RuntimeEyeFoveaeAtTheGaze) {
+    const FoveaSize fovea;
+    const double a = 0.785398163397448, t = std::atan(0.5);
+    const FieldOfView inner_narrow{-a, t, t, -a}, mirrored{-t, a, t, -a};
+    const std::vector<RuntimeEye> halves{{0, {{1200, 0}, {1200, 1080}}, mirrored},
+                                         {0, {{0, 0}, {1200, 1080}}, inner_narrow}};
+    Gaze gaze;
+    gaze.fixed = false;
+    gaze.eyes[0] = {kGazeOne / 4, kGazeOne / 2}; // the first eye noted: the right half
+    gaze.eyes[1] = {kGazeOne, 0};                // the left half, clamped to its top-right corner
+    auto f = runtime_eye_foveae({2400, 1080}, 1, halves, fovea, gaze);
+    ASSERT_EQ(f.size(), 2u);
+    EXPECT_LAYER_RECT(f[0], 0, 688, 0, 512u, 360u);         // sorted by x: the left half's
+    EXPECT_LAYER_RECT(f[1], 0, 1200 + 44, 360, 512u, 360u); // 300 - 256 into the right half
+    // A fixed gaze keeps the view directions; so does a third eye beyond the gaze's two.
+    f = runtime_eye_foveae({2400, 1080}, 1, halves, fovea, {});
+    ASSERT_EQ(f.size(), 2u);
+    EXPECT_LAYER_RECT(f[0], 0, 544, 180, 512u, 360u);
+    const std::vector<RuntimeEye> layered{{0, {{0, 0}, {1200, 1080}}, inner_narrow},
+                                          {1, {{0, 0}, {1200, 1080}}, mirrored},
+                                          {2, {{0, 0}, {1200, 1080}}, inner_narrow}};
+    f = runtime_eye_foveae({1200, 1080}, 3, layered, fovea, gaze);
+    ASSERT_EQ(f.size(), 3u);
+    EXPECT_LAYER_RECT(f[0], 0, 44, 360, 512u, 360u);
+    EXPECT_LAYER_RECT(f[1], 1, 688, 0, 512u, 360u);
+    EXPECT_LAYER_RECT(f[2], 2, 544, 180, 512u, 360u);
+    // Before the views the gaze has no eye to go to: the centred fovea.
+    f = runtime_eye_foveae({1200, 1080}, 1, {}, fovea, gaze);
+    ASSERT_EQ(f.size(), 1u);
+    EXPECT_LAYER_RECT(f[0], 0, 344, 360, 512u, 360u);
+
+    // Where the foveae can be: at the view directions for a fixed gaze, each eye whole for a
+    // moving one, each layer whole before the views.
+    auto areas = runtime_fovea_areas({2400, 1080}, 1, halves, fovea, false);
+    ASSERT_EQ(areas.size(), 2u);
+    EXPECT_LAYER_RECT(areas[0], 0, 544, 180, 512u, 360u);
+    areas = runtime_fovea_areas({2400, 1080}, 1, halves, fovea, true);
+    ASSERT_EQ(areas.size(), 2u);
+    EXPECT_LAYER_RECT(areas[0], 0, 1200, 0, 1200u, 1080u);
+    EXPECT_LAYER_RECT(areas[1], 0, 0, 0, 1200u, 1080u);
+    areas = runtime_fovea_areas({1200, 1080}, 2, {}, fovea, true);
+    ASSERT_EQ(areas.size(), 2u);
+    EXPECT_LAYER_RECT(areas[1], 1, 0, 0, 1200u, 1080u);
+    // Every fovea a moving gaze gives lies in its area.
+    for (uint32_t x : {0u, kGazeOne / 3, kGazeOne})
+        for (uint32_t y : {0u, kGazeOne / 2, kGazeOne}) {
+            gaze.eyes[0] = gaze.eyes[1] = {x, y};
+            const auto placed = runtime_eye_foveae({2400, 1080}, 1, halves, fovea, gaze);
+            const auto where = runtime_fovea_areas({2400, 1080}, 1, halves, fovea, true);
+            for (const LayerFovea &p : placed)
+                EXPECT_TRUE(std::any_of(where.begin(), where.end(),
+                                        [&](const LayerFovea &w) {
+                                            return w.layer == p.layer &&
+                                                   same(intersect(p.rect, w.rect), p.rect);
+                                        }))
+                    << x << "," << y;
+        }
+    // A guard with a moving gaze: an eye-sized target is cut to nothing, each half whole.
+    std::vector<VkRect2D> g;
+    ASSERT_TRUE(runtime_guard_foveae({2400, 1080}, 1, halves, true, fovea, true, &g));
+    ASSERT_EQ(g.size(), 1u);
+    EXPECT_RECT(g[0], 0, 0, 1200u, 1080u);
+    ASSERT_TRUE(runtime_guard_foveae({2400, 1080}, 1, halves, false, fovea, true, &g));
+    ASSERT_EQ(g.size(), 2u);
+}
+
+// The gaze direction in an eye's frame, projected into its image: the inverse of the view
+// direction's projection, clamped to the image; nothing for a direction behind the eye.
+TEST(SplitGeometry, GazePointInEye) {
+    const double a = 0.785398163397448, t = std::atan(0.5);
+    // Straight ahead, symmetric: the centre.
+    auto p = gaze_point_in_eye({-a, a, a, -a}, 0, 0, -1);
+    ASSERT_TRUE(p);
+    EXPECT_EQ(p->x, kGazeOne / 2);
+    EXPECT_EQ(p->y, kGazeOne / 2);
+    // Straight ahead, inner edge narrower: where fovea_at_view_direction centres the fovea.
+    p = gaze_point_in_eye({-a, t, t, -a}, 0, 0, -2);
+    ASSERT_TRUE(p);
+    EXPECT_EQ(p->x, static_cast<uint32_t>(std::lround(kGazeOne / 1.5)));
+    EXPECT_EQ(p->y, static_cast<uint32_t>(std::lround(kGazeOne * 0.5 / 1.5)));
+    // The fovea there is the view direction's, give or take the pixel that 1/kGazeOne rounds to.
+    const VkRect2D eye{{0, 0}, {1200, 1080}};
+    const VkRect2D at_gaze = fovea_at_gaze(eye, *p, FoveaSize{});
+    const VkRect2D ahead = fovea_at_view_direction(eye, {-a, t, t, -a}, FoveaSize{});
+    EXPECT_LE(std::abs(at_gaze.offset.x - ahead.offset.x), 1);
+    EXPECT_LE(std::abs(at_gaze.offset.y - ahead.offset.y), 1);
+    // Right and up by tan 0.5 of a ±45° eye: three quarters across, a quarter down.
+    p = gaze_point_in_eye({-a, a, a, -a}, 0.5, 0.5, -1);
+    ASSERT_TRUE(p);
+    EXPECT_EQ(p->x, kGazeOne * 3 / 4);
+    EXPECT_EQ(p->y, kGazeOne / 4);
+    // Beyond the edges: clamped.
+    p = gaze_point_in_eye({-a, a, a, -a}, -3, -3, -1);
+    ASSERT_TRUE(p);
+    EXPECT_EQ(p->x, 0u);
+    EXPECT_EQ(p->y, kGazeOne);
+    // Behind the eye, sideways, not finite, or a field of view spanning nothing: nothing.
+    EXPECT_FALSE(gaze_point_in_eye({-a, a, a, -a}, 0, 0, 1));
+    EXPECT_FALSE(gaze_point_in_eye({-a, a, a, -a}, 1, 0, 0));
+    EXPECT_FALSE(gaze_point_in_eye({-a, a, a, -a}, std::nan(""), 0, -1));
+    EXPECT_FALSE(gaze_point_in_eye({a, a, a, -a}, 0, 0, -1));
 }
 
 // An eye replaces the eyes of its layer it overlaps (the same eye moved, resized or with another

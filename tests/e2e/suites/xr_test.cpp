@@ -809,6 +809,80 @@ TEST_F(XrAtrium, MultiviewLayersFoveaeExactAgainstNative) {
         "native", "skewed", true, [&](int eye) { return fovea_at_view(kSkewedFov[eye], 192, 160); }, true);
 }
 
+// SPLITVK_GAZE=fifo:PATH under OpenXR (issue 22): the pipe's left and right points place the foveae
+// of the application's views 0 and 1, in a swapchain per eye and in one layered swapchain drawn with
+// multiview, exact against native at the gaze and not at the centre. A regular file stands in for
+// the pipe (the reader takes any file and polls it at each xrBeginFrame). Frame 0 is composited
+// before the first xrEndFrame said which view is which eye: its fovea stays centred.
+TEST_F(XrAtrium, GazeFromAPipeMovesEachViewsFovea) {
+    const uint32_t w = 192, h = 160;
+    const double gaze[2][2] = {{0.25, 0.375}, {0.75, 0.625}}; // multiples of 1/8: see fovea_at_gaze
+    const auto gaze_file = out_ / "gaze";
+    {
+        std::ofstream f(gaze_file);
+        f << gaze[0][0] << " " << gaze[0][1] << " " << gaze[1][0] << " " << gaze[1][1] << "\n";
+    }
+    Rect at_gaze[2];
+    const Rect centred = default_foveae(w, h, 1)[0];
+    for (int eye = 0; eye < 2; ++eye)
+        at_gaze[eye] = fovea_at_gaze(gaze[eye][0], gaze[eye][1], 0, w, h);
+    ASSERT_LT(at_gaze[0].x + 20, centred.x);
+    ASSERT_GT(at_gaze[1].y, centred.y + 10);
+    Agent agent;
+    ASSERT_TRUE(agent.start(clean_env(), out_)) << agent.error();
+
+    // A swapchain per eye.
+    const auto native = run_atrium(atrium_native_env("native"), "native", {});
+    ASSERT_TRUE(native.ok()) << native.describe() << "\n" << tail(native.err(), 30);
+    Env e = atrium_split_env("split", agent);
+    e["SPLITVK_GAZE"] = "fifo:" + gaze_file.string();
+    const auto split = run_atrium(e, "split", {});
+    ASSERT_TRUE(split.ok()) << split.describe() << "\n" << tail(split.err(), 30);
+    EXPECT_TRUE(grep(split.err(), "[splitvk] error:").empty()) << tail(split.err(), 30);
+    EXPECT_TRUE(grep(split.err(), "[splitvk] warning:").empty()) << tail(split.err(), 30);
+    const auto n = readbacks(out_ / "native" / "images");
+    const auto s = readbacks(out_ / "split" / "images");
+    ASSERT_EQ(n.size(), static_cast<size_t>(2 * kFrames)) << "native eye images read back";
+    ASSERT_EQ(s.size(), n.size()) << "split eye images read back";
+    uint64_t compared = 0, mismatched = 0;
+    for (const auto &[key, native_path] : n) {
+        SCOPED_TRACE(native_path.filename().string());
+        const auto it = s.find(key);
+        ASSERT_NE(it, s.end()) << "no split readback of the same image and release";
+        EyeImage a, b;
+        ASSERT_NO_FATAL_FAILURE(load_pair(native_path, it->second, w, h, &a, &b));
+        // As in AsymmetricFieldOfViewMovesTheFovea: images 0-2 are view 0's, 3-5 view 1's.
+        const int eye = key.first / 3;
+        const int frame = 3 * key.second + key.first % 3;
+        const Rect f = frame == 0 ? centred : at_gaze[eye];
+        const Mismatch m = compare_rect(a, b, f);
+        compared += m.pixels;
+        mismatched += m.mismatched;
+        EXPECT_EQ(m.mismatched, 0u) << "eye " << eye << " frame " << frame << ": fovea at " << f.x << ","
+                                    << f.y << ": " << m.mismatched << " of " << m.pixels << " texels differ\n"
+                                    << save_mismatch_artefacts(out_, native_path.stem().string(), to_image(a),
+                                                               to_image(b));
+        if (frame > 0) {
+            EXPECT_GT(compare_rect(a, b, centred).mismatched, 0u)
+                << "eye " << eye << " frame " << frame << ": the centred fovea is exact: it did not move";
+        }
+    }
+    std::cout << "  a swapchain per eye: " << compared << " fovea texels compared, " << mismatched
+              << " differ\n";
+    expect_split_stats("split", 2 * kFrames);
+
+    // One swapchain of two layers drawn with multiview: each layer's eye at its view's point.
+    const auto native_mv = run_atrium(atrium_native_env("native-mv"), "native-mv", {"--multiview"});
+    ASSERT_TRUE(native_mv.ok()) << native_mv.describe() << "\n" << tail(native_mv.err(), 30);
+    Env mv = atrium_split_env("split-mv", agent);
+    mv["SPLITVK_GAZE"] = "fifo:" + gaze_file.string();
+    const auto split_mv = run_atrium(mv, "split-mv", {"--multiview"});
+    ASSERT_TRUE(split_mv.ok()) << split_mv.describe() << "\n" << tail(split_mv.err(), 30);
+    EXPECT_TRUE(grep(split_mv.err(), "[splitvk] error:").empty()) << tail(split_mv.err(), 30);
+    expect_both_eyes_split(
+        "native-mv", "split-mv", /*layered=*/true, [&](int eye) { return at_gaze[eye]; }, /*moved=*/true);
+}
+
 // SPLITVK_VERIFY=full on a layered eye image (--multiview; the split is off while verifying): the
 // layer reads back every layer of each released image, as does the agent, and compares them all.
 // The pixel count covers both layers of every frame, and none differs (lavapipe on both sides).
