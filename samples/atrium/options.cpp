@@ -109,7 +109,8 @@ options:
                          offsets and fields of view (--width, --height, --srgb and --present-mode do
                          not apply). --frames N ends the session after N frames; --hold re-renders
                          frame N-1 until SIGTERM or SIGINT, printing 'holding frame N-1' once the
-                         runtime has had it
+                         runtime has had it. Input as applications have it: a left-hand grip pose
+                         action (khr/simple_controller), attached and synchronised every frame
   --multiview            with --xr: one swapchain of two layers, both eyes drawn in one
                          VK_KHR_multiview pass straight into it (--xr --path multiview is the same)
   --side-by-side         with --xr: one swapchain twice an eye's width, the left eye drawn into its

@@ -244,6 +244,7 @@ private:
     void create_instance();
     void create_vulkan();
     void create_session();
+    void create_actions();
     void create_swapchains();
     void create_renderer();
     // Polls the runtime's events; false once the session is over.
@@ -270,6 +271,7 @@ private:
     std::optional<VkContext> context_;
     XrOwned<XrSession, xrDestroySession> session_;
     XrOwned<XrSpace, xrDestroySpace> world_space_, head_space_; // LOCAL (or STAGE), VIEW
+    XrOwned<XrActionSet, xrDestroyActionSet> action_set_;       // its one action goes with it
     const char *world_space_name_ = "LOCAL";
     XrSessionState state_ = XR_SESSION_STATE_UNKNOWN;
     bool running_ = false, exit_requested_ = false, views_reported_ = false;
@@ -446,6 +448,39 @@ void XrApp::create_session() {
     ATRIUM_XR_CHECK(instance, xrCreateReferenceSpace(session_.handle, &space, &world_space_.handle));
     space.referenceSpaceType = XR_REFERENCE_SPACE_TYPE_VIEW; // every runtime has it
     ATRIUM_XR_CHECK(instance, xrCreateReferenceSpace(session_.handle, &space, &head_space_.handle));
+}
+
+// Input, as applications have it: a pose action for the left hand's grip on the Khronos simple
+// controller, attached to the session and synchronised every frame. Atrium draws nothing with it; an
+// OpenXR layer that adds actions of its own (splitvk's eye gaze) has to ride along with it.
+void XrApp::create_actions() {
+    const XrInstance instance = instance_.handle;
+    XrActionSetCreateInfo set = xr<XrActionSetCreateInfo>(XR_TYPE_ACTION_SET_CREATE_INFO);
+    std::strcpy(set.actionSetName, "atrium");
+    std::strcpy(set.localizedActionSetName, "atrium");
+    ATRIUM_XR_CHECK(instance, xrCreateActionSet(instance, &set, &action_set_.handle));
+    XrActionCreateInfo action = xr<XrActionCreateInfo>(XR_TYPE_ACTION_CREATE_INFO);
+    std::strcpy(action.actionName, "left_hand");
+    std::strcpy(action.localizedActionName, "left hand");
+    action.actionType = XR_ACTION_TYPE_POSE_INPUT;
+    XrAction hand = XR_NULL_HANDLE;
+    ATRIUM_XR_CHECK(instance, xrCreateAction(action_set_.handle, &action, &hand));
+    XrPath profile = XR_NULL_PATH, grip = XR_NULL_PATH;
+    ATRIUM_XR_CHECK(instance,
+                    xrStringToPath(instance, "/interaction_profiles/khr/simple_controller", &profile));
+    ATRIUM_XR_CHECK(instance, xrStringToPath(instance, "/user/hand/left/input/grip/pose", &grip));
+    const XrActionSuggestedBinding binding{hand, grip};
+    XrInteractionProfileSuggestedBinding suggested =
+        xr<XrInteractionProfileSuggestedBinding>(XR_TYPE_INTERACTION_PROFILE_SUGGESTED_BINDING);
+    suggested.interactionProfile = profile;
+    suggested.countSuggestedBindings = 1;
+    suggested.suggestedBindings = &binding;
+    ATRIUM_XR_CHECK(instance, xrSuggestInteractionProfileBindings(instance, &suggested));
+    XrSessionActionSetsAttachInfo attach =
+        xr<XrSessionActionSetsAttachInfo>(XR_TYPE_SESSION_ACTION_SETS_ATTACH_INFO);
+    attach.countActionSets = 1;
+    attach.actionSets = &action_set_.handle;
+    ATRIUM_XR_CHECK(instance, xrAttachSessionActionSets(session_.handle, &attach));
 }
 
 void XrApp::create_swapchains() {
@@ -652,6 +687,12 @@ void XrApp::render_eyes(uint64_t frame, const XrView (&head_views)[view_count]) 
 
 bool XrApp::frame_loop_iteration(uint64_t frame) {
     const XrInstance instance = instance_.handle;
+    // The input of the frame (XR_SESSION_NOT_FOCUSED, a success, until the runtime focuses the session).
+    const XrActiveActionSet active{action_set_.handle, XR_NULL_PATH};
+    XrActionsSyncInfo sync = xr<XrActionsSyncInfo>(XR_TYPE_ACTIONS_SYNC_INFO);
+    sync.countActiveActionSets = 1;
+    sync.activeActionSets = &active;
+    ATRIUM_XR_CHECK(instance, xrSyncActions(session_.handle, &sync));
     XrFrameWaitInfo wait = xr<XrFrameWaitInfo>(XR_TYPE_FRAME_WAIT_INFO);
     XrFrameState frame_state = xr<XrFrameState>(XR_TYPE_FRAME_STATE);
     ATRIUM_XR_CHECK(instance, xrWaitFrame(session_.handle, &wait, &frame_state));
@@ -727,6 +768,7 @@ int XrApp::run() {
     create_instance();
     create_vulkan();
     create_session();
+    create_actions();
     create_swapchains();
     create_renderer();
     std::printf("atrium: %s triangles, %u textures, %ux%u per eye, path %s\n",
