@@ -136,13 +136,13 @@ XrResult InstanceGaze::suggest(const XrInteractionProfileSuggestedBinding &info)
         result = vk_.suggest_bindings(instance_, &info);
         return result;
     }
-    application_suggested_ = true;
+    suggested_ = true;
     return result;
 }
 
 XrActionSet InstanceGaze::prepare_attach() {
     if (!ensure_action()) return XR_NULL_HANDLE;
-    if (!application_suggested_) {
+    if (!suggested_) {
         const XrActionSuggestedBinding binding{action_, gaze_pose_};
         auto info =
             xr_struct<XrInteractionProfileSuggestedBinding>(XR_TYPE_INTERACTION_PROFILE_SUGGESTED_BINDING);
@@ -156,6 +156,7 @@ XrActionSet InstanceGaze::prepare_attach() {
                 static_cast<int>(result));
             return XR_NULL_HANDLE;
         }
+        suggested_ = true;
     }
     return set_;
 }

@@ -74,8 +74,10 @@ public:
     // added where it is for the eye-gaze profile.
     XrResult suggest(const XrInteractionProfileSuggestedBinding &info);
     // The action set to attach beside the application's, its binding suggested (alone, where the
-    // application suggested nothing for the eye-gaze profile); null where it cannot be made.
+    // application suggested nothing for the eye-gaze profile); null where it cannot be made. Bindings
+    // are fixed from a session's first attach on, so the suggestion is made once per instance.
     XrActionSet prepare_attach();
+    XrActionSet action_set() const { return set_; }
     XrAction action() const { return action_; }
 
 private:
@@ -88,7 +90,7 @@ private:
     XrPath profile_ = XR_NULL_PATH;
     XrPath gaze_pose_ = XR_NULL_PATH;
     bool failed_ = false;
-    bool application_suggested_ = false; // the application suggested bindings for the eye-gaze profile
+    bool suggested_ = false; // the layer's binding is suggested, alone or merged
 };
 
 // The eye gaze of one XrSession of such an instance, on a system that tracks the eyes.

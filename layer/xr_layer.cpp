@@ -555,11 +555,13 @@ XRAPI_ATTR XrResult XRAPI_CALL SyncActions(XrSession session, const XrActionsSyn
     // with them, every time.
     std::vector<XrActiveActionSet> active(info->activeActionSets,
                                           info->activeActionSets + info->countActiveActionSets);
-    active.push_back({state->instance->gaze->prepare_attach(), XR_NULL_PATH});
+    active.push_back({state->instance->gaze->action_set(), XR_NULL_PATH});
     XrActionsSyncInfo with_ours = *info;
     with_ours.countActiveActionSets = static_cast<uint32_t>(active.size());
     with_ours.activeActionSets = active.data();
-    return vk.sync_actions(session, &with_ours);
+    const XrResult result = vk.sync_actions(session, &with_ours);
+    // An error of the application's own making is for it to see, as the runtime reports it alone.
+    return XR_FAILED(result) ? vk.sync_actions(session, info) : result;
 }
 
 XRAPI_ATTR XrResult XRAPI_CALL WaitFrame(XrSession session, const XrFrameWaitInfo *info,

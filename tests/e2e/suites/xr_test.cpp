@@ -37,6 +37,7 @@
 #include "fovea.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -883,6 +884,140 @@ TEST_F(XrAtrium, GazeFromAPipeMovesEachViewsFovea) {
         "native-mv", "split-mv", /*layered=*/true, [&](int eye) { return at_gaze[eye]; }, /*moved=*/true);
 }
 
+// Where a gaze RIGHT degrees right and UP degrees up of the head's forward direction puts the fovea
+// of an eye image w x h whose eye looks straight ahead with field of view `fov` (degrees: left,
+// right, up, down): the gaze crosses the image plane at (tan RIGHT, tan UP), which lies
+// (tan RIGHT - tan left) / (tan right - tan left) across and (tan up - tan UP) / (tan up - tan down)
+// down; the fovea is centred there, clamped into the image. Float noise in the runtime's poses can
+// move it by a pixel, so callers allow one.
+Rect fovea_at_gaze_angles(double right, double up, const double (&fov)[4], uint32_t w, uint32_t h) {
+    const auto t = [](double degrees) { return std::tan(degrees * M_PI / 180.0); };
+    return fovea_at_gaze((t(right) - t(fov[0])) / (t(fov[1]) - t(fov[0])),
+                         (t(fov[2]) - t(up)) / (t(fov[2]) - t(fov[3])), 0, w, h);
+}
+
+// SPLITVK_GAZE=openxr against Monado's simulated headset, whose eye gaze comes from our patch
+// (scripts/monado-patches/; SIMULATED_EYE_GAZE reaches monado-service from scripts/xr-runtime's
+// environment). Atrium has an action set of its own, which the layer's eye-gaze action rides along
+// with. Per eye image (SPLITVK_STATS names each one's fovea, xr_view its eye), the fovea the frame
+// asked for is bit-exact against native; with a constant gaze it is where the gaze's projection
+// puts it (a pixel either way); with a sweeping gaze it moves from frame to frame; without a gaze on
+// the runtime's side the layer says so once and the foveae stay at the view directions.
+TEST_F(XrAtrium, GazeFromTheRuntimesEyeTrackingMovesExactFoveae) {
+    const uint32_t w = 192, h = 160;
+    const Rect centred = default_foveae(w, h, 1)[0];
+    const auto native = run_atrium(atrium_native_env("native"), "native", {});
+    ASSERT_TRUE(native.ok()) << native.describe() << "\n" << tail(native.err(), 30);
+    // The eyes' fields of view, as atrium prints them.
+    double fov[2][4] = {};
+    const std::regex eye_line(
+        R"(xr: eye (\d) at .* fov left (-?[\d.]+) right (-?[\d.]+) up (-?[\d.]+) down (-?[\d.]+) deg)");
+    int fovs = 0;
+    for (const std::string &line : split_lines(native.out())) {
+        std::smatch m;
+        if (!std::regex_search(line, m, eye_line)) continue;
+        const int eye = std::stoi(m[1]);
+        for (int i = 0; i < 4; ++i)
+            fov[eye][i] = std::stod(m[i + 2]);
+        ++fovs;
+    }
+    ASSERT_EQ(fovs, 2) << tail(native.out(), 10);
+    const auto n = readbacks(out_ / "native" / "images");
+    ASSERT_EQ(n.size(), static_cast<size_t>(2 * kFrames)) << "native eye images read back";
+    Agent agent;
+    ASSERT_TRUE(agent.start(clean_env(), out_)) << agent.error();
+
+    // Each eye image of a split run, compared with native's at the fovea SPLITVK_STATS gives it: the
+    // rectangles of frames 1.. (frame 0 is released before any xrEndFrame, its fovea centred).
+    const auto run_split = [&](const std::string &run, const std::string &gaze,
+                               std::vector<std::array<Rect, 2>> *foveae) {
+        Env e = atrium_split_env(run, agent);
+        e["SPLITVK_GAZE"] = "openxr";
+        if (!gaze.empty()) e["SIMULATED_EYE_GAZE"] = gaze;
+        const auto split = run_atrium(e, run, {});
+        ASSERT_TRUE(split.ok()) << split.describe() << "\n" << tail(split.err(), 30);
+        EXPECT_TRUE(grep(split.err(), "[splitvk] error:").empty()) << tail(split.err(), 30);
+        const bool tracked = !grep(split.err(), "the foveae follow the runtime's eye gaze").empty();
+        const bool refused = !grep(split.err(), "the runtime's system does not track the eyes").empty();
+        EXPECT_EQ(tracked, !gaze.empty()) << tail(split.err(), 30);
+        EXPECT_EQ(refused, gaze.empty()) << tail(split.err(), 30);
+        // The stats' rows by rendered frame (xr_frame from the first) and eye (xr_view).
+        std::map<int, std::map<int, Rect>> by_frame;
+        int first = -1;
+        for (const auto &row : stats_rows(read_file(out_ / run / "stats.csv"))) {
+            const int frame = static_cast<int>(row.at("xr_frame"));
+            if (first < 0) first = frame;
+            by_frame[frame - first][static_cast<int>(row.at("xr_view"))] =
+                Rect{static_cast<uint32_t>(row.at("fovea_x")), static_cast<uint32_t>(row.at("fovea_y")),
+                     static_cast<uint32_t>(row.at("fovea_w")), static_cast<uint32_t>(row.at("fovea_h"))};
+        }
+        ASSERT_EQ(by_frame.size(), static_cast<size_t>(kFrames)) << "stats rows by OpenXR frame";
+        const auto s = readbacks(out_ / run / "images");
+        ASSERT_EQ(s.size(), n.size()) << run << ": eye images read back";
+        uint64_t compared = 0, mismatched = 0;
+        foveae->assign(kFrames, {});
+        for (const auto &[key, native_path] : n) {
+            SCOPED_TRACE(run + ": " + native_path.filename().string());
+            const auto it = s.find(key);
+            ASSERT_NE(it, s.end()) << "no split readback of the same image and release";
+            EyeImage a, b;
+            ASSERT_NO_FATAL_FAILURE(load_pair(native_path, it->second, w, h, &a, &b));
+            const int eye = key.first / 3; // as in AsymmetricFieldOfViewMovesTheFovea
+            const int frame = 3 * key.second + key.first % 3;
+            const auto &rows = by_frame[frame];
+            const auto row = rows.find(frame == 0 ? -1 : eye);
+            ASSERT_NE(row, rows.end()) << "no stats row for frame " << frame << " eye " << eye;
+            const Rect f = row->second;
+            (*foveae)[frame][eye] = f;
+            ASSERT_EQ(f.w, centred.w);
+            const Mismatch m = compare_rect(a, b, f);
+            compared += m.pixels;
+            mismatched += m.mismatched;
+            EXPECT_EQ(m.mismatched, 0u)
+                << "frame " << frame << " eye " << eye << ": fovea at " << f.x << "," << f.y << ": "
+                << m.mismatched << " of " << m.pixels << " texels differ\n"
+                << save_mismatch_artefacts(out_, run + "-" + native_path.stem().string(), to_image(a),
+                                           to_image(b));
+        }
+        std::cout << "  " << run << ": " << compared << " fovea texels compared, " << mismatched
+                  << " differ\n";
+        expect_split_stats(run, 2 * kFrames);
+    };
+
+    // A constant gaze 15 degrees right and 10 down: both eyes' foveae there from frame 1 on.
+    std::vector<std::array<Rect, 2>> foveae;
+    ASSERT_NO_FATAL_FAILURE(run_split("constant", "15 -10", &foveae));
+    for (int eye = 0; eye < 2; ++eye) {
+        const Rect expected = fovea_at_gaze_angles(15, -10, fov[eye], w, h);
+        ASSERT_GT(expected.x, centred.x + 10);
+        ASSERT_GT(expected.y, centred.y + 10);
+        for (int frame = 1; frame < kFrames; ++frame) {
+            const Rect &f = foveae[frame][eye];
+            EXPECT_NEAR(f.x, expected.x, 1) << "frame " << frame << " eye " << eye;
+            EXPECT_NEAR(f.y, expected.y, 1) << "frame " << frame << " eye " << eye;
+        }
+    }
+
+    // A gaze sweeping an ellipse 20 degrees across and 12 up and down every 0.4 s (the null
+    // compositor's 20 Hz frames sample it at 8 points): the foveae move, exact wherever they go.
+    ASSERT_NO_FATAL_FAILURE(run_split("sweeping", "20 12 0.4", &foveae));
+    std::set<std::pair<uint32_t, uint32_t>> places;
+    for (int frame = 1; frame < kFrames; ++frame)
+        places.insert({foveae[frame][0].x, foveae[frame][0].y});
+    EXPECT_GE(places.size(), 3u) << "the fovea of eye 0 hardly moved with the gaze";
+
+    // No gaze on the runtime's side: one warning, and the foveae at the view directions.
+    ASSERT_NO_FATAL_FAILURE(run_split("untracked", "", &foveae));
+    for (int frame = 1; frame < kFrames; ++frame)
+        for (int eye = 0; eye < 2; ++eye) {
+            const float fov_rad[4] = {float(fov[eye][0] * M_PI / 180), float(fov[eye][1] * M_PI / 180),
+                                      float(fov[eye][2] * M_PI / 180), float(fov[eye][3] * M_PI / 180)};
+            const Rect ahead = fovea_at_view(fov_rad, w, h);
+            EXPECT_NEAR(foveae[frame][eye].x, ahead.x, 1) << "frame " << frame << " eye " << eye;
+            EXPECT_NEAR(foveae[frame][eye].y, ahead.y, 1) << "frame " << frame << " eye " << eye;
+        }
+}
+
 // SPLITVK_VERIFY=full on a layered eye image (--multiview; the split is off while verifying): the
 // layer reads back every layer of each released image, as does the agent, and compares them all.
 // The pixel count covers both layers of every frame, and none differs (lavapipe on both sides).
@@ -972,6 +1107,50 @@ TEST_F(Xr, CoreValidationAboveSplitvkReportsNothing) {
     EXPECT_EQ(split_messages, native_messages) << "core validation with splitvk:\n"
                                                << tail(split_messages, 30);
     ASSERT_NO_FATAL_FAILURE(expect_foveae_exact("native", "split"));
+    expect_split_stats("split", 10);
+    expect_no_new_validation("native", "split");
+}
+
+// SPLITVK_GAZE=openxr in hello_xr, which has action sets and suggested bindings of its own for many
+// interaction profiles, with the OpenXR core validation layer BELOW splitvk's API layer, where it
+// sees every call the layer adds (the eye-gaze extension, its action set and action, its binding,
+// the attach and each sync with its set added, its spaces and locates): it must report nothing
+// beyond what it reports natively, hello_xr must run as natively, and the foveae follow the gaze.
+TEST_F(Xr, EyeGazeActionsPassCoreValidationBelowSplitvk) {
+    Env native = native_env("native");
+    add_xr_core_validation(native, "native");
+    native["SIMULATED_EYE_GAZE"] = "10 5 1";
+    const auto n = run_hello_xr(native, "native", 4);
+    ASSERT_TRUE(n.ok()) << n.describe() << "\n" << tail(n.err(), 30);
+    Agent agent;
+    ASSERT_TRUE(agent.start(clean_env(), out_)) << agent.error();
+    Env split = split_env("split", agent);
+    add_xr_core_validation(split, "split");
+    split["XR_ENABLE_API_LAYERS"] = std::string(kXrLayerName) + ":" + kXrCoreValidationName;
+    split["SIMULATED_EYE_GAZE"] = "10 5 1";
+    split["SPLITVK_GAZE"] = "openxr";
+    const auto s = run_hello_xr(split, "split", 4);
+    ASSERT_TRUE(s.ok()) << s.describe() << "\n" << tail(s.err(), 30);
+    const std::string out = s.out();
+    const auto core = out.find(std::string("succeeded loading layer ") + kXrCoreValidationName);
+    const auto ours = out.find(std::string("succeeded loading layer ") + kXrLayerName);
+    ASSERT_NE(core, std::string::npos) << "core validation was not loaded\n" << tail(out, 20);
+    ASSERT_NE(ours, std::string::npos) << "splitvk's API layer was not loaded\n" << tail(out, 20);
+    EXPECT_LT(ours, core) << "core validation must be below splitvk's API layer";
+    EXPECT_FALSE(grep(s.err(), "the foveae follow the runtime's eye gaze").empty()) << tail(s.err(), 30);
+    EXPECT_TRUE(grep(s.err(), "[splitvk] warning:").empty()) << tail(s.err(), 30);
+    EXPECT_TRUE(grep(s.err(), "[splitvk] error:").empty()) << tail(s.err(), 30);
+    const std::string native_messages = read_file(out_ / "native" / "xr-validation.txt");
+    const std::string split_messages = read_file(out_ / "split" / "xr-validation.txt");
+    std::cout << "  OpenXR core validation: " << split_lines(native_messages).size() << " line(s) native, "
+              << split_lines(split_messages).size() << " split\n";
+    EXPECT_EQ(split_messages, native_messages) << "core validation below splitvk:\n"
+                                               << tail(split_messages, 30);
+    // The gaze moved the foveae: the stats' rectangles take more than one place.
+    std::set<std::pair<double, double>> places;
+    for (const auto &row : stats_rows(read_file(out_ / "split" / "stats.csv")))
+        places.insert({row.at("fovea_x"), row.at("fovea_y")});
+    EXPECT_GE(places.size(), 3u) << "the foveae did not follow the sweeping gaze";
     expect_split_stats("split", 10);
     expect_no_new_validation("native", "split");
 }
