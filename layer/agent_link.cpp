@@ -99,6 +99,8 @@ protocol::Hello base_hello(const Settings &settings, const std::string &client_n
     hello.capabilities |= settings.verify
                               ? protocol::capability::kVerifyFrames
                               : protocol::capability::kFoveaTiles | protocol::capability::kAgentScissor;
+    if (!settings.verify && settings.client_renders == ClientRenders::Fovea)
+        hello.capabilities |= protocol::capability::kSwappedSplit;
     return hello;
 }
 

@@ -108,7 +108,17 @@ void Session::adopt_locked(AgentLink &&agent) {
         SPLITVK_WARN("splitvk-agent at %s cannot verify frames; SPLITVK_VERIFY ignored", address_.c_str());
     if (capabilities & protocol::capability::kFoveaTiles) {
         if (!stats_) stats_ = std::make_unique<FrameStats>(settings_.stats_path);
-        splitting_.store(true);
+        // Which side renders what is decided by the first agent that accepts the split, and kept:
+        // the client's screen-space targets are created for it (full size in the swapped split).
+        if (!splitting_.exchange(true) && settings_.client_renders == ClientRenders::Fovea) {
+            if (capabilities & protocol::capability::kSwappedSplit)
+                client_renders_.store(ClientRenders::Fovea);
+            else
+                SPLITVK_WARN(
+                    "splitvk-agent at %s cannot render the periphery (SPLITVK_CLIENT_RENDERS=fovea); "
+                    "the client renders it, and the agent the foveae",
+                    address_.c_str());
+        }
     }
     if (splitting()) {
         // A new agent's tiles are a new stream (its encoders start with an IDR): new decoders.

@@ -84,6 +84,12 @@ public:
     // connected (the centre then comes from the periphery), so command buffers recorded scaled are
     // always composited.
     bool splitting() const { return splitting_.load(std::memory_order_relaxed); }
+    // The swapped split (SPLITVK_CLIENT_RENDERS=fovea, issue 21): Fovea once the first agent that
+    // accepted the split granted kSwappedSplit, for the session's life; Periphery otherwise.
+    ClientRenders client_renders() const { return client_renders_.load(std::memory_order_relaxed); }
+    // The client cuts its passes to the foveae and leaves the periphery to the agent: the swapped
+    // split, while an agent is live to render that periphery.
+    bool cutting() const { return client_renders() == ClientRenders::Fovea && live(); }
     const Settings &settings() const { return settings_; }
     // Split mode: the decoded tiles of the agent (tile_stream.h), and per-frame statistics.
     TileStream *tiles() { return tiles_.get(); }
@@ -257,6 +263,7 @@ private:
     std::atomic<uint64_t> frame_{0};
     bool verify_ = false;
     std::atomic<bool> splitting_{false};
+    std::atomic<ClientRenders> client_renders_{ClientRenders::Periphery};
     Settings settings_;
     uint64_t device_id_ = 0;
     std::string address_;

@@ -73,6 +73,9 @@ inline constexpr uint64_t kFoveaTiles = 1ull << 2; // the split: SplitConfig, fo
 // SplitConfig may carry SPLITVK_AGENT_SCISSOR (issue 11); an agent without it refuses the longer
 // message, so the client sends it only when this bit was granted.
 inline constexpr uint64_t kAgentScissor = 1ull << 3;
+// The swapped split (SPLITVK_CLIENT_RENDERS=fovea, issue 21): the agent renders the periphery and
+// streams it lossily; the client renders the foveae. Offered only by a client that asks for it.
+inline constexpr uint64_t kSwappedSplit = 1ull << 4;
 } // namespace capability
 inline constexpr uint64_t kSupportedCapabilities = capability::kZstdPayloads | capability::kVerifyFrames |
                                                    capability::kFoveaTiles | capability::kAgentScissor;

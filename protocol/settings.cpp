@@ -44,6 +44,14 @@ const SettingInfo kSettings[] = {
     {"AGENT_SCISSOR", "off or guard:N (N pixels, 0 to 4096)", "off",
      "guard:N: the agent also scissors its passes into screen-space targets to the foveae grown by N "
      "pixels of each target; exact only if N covers the reach of every blur or filter"},
+    {"CLIENT_RENDERS", "periphery or fovea", "periphery",
+     "periphery: the client renders the periphery at SCALE and the agent the foveae (the paper's split); "
+     "fovea: the client renders only the foveae at full resolution and the agent the periphery, lossily"},
+    {"PERIPHERY_QUALITY", "0 to 51 (x264 CRF) or lossless", "23",
+     "with CLIENT_RENDERS=fovea: how the agent encodes the periphery (lower is better and larger)"},
+    {"CLIENT_GUARD", "guard:N (N pixels, 0 to 4096) or full", "guard:64",
+     "with CLIENT_RENDERS=fovea: the client cuts its passes into screen-space targets to the foveae grown "
+     "by N pixels of each target (exact only if N covers every blur's reach); full: renders them whole"},
     {"FOVEA_MASK", "depth or off", "depth",
      "depth: the client leaves the foveae out of the periphery it shades, by their depth in its passes into "
      "the "
@@ -245,6 +253,36 @@ bool apply(std::string_view name, std::string_view raw, Settings &s) {
         const auto pixels = parse_uint(std::string_view(v).substr(6));
         if (!pixels || *pixels > kMaxAgentScissorGuard) return false;
         s.agent_scissor = {true, *pixels};
+        return true;
+    }
+    if (name == "CLIENT_RENDERS") {
+        if (v == "periphery")
+            s.client_renders = ClientRenders::Periphery;
+        else if (v == "fovea")
+            s.client_renders = ClientRenders::Fovea;
+        else
+            return false;
+        return true;
+    }
+    if (name == "PERIPHERY_QUALITY") {
+        if (v == "lossless") {
+            s.periphery_quality = {true, 0};
+            return true;
+        }
+        const auto crf = parse_uint(v);
+        if (!crf || *crf > kMaxPeripheryCrf) return false;
+        s.periphery_quality = {false, *crf};
+        return true;
+    }
+    if (name == "CLIENT_GUARD") {
+        if (v == "full") {
+            s.client_guard = {true, 0};
+            return true;
+        }
+        if (!v.starts_with("guard:")) return false;
+        const auto pixels = parse_uint(std::string_view(v).substr(6));
+        if (!pixels || *pixels > kMaxAgentScissorGuard) return false;
+        s.client_guard = {false, *pixels};
         return true;
     }
     if (name == "FOVEA_MASK") {

@@ -39,6 +39,30 @@ struct AgentScissor {
 };
 inline constexpr uint32_t kMaxAgentScissorGuard = 4096;
 
+// SPLITVK_CLIENT_RENDERS (issue 21): which side renders what. Periphery, the paper's split: the
+// client renders the periphery at SPLITVK_SCALE and the agent the foveae, losslessly. Fovea, the
+// swapped split: the client renders only the foveae at full resolution and the agent the periphery,
+// streamed lossily (SPLITVK_PERIPHERY_QUALITY). Decided at the first connection (capability
+// kSwappedSplit); an agent that cannot do it leaves the client on Periphery, with one line.
+enum class ClientRenders { Periphery, Fovea };
+
+// SPLITVK_PERIPHERY_QUALITY (issue 21): the agent's periphery encoding in the swapped split: x264 at
+// constant quality `crf` (0 best .. 51), or lossless.
+struct PeripheryQuality {
+    bool lossless = false;
+    uint32_t crf = 23;
+    bool operator==(const PeripheryQuality &) const = default;
+};
+inline constexpr uint32_t kMaxPeripheryCrf = 51;
+
+// SPLITVK_CLIENT_GUARD (issue 21): in the swapped split, the client's passes into screen-space
+// targets are cut to the foveae grown by `pixels` of each target (the rule of SPLITVK_AGENT_SCISSOR's
+// guard:N, with its caveat), or rendered in full.
+struct ClientGuard {
+    bool full = false;
+    uint32_t pixels = 64;
+};
+
 // SPLITVK_GAZE (issue 22): where the foveae sit. Fixed: centred in each eye (at the view direction
 // under OpenXR), the same every frame; OpenXR: where the runtime's eye tracking says the eyes look
 // (layer/xr_gaze.h; OpenXR eye images only); Fifo: at the gaze points another process writes into a
@@ -72,6 +96,9 @@ struct Settings {
     EyeMode eyes = EyeMode::Auto;
     TargetMode targets = TargetMode::Auto;
     AgentScissor agent_scissor;
+    ClientRenders client_renders = ClientRenders::Periphery;
+    PeripheryQuality periphery_quality;
+    ClientGuard client_guard;
     GazeMode gaze = GazeMode::Fixed;
     // SPLITVK_FOVEA_MASK (issue 22): the client leaves the foveae out of the periphery it shades,
     // through the depth of its passes into the swapchain image, where that is exact (layer/fovea_mask.h).

@@ -120,6 +120,29 @@ TEST_F(SettingsTest, AgentScissorGuard) {
     EXPECT_EQ(load({{"SPLITVK_AGENT_SCISSOR", "guard:0"}}).settings.agent_scissor.pixels, 0u);
 }
 
+// The swapped split's settings (issue 21): which side renders what, the periphery's quality and the
+// client's guard, with their defaults and bounds.
+TEST_F(SettingsTest, SwappedSplit) {
+    const Settings defaults = load({}).settings;
+    EXPECT_EQ(defaults.client_renders, ClientRenders::Periphery);
+    EXPECT_EQ(defaults.periphery_quality, (PeripheryQuality{false, 23}));
+    EXPECT_FALSE(defaults.client_guard.full);
+    EXPECT_EQ(defaults.client_guard.pixels, 64u);
+    const auto loaded = load({{"SPLITVK_CLIENT_RENDERS", "Fovea"},
+                              {"SPLITVK_PERIPHERY_QUALITY", "18"},
+                              {"SPLITVK_CLIENT_GUARD", "guard:16"}});
+    ASSERT_TRUE(loaded.valid());
+    EXPECT_EQ(loaded.settings.client_renders, ClientRenders::Fovea);
+    EXPECT_EQ(loaded.settings.periphery_quality, (PeripheryQuality{false, 18}));
+    EXPECT_EQ(loaded.settings.client_guard.pixels, 16u);
+    EXPECT_TRUE(load({{"SPLITVK_PERIPHERY_QUALITY", "lossless"}}).settings.periphery_quality.lossless);
+    EXPECT_EQ(load({{"SPLITVK_PERIPHERY_QUALITY", "51"}}).settings.periphery_quality.crf, 51u);
+    EXPECT_TRUE(load({{"SPLITVK_CLIENT_GUARD", "full"}}).settings.client_guard.full);
+    EXPECT_FALSE(load({{"SPLITVK_PERIPHERY_QUALITY", "52"}}).valid());
+    EXPECT_FALSE(load({{"SPLITVK_CLIENT_RENDERS", "agent"}}).valid());
+    EXPECT_FALSE(load({{"SPLITVK_CLIENT_GUARD", "guard:4097"}}).valid());
+}
+
 // SPLITVK_UNSUPPORTED: fail (the default) or passthrough, in any case, from the file too.
 TEST_F(SettingsTest, UnsupportedExtensions) {
     EXPECT_EQ(load({}).settings.unsupported, UnsupportedMode::Fail);
@@ -174,6 +197,9 @@ TEST_F(SettingsTest, InvalidValuesAreOneLineErrorsNamingTheSetting) {
         {"EYES", {"", "0", "3", "both", "two"}},
         {"TARGETS", {"", "all", "offscreen", "1"}},
         {"AGENT_SCISSOR", {"", "on", "guard", "guard:", "guard:-1", "guard:4097", "guard:1.5", "64"}},
+        {"CLIENT_RENDERS", {"", "both", "agent", "1", "foveae"}},
+        {"PERIPHERY_QUALITY", {"", "-1", "52", "23.5", "best", "lossy"}},
+        {"CLIENT_GUARD", {"", "off", "guard", "guard:", "guard:-1", "guard:4097", "64"}},
         {"GAZE", {"", "fifo:", "fifo", "pipe:/tmp/gaze", "eyes", "1"}},
         {"CODEC", {"", "h264", "x265", "lz4"}},
         {"TILE_WAIT", {"", "0", "-5", "60001", "1.5", "soon"}},

@@ -112,6 +112,9 @@ const std::map<std::string, std::string> &bad_values() {
         {"EYES", "3"},                 // auto, 1 or 2
         {"TARGETS", "offscreen"},      // auto or swapchain
         {"AGENT_SCISSOR", "guard:-8"}, // off or guard:N
+        {"CLIENT_RENDERS", "both"},    // periphery or fovea
+        {"PERIPHERY_QUALITY", "52"},   // CRF 0 to 51
+        {"CLIENT_GUARD", "guard:x"},   // guard:N or full
         {"GAZE", "pipe:/tmp/gaze"},    // not a gaze source
         {"CODEC", "h265"},             // not a codec splitvk has
         {"TILE_WAIT", "0"},            // 1 to 60000
