@@ -10,6 +10,7 @@
 #include <chrono>
 #include <filesystem>
 #include <map>
+#include <regex>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -65,6 +66,24 @@ inline std::string first_message(const std::string &log) {
         if (messages == 1) first += l + "\n";
     }
     return first + "(" + std::to_string(messages) + " message(s) in all)";
+}
+
+// The files in `dir` whose names `name` matches whole, each with the numbers its groups match (all
+// decimal): for image(\d+)-(\d+)\.pam, image3-00012.pam gives {3, 12}.
+inline std::vector<std::pair<std::vector<int>, std::filesystem::path>>
+numbered_files(const std::filesystem::path &dir, const std::regex &name) {
+    std::vector<std::pair<std::vector<int>, std::filesystem::path>> files;
+    std::error_code ec;
+    for (const auto &entry : std::filesystem::directory_iterator(dir, ec)) {
+        std::smatch m;
+        const std::string file = entry.path().filename().string();
+        if (!std::regex_match(file, m, name)) continue;
+        std::vector<int> numbers;
+        for (size_t i = 1; i < m.size(); ++i)
+            numbers.push_back(std::stoi(m[i]));
+        files.emplace_back(std::move(numbers), entry.path());
+    }
+    return files;
 }
 
 // A CSV of SPLITVK_STATS as rows of named numbers.

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <limits>
 #include <sstream>
 #include <unordered_set>
@@ -150,6 +151,26 @@ double ssim(const Image &reference, const Image &test) {
         total += ((2 * ma * mb + c1) * (2 * cov + c2)) / ((ma * ma + mb * mb + c1) * (va + vb + c2));
     }
     return total / static_cast<double>(mu_a.size());
+}
+
+bool read_pam(const std::filesystem::path &path, uint32_t *width, uint32_t *height,
+              std::vector<uint8_t> *texels) {
+    std::ifstream in(path, std::ios::binary);
+    std::string line;
+    uint32_t depth = 0;
+    *width = *height = 0;
+    while (std::getline(in, line) && line != "ENDHDR") {
+        std::istringstream fields(line);
+        std::string name;
+        fields >> name;
+        if (name == "WIDTH") fields >> *width;
+        if (name == "HEIGHT") fields >> *height;
+        if (name == "DEPTH") fields >> depth;
+    }
+    if (depth != 4 || *width == 0 || *height == 0) return false;
+    texels->resize(size_t{*width} * *height * 4);
+    in.read(reinterpret_cast<char *>(texels->data()), static_cast<std::streamsize>(texels->size()));
+    return in.gcount() == static_cast<std::streamsize>(texels->size());
 }
 
 size_t distinct_colours(const Image &img) {

@@ -43,6 +43,12 @@ CompareResult compare_exact(const Image &a, const Image &b, uint32_t x, uint32_t
 double psnr(const Image &reference, const Image &test);
 double ssim(const Image &reference, const Image &test);
 
+// A file VK_LAYER_SPLITVK_test_xr_readback (xr_readback_layer/) wrote: a PAM of 4-byte texels, rows
+// packed, read into *texels unconverted (a B8G8R8A8 image's texels are what Image::bgr0 holds).
+// False unless the file is one, whole.
+bool read_pam(const std::filesystem::path &path, uint32_t *width, uint32_t *height,
+              std::vector<uint8_t> *texels);
+
 // Number of distinct colours, to tell a rendered picture from a blank or nearly blank window.
 size_t distinct_colours(const Image &img);
 

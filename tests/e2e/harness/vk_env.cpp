@@ -125,19 +125,22 @@ void use_hold_layer(Env &env, int frame) {
     env["TEST_HOLD_FRAME"] = std::to_string(frame);
 }
 
-void use_present_fault_layer(Env &env, const std::string &fault) {
+void use_bottom_layer(Env &env, const std::string &name, const std::filesystem::path &dir) {
     const auto layers = env.find("VK_INSTANCE_LAYERS");
-    env["VK_INSTANCE_LAYERS"] = layers == env.end() || layers->second.empty()
-                                    ? std::string(kPresentFaultLayerName)
-                                    : layers->second + ":" + kPresentFaultLayerName;
+    env["VK_INSTANCE_LAYERS"] =
+        layers == env.end() || layers->second.empty() ? name : layers->second + ":" + name;
     // One folder after the other, top first: this loader chains explicit layers in the order their
     // manifests are found, and VK_LAYER_PATH replaces the system's folders (which VK_ADD_LAYER_PATH
     // is searched before).
     const auto added = env.find("VK_ADD_LAYER_PATH");
     std::string path = added == env.end() || added->second.empty() ? "" : added->second + ":";
-    path += std::string(kSystemExplicitLayers) + ":" + SPLITVK_E2E_PRESENT_FAULT_LAYER_DIR;
+    path += std::string(kSystemExplicitLayers) + ":" + dir.string();
     env.erase("VK_ADD_LAYER_PATH");
     env["VK_LAYER_PATH"] = path;
+}
+
+void use_present_fault_layer(Env &env, const std::string &fault) {
+    use_bottom_layer(env, kPresentFaultLayerName, SPLITVK_E2E_PRESENT_FAULT_LAYER_DIR);
     env["TEST_PRESENT_FAULT"] = fault;
 }
 

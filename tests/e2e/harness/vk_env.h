@@ -45,13 +45,16 @@ void use_explicit_layers(Env &env, const std::vector<std::string> &layers);
 // the app: after presenting frame `frame` the app prints "holding frame N" and freezes until
 // signalled. Call after use_explicit_layers() (or on an env without layers).
 void use_hold_layer(Env &env, int frame);
-// Puts VK_LAYER_SPLITVK_test_present_fault (tests/e2e/present_fault_layer) in VK_INSTANCE_LAYERS,
-// at the bottom of the chain, next to the driver: below the layers found through
-// VK_ADD_LAYER_PATH (splitvk) and below the system's explicit layers (validation, which so sees
-// the answer the layer above it got). The driver's present answers `fault` ("out_of_date:N",
-// "suboptimal:N") once. Call after use_explicit_layers() (or on an env without layers).
-inline constexpr const char *kPresentFaultLayerName = "VK_LAYER_SPLITVK_test_present_fault";
+// Puts the layer `name`, whose manifest is in `dir`, in VK_INSTANCE_LAYERS at the bottom of the
+// chain, next to the driver: below the layers found through VK_ADD_LAYER_PATH (splitvk) and below
+// the system's explicit layers (validation). Call after use_explicit_layers() (or on an env without
+// layers).
 inline constexpr const char *kSystemExplicitLayers = "/usr/share/vulkan/explicit_layer.d";
+void use_bottom_layer(Env &env, const std::string &name, const std::filesystem::path &dir);
+// Puts VK_LAYER_SPLITVK_test_present_fault (tests/e2e/present_fault_layer) at the bottom of the
+// chain (use_bottom_layer; validation so sees the answer the layer above it got). The driver's
+// present answers `fault` ("out_of_date:N", "suboptimal:N") once.
+inline constexpr const char *kPresentFaultLayerName = "VK_LAYER_SPLITVK_test_present_fault";
 void use_present_fault_layer(Env &env, const std::string &fault);
 // The build tree's implicit manifest becomes visible (XDG_DATA_DIRS = <build>/share:/usr/share);
 // the layer is then enabled only through SPLITVK_ENABLE=1, which this does not set.

@@ -39,6 +39,7 @@ using namespace std::chrono_literals;
 constexpr uint32_t kWidth = 2400;
 constexpr uint32_t kHeight = 1080;
 constexpr int kFrames = 4; // the frame compared is frame 3, after some animation
+constexpr const char *kPresentReadbackLayerName = "VK_LAYER_SPLITVK_test_xr_readback";
 
 // The whole-frame floors. The periphery is rendered at 0.6 of the resolution in each direction and
 // upsampled, so the frame cannot equal native outside the foveae. Measured on atrium at 2400x1080
@@ -1349,39 +1350,105 @@ TEST_F(Split, FoveaMaskLeavesTheFrameUnchanged) {
     expect_clean_validation();
 }
 
+// The presented images VK_LAYER_SPLITVK_test_xr_readback wrote to `dir` (present-<N>.pam): N -> path.
+std::map<int, std::filesystem::path> present_readbacks(const std::filesystem::path &dir) {
+    std::map<int, std::filesystem::path> all;
+    for (const auto &[numbers, path] : numbered_files(dir, std::regex(R"(present-(\d+)\.pam)")))
+        all[numbers[0]] = path;
+    return all;
+}
+
+bool load_present(const std::filesystem::path &path, Image *image) {
+    return read_pam(path, &image->width, &image->height, &image->bgr0);
+}
+
 // The mask with SPLITVK_FOVEA=auto follows the fovea's size. At SPLITVK_SCALE=1 the periphery is
 // native's pixel for pixel, so a masked texel the tiles did not cover would show as a difference
-// from native: the frame on screen at the end must equal native everywhere. SPLITVK_MAX_MBPS far
-// below any traffic shrinks the fovea a step per window, so that masks and sizes change during the
-// run. Only the last frame is grabbed, and it is not one where the size changed: that a frame is
-// never smaller than what its passes masked (split.cpp, take_split_frame) is held by the tracker's
-// unit test (SplitTracker.TheLargestMaskOfAFrameIsKept), not here.
+// from native. SPLITVK_MAX_MBPS far below any traffic shrinks the fovea a step per window, so that
+// masks and sizes change during the run. A frame where the size shrinks is one that can show a hole
+// (composited smaller than what its passes masked: split.cpp, take_split_frame; the tracker's unit
+// test SplitTracker.TheLargestMaskOfAFrameIsKept holds the rule too), and the last frame, the one on
+// screen at the end, is never one of them: so VK_LAYER_SPLITVK_test_xr_readback, below splitvk and
+// validation, writes every presented image of both runs (the application's frame with splitvk's
+// composite), and every split frame must equal native's frame of the same number everywhere (atrium
+// draws frame N alike on every run). The frame on screen at the end must too.
 TEST_F(Split, FoveaMaskFollowsAnAutoFoveaWithoutHoles) {
     constexpr int kAutoFrames = 30;
     ASSERT_NO_FATAL_FAILURE(start_agent());
+    ASSERT_TRUE(built(SPLITVK_E2E_XR_READBACK_LAYER_DIR));
+    const auto with_readback = [&](Env e, const std::string &run) {
+        use_bottom_layer(e, kPresentReadbackLayerName, SPLITVK_E2E_XR_READBACK_LAYER_DIR);
+        std::filesystem::create_directories(out_ / (run + "-presents"));
+        e["TEST_PRESENT_READBACK_DIR"] = (out_ / (run + "-presents")).string();
+        return e;
+    };
     Grab native, masked;
-    ASSERT_NO_FATAL_FAILURE(
-        run_and_grab(atrium_argv(2, kAutoFrames, false), env(), "native", kAutoFrames, &native));
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(atrium_argv(2, kAutoFrames, false), with_readback(env(), "native"),
+                                         "native", kAutoFrames, &native));
     Env e = split_env();
     e["SPLITVK_EYES"] = "2";
     e["SPLITVK_SCALE"] = "1";
     e["SPLITVK_FOVEA"] = "auto";
     e["SPLITVK_MAX_MBPS"] = "0.001";
     e["SPLITVK_STATS"] = (out_ / "stats.csv").string();
+    e = with_readback(e, "split");
+    enable_loader_debug(e);
     ASSERT_NO_FATAL_FAILURE(
         run_and_grab(atrium_argv(2, kAutoFrames, false), e, "split", kAutoFrames, &masked));
-    EXPECT_FALSE(grep(masked.result.err(), "leaves its foveae unshaded (depth mask)").empty())
-        << tail(masked.result.err(), 30);
-    std::set<double> widths;
+    const std::string &err = masked.result.err();
+    EXPECT_FALSE(grep(err, "leaves its foveae unshaded (depth mask)").empty()) << tail(err, 30);
+    const auto stack = instance_layer_stack(err);
+    const int splitvk = stack_index(stack, kLayerName);
+    const int validation = stack_index(stack, kValidationLayerName);
+    const int readback = stack_index(stack, kPresentReadbackLayerName);
+    ASSERT_GE(splitvk, 0) << "splitvk is not in the chain";
+    ASSERT_GE(readback, 0) << "the readback layer is not in the chain";
+    EXPECT_LT(splitvk, validation) << "splitvk must be above validation";
+    EXPECT_LT(validation, readback) << "the readback layer must be below validation";
+
+    std::map<int, double> widths; // frame -> fovea_w
     for (const auto &row : stats_rows(read_file(out_ / "stats.csv"))) {
         EXPECT_EQ(row.at("late"), 0) << "frame " << row.at("frame");
-        widths.insert(row.at("fovea_w"));
+        widths[static_cast<int>(row.at("frame"))] = row.at("fovea_w");
     }
-    EXPECT_GE(widths.size(), 2u) << "the fovea never changed size";
+    std::set<double> sizes;
+    for (const auto &[frame, w] : widths)
+        sizes.insert(w);
+    EXPECT_GE(sizes.size(), 2u) << "the fovea never changed size";
+
+    const auto native_presents = present_readbacks(out_ / "native-presents");
+    const auto split_presents = present_readbacks(out_ / "split-presents");
+    EXPECT_GE(split_presents.size(), static_cast<size_t>(kAutoFrames));
+    EXPECT_EQ(split_presents.size(), native_presents.size());
+    int compared = 0, transitions = 0, with_holes = 0;
+    for (const auto &[n, path] : split_presents) {
+        const auto it = native_presents.find(n);
+        ASSERT_NE(it, native_presents.end()) << "native has no present " << n;
+        Image a, b;
+        ASSERT_TRUE(load_present(it->second, &a)) << it->second;
+        ASSERT_TRUE(load_present(path, &b)) << path;
+        ASSERT_EQ(a.width, kWidth);
+        ASSERT_EQ(a.height, kHeight);
+        ++compared;
+        if (widths.count(n) && widths.count(n - 1) && widths.at(n) != widths.at(n - 1)) ++transitions;
+        const auto same = compare_exact(a, b);
+        if (!same.equal() && ++with_holes <= 3)
+            ADD_FAILURE() << "present " << n << " (fovea_w " << (widths.count(n) ? widths.at(n) : -1)
+                          << ") has a hole: " << same.summary() << "\n"
+                          << save_mismatch_artefacts(out_, "present-" + std::to_string(n), a, b);
+    }
+    std::cout << "  " << compared << " presented frames compared with native, " << with_holes
+              << " differ; the fovea changed size at " << transitions << " of them\n";
+    EXPECT_EQ(with_holes, 0);
+    EXPECT_GE(transitions, 1) << "no compared frame changed the fovea's size";
     const auto same = compare_exact(native.image, masked.image);
-    EXPECT_TRUE(same.equal()) << "a hole in the periphery: " << same.summary() << "\n"
+    EXPECT_TRUE(same.equal()) << "a hole in the periphery on screen: " << same.summary() << "\n"
                               << save_mismatch_artefacts(out_, "auto-masked", native.image, masked.image);
     expect_clean_validation();
+    if (!HasFailure()) { // 10 MB a frame: kept only to look into a failure
+        std::filesystem::remove_all(out_ / "native-presents");
+        std::filesystem::remove_all(out_ / "split-presents");
+    }
 }
 
 // SPLITVK_GAZE=fifo:PATH (issue 22): the foveae follow gaze points written into a named pipe. The

@@ -72,21 +72,7 @@ struct EyeImage {
 };
 
 bool load_pam(const std::filesystem::path &path, EyeImage *image) {
-    std::ifstream in(path, std::ios::binary);
-    std::string line;
-    uint32_t depth = 0;
-    while (std::getline(in, line) && line != "ENDHDR") {
-        std::istringstream fields(line);
-        std::string name;
-        fields >> name;
-        if (name == "WIDTH") fields >> image->width;
-        if (name == "HEIGHT") fields >> image->height;
-        if (name == "DEPTH") fields >> depth;
-    }
-    if (depth != 4 || image->width == 0 || image->height == 0) return false;
-    image->rgba.resize(size_t{image->width} * image->height * 4);
-    in.read(reinterpret_cast<char *>(image->rgba.data()), static_cast<std::streamsize>(image->rgba.size()));
-    return in.gcount() == static_cast<std::streamsize>(image->rgba.size());
+    return read_pam(path, &image->width, &image->height, &image->rgba);
 }
 
 // The native and split readbacks of one released image, both `width` x `height`.
@@ -117,15 +103,10 @@ Image to_image(const EyeImage &e) {
 // The newest readback of each eye image in `dir` (image<K>-<N>.pam): K -> (N, path).
 std::map<int, std::pair<int, std::filesystem::path>> newest_readbacks(const std::filesystem::path &dir) {
     std::map<int, std::pair<int, std::filesystem::path>> newest;
-    const std::regex name(R"(image(\d+)-(\d+)\.pam)");
-    std::error_code ec;
-    for (const auto &entry : std::filesystem::directory_iterator(dir, ec)) {
-        std::smatch m;
-        const std::string file = entry.path().filename().string();
-        if (!std::regex_match(file, m, name)) continue;
-        const int k = std::stoi(m[1]), n = std::stoi(m[2]);
+    for (const auto &[numbers, path] : numbered_files(dir, std::regex(R"(image(\d+)-(\d+)\.pam)"))) {
+        const int k = numbers[0], n = numbers[1];
         auto it = newest.find(k);
-        if (it == newest.end() || it->second.first < n) newest[k] = {n, entry.path()};
+        if (it == newest.end() || it->second.first < n) newest[k] = {n, path};
     }
     return newest;
 }
@@ -413,13 +394,8 @@ protected:
     // Every readback in `dir`: (K, N) -> path.
     static std::map<std::pair<int, int>, std::filesystem::path> readbacks(const std::filesystem::path &dir) {
         std::map<std::pair<int, int>, std::filesystem::path> all;
-        const std::regex name(R"(image(\d+)-(\d+)\.pam)");
-        std::error_code ec;
-        for (const auto &entry : std::filesystem::directory_iterator(dir, ec)) {
-            std::smatch m;
-            const std::string file = entry.path().filename().string();
-            if (std::regex_match(file, m, name)) all[{std::stoi(m[1]), std::stoi(m[2])}] = entry.path();
-        }
+        for (const auto &[numbers, path] : numbered_files(dir, std::regex(R"(image(\d+)-(\d+)\.pam)")))
+            all[{numbers[0], numbers[1]}] = path;
         return all;
     }
 

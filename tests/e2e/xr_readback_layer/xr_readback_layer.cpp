@@ -1,20 +1,31 @@
-// VK_LAYER_SPLITVK_test_xr_readback: a test-only layer that shows what an OpenXR runtime receives.
-// An OpenXR application hands each eye image to the runtime with a barrier that releases it to
-// VK_QUEUE_FAMILY_EXTERNAL; Monado records that barrier once per image, in a command buffer of its
-// own on the application's device, and submits it at every xrReleaseSwapchainImage. The tests put
-// this layer BELOW splitvk and validation, next to the driver, so that it sees the image exactly as
-// the runtime gets it: after the application's rendering and splitvk's composite.
+// VK_LAYER_SPLITVK_test_xr_readback: a test-only layer that shows what leaves the application's
+// device: the eye images an OpenXR runtime receives, and the images a window present shows. The
+// tests put it BELOW splitvk and validation, next to the driver, so that it sees each image exactly
+// as the runtime or the window system gets it: after the application's rendering and splitvk's
+// composite.
 //
-// It remembers, per command buffer, the images its vkCmdPipelineBarrier(2) release to the external
-// queue family (cleared at vkBeginCommandBuffer). At a vkQueueSubmit of such a command buffer, before
-// passing the submit down, it waits for the queue, copies each image (in the layout the barrier
-// releases it from, transitioned there and back with a command buffer of its own) to a host buffer
-// and writes it to $TEST_XR_READBACK_DIR/image<K>-<N>.pam: K numbers the images with external memory
-// (the runtime's) in the order they were created, N counts that image's releases from 0. A PAM file
-// (P7, TUPLTYPE RGB_ALPHA for 4-byte texels, GRAYSCALE otherwise) holds the texels unconverted; the
-// layers the barrier releases (both eyes of a layered image drawn with multiview) one below the
+// OpenXR (with TEST_XR_READBACK_DIR): an OpenXR application hands each eye image to the runtime
+// with a barrier that releases it to VK_QUEUE_FAMILY_EXTERNAL; Monado records that barrier once per
+// image, in a command buffer of its own on the application's device, and submits it at every
+// xrReleaseSwapchainImage. The layer remembers, per command buffer, the images its
+// vkCmdPipelineBarrier(2) release to the external queue family (cleared at vkBeginCommandBuffer). At a
+// vkQueueSubmit of such a command buffer, before passing the submit down, it waits for the queue,
+// copies each image (in the layout the barrier releases it from) and writes it to
+// $TEST_XR_READBACK_DIR/image<K>-<N>.pam: K numbers the images with external memory (the runtime's)
+// in the order they were created, N counts that image's releases from 0. With
+// TEST_XR_READBACK_KEEP=M only each image's last M files are kept.
+//
+// Windows (with TEST_PRESENT_READBACK_DIR): the layer knows each swapchain's images, format and
+// extent (vkCreateSwapchainKHR, vkGetSwapchainImagesKHR) and each queue's family (vkGetDeviceQueue(2)).
+// At a vkQueuePresentKHR, before passing it down, it waits for the present's semaphores and the queue,
+// copies each presented image (in VK_IMAGE_LAYOUT_PRESENT_SRC_KHR) and writes it to
+// $TEST_PRESENT_READBACK_DIR/present-<N>.pam: N counts the process's presented images from 0 (one
+// per swapchain a present names), whichever thread presents (splitvk's present thread does).
+//
+// Each copy is transitioned from its layout and back with a command buffer of the layer's own. A
+// PAM file (P7, TUPLTYPE RGB_ALPHA for 4-byte texels, GRAYSCALE otherwise) holds the texels
+// unconverted; the layers copied (both eyes of a layered image drawn with multiview) one below the
 // other, so that a file of an image of L layers is L times its height.
-// With TEST_XR_READBACK_KEEP=M only each image's last M files are kept.
 //
 // Its own Vulkan calls go to the next layer (the driver), so that no layer above it sees them.
 // Built into the build tree only and never installed.
@@ -55,7 +66,13 @@ using test_layer::key;
     X(AllocateMemory)                                                                                        \
     X(FreeMemory)                                                                                            \
     X(BindBufferMemory)                                                                                      \
-    X(MapMemory)
+    X(MapMemory)                                                                                             \
+    X(GetDeviceQueue)                                                                                        \
+    X(GetDeviceQueue2)                                                                                       \
+    X(CreateSwapchainKHR)                                                                                    \
+    X(DestroySwapchainKHR)                                                                                   \
+    X(GetSwapchainImagesKHR)                                                                                 \
+    X(QueuePresentKHR)
 
 struct Device {
     VkDevice handle = VK_NULL_HANDLE;
@@ -77,12 +94,22 @@ struct ImageInfo {
     uint64_t releases = 0; // readbacks written so far
 };
 
-// An image a command buffer releases to VK_QUEUE_FAMILY_EXTERNAL.
-struct Release {
+// An image to copy: one a command buffer releases to VK_QUEUE_FAMILY_EXTERNAL (layout and family
+// those the barrier releases it from), or a presented one (VK_IMAGE_LAYOUT_PRESENT_SRC_KHR, the
+// presenting queue's family).
+struct CopySource {
     VkImage image = VK_NULL_HANDLE;
-    VkImageLayout layout = VK_IMAGE_LAYOUT_UNDEFINED; // the layout the barrier releases it from
-    uint32_t family = 0;                              // the queue family it releases it from
+    VkImageLayout layout = VK_IMAGE_LAYOUT_UNDEFINED; // the layout it is in, and is left in
+    uint32_t family = 0;                              // the queue family that owns it
     VkImageSubresourceRange range{};
+};
+
+// A window swapchain, as vkCreateSwapchainKHR made it and vkGetSwapchainImagesKHR named its images.
+struct Swapchain {
+    VkFormat format = VK_FORMAT_UNDEFINED;
+    VkExtent2D extent{};
+    uint32_t layers = 1;
+    std::vector<VkImage> images;
 };
 
 std::mutex g_mutex;
@@ -90,7 +117,10 @@ std::unordered_map<test_layer::DispatchKey, Device>
     g_devices; // a device's queues and command buffers share its key
 std::unordered_map<VkImage, ImageInfo> g_images;
 int g_external_images = 0;
-std::unordered_map<VkCommandBuffer, std::vector<Release>> g_releases;
+std::unordered_map<VkCommandBuffer, std::vector<CopySource>> g_releases;
+std::unordered_map<VkSwapchainKHR, Swapchain> g_swapchains;
+std::unordered_map<VkQueue, uint32_t> g_queue_families;
+uint64_t g_presented_images = 0; // window readbacks numbered so far
 std::mutex g_readback_mutex;
 
 Device &device_of(const void *dispatchable) {
@@ -126,7 +156,7 @@ uint32_t host_memory_type(const Device &d, uint32_t type_bits) {
     return UINT32_MAX;
 }
 
-void barrier(const Device &d, VkCommandBuffer cb, const Release &r, VkImageLayout from, VkImageLayout to) {
+void barrier(const Device &d, VkCommandBuffer cb, const CopySource &r, VkImageLayout from, VkImageLayout to) {
     VkImageMemoryBarrier b{};
     b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
     b.srcAccessMask = VK_ACCESS_MEMORY_WRITE_BIT | VK_ACCESS_MEMORY_READ_BIT;
@@ -162,19 +192,19 @@ std::filesystem::path readback_path(const std::string &dir, int ordinal, uint64_
     return std::filesystem::path(dir) / name;
 }
 
-// Copies level 0 of the layers the release names to a file. The queue is idle; the image is in r.layout.
-// Called under g_readback_mutex (the layer's command pools are used from one thread at a time).
-void read_back(Device &d, VkQueue queue, const Release &r, const std::string &dir) {
-    ImageInfo info;
-    {
-        std::lock_guard lock(g_mutex);
-        const auto it = g_images.find(r.image);
-        if (it == g_images.end() || it->second.ordinal < 0 || texel_size(it->second.format) == 0) return;
-        info = it->second;
-        ++it->second.releases;
-    }
+std::filesystem::path present_path(const std::string &dir, uint64_t presented) {
+    char name[64];
+    std::snprintf(name, sizeof name, "present-%05llu.pam", static_cast<unsigned long long>(presented));
+    return std::filesystem::path(dir) / name;
+}
+
+// Copies level 0 of the layers r.range names of an image `info` describes to `path`. The queue is
+// idle; the image is in r.layout, and is again when this returns. Called under g_readback_mutex (the
+// layer's command pools are used from one thread at a time).
+bool copy_to_file(Device &d, VkQueue queue, const CopySource &r, ImageInfo info,
+                  const std::filesystem::path &path) {
     const uint32_t base = r.range.baseArrayLayer;
-    if (base >= info.layers) return;
+    if (base >= info.layers || texel_size(info.format) == 0) return false;
     info.layers = r.range.layerCount == VK_REMAINING_ARRAY_LAYERS
                       ? info.layers - base
                       : std::min(r.range.layerCount, info.layers - base);
@@ -185,7 +215,7 @@ void read_back(Device &d, VkQueue queue, const Release &r, const std::string &di
         VkCommandPoolCreateInfo pool_info{};
         pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
         pool_info.queueFamilyIndex = r.family;
-        if (d.CreateCommandPool(d.handle, &pool_info, nullptr, &pool) != VK_SUCCESS) return;
+        if (d.CreateCommandPool(d.handle, &pool_info, nullptr, &pool) != VK_SUCCESS) return false;
     }
     VkBufferCreateInfo buffer_info{};
     buffer_info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
@@ -237,21 +267,34 @@ void read_back(Device &d, VkQueue queue, const Release &r, const std::string &di
         ok = d.QueueSubmit(queue, 1, &submit, VK_NULL_HANDLE) == VK_SUCCESS &&
              d.QueueWaitIdle(queue) == VK_SUCCESS;
     }
-    if (ok) {
-        const auto path = readback_path(dir, info.ordinal, info.releases);
-        write_pam(path, info, static_cast<const uint8_t *>(mapped));
-        const char *keep = std::getenv("TEST_XR_READBACK_KEEP");
-        const uint64_t m = keep ? std::strtoull(keep, nullptr, 10) : 0;
-        if (m > 0 && info.releases >= m) {
-            std::error_code ec;
-            std::filesystem::remove(readback_path(dir, info.ordinal, info.releases - m), ec);
-        }
-    } else {
-        std::fprintf(stderr, "xr_readback: reading back image %d failed\n", info.ordinal);
-    }
+    if (ok) write_pam(path, info, static_cast<const uint8_t *>(mapped));
     if (cb) d.FreeCommandBuffers(d.handle, pool, 1, &cb);
     if (buffer) d.DestroyBuffer(d.handle, buffer, nullptr);
     if (memory) d.FreeMemory(d.handle, memory, nullptr);
+    return ok;
+}
+
+// An eye image a submit releases to the runtime, to $TEST_XR_READBACK_DIR. The queue is idle.
+// Called under g_readback_mutex.
+void read_back_release(Device &d, VkQueue queue, const CopySource &r, const std::string &dir) {
+    ImageInfo info;
+    {
+        std::lock_guard lock(g_mutex);
+        const auto it = g_images.find(r.image);
+        if (it == g_images.end() || it->second.ordinal < 0 || texel_size(it->second.format) == 0) return;
+        info = it->second;
+        ++it->second.releases;
+    }
+    if (!copy_to_file(d, queue, r, info, readback_path(dir, info.ordinal, info.releases))) {
+        std::fprintf(stderr, "xr_readback: reading back image %d failed\n", info.ordinal);
+        return;
+    }
+    const char *keep = std::getenv("TEST_XR_READBACK_KEEP");
+    const uint64_t m = keep ? std::strtoull(keep, nullptr, 10) : 0;
+    if (m > 0 && info.releases >= m) {
+        std::error_code ec;
+        std::filesystem::remove(readback_path(dir, info.ordinal, info.releases - m), ec);
+    }
 }
 
 // ------------------------------------------------------------------------------------ entry points
@@ -334,7 +377,7 @@ VKAPI_ATTR void VKAPI_CALL CmdPipelineBarrier2KHR(VkCommandBuffer cb, const VkDe
 VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit(VkQueue queue, uint32_t count, const VkSubmitInfo *submits,
                                            VkFence fence) {
     Device &d = device_of(queue);
-    std::vector<Release> releases;
+    std::vector<CopySource> releases;
     {
         std::lock_guard lock(g_mutex);
         for (uint32_t s = 0; s < count; ++s)
@@ -349,10 +392,130 @@ VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit(VkQueue queue, uint32_t count, const 
         // Everything submitted before (the application's rendering, splitvk's composite) is done.
         d.QueueWaitIdle(queue);
         std::lock_guard lock(g_readback_mutex);
-        for (const Release &r : releases)
-            read_back(d, queue, r, dir);
+        for (const CopySource &r : releases)
+            read_back_release(d, queue, r, dir);
     }
     return d.QueueSubmit(queue, count, submits, fence);
+}
+
+VKAPI_ATTR void VKAPI_CALL GetDeviceQueue(VkDevice device, uint32_t family, uint32_t index, VkQueue *queue) {
+    device_of(device).GetDeviceQueue(device, family, index, queue);
+    std::lock_guard lock(g_mutex);
+    g_queue_families[*queue] = family;
+}
+
+VKAPI_ATTR void VKAPI_CALL GetDeviceQueue2(VkDevice device, const VkDeviceQueueInfo2 *info, VkQueue *queue) {
+    device_of(device).GetDeviceQueue2(device, info, queue);
+    if (!*queue) return; // no queue with those flags
+    std::lock_guard lock(g_mutex);
+    g_queue_families[*queue] = info->queueFamilyIndex;
+}
+
+const char *present_readback_dir() {
+    const char *dir = std::getenv("TEST_PRESENT_READBACK_DIR");
+    return dir && *dir ? dir : nullptr;
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL CreateSwapchainKHR(VkDevice device, const VkSwapchainCreateInfoKHR *info,
+                                                  const VkAllocationCallbacks *alloc,
+                                                  VkSwapchainKHR *swapchain) {
+    Device &d = device_of(device);
+    VkSwapchainCreateInfoKHR created = *info;
+    // Presented images are copied from; validation (above) never sees the added usage.
+    if (present_readback_dir()) created.imageUsage |= VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+    const VkResult result = d.CreateSwapchainKHR(device, &created, alloc, swapchain);
+    if (result == VK_SUCCESS) {
+        std::lock_guard lock(g_mutex);
+        g_swapchains[*swapchain] = {info->imageFormat, info->imageExtent, info->imageArrayLayers, {}};
+    }
+    return result;
+}
+
+VKAPI_ATTR void VKAPI_CALL DestroySwapchainKHR(VkDevice device, VkSwapchainKHR swapchain,
+                                               const VkAllocationCallbacks *alloc) {
+    Device &d = device_of(device);
+    {
+        std::lock_guard lock(g_mutex);
+        g_swapchains.erase(swapchain);
+    }
+    d.DestroySwapchainKHR(device, swapchain, alloc);
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL GetSwapchainImagesKHR(VkDevice device, VkSwapchainKHR swapchain,
+                                                     uint32_t *count, VkImage *images) {
+    const VkResult result = device_of(device).GetSwapchainImagesKHR(device, swapchain, count, images);
+    if (images && (result == VK_SUCCESS || result == VK_INCOMPLETE)) {
+        std::lock_guard lock(g_mutex);
+        if (const auto it = g_swapchains.find(swapchain); it != g_swapchains.end()) {
+            std::vector<VkImage> &known = it->second.images;
+            if (known.size() < *count) known.resize(*count);
+            std::copy(images, images + *count, known.begin());
+        }
+    }
+    return result;
+}
+
+VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInfoKHR *info) {
+    Device &d = device_of(queue);
+    const char *dir = present_readback_dir();
+    if (!dir) return d.QueuePresentKHR(queue, info);
+    struct Presented {
+        CopySource source;
+        ImageInfo info;
+        uint64_t number = 0;
+    };
+    std::vector<Presented> presented;
+    {
+        std::lock_guard lock(g_mutex);
+        const auto family = g_queue_families.find(queue);
+        for (uint32_t i = 0; i < info->swapchainCount; ++i) {
+            const uint64_t number = g_presented_images++;
+            const auto it = g_swapchains.find(info->pSwapchains[i]);
+            if (family == g_queue_families.end() || it == g_swapchains.end() ||
+                info->pImageIndices[i] >= it->second.images.size()) {
+                std::fprintf(stderr, "xr_readback: presented image %llu is not one the layer knows\n",
+                             static_cast<unsigned long long>(number));
+                continue;
+            }
+            const Swapchain &sc = it->second;
+            Presented p;
+            p.source = {sc.images[info->pImageIndices[i]],
+                        VK_IMAGE_LAYOUT_PRESENT_SRC_KHR,
+                        family->second,
+                        {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, sc.layers}};
+            p.info.format = sc.format;
+            p.info.extent = {sc.extent.width, sc.extent.height, 1};
+            p.info.layers = sc.layers;
+            p.number = number;
+            presented.push_back(p);
+        }
+    }
+    VkPresentInfoKHR present = *info;
+    {
+        std::lock_guard lock(g_readback_mutex);
+        // The copies must see what is presented, whichever queue drew it: this queue waits for the
+        // present's semaphores first, and the present, passed down once the queue is idle, has none
+        // left to wait for (a binary semaphore is waited for once).
+        if (present.waitSemaphoreCount > 0) {
+            const std::vector<VkPipelineStageFlags> stages(present.waitSemaphoreCount,
+                                                           VK_PIPELINE_STAGE_ALL_COMMANDS_BIT);
+            VkSubmitInfo submit{};
+            submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+            submit.waitSemaphoreCount = present.waitSemaphoreCount;
+            submit.pWaitSemaphores = present.pWaitSemaphores;
+            submit.pWaitDstStageMask = stages.data();
+            if (d.QueueSubmit(queue, 1, &submit, VK_NULL_HANDLE) == VK_SUCCESS) {
+                present.waitSemaphoreCount = 0;
+                present.pWaitSemaphores = nullptr;
+            }
+        }
+        d.QueueWaitIdle(queue);
+        for (const Presented &p : presented)
+            if (!copy_to_file(d, queue, p.source, p.info, present_path(dir, p.number)))
+                std::fprintf(stderr, "xr_readback: reading back presented image %llu failed\n",
+                             static_cast<unsigned long long>(p.number));
+    }
+    return d.QueuePresentKHR(queue, &present);
 }
 
 } // namespace
@@ -374,6 +537,12 @@ PFN_vkVoidFunction device_entry_point(const char *name) {
         {"vkCmdPipelineBarrier2", reinterpret_cast<PFN_vkVoidFunction>(CmdPipelineBarrier2)},
         {"vkCmdPipelineBarrier2KHR", reinterpret_cast<PFN_vkVoidFunction>(CmdPipelineBarrier2KHR)},
         {"vkQueueSubmit", reinterpret_cast<PFN_vkVoidFunction>(QueueSubmit)},
+        {"vkGetDeviceQueue", reinterpret_cast<PFN_vkVoidFunction>(GetDeviceQueue)},
+        {"vkGetDeviceQueue2", reinterpret_cast<PFN_vkVoidFunction>(GetDeviceQueue2)},
+        {"vkCreateSwapchainKHR", reinterpret_cast<PFN_vkVoidFunction>(CreateSwapchainKHR)},
+        {"vkDestroySwapchainKHR", reinterpret_cast<PFN_vkVoidFunction>(DestroySwapchainKHR)},
+        {"vkGetSwapchainImagesKHR", reinterpret_cast<PFN_vkVoidFunction>(GetSwapchainImagesKHR)},
+        {"vkQueuePresentKHR", reinterpret_cast<PFN_vkVoidFunction>(QueuePresentKHR)},
     };
     for (const Intercepted &i : intercepted)
         if (!std::strcmp(name, i.name)) return i.function;
