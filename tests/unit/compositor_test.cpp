@@ -1049,9 +1049,27 @@ TEST_P(CompositorTest, DISABLED_Cost) {
         vkEndCommandBuffer(cb);
         submit_and_wait(VK_NULL_HANDLE);
     });
+    // The swapped split's: the agent's periphery in two halves around the client's foveae, and a late
+    // frame's (the latest periphery again, nothing uploaded).
+    const uint32_t half = periphery.width / 2;
+    auto part = uploads.take(VkDeviceSize{periphery.width - half} * periphery.height * 4, &error);
+    ASSERT_TRUE(part) << error;
+    std::memset(part->mapped, 0x3f, size_t{periphery.width - half} * periphery.height * 4);
+    uploads.flush(*part);
+    PeripheryImage agent;
+    agent.extent = periphery;
+    agent.parts = {{{{0, 0}, {half, periphery.height}}, part->buffer, 0, part},
+                   {{{int32_t(half), 0}, {periphery.width - half, periphery.height}}, part->buffer, 0, part}};
+    const auto composite_periphery = [&](const PeripheryImage *with) {
+        VkSemaphore signal = VK_NULL_HANDLE;
+        ASSERT_EQ(compositor->composite_periphery(queue_, 0, {}, with, rects, &signal), VK_SUCCESS);
+        submit_and_wait(signal);
+    };
+    const double swapped = best([&] { composite_periphery(&agent); });
+    const double swapped_late = best([&] { composite_periphery(nullptr); });
     std::printf("cost %ux%u filter %d: composite, whole image %.2f ms; around the foveae with tiles %.2f ms; "
-                "vkCmdBlitImage (linear) alone %.2f ms\n",
-                width, height, int(filter), whole, around, blit);
+                "vkCmdBlitImage (linear) alone %.2f ms; composite_periphery %.2f ms, late %.2f ms\n",
+                width, height, int(filter), whole, around, blit, swapped, swapped_late);
     compositor.reset(); // before the upload pool, whose buffer its last tiles hold
 }
 
