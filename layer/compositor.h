@@ -140,6 +140,9 @@ public:
     // VK_NOT_READY: no periphery was ever uploaded (present the image as it is);
     // VK_ERROR_FORMAT_NOT_SUPPORTED: `periphery` is empty or larger than the image;
     // VK_ERROR_FEATURE_NOT_PRESENT: a layered image (OpenXR; not cut in this slice).
+    // Cost on lavapipe (2 busy cores, best of 12, DISABLED_Cost) at 2400x1080 with the stereo
+    // foveae, blit: 18.9 ms, 18.6 ms late (composite() with tiles: 18.7 ms); the two copies of the
+    // foveae cost little beside the upsample.
     VkResult composite_periphery(VkQueue queue, uint32_t image_index, std::span<const VkSemaphore> waits,
                                  const PeripheryImage *periphery, std::span<const VkRect2D> keep,
                                  VkSemaphore *signal);
