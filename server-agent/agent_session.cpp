@@ -143,6 +143,7 @@ int Session::run() {
     handshake.token = config_.token;
     handshake.server_gpu_name = config_.gpu_name;
     handshake.session_id = config_.session_id;
+    handshake.capabilities = config_.capabilities;
     handshake.full = config_.full;
     handshake.require_tls = require_tls_;
     handshake.codec_fingerprint = protocol::session_fingerprint(codec::kCodecFingerprint);
