@@ -198,9 +198,9 @@ std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, 
 }
 
 // Whether a frame's passes were cut to its foveae (the swapped split; window swapchains only in this
-// slice). Until SplitFrame::cut (swapped-cut) is merged: a split frame of a session cutting now.
-bool frame_cut(const SwapchainState *swapchain, const SplitFrame &split, const Session &session) {
-    return swapchain && !swapchain->runtime && split.split && !split.foveae.empty() && session.cutting();
+// slice), so that its periphery is the agent's to fill.
+bool frame_cut(const SwapchainState *swapchain, const SplitFrame &split) {
+    return swapchain && !swapchain->runtime && split.split && split.cut && !split.foveae.empty();
 }
 
 double ms_between(std::chrono::steady_clock::time_point from, std::chrono::steady_clock::time_point to) {
@@ -980,7 +980,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         p.queue = queue;
         p.swapchain = split_swapchain;
         p.image_index = drawn;
-        p.cut = frame_cut(p.swapchain, split, session);
+        p.cut = frame_cut(p.swapchain, split);
         p.split = std::move(split);
         p.frame = frame;
         p.sent = std::chrono::steady_clock::now();
