@@ -18,6 +18,11 @@
 //      would re-encode sRGB), and the CPU copies nothing;
 //   5. leave the image in the present layout and signal the slot's semaphore, which the present
 //      waits on instead of the application's.
+//
+// The swapped split's composite_periphery() turns it around: the client's foveae are copied out
+// of the image into a slot's buffer, the agent's decoded periphery parts into the compositor's
+// latest periphery image, which is upsampled over the image as in 3 (the blit straight from it,
+// the draw from a copy in the slot's periphery image), and the foveae are copied back as in 4.
 
 #include "compositor.h"
 
@@ -73,30 +78,36 @@ bool four_bytes_per_texel(VkFormat format) {
     }
 }
 
-// A tile clipped to the image.
+// A tile (or a fovea to keep) clipped to the image.
 struct ClippedTile {
     const FoveaTile *tile = nullptr;
+    uint32_t layer = 0;
     VkOffset2D offset{};  // in the image
     VkExtent2D extent{};  // copied
     VkOffset2D skipped{}; // tile pixels left of / above the image
 };
 
-bool clip(const FoveaTile &t, VkExtent2D image, uint32_t layers, ClippedTile *out) {
-    if (t.layer >= layers) return false;
-    const int64_t x0 = std::max<int64_t>(t.rect.offset.x, 0);
-    const int64_t y0 = std::max<int64_t>(t.rect.offset.y, 0);
-    const int64_t x1 = std::min<int64_t>(int64_t{t.rect.offset.x} + t.rect.extent.width, image.width);
-    const int64_t y1 = std::min<int64_t>(int64_t{t.rect.offset.y} + t.rect.extent.height, image.height);
-    if (!t.buffer || x1 <= x0 || y1 <= y0) return false;
-    out->tile = &t;
+bool clip(const VkRect2D &rect, VkExtent2D image, ClippedTile *out) {
+    const int64_t x0 = std::max<int64_t>(rect.offset.x, 0);
+    const int64_t y0 = std::max<int64_t>(rect.offset.y, 0);
+    const int64_t x1 = std::min<int64_t>(int64_t{rect.offset.x} + rect.extent.width, image.width);
+    const int64_t y1 = std::min<int64_t>(int64_t{rect.offset.y} + rect.extent.height, image.height);
+    if (x1 <= x0 || y1 <= y0) return false;
     out->offset = {static_cast<int32_t>(x0), static_cast<int32_t>(y0)};
     out->extent = {static_cast<uint32_t>(x1 - x0), static_cast<uint32_t>(y1 - y0)};
-    out->skipped = {static_cast<int32_t>(x0 - t.rect.offset.x), static_cast<int32_t>(y0 - t.rect.offset.y)};
+    out->skipped = {static_cast<int32_t>(x0 - rect.offset.x), static_cast<int32_t>(y0 - rect.offset.y)};
+    return true;
+}
+
+bool clip(const FoveaTile &t, VkExtent2D image, uint32_t layers, ClippedTile *out) {
+    if (t.layer >= layers || !t.buffer || !clip(t.rect, image, out)) return false;
+    out->tile = &t;
+    out->layer = t.layer;
     return true;
 }
 
 bool overlaps(const ClippedTile &a, const ClippedTile &b) {
-    return a.tile->layer == b.tile->layer && a.offset.x < b.offset.x + int32_t(b.extent.width) &&
+    return a.layer == b.layer && a.offset.x < b.offset.x + int32_t(b.extent.width) &&
            b.offset.x < a.offset.x + int32_t(a.extent.width) &&
            a.offset.y < b.offset.y + int32_t(b.extent.height) &&
            b.offset.y < a.offset.y + int32_t(a.extent.height);
@@ -197,6 +208,11 @@ struct Compositor::Slot {
     VkExtent2D periphery_extent{};
     // The buffers of the tiles the slot's submit copies from: held until its fence has signalled.
     std::vector<std::shared_ptr<const void>> tiles_in_use;
+    // composite_periphery(): the client's foveae, copied out of the image before the periphery is
+    // blitted over it and back after (device-local, TRANSFER_SRC|DST).
+    VkBuffer saved = VK_NULL_HANDLE;
+    VkDeviceMemory saved_memory = VK_NULL_HANDLE;
+    VkDeviceSize saved_size = 0;
     // Timed: the composite's two timestamps, copied by the GPU (gpu_timing.h).
     HostBuffer timing;
     CommandTiming timestamps;     // the query pair of the recording (record())
@@ -581,6 +597,8 @@ void Compositor::destroy_slot(Slot &s) {
     if (s.periphery_view) k.DestroyImageView(d, s.periphery_view, nullptr);
     if (s.periphery) k.DestroyImage(d, s.periphery, nullptr);
     if (s.periphery_memory) k.FreeMemory(d, s.periphery_memory, nullptr);
+    if (s.saved) k.DestroyBuffer(d, s.saved, nullptr);
+    if (s.saved_memory) k.FreeMemory(d, s.saved_memory, nullptr);
     if (s.framebuffer) k.DestroyFramebuffer(d, s.framebuffer, nullptr);
     if (s.target_view) k.DestroyImageView(d, s.target_view, nullptr);
     if (s.semaphore) k.DestroySemaphore(d, s.semaphore, nullptr);
@@ -598,6 +616,7 @@ Compositor::~Compositor() {
     std::lock_guard lock(mutex_);
     for (auto &slot : slots_)
         if (slot) destroy_slot(*slot);
+    destroy_latest_periphery();
     if (pipeline_) k.DestroyPipeline(d, pipeline_, nullptr);
     if (render_pass_) k.DestroyRenderPass(d, render_pass_, nullptr);
     if (pipeline_layout_) k.DestroyPipelineLayout(d, pipeline_layout_, nullptr);
@@ -619,16 +638,6 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
     const auto layered_barrier = [&](VkImage target, VkAccessFlags src, VkAccessFlags dst, VkImageLayout from,
                                      VkImageLayout to) {
         return colour_image_barrier(target, src, dst, from, to, 0, 0, layers_);
-    };
-    // The periphery's writes to the image (a blit's or a draw's) before the tile copies
-    // overwrite the fovea (write-after-write), or before the present.
-    const auto after_periphery = [&](VkPipelineStageFlags stage, VkAccessFlags access, VkImageLayout layout) {
-        const VkImageMemoryBarrier b = layered_barrier(
-            image, access, has_tiles ? VkAccessFlags{VK_ACCESS_TRANSFER_WRITE_BIT} : done_access_, layout,
-            has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
-        k.CmdPipelineBarrier(cb, stage,
-                             has_tiles ? VkPipelineStageFlags{VK_PIPELINE_STAGE_TRANSFER_BIT} : done_stages_,
-                             0, 0, nullptr, 0, nullptr, 1, &b);
     };
     k.ResetCommandBuffer(cb, 0);
     VkCommandBufferBeginInfo begin{};
@@ -664,84 +673,7 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
         k.CmdCopyImage(cb, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, s.periphery,
                        VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &copy);
 
-        if (blit_) {
-            // The copy's write of the periphery image before the blit reads it; the copy's read of
-            // the swapchain image before the blit overwrites it (write-after-read).
-            VkImageMemoryBarrier to_blit[2] = {
-                layered_barrier(s.periphery, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT,
-                                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL),
-                layered_barrier(image, 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL),
-            };
-            k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
-                                 nullptr, 0, nullptr, 2, to_blit);
-            // The periphery image is exactly the periphery's size, so the filter's clamp to its
-            // edge is the clamp to the periphery's edge that the shader does.
-            // Per layer, around that layer's tiles (create() leaves the draw to single-layer images).
-            std::vector<VkImageBlit> regions;
-            std::vector<VkBufferImageCopy> in_layer;
-            for (uint32_t layer = 0; layer < layers_; ++layer) {
-                in_layer.clear();
-                for (const VkBufferImageCopy &c : copy_regions_)
-                    if (c.imageSubresource.baseArrayLayer == layer) in_layer.push_back(c);
-                for (VkImageBlit r : blit_regions(extent_, periphery, in_layer)) {
-                    r.srcSubresource.baseArrayLayer = layer;
-                    r.dstSubresource.baseArrayLayer = layer;
-                    regions.push_back(r);
-                }
-            }
-            k.CmdBlitImage(cb, s.periphery, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, image,
-                           VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, static_cast<uint32_t>(regions.size()),
-                           regions.data(), VK_FILTER_LINEAR);
-            after_periphery(VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
-                            VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
-        } else {
-            // The copy's write of the periphery image before the fragment shader reads it; the
-            // copy's read of the swapchain image before the draw overwrites it (write-after-read:
-            // an execution dependency, plus the transition to the attachment layout).
-            VkImageMemoryBarrier to_draw[2] = {
-                layered_barrier(s.periphery, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
-                                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                                VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL),
-                layered_barrier(image, 0, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
-                                VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                                VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL),
-            };
-            k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                                 VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT |
-                                     VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
-                                 0, 0, nullptr, 0, nullptr, 2, to_draw);
-
-            VkRenderPassBeginInfo pass{};
-            pass.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
-            pass.renderPass = render_pass_;
-            pass.framebuffer = s.framebuffer;
-            pass.renderArea = {{0, 0}, extent_};
-            k.CmdBeginRenderPass(cb, &pass, VK_SUBPASS_CONTENTS_INLINE);
-            k.CmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_);
-            k.CmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout_, 0, 1, &s.set, 0,
-                                    nullptr);
-            const VkViewport viewport{0.0f, 0.0f, float(extent_.width), float(extent_.height), 0.0f, 1.0f};
-            k.CmdSetViewport(cb, 0, 1, &viewport);
-            PushConstants push{};
-            push.scale[0] = float(periphery.width) / float(extent_.width);
-            push.scale[1] = float(periphery.height) / float(extent_.height);
-            push.texel_size[0] = 1.0f / float(s.periphery_extent.width);
-            push.texel_size[1] = 1.0f / float(s.periphery_extent.height);
-            push.max_centre[0] = float(periphery.width) - 0.5f;
-            push.max_centre[1] = float(periphery.height) - 0.5f;
-            k.CmdPushConstants(cb, pipeline_layout_, VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
-            // Only around the foveae: the tile copies below overwrite them, so what the pass leaves
-            // there (undefined: the attachment is not loaded) is never seen.
-            for (const VkRect2D &band : periphery_bands(extent_, copy_regions_)) {
-                k.CmdSetScissor(cb, 0, 1, &band);
-                k.CmdDraw(cb, 3, 1, 0, 0);
-            }
-            k.CmdEndRenderPass(cb);
-
-            after_periphery(VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
-                            VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
-        }
+        record_upsample(s, image, periphery, s.periphery, /*source_written=*/true);
     } else if (has_tiles) {
         // Tiles over what the application rendered: keep the contents (old layout, not UNDEFINED).
         VkImageMemoryBarrier b = layered_barrier(image, ready_access_, VK_ACCESS_TRANSFER_WRITE_BIT,
@@ -750,24 +682,130 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
                              &b);
     }
 
-    if (has_tiles) {
-        // The tiles' buffers were written (and flushed) by the host before vkQueueSubmit, which
-        // makes host writes visible to the device (no host barrier needed). Tiles do not overlap
-        // (composite drops those that would), so their copies need no barrier between them.
-        for (size_t i = 0; i < copy_regions_.size(); ++i)
-            k.CmdCopyBufferToImage(cb, copy_buffers_[i], image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1,
-                                   &copy_regions_[i]);
-        // Back to the present layout. The present waits on our semaphore, whose signal makes
-        // these writes available and visible to the presentation engine: no destination stage
-        // or access beyond the end of the pipe.
-        VkImageMemoryBarrier b = layered_barrier(image, VK_ACCESS_TRANSFER_WRITE_BIT, done_access_,
-                                                 VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, present_layout_);
-        k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, done_stages_, 0, 0, nullptr, 0, nullptr, 1,
-                             &b);
-    }
+    record_tile_copies(s, image);
     if (timed_ && s.timing.buffer)
         s.timing_recorded = time_composite_end(device_, cb, s.timestamps, s.timing.buffer);
     k.EndCommandBuffer(cb);
+}
+
+void Compositor::record_upsample(Slot &s, VkImage image, VkExtent2D periphery, VkImage source,
+                                 bool source_written) {
+    const auto &k = device_.dispatch;
+    const VkCommandBuffer cb = s.command_buffer;
+    const bool has_tiles = !copy_regions_.empty();
+    // Every layer of the image and of the periphery copy: a layered image is composited whole.
+    const auto layered_barrier = [&](VkImage target, VkAccessFlags src, VkAccessFlags dst, VkImageLayout from,
+                                     VkImageLayout to) {
+        return colour_image_barrier(target, src, dst, from, to, 0, 0, layers_);
+    };
+    // The periphery's writes to the image (a blit's or a draw's) before the tile copies
+    // overwrite the fovea (write-after-write), or before the present.
+    const auto after_periphery = [&](VkPipelineStageFlags stage, VkAccessFlags access, VkImageLayout layout) {
+        const VkImageMemoryBarrier b = layered_barrier(
+            image, access, has_tiles ? VkAccessFlags{VK_ACCESS_TRANSFER_WRITE_BIT} : done_access_, layout,
+            has_tiles ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : present_layout_);
+        k.CmdPipelineBarrier(cb, stage,
+                             has_tiles ? VkPipelineStageFlags{VK_PIPELINE_STAGE_TRANSFER_BIT} : done_stages_,
+                             0, 0, nullptr, 0, nullptr, 1, &b);
+    };
+    if (blit_) {
+        // The earlier read of the swapchain image (a copy out of it) before the blit overwrites it
+        // (write-after-read); a `source_written` by a copy just before, before the blit reads it.
+        // A source that is read as it is (Compositor::latest_, made readable when it was uploaded)
+        // needs no barrier here.
+        VkImageMemoryBarrier to_blit[2] = {
+            layered_barrier(image, 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                            VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL),
+            layered_barrier(source, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT,
+                            VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL),
+        };
+        k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
+                             nullptr, 0, nullptr, source_written ? 2 : 1, to_blit);
+        // The periphery image is exactly the periphery's size, so the filter's clamp to its
+        // edge is the clamp to the periphery's edge that the shader does.
+        // Per layer, around that layer's tiles (create() leaves the draw to single-layer images).
+        std::vector<VkImageBlit> regions;
+        std::vector<VkBufferImageCopy> in_layer;
+        for (uint32_t layer = 0; layer < layers_; ++layer) {
+            in_layer.clear();
+            for (const VkBufferImageCopy &c : copy_regions_)
+                if (c.imageSubresource.baseArrayLayer == layer) in_layer.push_back(c);
+            for (VkImageBlit r : blit_regions(extent_, periphery, in_layer)) {
+                r.srcSubresource.baseArrayLayer = layer;
+                r.dstSubresource.baseArrayLayer = layer;
+                regions.push_back(r);
+            }
+        }
+        k.CmdBlitImage(cb, source, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, image,
+                       VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, static_cast<uint32_t>(regions.size()),
+                       regions.data(), VK_FILTER_LINEAR);
+        after_periphery(VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                        VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+    } else {
+        // The copy's write of the periphery image before the fragment shader reads it; the
+        // copy's read of the swapchain image before the draw overwrites it (write-after-read:
+        // an execution dependency, plus the transition to the attachment layout).
+        VkImageMemoryBarrier to_draw[2] = {
+            layered_barrier(s.periphery, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
+                            VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL),
+            layered_barrier(image, 0, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
+                            VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL),
+        };
+        k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                             VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT |
+                                 VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
+                             0, 0, nullptr, 0, nullptr, 2, to_draw);
+
+        VkRenderPassBeginInfo pass{};
+        pass.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
+        pass.renderPass = render_pass_;
+        pass.framebuffer = s.framebuffer;
+        pass.renderArea = {{0, 0}, extent_};
+        k.CmdBeginRenderPass(cb, &pass, VK_SUBPASS_CONTENTS_INLINE);
+        k.CmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_);
+        k.CmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout_, 0, 1, &s.set, 0,
+                                nullptr);
+        const VkViewport viewport{0.0f, 0.0f, float(extent_.width), float(extent_.height), 0.0f, 1.0f};
+        k.CmdSetViewport(cb, 0, 1, &viewport);
+        PushConstants push{};
+        push.scale[0] = float(periphery.width) / float(extent_.width);
+        push.scale[1] = float(periphery.height) / float(extent_.height);
+        push.texel_size[0] = 1.0f / float(s.periphery_extent.width);
+        push.texel_size[1] = 1.0f / float(s.periphery_extent.height);
+        push.max_centre[0] = float(periphery.width) - 0.5f;
+        push.max_centre[1] = float(periphery.height) - 0.5f;
+        k.CmdPushConstants(cb, pipeline_layout_, VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
+        // Only around the foveae: the tile copies below overwrite them, so what the pass leaves
+        // there (undefined: the attachment is not loaded) is never seen.
+        for (const VkRect2D &band : periphery_bands(extent_, copy_regions_)) {
+            k.CmdSetScissor(cb, 0, 1, &band);
+            k.CmdDraw(cb, 3, 1, 0, 0);
+        }
+        k.CmdEndRenderPass(cb);
+
+        after_periphery(VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
+                        VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
+    }
+}
+
+void Compositor::record_tile_copies(Slot &s, VkImage image) {
+    if (copy_regions_.empty()) return;
+    const auto &k = device_.dispatch;
+    const VkCommandBuffer cb = s.command_buffer;
+    // The tiles' buffers were written (and flushed) by the host before vkQueueSubmit, which
+    // makes host writes visible to the device (no host barrier needed; composite_periphery's saved
+    // foveae have their own barrier). Tiles do not overlap (composite drops those that would), so
+    // their copies need no barrier between them.
+    for (size_t i = 0; i < copy_regions_.size(); ++i)
+        k.CmdCopyBufferToImage(cb, copy_buffers_[i], image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1,
+                               &copy_regions_[i]);
+    // Back to the present layout. The present waits on our semaphore, whose signal makes
+    // these writes available and visible to the presentation engine: no destination stage
+    // or access beyond the end of the pipe.
+    VkImageMemoryBarrier b =
+        colour_image_barrier(image, VK_ACCESS_TRANSFER_WRITE_BIT, done_access_,
+                             VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, present_layout_, 0, 0, layers_);
+    k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, done_stages_, 0, 0, nullptr, 0, nullptr, 1, &b);
 }
 
 void Compositor::read_timing(Slot &s) {
@@ -857,8 +895,6 @@ VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<co
     Slot *slot = ready_slot(image_index, /*wait_taken=*/false, &result);
     if (!slot) return result;
     Slot &s = *slot;
-    const VkDevice d = device_.handle;
-    const auto &k = device_.dispatch;
 
     periphery.width = std::min(periphery.width, extent_.width);
     periphery.height = std::min(periphery.height, extent_.height);
@@ -904,21 +940,292 @@ VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<co
     }
 
     record(s, image_index, upsample ? periphery : VkExtent2D{});
+    return submit(s, queue, waits, signal);
+}
 
+VkResult Compositor::submit(Slot &s, VkQueue queue, std::span<const VkSemaphore> waits, VkSemaphore *signal) {
+    const auto &k = device_.dispatch;
     std::vector<VkPipelineStageFlags> stages(waits.size(), VK_PIPELINE_STAGE_TRANSFER_BIT);
     // No one to signal for (an OpenXR runtime's image, ordered by the queue): a binary semaphore
     // signalled and never waited on could not be signalled again.
     const VkSubmitInfo submit =
         submit_info(&s.command_buffer, waits, stages.data(), signal ? &s.semaphore : nullptr);
-    k.ResetFences(d, 1, &s.fence);
+    k.ResetFences(device_.handle, 1, &s.fence);
     // On failure the semaphores and the fence are left as they were (except after device loss).
-    result = k.QueueSubmit(queue, 1, &submit, s.fence);
+    const VkResult result = k.QueueSubmit(queue, 1, &submit, s.fence);
     if (result != VK_SUCCESS) return result;
     note_timed_submit(device_, s.timestamps);
     s.in_flight = true;
     s.timing_pending = s.timing_recorded;
     if (signal) *signal = s.semaphore;
     return VK_SUCCESS;
+}
+
+// ---------------------------------------------------------------------------- the swapped split
+
+void Compositor::destroy_latest_periphery() {
+    const VkDevice d = device_.handle;
+    const auto &k = device_.dispatch;
+    if (latest_) k.DestroyImage(d, latest_, nullptr);
+    if (latest_memory_) k.FreeMemory(d, latest_memory_, nullptr);
+    latest_ = VK_NULL_HANDLE;
+    latest_memory_ = VK_NULL_HANDLE;
+    latest_extent_ = {};
+    latest_layout_ = VK_IMAGE_LAYOUT_UNDEFINED;
+    latest_filled_ = false;
+}
+
+bool Compositor::ensure_latest_periphery(VkExtent2D extent, std::string *error) {
+    if (latest_ && latest_extent_.width == extent.width && latest_extent_.height == extent.height)
+        return true;
+    const VkDevice d = device_.handle;
+    const auto &k = device_.dispatch;
+    // Every slot's submit may read the latest periphery: all must be done before it goes (a new
+    // size means a new scale, which a session does not change, so this is rare).
+    for (auto &slot : slots_)
+        if (slot && slot->in_flight &&
+            k.WaitForFences(d, 1, &slot->fence, VK_TRUE, kSlotWaitNs) != VK_SUCCESS) {
+            *error = "a composite still reads the latest periphery";
+            return false;
+        }
+    destroy_latest_periphery();
+    // The swapchain's format: the parts are copied in as bytes, as fovea tiles are.
+    VkImageCreateInfo image_info{};
+    image_info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
+    image_info.imageType = VK_IMAGE_TYPE_2D;
+    image_info.format = format_;
+    image_info.extent = {extent.width, extent.height, 1};
+    image_info.mipLevels = 1;
+    image_info.arrayLayers = 1;
+    image_info.samples = VK_SAMPLE_COUNT_1_BIT;
+    image_info.tiling = VK_IMAGE_TILING_OPTIMAL;
+    image_info.usage = VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+    image_info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+    image_info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    if (k.CreateImage(d, &image_info, nullptr, &latest_) != VK_SUCCESS) {
+        latest_ = VK_NULL_HANDLE;
+        *error = "cannot create the latest periphery's image";
+        return false;
+    }
+    VkMemoryRequirements req{};
+    k.GetImageMemoryRequirements(d, latest_, &req);
+    uint32_t type = find_memory_type(device_, req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+    if (type == UINT32_MAX) type = find_memory_type(device_, req.memoryTypeBits, 0);
+    VkMemoryAllocateInfo mem_info{};
+    mem_info.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    mem_info.allocationSize = req.size;
+    mem_info.memoryTypeIndex = type;
+    if (type == UINT32_MAX || k.AllocateMemory(d, &mem_info, nullptr, &latest_memory_) != VK_SUCCESS ||
+        k.BindImageMemory(d, latest_, latest_memory_, 0) != VK_SUCCESS) {
+        destroy_latest_periphery();
+        *error = "cannot allocate the latest periphery's memory";
+        return false;
+    }
+    latest_extent_ = extent;
+    return true;
+}
+
+// Called only while the slot is idle (its fence waited for), so the old buffer can go.
+bool Compositor::ensure_saved_buffer(Slot &s, VkDeviceSize size, std::string *error) {
+    if (s.saved && s.saved_size >= size) return true;
+    const VkDevice d = device_.handle;
+    const auto &k = device_.dispatch;
+    if (s.saved) k.DestroyBuffer(d, s.saved, nullptr);
+    if (s.saved_memory) k.FreeMemory(d, s.saved_memory, nullptr);
+    s.saved = VK_NULL_HANDLE;
+    s.saved_memory = VK_NULL_HANDLE;
+    s.saved_size = 0;
+    VkBufferCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+    info.size = size;
+    info.usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+    if (k.CreateBuffer(d, &info, nullptr, &s.saved) != VK_SUCCESS) {
+        s.saved = VK_NULL_HANDLE;
+        *error = "cannot create the buffer the foveae are saved in";
+        return false;
+    }
+    VkMemoryRequirements req{};
+    k.GetBufferMemoryRequirements(d, s.saved, &req);
+    uint32_t type = find_memory_type(device_, req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+    if (type == UINT32_MAX) type = find_memory_type(device_, req.memoryTypeBits, 0);
+    VkMemoryAllocateInfo mem_info{};
+    mem_info.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    mem_info.allocationSize = req.size;
+    mem_info.memoryTypeIndex = type;
+    if (type == UINT32_MAX || k.AllocateMemory(d, &mem_info, nullptr, &s.saved_memory) != VK_SUCCESS ||
+        k.BindBufferMemory(d, s.saved, s.saved_memory, 0) != VK_SUCCESS) {
+        *error = "cannot allocate the memory the foveae are saved in";
+        return false;
+    }
+    s.saved_size = size;
+    return true;
+}
+
+VkResult Compositor::composite_periphery(VkQueue queue, uint32_t image_index,
+                                         std::span<const VkSemaphore> waits, const PeripheryImage *periphery,
+                                         std::span<const VkRect2D> keep, VkSemaphore *signal) {
+    std::lock_guard lock(mutex_);
+    // Window swapchains only in this slice: an OpenXR runtime's layered image is not cut.
+    if (layers_ != 1) return VK_ERROR_FEATURE_NOT_PRESENT;
+    if (periphery && (periphery->extent.width == 0 || periphery->extent.height == 0 ||
+                      periphery->extent.width > extent_.width || periphery->extent.height > extent_.height))
+        return VK_ERROR_FORMAT_NOT_SUPPORTED;
+    if (!periphery && !latest_filled_) return VK_NOT_READY; // no periphery yet: present as is
+    VkResult result = VK_SUCCESS;
+    Slot *slot = ready_slot(image_index, /*wait_taken=*/false, &result);
+    if (!slot) return result;
+    Slot &s = *slot;
+    std::string error;
+    if (periphery && !ensure_latest_periphery(periphery->extent, &error)) {
+        SPLITVK_WARN("compositor: %s", error.c_str());
+        return VK_ERROR_OUT_OF_DEVICE_MEMORY;
+    }
+    if (!blit_ && !ensure_periphery_image(s, latest_extent_, &error)) {
+        SPLITVK_WARN("compositor: %s", error.c_str());
+        return VK_ERROR_OUT_OF_DEVICE_MEMORY;
+    }
+
+    // The foveae to keep, clipped to the image, overlapping ones dropped (copied back, a texel
+    // must be written once), packed one after the other into the slot's saved buffer.
+    copy_regions_.clear();
+    copy_buffers_.clear();
+    s.tiles_in_use.clear(); // ready_slot(): the slot's previous copies are done
+    std::vector<ClippedTile> kept;
+    VkDeviceSize saved_bytes = 0;
+    for (const VkRect2D &rect : keep) {
+        ClippedTile c;
+        if (!clip(rect, extent_, &c)) continue;
+        if (std::any_of(kept.begin(), kept.end(), [&](const ClippedTile &o) { return overlaps(o, c); })) {
+            SPLITVK_DEBUG("compositor: dropped a fovea that overlaps another");
+            continue;
+        }
+        kept.push_back(c);
+        VkBufferImageCopy region{};
+        region.bufferOffset = saved_bytes;
+        region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        region.imageOffset = {c.offset.x, c.offset.y, 0};
+        region.imageExtent = {c.extent.width, c.extent.height, 1};
+        copy_regions_.push_back(region);
+        saved_bytes += VkDeviceSize{c.extent.width} * c.extent.height * 4;
+    }
+    if (saved_bytes > 0 && !ensure_saved_buffer(s, saved_bytes, &error)) {
+        SPLITVK_WARN("compositor: %s", error.c_str());
+        return VK_ERROR_OUT_OF_DEVICE_MEMORY;
+    }
+    copy_buffers_.assign(copy_regions_.size(), s.saved);
+
+    // The periphery's parts, clipped to it, into the latest periphery.
+    std::vector<VkBufferImageCopy> parts;
+    std::vector<VkBuffer> part_buffers;
+    if (periphery)
+        for (const FoveaTile &t : periphery->parts) {
+            ClippedTile c;
+            if (!clip(t, latest_extent_, 1, &c)) continue;
+            VkBufferImageCopy region{};
+            region.bufferOffset =
+                t.offset +
+                (VkDeviceSize{uint32_t(c.skipped.y)} * t.rect.extent.width + uint32_t(c.skipped.x)) * 4;
+            region.bufferRowLength = t.rect.extent.width;
+            region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+            region.imageOffset = {c.offset.x, c.offset.y, 0};
+            region.imageExtent = {c.extent.width, c.extent.height, 1};
+            parts.push_back(region);
+            part_buffers.push_back(t.buffer);
+            if (t.keep) s.tiles_in_use.push_back(t.keep);
+        }
+
+    if (parts.empty() && !latest_filled_) return VK_NOT_READY; // nothing to upsample
+    record_periphery(s, image_index, parts, part_buffers);
+    result = submit(s, queue, waits, signal);
+    if (result != VK_SUCCESS) return result;
+    if (!parts.empty()) {
+        latest_layout_ = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+        latest_filled_ = true;
+    }
+    return VK_SUCCESS;
+}
+
+void Compositor::record_periphery(Slot &s, uint32_t image_index, std::span<const VkBufferImageCopy> parts,
+                                  std::span<const VkBuffer> part_buffers) {
+    const auto &k = device_.dispatch;
+    const VkCommandBuffer cb = s.command_buffer;
+    const VkImage image = images_[image_index];
+    const bool has_foveae = !copy_regions_.empty();
+    const bool upload = !parts.empty();
+    k.ResetCommandBuffer(cb, 0);
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    k.BeginCommandBuffer(cb, &begin);
+    s.timing_recorded = false;
+    s.timestamps = {};
+    if (timed_ && s.timing.buffer) time_composite_begin(device_, cb, s.timestamps);
+
+    // (1) The image to TRANSFER_SRC after the application's semaphores (waited on at TRANSFER, as in
+    // record()); the latest periphery to TRANSFER_DST for the upload, keeping its contents (parts
+    // that do not cover it leave the previous periphery there): the previous composite's blit read
+    // it earlier on this queue (write-after-read: an execution dependency). The draw's periphery
+    // copy: write-after-read against this slot's previous draw, as in record().
+    VkImageMemoryBarrier before[3];
+    uint32_t count = 0;
+    before[count++] = colour_image_barrier(image, ready_access_, VK_ACCESS_TRANSFER_READ_BIT, present_layout_,
+                                           VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+    if (upload)
+        before[count++] = colour_image_barrier(latest_, 0, VK_ACCESS_TRANSFER_WRITE_BIT, latest_layout_,
+                                               VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+    if (!blit_)
+        before[count++] =
+            colour_image_barrier(s.periphery, 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                                 VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+    k.CmdPipelineBarrier(cb, ready_stages_ | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
+                         VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr, count, before);
+
+    // (2) The client's foveae out to the saved buffer (this slot's previous copy back from it is
+    // done: ready_slot() waited for its fence).
+    if (has_foveae)
+        k.CmdCopyImageToBuffer(cb, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, s.saved,
+                               static_cast<uint32_t>(copy_regions_.size()), copy_regions_.data());
+    // (3) The decoded parts into the latest periphery (host writes flushed before the submit).
+    for (size_t i = 0; i < parts.size(); ++i)
+        k.CmdCopyBufferToImage(cb, part_buffers[i], latest_, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1,
+                               &parts[i]);
+    // The saved foveae before they are copied back; the upload before the latest periphery is read
+    // (by this submit and by later ones on the queue, which this barrier's second scope covers).
+    VkBufferMemoryBarrier saved{};
+    saved.sType = VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER;
+    saved.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    saved.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+    saved.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    saved.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    saved.buffer = s.saved;
+    saved.size = VK_WHOLE_SIZE;
+    const VkImageMemoryBarrier uploaded =
+        colour_image_barrier(latest_, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT,
+                             VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+    if (has_foveae || upload)
+        k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
+                             nullptr, has_foveae ? 1 : 0, &saved, upload ? 1 : 0, &uploaded);
+
+    // (4) Upsampled over the whole image but where the foveae go back (blit_regions/periphery_bands
+    // around copy_regions_): the blit straight from the latest periphery; the draw samples a copy
+    // of it in the slot's periphery image, as record()'s does.
+    if (blit_) {
+        record_upsample(s, image, latest_extent_, latest_, /*source_written=*/false);
+    } else {
+        VkImageCopy copy{};
+        copy.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        copy.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        copy.extent = {latest_extent_.width, latest_extent_.height, 1};
+        k.CmdCopyImage(cb, latest_, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, s.periphery,
+                       VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &copy);
+        record_upsample(s, image, latest_extent_, s.periphery, /*source_written=*/true);
+    }
+    // (5) The foveae back, byte for byte, and the present layout.
+    record_tile_copies(s, image);
+    if (timed_ && s.timing.buffer)
+        s.timing_recorded = time_composite_end(device_, cb, s.timestamps, s.timing.buffer);
+    k.EndCommandBuffer(cb);
 }
 
 // ---------------------------------------------------------------------------- registry by swapchain

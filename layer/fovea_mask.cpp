@@ -48,6 +48,8 @@ std::optional<FoveaSize> recorded_size(DeviceState &device, split::FrameFoveaSiz
     const Settings &settings = split_settings();
     if (!settings.fovea_mask || settings.gaze != GazeMode::Fixed || settings.eyes == EyeMode::Auto)
         return std::nullopt;
+    // SPLITVK_CLIENT_RENDERS=fovea: the client renders the foveae themselves, and nothing else.
+    if (device.session && device.session->client_renders() == ClientRenders::Fovea) return std::nullopt;
     if (!settings.fovea.automatic) return settings.fovea;
     AutoFovea *sizing = device.session ? device.session->auto_fovea() : nullptr;
     if (!sizing) return std::nullopt;

@@ -50,6 +50,10 @@ struct ImageState {
     // its mip 0 the application asked for, which every region it names is relative to.
     bool screen_space = false;
     VkExtent2D full{};
+    // SPLITVK_CLIENT_RENDERS=fovea: a screen-space target kept full size; its class and the swapchain
+    // extent it was classified against (screen_space.h: GuardTarget), for the guard of passes into it.
+    std::optional<split::TargetClass> guard_kind;
+    VkExtent2D guard_screen{};
 
     // The swapchain whose image this is (split.h), VK_NULL_HANDLE for any other image. For an
     // OpenXR runtime's swapchain an image the runtime created with vkCreateImage.

@@ -80,7 +80,10 @@ void CmdBindPipeline(DeviceState &dev, PFN_vkCmdBindPipeline down, VkCommandBuff
     // A pipeline the layer made dynamic needs its values set; leaving one, the app's dynamic
     // values (held back while it was bound) apply again.
     if (had_viewports || tracker->static_viewports()) emit_viewports(dev, commandBuffer, *tracker);
-    if (had_scissors || tracker->static_scissors()) emit_scissors(dev, commandBuffer, *tracker);
+    // A cut pass's scissors follow its viewports (split.h: cut_scissor), as the agent's do.
+    const bool viewports_changed = had_viewports || tracker->static_viewports();
+    if (had_scissors || tracker->static_scissors() || (tracker->cut() && viewports_changed))
+        emit_scissors(dev, commandBuffer, *tracker);
     if (had_viewports || tracker->static_viewports()) tracker->note_foveae();
 }
 

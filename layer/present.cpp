@@ -55,6 +55,7 @@
 #include "gpu_timing.h"
 #include "layer_entry_points.h"
 #include "log.h"
+#include "periphery.h"
 #include "queue.h"
 #include "session.h"
 #include "split.h"
@@ -131,10 +132,15 @@ void warn_if_late_dominates(Session &session, uint64_t late, uint32_t wait_ms) {
 }
 
 // Split mode: the frame's own tiles, waiting at most SPLITVK_TILE_WAIT (longer for the first split
-// frame after the agent joined). They must cover exactly the foveae the frame's split passes drew;
+// frame after the agent joined). They must cover exactly the foveae the frame's split passes drew,
+// or in the swapped split (`periphery_parts` given) be the periphery in exactly those parts;
 // anything else counts as late.
 std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, const SplitFrame &split,
-                                              Exposure &exposure) {
+                                              Exposure &exposure,
+                                              const std::vector<VkRect2D> *periphery_parts = nullptr) {
+    // What a frame without its tiles shows instead.
+    const char *instead =
+        periphery_parts ? "its periphery is the previous frame's" : "its centre is the periphery's";
     // No agent, or one that joined after this frame's submits: the periphery alone.
     if (!session.live() || !session.tiles() || frame < session.first_replayed_frame()) return nullptr;
     const uint32_t wait_ms = session.take_first_split_frame()
@@ -154,33 +160,47 @@ std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, 
         const uint64_t invalid = session.invalid_frames.fetch_add(1);
         if (invalid % 100 == 0)
             SPLITVK_WARN(
-                "frame %llu: the agent's GPU could not render it correctly (its log says why); its centre "
-                "is the periphery's (%llu such frames)",
-                static_cast<unsigned long long>(frame), static_cast<unsigned long long>(invalid + 1));
+                "frame %llu: the agent's GPU could not render it correctly (its log says why); %s (%llu "
+                "such frames)",
+                static_cast<unsigned long long>(frame), instead,
+                static_cast<unsigned long long>(invalid + 1));
         return nullptr;
     }
-    bool match = tiles && tiles->tiles.size() == split.foveae.size();
-    for (size_t i = 0; match && i < split.foveae.size(); ++i) {
-        const VkRect2D &want = split.foveae[i].rect;
-        const VkRect2D &got = tiles->tiles[i].rect;
-        match = split.foveae[i].layer == tiles->tiles[i].layer && want.offset.x == got.offset.x &&
-                want.offset.y == got.offset.y && want.extent.width == got.extent.width &&
-                want.extent.height == got.extent.height;
+    const auto same = [](const VkRect2D &a, const VkRect2D &b) {
+        return a.offset.x == b.offset.x && a.offset.y == b.offset.y && a.extent.width == b.extent.width &&
+               a.extent.height == b.extent.height;
+    };
+    bool match = false;
+    if (periphery_parts) {
+        match = tiles && tiles->periphery && tiles->tiles.size() == periphery_parts->size();
+        for (size_t i = 0; match && i < periphery_parts->size(); ++i)
+            match = tiles->tiles[i].layer == 0 && same((*periphery_parts)[i], tiles->tiles[i].rect);
+    } else {
+        match = tiles && !tiles->periphery && tiles->tiles.size() == split.foveae.size();
+        for (size_t i = 0; match && i < split.foveae.size(); ++i)
+            match = split.foveae[i].layer == tiles->tiles[i].layer &&
+                    same(split.foveae[i].rect, tiles->tiles[i].rect);
     }
     if (match) return tiles;
     const uint64_t late = session.late_frames.fetch_add(1);
     // One line for the first late frame, then one per hundred: a stalled agent must not flood.
     if (late % 100 == 0) {
-        const std::string why = tiles ? "the agent's tiles do not match the frame's foveae"
-                                : !session.live()
-                                    ? "the agent went away before its tiles came"
-                                    : "no tiles from the agent within " + std::to_string(wait_ms) + " ms";
-        SPLITVK_WARN("frame %llu: %s; its centre is the periphery's (%llu such frames)",
-                     static_cast<unsigned long long>(frame), why.c_str(),
-                     static_cast<unsigned long long>(late + 1));
+        const std::string why =
+            tiles             ? (periphery_parts ? "the agent's periphery does not match the frame's"
+                                                 : "the agent's tiles do not match the frame's foveae")
+            : !session.live() ? "the agent went away before its tiles came"
+                              : "no tiles from the agent within " + std::to_string(wait_ms) + " ms";
+        SPLITVK_WARN("frame %llu: %s; %s (%llu such frames)", static_cast<unsigned long long>(frame),
+                     why.c_str(), instead, static_cast<unsigned long long>(late + 1));
     }
     if (session.live()) warn_if_late_dominates(session, late + 1, wait_ms);
     return nullptr;
+}
+
+// Whether a frame's passes were cut to its foveae (the swapped split; window swapchains only in this
+// slice), so that its periphery is the agent's to fill.
+bool frame_cut(const SwapchainState *swapchain, const SplitFrame &split) {
+    return swapchain && !swapchain->runtime && split.split && split.cut && !split.foveae.empty();
 }
 
 double ms_between(std::chrono::steady_clock::time_point from, std::chrono::steady_clock::time_point to) {
@@ -193,6 +213,9 @@ struct SplitPresent {
     const SwapchainState *swapchain = nullptr;
     uint32_t image_index = 0;
     SplitFrame split;
+    // The swapped split: the frame's passes were cut to its foveae, so the agent's periphery goes
+    // around them (Compositor::composite_periphery). Decided at the application's present.
+    bool cut = false;
     uint64_t frame = 0;
     std::chrono::steady_clock::time_point sent{};   // FramePresent
     double frame_ms = 0;                            // Session::frame_interval_ms() at the app's present
@@ -242,22 +265,34 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
     const auto wait_start = Clock::now();
     const uint64_t invalid_before = session.invalid_frames.load();
     const uint64_t late_before = session.late_frames.load();
+    // The swapped split: a frame whose passes ran whole (before an agent was there to render the
+    // periphery, or after it went) is shown as drawn, and no tiles are awaited for it.
+    const bool swapped = session.client_renders() == ClientRenders::Fovea;
+    std::vector<VkRect2D> parts;
+    if (p.cut)
+        parts = split::periphery_parts(split::scaled_extent(p.swapchain->extent, session.settings().scale));
     // Keeps the pixels alive through composite().
-    const auto tiles = frame_tiles(session, p.frame, p.split, exposure);
+    const auto tiles = swapped && !p.cut
+                           ? nullptr
+                           : frame_tiles(session, p.frame, p.split, exposure, p.cut ? &parts : nullptr);
     const auto waited = Clock::now();
     record.tile_wait_ms = ms_between(wait_start, waited);
     if (exposure.seen) record.exposed_wait_ms = ms_between(std::max(wait_start, exposure.since), waited);
     std::vector<FoveaTile> foveae;
+    PeripheryImage periphery; // the swapped split's: the agent's parts
     if (tiles) {
+        periphery.extent = tiles->periphery_extent;
         for (const DecodedTile &tile : tiles->tiles) {
             // Every tile of a frame that decoded has its buffer; without one, the periphery shows.
             if (!tile.upload) continue;
             // Copied by the GPU straight from where the tile was decoded (UploadPool).
-            foveae.push_back({tile.rect, tile.upload->buffer, 0, tile.upload, tile.layer});
+            (p.cut ? periphery.parts : foveae)
+                .push_back({tile.rect, tile.upload->buffer, 0, tile.upload, tile.layer});
             record.raw_bytes += uint64_t{tile.rect.extent.width} * tile.rect.extent.height * 4;
         }
-        record.tile_bytes = tiles->bytes;
-        record.decode_ms = std::chrono::duration<double, std::milli>(tiles->decode).count();
+        const double decode_ms = std::chrono::duration<double, std::milli>(tiles->decode).count();
+        (p.cut ? record.periphery_bytes : record.tile_bytes) = tiles->bytes;
+        (p.cut ? record.periphery_decode_ms : record.decode_ms) = decode_ms;
         record.agent_draw_ms = tiles->agent.draw_us / 1000.0;
         record.agent_readback_ms = tiles->agent.readback_us / 1000.0;
         record.agent_encode_ms = tiles->agent.encode_us / 1000.0;
@@ -265,14 +300,27 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
             std::max(0.0, ms_between(p.sent, tiles->received) - tiles->agent.present_to_send_us / 1000.0);
     }
     // A frame the agent flagged came on time; it is not late, only not usable.
-    record.late = !tiles && session.invalid_frames.load() == invalid_before;
+    // A frame the swapped split drew whole awaited nothing.
+    record.late = !tiles && session.invalid_frames.load() == invalid_before && !(swapped && !p.cut);
     if (tiles && session.take_first_tiles_after_resync())
         SPLITVK_INFO(
             "frame %llu: the first split frame from the agent that joined, %.0f ms after it answered",
             static_cast<unsigned long long>(p.frame), ms_between(session.joined_agent_answered(), waited));
 
     VkSemaphore composited = VK_NULL_HANDLE;
-    if (compositor) {
+    if (compositor && swapped && !p.cut) {
+        composited = taken; // drawn whole: presented as it is
+    } else if (compositor && p.cut) {
+        // The client's foveae stay, the agent's periphery goes around them; late, invalid or
+        // mismatched: the previous periphery again (VK_NOT_READY before any: as drawn).
+        std::vector<VkRect2D> keep;
+        for (const split::LayerFovea &fovea : p.split.foveae)
+            if (fovea.layer == 0) keep.push_back(fovea.rect);
+        auto queue_lock = lock ? lock_queue(p.queue) : std::unique_lock<std::mutex>();
+        if (compositor->composite_periphery(p.queue, p.image_index, waits, tiles ? &periphery : nullptr, keep,
+                                            p.swapchain->runtime ? nullptr : &composited) != VK_SUCCESS)
+            composited = taken;
+    } else if (compositor) {
         auto queue_lock = lock ? lock_queue(p.queue) : std::unique_lock<std::mutex>();
         if (compositor->composite(p.queue, p.image_index, waits, p.split.periphery, foveae,
                                   p.swapchain->runtime ? nullptr : &composited) != VK_SUCCESS)
@@ -619,6 +667,19 @@ VkSemaphore copy_swapchain_image(DeviceState &dev, VkQueue queue, const Swapchai
     return r.semaphore;
 }
 
+// The swapped split lost its agent (Session::take_forced_out_of_date): this present answers
+// VK_ERROR_OUT_OF_DATE_KHR, once per loss, unless the driver's answer is worse. The image was
+// presented; the application recreates its swapchain and records its command buffers again, whole
+// (cutting() is false now), which an application that records them once would never do by itself.
+VkResult after_agent_loss(Session &session, const VkPresentInfoKHR &info, VkResult result) {
+    if (!session.take_forced_out_of_date()) return result;
+    SPLITVK_INFO("present: the agent that rendered the periphery is gone: this present answers "
+                 "VK_ERROR_OUT_OF_DATE_KHR once, so that the application records its frames again, whole");
+    for (uint32_t i = 0; info.pResults && i < info.swapchainCount; ++i)
+        info.pResults[i] = worse(info.pResults[i], VK_ERROR_OUT_OF_DATE_KHR);
+    return worse(result, VK_ERROR_OUT_OF_DATE_KHR);
+}
+
 // Frames replayed with no split pass before the warning: an application may present a few copied
 // frames (a splash screen) before it renders; most present none.
 constexpr uint64_t kUnsplitFramesBeforeWarning = 100;
@@ -919,6 +980,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         p.queue = queue;
         p.swapchain = split_swapchain;
         p.image_index = drawn;
+        p.cut = frame_cut(p.swapchain, split);
         p.split = std::move(split);
         p.frame = frame;
         p.sent = std::chrono::steady_clock::now();
@@ -930,7 +992,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         if (async) {
             if (const auto result = present_async(dev, p, waits)) {
                 if (pPresentInfo->pResults) pPresentInfo->pResults[0] = *result;
-                return *result;
+                return after_agent_loss(session, *pPresentInfo, *result);
             }
             drain_presents(dev); // nothing taken: this frame goes here, after the thread's
             queue_lock = lock_queue(queue);
@@ -950,7 +1012,8 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
                 present.pWaitSemaphores = &redirected;
             }
     }
-    const VkResult result = note_presented(*pPresentInfo, dev.dispatch.QueuePresentKHR(queue, &present));
+    const VkResult result = after_agent_loss(
+        session, *pPresentInfo, note_presented(*pPresentInfo, dev.dispatch.QueuePresentKHR(queue, &present)));
     queue_lock = {};
     if (pending) compare_verified_frame(dev, *pending);
     return result;

@@ -7,6 +7,7 @@
 #include "gpu_timing.h"
 #include "image.h"
 #include "layer_entry_points.h"
+#include "log.h"
 #include "object_map.h"
 #include "resource.h"
 #include "screen_space.h"
@@ -15,7 +16,9 @@
 #include "swapchain.h"
 #include "vk_util.h"
 
+#include <algorithm>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <utility>
 #include <vector>
@@ -65,10 +68,89 @@ struct PassTarget {
     bool swapchain = false; // a swapchain image of a composable swapchain, while splitting
     bool runtime = false;   // that swapchain is an OpenXR runtime's (swapchain.h)
     bool scaled = false;    // a screen-space target among its attachments
+    // SPLITVK_CLIENT_RENDERS=fovea (split_cutting): a pass into a window's swapchain image keeps its
+    // area and is cut to the foveae; a pass into screen-space targets only is cut to `guard`.
+    bool cut = false;
+    std::optional<VkRect2D> guard;
     VkImage image = VK_NULL_HANDLE;
     VkExtent2D extent{}; // the swapchain's, else the full extent its scaled areas are relative to
-    bool split() const { return swapchain || scaled; }
+    bool split() const { return swapchain || scaled || guard; }
 };
+
+// SPLITVK_CLIENT_RENDERS=fovea: OpenXR runtime images are not cut in this slice.
+void log_runtime_uncut_once() {
+    static std::once_flag logged;
+    std::call_once(logged, [] {
+        SPLITVK_INFO("swapped split: passes into OpenXR runtime images are not cut (rendered whole)");
+    });
+}
+
+// The guard of a pass whose attachments are all screen-space targets kept full size in fovea mode
+// (ImageState::guard_kind): the union of split::window_guard_rect over its views, the agent's
+// guard:N rule with SPLITVK_CLIENT_GUARD. None, so that the pass runs whole, where an attachment is
+// anything else, a target was classified against an older swapchain extent, or the guard is `full`.
+std::optional<VkRect2D> guard_of(const DeviceState &dev, std::span<const VkImageView> views) {
+    const Settings &settings = split_settings();
+    if (settings.client_guard.full || views.empty()) return std::nullopt;
+    VkExtent2D screen{};
+    if (!screen_extent(dev, &screen)) return std::nullopt;
+    std::optional<VkRect2D> guard;
+    for (VkImageView view : views) {
+        if (!view) continue;
+        const ImageViewState *v = g_views.find(view);
+        if (!v) return std::nullopt;
+        std::optional<split::TargetClass> kind;
+        VkExtent2D classified{}, extent{};
+        read_image(v->image, [&](const ImageState &state) {
+            kind = state.guard_kind;
+            classified = state.guard_screen;
+            extent = {state.extent.width, state.extent.height};
+        });
+        if (!kind || classified.width != screen.width || classified.height != screen.height)
+            return std::nullopt;
+        const uint32_t mip = v->range.baseMipLevel;
+        VkRect2D r{};
+        if (!split::window_guard_rect(*kind, screen, split::mip_extent(extent, mip), mip, settings.eyes,
+                                      settings.fovea, settings.gaze != GazeMode::Fixed,
+                                      settings.client_guard.pixels, &r))
+            return std::nullopt;
+        if (!guard) {
+            guard = r;
+            continue;
+        }
+        const int64_t x0 = std::min<int64_t>(guard->offset.x, r.offset.x);
+        const int64_t y0 = std::min<int64_t>(guard->offset.y, r.offset.y);
+        const int64_t x1 = std::max<int64_t>(int64_t{guard->offset.x} + guard->extent.width,
+                                             int64_t{r.offset.x} + r.extent.width);
+        const int64_t y1 = std::max<int64_t>(int64_t{guard->offset.y} + guard->extent.height,
+                                             int64_t{r.offset.y} + r.extent.height);
+        guard = VkRect2D{{int32_t(x0), int32_t(y0)}, {uint32_t(x1 - x0), uint32_t(y1 - y0)}};
+    }
+    if (guard) {
+        static std::once_flag logged;
+        std::call_once(logged, [&] {
+            SPLITVK_INFO("SPLITVK_CLIENT_GUARD=guard:%u: cutting passes into screen-space targets to the "
+                         "foveae grown by %u pixels; the first to %d,%d %ux%u (exact only while the guard "
+                         "covers every filter's reach towards the foveae: blurs compound; storage writes "
+                         "see only the guard)",
+                         settings.client_guard.pixels, settings.client_guard.pixels, guard->offset.x,
+                         guard->offset.y, guard->extent.width, guard->extent.height);
+        });
+    }
+    return guard;
+}
+
+// Fovea mode: a swapchain pass is cut (a runtime's runs whole), any other may be guarded.
+void decide_cut(const DeviceState &dev, PassTarget &t, std::span<const VkImageView> views) {
+    if (!split_cutting(dev)) return;
+    if (t.swapchain && t.runtime) {
+        log_runtime_uncut_once();
+        t.swapchain = false;
+        return;
+    }
+    t.cut = t.swapchain;
+    if (!t.swapchain && !t.scaled) t.guard = guard_of(dev, views);
+}
 
 std::span<const VkImageView> begin_views(const VkRenderPassBeginInfo *begin, const FramebufferState *fb) {
     if (const auto *info = find_in_chain<VkRenderPassAttachmentBeginInfo>(
@@ -87,6 +169,7 @@ PassTarget pass_target(DeviceState &dev, const VkRenderPassBeginInfo *begin) {
                                                     &t.image, &t.extent, &t.runtime);
     t.scaled = fb->scaled;
     if (!t.swapchain) t.extent = fb->extent;
+    decide_cut(dev, t, views);
     return t;
 }
 
@@ -118,6 +201,18 @@ PassTarget rendering_target(DeviceState &dev, const VkRenderingInfo *info) {
         t.extent.width = std::max(t.extent.width, info->renderArea.extent.width);
         t.extent.height = std::max(t.extent.height, info->renderArea.extent.height);
     }
+    std::vector<VkImageView> views;
+    const auto add = [&](const VkRenderingAttachmentInfo *a) {
+        if (!a || !a->imageView) return;
+        views.push_back(a->imageView);
+        if (a->resolveMode != VK_RESOLVE_MODE_NONE) views.push_back(a->resolveImageView);
+    };
+    for (uint32_t i = 0; i < info->colorAttachmentCount; ++i)
+        add(&info->pColorAttachments[i]);
+    add(info->pDepthAttachment);
+    add(info->pStencilAttachment);
+    decide_cut(dev, t, views);
+    if (t.guard) t.extent = info->renderArea.extent;
     return t;
 }
 
@@ -126,10 +221,16 @@ PassTarget rendering_target(DeviceState &dev, const VkRenderingInfo *info) {
 std::mutex g_logged_extents_mutex;
 std::set<std::pair<uint32_t, uint32_t>> g_logged_extents;
 
-void log_split_extent_once(VkExtent2D extent) {
+void log_split_extent_once(VkExtent2D extent, bool cut) {
     {
         std::lock_guard lock(g_logged_extents_mutex);
         if (!g_logged_extents.emplace(extent.width, extent.height).second) return;
+    }
+    if (cut) {
+        SPLITVK_INFO("swapped split: passes into %ux%u swapchain images are cut to the foveae; the agent "
+                     "renders the periphery",
+                     extent.width, extent.height);
+        return;
     }
     const VkExtent2D periphery = split::scaled_extent(extent, split_settings().scale);
     SPLITVK_INFO("split: passes into %ux%u swapchain images render their periphery at %ux%u", extent.width,
@@ -138,8 +239,9 @@ void log_split_extent_once(VkExtent2D extent) {
 
 void enter_split(DeviceState &dev, VkCommandBuffer cb, split::CommandTracker &tracker,
                  const PassTarget &target) {
-    if (target.swapchain) log_split_extent_once(target.extent);
+    if (target.swapchain) log_split_extent_once(target.extent, target.cut);
     tracker.begin_split(codec::handle_value(target.image), target.extent, target.swapchain);
+    if (target.cut || target.guard) tracker.cut_pass(target.guard);
     emit_viewports(dev, cb, tracker);
     emit_scissors(dev, cb, tracker);
 }
@@ -200,8 +302,9 @@ void begin_split_of_secondaries(DeviceState &dev, VkCommandBuffer cb, split::Com
         time_split_pass_begun(dev, cb, *timing);
     }
     begin();
-    if (target.swapchain) log_split_extent_once(target.extent);
+    if (target.swapchain) log_split_extent_once(target.extent, target.cut);
     tracker.begin_split(codec::handle_value(target.image), target.extent, target.swapchain);
+    if (target.cut) tracker.cut_pass();
     tracker.contents_in_secondaries();
 }
 
@@ -209,12 +312,16 @@ template <class Down>
 void begin_render_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassBeginInfo *begin,
                        bool secondary, Down &&down) {
     note_attachments(cb, begin);
-    const PassTarget target = pass_target(dev, begin);
-    g_pass_predictions.note_begin(codec::handle_value(begin->renderPass), {target.split(), target.extent});
+    PassTarget target = pass_target(dev, begin);
+    // Secondaries of a guarded pass run whole in this slice.
+    if (secondary) target.guard.reset();
+    g_pass_predictions.note_begin(codec::handle_value(begin->renderPass),
+                                  {target.swapchain || target.scaled, target.extent, target.cut});
     split::CommandTracker *tracker = target.split() ? split_tracker(cb) : nullptr;
     if (!tracker && !target.scaled) return down(begin);
     VkRenderPassBeginInfo scaled = *begin;
-    scaled.renderArea = scaled_area(begin->renderArea, target.extent);
+    // A cut pass keeps the app's render area.
+    if (!target.cut && !target.guard) scaled.renderArea = scaled_area(begin->renderArea, target.extent);
     if (!tracker) return down(&scaled);
     if (!secondary) {
         CommandTiming *timing = command_buffer_timing(cb);
@@ -222,7 +329,7 @@ void begin_render_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassB
         down(&scaled);
         if (timing) time_split_pass_begun(dev, cb, *timing);
         enter_split(dev, cb, *tracker, target);
-        if (target.swapchain && !target.runtime)
+        if (target.swapchain && !target.runtime && !target.cut)
             mask_foveae(dev, cb, *tracker, *begin, target.extent, scaled.renderArea);
         return;
     }
@@ -251,14 +358,19 @@ uint64_t rendering_key(const VkRenderingInfo &info) {
 
 template <class Down>
 void begin_rendering(DeviceState &dev, VkCommandBuffer cb, const VkRenderingInfo *info, Down &&down) {
-    const PassTarget target = rendering_target(dev, info);
+    PassTarget target = rendering_target(dev, info);
     const bool secondary = info->flags & VK_RENDERING_CONTENTS_SECONDARY_COMMAND_BUFFERS_BIT;
+    // Secondaries of a guarded rendering run whole in this slice.
+    if (secondary) target.guard.reset();
     // Noted unscaled too, so that a kind of rendering that stops being scaled predicts so.
-    if (secondary) g_rendering_predictions.note_begin(rendering_key(*info), {target.split(), target.extent});
+    if (secondary)
+        g_rendering_predictions.note_begin(rendering_key(*info),
+                                           {target.swapchain || target.scaled, target.extent, target.cut});
     split::CommandTracker *tracker = target.split() ? split_tracker(cb) : nullptr;
     if (!tracker && !target.scaled) return down(info);
     VkRenderingInfo scaled = *info;
-    scaled.renderArea = scaled_area(info->renderArea, target.extent);
+    // A cut rendering keeps the app's render area.
+    if (!target.cut && !target.guard) scaled.renderArea = scaled_area(info->renderArea, target.extent);
     // A resumed rendering continues the suspended one, which was scaled alike.
     if (!tracker) return down(&scaled);
     if (secondary) return begin_split_of_secondaries(dev, cb, *tracker, target, [&] { down(&scaled); });
@@ -267,7 +379,7 @@ void begin_rendering(DeviceState &dev, VkCommandBuffer cb, const VkRenderingInfo
     down(&scaled);
     if (timing) time_split_pass_begun(dev, cb, *timing);
     enter_split(dev, cb, *tracker, target);
-    if (target.swapchain && !target.runtime)
+    if (target.swapchain && !target.runtime && !target.cut)
         mask_foveae(dev, cb, *tracker, *info, target.extent, scaled.renderArea);
 }
 
@@ -315,13 +427,15 @@ void begin_secondary(DeviceState &dev, VkCommandBuffer cb, const VkCommandBuffer
         info.renderPass = inheritance.renderPass;
         info.framebuffer = inheritance.framebuffer;
         const PassTarget t = pass_target(dev, &info);
-        target = {t.split(), t.extent};
+        target = {t.swapchain || t.scaled, t.extent, t.cut};
     } else if (const auto predicted =
                    g_pass_predictions.predict(codec::handle_value(inheritance.renderPass))) {
         target = *predicted;
     }
     // Scaled like the pass it continues; its viewports are kept for the executing pass's foveae.
-    if (target.scaled) tracker->begin_split(0, target.extent, false);
+    // Fovea mode: cut like it instead, its scissors narrowed by its own viewports.
+    if (target.scaled) tracker->begin_split(0, target.extent, target.swapchain);
+    if (target.scaled && target.swapchain) tracker->cut_pass();
 }
 
 void forget_render_pass(VkRenderPass render_pass) {
@@ -468,7 +582,9 @@ void CmdClearAttachments(DeviceState &, PFN_vkCmdClearAttachments down, VkComman
                          uint32_t attachmentCount, const VkClearAttachment *pAttachments, uint32_t rectCount,
                          const VkClearRect *pRects) {
     const split::CommandTracker *tracker = split_tracker(commandBuffer);
-    if (!tracker || !tracker->in_split())
+    // A cut pass clears as recorded: scissors do not bound clears, and the composite overwrites what
+    // lies outside the foveae.
+    if (!tracker || !tracker->in_split() || tracker->cut())
         return down(commandBuffer, attachmentCount, pAttachments, rectCount, pRects);
     std::vector<VkClearRect> rects;
     for (uint32_t i = 0; i < rectCount; ++i) {

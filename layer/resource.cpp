@@ -371,7 +371,8 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateImage(VkDevice device, const VkImageCreateI
     DeviceState &dev = device_state(device);
     if (!dev.session) return dev.dispatch.CreateImage(device, pCreateInfo, pAllocator, pImage);
     VkImageCreateInfo info = *pCreateInfo;
-    const bool screen_space = screen_space_create_info(dev, *pCreateInfo, &info);
+    GuardTarget guard;
+    const bool screen_space = screen_space_create_info(dev, *pCreateInfo, &info, &guard);
     const bool add = can_add_transfer_src(dev, info);
     if (add) info.usage |= VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
     VkResult result = dev.dispatch.CreateImage(device, &info, pAllocator, pImage);
@@ -396,6 +397,10 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateImage(VkDevice device, const VkImageCreateI
         // rewrites them, so a snapshot leaves them out.
         state.screen_space = screen_space;
         state.full = {pCreateInfo->extent.width, pCreateInfo->extent.height};
+        if (guard.kind.screen_space) {
+            state.guard_kind = std::move(guard.kind);
+            state.guard_screen = guard.screen;
+        }
         add_image(*pImage, std::move(state));
     }
     record_global(dev, LiveChange::Created, codec::handle_value(*pImage), [&](codec::Encoder &e) {

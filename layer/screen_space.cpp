@@ -4,8 +4,10 @@
 
 #include "image.h"
 #include "log.h"
+#include "session.h"
 #include "split.h"
 #include "split_geometry.h"
+#include "swapchain.h"
 
 #include <mutex>
 #include <set>
@@ -17,6 +19,7 @@ namespace {
 
 std::mutex g_mutex;
 std::unordered_map<const DeviceState *, VkExtent2D> g_screens; // newest composable swapchain
+std::set<const DeviceState *> g_scaled;                        // created a target scaled
 
 bool screen_of(const DeviceState &device, VkExtent2D *screen) {
     std::lock_guard lock(g_mutex);
@@ -32,6 +35,18 @@ const char *aspect_of(const VkImageCreateInfo &info) {
     return "storage";
 }
 
+// An OpenXR runtime's composable swapchain among the device's images.
+bool runtime_swapchain_known(const DeviceState &device) {
+    std::set<VkSwapchainKHR> members;
+    for_each_image(device, [&](VkImage, const ImageState &state) {
+        if (state.swapchain) members.insert(state.swapchain);
+    });
+    for (VkSwapchainKHR member : members)
+        if (const SwapchainState *swapchain = find_swapchain(member); swapchain && swapchain->runtime)
+            return true;
+    return false;
+}
+
 } // namespace
 
 void note_screen_extent(DeviceState &device, VkExtent2D extent) {
@@ -39,7 +54,17 @@ void note_screen_extent(DeviceState &device, VkExtent2D extent) {
     g_screens[&device] = extent;
 }
 
-bool screen_space_create_info(DeviceState &device, const VkImageCreateInfo &app, VkImageCreateInfo *down) {
+bool screen_extent(const DeviceState &device, VkExtent2D *screen) {
+    return screen_of(device, screen);
+}
+
+bool scaled_targets_created(const DeviceState &device) {
+    std::lock_guard lock(g_mutex);
+    return g_scaled.count(&device) != 0;
+}
+
+bool screen_space_create_info(DeviceState &device, const VkImageCreateInfo &app, VkImageCreateInfo *down,
+                              GuardTarget *guard) {
     const Settings &settings = split_settings();
     if (settings.targets != TargetMode::Auto || !split_enabled(device)) return false;
     VkExtent2D screen{};
@@ -54,6 +79,23 @@ bool screen_space_create_info(DeviceState &device, const VkImageCreateInfo &app,
                          aspect_of(app), c.reason.c_str());
         return false;
     }
+    if (device.session->client_renders() == ClientRenders::Fovea) {
+        // The agent renders the periphery: the client keeps the target whole and cuts the passes
+        // into it to the foveae grown by SPLITVK_CLIENT_GUARD. Not under OpenXR in this slice: its
+        // eye images are not cut, so their frames need every target whole.
+        if (runtime_swapchain_known(device)) return false;
+        guard->kind = c;
+        guard->screen = screen;
+        SPLITVK_INFO("targets: %ux%u %s image x%u is screen-space (%s of %ux%u): full size, its passes cut "
+                     "to the foveae's guard",
+                     app.extent.width, app.extent.height, aspect_of(app), app.arrayLayers, c.reason.c_str(),
+                     screen.width, screen.height);
+        return false;
+    }
+    {
+        std::lock_guard lock(g_mutex);
+        g_scaled.insert(&device);
+    }
     *down = app;
     down->extent = split::scaled_target_extent(app.extent, settings.scale);
     SPLITVK_INFO("targets: %ux%u %s image x%u is screen-space (%s of %ux%u): rendered at %ux%u",
@@ -65,6 +107,7 @@ bool screen_space_create_info(DeviceState &device, const VkImageCreateInfo &app,
 void forget_screen_space(DeviceState &device) {
     std::lock_guard lock(g_mutex);
     g_screens.erase(&device);
+    g_scaled.erase(&device);
 }
 
 bool screen_space_extent(VkImage image, VkExtent2D *full) {
@@ -85,6 +128,8 @@ VkRect2D scale_image_rect(VkImage image, uint32_t mip, const VkRect2D &rect) {
 bool screen_space_attachment(const DeviceState &device, const VkFramebufferAttachmentImageInfo &info) {
     const Settings &settings = split_settings();
     if (settings.targets != TargetMode::Auto) return false;
+    // Fovea mode keeps every target full size (screen_space_create_info).
+    if (device.session && device.session->client_renders() == ClientRenders::Fovea) return false;
     VkExtent2D screen{};
     if (!screen_of(device, &screen)) return false;
     VkImageCreateInfo image{};

@@ -34,7 +34,20 @@ void note_screen_extent(DeviceState &device, VkExtent2D extent);
 // vkCreateImage: whether `app` is a screen-space target; if so `*down` (a copy of it) gets the
 // scaled extent. Logs the classification at info level. resource.cpp keeps the answer and the
 // app's extent in the image's ImageState (image.h).
-bool screen_space_create_info(DeviceState &device, const VkImageCreateInfo &app, VkImageCreateInfo *down);
+//
+// SPLITVK_CLIENT_RENDERS=fovea (issue 21): a target stays full size (false), and `*guard` gets its
+// class, for the passes into it that the client cuts to the guard (split::window_guard_rect).
+struct GuardTarget {
+    split::TargetClass kind; // kind.screen_space: classified as a target
+    VkExtent2D screen{};     // the swapchain extent it was classified against
+};
+bool screen_space_create_info(DeviceState &device, const VkImageCreateInfo &app, VkImageCreateInfo *down,
+                              GuardTarget *guard);
+// Whether the device created a screen-space target at the scaled size (in periphery mode, or before
+// the agent chose the mode): passes then cannot be cut (split_cutting).
+bool scaled_targets_created(const DeviceState &device);
+// The device's newest composable swapchain extent; false before the first.
+bool screen_extent(const DeviceState &device, VkExtent2D *screen);
 void forget_screen_space(DeviceState &device);
 
 // The app-visible extent of a screen-space target (its mip 0, from its ImageState); false for any

@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <utility>
 
 namespace splitvk {
 namespace {
@@ -111,13 +112,15 @@ void Session::adopt_locked(AgentLink &&agent) {
         // Which side renders what is decided by the first agent that accepts the split, and kept:
         // the client's screen-space targets are created for it (full size in the swapped split).
         if (!splitting_.exchange(true) && settings_.client_renders == ClientRenders::Fovea) {
-            if (capabilities & protocol::capability::kSwappedSplit)
+            if (capabilities & protocol::capability::kSwappedSplit) {
                 client_renders_.store(ClientRenders::Fovea);
-            else
+                stats_->set_client_renders_fovea(true);
+            } else {
                 SPLITVK_WARN(
                     "splitvk-agent at %s cannot render the periphery (SPLITVK_CLIENT_RENDERS=fovea); "
                     "the client renders it, and the agent the foveae",
                     address_.c_str());
+            }
         }
     }
     if (splitting()) {
@@ -142,6 +145,12 @@ void Session::adopt_locked(AgentLink &&agent) {
                          address_.c_str());
         }
         send_locked(protocol::MessageType::SplitConfig, protocol::encode(config));
+        // Right after SplitConfig, and only to an agent that granted the swapped split (a
+        // reconnecting one without it was refused by run_reconnect()).
+        if (client_renders() == ClientRenders::Fovea && (capabilities & protocol::capability::kSwappedSplit))
+            send_locked(
+                protocol::MessageType::PeripheryConfig,
+                protocol::encode(protocol::PeripheryConfig{settings_.scale, settings_.periphery_quality}));
     }
     stop_receiver_.store(false);
     receiver_ = std::thread([this] { run_receiver(); });
@@ -258,6 +267,24 @@ void Session::run_reconnect() {
             backoff = std::min(backoff * 2, kLongestRetry);
             continue;
         }
+        // The swapped split is for the session's life: its command buffers are recorded cut and its
+        // screen-space targets full size, which only an agent that renders the periphery can serve.
+        if (client_renders() == ClientRenders::Fovea &&
+            !(agent->welcome.capabilities & protocol::capability::kSwappedSplit)) {
+            if (!std::exchange(swapped_refusal_logged_, true))
+                SPLITVK_WARN("splitvk-agent at %s cannot render the periphery, which this session's client "
+                             "leaves to the agent (SPLITVK_CLIENT_RENDERS=fovea); not brought in, the client "
+                             "renders whole frames",
+                             address_.c_str());
+            agent->connection->send(
+                protocol::MessageType::Goodbye,
+                protocol::encode_goodbye({"the client's swapped split needs the periphery"}));
+            agent->connection->flush(kCloseFlush);
+            agent->connection->close("cannot render the periphery");
+            backoff = std::min(backoff * 2, kLongestRetry);
+            continue;
+        }
+        swapped_refusal_logged_ = false;
         pending_agent_ = std::move(agent).value();
         reconnected_at_ = std::chrono::steady_clock::now();
         resync_pending_.store(true, std::memory_order_release);
@@ -411,6 +438,8 @@ void Session::run_receiver() {
 }
 
 const char *Session::fallback() const {
+    if (client_renders() == ClientRenders::Fovea)
+        return "the client renders whole frames from now on (frames recorded cut show the last periphery)";
     return splitting_ ? "the periphery alone fills the frames from now on" : "running unsplit from now on";
 }
 
@@ -421,8 +450,10 @@ void Session::fail(const std::string &reason) {
     live_.store(false);
     if (tiles_) tiles_->abandon();
     reconnect_wake_.notify_all();
-    if (!failure_logged_.exchange(true))
+    if (!failure_logged_.exchange(true)) {
+        if (client_renders() == ClientRenders::Fovea) force_out_of_date_.store(true);
         SPLITVK_WARN("splitvk-agent at %s went away (%s); %s", address_.c_str(), reason.c_str(), fallback());
+    }
 }
 
 void Session::send_metadata_logged(protocol::MessageType type, std::vector<uint8_t> &&payload,

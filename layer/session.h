@@ -207,8 +207,14 @@ public:
     // Entries in the object part of the live-state log.
     size_t live_object_count();
 
-    // The agent went away (one line): nothing is sent until a new one is brought in.
+    // The agent went away (one line): nothing is sent until a new one is brought in. In the swapped
+    // split cutting() turns false with it, and the next present answers VK_ERROR_OUT_OF_DATE_KHR
+    // once (take_forced_out_of_date()).
     void fail(const std::string &reason);
+    // The swapped split lost its agent since the last call: the application's next present answers
+    // VK_ERROR_OUT_OF_DATE_KHR, so that an application that records its command buffers once (cut
+    // to the foveae) recreates its swapchain and records them again, whole. True once per loss.
+    bool take_forced_out_of_date() { return force_out_of_date_.exchange(false); }
 
     // A new agent has connected and waits for the snapshot: the next present calls resync().
     bool resync_pending() const { return resync_pending_.load(std::memory_order_acquire); }
@@ -264,6 +270,7 @@ private:
     bool verify_ = false;
     std::atomic<bool> splitting_{false};
     std::atomic<ClientRenders> client_renders_{ClientRenders::Periphery};
+    std::atomic<bool> force_out_of_date_{false}; // take_forced_out_of_date()
     Settings settings_;
     uint64_t device_id_ = 0;
     std::string address_;
@@ -298,6 +305,9 @@ private:
     std::condition_variable reconnect_wake_;
     bool closing_ = false;                   // under reconnect_mutex_
     std::optional<AgentLink> pending_agent_; // under reconnect_mutex_
+    // The swapped split refused a reconnecting agent that cannot render the periphery: said once
+    // until an agent is brought in. Under reconnect_mutex_.
+    bool swapped_refusal_logged_ = false;
     std::atomic<bool> resync_pending_{false};
     std::atomic<uint64_t> first_replayed_frame_{0};
     std::chrono::steady_clock::time_point reconnected_at_{}; // under reconnect_mutex_

@@ -4,10 +4,14 @@
 
 #include "image.h"
 #include "layer_settings.h"
+#include "log.h"
+#include "screen_space.h"
+#include "session.h"
 #include "split_geometry.h"
 #include "swapchain.h"
 #include "vk_util.h"
 
+#include <mutex>
 #include <optional>
 #include <utility>
 
@@ -15,6 +19,17 @@ namespace splitvk {
 
 bool split_enabled(const DeviceState &device) {
     return device.session != nullptr && device.session->splitting();
+}
+
+bool split_cutting(const DeviceState &device) {
+    if (!split_enabled(device) || !device.session->cutting()) return false;
+    if (!scaled_targets_created(device)) return true;
+    static std::once_flag logged;
+    std::call_once(logged, [] {
+        SPLITVK_INFO("swapped split: screen-space targets were created scaled before the agent chose "
+                     "SPLITVK_CLIENT_RENDERS=fovea; this device renders whole frames (not cut)");
+    });
+    return false;
 }
 
 bool swapchain_composable(const SwapchainState &swapchain) {
@@ -36,6 +51,7 @@ SplitFrame take_split_frame(DeviceState &, VkImage image, EyeMode eyes, const sp
         drawn = std::exchange(state->drawn, std::nullopt);
     }
     frame.split = true;
+    frame.cut = drawn->cut;
     frame.periphery = split::scaled_extent(drawn->extent, split_settings().scale);
     // The whole frame's coverage decides its foveae (split::frame_foveae), as the agent's does.
     // Never smaller than a fovea its passes left unshaded (fovea_mask.h): a mask recorded before the
@@ -88,14 +104,26 @@ void note_split_drawn(LockedImages &images, const split::CommandTracker &tracker
         image->drawn->extent = drawn.extent;
         image->drawn->coverage |= drawn.coverage;
         image->drawn->masked = split::larger(image->drawn->masked, drawn.masked);
+        image->drawn->cut = image->drawn->cut || drawn.cut;
     }
+}
+
+VkRect2D cut_scissor(const split::CommandTracker &tracker, size_t index, const VkRect2D &scissor,
+                     const Settings &settings) {
+    if (tracker.guard()) return split::intersect(scissor, *tracker.guard());
+    if (!tracker.swapchain_pass()) return scissor;
+    // The configured fovea size: SPLITVK_FOVEA=auto is off in fovea mode, and the agent's scissors are
+    // recorded for that size too.
+    return split::narrow_to_foveae(scissor, tracker.viewport(index), tracker.extent(), settings.eyes,
+                                   settings.fovea, settings.gaze != GazeMode::Fixed);
 }
 
 void emit_viewports(DeviceState &device, VkCommandBuffer command_buffer,
                     const split::CommandTracker &tracker) {
     const double scale = split_settings().scale;
+    // A cut pass keeps the app's viewports: only its scissors are cut.
     const auto out = [&](const VkViewport &v) {
-        return tracker.in_split() ? split::scale_viewport(v, scale) : v;
+        return tracker.in_split() && !tracker.cut() ? split::scale_viewport(v, scale) : v;
     };
     std::vector<VkViewport> values;
     if (tracker.static_viewports()) {
@@ -124,20 +152,23 @@ void emit_scissors(DeviceState &device, VkCommandBuffer command_buffer,
                    const split::CommandTracker &tracker) {
     const double scale = split_settings().scale;
     const VkExtent2D scaled = split::scaled_extent(tracker.extent(), scale);
-    const auto out = [&](const VkRect2D &r) {
-        return tracker.in_split() ? split::scale_rect(r, scale, scaled) : r;
+    const Settings &settings = split_settings();
+    const auto out = [&](size_t i, const VkRect2D &r) {
+        if (!tracker.in_split()) return r;
+        if (!tracker.cut()) return split::scale_rect(r, scale, scaled);
+        return cut_scissor(tracker, i, r, settings);
     };
     std::vector<VkRect2D> values;
     if (tracker.static_scissors()) {
-        for (const VkRect2D &r : tracker.pipeline()->scissors)
-            values.push_back(out(r));
+        for (size_t i = 0; i < tracker.pipeline()->scissors.size(); ++i)
+            values.push_back(out(i, tracker.pipeline()->scissors[i]));
         device.dispatch.CmdSetScissor(command_buffer, 0, static_cast<uint32_t>(values.size()), values.data());
         return;
     }
     const auto &dynamic = tracker.dynamic_scissors();
     if (dynamic.empty()) return;
-    for (const VkRect2D &r : dynamic.values)
-        values.push_back(out(r));
+    for (size_t i = 0; i < dynamic.values.size(); ++i)
+        values.push_back(out(i, dynamic.values[i]));
     if (dynamic.with_count) {
         const auto set = device.dispatch.CmdSetScissorWithCount ? device.dispatch.CmdSetScissorWithCount
                                                                 : device.dispatch.CmdSetScissorWithCountEXT;

@@ -27,6 +27,10 @@ struct SplitFrame {
     VkExtent2D periphery{};
     std::vector<split::LayerFovea> foveae; // layer 0 but in a layered OpenXR eye image
     split::FrameFoveaSize fovea_size;      // the size they take (SPLITVK_FOVEA=auto); unset: SPLITVK_FOVEA
+    // SPLITVK_CLIENT_RENDERS=fovea: some pass of the frame was cut to the foveae, so its periphery
+    // is the agent's to fill. False for a frame drawn wholly uncut (recorded before the agent joined
+    // or after it was lost): it is presented as it is.
+    bool cut = false;
 };
 
 // What the submits since the last call rendered into swapchain image `image`: whether a split pass
@@ -43,6 +47,11 @@ SplitFrame take_split_frame(DeviceState &device, VkImage image, EyeMode eyes, co
 // split (Session::splitting(): SPLITVK_VERIFY is off, since verification compares whole frames with
 // the agent's, which the split makes differ on purpose).
 bool split_enabled(const DeviceState &device);
+// Whether passes recorded now are cut to the foveae rather than scaled (SPLITVK_CLIENT_RENDERS=fovea,
+// issue 21): split_enabled, the session cutting (Session::cutting(): fovea mode with a live agent),
+// and no screen-space target of the device created scaled (one made before the agent chose the mode
+// keeps its scaled size, which a cut frame cannot use: the device then stays uncut, said once).
+bool split_cutting(const DeviceState &device);
 // Whether a swapchain's images are composited (the present path can join periphery and foveae).
 bool swapchain_composable(const SwapchainState &swapchain);
 
@@ -53,6 +62,11 @@ const Settings &split_settings();
 void emit_viewports(DeviceState &device, VkCommandBuffer command_buffer,
                     const split::CommandTracker &tracker);
 void emit_scissors(DeviceState &device, VkCommandBuffer command_buffer, const split::CommandTracker &tracker);
+// The scissor at `index` of a cut pass (tracker.cut()) as it goes down: within the guard of a guarded
+// pass, narrowed to the foveae (split::narrow_to_foveae, the agent's rule) in a pass into a swapchain
+// image, as recorded otherwise.
+VkRect2D cut_scissor(const split::CommandTracker &tracker, size_t index, const VkRect2D &scissor,
+                     const Settings &settings);
 
 // queue.cpp, before the submit: the swapchain images (handle values) split passes in these
 // submits draw into; empty unless split_enabled().

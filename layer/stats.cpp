@@ -28,9 +28,9 @@ double quantile(const std::vector<double> &sorted, double q) {
 
 const char *FrameStats::csv_header() {
     return "frame,frame_ms,periphery_ms,tile_wait_ms,exposed_wait_ms,network_ms,decode_ms,merge_ms,"
-           "merge_gpu_ms,tile_bytes,raw_bytes,agent_draw_ms,agent_readback_ms,agent_encode_ms,present_call_"
-           "ms,"
-           "late,xr_frame,xr_view,fovea_x,fovea_y,fovea_w,fovea_h,present_to_composite_ms";
+           "merge_gpu_ms,tile_bytes,raw_bytes,agent_draw_ms,agent_readback_ms,agent_encode_ms,"
+           "present_call_ms,late,xr_frame,xr_view,fovea_x,fovea_y,fovea_w,fovea_h,present_to_composite_ms,"
+           "periphery_decode_ms,periphery_bytes";
 }
 
 FrameStats::FrameStats(const std::string &path) {
@@ -72,7 +72,7 @@ void FrameStats::record(const FrameRecord &r) {
     last_ = now;
     ++frames_;
     if (r.late) ++late_;
-    tile_bytes_ += r.tile_bytes;
+    tile_bytes_ += r.tile_bytes + r.periphery_bytes;
     if (r.frame_ms > 0) frame_ms_.push_back(r.frame_ms);
     if (r.xr_frame >= 0 && r.xr_frame != last_xr_frame_) {
         if (xr_frames_ > 0)
@@ -82,24 +82,31 @@ void FrameStats::record(const FrameRecord &r) {
         xr_frame_start_ = now;
     }
     if (fd_ < 0) return;
-    char row[512];
+    char row[640];
     const int length = std::snprintf(
         row, sizeof(row),
         "%llu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%llu,%llu,%.3f,%.3f,%.3f,%.3f,%d,%lld,%d,%d,%d,%u,%u,%."
-        "3f\n",
+        "3f,%.3f,%llu\n",
         static_cast<unsigned long long>(r.frame), r.frame_ms, r.periphery_ms, r.tile_wait_ms,
         r.exposed_wait_ms, r.network_ms, r.decode_ms, r.merge_ms, r.merge_gpu_ms,
         static_cast<unsigned long long>(r.tile_bytes), static_cast<unsigned long long>(r.raw_bytes),
         r.agent_draw_ms, r.agent_readback_ms, r.agent_encode_ms, r.present_call_ms, r.late ? 1 : 0,
         static_cast<long long>(r.xr_frame), r.xr_view, r.fovea.offset.x, r.fovea.offset.y,
-        r.fovea.extent.width, r.fovea.extent.height, r.present_to_composite_ms);
+        r.fovea.extent.width, r.fovea.extent.height, r.present_to_composite_ms, r.periphery_decode_ms,
+        static_cast<unsigned long long>(r.periphery_bytes));
     if (length > 0 && static_cast<size_t>(length) < sizeof(row))
         append(std::string(row, static_cast<size_t>(length)));
+}
+
+void FrameStats::set_client_renders_fovea(bool fovea) {
+    std::lock_guard lock(mutex_);
+    client_renders_fovea_ = fovea;
 }
 
 std::string FrameStats::summary() {
     std::lock_guard lock(mutex_);
     if (frames_ == 0) return {};
+    const char *mode = client_renders_fovea_ ? "split (client renders fovea)" : "split";
     const double seconds = std::chrono::duration<double>(last_ - first_).count();
     const double mbits = seconds > 0 ? static_cast<double>(tile_bytes_) * 8 / seconds / 1e6 : 0;
     char line[256];
@@ -107,22 +114,22 @@ std::string FrameStats::summary() {
         // A release per eye image: the rows of one OpenXR frame are one frame to the viewer.
         auto sorted = xr_frame_ms_;
         std::sort(sorted.begin(), sorted.end());
-        std::snprintf(
-            line, sizeof(line),
-            "split: %llu eye images in %llu OpenXR frames, OpenXR frame time median %.1f ms (IQR %.1f "
-            "ms), %.1f Mbit/s of tiles, %llu late",
-            static_cast<unsigned long long>(frames_), static_cast<unsigned long long>(xr_frames_),
-            quantile(sorted, 0.5), quantile(sorted, 0.75) - quantile(sorted, 0.25), mbits,
-            static_cast<unsigned long long>(late_));
+        std::snprintf(line, sizeof(line),
+                      "%s: %llu eye images in %llu OpenXR frames, OpenXR frame time median %.1f ms (IQR %.1f "
+                      "ms), %.1f Mbit/s of tiles, %llu late",
+                      mode, static_cast<unsigned long long>(frames_),
+                      static_cast<unsigned long long>(xr_frames_), quantile(sorted, 0.5),
+                      quantile(sorted, 0.75) - quantile(sorted, 0.25), mbits,
+                      static_cast<unsigned long long>(late_));
         return line;
     }
     auto sorted = frame_ms_;
     std::sort(sorted.begin(), sorted.end());
-    std::snprintf(
-        line, sizeof(line),
-        "split: %llu frames, frame time median %.1f ms (IQR %.1f ms), %.1f Mbit/s of tiles, %llu late",
-        static_cast<unsigned long long>(frames_), quantile(sorted, 0.5),
-        quantile(sorted, 0.75) - quantile(sorted, 0.25), mbits, static_cast<unsigned long long>(late_));
+    std::snprintf(line, sizeof(line),
+                  "%s: %llu frames, frame time median %.1f ms (IQR %.1f ms), %.1f Mbit/s of tiles, %llu late",
+                  mode, static_cast<unsigned long long>(frames_), quantile(sorted, 0.5),
+                  quantile(sorted, 0.75) - quantile(sorted, 0.25), mbits,
+                  static_cast<unsigned long long>(late_));
     return line;
 }
 

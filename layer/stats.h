@@ -28,7 +28,7 @@ struct FrameRecord {
     double decode_ms = 0;    // the slowest eye
     double merge_ms = 0;     // upload and composite, as recorded and submitted on this thread
     double merge_gpu_ms = 0; // GPU time of the latest completed composite (gpu_timing.h)
-    uint64_t tile_bytes = 0; // Tiles payload received
+    uint64_t tile_bytes = 0; // Tiles payload received (the foveae's; the periphery's: periphery_bytes)
     uint64_t raw_bytes = 0;  // the same tiles uncompressed (4 bytes per pixel)
     double agent_draw_ms = 0;
     double agent_readback_ms = 0;
@@ -49,6 +49,10 @@ struct FrameRecord {
     // The application's present (where this frame's gaze was read) to its composite submitted: the
     // layer's part of the latency from a gaze point to the screen, on the present thread too.
     double present_to_composite_ms = 0;
+    // The swapped split (SPLITVK_CLIENT_RENDERS=fovea): decoding the agent's periphery (its slowest
+    // part), and its Tiles payload as received; 0 in a frame without one.
+    double periphery_decode_ms = 0;
+    uint64_t periphery_bytes = 0;
 };
 
 class FrameStats {
@@ -60,6 +64,10 @@ public:
     FrameStats &operator=(const FrameStats &) = delete;
 
     void record(const FrameRecord &record);
+
+    // The summary's mode: "split" (the client renders the periphery), or with `client_renders_fovea`
+    // "split (client renders fovea)" (the swapped split).
+    void set_client_renders_fovea(bool fovea);
 
     // "split: 300 frames, frame time median 41.2 ms (IQR 3.1 ms), 87.5 Mbit/s of tiles, 0 late";
     // empty when no frame was recorded. With OpenXR eye images, the frames are counted as OpenXR
@@ -82,6 +90,7 @@ private:
     int64_t last_xr_frame_ = -1;
     std::chrono::steady_clock::time_point xr_frame_start_{};
     std::vector<double> xr_frame_ms_;
+    bool client_renders_fovea_ = false;
     uint64_t frames_ = 0;
     uint64_t late_ = 0;
     uint64_t tile_bytes_ = 0;

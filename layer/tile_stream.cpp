@@ -68,6 +68,12 @@ bool TileStream::accept(std::vector<uint8_t> &&payload, std::string *error) {
         const auto &t = decoded->tiles[i];
         frame.tiles[i].rect = {{static_cast<int32_t>(t.x), static_cast<int32_t>(t.y)}, {t.width, t.height}};
         frame.tiles[i].layer = t.array_layer;
+        // decode_tiles refuses a message that mixes periphery and fovea tiles.
+        if (t.flags & protocol::kTilePeriphery) {
+            frame.periphery = true;
+            frame.periphery_extent.width = std::max(frame.periphery_extent.width, t.x + t.width);
+            frame.periphery_extent.height = std::max(frame.periphery_extent.height, t.y + t.height);
+        }
     }
     pending->remaining = decoded->tiles.size();
     pending->encoded = std::move(decoded->tiles);
@@ -118,12 +124,17 @@ void TileStream::decode_tile(EyeDecoder &eye, const EyeJob &job) {
     const auto start = Clock::now();
     std::string error;
     bool ok = true;
+    // Only a periphery part may be lossy (the agent's downsampled periphery): a fovea tile must come
+    // bit-exact, so its decoder refuses lossy data.
+    const bool accept_lossy = (encoded.flags & protocol::kTilePeriphery) != 0;
     if (!eye.decoder || eye.width != encoded.width || eye.height != encoded.height ||
-        eye.codec != encoded.codec) {
+        eye.codec != encoded.codec || eye.accept_lossy != accept_lossy) {
         eye.width = encoded.width;
         eye.height = encoded.height;
         eye.codec = encoded.codec;
-        eye.decoder = tiles::make_tile_decoder(encoded.codec, encoded.width, encoded.height, &error);
+        eye.accept_lossy = accept_lossy;
+        eye.decoder =
+            tiles::make_tile_decoder(encoded.codec, encoded.width, encoded.height, &error, accept_lossy);
         ok = eye.decoder != nullptr;
     }
     std::shared_ptr<const HostBuffer> upload;

@@ -12,6 +12,10 @@
 //
 // Every Tiles message is decoded, also one that arrives after its present gave up on it: the next
 // frame's P-frames reference it. Frames older than the one a present asked for are dropped.
+//
+// The swapped split (SPLITVK_CLIENT_RENDERS=fovea): a Tiles message holds the parts of the agent's
+// downsampled periphery instead (kTilePeriphery), decoded alike, part i by thread i; only their
+// decoders accept lossy data.
 
 #include "host_buffer.h"
 #include "metadata.h" // Tiles, AgentTimings
@@ -53,6 +57,11 @@ struct FrameTiles {
     std::chrono::steady_clock::duration decode{};   // the slowest eye
     bool failed = false;                            // a tile did not decode (logged)
     bool invalid = false; // the agent could not render this frame correctly (kTilesInvalid)
+    // The swapped split: the tiles are the parts of the agent's downsampled periphery
+    // (kTilePeriphery; their rects in the scaled image, decoded accepting lossy data), and
+    // `periphery_extent` the scaled image they cover (the parts' bounding box).
+    bool periphery = false;
+    VkExtent2D periphery_extent{};
 };
 
 class TileStream {
@@ -99,6 +108,7 @@ private:
         // Decoder thread only.
         uint32_t width = 0, height = 0;
         TileCodec codec = TileCodec::X264;
+        bool accept_lossy = false; // a periphery part's decoder; a fovea's never accepts lossy tiles
         std::unique_ptr<tiles::TileDecoder> decoder;
     };
 

@@ -23,6 +23,9 @@ struct Side {
     Kind kind = Kind::Plain;
     VkImage image = VK_NULL_HANDLE;
     VkExtent2D extent{}; // the swapchain's
+    // SPLITVK_CLIENT_RENDERS=fovea: a swapchain image written full size, not scaled (still noted as
+    // drawn); the composite overwrites what lies outside the foveae.
+    bool cut = false;
 };
 
 Side side_of(DeviceState &dev, VkImage image, bool destination) {
@@ -32,6 +35,7 @@ Side side_of(DeviceState &dev, VkImage image, bool destination) {
         s.kind = Kind::Scaled;
     } else if (destination && split_enabled(dev) && swapchain_image_extent(image, &s.extent)) {
         s.kind = Kind::Swapchain;
+        s.cut = split_cutting(dev);
     } else if (!destination && split_enabled(dev) && swapchain_image_extent(image, &s.extent)) {
         log_unscalable_once("a copy out of a swapchain image reads what the client drew: its periphery "
                             "part is scaled into the top-left (the app's own read-back, not the display)");
@@ -45,6 +49,7 @@ VkRect2D scale_side(const Side &s, uint32_t mip, const VkRect2D &r) {
     case Kind::Scaled:
         return scale_image_rect(s.image, mip, r);
     case Kind::Swapchain:
+        if (s.cut) return r;
         return split::scale_rect(r, scale, split::scaled_extent(s.extent, scale));
     case Kind::Plain:
         break;
@@ -69,7 +74,9 @@ bool scale_copies(DeviceState &dev, VkCommandBuffer cb, VkImage src, VkImage dst
                   const Region *regions, std::vector<Region> &out) {
     const Side s = side_of(dev, src, false), d = side_of(dev, dst, true);
     if (s.kind != Kind::Scaled && d.kind != Kind::Scaled && d.kind != Kind::Swapchain) return false;
-    if (s.kind == Kind::Plain && d.kind == Kind::Swapchain)
+    if (s.kind == Kind::Plain && d.kind == Kind::Swapchain && d.cut) {
+        // Fovea mode: full size on both sides, as recorded.
+    } else if (s.kind == Kind::Plain && d.kind == Kind::Swapchain)
         log_unscalable_once("a resolve into a swapchain image from a full-size image: the client's periphery "
                             "shows its top-left part (the foveae stay exact)");
     else if (s.kind != Kind::Scaled || d.kind == Kind::Plain)
@@ -118,7 +125,7 @@ template <class Region>
 bool copy_as_blit(DeviceState &dev, VkCommandBuffer cb, VkImage src, VkImageLayout src_layout, VkImage dst,
                   VkImageLayout dst_layout, uint32_t count, const Region *regions) {
     const Side s = side_of(dev, src, false), d = side_of(dev, dst, true);
-    if (s.kind != Kind::Plain || d.kind != Kind::Swapchain) return false;
+    if (s.kind != Kind::Plain || d.kind != Kind::Swapchain || d.cut) return false;
     std::vector<VkImageBlit> blits;
     for (uint32_t i = 0; i < count; ++i) {
         const Region &r = regions[i];

@@ -15,8 +15,8 @@ namespace splitvk {
 namespace {
 
 template <class Down>
-void set_viewports(VkCommandBuffer cb, uint32_t first, uint32_t count, const VkViewport *viewports,
-                   bool with_count, Down &&down) {
+void set_viewports(DeviceState &dev, VkCommandBuffer cb, uint32_t first, uint32_t count,
+                   const VkViewport *viewports, bool with_count, Down &&down) {
     split::CommandTracker *tracker = split_tracker(cb);
     if (!tracker) return down(viewports);
     tracker->set_viewports(first, count, viewports, with_count);
@@ -24,6 +24,11 @@ void set_viewports(VkCommandBuffer cb, uint32_t first, uint32_t count, const VkV
     if (tracker->secondary()) tracker->note_foveae();
     if (!tracker->in_split()) return down(viewports);
     tracker->note_foveae();
+    // A cut pass keeps the app's viewports, but the scissors cut by them change with them.
+    if (tracker->cut()) {
+        down(viewports);
+        return emit_scissors(dev, cb, *tracker);
+    }
     std::vector<VkViewport> scaled(viewports, viewports + count);
     for (VkViewport &v : scaled)
         v = split::scale_viewport(v, split_settings().scale);
@@ -38,6 +43,12 @@ void set_scissors(VkCommandBuffer cb, uint32_t first, uint32_t count, const VkRe
     tracker->set_scissors(first, count, scissors, with_count);
     if (tracker->static_scissors()) return;
     if (!tracker->in_split()) return down(scissors);
+    if (tracker->cut()) {
+        std::vector<VkRect2D> cut(scissors, scissors + count);
+        for (uint32_t i = 0; i < count; ++i)
+            cut[i] = cut_scissor(*tracker, with_count ? i : first + i, scissors[i], split_settings());
+        return down(cut.data());
+    }
     const double scale = split_settings().scale;
     const VkExtent2D extent = split::scaled_extent(tracker->extent(), scale);
     std::vector<VkRect2D> scaled(scissors, scissors + count);
@@ -50,15 +61,16 @@ void set_scissors(VkCommandBuffer cb, uint32_t first, uint32_t count, const VkRe
 
 namespace rewrite {
 
-void CmdSetViewport(DeviceState &, PFN_vkCmdSetViewport down, VkCommandBuffer commandBuffer,
+void CmdSetViewport(DeviceState &dev, PFN_vkCmdSetViewport down, VkCommandBuffer commandBuffer,
                     uint32_t firstViewport, uint32_t viewportCount, const VkViewport *pViewports) {
-    set_viewports(commandBuffer, firstViewport, viewportCount, pViewports, false,
+    set_viewports(dev, commandBuffer, firstViewport, viewportCount, pViewports, false,
                   [&](const VkViewport *v) { down(commandBuffer, firstViewport, viewportCount, v); });
 }
 
-void CmdSetViewportWithCount(DeviceState &, PFN_vkCmdSetViewportWithCount down, VkCommandBuffer commandBuffer,
-                             uint32_t viewportCount, const VkViewport *pViewports) {
-    set_viewports(commandBuffer, 0, viewportCount, pViewports, true,
+void CmdSetViewportWithCount(DeviceState &dev, PFN_vkCmdSetViewportWithCount down,
+                             VkCommandBuffer commandBuffer, uint32_t viewportCount,
+                             const VkViewport *pViewports) {
+    set_viewports(dev, commandBuffer, 0, viewportCount, pViewports, true,
                   [&](const VkViewport *v) { down(commandBuffer, viewportCount, v); });
 }
 

@@ -74,11 +74,14 @@ inline constexpr uint64_t kFoveaTiles = 1ull << 2; // the split: SplitConfig, fo
 // message, so the client sends it only when this bit was granted.
 inline constexpr uint64_t kAgentScissor = 1ull << 3;
 // The swapped split (SPLITVK_CLIENT_RENDERS=fovea, issue 21): the agent renders the periphery and
-// streams it lossily; the client renders the foveae. Offered only by a client that asks for it.
+// streams it lossily; the client renders the foveae. Offered only by a client that asks for it;
+// granted by an agent unless it runs with --no-periphery. With it the client may send
+// PeripheryConfig (metadata.h) after SplitConfig.
 inline constexpr uint64_t kSwappedSplit = 1ull << 4;
 } // namespace capability
 inline constexpr uint64_t kSupportedCapabilities = capability::kZstdPayloads | capability::kVerifyFrames |
-                                                   capability::kFoveaTiles | capability::kAgentScissor;
+                                                   capability::kFoveaTiles | capability::kAgentScissor |
+                                                   capability::kSwappedSplit;
 
 // Field caps, enforced by the decoders (and by the encoders, which clamp text to them).
 inline constexpr uint32_t kMaxTokenBytes = 256;

@@ -225,6 +225,12 @@ void fields(auto &io, MessageOf<SplitConfig> auto &m) {
     });
 }
 
+void fields(auto &io, MessageOf<PeripheryConfig> auto &m) {
+    io.f64(m.scale, "periphery scale");
+    io.flag(m.quality.lossless, "periphery lossless");
+    io.u32(m.quality.crf, "periphery crf");
+}
+
 void fields(auto &io, MessageOf<EncodedTile> auto &t) {
     io.u32(t.x, "x");
     io.u32(t.y, "y");
@@ -416,6 +422,23 @@ Result<SplitConfig> decode_split_config(std::span<const uint8_t> payload) {
     return d.finish(m, "SplitConfig");
 }
 
+std::vector<uint8_t> encode(const PeripheryConfig &m) {
+    return encode_fields(m, 16);
+}
+
+Result<PeripheryConfig> decode_periphery_config(std::span<const uint8_t> payload) {
+    Decoder d(payload);
+    PeripheryConfig m;
+    fields(d, m);
+    // Written as !(in range) so that NaN fails too.
+    if (d.ok() && !(m.scale >= split::kMinPeripheryScale && m.scale <= split::kMaxPeripheryScale))
+        d.fail("periphery scale out of range");
+    else if (d.ok() && m.quality.crf > kMaxPeripheryCrf)
+        d.fail("periphery crf " + std::to_string(m.quality.crf) + " above " +
+               std::to_string(kMaxPeripheryCrf));
+    return d.finish(m, "PeripheryConfig");
+}
+
 std::vector<uint8_t> encode(const Tiles &m) {
     size_t size = 64;
     for (const auto &t : m.tiles)
@@ -434,8 +457,10 @@ Result<Tiles> decode_tiles(std::span<const uint8_t> payload, uint32_t max_bytes)
             d.fail("tile " + std::to_string(i) + " rectangle out of range");
         else if (t.array_layer >= kMaxImageArrayLayers)
             d.fail("tile " + std::to_string(i) + " array layer out of range");
-        else if (t.flags & ~kTileKeyframe)
+        else if (t.flags & ~(kTileKeyframe | kTilePeriphery))
             d.fail("tile " + std::to_string(i) + " has unknown flags");
+        else if ((t.flags & kTilePeriphery) != (m.tiles[0].flags & kTilePeriphery))
+            d.fail("tile " + std::to_string(i) + " mixes periphery and fovea tiles in one frame");
     }
     if (d.ok() && (m.flags & ~kTilesInvalid)) d.fail("unknown Tiles flags");
     if (d.ok() && (m.flags & kTilesInvalid) && !m.tiles.empty()) d.fail("an invalid frame with tiles");

@@ -14,13 +14,17 @@
 //   server -> client  VerifyFrame       a presented image read back whole (SPLITVK_VERIFY=full)
 //   client -> server  SplitConfig       the split settings the agent must agree on (eyes, fovea,
 //                                       codec); sent once, before the first command
-//   server -> client  Tiles             the encoded fovea tiles of one presented frame (issue 4)
+//   client -> server  PeripheryConfig   the swapped split (capability kSwappedSplit): the periphery's
+//                                       scale and quality; sent once, right after SplitConfig
+//   server -> client  Tiles             the encoded fovea tiles of one presented frame (issue 4), or
+//                                       in the swapped split its downsampled periphery (issue 21)
 //   client -> server  ImageLayouts      a linear image was created: where the client's driver puts
 //                                       each of its subresources, so that the agent can re-lay
 //                                       MemoryData into its own driver's layout (issue 10)
 //   client -> server  BufferAddress     vkGetBufferDeviceAddress returned an address on the client:
 //                                       the agent maps it to its own buffer's (buffer_addresses.h)
 
+#include "periphery.h"
 #include "result.h"
 #include "settings.h"
 #include "split_geometry.h"
@@ -161,16 +165,32 @@ struct SplitConfig {
     AgentScissor agent_scissor;
 };
 
+// The swapped split (SPLITVK_CLIENT_RENDERS=fovea, issue 21; sent only when capability
+// kSwappedSplit was granted, right after SplitConfig): the client renders only the foveae, and the
+// agent replays every pass whole, downsamples each presented window image to
+// split::scaled_extent(image, scale) and sends it as periphery tiles (kTilePeriphery). The decoder
+// refuses a scale outside [split::kMinPeripheryScale, split::kMaxPeripheryScale] (NaN too) and a
+// crf above kMaxPeripheryCrf.
+struct PeripheryConfig {
+    double scale = 0.5; // SPLITVK_SCALE
+    PeripheryQuality quality;
+};
+
 inline constexpr uint32_t kTileKeyframe = 1u << 0; // decodable alone (an IDR for x264)
+// A part of the swapped split's periphery (split::periphery_parts): x, y, width and height are in
+// the scaled image, and its data may be lossy (tile_codec.h). A Tiles message holds periphery tiles
+// or fovea tiles, never both.
+inline constexpr uint32_t kTilePeriphery = 1u << 1;
 // Tiles flags: the agent replayed something its GPU cannot honour in this frame (issue 10,
 // server-agent/limit_guard.h); the message carries no tiles and the client shows the periphery.
 inline constexpr uint32_t kTilesInvalid = 1u << 0;
 
 // One eye's fovea, encoded by `codec` (tile_codec.h) as one frame of that eye's stream.
 struct EncodedTile {
-    uint32_t x = 0, y = 0, width = 0, height = 0; // in the full-resolution image
+    // In the full-resolution image; in the scaled one for a periphery tile.
+    uint32_t x = 0, y = 0, width = 0, height = 0;
     TileCodec codec = TileCodec::X264;
-    uint32_t flags = 0; // kTileKeyframe
+    uint32_t flags = 0; // kTileKeyframe, kTilePeriphery
     std::vector<uint8_t> data;
     uint32_t array_layer = 0; // of a layered OpenXR eye image (its eye's); 0 otherwise
 };
@@ -236,6 +256,7 @@ std::vector<uint8_t> encode(const FrameBegin &m);
 std::vector<uint8_t> encode(const FramePresent &m);
 std::vector<uint8_t> encode(const VerifyFrame &m);
 std::vector<uint8_t> encode(const SplitConfig &m);
+std::vector<uint8_t> encode(const PeripheryConfig &m);
 std::vector<uint8_t> encode(const Tiles &m);
 std::vector<uint8_t> encode(const ImageLayouts &m);
 std::vector<uint8_t> encode(const BufferAddress &m);
@@ -250,7 +271,8 @@ Result<FrameBegin> decode_frame_begin(std::span<const uint8_t> payload);
 Result<FramePresent> decode_frame_present(std::span<const uint8_t> payload);
 Result<VerifyFrame> decode_verify_frame(std::span<const uint8_t> payload, uint32_t max_bytes);
 Result<SplitConfig> decode_split_config(std::span<const uint8_t> payload);
-// `max_bytes` caps each tile's data.
+Result<PeripheryConfig> decode_periphery_config(std::span<const uint8_t> payload);
+// `max_bytes` caps each tile's data. Refuses a message mixing periphery and fovea tiles.
 Result<Tiles> decode_tiles(std::span<const uint8_t> payload, uint32_t max_bytes);
 Result<ImageLayouts> decode_image_layouts(std::span<const uint8_t> payload);
 Result<BufferAddress> decode_buffer_address(std::span<const uint8_t> payload);

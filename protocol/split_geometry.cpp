@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <iterator>
 
 namespace splitvk::split {
@@ -338,6 +339,92 @@ void add_fovea(std::vector<VkRect2D> &foveae, const VkRect2D &rect) {
     const auto it = std::lower_bound(foveae.begin(), foveae.end(), rect, less);
     if (it != foveae.end() && !less(rect, *it)) return;
     foveae.insert(it, rect);
+}
+
+VkRect2D narrow_to_foveae(const VkRect2D &scissor, const VkViewport *viewport, VkExtent2D image, EyeMode mode,
+                          const FoveaSize &fovea, bool moving_gaze) {
+    if (!viewport) return scissor;
+    return intersect(scissor, fovea_scissor(*viewport, image, mode, fovea, moving_gaze));
+}
+
+bool window_guard_foveae(const TargetClass &kind, VkExtent2D screen, EyeMode mode, const FoveaSize &fovea,
+                         bool moving_gaze, std::vector<VkRect2D> *out) {
+    if (!guard_maps_target(kind, mode)) return false;
+    const VkExtent2D s = screen;
+    const uint32_t left = s.width / 2;
+    const auto anywhere = [&](const VkRect2D &eye) { return moving_gaze ? eye : fovea_of_eye(eye, fovea); };
+    std::vector<VkRect2D> places;
+    if (mode != EyeMode::Two) places.push_back(anywhere({{0, 0}, s}));
+    if (mode != EyeMode::One) {
+        places.push_back(anywhere({{0, 0}, {left, s.height}}));
+        places.push_back(anywhere({{static_cast<int32_t>(left), 0}, {s.width - left, s.height}}));
+    }
+    for (const VkRect2D &f : places) {
+        if (!kind.eye) {
+            out->push_back(f);
+            continue;
+        }
+        const VkRect2D in_left = intersect(f, {{0, 0}, {left, s.height}});
+        VkRect2D in_right = intersect(f, {{static_cast<int32_t>(left), 0}, {s.width - left, s.height}});
+        in_right.offset.x -= static_cast<int32_t>(left);
+        for (const VkRect2D &r : {in_left, in_right})
+            if (r.extent.width && r.extent.height) out->push_back(r);
+    }
+    return true;
+}
+
+bool guard_in_target(const std::vector<VkRect2D> &foveae, const TargetClass &kind,
+                     VkExtent2D target_mip_extent, uint32_t mip, uint32_t guard_pixels, VkRect2D *out) {
+    if (foveae.empty()) return false;
+    int64_t fx0 = INT64_MAX, fy0 = INT64_MAX, fx1 = 0, fy1 = 0;
+    for (const VkRect2D &f : foveae) {
+        fx0 = std::min<int64_t>(fx0, f.offset.x);
+        fy0 = std::min<int64_t>(fy0, f.offset.y);
+        fx1 = std::max<int64_t>(fx1, int64_t{f.offset.x} + f.extent.width);
+        fy1 = std::max<int64_t>(fy1, int64_t{f.offset.y} + f.extent.height);
+    }
+    const int64_t divisor = int64_t{kind.divisor} << std::min(mip, 31u);
+    const int64_t n = guard_pixels;
+    const VkExtent2D e = target_mip_extent;
+    const int64_t x0 = std::max<int64_t>(0, fx0 / divisor - n);
+    const int64_t y0 = std::max<int64_t>(0, fy0 / divisor - n);
+    const int64_t x1 = std::min<int64_t>(e.width, (fx1 + divisor - 1) / divisor + n);
+    const int64_t y1 = std::min<int64_t>(e.height, (fy1 + divisor - 1) / divisor + n);
+    if (x1 <= x0 || y1 <= y0) return false;
+    *out = {{static_cast<int32_t>(x0), static_cast<int32_t>(y0)},
+            {static_cast<uint32_t>(x1 - x0), static_cast<uint32_t>(y1 - y0)}};
+    return true;
+}
+
+bool window_guard_rect(const TargetClass &kind, VkExtent2D screen, VkExtent2D target_mip_extent, uint32_t mip,
+                       EyeMode mode, const FoveaSize &fovea, bool moving_gaze, uint32_t guard_pixels,
+                       VkRect2D *out) {
+    std::vector<VkRect2D> foveae;
+    return window_guard_foveae(kind, screen, mode, fovea, moving_gaze, &foveae) &&
+           guard_in_target(foveae, kind, target_mip_extent, mip, guard_pixels, out);
+}
+
+VkRect2D runtime_scissor(const std::vector<LayerFovea> &areas, const VkViewport *v) {
+    const auto reaches = [&](const VkRect2D &f) {
+        if (!v) return true;
+        const double x0 = v->x, x1 = double(v->x) + v->width;
+        const double y0 = std::min(double(v->y), double(v->y) + v->height);
+        const double y1 = std::max(double(v->y), double(v->y) + v->height);
+        return x0 < f.offset.x + double(f.extent.width) && f.offset.x < x1 &&
+               y0 < f.offset.y + double(f.extent.height) && f.offset.y < y1;
+    };
+    const bool any =
+        std::any_of(areas.begin(), areas.end(), [&](const LayerFovea &f) { return reaches(f.rect); });
+    int64_t x0 = INT64_MAX, y0 = INT64_MAX, x1 = INT64_MIN, y1 = INT64_MIN;
+    for (const LayerFovea &f : areas) {
+        if (any && !reaches(f.rect)) continue;
+        x0 = std::min<int64_t>(x0, f.rect.offset.x);
+        y0 = std::min<int64_t>(y0, f.rect.offset.y);
+        x1 = std::max<int64_t>(x1, int64_t{f.rect.offset.x} + f.rect.extent.width);
+        y1 = std::max<int64_t>(y1, int64_t{f.rect.offset.y} + f.rect.extent.height);
+    }
+    if (x1 <= x0 || y1 <= y0) return {};
+    return {{int32_t(x0), int32_t(y0)}, {uint32_t(x1 - x0), uint32_t(y1 - y0)}};
 }
 
 } // namespace splitvk::split

@@ -6,6 +6,7 @@
 // fovea of each eye at full resolution, and the compositor joins them by these same rectangles.
 
 #include "settings.h"
+#include "target_rule.h"
 
 #include <vulkan/vulkan.h>
 
@@ -125,6 +126,35 @@ std::vector<VkRect2D> frame_foveae(const EyeCoverage &drawn, VkExtent2D image, E
 VkRect2D fovea_scissor(const VkViewport &viewport, VkExtent2D image, EyeMode mode, const FoveaSize &fovea,
                        bool moving_gaze = false);
 
+// A scissor of a pass into a window's swapchain image cut to the foveae (the agent's rule in its split
+// passes, and the client's in SPLITVK_CLIENT_RENDERS=fovea): `scissor` intersected with
+// fovea_scissor of the viewport it pairs with. Without that viewport the eye is unknown, and the
+// scissor stays as it is until the viewport is set.
+VkRect2D narrow_to_foveae(const VkRect2D &scissor, const VkViewport *viewport, VkExtent2D image, EyeMode mode,
+                          const FoveaSize &fovea, bool moving_gaze);
+
+// Every place a fovea of a window's swapchain of `screen` extent can be, in the coordinates a
+// screen-space target of class `kind` holds before its divisor: the screen's, or for an eye-sized
+// target (a layer of an eye texture, which holds either eye) what of them lies in each eye, in that
+// eye's coordinates (a centred fovea straddles both eyes). SPLITVK_EYES=1: the centre; 2: both eyes;
+// auto: all three; `moving_gaze` puts an eye's fovea anywhere in that eye. False, with nothing added,
+// where guard_maps_target refuses the target.
+bool window_guard_foveae(const TargetClass &kind, VkExtent2D screen, EyeMode mode, const FoveaSize &fovea,
+                         bool moving_gaze, std::vector<VkRect2D> *out);
+
+// The bounding box of `foveae` (a target's coordinates before its divisor) in mip `mip` of a
+// target of class `kind` whose mip extent is `target_mip_extent`: divided by divisor << mip, rounded
+// outwards, grown by `guard_pixels` on every side, bounded by the mip. False where nothing remains.
+bool guard_in_target(const std::vector<VkRect2D> &foveae, const TargetClass &kind,
+                     VkExtent2D target_mip_extent, uint32_t mip, uint32_t guard_pixels, VkRect2D *out);
+
+// The guard of one attachment view of a screen-space target classified against a window's swapchain
+// of `screen` extent (the agent's SPLITVK_AGENT_SCISSOR=guard:N, the client's SPLITVK_CLIENT_GUARD):
+// window_guard_foveae mapped by guard_in_target. False: a pass into that view runs whole.
+bool window_guard_rect(const TargetClass &kind, VkExtent2D screen, VkExtent2D target_mip_extent, uint32_t mip,
+                       EyeMode mode, const FoveaSize &fovea, bool moving_gaze, uint32_t guard_pixels,
+                       VkRect2D *out);
+
 // An eye's field of view as OpenXR gives it (XrFovf): the angles of the image's edges from the
 // view direction, in radians, within (-pi/2, pi/2); left and down are negative.
 struct FieldOfView {
@@ -203,6 +233,12 @@ std::vector<LayerFovea> runtime_fovea_areas(VkExtent2D image, uint32_t layers,
 bool runtime_guard_foveae(VkExtent2D image, uint32_t layers, const std::vector<RuntimeEye> &eyes,
                           bool eye_sized, const FoveaSize &fovea, bool moving_gaze,
                           std::vector<VkRect2D> *out);
+
+// The bounding box of the places `areas` (runtime_fovea_areas) of an OpenXR eye image that a
+// viewport can draw into: every layer's (a multiview pass draws all its views with the same
+// scissors), and of a side-by-side image the eyes whose foveae the viewport reaches (all of them
+// where it is not known, or reaches none). A zero rectangle when `areas` is empty.
+VkRect2D runtime_scissor(const std::vector<LayerFovea> &areas, const VkViewport *viewport);
 
 // The foveae of a window's swapchain image, all in layer 0.
 std::vector<LayerFovea> in_layer_zero(const std::vector<VkRect2D> &foveae);

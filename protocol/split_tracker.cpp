@@ -17,6 +17,7 @@ void merge_drawn(std::vector<DrawnImage> &into, const std::vector<DrawnImage> &f
         it->extent = d.extent;
         it->coverage |= d.coverage;
         it->masked = larger(it->masked, d.masked);
+        it->cut = it->cut || d.cut;
     }
 }
 
@@ -57,8 +58,10 @@ size_t CommandTracker::scissor_count() const {
 DrawnImage &CommandTracker::drawn_entry(uint64_t image, VkExtent2D extent) {
     auto it =
         std::find_if(drawn_.begin(), drawn_.end(), [&](const DrawnImage &x) { return x.image == image; });
-    if (it == drawn_.end()) return drawn_.emplace_back(DrawnImage{image, extent, {}, {}});
+    if (it == drawn_.end()) it = drawn_.insert(drawn_.end(), DrawnImage{image, extent, {}, {}});
     it->extent = extent;
+    // A transfer notes its image outside any pass: drawn full size, not cut.
+    if (cut() && swapchain_ && image == image_) it->cut = true;
     return *it;
 }
 

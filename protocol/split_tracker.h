@@ -44,6 +44,9 @@ struct DrawnImage {
     // The client alone, with SPLITVK_FOVEA=auto: the largest fovea size its passes left unshaded
     // (layer/fovea_mask.h), which the frame's foveae must not be smaller than.
     FrameFoveaSize masked;
+    // The client alone, with SPLITVK_CLIENT_RENDERS=fovea: a pass into it was cut to the foveae
+    // (CommandTracker::cut_pass), so the frame's periphery must come from the agent.
+    bool cut = false;
 
     std::vector<VkRect2D> foveae(EyeMode mode, const FoveaSize &fovea, const Gaze &gaze = {}) const;
 };
@@ -122,7 +125,19 @@ public:
         swapchain_ = swapchain;
         image_ = image;
         extent_ = extent;
+        cut_ = false;
+        guard_.reset();
     }
+    // The client with SPLITVK_CLIENT_RENDERS=fovea (issue 21), right after begin_split: the pass keeps
+    // its full-size render area and viewports, and its scissors are cut instead of scaled: to the
+    // foveae (split::narrow_to_foveae) in a pass into a swapchain image, to `guard` in a pass into
+    // screen-space targets only (split::window_guard_rect), or not at all without one.
+    void cut_pass(std::optional<VkRect2D> guard = std::nullopt) {
+        cut_ = true;
+        guard_ = guard;
+    }
+    bool cut() const { return in_split_ && cut_; }
+    const std::optional<VkRect2D> &guard() const { return guard_; }
     // A pass that set no viewport of its own drew with the ones it inherited: their foveae are
     // noted now. They are not noted at the pass's begin, because a pass that sets its own before
     // drawing never draws the inherited ones, and a fovea noted but never shaded would be
@@ -131,6 +146,8 @@ public:
         if (in_split_ && !noted_in_pass_) note_foveae();
         in_split_ = false;
         swapchain_ = false;
+        cut_ = false;
+        guard_.reset();
     }
     bool in_split() const { return in_split_; }
     bool swapchain_pass() const { return in_split_ && swapchain_; }
@@ -197,6 +214,8 @@ private:
     bool noted_in_pass_ = false;
     bool swapchain_ = false;
     bool secondary_ = false;
+    bool cut_ = false;
+    std::optional<VkRect2D> guard_;
     std::vector<VkViewport> secondary_viewports_; // a secondary's, as recorded
     uint64_t image_ = 0;
     VkExtent2D extent_{};
@@ -214,6 +233,9 @@ private:
 struct PassPrediction {
     bool scaled = false; // the pass's target is scaled (a swapchain image or a screen-space target)
     VkExtent2D extent{}; // the full extent its scaled areas are relative to
+    // SPLITVK_CLIENT_RENDERS=fovea: a pass into a swapchain image, cut to the foveae rather than
+    // scaled (its secondaries narrow their scissors by their own viewports).
+    bool swapchain = false;
 };
 
 class PassPredictions {

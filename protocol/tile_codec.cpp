@@ -27,7 +27,8 @@ namespace {
 // Encoded tile layout, version 1 (integers little-endian):
 //
 //   header   u8 format version (1), u8 codec (1 x264, 2 zstd, 3 raw), u8 flags, u8 zero,
-//            u16 width, u16 height, u32 tile_checksum() of the width*height*4 pixel bytes
+//            u16 width, u16 height, u32 tile_checksum() of the width*height*4 pixel bytes (0 for
+//            a lossy tile, whose decoded pixels are not the encoder's input)
 //   x264     u32 size of the H.264 access unit, the access unit (Annex B), then with kAlphaPlane
 //            exactly one zstd frame holding the width*height alpha bytes, else nothing
 //   zstd     exactly one zstd frame holding the width*height*4 byte differences
@@ -35,7 +36,8 @@ namespace {
 constexpr uint8_t kFormatVersion = 1;
 constexpr uint8_t kKeyframe = 1u << 0;
 constexpr uint8_t kAlphaPlane = 1u << 1; // x264 only; without it every alpha byte is 255
-constexpr uint8_t kKnownFlags = kKeyframe | kAlphaPlane;
+constexpr uint8_t kLossy = 1u << 2;      // x264 only: coded at a CRF, no checksum
+constexpr uint8_t kKnownFlags = kKeyframe | kAlphaPlane | kLossy;
 
 constexpr uint32_t kMaxTileSide = 16384;
 constexpr int kZstdLevel = 1;
@@ -134,7 +136,7 @@ uint32_t tile_checksum(const uint8_t *bytes, size_t size) {
     return checksum.finish();
 }
 
-// Starts `out` with the header of a tile of `pixels`.
+// Starts `out` with the header of a tile of `pixels`; a lossy one carries no checksum.
 void put_header(std::vector<uint8_t> &out, TileCodec codec, uint8_t flags, uint32_t width, uint32_t height,
                 const uint8_t *pixels) {
     out.clear();
@@ -144,7 +146,7 @@ void put_header(std::vector<uint8_t> &out, TileCodec codec, uint8_t flags, uint3
     out.push_back(0);
     put_u16(out, width);
     put_u16(out, height);
-    put_u32(out, tile_checksum(pixels, size_t{width} * height * 4));
+    put_u32(out, (flags & kLossy) ? 0 : tile_checksum(pixels, size_t{width} * height * 4));
 }
 
 bool fail(std::string *error, std::string message) {
@@ -297,7 +299,8 @@ bool opaque_or_extract_alpha(const uint8_t *pixels, size_t pixel_count, std::vec
 
 class X264TileEncoder final : public TileEncoder {
 public:
-    X264TileEncoder(uint32_t width, uint32_t height) : width_(width), height_(height) {}
+    X264TileEncoder(uint32_t width, uint32_t height, const TileQuality &quality)
+        : width_(width), height_(height), quality_(quality) {}
     ~X264TileEncoder() override {
         if (encoder_) x264_encoder_close(encoder_);
     }
@@ -317,10 +320,15 @@ public:
         // RGB in, RGB coded: x264 deinterleaves packed input straight into G, B, R planes and signals
         // matrix_coefficients 0 (GBR), so no colour conversion touches the samples. With qp 0 in
         // High 4:4:4 Predictive it codes them with transform bypass: lossless. (yuv444p would not be:
-        // RGB->YUV rounds.)
+        // RGB->YUV rounds.) Lossy keeps the GBR planes and codes them at a constant quality.
         param.i_csp = X264_CSP_RGB;
-        param.rc.i_rc_method = X264_RC_CQP;
-        param.rc.i_qp_constant = 0;
+        if (quality_.lossless) {
+            param.rc.i_rc_method = X264_RC_CQP;
+            param.rc.i_qp_constant = 0;
+        } else {
+            param.rc.i_rc_method = X264_RC_CRF;
+            param.rc.f_rf_constant = static_cast<float>(quality_.crf);
+        }
         // Slices halve decode time at no cost in size; slice threads (not frame threads) add no
         // latency.
         param.b_sliced_threads = 1;
@@ -373,7 +381,8 @@ private:
 
         const bool opaque = opaque_or_extract_alpha(pixels, size_t{width_} * height_, alpha_);
         put_header(out, TileCodec::X264,
-                   static_cast<uint8_t>((output.b_keyframe ? kKeyframe : 0) | (opaque ? 0 : kAlphaPlane)),
+                   static_cast<uint8_t>((output.b_keyframe ? kKeyframe : 0) | (opaque ? 0 : kAlphaPlane) |
+                                        (quality_.lossless ? 0 : kLossy)),
                    width_, height_, pixels);
         put_u32(out, static_cast<uint32_t>(size));
         // x264 guarantees the payloads of one call's NAL units are contiguous, in order.
@@ -389,6 +398,7 @@ private:
 
     uint32_t width_;
     uint32_t height_;
+    TileQuality quality_;
     X264Log log_;
     x264_t *encoder_ = nullptr;
     bool keyframe_pending_ = true;
@@ -415,8 +425,8 @@ std::string av_error_text(int code) {
 
 class X264TileDecoder final : public TileDecoder {
 public:
-    X264TileDecoder(uint32_t width, uint32_t height)
-        : width_(width), height_(height), alpha_(size_t{width} * height) {}
+    X264TileDecoder(uint32_t width, uint32_t height, bool accept_lossy)
+        : width_(width), height_(height), accept_lossy_(accept_lossy), alpha_(size_t{width} * height) {}
 
     bool open(std::string *error) {
         const AVCodec *codec = avcodec_find_decoder(AV_CODEC_ID_H264);
@@ -462,6 +472,10 @@ private:
         if (!read_header(data, TileCodec::X264, width_, height_, &header, error)) return false;
         const bool keyframe = (header.flags & kKeyframe) != 0;
         const bool has_alpha = (header.flags & kAlphaPlane) != 0;
+        const bool lossy = (header.flags & kLossy) != 0;
+        if (lossy && !accept_lossy_)
+            return fail(error, "x264 tile: a lossy tile where only lossless ones are accepted");
+        if (lossy && header.checksum != 0) return fail(error, "x264 tile: a lossy tile with a checksum");
         if (!keyframe && !have_reference_)
             return fail(
                 error, "x264 tile: a non-keyframe with no keyframe before it (since the start or a failure)");
@@ -493,7 +507,9 @@ private:
         // planar): straight into the caller's memory, which is the layer's upload buffer.
         const uint32_t checksum = pack_pixels(has_alpha, pixels);
         av_frame_unref(frame_.get());
-        if (!check_checksum(TileCodec::X264, header, checksum, error)) return false;
+        // A lossy tile's pixels are not the encoder's input; damage to it still shows as a decoding
+        // error (AV_EF_EXPLODE, decode_error_flags).
+        if (!lossy && !check_checksum(TileCodec::X264, header, checksum, error)) return false;
         have_reference_ = true;
         return true;
     }
@@ -532,7 +548,7 @@ private:
         if (frame.format != AV_PIX_FMT_GBRP) {
             const char *name = av_get_pix_fmt_name(static_cast<AVPixelFormat>(frame.format));
             return fail(error, std::string("x264 tile: decoded pixel format ") + (name ? name : "unknown") +
-                                   ", expected gbrp (lossless RGB)");
+                                   ", expected gbrp (RGB)");
         }
         if (frame.width != static_cast<int>(width_) || frame.height != static_cast<int>(height_))
             return fail(error, "x264 tile: decoded " +
@@ -580,6 +596,7 @@ private:
 
     uint32_t width_;
     uint32_t height_;
+    bool accept_lossy_;
     std::unique_ptr<AVCodecContext, AvCodecContextDeleter> context_;
     std::unique_ptr<AVPacket, AvPacketDeleter> packet_;
     std::unique_ptr<AVFrame, AvFrameDeleter> frame_;
@@ -660,8 +677,8 @@ private:
     bool decode_tile(std::span<const uint8_t> data, uint8_t *pixels, std::string *error) {
         TileHeader header{};
         if (!read_header(data, TileCodec::Zstd, width_, height_, &header, error)) return false;
-        if (header.flags & kAlphaPlane)
-            return fail(error, "zstd tile: the alpha-plane flag is for x264 tiles only");
+        if (header.flags & (kAlphaPlane | kLossy))
+            return fail(error, "zstd tile: the alpha-plane and lossy flags are for x264 tiles only");
         const bool keyframe = (header.flags & kKeyframe) != 0;
         if (!keyframe && !have_reference_)
             return fail(
@@ -741,11 +758,16 @@ bool valid_size(uint32_t width, uint32_t height, std::string *error) {
 } // namespace
 
 std::unique_ptr<TileEncoder> make_tile_encoder(TileCodec codec, uint32_t width, uint32_t height,
-                                               std::string *error) {
+                                               std::string *error, const TileQuality &quality) {
     if (!valid_size(width, height, error)) return nullptr;
+    if (!quality.lossless && quality.crf > kMaxPeripheryCrf) {
+        fail(error, "tile quality: crf " + std::to_string(quality.crf) + " above " +
+                        std::to_string(kMaxPeripheryCrf));
+        return nullptr;
+    }
     switch (codec) {
     case TileCodec::X264: {
-        auto encoder = std::make_unique<X264TileEncoder>(width, height);
+        auto encoder = std::make_unique<X264TileEncoder>(width, height, quality);
         if (!encoder->open(error)) return nullptr;
         return encoder;
     }
@@ -765,11 +787,11 @@ std::unique_ptr<TileEncoder> make_tile_encoder(TileCodec codec, uint32_t width, 
 }
 
 std::unique_ptr<TileDecoder> make_tile_decoder(TileCodec codec, uint32_t width, uint32_t height,
-                                               std::string *error) {
+                                               std::string *error, bool accept_lossy) {
     if (!valid_size(width, height, error)) return nullptr;
     switch (codec) {
     case TileCodec::X264: {
-        auto decoder = std::make_unique<X264TileDecoder>(width, height);
+        auto decoder = std::make_unique<X264TileDecoder>(width, height, accept_lossy);
         if (!decoder->open(error)) return nullptr;
         return decoder;
     }

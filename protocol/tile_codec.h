@@ -1,21 +1,26 @@
 #pragma once
 
-// Lossless codecs for the fovea tiles the agent streams back to the layer (DESIGN §5).
+// Codecs for the tiles the agent streams back to the layer (DESIGN §5): the fovea tiles, always
+// lossless, and in the swapped split (issue 21) the parts of the downsampled periphery, which may be
+// lossy.
 //
 // A tile is width*height pixels, 4 bytes per pixel, rows tightly packed, in the swapchain image's
-// byte order (B,G,R,A or R,G,B,A). The codecs never interpret channel order; they guarantee that
-// decode(encode(x)) == x byte for byte, all 4 bytes including alpha.
+// byte order (B,G,R,A or R,G,B,A). The codecs never interpret channel order. A lossless tile
+// guarantees that decode(encode(x)) == x byte for byte, all 4 bytes including alpha.
 //
 // Codecs (splitvk::TileCodec):
-//  - X264: lossless H.264 (x264, High 4:4:4 Predictive, RGB coded as GBR planes, CQP qp 0),
-//    decoded with FFmpeg's h264 decoder. Alpha travels beside it: nothing when every alpha byte is
-//    255, else the alpha plane zstd-compressed (intra only).
-//  - Zstd: zstd level 1 on the byte-wise difference from the stream's previous tile.
+//  - X264: H.264 (x264, High 4:4:4 Predictive, RGB coded as GBR planes), decoded with FFmpeg's h264
+//    decoder. Lossless: CQP qp 0. Lossy (TileQuality::lossless false): constant quality (CRF) on the
+//    same GBR planes, so no colour conversion rounds; such tiles carry no checksum, and a decoder
+//    accepts them only when made with accept_lossy, so that a fovea tile is never lossy. Alpha
+//    travels beside it, losslessly: nothing when every alpha byte is 255, else the alpha plane
+//    zstd-compressed (intra only).
+//  - Zstd: zstd level 1 on the byte-wise difference from the stream's previous tile. Always lossless.
 //  - Raw: the pixels as they are.
 //
-// Every encoded tile starts with the same 12-byte header (format version, codec, keyframe and alpha
-// flags, width, height, a checksum of the pixels), so validation, the keyframe rule and the check
-// that decoding gave back exactly the encoder's input are the same for every codec.
+// Every encoded tile starts with the same 12-byte header (format version, codec, keyframe, alpha and
+// lossy flags, width, height, a checksum of the pixels), so validation, the keyframe rule and the
+// check that decoding gave back exactly the encoder's input are the same for every codec.
 //
 // One encoder and one decoder per eye stream; frames of a stream have a fixed size (a new size
 // takes a new encoder and decoder). Encoders and decoders of different streams may run on
@@ -67,10 +72,20 @@ public:
     virtual bool decode(std::span<const uint8_t> data, uint8_t *pixels, std::string *error) = 0;
 };
 
-// Null with *error when the codec cannot be set up for this size (width and height 1..16384).
+// How an encoder codes its stream. Lossy applies to X264 only (CRF `crf`, 0 best .. 51, with x264's
+// zerolatency tune: no B-frames, no lookahead, every frame out at once); Zstd and Raw ignore it and
+// stay lossless.
+struct TileQuality {
+    bool lossless = true;
+    uint32_t crf = 23;
+};
+
+// Null with *error when the codec cannot be set up for this size (width and height 1..16384) or
+// quality (crf above 51).
 std::unique_ptr<TileEncoder> make_tile_encoder(TileCodec codec, uint32_t width, uint32_t height,
-                                               std::string *error);
+                                               std::string *error, const TileQuality &quality = {});
+// A decoder without `accept_lossy` refuses a lossy tile as an error.
 std::unique_ptr<TileDecoder> make_tile_decoder(TileCodec codec, uint32_t width, uint32_t height,
-                                               std::string *error);
+                                               std::string *error, bool accept_lossy = false);
 
 } // namespace splitvk::tiles

@@ -59,6 +59,8 @@ const char *message_type_name(uint16_t type) {
         return "SwapchainView";
     case MessageType::BufferAddress:
         return "BufferAddress";
+    case MessageType::PeripheryConfig:
+        return "PeripheryConfig";
     default:
         break;
     }
@@ -74,7 +76,7 @@ bool is_defined_type(uint16_t type) {
     case MessageClass::Control:
         return type >= to_wire(MessageType::Hello) && type <= to_wire(MessageType::Pong);
     case MessageClass::Metadata:
-        return type >= to_wire(MessageType::MemoryData) && type <= to_wire(MessageType::BufferAddress);
+        return type >= to_wire(MessageType::MemoryData) && type <= to_wire(MessageType::PeripheryConfig);
     }
     return false;
 }

@@ -68,6 +68,7 @@ enum class MessageType : uint16_t {
     ImageLayouts = 0x1008,       // the client's VkSubresourceLayouts of a linear image (client -> server)
     SwapchainView = 0x1009,      // an OpenXR eye's field of view: where its fovea sits (client -> server)
     BufferAddress = 0x100A,      // a buffer's device address on the client (client -> server)
+    PeripheryConfig = 0x100B,    // the swapped split's periphery scale and quality (client -> server)
 };
 
 enum class MessageClass { Invalid, Control, Vulkan, Metadata };

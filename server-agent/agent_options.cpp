@@ -1,5 +1,6 @@
 #include "agent_options.h"
 
+#include "handshake.h"
 #include "settings.h"
 
 #include <charconv>
@@ -59,7 +60,7 @@ const char *agent_usage() {
            "                     [--max-sessions N] [--max-message-bytes SIZE] [--max-host-memory SIZE]\n"
            "                     [--max-gpu-memory SIZE] [--record-corpus DIR] [--emulate-limits FILE]\n"
            "                     [--user NAME] [--no-confine] [--tls-cert FILE --tls-key FILE]\n"
-           "                     [--state-dir DIR]\n"
+           "                     [--state-dir DIR] [--no-periphery]\n"
            "       splitvk-agent --list-devices\n"
            "       splitvk-agent --print-fingerprint [--state-dir DIR | --tls-cert FILE --tls-key FILE]\n"
            "\n"
@@ -102,11 +103,20 @@ const char *agent_usage() {
            "                      certificate made on first start in the state directory\n"
            "  --state-dir DIR     where the generated identity is kept (default $STATE_DIRECTORY, else\n"
            "                      $XDG_STATE_HOME/splitvk-agent or ~/.local/state/splitvk-agent)\n"
+           "  --no-periphery      never render the periphery for a client (the swapped split,\n"
+           "                      SPLITVK_CLIENT_RENDERS=fovea): such clients render it themselves, as\n"
+           "                      in the default split, and say so once\n"
            "  --print-fingerprint print the SHA-256 of the agent's certificate (creating the identity\n"
            "                      if there is none yet) and exit; clients pin it with\n"
            "                      SPLITVK_AGENT_FINGERPRINT or record it on first use\n"
            "  --list-devices      print the GPUs this agent can use and exit\n"
            "  --help              print this help and exit\n";
+}
+
+uint64_t agent_capabilities(const AgentOptions &options) {
+    uint64_t capabilities = protocol::kSupportedCapabilities;
+    if (!options.periphery) capabilities &= ~protocol::capability::kSwappedSplit;
+    return capabilities;
 }
 
 bool is_loopback_host(const std::string &host) {
@@ -213,6 +223,8 @@ ParsedOptions parse_agent_options(const std::vector<std::string> &arguments) {
             (arg == "--tls-cert" ? o.tls_cert : arg == "--tls-key" ? o.tls_key : o.state_dir) = *v;
         } else if (arg == "--print-fingerprint") {
             o.print_fingerprint = true;
+        } else if (arg == "--no-periphery") {
+            o.periphery = false;
         } else {
             parsed.error = "unknown option '" + arg + "' (see --help)";
             return parsed;

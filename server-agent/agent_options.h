@@ -44,6 +44,10 @@ struct AgentOptions {
     std::string tls_key;
     std::string state_dir;
     bool print_fingerprint = false;
+    // --no-periphery: never grant the swapped split (capability kSwappedSplit), so every client
+    // renders the periphery itself and the agent the foveae (SPLITVK_CLIENT_RENDERS=fovea clients
+    // say so once and stay on the paper's split).
+    bool periphery = true;
     bool list_devices = false;
     bool help = false;
 };
@@ -54,6 +58,10 @@ struct ParsedOptions {
 };
 
 ParsedOptions parse_agent_options(const std::vector<std::string> &arguments);
+
+// The capability bits this agent's sessions offer in their handshake (protocol/handshake.h): the
+// protocol's, less what the options turn off.
+uint64_t agent_capabilities(const AgentOptions &options);
 
 // "4096", "512K", "512M", "4G", "1T" (binary units: K = 1024); nullopt if malformed or over 2^63.
 std::optional<uint64_t> parse_byte_size(const std::string &text);

@@ -40,6 +40,7 @@ bool client_type(uint16_t type) {
     case MessageType::ImageLayouts:
     case MessageType::SwapchainView:
     case MessageType::BufferAddress:
+    case MessageType::PeripheryConfig:
         return true;
     default:
         return false;
@@ -77,6 +78,7 @@ private:
     uint64_t swapchain_total_ = 0;
     uint64_t messages_ = 0;
     uint64_t frames_ = 0;
+    uint64_t capabilities_ = 0; // granted in the Welcome
     // Where a joining session's time goes before its first frame (the client's resync, issue 14):
     // from the handshake, the device set-up, waiting for messages (the client reading back and
     // sending its snapshot, the I/O thread decompressing it) and replaying them.
@@ -143,6 +145,7 @@ int Session::run() {
     handshake.token = config_.token;
     handshake.server_gpu_name = config_.gpu_name;
     handshake.session_id = config_.session_id;
+    handshake.capabilities = config_.capabilities;
     handshake.full = config_.full;
     handshake.require_tls = require_tls_;
     handshake.codec_fingerprint = protocol::session_fingerprint(codec::kCodecFingerprint);
@@ -160,6 +163,7 @@ int Session::run() {
         return kSessionHandshake;
     }
     if (recorder_) recorder_->hello(hs->hello);
+    capabilities_ = hs->welcome.capabilities;
     if (!(hs->welcome.capabilities & protocol::capability::kZstdPayloads)) {
         protocol::CompressionPolicy off;
         off.enabled = false;
@@ -277,6 +281,18 @@ bool Session::handle(protocol::Message &message, bool *done, std::string *error)
             return false;
         }
         return replayer_.split_config(*m, error);
+    }
+    case MessageType::PeripheryConfig: {
+        if (!(capabilities_ & protocol::capability::kSwappedSplit)) {
+            *error = "PeripheryConfig without capability kSwappedSplit (not granted to this session)";
+            return false;
+        }
+        auto m = protocol::decode_periphery_config(message.payload);
+        if (!m) {
+            *error = "PeripheryConfig: " + m.error();
+            return false;
+        }
+        return replayer_.periphery_config(*m, error);
     }
     case MessageType::ImageLayouts: {
         auto m = protocol::decode_image_layouts(message.payload);

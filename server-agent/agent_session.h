@@ -6,6 +6,7 @@
 // line naming what failed.
 
 #include "device_envelope.h"
+#include "handshake.h"
 #include "transport.h"
 
 #include <cstdint>
@@ -27,6 +28,8 @@ struct SessionConfig {
     uint64_t max_host_memory = UINT64_MAX;
     uint64_t max_gpu_memory = UINT64_MAX;
     std::string record_corpus; // --record-corpus DIR; empty: off
+    // What the handshake offers (agent_capabilities: --no-periphery drops kSwappedSplit).
+    uint64_t capabilities = protocol::kSupportedCapabilities;
     // The GPU as clients are told it is (--emulate-limits included): sent in Welcome, checked
     // against each client's device envelope, and what replayed commands are checked against.
     protocol::DeviceDescription device;

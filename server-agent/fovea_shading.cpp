@@ -248,43 +248,14 @@ bool FoveaShading::guard_rect(const std::vector<VkImageView> &views, VkExtent2D 
         const VkExtent2D newest = swapchains_.newest_extent();
         if (newest.width != target.screen.width || newest.height != target.screen.height) return false;
         const VkExtent2D e = split::mip_extent(target.extent, v->second.mip);
-        const uint32_t shift = std::min(v->second.mip, 31u);
-        const int64_t divisor = int64_t{target.kind.divisor} << shift;
         const VkExtent2D s = target.screen;
         bool window = false;
         const auto runtime = swapchains_.runtime_swapchains(s, &window);
         std::vector<VkRect2D> foveae;
-        if (window || runtime.empty()) {
-            if (!split::guard_maps_target(target.kind, eyes_)) {
-                refused->extent = e;
-                return false;
-            }
-            // Every place a fovea can be (split::frame_foveae's) in the screen; an eye-sized
-            // target (a layer of an eye texture) holds either eye, so what of them lies in each eye,
-            // in that eye's coordinates (a centred fovea straddles both eyes).
-            const uint32_t left = s.width / 2;
-            // A moving gaze can put an eye's fovea anywhere in that eye.
-            const auto anywhere = [&](const VkRect2D &eye) {
-                return moving_gaze_ ? eye : split::fovea_of_eye(eye, fovea_);
-            };
-            std::vector<VkRect2D> screen;
-            if (eyes_ != EyeMode::Two) screen.push_back(anywhere({{0, 0}, s}));
-            if (eyes_ != EyeMode::One) {
-                screen.push_back(anywhere({{0, 0}, {left, s.height}}));
-                screen.push_back(anywhere({{static_cast<int32_t>(left), 0}, {s.width - left, s.height}}));
-            }
-            for (const VkRect2D &f : screen) {
-                if (!target.kind.eye) {
-                    foveae.push_back(f);
-                    continue;
-                }
-                const VkRect2D in_left = split::intersect(f, {{0, 0}, {left, s.height}});
-                VkRect2D in_right =
-                    split::intersect(f, {{static_cast<int32_t>(left), 0}, {s.width - left, s.height}});
-                in_right.offset.x -= static_cast<int32_t>(left);
-                for (const VkRect2D &r : {in_left, in_right})
-                    if (r.extent.width && r.extent.height) foveae.push_back(r);
-            }
+        if ((window || runtime.empty()) &&
+            !split::window_guard_foveae(target.kind, s, eyes_, fovea_, moving_gaze_, &foveae)) {
+            refused->extent = e;
+            return false;
         }
         // OpenXR eye images of this extent: their eyes' foveae, where the split puts them (each at its
         // view direction, SPLITVK_EYES aside), not a window's. The eyes are those of the views
@@ -300,20 +271,10 @@ bool FoveaShading::guard_rect(const std::vector<VkImageView> &views, VkExtent2D 
             }
             foveae.insert(foveae.end(), eye_foveae.begin(), eye_foveae.end());
         }
-        if (foveae.empty()) return false;
-        int64_t fx0 = INT64_MAX, fy0 = INT64_MAX, fx1 = 0, fy1 = 0;
-        for (const VkRect2D &f : foveae) {
-            fx0 = std::min<int64_t>(fx0, f.offset.x);
-            fy0 = std::min<int64_t>(fy0, f.offset.y);
-            fx1 = std::max<int64_t>(fx1, int64_t{f.offset.x} + f.extent.width);
-            fy1 = std::max<int64_t>(fy1, int64_t{f.offset.y} + f.extent.height);
-        }
-        // Into the target's pixels, rounded outwards, then N of them on every side.
-        const int64_t n = scissor_.pixels;
-        const int64_t tx0 = std::max<int64_t>(0, fx0 / divisor - n);
-        const int64_t ty0 = std::max<int64_t>(0, fy0 / divisor - n);
-        const int64_t tx1 = std::min<int64_t>(e.width, (fx1 + divisor - 1) / divisor + n);
-        const int64_t ty1 = std::min<int64_t>(e.height, (fy1 + divisor - 1) / divisor + n);
+        VkRect2D r{};
+        if (!split::guard_in_target(foveae, target.kind, e, v->second.mip, scissor_.pixels, &r)) return false;
+        const int64_t tx0 = r.offset.x, ty0 = r.offset.y;
+        const int64_t tx1 = tx0 + r.extent.width, ty1 = ty0 + r.extent.height;
         if (!any) {
             *extent = e;
             x0 = tx0, y0 = ty0, x1 = tx1, y1 = ty1;
@@ -439,32 +400,6 @@ void FoveaShading::end_pass(VkCommandBuffer cb) {
     emit_scissors(cb, *t);
 }
 
-// The bounding box of the foveae of an OpenXR eye image that a viewport can draw into: every layer's
-// (a multiview pass draws all its views with the same scissors), and of a side-by-side image the
-// eyes whose foveae the viewport reaches (all of them where it is not known, or reaches none).
-VkRect2D FoveaShading::runtime_scissor(const std::vector<split::LayerFovea> &foveae, const VkViewport *v) {
-    const auto reaches = [&](const VkRect2D &f) {
-        if (!v) return true;
-        const double x0 = v->x, x1 = double(v->x) + v->width;
-        const double y0 = std::min(double(v->y), double(v->y) + v->height);
-        const double y1 = std::max(double(v->y), double(v->y) + v->height);
-        return x0 < f.offset.x + double(f.extent.width) && f.offset.x < x1 &&
-               y0 < f.offset.y + double(f.extent.height) && f.offset.y < y1;
-    };
-    const bool any = std::any_of(foveae.begin(), foveae.end(),
-                                 [&](const split::LayerFovea &f) { return reaches(f.rect); });
-    int64_t x0 = INT64_MAX, y0 = INT64_MAX, x1 = INT64_MIN, y1 = INT64_MIN;
-    for (const split::LayerFovea &f : foveae) {
-        if (any && !reaches(f.rect)) continue;
-        x0 = std::min<int64_t>(x0, f.rect.offset.x);
-        y0 = std::min<int64_t>(y0, f.rect.offset.y);
-        x1 = std::max<int64_t>(x1, int64_t{f.rect.offset.x} + f.rect.extent.width);
-        y1 = std::max<int64_t>(y1, int64_t{f.rect.offset.y} + f.rect.extent.height);
-    }
-    if (x1 <= x0 || y1 <= y0) return {};
-    return {{int32_t(x0), int32_t(y0)}, {uint32_t(x1 - x0), uint32_t(y1 - y0)}};
-}
-
 void FoveaShading::emit_scissors(VkCommandBuffer cb, const split::CommandTracker &t) {
     const auto guard = t.in_split() && !t.swapchain_pass() ? guard_rects_.find(cb) : guard_rects_.end();
     const auto runtime = t.in_split() && guard == guard_rects_.end()
@@ -475,8 +410,8 @@ void FoveaShading::emit_scissors(VkCommandBuffer cb, const split::CommandTracker
         if (guard != guard_rects_.end()) return split::intersect(r, guard->second);
         const VkViewport *v = t.viewport(i);
         // Without viewport i the eye is unknown; the scissor is narrowed once the viewport is set.
-        if (runtime) return split::intersect(r, runtime_scissor(*runtime, v));
-        return v ? split::intersect(r, split::fovea_scissor(*v, t.extent(), eyes_, fovea_, moving_gaze_)) : r;
+        if (runtime) return split::intersect(r, split::runtime_scissor(*runtime, v));
+        return split::narrow_to_foveae(r, v, t.extent(), eyes_, fovea_, moving_gaze_);
     };
     std::vector<VkRect2D> values;
     if (t.static_scissors()) {

@@ -182,7 +182,6 @@ private:
     // Where those foveae can be in this session (split::runtime_fovea_areas): what scissors cover.
     std::optional<std::vector<split::LayerFovea>> runtime_fovea_areas(uint64_t image_id,
                                                                       VkExtent2D extent) const;
-    static VkRect2D runtime_scissor(const std::vector<split::LayerFovea> &foveae, const VkViewport *viewport);
     FoveaSize fovea_ = Settings{}.fovea;
     AgentScissor scissor_;
     bool moving_gaze_ = false;

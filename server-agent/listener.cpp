@@ -141,6 +141,7 @@ int run_listener(const AgentOptions &options, const std::string &gpu_name,
         config.max_host_memory = options.max_host_memory;
         config.max_gpu_memory = options.max_gpu_memory;
         config.record_corpus = options.record_corpus;
+        config.capabilities = agent_capabilities(options);
         config.device = device;
         config.tls = tls;
         std::string dir;

@@ -657,8 +657,30 @@ bool Replayer::split_config(const protocol::SplitConfig &message, std::string *e
     }
     if (!tiles_) tiles_ = std::make_unique<TileStreamer>(context_, tile_sender_);
     fovea_.configure(message.eyes, message.fovea, message.agent_scissor, message.moving_gaze);
-    fovea_.set_enabled(true);
+    fovea_.set_enabled(!swapped_);
     tiles_->set_codec(message.codec);
+    return true;
+}
+
+bool Replayer::periphery_config(const protocol::PeripheryConfig &message, std::string *error) {
+    if (!tiles_) {
+        *error = "PeripheryConfig before SplitConfig";
+        return false;
+    }
+    if (swapped_) {
+        *error = "a second PeripheryConfig";
+        return false;
+    }
+    swapped_ = true;
+    periphery_scale_ = message.scale;
+    // The client renders the foveae: every pass here replays whole, as recorded.
+    fovea_.set_enabled(false);
+    tiles_->set_periphery(message.quality);
+    const std::string quality =
+        message.quality.lossless ? std::string("lossless") : "CRF " + std::to_string(message.quality.crf);
+    SPLITVK_INFO("session %llu: the swapped split: passes replay whole, presented window images go back "
+                 "downsampled to %.3g, %s",
+                 static_cast<unsigned long long>(session_id_), message.scale, quality.c_str());
     return true;
 }
 
@@ -674,14 +696,14 @@ bool Replayer::frame_present(const protocol::FramePresent &message,
     const bool invalid = guard_.take_frame_invalid();
     if (tiles_) {
         // Scissors recorded for the fixed foveae shaded nothing elsewhere: a fovea moved there
-        // would be read back unshaded.
-        if (!message.gaze.fixed && !fovea_.moving_gaze()) {
+        // would be read back unshaded. (The swapped split scissors nothing.)
+        if (!swapped_ && !message.gaze.fixed && !fovea_.moving_gaze()) {
             *error = "FramePresent " + std::to_string(message.frame) +
                      " moves the foveae, but SplitConfig said the gaze is fixed";
             return false;
         }
         // The same for a larger fovea than the one the scissors were recorded for.
-        if (!split::frame_fovea_size_allowed(fovea_.fovea(), message.fovea_size)) {
+        if (!swapped_ && !split::frame_fovea_size_allowed(fovea_.fovea(), message.fovea_size)) {
             *error = "FramePresent " + std::to_string(message.frame) + " asks for a fovea of " +
                      std::to_string(message.fovea_size.width) + "x" +
                      std::to_string(message.fovea_size.height) + " /" + std::to_string(split::kGazeOne) +
@@ -707,9 +729,24 @@ bool Replayer::frame_present(const protocol::FramePresent &message,
             frame.layout = image.layout;
             frame.format = image.format;
             frame.foveae = std::move(foveae);
-            if (invalid) {
-                // Nothing of this frame's fovea is worth reading back or encoding.
+            if (swapped_) {
                 frame.foveae.clear();
+                uint64_t image_id = 0;
+                if (swapchains_.runtime_image(image.image_id)) {
+                    // Not in this slice: the client does not cut an OpenXR runtime's images either.
+                    if (!runtime_periphery_logged_)
+                        SPLITVK_INFO("session %llu: the swapped split sends no periphery for OpenXR "
+                                     "images (the client renders them whole)",
+                                     static_cast<unsigned long long>(session_id_));
+                    runtime_periphery_logged_ = true;
+                } else if (swapchains_.find_image(image.image, &image_id, &frame.extent)) {
+                    frame.periphery = split::scaled_extent(frame.extent, periphery_scale_);
+                }
+            }
+            if (invalid) {
+                // Nothing of this frame's fovea (or periphery) is worth reading back or encoding.
+                frame.foveae.clear();
+                frame.periphery = {};
                 frame.invalid = true;
             }
             frame.first_submit = frame_first_submit_;

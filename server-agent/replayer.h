@@ -62,6 +62,11 @@ public:
     // splits, and until then the agent neither restricts shading to the fovea nor sends tiles.
     void set_tile_sender(TileStreamer::Send send) { tile_sender_ = std::move(send); }
     bool split_config(const protocol::SplitConfig &message, std::string *error);
+    // The swapped split (issue 21; the session checked capability kSwappedSplit): after SplitConfig,
+    // every pass replays whole (no fovea shading) and each presented window image goes back
+    // downsampled to the config's scale as periphery tiles. False with one line in `error` before
+    // SplitConfig or a second time.
+    bool periphery_config(const protocol::PeripheryConfig &message, std::string *error);
 
     // Split passes shaded in the foveae only (fovea_shading.h).
     FoveaShading &fovea() { return fovea_; }
@@ -204,6 +209,9 @@ private:
     std::string error_;
     bool gpu_busy_ = false;
     bool unsupported_format_logged_ = false;
+    bool swapped_ = false;       // PeripheryConfig: the agent renders the periphery
+    double periphery_scale_ = 1; // its scale
+    bool runtime_periphery_logged_ = false;
     bool linear_copy_logged_ = false;
     uint64_t commands_ = 0;
     uint64_t submits_ = 0;

@@ -1,6 +1,7 @@
 #include "tile_streamer.h"
 
 #include "log.h"
+#include "periphery.h"
 
 #include <algorithm>
 #include <cstring>
@@ -15,6 +16,26 @@ namespace {
 
 constexpr uint64_t kFenceWaitNs = 30'000'000'000; // a frame that long is a lost GPU, not a slow one
 constexpr auto kSlotWait = 30s;
+
+// The formats whose pixels are 4 bytes, as the tiles are (the 8-bit colour ones, the 10-bit packed
+// ones, the packed floats).
+bool four_bytes_per_pixel(VkFormat format) {
+    switch (format) {
+    case VK_FORMAT_R8G8B8A8_UNORM:
+    case VK_FORMAT_R8G8B8A8_SRGB:
+    case VK_FORMAT_B8G8R8A8_UNORM:
+    case VK_FORMAT_B8G8R8A8_SRGB:
+    case VK_FORMAT_A8B8G8R8_UNORM_PACK32:
+    case VK_FORMAT_A8B8G8R8_SRGB_PACK32:
+    case VK_FORMAT_A2R10G10B10_UNORM_PACK32:
+    case VK_FORMAT_A2B10G10R10_UNORM_PACK32:
+    case VK_FORMAT_B10G11R11_UFLOAT_PACK32:
+    case VK_FORMAT_E5B9G9R9_UFLOAT_PACK32:
+        return true;
+    default:
+        return false;
+    }
+}
 
 uint32_t micros(Clock::duration d) {
     const auto us = std::chrono::duration_cast<std::chrono::microseconds>(d).count();
@@ -156,6 +177,7 @@ bool TileStreamer::ensure_buffer(Slot &slot, VkDeviceSize bytes, std::string *er
 void TileStreamer::destroy_slot(Slot &slot) {
     const VkDevice device = context_.device;
     context_.destroy(slot.staging);
+    context_.destroy(slot.scaled);
     if (slot.drawn) vkDestroyFence(device, slot.drawn, nullptr);
     if (slot.copied) vkDestroyFence(device, slot.copied, nullptr);
     // The command buffer goes with the pool.
@@ -175,8 +197,55 @@ void TileStreamer::record_copy(Slot &slot) {
         regions.push_back(region);
         offset += VkDeviceSize{rect.extent.width} * rect.extent.height * 4;
     }
-    VulkanContext::record_present_readback(slot.command_buffer, slot.frame.image, slot.frame.layout,
-                                           slot.staging, regions);
+    if (slot.frame.periphery.width > 0)
+        VulkanContext::record_present_downsample(slot.command_buffer, slot.frame.image, slot.frame.layout,
+                                                 slot.frame.extent, slot.scaled, periphery_filter_,
+                                                 slot.staging, regions);
+    else
+        VulkanContext::record_present_readback(slot.command_buffer, slot.frame.image, slot.frame.layout,
+                                               slot.staging, regions);
+}
+
+bool TileStreamer::prepare_periphery(Slot &slot, Frame &frame, bool *skip, std::string *error) {
+    *skip = false;
+    if (!four_bytes_per_pixel(frame.format)) {
+        if (!unsupported_format_logged_)
+            SPLITVK_INFO("tiles: the periphery of VkFormat %d is not sent (not 4 bytes a pixel); the client "
+                         "shows its foveae over the last periphery it has",
+                         static_cast<int>(frame.format));
+        unsupported_format_logged_ = true;
+        *skip = true;
+        return true;
+    }
+    if (frame.format != periphery_format_) {
+        if (!context_.blit_filter(frame.format, &periphery_filter_)) {
+            *error = "the periphery of VkFormat " + std::to_string(frame.format) +
+                     " cannot be blitted on this GPU";
+            return false;
+        }
+        periphery_format_ = frame.format;
+        if (periphery_filter_ != VK_FILTER_LINEAR)
+            SPLITVK_INFO("tiles: VkFormat %d cannot be filtered linearly on this GPU; the periphery is "
+                         "downsampled with the nearest filter",
+                         static_cast<int>(frame.format));
+    }
+    if (slot.scaled.format != frame.format || slot.scaled.extent.width != frame.periphery.width ||
+        slot.scaled.extent.height != frame.periphery.height) {
+        context_.destroy(slot.scaled);
+        if (!context_.create_transfer_image(frame.format, frame.periphery, &slot.scaled, error)) return false;
+    }
+    frame.foveae.clear();
+    for (const VkRect2D &part : split::periphery_parts(frame.periphery))
+        frame.foveae.push_back({0, part});
+    // Lossy only where x264 codes the bytes as colour; lossless (as asked or not) otherwise.
+    const bool lossy = !periphery_quality_.lossless && split::periphery_lossy_format(frame.format);
+    if (!periphery_quality_.lossless && !lossy && !lossless_format_logged_) {
+        SPLITVK_INFO("tiles: the periphery of VkFormat %d travels losslessly (lossy is for 8-bit RGBA/BGRA)",
+                     static_cast<int>(frame.format));
+        lossless_format_logged_ = true;
+    }
+    frame.quality = lossy ? tiles::TileQuality{false, periphery_quality_.crf} : tiles::TileQuality{};
+    return true;
 }
 
 bool TileStreamer::present(Frame frame, std::string *error) {
@@ -193,6 +262,11 @@ bool TileStreamer::present(Frame frame, std::string *error) {
         }
     }
     if (!slot.command_buffer && !create_slot(slot, error)) return false;
+    if (frame.periphery.width > 0) {
+        bool skip = false;
+        if (!prepare_periphery(slot, frame, &skip, error)) return false;
+        if (skip) frame.periphery = {};
+    }
 
     VkDeviceSize bytes = 0;
     for (const auto &[layer, rect] : frame.foveae)
@@ -292,10 +366,11 @@ bool TileStreamer::encode_and_send(Slot &slot, std::string *error) {
         const VkRect2D &rect = frame.foveae[eye].rect;
         EyeStream &stream = eyes_[eye];
         if (!stream.encoder || stream.width != rect.extent.width || stream.height != rect.extent.height ||
-            stream.codec != codec_) {
-            stream = EyeStream{rect.extent.width, rect.extent.height, codec_, nullptr};
-            stream.encoder =
-                tiles::make_tile_encoder(codec_, rect.extent.width, rect.extent.height, &errors[eye]);
+            stream.codec != codec_ || stream.quality.lossless != frame.quality.lossless ||
+            stream.quality.crf != frame.quality.crf) {
+            stream = EyeStream{rect.extent.width, rect.extent.height, codec_, frame.quality, nullptr};
+            stream.encoder = tiles::make_tile_encoder(codec_, rect.extent.width, rect.extent.height,
+                                                      &errors[eye], frame.quality);
             if (!stream.encoder) return;
         }
         protocol::EncodedTile &tile = message.tiles[eye];
@@ -311,6 +386,7 @@ bool TileStreamer::encode_and_send(Slot &slot, std::string *error) {
             return;
         }
         if (keyframe) tile.flags |= protocol::kTileKeyframe;
+        if (frame.periphery.width > 0) tile.flags |= protocol::kTilePeriphery;
     };
     std::vector<std::thread> threads;
     const uint8_t *base = slot.staging.mapped;

@@ -9,6 +9,11 @@
 // (one encoder per eye, as each eye is a stream of its own: x264 P-frames reference the previous
 // frame of the same eye) and sends the Tiles message.
 //
+// The swapped split (issue 21, set_periphery): the frame's presented window image is blitted to
+// Frame::periphery with a linear filter into the slot's own scaled image, and the parts of that
+// (split::periphery_parts) are read back, encoded (lossily for 8-bit colour) and sent as tiles
+// flagged kTilePeriphery, the parts on parallel threads as the eyes are.
+//
 // Staging: kSlots frames may be in flight between the replay thread and the worker, each with
 // its own command buffer, fences and host buffer. When all are busy, present() waits for the
 // oldest (bounded), which is the back-pressure that keeps the agent from running ahead of its
@@ -47,6 +52,8 @@ public:
     TileStreamer &operator=(const TileStreamer &) = delete;
 
     void set_codec(TileCodec codec) { codec_ = codec; }
+    // The swapped split's periphery quality; frames with a periphery extent are encoded with it.
+    void set_periphery(PeripheryQuality quality) { periphery_quality_ = quality; }
 
     struct Frame {
         uint64_t frame = 0;
@@ -56,7 +63,12 @@ public:
         VkImageLayout layout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
         VkFormat format = VK_FORMAT_UNDEFINED;
         std::vector<split::LayerFovea> foveae; // may be empty: an empty Tiles message
-        bool invalid = false;                  // limit_guard.h: sent as kTilesInvalid, with no tiles
+        // The swapped split: the image's extent and the scaled extent it is sent at; foveae are
+        // then ignored (present() fills them with the periphery's parts). {0, 0}: the foveae.
+        VkExtent2D extent{};
+        VkExtent2D periphery{};
+        tiles::TileQuality quality; // what present() chose for this frame's tiles
+        bool invalid = false;       // limit_guard.h: sent as kTilesInvalid, with no tiles
         std::chrono::steady_clock::time_point first_submit{}; // of the frame: draw time without timestamps
         std::chrono::steady_clock::time_point present{};      // FramePresent received
     };
@@ -86,7 +98,8 @@ private:
         VkFence drawn = VK_NULL_HANDLE;  // the frame's own work is done
         VkFence copied = VK_NULL_HANDLE; // the fovea copy is in host memory
         HostBuffer staging;
-        bool busy = false; // owned by the worker until it has sent the frame
+        TransferImage scaled; // the swapped split's downsampled image
+        bool busy = false;    // owned by the worker until it has sent the frame
         Frame frame;
         int32_t timed = -1; // the frame's timestamp pair, -1 without one
     };
@@ -96,6 +109,7 @@ private:
     struct EyeStream {
         uint32_t width = 0, height = 0;
         TileCodec codec = TileCodec::X264;
+        tiles::TileQuality quality;
         std::unique_ptr<tiles::TileEncoder> encoder;
     };
 
@@ -104,6 +118,10 @@ private:
     bool ensure_buffer(Slot &slot, VkDeviceSize bytes, std::string *error);
     void destroy_slot(Slot &slot);
     void record_copy(Slot &slot);
+    // The swapped split: the scaled image, the filter and the parts of a periphery frame. False with
+    // one line in `error` when its format cannot be blitted; *skip when it is not 4 bytes a pixel
+    // (sent as an empty Tiles, said once).
+    bool prepare_periphery(Slot &slot, Frame &frame, bool *skip, std::string *error);
     void run_worker();
     bool encode_and_send(Slot &slot, std::string *error);
     bool wait_fence(VkFence fence);
@@ -113,6 +131,11 @@ private:
     VulkanContext &context_;
     Send send_;
     TileCodec codec_ = TileCodec::X264;
+    PeripheryQuality periphery_quality_;
+    VkFilter periphery_filter_ = VK_FILTER_LINEAR;
+    VkFormat periphery_format_ = VK_FORMAT_UNDEFINED; // the one periphery_filter_ is for
+    bool lossless_format_logged_ = false;
+    bool unsupported_format_logged_ = false;
     VkCommandPool pool_ = VK_NULL_HANDLE;
     std::array<Slot, kSlots> slots_{};
     size_t next_slot_ = 0;

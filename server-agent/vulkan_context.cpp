@@ -414,6 +414,67 @@ void VulkanContext::destroy(HostBuffer &b) const {
     b = HostBuffer{};
 }
 
+bool VulkanContext::create_transfer_image(VkFormat format, VkExtent2D extent, TransferImage *out,
+                                          std::string *error) const {
+    TransferImage t;
+    t.format = format;
+    t.extent = extent;
+    VkImageCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
+    info.imageType = VK_IMAGE_TYPE_2D;
+    info.format = format;
+    info.extent = {extent.width, extent.height, 1};
+    info.mipLevels = 1;
+    info.arrayLayers = 1;
+    info.samples = VK_SAMPLE_COUNT_1_BIT;
+    info.tiling = VK_IMAGE_TILING_OPTIMAL;
+    info.usage = VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+    info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    VkResult r = vkCreateImage(device, &info, nullptr, &t.image);
+    if (r != VK_SUCCESS) {
+        *error = std::string("transfer image: ") + vk_result_name(r);
+        return false;
+    }
+    VkMemoryRequirements req{};
+    vkGetImageMemoryRequirements(device, t.image, &req);
+    const int32_t type = find_memory_type(req.memoryTypeBits, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+    if (type < 0) {
+        *error = "no memory type for a transfer image";
+        destroy(t);
+        return false;
+    }
+    VkMemoryAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    alloc.allocationSize = req.size;
+    alloc.memoryTypeIndex = static_cast<uint32_t>(type);
+    r = vkAllocateMemory(device, &alloc, nullptr, &t.memory);
+    if (r == VK_SUCCESS) r = vkBindImageMemory(device, t.image, t.memory, 0);
+    if (r != VK_SUCCESS) {
+        *error = std::string("transfer image memory: ") + vk_result_name(r);
+        destroy(t);
+        return false;
+    }
+    *out = t;
+    return true;
+}
+
+void VulkanContext::destroy(TransferImage &t) const {
+    if (t.image) vkDestroyImage(device, t.image, nullptr);
+    if (t.memory) vkFreeMemory(device, t.memory, nullptr);
+    t = TransferImage{};
+}
+
+bool VulkanContext::blit_filter(VkFormat format, VkFilter *filter) const {
+    VkFormatProperties properties{};
+    vkGetPhysicalDeviceFormatProperties(physical_device, format, &properties);
+    const VkFormatFeatureFlags features = properties.optimalTilingFeatures;
+    if (!(features & VK_FORMAT_FEATURE_BLIT_SRC_BIT) || !(features & VK_FORMAT_FEATURE_BLIT_DST_BIT))
+        return false;
+    *filter =
+        (features & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT) ? VK_FILTER_LINEAR : VK_FILTER_NEAREST;
+    return true;
+}
+
 void VulkanContext::invalidate(const HostBuffer &b) const {
     if (b.coherent || !b.memory) return;
     VkMappedMemoryRange range{};
@@ -467,6 +528,77 @@ void VulkanContext::record_present_readback(VkCommandBuffer cb, VkImage image, V
     host.size = VK_WHOLE_SIZE;
     vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, after | VK_PIPELINE_STAGE_HOST_BIT, 0, 0,
                          nullptr, 1, &host, 1, &barrier);
+    vkEndCommandBuffer(cb);
+}
+
+void VulkanContext::record_present_downsample(VkCommandBuffer cb, VkImage image, VkImageLayout presented,
+                                              VkExtent2D extent, const TransferImage &scaled, VkFilter filter,
+                                              const HostBuffer &dst,
+                                              const std::vector<VkBufferImageCopy> &regions) {
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    vkBeginCommandBuffer(cb, &begin);
+    // As in record_present_readback: the app's submits precede this one on the queue. The scaled
+    // image's old contents are not needed (UNDEFINED); the last thing to touch it was the copy out
+    // of it of an earlier frame on this queue, a read, which the execution dependency of the
+    // ALL_COMMANDS source scope orders before the blit's writes.
+    VkImageMemoryBarrier before[2] = {};
+    for (VkImageMemoryBarrier &b : before) {
+        b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+        b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+        b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    }
+    before[0].srcAccessMask = VK_ACCESS_MEMORY_WRITE_BIT;
+    before[0].dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+    before[0].oldLayout = presented;
+    before[0].newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    before[0].image = image;
+    before[0].subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, VK_REMAINING_ARRAY_LAYERS};
+    before[1].srcAccessMask = 0;
+    before[1].dstAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    before[1].oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    before[1].newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+    before[1].image = scaled.image;
+    before[1].subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
+                         nullptr, 0, nullptr, 2, before);
+    VkImageBlit blit{};
+    blit.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    blit.srcOffsets[1] = {static_cast<int32_t>(extent.width), static_cast<int32_t>(extent.height), 1};
+    blit.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    blit.dstOffsets[1] = {static_cast<int32_t>(scaled.extent.width),
+                          static_cast<int32_t>(scaled.extent.height), 1};
+    vkCmdBlitImage(cb, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, scaled.image,
+                   VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &blit, filter);
+    // The blit's writes before the copy's reads; the presented image back to where the app left it,
+    // as record_present_readback does.
+    VkImageMemoryBarrier after[2] = {before[1], before[0]};
+    after[0].srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    after[0].dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+    after[0].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+    after[0].newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    after[1].srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+    after[1].dstAccessMask = 0;
+    after[1].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    after[1].newLayout = presented;
+    const VkPipelineStageFlags presented_stage = presented == VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL
+                                                     ? VK_PIPELINE_STAGE_ALL_COMMANDS_BIT
+                                                     : VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT;
+    vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT | presented_stage,
+                         0, 0, nullptr, 0, nullptr, 2, after);
+    vkCmdCopyImageToBuffer(cb, scaled.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, dst.buffer,
+                           static_cast<uint32_t>(regions.size()), regions.data());
+    VkBufferMemoryBarrier host{};
+    host.sType = VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER;
+    host.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    host.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    host.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    host.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    host.buffer = dst.buffer;
+    host.size = VK_WHOLE_SIZE;
+    vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 0, nullptr, 1,
+                         &host, 0, nullptr);
     vkEndCommandBuffer(cb);
 }
 

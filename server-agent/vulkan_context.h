@@ -12,6 +12,15 @@
 
 namespace splitvk::agent {
 
+// An image in device memory the agent draws into with transfers only (the swapped split's
+// downsampled periphery): TRANSFER_SRC and TRANSFER_DST, optimal tiling, one layer, one mip.
+struct TransferImage {
+    VkImage image = VK_NULL_HANDLE;
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    VkFormat format = VK_FORMAT_UNDEFINED;
+    VkExtent2D extent{};
+};
+
 // A buffer in host-visible memory, mapped for its whole life: what the agent reads back.
 struct HostBuffer {
     VkBuffer buffer = VK_NULL_HANDLE;
@@ -56,6 +65,13 @@ public:
     // A host-visible TRANSFER_SRC buffer of `size` bytes the host writes (queued_writes.h).
     bool create_upload_buffer(VkDeviceSize size, HostBuffer *out, std::string *error) const;
     void destroy(HostBuffer &buffer) const;
+    // False with one line in `error`; `out` is then empty.
+    bool create_transfer_image(VkFormat format, VkExtent2D extent, TransferImage *out,
+                               std::string *error) const;
+    void destroy(TransferImage &image) const;
+    // The filter a blit between two optimal images of `format` can use: linear where the format
+    // supports it, else nearest; false when it cannot be blitted at all.
+    bool blit_filter(VkFormat format, VkFilter *filter) const;
     // Makes the GPU's writes visible to the host (non-coherent memory only).
     void invalidate(const HostBuffer &buffer) const;
 
@@ -64,6 +80,12 @@ public:
     // to the host once the submit completes.
     static void record_present_readback(VkCommandBuffer cb, VkImage image, VkImageLayout presented,
                                         const HostBuffer &dst, const std::vector<VkBufferImageCopy> &regions);
+    // The same for the swapped split's periphery: blits layer 0 of the presented image (`extent`)
+    // onto the whole of `scaled` with `filter`, then copies `regions` of `scaled` into `dst`.
+    static void record_present_downsample(VkCommandBuffer cb, VkImage image, VkImageLayout presented,
+                                          VkExtent2D extent, const TransferImage &scaled, VkFilter filter,
+                                          const HostBuffer &dst,
+                                          const std::vector<VkBufferImageCopy> &regions);
 
     // A memory type among `type_bits` with all of `required`, preferring `preferred` too; -1 if none.
     int32_t find_memory_type(uint32_t type_bits, VkMemoryPropertyFlags required,

@@ -5,17 +5,22 @@
 #include "codec.h"
 #include "handshake.h"
 #include "metadata.h"
+#include "periphery.h"
+#include "split_geometry.h"
+#include "tile_codec.h"
 #include "transport.h"
 #include "vk_codec.h"
 #include "wire.h"
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -191,6 +196,7 @@ private:
 struct Client {
     std::unique_ptr<protocol::Connection> connection;
     std::string error;
+    uint64_t granted = 0; // the Welcome's capabilities
 
     bool connect(const Agent &agent, const std::string &token = {}) {
         auto c = protocol::Connection::connect("127.0.0.1", agent.port(), 5s);
@@ -210,6 +216,7 @@ struct Client {
             error = welcome.error();
             return false;
         }
+        granted = welcome->capabilities;
         return true;
     }
     bool send(MessageType type, std::vector<uint8_t> payload) {
@@ -1304,6 +1311,266 @@ TEST(AgentRecordCorpus, WritesSeedsWithoutTheToken) {
     EXPECT_GE(messages.size(), 3u);
     EXPECT_TRUE(frames.at_message_boundary());
     std::filesystem::remove_all(dir);
+}
+
+// --- the swapped split (issue 21): the agent renders the periphery -------------------------------
+
+// A 64x32 window image the client fills from a buffer with a smooth picture; the agent replays it
+// whole and sends the image downsampled to scale 0.5 as the two periphery parts, lossily.
+constexpr uint32_t kPeripheryWidth = 64, kPeripheryHeight = 32;
+constexpr uint64_t kPictureBuffer = 0x4100, kPictureMemory = 0x5100;
+
+uint8_t picture_byte(uint32_t x, uint32_t y, uint32_t k) {
+    switch (k) {
+    case 0:
+        return static_cast<uint8_t>(x * 4);
+    case 1:
+        return static_cast<uint8_t>(y * 8);
+    case 2:
+        return static_cast<uint8_t>(40 + (x + y) * 2);
+    default:
+        return 255;
+    }
+}
+
+// A command buffer (client id `command_buffer`) that copies the picture from `picture` into the
+// swapchain image, left for present, and its submit.
+bool encode_picture_frame(codec::Encoder &e, VkCommandPool pool, VkBuffer picture, uint64_t command_buffer) {
+    VkDevice dev = id<VkDevice>(kDevice);
+    VkCommandBufferAllocateInfo cba{};
+    cba.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    cba.commandPool = pool;
+    cba.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    cba.commandBufferCount = 1;
+    VkCommandBuffer cb = id<VkCommandBuffer>(command_buffer);
+    codec::encode_vkAllocateCommandBuffers(e, dev, &cba, &cb);
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    codec::encode_vkBeginCommandBuffer(e, cb, &begin, VK_COMMAND_BUFFER_LEVEL_PRIMARY);
+    VkImageMemoryBarrier ib{};
+    ib.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+    ib.dstAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    ib.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    ib.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+    ib.srcQueueFamilyIndex = ib.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    ib.image = id<VkImage>(kImage);
+    ib.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    // After the host's write of the picture, and after the previous frame's present (the agent's
+    // blit reads the image then) as an application's acquire semaphore would order it.
+    codec::encode_vkCmdPipelineBarrier(e, cb, VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                                       VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr, 1, &ib);
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageExtent = {kPeripheryWidth, kPeripheryHeight, 1};
+    codec::encode_vkCmdCopyBufferToImage(e, cb, picture, id<VkImage>(kImage),
+                                         VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+    ib.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    ib.dstAccessMask = 0;
+    ib.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+    ib.newLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+    codec::encode_vkCmdPipelineBarrier(e, cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                                       VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, 0, 0, nullptr, 0, nullptr, 1,
+                                       &ib);
+    codec::encode_vkEndCommandBuffer(e, cb);
+    VkSubmitInfo submit{};
+    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    submit.commandBufferCount = 1;
+    submit.pCommandBuffers = &cb;
+    codec::encode_vkQueueSubmit(e, id<VkQueue>(kQueue), 1, &submit, VK_NULL_HANDLE);
+    return true;
+}
+
+// The setup, the swapchain, SplitConfig and (unless `config` is null) PeripheryConfig, then `frames`
+// frames that each copy the picture into the swapchain image (a command buffer each) and present it.
+bool run_periphery_stream(Client &client, const protocol::PeripheryConfig *config, bool periphery_first,
+                          std::string *why, uint32_t frames = 1) {
+    codec::Encoder e;
+    encode_setup(e);
+    VkDevice dev = id<VkDevice>(kDevice);
+    constexpr VkDeviceSize kBytes = VkDeviceSize{kPeripheryWidth} * kPeripheryHeight * 4;
+    VkBufferCreateInfo buffer{};
+    buffer.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+    buffer.size = kBytes;
+    buffer.usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+    VkBuffer b = id<VkBuffer>(kPictureBuffer);
+    codec::encode_vkCreateBuffer(e, dev, &buffer, nullptr, &b);
+    VkMemoryAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    alloc.allocationSize = kBytes;
+    VkDeviceMemory m = id<VkDeviceMemory>(kPictureMemory);
+    codec::encode_vkAllocateMemory(e, dev, &alloc, nullptr, &m);
+    codec::encode_vkBindBufferMemory(e, dev, b, m, 0);
+    if (!client.commands(e)) return *why = "send setup", false;
+    protocol::MemoryData picture;
+    picture.device_id = kDevice;
+    picture.memory_id = kPictureMemory;
+    for (uint32_t y = 0; y < kPeripheryHeight; ++y)
+        for (uint32_t x = 0; x < kPeripheryWidth; ++x)
+            for (uint32_t k = 0; k < 4; ++k)
+                picture.bytes.push_back(picture_byte(x, y, k));
+    if (!client.send(MessageType::MemoryData, protocol::encode(picture))) return *why = "send", false;
+
+    protocol::SwapchainImages sc;
+    sc.device_id = kDevice;
+    sc.swapchain_id = kSwapchain;
+    sc.width = kPeripheryWidth;
+    sc.height = kPeripheryHeight;
+    sc.format = VK_FORMAT_R8G8B8A8_UNORM;
+    sc.usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+    sc.image_ids = {kImage};
+    if (!client.send(MessageType::SwapchainImages, protocol::encode(sc))) return *why = "send", false;
+    const auto send_periphery = [&] {
+        return !config || client.send(MessageType::PeripheryConfig, protocol::encode(*config));
+    };
+    if (periphery_first && !send_periphery()) return *why = "send", false;
+    if (!client.send(MessageType::SplitConfig, protocol::encode(protocol::SplitConfig{})))
+        return *why = "send", false;
+    if (!periphery_first && !send_periphery()) return *why = "send", false;
+
+    VkCommandPoolCreateInfo pool{};
+    pool.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    VkCommandPool p = id<VkCommandPool>(kPool);
+    codec::encode_vkCreateCommandPool(e, dev, &pool, nullptr, &p);
+    for (uint32_t frame = 0; frame < frames; ++frame) {
+        if (!encode_picture_frame(e, p, b, kCommandBuffer + frame) || !client.commands(e))
+            return *why = "send commands", false;
+        protocol::FramePresent present;
+        present.frame = frame;
+        present.queue_id = kQueue;
+        present.images = {{kSwapchain, 0}};
+        if (!client.send(MessageType::FramePresent, protocol::encode(present)))
+            return *why = "send present", false;
+    }
+    return true;
+}
+
+// The picture downsampled 2:1 as a linear blit does it: each pixel the mean of a 2x2 block.
+std::vector<uint8_t> picture_halved() {
+    std::vector<uint8_t> v;
+    for (uint32_t y = 0; y < kPeripheryHeight / 2; ++y)
+        for (uint32_t x = 0; x < kPeripheryWidth / 2; ++x)
+            for (uint32_t k = 0; k < 4; ++k) {
+                uint32_t sum = 0;
+                for (uint32_t dy = 0; dy < 2; ++dy)
+                    for (uint32_t dx = 0; dx < 2; ++dx)
+                        sum += picture_byte(2 * x + dx, 2 * y + dy, k);
+                v.push_back(static_cast<uint8_t>((sum + 2) / 4));
+            }
+    return v;
+}
+
+double psnr_rgb(const std::vector<uint8_t> &expected, const std::vector<uint8_t> &actual) {
+    double squared = 0;
+    size_t count = 0;
+    for (size_t i = 0; i < expected.size(); ++i) {
+        if (i % 4 == 3) continue;
+        const double d = static_cast<double>(expected[i]) - static_cast<double>(actual[i]);
+        squared += d * d;
+        ++count;
+    }
+    return squared == 0 ? 99 : 10 * std::log10(255.0 * 255.0 * static_cast<double>(count) / squared);
+}
+
+// A session in the swapped split: two frames, each answered with the two periphery parts of the
+// picture downsampled to 0.5, which decode (lossily: a fovea decoder refuses them) to the picture
+// halved, the second frame's from the first's stream.
+void expect_periphery_session(Agent &agent, uint64_t session) {
+    Client client;
+    ASSERT_TRUE(client.connect(agent)) << client.error;
+    EXPECT_TRUE(client.granted & protocol::capability::kSwappedSplit);
+    const protocol::PeripheryConfig config{0.5, {false, 23}};
+    constexpr uint32_t kFrames = 2;
+    std::string why;
+    ASSERT_TRUE(run_periphery_stream(client, &config, false, &why, kFrames)) << why << "\n" << agent.log();
+    const VkExtent2D scaled = split::scaled_extent({kPeripheryWidth, kPeripheryHeight}, config.scale);
+    ASSERT_EQ(scaled.width, kPeripheryWidth / 2);
+    const auto parts = split::periphery_parts(scaled);
+    std::vector<std::unique_ptr<tiles::TileDecoder>> decoders(parts.size());
+    for (uint32_t frame = 0; frame < kFrames; ++frame) {
+        std::optional<protocol::Tiles> tiles;
+        while (!tiles) {
+            auto reply = client.connection->receive(60s);
+            ASSERT_TRUE(reply) << "no Tiles: " << client.connection->close_reason() << "\n" << agent.log();
+            if (reply->type != protocol::to_wire(MessageType::Tiles)) continue;
+            auto decoded = protocol::decode_tiles(reply->payload, 1u << 20);
+            ASSERT_TRUE(decoded.ok()) << decoded.error();
+            tiles = std::move(*decoded);
+        }
+        EXPECT_EQ(tiles->frame, frame);
+        EXPECT_EQ(tiles->swapchain_id, kSwapchain);
+        EXPECT_EQ(tiles->flags, 0u);
+        ASSERT_EQ(tiles->tiles.size(), parts.size()) << agent.log();
+        std::vector<uint8_t> image(size_t{scaled.width} * scaled.height * 4);
+        for (size_t i = 0; i < parts.size(); ++i) {
+            const protocol::EncodedTile &tile = tiles->tiles[i];
+            EXPECT_EQ(tile.flags, (frame == 0 ? protocol::kTileKeyframe : 0u) | protocol::kTilePeriphery);
+            EXPECT_EQ(tile.codec, TileCodec::X264);
+            ASSERT_EQ(tile.x, static_cast<uint32_t>(parts[i].offset.x));
+            ASSERT_EQ(tile.y, static_cast<uint32_t>(parts[i].offset.y));
+            ASSERT_EQ(tile.width, parts[i].extent.width);
+            ASSERT_EQ(tile.height, parts[i].extent.height);
+            std::string error;
+            std::vector<uint8_t> pixels(size_t{tile.width} * tile.height * 4);
+            if (frame == 0) {
+                auto strict = tiles::make_tile_decoder(tile.codec, tile.width, tile.height, &error);
+                ASSERT_NE(strict, nullptr) << error;
+                EXPECT_FALSE(strict->decode(tile.data, pixels.data(), &error)) << "a lossy part, refused";
+                decoders[i] = tiles::make_tile_decoder(tile.codec, tile.width, tile.height, &error, true);
+                ASSERT_NE(decoders[i], nullptr) << error;
+            }
+            ASSERT_TRUE(decoders[i]->decode(tile.data, pixels.data(), &error)) << error;
+            for (uint32_t y = 0; y < tile.height; ++y)
+                std::copy_n(pixels.begin() + size_t{y} * tile.width * 4, size_t{tile.width} * 4,
+                            image.begin() + ((size_t{tile.y} + y) * scaled.width + tile.x) * 4);
+        }
+        EXPECT_GT(psnr_rgb(picture_halved(), image), 35.0)
+            << "frame " << frame << ": the periphery is not the picture downsampled";
+    }
+    client.bye();
+    EXPECT_TRUE(agent.wait_for_end(session, "closed by the client")) << agent.log();
+    EXPECT_EQ(agent.occurrences("session " + std::to_string(session) + ": the swapped split"), 1u)
+        << agent.log();
+}
+
+TEST_F(AgentTest, SwappedSplitSendsTheDownsampledPeriphery) {
+    expect_periphery_session(agent_, 1);
+}
+
+TEST(AgentValidate, SwappedSplitHasNoValidationMessages) {
+    if (!std::ifstream("/usr/share/vulkan/explicit_layer.d/VkLayer_khronos_validation.json"))
+        GTEST_SKIP() << "vulkan-validationlayers is not installed";
+    Agent agent({"--validate"});
+    ASSERT_TRUE(agent.started()) << agent.log();
+    expect_periphery_session(agent, 1);
+    EXPECT_TRUE(agent.wait_for_log("session 1: closed after")) << agent.log();
+    EXPECT_NE(agent.log().find("; 0 validation errors, 0 validation warnings;"), std::string::npos)
+        << agent.log();
+    EXPECT_EQ(agent.log().find("validation: "), std::string::npos) << agent.log();
+}
+
+TEST_F(AgentTest, PeripheryConfigBeforeSplitConfigEndsOnlyThatSession) {
+    Client client;
+    ASSERT_TRUE(client.connect(agent_)) << client.error;
+    const protocol::PeripheryConfig config{0.5, {false, 23}};
+    std::string why;
+    run_periphery_stream(client, &config, true, &why);
+    client.connection->flush(5000ms);
+    expect_error_then_recovery(1, "PeripheryConfig before SplitConfig");
+}
+
+TEST(AgentPeriphery, NoPeripheryRefusesTheSwappedSplit) {
+    Agent agent({"--no-periphery"});
+    ASSERT_TRUE(agent.started()) << agent.log();
+    Client client;
+    ASSERT_TRUE(client.connect(agent)) << client.error;
+    EXPECT_FALSE(client.granted & protocol::capability::kSwappedSplit) << "not granted";
+    const protocol::PeripheryConfig config{0.5, {false, 23}};
+    std::string why;
+    run_periphery_stream(client, &config, false, &why);
+    client.connection->flush(5000ms);
+    EXPECT_TRUE(agent.wait_for_end(1, "error")) << agent.log();
+    EXPECT_TRUE(agent.wait_for_log("PeripheryConfig without capability kSwappedSplit")) << agent.log();
+    expect_good_session(agent, 2);
 }
 
 } // namespace

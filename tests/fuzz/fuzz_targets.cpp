@@ -193,6 +193,9 @@ void decode_metadata(const protocol::Message &m, codec::HandleTable &table) {
     case MessageType::BufferAddress:
         if (auto d = protocol::decode_buffer_address(p)) touch(d->address);
         break;
+    case MessageType::PeripheryConfig:
+        if (auto d = protocol::decode_periphery_config(p)) touch(d->scale);
+        break;
     case MessageType::ImageLayouts:
         if (auto d = protocol::decode_image_layouts(p)) {
             // As the agent's ImageLayouts does: the id must name a live image.
@@ -250,9 +253,11 @@ void tile_decoder(const uint8_t *data, size_t size) {
     if (size < 2) return;
     static constexpr TileCodec kCodecs[] = {TileCodec::X264, TileCodec::Zstd, TileCodec::Raw};
     const TileCodec codec = kCodecs[data[0] % 3];
+    // Half the inputs decode as the swapped split's periphery does, lossy x264 tiles accepted.
+    const bool accept_lossy = (data[0] / 3) % 2 == 1;
     const TileSize tile = kFuzzTileSizes[data[1] % kFuzzTileSizeCount];
     std::string error;
-    auto decoder = tiles::make_tile_decoder(codec, tile.width, tile.height, &error);
+    auto decoder = tiles::make_tile_decoder(codec, tile.width, tile.height, &error, accept_lossy);
     if (!decoder) return;
     std::vector<uint8_t> pixels(size_t{tile.width} * tile.height * 4);
     std::span<const uint8_t> rest(data + 2, size - 2);

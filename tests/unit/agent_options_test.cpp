@@ -1,4 +1,7 @@
 #include "agent_options.h"
+#include "handshake.h"
+
+#include <variant>
 
 #include <gtest/gtest.h>
 
@@ -132,6 +135,39 @@ TEST(AgentOptions, EmulateLimitsTakesAProfile) {
     EXPECT_EQ(parsed.options.emulate_limits, "strict.json");
     const auto missing = parse_agent_options({"--emulate-limits"});
     EXPECT_NE(missing.error.find("--emulate-limits"), std::string::npos) << missing.error;
+}
+
+// --no-periphery drops the swapped split from what sessions offer; a client gets it only when both
+// sides have it.
+TEST(AgentOptions, NoPeripheryDropsTheSwappedSplit) {
+    const auto defaults = parse_agent_options({});
+    EXPECT_TRUE(defaults.options.periphery);
+    EXPECT_EQ(agent_capabilities(defaults.options), protocol::kSupportedCapabilities);
+    EXPECT_TRUE(agent_capabilities(defaults.options) & protocol::capability::kSwappedSplit);
+    const auto parsed = parse_agent_options({"--no-periphery"});
+    ASSERT_TRUE(parsed.error.empty()) << parsed.error;
+    EXPECT_FALSE(parsed.options.periphery);
+    EXPECT_EQ(agent_capabilities(parsed.options),
+              protocol::kSupportedCapabilities & ~protocol::capability::kSwappedSplit);
+    EXPECT_NE(std::string(agent_usage()).find("--no-periphery"), std::string::npos);
+
+    protocol::Hello hello;
+    hello.capabilities = protocol::capability::kZstdPayloads | protocol::capability::kFoveaTiles |
+                         protocol::capability::kSwappedSplit;
+    const auto granted = [&](const AgentOptions &options, const protocol::Hello &h) {
+        protocol::ServerHandshakeConfig config;
+        config.capabilities = agent_capabilities(options);
+        const auto answer = protocol::evaluate_hello(h, config);
+        EXPECT_TRUE(std::holds_alternative<protocol::Welcome>(answer));
+        return std::get<protocol::Welcome>(answer).capabilities;
+    };
+    EXPECT_EQ(granted(defaults.options, hello), hello.capabilities);
+    EXPECT_EQ(granted(parsed.options, hello),
+              protocol::capability::kZstdPayloads | protocol::capability::kFoveaTiles);
+    protocol::Hello periphery_client = hello;
+    periphery_client.capabilities &= ~protocol::capability::kSwappedSplit;
+    EXPECT_FALSE(granted(defaults.options, periphery_client) & protocol::capability::kSwappedSplit)
+        << "granted only to a client that offers it";
 }
 
 TEST(AgentOptions, BadInputIsOneLineError) {

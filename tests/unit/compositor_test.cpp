@@ -7,6 +7,8 @@
 // Catmull-Rom against CPU references, within 2 of 255), slots are reused across frames, and the
 // Khronos validation layer with synchronization validation, when installed, says nothing. The
 // Timed variant goes the SPLITVK_STATS way: take_waits() first, and a measured composite GPU time.
+// composite_periphery (the swapped split) keeps the application's foveae bit-exact and upsamples the
+// agent's periphery, or the previous one for a late frame.
 
 #include "compositor.h"
 #include "gpu_timing.h"
@@ -680,6 +682,224 @@ TEST_P(CompositorTest, LayeredRuntimeImageGetsEachLayersTilesAndPeriphery) {
     }
 }
 
+// The swapped split's composite (composite_periphery): the application rendered the whole image
+// (its foveae are what counts), the agent's periphery arrives as two halves of the scaled image.
+// The foveae stay byte for byte what the application rendered (one reaching past the image is kept
+// clipped), the rest is the agent's periphery upsampled as composite()'s is; a late frame (null
+// periphery) gets the previous periphery with its own foveae, and before any periphery there is
+// nothing to do (VK_NOT_READY, nothing submitted).
+TEST_P(CompositorTest, PeripheryCompositeKeepsFoveaeExact) {
+    const auto [format, filter, timed] = GetParam();
+    const bool srgb = format == VK_FORMAT_B8G8R8A8_SRGB;
+    const VkDevice d = device_.handle;
+    std::string why;
+    if (!Compositor::supports(device_, format, &why)) GTEST_SKIP() << why;
+
+    SwapchainState sc;
+    sc.handle = reinterpret_cast<VkSwapchainKHR>(uintptr_t{0x5e});
+    sc.extent = {kWidth, kHeight};
+    sc.format = format;
+    sc.composable = true;
+    sc.images.resize(kImages);
+    for (VkImage &image : sc.images)
+        ASSERT_NO_FATAL_FAILURE(make_image(format, sc.extent, 1, Compositor::kSwapchainUsage, &image));
+    const VkDeviceSize bytes = VkDeviceSize{kWidth} * kHeight * 4;
+    VkBuffer buffer = VK_NULL_HANDLE;
+    uint8_t *mapped = nullptr;
+    ASSERT_NO_FATAL_FAILURE(make_host_buffer(bytes, &buffer, &mapped));
+    VkCommandBuffer cb = VK_NULL_HANDLE;
+    VkFence fence = VK_NULL_HANDLE;
+    ASSERT_NO_FATAL_FAILURE(make_command_buffer(&cb, &fence));
+    VkSemaphoreCreateInfo semaphore_info{};
+    semaphore_info.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
+    VkSemaphore rendered = VK_NULL_HANDLE;
+    ASSERT_EQ(vkCreateSemaphore(d, &semaphore_info, nullptr, &rendered), VK_SUCCESS);
+
+    std::string error;
+    UploadPool uploads(device_);
+    auto compositor = Compositor::create(device_, sc, family_, &error, filter, timed);
+    ASSERT_TRUE(compositor) << error;
+
+    const auto barrier = [&](VkImage image, VkImageLayout from, VkImageLayout to, VkAccessFlags src_access,
+                             VkAccessFlags dst_access) {
+        VkImageMemoryBarrier b{};
+        b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+        b.srcAccessMask = src_access;
+        b.dstAccessMask = dst_access;
+        b.oldLayout = from;
+        b.newLayout = to;
+        b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+        b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+        b.image = image;
+        b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+        vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
+                             nullptr, 0, nullptr, 1, &b);
+    };
+    VkBufferImageCopy whole{};
+    whole.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    whole.imageExtent = {kWidth, kHeight, 1};
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    const VkPipelineStageFlags transfer_stage = VK_PIPELINE_STAGE_TRANSFER_BIT;
+    const auto run = [&](const VkSemaphore *wait, const VkSemaphore *signal) {
+        vkEndCommandBuffer(cb);
+        VkSubmitInfo submit{};
+        submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+        submit.commandBufferCount = 1;
+        submit.pCommandBuffers = &cb;
+        submit.waitSemaphoreCount = wait ? 1 : 0;
+        submit.pWaitSemaphores = wait;
+        submit.pWaitDstStageMask = &transfer_stage;
+        submit.signalSemaphoreCount = signal ? 1 : 0;
+        submit.pSignalSemaphores = signal;
+        ASSERT_EQ(vkQueueSubmit(queue_, 1, &submit, fence), VK_SUCCESS);
+        ASSERT_EQ(vkWaitForFences(d, 1, &fence, VK_TRUE, 10'000'000'000ull), VK_SUCCESS);
+        vkResetFences(d, 1, &fence);
+    };
+
+    // The client's foveae: two eyes, one reaching past the top-left corner.
+    const VkRect2D keep[3] = {{{20, 15}, {17, 11}}, {{50, 8}, {12, 10}}, {{-4, -3}, {9, 7}}};
+    const auto in_keep = [&](uint32_t x, uint32_t y) {
+        for (const VkRect2D &r : keep)
+            if (int(x) >= r.offset.x && int(x) < r.offset.x + int(r.extent.width) && int(y) >= r.offset.y &&
+                int(y) < r.offset.y + int(r.extent.height))
+                return true;
+        return false;
+    };
+    // Frame 2 is late: its periphery is frame 1's.
+    const auto late = [](uint32_t frame) { return frame == 2; };
+    const auto periphery_byte = [](uint32_t x, uint32_t y, uint32_t c, uint32_t frame) {
+        return content(x + 3, y + 1, c, frame + 7);
+    };
+
+    std::vector<uint8_t> rendered_pixels(bytes);
+    std::vector<uint8_t> periphery_pixels(size_t{kPeriphery.width} * kPeriphery.height * 4);
+    uint32_t shown_periphery = UINT32_MAX; // the frame whose periphery is the latest
+    for (uint32_t frame = 0; frame < kFrames; ++frame) {
+        const uint32_t index = frame % kImages;
+        const VkImage image = sc.images[index];
+        for (uint32_t y = 0; y < kHeight; ++y)
+            for (uint32_t x = 0; x < kWidth; ++x)
+                for (uint32_t c = 0; c < 4; ++c)
+                    rendered_pixels[(size_t{y} * kWidth + x) * 4 + c] = tile_byte(x, y, c, frame);
+        std::memcpy(mapped, rendered_pixels.data(), bytes);
+        vkBeginCommandBuffer(cb, &begin);
+        barrier(image, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0,
+                VK_ACCESS_TRANSFER_WRITE_BIT);
+        vkCmdCopyBufferToImage(cb, buffer, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &whole);
+        barrier(image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR,
+                VK_ACCESS_TRANSFER_WRITE_BIT, 0);
+        ASSERT_NO_FATAL_FAILURE(run(nullptr, &rendered));
+
+        VkSemaphore waits = rendered;
+        if (timed) {
+            VkFence done = VK_NULL_HANDLE;
+            ASSERT_EQ(compositor->take_waits(queue_, index, std::span(&rendered, 1), &waits, &done),
+                      VK_SUCCESS);
+        }
+        VkSemaphore signal = VK_NULL_HANDLE;
+        if (frame == 0) {
+            // No periphery yet: nothing submitted, the semaphore is the present's to wait on.
+            EXPECT_EQ(
+                compositor->composite_periphery(queue_, index, std::span(&waits, 1), nullptr, keep, &signal),
+                VK_NOT_READY);
+            EXPECT_EQ(signal, VK_NULL_HANDLE);
+        }
+        PeripheryImage periphery;
+        periphery.extent = kPeriphery;
+        if (!late(frame)) {
+            // The halves, [0, w/2) and [w/2, w), each decoded into its own upload buffer.
+            const uint32_t half = kPeriphery.width / 2;
+            const VkRect2D parts[2] = {{{0, 0}, {half, kPeriphery.height}},
+                                       {{int32_t(half), 0}, {kPeriphery.width - half, kPeriphery.height}}};
+            for (const VkRect2D &part : parts) {
+                std::vector<uint8_t> pixels(size_t{part.extent.width} * part.extent.height * 4);
+                for (uint32_t y = 0; y < part.extent.height; ++y)
+                    for (uint32_t x = 0; x < part.extent.width; ++x)
+                        for (uint32_t c = 0; c < 4; ++c) {
+                            const uint8_t v = periphery_byte(part.offset.x + x, y, c, frame);
+                            pixels[(size_t{y} * part.extent.width + x) * 4 + c] = v;
+                            periphery_pixels[(size_t{y} * kPeriphery.width + part.offset.x + x) * 4 + c] = v;
+                        }
+                auto upload = uploads.take(pixels.size(), &error);
+                ASSERT_TRUE(upload) << error;
+                std::memcpy(upload->mapped, pixels.data(), pixels.size());
+                uploads.flush(*upload);
+                periphery.parts.push_back({part, upload->buffer, 0, upload});
+            }
+            shown_periphery = frame;
+        }
+        ASSERT_EQ(compositor->composite_periphery(queue_, index, std::span(&waits, 1),
+                                                  late(frame) ? nullptr : &periphery, keep, &signal),
+                  VK_SUCCESS);
+        ASSERT_NE(signal, VK_NULL_HANDLE);
+
+        vkBeginCommandBuffer(cb, &begin);
+        barrier(image, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, 0,
+                VK_ACCESS_TRANSFER_READ_BIT);
+        vkCmdCopyImageToBuffer(cb, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, buffer, 1, &whole);
+        ASSERT_NO_FATAL_FAILURE(run(&signal, nullptr));
+        const uint8_t *shown = mapped;
+
+        ASSERT_NE(shown_periphery, UINT32_MAX);
+        const auto texel = [&](int x, int y, uint32_t c) {
+            x = std::clamp(x, 0, int(kPeriphery.width) - 1);
+            y = std::clamp(y, 0, int(kPeriphery.height) - 1);
+            const float v = periphery_pixels[(size_t(y) * kPeriphery.width + x) * 4 + c] / 255.0f;
+            return srgb && c < 3 ? srgb_to_linear(v) : v;
+        };
+        const auto cubic = [](float f, float w[4]) {
+            w[0] = f * (-0.5f + f * (1.0f - 0.5f * f));
+            w[1] = 1.0f + f * f * (-2.5f + 1.5f * f);
+            w[2] = f * (0.5f + f * (2.0f - 1.5f * f));
+            w[3] = f * f * (-0.5f + 0.5f * f);
+        };
+        uint64_t fovea_mismatches = 0;
+        float worst = 0.0f;
+        for (uint32_t y = 0; y < kHeight; ++y)
+            for (uint32_t x = 0; x < kWidth; ++x) {
+                const size_t at = (size_t{y} * kWidth + x) * 4;
+                if (in_keep(x, y)) {
+                    fovea_mismatches += std::memcmp(shown + at, rendered_pixels.data() + at, 4) != 0;
+                    continue;
+                }
+                const float px =
+                    std::clamp((x + 0.5f) * kPeriphery.width / kWidth, 0.5f, kPeriphery.width - 0.5f);
+                const float py =
+                    std::clamp((y + 0.5f) * kPeriphery.height / kHeight, 0.5f, kPeriphery.height - 0.5f);
+                const int ix = int(std::floor(px - 0.5f)), iy = int(std::floor(py - 0.5f));
+                const float fx = px - 0.5f - ix, fy = py - 0.5f - iy;
+                for (uint32_t c = 0; c < 4; ++c) {
+                    float v = 0.0f;
+                    if (filter == UpsampleFilter::CatmullRom) {
+                        float wx[4], wy[4];
+                        cubic(fx, wx);
+                        cubic(fy, wy);
+                        for (int j = 0; j < 4; ++j)
+                            for (int i = 0; i < 4; ++i)
+                                v += wx[i] * wy[j] * texel(ix - 1 + i, iy - 1 + j, c);
+                    } else {
+                        v = (texel(ix, iy, c) * (1 - fx) + texel(ix + 1, iy, c) * fx) * (1 - fy) +
+                            (texel(ix, iy + 1, c) * (1 - fx) + texel(ix + 1, iy + 1, c) * fx) * fy;
+                    }
+                    const float expected =
+                        255.0f * (srgb && c < 3 ? linear_to_srgb(v) : std::clamp(v, 0.0f, 1.0f));
+                    worst = std::max(worst, std::abs(expected - shown[at + c]));
+                }
+            }
+        EXPECT_EQ(fovea_mismatches, 0u) << "frame " << frame;
+        EXPECT_LE(worst, 2.0f) << "frame " << frame << ": the rest is not frame " << shown_periphery
+                               << "'s periphery upsampled";
+    }
+
+    compositor.reset(); // waits for its submits
+    release_gpu_timing(device_);
+    vkDestroySemaphore(d, rendered, nullptr);
+    if (validation_) {
+        EXPECT_EQ(g_messages, 0);
+    }
+}
+
 // The upsample's bands: together with the tiles they cover every pixel of the image exactly once.
 TEST(PeripheryBands, CoverTheImageAroundTheTilesExactlyOnce) {
     const auto tile = [](int32_t x, int32_t y, uint32_t w, uint32_t h) {
@@ -829,9 +1049,27 @@ TEST_P(CompositorTest, DISABLED_Cost) {
         vkEndCommandBuffer(cb);
         submit_and_wait(VK_NULL_HANDLE);
     });
+    // The swapped split's: the agent's periphery in two halves around the client's foveae, and a late
+    // frame's (the latest periphery again, nothing uploaded).
+    const uint32_t half = periphery.width / 2;
+    auto part = uploads.take(VkDeviceSize{periphery.width - half} * periphery.height * 4, &error);
+    ASSERT_TRUE(part) << error;
+    std::memset(part->mapped, 0x3f, size_t{periphery.width - half} * periphery.height * 4);
+    uploads.flush(*part);
+    PeripheryImage agent;
+    agent.extent = periphery;
+    agent.parts = {{{{0, 0}, {half, periphery.height}}, part->buffer, 0, part},
+                   {{{int32_t(half), 0}, {periphery.width - half, periphery.height}}, part->buffer, 0, part}};
+    const auto composite_periphery = [&](const PeripheryImage *with) {
+        VkSemaphore signal = VK_NULL_HANDLE;
+        ASSERT_EQ(compositor->composite_periphery(queue_, 0, {}, with, rects, &signal), VK_SUCCESS);
+        submit_and_wait(signal);
+    };
+    const double swapped = best([&] { composite_periphery(&agent); });
+    const double swapped_late = best([&] { composite_periphery(nullptr); });
     std::printf("cost %ux%u filter %d: composite, whole image %.2f ms; around the foveae with tiles %.2f ms; "
-                "vkCmdBlitImage (linear) alone %.2f ms\n",
-                width, height, int(filter), whole, around, blit);
+                "vkCmdBlitImage (linear) alone %.2f ms; composite_periphery %.2f ms, late %.2f ms\n",
+                width, height, int(filter), whole, around, blit, swapped, swapped_late);
     compositor.reset(); // before the upload pool, whose buffer its last tiles hold
 }
 

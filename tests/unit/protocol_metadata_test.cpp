@@ -401,5 +401,77 @@ TEST(ProtocolSession, TilesRoundTripAndLimits) {
     EXPECT_TRUE(decode_tiles(encode(empty), 1 << 20).ok()) << "a frame without split passes has no tiles";
 }
 
+// The swapped split's periphery config (issue 21): the scale within [0.1, 1] (NaN refused), the crf
+// within x264's 0..51.
+TEST(ProtocolSession, PeripheryConfigRoundTripAndLimits) {
+    PeripheryConfig m;
+    m.scale = 0.6;
+    m.quality = {false, 28};
+    const auto bytes = encode(m);
+    EXPECT_EQ(bytes.size(), 16u);
+    const auto back = decode_periphery_config(bytes);
+    ASSERT_TRUE(back.ok()) << back.error();
+    EXPECT_EQ(back->scale, 0.6);
+    EXPECT_FALSE(back->quality.lossless);
+    EXPECT_EQ(back->quality.crf, 28u);
+    expect_truncations_refused(bytes, decode_periphery_config);
+
+    m.quality = {true, 23};
+    const auto lossless = decode_periphery_config(encode(m));
+    ASSERT_TRUE(lossless.ok()) << lossless.error();
+    EXPECT_TRUE(lossless->quality.lossless);
+
+    for (double scale : {split::kMinPeripheryScale, split::kMaxPeripheryScale}) {
+        m.scale = scale;
+        EXPECT_TRUE(decode_periphery_config(encode(m)).ok()) << scale;
+    }
+    for (double scale : {0.0, 0.09, 1.01, -0.5, std::nan(""), HUGE_VAL}) {
+        m.scale = scale;
+        const auto refused = decode_periphery_config(encode(m));
+        ASSERT_FALSE(refused.ok()) << scale;
+        EXPECT_NE(refused.error().find("scale"), std::string::npos) << refused.error();
+    }
+    m.scale = 0.5;
+    m.quality = {false, kMaxPeripheryCrf};
+    EXPECT_TRUE(decode_periphery_config(encode(m)).ok());
+    m.quality.crf = kMaxPeripheryCrf + 1;
+    EXPECT_FALSE(decode_periphery_config(encode(m)).ok()) << "a crf above 51";
+    auto flag = encode(PeripheryConfig{});
+    flag[8] = 2; // the lossless flag
+    EXPECT_FALSE(decode_periphery_config(flag).ok());
+}
+
+// Periphery tiles carry kTilePeriphery; a frame is all periphery or all foveae.
+TEST(ProtocolSession, TilesCarryThePeripheryFlagUnmixed) {
+    Tiles m;
+    m.frame = 7;
+    const auto parts = split::periphery_parts({1440, 648});
+    for (const VkRect2D &part : parts)
+        m.tiles.push_back({static_cast<uint32_t>(part.offset.x),
+                           static_cast<uint32_t>(part.offset.y),
+                           part.extent.width,
+                           part.extent.height,
+                           TileCodec::X264,
+                           kTileKeyframe | kTilePeriphery,
+                           {1, 2, 3}});
+    const auto back = decode_tiles(encode(m), 1 << 20);
+    ASSERT_TRUE(back.ok()) << back.error();
+    ASSERT_EQ(back->tiles.size(), 2u);
+    EXPECT_EQ(back->tiles[1].flags, kTileKeyframe | kTilePeriphery);
+    EXPECT_EQ(back->tiles[1].x, 720u);
+
+    auto mixed = m;
+    mixed.tiles[1].flags = kTileKeyframe;
+    const auto refused = decode_tiles(encode(mixed), 1 << 20);
+    ASSERT_FALSE(refused.ok());
+    EXPECT_NE(refused.error().find("mixes periphery and fovea"), std::string::npos) << refused.error();
+    mixed.tiles[0].flags = kTileKeyframe;
+    mixed.tiles[1].flags = kTilePeriphery;
+    EXPECT_FALSE(decode_tiles(encode(mixed), 1 << 20).ok()) << "whichever comes first";
+    auto unknown = m;
+    unknown.tiles[0].flags |= 1u << 2;
+    EXPECT_FALSE(decode_tiles(encode(unknown), 1 << 20).ok());
+}
+
 } // namespace
 } // namespace splitvk::protocol

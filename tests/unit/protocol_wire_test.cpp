@@ -103,7 +103,8 @@ TEST(ProtocolWire, TypeRanges) {
     EXPECT_TRUE(is_defined_type(to_wire(MessageType::ImageLayouts)));
     EXPECT_TRUE(is_defined_type(to_wire(MessageType::SwapchainView)));
     EXPECT_TRUE(is_defined_type(to_wire(MessageType::BufferAddress)));
-    EXPECT_FALSE(is_defined_type(to_wire(MessageType::BufferAddress) + 1));
+    EXPECT_TRUE(is_defined_type(to_wire(MessageType::PeripheryConfig)));
+    EXPECT_FALSE(is_defined_type(to_wire(MessageType::PeripheryConfig) + 1));
     EXPECT_STREQ(message_type_name(to_wire(MessageType::BufferAddress)), "BufferAddress");
     EXPECT_STREQ(message_type_name(to_wire(MessageType::ImageLayouts)), "ImageLayouts");
     EXPECT_STREQ(message_type_name(0x0200), "Vulkan command");

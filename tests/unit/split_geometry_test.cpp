@@ -915,5 +915,80 @@ TEST(SplitTracker, ValidRunsSkipTheIndicesNeverSet) {
     EXPECT_EQ(runs(state), (std::vector<Run>{{0, 2, 70}}));
 }
 
+// The agent's scissor rule in split passes, shared with the client's fovea mode: the scissor cut by
+// the viewport's fovea_scissor, left alone while the viewport is unknown.
+TEST(SplitGeometry, NarrowToFoveaeCutsByTheViewportsFoveaScissor) {
+    const FoveaSize fovea;
+    const VkExtent2D image{2400, 1080};
+    const VkViewport left{0.f, 0.f, 1200.f, 1080.f, 0.f, 1.f}, whole{0.f, 0.f, 2400.f, 1080.f, 0.f, 1.f};
+    const VkRect2D all{{0, 0}, image};
+    EXPECT_RECT(narrow_to_foveae(all, nullptr, image, EyeMode::Two, fovea, false), 0, 0, 2400u, 1080u);
+    EXPECT_RECT(narrow_to_foveae(all, &left, image, EyeMode::Two, fovea, false), 344, 360, 512u, 360u);
+    EXPECT_RECT(narrow_to_foveae(all, &whole, image, EyeMode::Two, fovea, false), 344, 360, 1712u, 360u);
+    EXPECT_RECT(narrow_to_foveae(all, &whole, image, EyeMode::One, fovea, false), 688, 360, 1024u, 360u);
+    // The app's own scissor still bounds it.
+    EXPECT_RECT(narrow_to_foveae({{0, 0}, {500, 500}}, &left, image, EyeMode::Two, fovea, false), 344, 360,
+                156u, 140u);
+    // Disjoint: empty, as intersect gives it.
+    EXPECT_EQ(narrow_to_foveae({{0, 0}, {100, 100}}, &left, image, EyeMode::Two, fovea, false).extent.width,
+              0u);
+    // A moving gaze: the whole eye the viewport draws into.
+    EXPECT_RECT(narrow_to_foveae(all, &left, image, EyeMode::Two, fovea, true), 0, 0, 1200u, 1080u);
+}
+
+// The guard of a screen-space target (SPLITVK_AGENT_SCISSOR=guard:N, SPLITVK_CLIENT_GUARD): every place a
+// fovea can be, into the target's pixels rounded outwards, grown by N.
+TEST(SplitGeometry, WindowGuardRectMapsEveryFoveaPlaceIntoTheTarget) {
+    const FoveaSize fovea;
+    const VkExtent2D screen{2400, 1080};
+    TargetClass full;
+    full.screen_space = true;
+    VkRect2D r{};
+    // Two eyes: the foveae at 344,360 and 1544,360 (512x360), their box 344..2056 x 360..720.
+    ASSERT_TRUE(window_guard_rect(full, screen, screen, 0, EyeMode::Two, fovea, false, 64, &r));
+    EXPECT_RECT(r, 280, 296, 1840u, 488u);
+    ASSERT_TRUE(window_guard_rect(full, screen, screen, 0, EyeMode::Two, fovea, false, 0, &r));
+    EXPECT_RECT(r, 344, 360, 1712u, 360u);
+    // Mip 1 of it: halved outwards, then N of the mip's pixels.
+    ASSERT_TRUE(window_guard_rect(full, screen, {1200, 540}, 1, EyeMode::Two, fovea, false, 64, &r));
+    EXPECT_RECT(r, 108, 116, 984u, 308u);
+    // A quarter-size target.
+    TargetClass quarter = full;
+    quarter.divisor = 4;
+    ASSERT_TRUE(window_guard_rect(quarter, screen, {600, 270}, 0, EyeMode::Two, fovea, false, 64, &r));
+    EXPECT_RECT(r, 22, 26, 556u, 218u);
+    // Bounded by the target.
+    ASSERT_TRUE(window_guard_rect(quarter, screen, {600, 270}, 0, EyeMode::Two, fovea, false, 400, &r));
+    EXPECT_RECT(r, 0, 0, 600u, 270u);
+    // An eye-sized target holds either eye: each eye's fovea in its own coordinates.
+    TargetClass eye = full;
+    eye.eye = true;
+    ASSERT_TRUE(window_guard_rect(eye, screen, {1200, 1080}, 0, EyeMode::Two, fovea, false, 64, &r));
+    EXPECT_RECT(r, 280, 296, 640u, 488u);
+    // One eye: the centred fovea, 688,360 1024x360.
+    ASSERT_TRUE(window_guard_rect(full, screen, screen, 0, EyeMode::One, fovea, false, 0, &r));
+    EXPECT_RECT(r, 688, 360, 1024u, 360u);
+    // A moving gaze: the whole eyes.
+    ASSERT_TRUE(window_guard_rect(full, screen, screen, 0, EyeMode::Two, fovea, true, 64, &r));
+    EXPECT_RECT(r, 0, 0, 2400u, 1080u);
+    // Refused (runs whole): not screen-space, or a layered target with one eye.
+    EXPECT_FALSE(window_guard_rect(TargetClass{}, screen, screen, 0, EyeMode::Two, fovea, false, 64, &r));
+    TargetClass layered = eye;
+    layered.layers = 2;
+    EXPECT_FALSE(window_guard_rect(layered, screen, {1200, 1080}, 0, EyeMode::One, fovea, false, 64, &r));
+    EXPECT_TRUE(window_guard_rect(layered, screen, {1200, 1080}, 0, EyeMode::Two, fovea, false, 64, &r));
+}
+
+// The scissor of an OpenXR eye image's split pass: the areas a viewport reaches, all of them where it
+// reaches none or is unknown.
+TEST(SplitGeometry, RuntimeScissorTakesTheAreasAViewportReaches) {
+    const std::vector<LayerFovea> areas = {{0, {{100, 100}, {200, 200}}}, {0, {{700, 100}, {200, 200}}}};
+    const VkViewport left{0.f, 0.f, 500.f, 500.f, 0.f, 1.f}, none{1000.f, 0.f, 10.f, 10.f, 0.f, 1.f};
+    EXPECT_RECT(runtime_scissor(areas, &left), 100, 100, 200u, 200u);
+    EXPECT_RECT(runtime_scissor(areas, nullptr), 100, 100, 800u, 200u);
+    EXPECT_RECT(runtime_scissor(areas, &none), 100, 100, 800u, 200u);
+    EXPECT_RECT(runtime_scissor({}, &left), 0, 0, 0u, 0u);
+}
+
 } // namespace
 } // namespace splitvk::split

@@ -5,6 +5,7 @@
 // the e2e suite tile_codec_test.
 #include "tile_codec.h"
 
+#include <cmath>
 #include <cstdint>
 #include <random>
 #include <string>
@@ -402,6 +403,136 @@ TEST(X264Tiles, SmallerPictureIsRefused) {
     Pixels decoded(48 * 32 * 4);
     EXPECT_FALSE(decoder->decode(encoded, decoded.data(), &error));
     EXPECT_NE(error.find("decoded 32x32"), std::string::npos) << error;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Lossy x264 (the swapped split's periphery, issue 21)
+
+// Peak signal-to-noise ratio over the colour bytes (alpha is lossless and left out), in dB.
+double psnr_rgb(const Pixels &expected, const Pixels &actual) {
+    double squared = 0;
+    size_t count = 0;
+    for (size_t i = 0; i < expected.size(); ++i) {
+        if (i % 4 == 3) continue;
+        const double d = static_cast<double>(expected[i]) - static_cast<double>(actual[i]);
+        squared += d * d;
+        ++count;
+    }
+    if (squared == 0) return 99;
+    return 10 * std::log10(255.0 * 255.0 * static_cast<double>(count) / squared);
+}
+
+// A smooth picture with a little noise and a hard edge, as a downsampled frame looks.
+Pixels gradient_noise_image(uint32_t width, uint32_t height, int frame) {
+    std::mt19937 noise(77u + static_cast<uint32_t>(frame));
+    Pixels pixels(size_t{width} * height * 4);
+    for (uint32_t y = 0; y < height; ++y)
+        for (uint32_t x = 0; x < width; ++x) {
+            uint8_t *p = &pixels[(size_t{y} * width + x) * 4];
+            const uint32_t jitter = noise() % 5u;
+            const uint32_t shift = static_cast<uint32_t>(frame) * 3;
+            p[0] = static_cast<uint8_t>((x + shift) * 200 / width + jitter);
+            p[1] = static_cast<uint8_t>(y * 220 / height + jitter);
+            p[2] = static_cast<uint8_t>(x > width / 3 && x < width / 2 ? 230 : 40 + (x + y) % 32);
+            p[3] = 255;
+        }
+    return pixels;
+}
+
+Stream open_lossy_stream(uint32_t width, uint32_t height, uint32_t crf, bool accept_lossy) {
+    Stream stream;
+    std::string error;
+    stream.encoder = make_tile_encoder(TileCodec::X264, width, height, &error, TileQuality{false, crf});
+    EXPECT_NE(stream.encoder, nullptr) << error;
+    stream.decoder = make_tile_decoder(TileCodec::X264, width, height, &error, accept_lossy);
+    EXPECT_NE(stream.decoder, nullptr) << error;
+    return stream;
+}
+
+TEST(X264LossyTiles, RoundTripIsCloseAndSmaller) {
+    constexpr uint32_t kWidth = 200, kHeight = 120;
+    Stream stream = open_lossy_stream(kWidth, kHeight, 23, true);
+    ASSERT_TRUE(stream.encoder && stream.decoder);
+    Pixels decoded(size_t{kWidth} * kHeight * 4);
+    for (int frame = 0; frame < 4; ++frame) {
+        const Pixels image = gradient_noise_image(kWidth, kHeight, frame);
+        bool keyframe = false;
+        const auto encoded = encode_ok(*stream.encoder, image, &keyframe);
+        EXPECT_EQ(keyframe, frame == 0) << "frame " << frame;
+        EXPECT_LT(encoded.size(), image.size() / 4) << "frame " << frame;
+        std::string error;
+        ASSERT_TRUE(stream.decoder->decode(encoded, decoded.data(), &error))
+            << "frame " << frame << ": " << error;
+        EXPECT_GT(psnr_rgb(image, decoded), 35.0) << "frame " << frame;
+        for (size_t i = 3; i < decoded.size(); i += 4)
+            ASSERT_EQ(decoded[i], 255) << "alpha stays exact";
+    }
+}
+
+TEST(X264LossyTiles, HigherCrfIsSmaller) {
+    constexpr uint32_t kWidth = 128, kHeight = 96;
+    const Pixels image = gradient_noise_image(kWidth, kHeight, 0);
+    Stream fine = open_lossy_stream(kWidth, kHeight, 10, true);
+    Stream coarse = open_lossy_stream(kWidth, kHeight, 40, true);
+    ASSERT_TRUE(fine.encoder && coarse.encoder);
+    EXPECT_LT(encode_ok(*coarse.encoder, image).size(), encode_ok(*fine.encoder, image).size());
+}
+
+// A decoder made for foveae never takes a lossy tile, and a lossy tile carries no checksum.
+TEST(X264LossyTiles, RefusedWithoutAcceptLossy) {
+    constexpr uint32_t kWidth = 64, kHeight = 48;
+    Stream stream = open_lossy_stream(kWidth, kHeight, 23, false);
+    ASSERT_TRUE(stream.encoder && stream.decoder);
+    const auto encoded = encode_ok(*stream.encoder, gradient_noise_image(kWidth, kHeight, 0));
+    EXPECT_EQ(encoded[8] | encoded[9] | encoded[10] | encoded[11], 0) << "no checksum";
+    Pixels decoded(size_t{kWidth} * kHeight * 4);
+    std::string error;
+    EXPECT_FALSE(stream.decoder->decode(encoded, decoded.data(), &error));
+    EXPECT_NE(error.find("lossy"), std::string::npos) << error;
+
+    auto with_checksum = encoded;
+    with_checksum[8] = 1;
+    std::string lossy_error;
+    auto accepting = make_tile_decoder(TileCodec::X264, kWidth, kHeight, &lossy_error, true);
+    ASSERT_NE(accepting, nullptr) << lossy_error;
+    EXPECT_FALSE(accepting->decode(with_checksum, decoded.data(), &lossy_error));
+    EXPECT_TRUE(accepting->decode(encoded, decoded.data(), &lossy_error)) << lossy_error;
+}
+
+// A decoder that accepts lossy tiles still checks lossless ones byte for byte.
+TEST(X264LossyTiles, AcceptingDecoderStillChecksLosslessTiles) {
+    constexpr uint32_t kWidth = 64, kHeight = 48;
+    std::string error;
+    auto encoder = make_tile_encoder(TileCodec::X264, kWidth, kHeight, &error);
+    auto decoder = make_tile_decoder(TileCodec::X264, kWidth, kHeight, &error, true);
+    ASSERT_TRUE(encoder && decoder) << error;
+    const Pixels tile = synthetic_tile(kWidth, kHeight, 0, AlphaKind::Opaque);
+    auto encoded = encode_ok(*encoder, tile);
+    Pixels decoded(tile.size());
+    ASSERT_TRUE(decoder->decode(encoded, decoded.data(), &error)) << error;
+    EXPECT_EQ(decoded, tile);
+    encoder->force_keyframe();
+    encoded = encode_ok(*encoder, tile);
+    encoded[8] ^= 1; // the checksum
+    EXPECT_FALSE(decoder->decode(encoded, decoded.data(), &error));
+    EXPECT_NE(error.find("checksum"), std::string::npos) << error;
+}
+
+// Zstd and Raw have no lossy form: the quality is ignored and they stay exact. A crf over 51 is refused.
+TEST(TileCodecFactory, LossyQualityOnlyForX264AndWithinRange) {
+    for (TileCodec codec : {TileCodec::Zstd, TileCodec::Raw}) {
+        std::string error;
+        auto encoder = make_tile_encoder(codec, 32, 16, &error, TileQuality{false, 30});
+        auto decoder = make_tile_decoder(codec, 32, 16, &error, true);
+        ASSERT_TRUE(encoder && decoder) << error;
+        const Pixels tile = synthetic_tile(32, 16, 0, AlphaKind::Noise);
+        Pixels decoded(tile.size());
+        ASSERT_TRUE(decoder->decode(encode_ok(*encoder, tile), decoded.data(), &error)) << error;
+        EXPECT_EQ(decoded, tile) << to_string(codec);
+    }
+    std::string error;
+    EXPECT_EQ(make_tile_encoder(TileCodec::X264, 32, 16, &error, TileQuality{false, 52}), nullptr);
+    EXPECT_NE(error.find("crf"), std::string::npos) << error;
 }
 
 } // namespace
