@@ -46,6 +46,8 @@ periphery/native and VARIANT/split, and it ends with four lines for the first pa
   exposed-wait/frame: R  all exposed wait (the tile wait after the client's GPU had finished its
                          frame, SPLITVK_STATS' exposed_wait_ms) over all split frame time
   tile-bytes/raw: R      compressed tile bytes over raw tile bytes
+and with --client-renders fovea a fifth:
+  swapped/native: R      the swapped split's median frame time over native's
 Timings never pass or fail."""
 import argparse
 import datetime
@@ -81,7 +83,7 @@ RENDER_PATHS = ("direct", "hdr", "deferred", "multiview", "secondary", "compute"
 # --periphery-frames N adds the older estimate, a native run at the periphery's size.
 # Variants of the split measured beside it (see measure): name -> how the tables call it.
 VARIANTS = {"split-tls": "split over TLS 1.3", "split-guard": "split, agent scissor", "split-auto": "split, auto fovea",
-            "split-shaded": "split, foveae shaded"}
+            "split-shaded": "split, foveae shaded", "split-swapped": "swapped split (client renders the foveae)"}
 XR_PATHS = ("direct", "hdr", "deferred")  # splitvk-atrium --xr, one swapchain per eye
 XR_LAYER_NAME = "XR_APILAYER_SPLITVK_split_render"
 XR_RUNTIME = os.path.join(common.REPO, "scripts", "xr-runtime")
@@ -185,6 +187,12 @@ def register(subparsers):
                    help="SPLITVK_FOVEA per eye (default: %(default)s); auto or auto:WxH runs SPLITVK_FOVEA=auto beside "
                         "the split at 512x360 in every round (split-auto) and reports the size it settled at")
     p.add_argument("--scale", default="0.6", help="SPLITVK_SCALE (default: %(default)s)")
+    p.add_argument("--client-renders", choices=("periphery", "fovea"), default="periphery",
+                   help="fovea: also run each round's swapped split (split-swapped: SPLITVK_CLIENT_RENDERS=fovea, the "
+                        "client renders only the foveae, the agent the periphery, lossily) and end with "
+                        "swapped/native beside split/native (default: %(default)s: the paper's split alone)")
+    p.add_argument("--periphery-quality", default="23",
+                   help="SPLITVK_PERIPHERY_QUALITY of the swapped split: x264 CRF 0-51 or lossless (default: %(default)s)")
     p.add_argument("--codec", choices=("x264", "zstd", "raw"), default="x264", help="default: %(default)s")
     p.add_argument("--tile-wait", type=int, default=2000,
                    help="SPLITVK_TILE_WAIT in ms (default: %(default)s: frames are lockstep as in the paper, a "
@@ -419,7 +427,8 @@ def measure(args):
     # Per path: frame times of each run (after the warm-up), the split runs' stats rows, CPU per frame.
     modes = ["native", "split"] + [v for v, on in (("split-tls", args.tls), ("split-guard", args.agent_scissor),
                                                    ("split-auto", args.fovea_auto),
-                                                   ("split-shaded", args.shaded_foveae)) if on]
+                                                   ("split-shaded", args.shaded_foveae),
+                                                   ("split-swapped", args.client_renders == "fovea")) if on]
     modes += ["xr-native", "xr-split"] if args.xr else []
     runs = {path: dict({m: [] for m in modes}, periphery=[], cpu={m: [] for m in modes}, variant_rows={})
             for path in args.paths}
@@ -447,6 +456,9 @@ def measure(args):
                 variant_env["split-auto"] = dict(split_env, SPLITVK_FOVEA=args.fovea_auto)
             if args.shaded_foveae:
                 variant_env["split-shaded"] = dict(split_env, SPLITVK_FOVEA_MASK="off")
+            if args.client_renders == "fovea":
+                variant_env["split-swapped"] = dict(split_env, SPLITVK_CLIENT_RENDERS="fovea",
+                                                    SPLITVK_PERIPHERY_QUALITY=args.periphery_quality)
             # Through OpenXR: splitvk's OpenXR layer too (docs/user-guide.md, "OpenXR applications").
             xr_split_env = dict(split_env, XR_API_LAYER_PATH=build.xr_manifest_dir, XR_ENABLE_API_LAYERS=XR_LAYER_NAME)
             for i in range(args.rounds):
@@ -495,9 +507,11 @@ def measure(args):
                                         dict(variant_env[mode], SPLITVK_STATS=stats), timeout_s, args.frames,
                                         got["cpu"][mode])
                             got["variant_rows"].setdefault(mode, []).append(split.read_stats(stats, args.warmup))
+                            summary = "[splitvk] split (client renders fovea):" if mode == "split-swapped" \
+                                else "[splitvk] split:"
                             if mode == "split-tls":
                                 common.check_tls_split(r)
-                            elif "running unsplit" in r.stderr or "[splitvk] split:" not in r.stderr:
+                            elif "running unsplit" in r.stderr or summary not in r.stderr:
                                 raise common.BenchError(f"the {mode} run (--path {path}) did not split:\n"
                                                         + common.tail(r.stderr))
                             got[mode].append(read_frame_times(times, args.warmup))
@@ -618,6 +632,7 @@ def path_summary(path, runs):
         "client_cpu": {k: split.median(v) for k, v in runs["cpu"].items() if v},
         "xr": xr_summary(runs),
         "auto": auto_summary(runs.get("variant_rows", {}).get("split-auto")),
+        "swapped": swapped_summary(runs.get("variant_rows", {}).get("split-swapped")),
         "variant_periphery": {v: q3(g) for v, g in
                               ((v, [float(r["periphery_ms"]) for rnd in rounds for r in rnd
                                     if float(r.get("periphery_ms") or 0) > 0])
@@ -640,6 +655,23 @@ def auto_summary(rounds):
     seconds = sum(float(r["frame_ms"]) for r in rows) / 1000
     return {"settled": settled, "late": sum(r["late"] != "0" for r in rows), "frames": len(rows),
             "mbps": sum(int(r["tile_bytes"]) for r in rows) * 8 / 1e6 / seconds if seconds else 0.0}
+
+
+def swapped_summary(rounds):
+    """The swapped split's runs (--client-renders fovea): the client's own render (SPLITVK_STATS'
+    periphery_ms, its cut passes on its GPU), the periphery's traffic and decode, late frames; None
+    when it did not run."""
+    if not rounds:
+        return None
+    rows = [r for rnd in rounds for r in rnd]
+    seconds = sum(float(r["frame_ms"]) for r in rows) / 1000
+    periphery_bytes = [int(r.get("periphery_bytes") or 0) for r in rows]
+    own = [float(r["periphery_ms"]) for r in rows if float(r.get("periphery_ms") or 0) > 0]
+    return {"client_render": q3(own) if own else None,
+            "mbps": sum(periphery_bytes) * 8 / 1e6 / seconds if seconds else 0.0,
+            "kib_per_frame": sum(periphery_bytes) / 1024 / len(rows) if rows else 0.0,
+            "decode": split.median([float(r.get("periphery_decode_ms") or 0) for r in rows]),
+            "late": sum(r["late"] != "0" for r in rows), "frames": len(rows)}
 
 
 def xr_summary(runs):
@@ -677,6 +709,7 @@ def summarize(args, machine, runs, periphery_size, out_dir, wall_s):
                    "paths": list(args.paths), "tls": args.tls,
                    "agent_scissor": args.agent_scissor, "fovea_auto": args.fovea_auto,
                    "shaded_foveae": args.shaded_foveae, "xr": args.xr,
+                   "client_renders": args.client_renders, "periphery_quality": args.periphery_quality,
                    "eye_size": "{}x{}".format(*xr_eye_size(args)) if args.xr else None},
         "native": p["native"], "split": p["split"],
         "native_rounds": p["native_rounds"], "split_rounds": p["split_rounds"],
@@ -706,7 +739,8 @@ def run_variants(res):
     """The variants the run measured, in VARIANTS order."""
     config = res["config"]
     on = {"split-tls": config.get("tls"), "split-guard": config.get("agent_scissor"),
-          "split-auto": config.get("fovea_auto"), "split-shaded": config.get("shaded_foveae")}
+          "split-auto": config.get("fovea_auto"), "split-shaded": config.get("shaded_foveae"),
+          "split-swapped": config.get("client_renders") == "fovea"}
     return [v for v in VARIANTS if on[v]]
 
 
@@ -872,7 +906,17 @@ def print_ratio_lines(res):
             print(f"auto fovea: settled at {', '.join(auto['settled'])} (each round's last quarter), "
                   f"{auto['late']} late of {auto['frames']}, {auto['mbps']:.1f} Mbit/s")
             print(f"split-auto/native: {measured['split-auto']['median'] / per_path[0]['native']['median']:.3f}")
+        swapped = per_path[0].get("swapped")
+        if swapped and "split-swapped" in measured and per_path[0]["native"]["median"]:
+            native = per_path[0]["native"]["median"]
+            own = swapped["client_render"]
+            print(f"swapped split: client's own render (GPU, its cut passes) "
+                  + (f"{own['median']:.2f} ms, {own['median'] / native:.3f} of native" if own else "not measured")
+                  + f"; periphery {swapped['mbps']:.1f} Mbit/s, {swapped['kib_per_frame']:.1f} KiB per frame, "
+                  f"decode {swapped['decode']:.2f} ms; {swapped['late']} late of {swapped['frames']}")
         for name, t in (per_path[0].get("variant_periphery") or {}).items():
+            if name == "split-swapped":
+                continue  # the swapped split's own render is in its line above, not a periphery
             print(f"periphery (GPU) of {name}: {t['median']:.2f} ms")
         shaded = (per_path[0].get("variant_periphery") or {}).get("split-shaded")
         if shaded and per_path[0].get("periphery") and shaded["median"]:
@@ -1197,4 +1241,7 @@ def run(args):
     s = res["stages"]
     split.print_final_lines(res["split"]["median"], res["native"]["median"], s["tile_wait"],
                             s.get("exposed_share", 0.0), s["tile_bytes"], s["raw_bytes"])
+    swapped = variants_of((res.get("per_path") or [{}])[0]).get("split-swapped")
+    if swapped and res["native"]["median"]:
+        print(f"swapped/native: {swapped['median'] / res['native']['median']:.3f}")
     return 0

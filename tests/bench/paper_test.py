@@ -45,6 +45,32 @@ class Variants(unittest.TestCase):
         self.assertEqual(paper.run_variants({"config": {"tls": False}}), [])
 
 
+class Swapped(unittest.TestCase):
+    """--client-renders fovea: the swapped split is a variant, summarised from its own stats rows."""
+
+    def test_the_command_line_takes_client_renders(self):
+        parser = argparse.ArgumentParser()
+        paper.register(parser.add_subparsers(dest="command"))
+        args = parser.parse_args(["paper", "--client-renders", "fovea", "--periphery-quality", "lossless"])
+        self.assertEqual((args.client_renders, args.periphery_quality), ("fovea", "lossless"))
+        self.assertEqual(parser.parse_args(["paper"]).client_renders, "periphery")
+        res = {"config": {"tls": False, "client_renders": "fovea"}}
+        self.assertEqual(paper.run_variants(res), ["split-swapped"])
+        self.assertEqual(paper.run_variants({"config": {"client_renders": "periphery"}}), [])
+
+    def test_its_summary_counts_the_periphery_not_the_tiles(self):
+        rows = [{"frame_ms": "50", "periphery_ms": "10", "periphery_bytes": "51200", "periphery_decode_ms": "2",
+                 "tile_bytes": "0", "late": "0"},
+                {"frame_ms": "50", "periphery_ms": "12", "periphery_bytes": "51200", "periphery_decode_ms": "4",
+                 "tile_bytes": "0", "late": "1"}]
+        s = paper.swapped_summary([rows])
+        self.assertAlmostEqual(s["mbps"], 2 * 51200 * 8 / 1e6 / 0.1)
+        self.assertAlmostEqual(s["kib_per_frame"], 50.0)
+        self.assertEqual((s["late"], s["frames"]), (1, 2))
+        self.assertAlmostEqual(s["client_render"]["median"], 11.0)
+        self.assertIsNone(paper.swapped_summary(None))
+
+
 class ThroughOpenXR(unittest.TestCase):
     def summary(self, xr=None):
         return {"path": "direct", "native": quartiles(200.0), "split": quartiles(100.0), "periphery": None,
