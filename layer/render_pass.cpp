@@ -142,7 +142,11 @@ std::optional<VkRect2D> guard_of(const DeviceState &dev, std::span<const VkImage
 
 // Fovea mode: a swapchain pass is cut (a runtime's runs whole), any other may be guarded.
 void decide_cut(const DeviceState &dev, PassTarget &t, std::span<const VkImageView> views) {
-    if (!split_cutting(dev)) return;
+    if (!split_cutting(dev)) {
+        // The swapped split with no agent to render its periphery: whole, not scaled (split_swapped).
+        if (split_swapped(dev)) t.swapchain = false;
+        return;
+    }
     if (t.swapchain && t.runtime) {
         log_runtime_uncut_once();
         t.swapchain = false;

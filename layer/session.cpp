@@ -95,9 +95,11 @@ void Session::watch_closure(AgentLink &link) {
 
 void Session::adopt_locked(AgentLink &&agent) {
     stop_receiver();
+    // No connection's closure is the session's until the new one is published below: not the old
+    // one's, closed here, nor the new one's before the session is ready for it.
+    current_connection_.store(nullptr);
     if (connection_) connection_->close("replaced by a new connection");
     connection_ = std::move(agent.connection);
-    current_connection_.store(connection_.get());
     const uint64_t capabilities = agent.welcome.capabilities;
     if (!(capabilities & protocol::capability::kZstdPayloads)) {
         protocol::CompressionPolicy policy;
@@ -132,6 +134,10 @@ void Session::adopt_locked(AgentLink &&agent) {
     }
     failure_logged_.store(false);
     live_.store(true);
+    // Only now may the connection's closure reach fail(): before, it would race the tile stream
+    // being replaced and the flags just set. A connection that closed meanwhile fails here.
+    current_connection_.store(connection_.get());
+    if (!connection_->is_open()) fail(connection_->close_reason());
     if (splitting()) {
         protocol::SplitConfig config{settings_.eyes, settings_.fovea, settings_.codec, {}, {}};
         // With SPLITVK_FOVEA=auto its width and height are the largest size a FramePresent may name,
@@ -249,7 +255,9 @@ void Session::run_reconnect() {
     std::unique_lock lock(reconnect_mutex_);
     while (!closing_) {
         if (live() || pending_agent_) {
-            reconnect_wake_.wait(lock);
+            // Bounded: fail() notifies without reconnect_mutex_, so a wakeup between the check above
+            // and this wait (an agent adopted by resync dying at once) would otherwise be lost.
+            reconnect_wake_.wait_for(lock, kLongestRetry);
             backoff = kFirstRetry;
             continue;
         }

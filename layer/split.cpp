@@ -32,6 +32,10 @@ bool split_cutting(const DeviceState &device) {
     return false;
 }
 
+bool split_swapped(const DeviceState &device) {
+    return split_enabled(device) && device.session->client_renders() == ClientRenders::Fovea;
+}
+
 bool swapchain_composable(const SwapchainState &swapchain) {
     return swapchain.composable;
 }

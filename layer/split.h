@@ -52,6 +52,10 @@ bool split_enabled(const DeviceState &device);
 // and no screen-space target of the device created scaled (one made before the agent chose the mode
 // keeps its scaled size, which a cut frame cannot use: the device then stays uncut, said once).
 bool split_cutting(const DeviceState &device);
+// The session is in the swapped split (SPLITVK_CLIENT_RENDERS=fovea), whether or not it cuts now:
+// when it does not (no agent to render the periphery), passes into swapchain images run whole, as
+// the application recorded them, and their frames are shown as drawn; never scaled.
+bool split_swapped(const DeviceState &device);
 // Whether a swapchain's images are composited (the present path can join periphery and foveae).
 bool swapchain_composable(const SwapchainState &swapchain);
 

@@ -33,7 +33,8 @@ Side side_of(DeviceState &dev, VkImage image, bool destination) {
     s.image = image;
     if (is_screen_space(image)) {
         s.kind = Kind::Scaled;
-    } else if (destination && split_enabled(dev) && swapchain_image_extent(image, &s.extent)) {
+    } else if (destination && split_enabled(dev) && !(split_swapped(dev) && !split_cutting(dev)) &&
+               swapchain_image_extent(image, &s.extent)) {
         s.kind = Kind::Swapchain;
         s.cut = split_cutting(dev);
     } else if (!destination && split_enabled(dev) && swapchain_image_extent(image, &s.extent)) {

@@ -131,10 +131,14 @@ XrResult InstanceGaze::suggest(const XrInteractionProfileSuggestedBinding &info)
     merged.suggestedBindings = bindings.data();
     XrResult result = vk_.suggest_bindings(instance_, &merged);
     if (XR_FAILED(result)) {
-        // The application's own suggestion decides what it gets back; the layer's binding is then
-        // suggested alone at attach.
-        result = vk_.suggest_bindings(instance_, &info);
-        return result;
+        // The application's own suggestion decides what it gets back. Suggesting the layer's binding
+        // alone at attach would replace the application's for this profile, so the gaze stays off.
+        SPLITVK_WARN("SPLITVK_GAZE=openxr: the runtime refused the eye-gaze binding beside the application's "
+                     "(XrResult %d); the foveae stay at the view directions",
+                     static_cast<int>(result));
+        failed_ = true;
+        action_ = XR_NULL_HANDLE;
+        return vk_.suggest_bindings(instance_, &info);
     }
     suggested_ = true;
     return result;
@@ -197,13 +201,12 @@ void SessionGaze::note_views(XrSpace space, XrTime display_time,
             {views[v].fov.angleLeft, views[v].fov.angleRight, views[v].fov.angleUp, views[v].fov.angleDown}};
 }
 
-ViewGaze SessionGaze::locate() {
+ViewGaze SessionGaze::locate(XrTime predicted) {
     const GazeDispatch &vk = instance_.dispatch();
     const auto held = [&]() -> ViewGaze {
         if (!tracked_once_) return {};
         return {shown_.eyes[0], shown_.eyes[1]};
     };
-    const XrTime predicted = predicted_.load();
     if (!is_attached() || predicted == 0) return held();
     auto get = xr_struct<XrActionStateGetInfo>(XR_TYPE_ACTION_STATE_GET_INFO);
     get.action = instance_.action();

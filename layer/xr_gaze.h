@@ -103,13 +103,14 @@ public:
     bool is_attached() const { return gaze_space_ != XR_NULL_HANDLE; }
     // xrWaitFrame (which may run on another thread than the frame's other calls).
     void frame_waited(XrTime predicted_display_time) { predicted_.store(predicted_display_time); }
+    XrTime predicted() const { return predicted_.load(); }
     // xrEndFrame: each of the first two projection views' eye in the head, from the frame's head pose
     // in the layer's space.
     void note_views(XrSpace space, XrTime display_time, const XrCompositionLayerProjectionView *views,
                     uint32_t count);
-    // xrBeginFrame: where each view's eye looks this frame (held through fixations, as
-    // gaze::hold_fixation holds a pipe's points).
-    ViewGaze locate();
+    // xrBeginFrame: where each view's eye looks at `display_time`, the frame's predicted display
+    // time (held through fixations, as gaze::hold_fixation holds a pipe's points).
+    ViewGaze locate(XrTime display_time);
 
 private:
     XrSession session_;

@@ -526,7 +526,10 @@ XRAPI_ATTR XrResult XRAPI_CALL AttachSessionActionSets(XrSession session,
     SessionState *state = find_session(session);
     if (!state) return XR_ERROR_HANDLE_INVALID;
     const GazeDispatch &vk = state->instance->gaze->dispatch();
-    const XrActionSet ours = state->gaze && info ? state->instance->gaze->prepare_attach() : XR_NULL_HANDLE;
+    // A second attach is the application's own error, for it to see as the runtime reports it.
+    const XrActionSet ours = state->gaze && !state->gaze->is_attached() && info
+                                 ? state->instance->gaze->prepare_attach()
+                                 : XR_NULL_HANDLE;
     if (!ours) return vk.attach_action_sets(session, info);
     std::vector<XrActionSet> sets(info->actionSets, info->actionSets + info->countActionSets);
     sets.push_back(ours);
@@ -539,10 +542,11 @@ XRAPI_ATTR XrResult XRAPI_CALL AttachSessionActionSets(XrSession session,
         return result;
     }
     // Whatever the runtime has against the layer's set, the application's attach must not fail for it.
+    // Left unattached, the session's gaze stays fixed (SessionGaze::locate) and its syncs go down as
+    // they are; it is not destroyed, since the frame calls may be using it on other threads.
     SPLITVK_WARN("SPLITVK_GAZE=openxr: the runtime would not attach the eye-gaze action (XrResult %d); the "
                  "foveae stay at the view directions",
                  static_cast<int>(result));
-    state->gaze.reset();
     return vk.attach_action_sets(session, info);
 }
 
@@ -576,12 +580,15 @@ XRAPI_ATTR XrResult XRAPI_CALL WaitFrame(XrSession session, const XrFrameWaitInf
 XRAPI_ATTR XrResult XRAPI_CALL BeginFrame(XrSession session, const XrFrameBeginInfo *info) {
     SessionState *state = find_session(session);
     if (!state) return XR_ERROR_HANDLE_INVALID;
+    // The display time of the frame this begins: xrWaitFrame, perhaps on another thread, may
+    // already be waiting for the next one once the runtime returns.
+    const XrTime predicted = state->gaze ? state->gaze->predicted() : 0;
     const XrResult result = state->instance->begin_frame(session, info);
     if (XR_FAILED(result) || !state->device) return result;
     // The frame's gaze, before the application renders it: its releases place the foveae with it.
     ViewGaze view_gaze;
     if (state->gaze) {
-        view_gaze = state->gaze->locate();
+        view_gaze = state->gaze->locate(predicted);
     } else if (const Settings &settings = layer_settings().settings; settings.gaze == GazeMode::Fifo) {
         const split::Gaze fifo = gaze::frame_gaze(settings);
         if (!fifo.fixed) view_gaze = {fifo.eyes[0], fifo.eyes[1]};
