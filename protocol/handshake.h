@@ -47,7 +47,9 @@ inline constexpr uint32_t kProtocolVersion = make_protocol_version(kProtocolMajo
 //   3: VerifyFrame carries every array layer of the image, with their count.
 //   4: FramePresent carries the frame's gaze, SplitConfig whether the gaze moves (SPLITVK_GAZE).
 //   5: FramePresent carries the frame's fovea size (SPLITVK_FOVEA=auto).
-inline constexpr uint64_t kMetadataLayout = 5;
+//   6: FramePresent's gaze also places an OpenXR eye image's first two eyes (SPLITVK_GAZE=openxr, or
+//      fifo under OpenXR), where an older agent kept them at the view directions.
+inline constexpr uint64_t kMetadataLayout = 6;
 
 // What Hello's codec_fingerprint carries and the server compares: the generated codec's
 // kCodecFingerprint with kMetadataLayout mixed in (FNV-1a over its 8 bytes).
