@@ -914,6 +914,10 @@ def print_ratio_lines(res):
                   + (f"{own['median']:.2f} ms, {own['median'] / native:.3f} of native" if own else "not measured")
                   + f"; periphery {swapped['mbps']:.1f} Mbit/s, {swapped['kib_per_frame']:.1f} KiB per frame, "
                   f"decode {swapped['decode']:.2f} ms; {swapped['late']} late of {swapped['frames']}")
+            # Lockstep behind a slower agent alternates a long and a short frame: the means give the rate.
+            n_mean, s_mean = per_path[0]["native"].get("mean"), measured["split-swapped"].get("mean")
+            if n_mean and s_mean:
+                print(f"swapped/native by means: {s_mean / n_mean:.3f}")
         for name, t in (per_path[0].get("variant_periphery") or {}).items():
             if name == "split-swapped":
                 continue  # the swapped split's own render is in its line above, not a periphery
