@@ -545,6 +545,298 @@ TEST_F(Split, SwappedAgentWithoutItStaysOnPeriphery) {
     expect_clean_validation();
 }
 
+// The presented images VK_LAYER_SPLITVK_test_xr_readback wrote to `dir` (present-<N>.pam): N -> path.
+std::map<int, std::filesystem::path> present_readbacks(const std::filesystem::path &dir) {
+    std::map<int, std::filesystem::path> all;
+    for (const auto &[numbers, path] : numbered_files(dir, std::regex(R"(present-(\d+)\.pam)")))
+        all[numbers[0]] = path;
+    return all;
+}
+
+bool load_present(const std::filesystem::path &path, Image *image) {
+    return read_pam(path, &image->width, &image->height, &image->bgr0);
+}
+
+// `e` with VK_LAYER_SPLITVK_test_xr_readback at the bottom of the chain, writing every presented
+// image (the application's frame with splitvk's composite) to `dir`.
+Env with_present_readback(Env e, const std::filesystem::path &dir) {
+    use_bottom_layer(e, kPresentReadbackLayerName, SPLITVK_E2E_XR_READBACK_LAYER_DIR);
+    std::filesystem::create_directories(dir);
+    e["TEST_PRESENT_READBACK_DIR"] = dir.string();
+    return e;
+}
+
+// Waits (while `app` runs, at most `timeout`) until `dir` holds `count` presented images; returns
+// how many it holds.
+size_t wait_for_presents(Process &app, const std::filesystem::path &dir, size_t count,
+                         std::chrono::milliseconds timeout) {
+    const auto deadline = Clock::now() + timeout;
+    size_t n = present_readbacks(dir).size();
+    while (n < count && app.running() && Clock::now() < deadline) {
+        std::this_thread::sleep_for(50ms);
+        n = present_readbacks(dir).size();
+    }
+    return n;
+}
+
+// `image` with its foveae black: what is left is the periphery.
+Image periphery_only(const Image &image, const std::vector<Rect> &foveae) {
+    Image out = image;
+    for (const Rect &f : foveae)
+        for (uint32_t y = f.y; y < f.y + f.h; ++y)
+            std::fill_n(out.pixel(f.x, y), size_t{f.w} * 4, uint8_t{0});
+    return out;
+}
+
+// `image` with everything outside its foveae black: what the client alone draws in the swapped split.
+Image foveae_only(const Image &image, const std::vector<Rect> &foveae) {
+    Image out = image;
+    std::fill(out.bgr0.begin(), out.bgr0.end(), uint8_t{0});
+    for (const Rect &f : foveae)
+        for (uint32_t y = f.y; y < f.y + f.h; ++y)
+            std::copy_n(image.pixel(f.x, y), size_t{f.w} * 4, out.pixel(f.x, y));
+    return out;
+}
+
+// The swapped split's tile wait in the late and lost agent tests: long enough for an agent that
+// runs to bring every periphery on lavapipe (so that frames before a stall and after it are fresh),
+// short enough that a stall costs seconds, not minutes.
+constexpr const char *kSwappedLossTileWait = "1000";
+
+// Issue 21, item 6: an agent that stalls (SIGSTOP to its listener and session, one process group) in
+// the swapped split. Frames whose periphery is late show the previous frame's periphery around their
+// own fresh foveae (user guide, "Late and lost agents"), never black nor the client's clear colour:
+// every presented image is read back (the readback layer at the bottom of the chain), and each late
+// frame, per SPLITVK_STATS, has foveae equal to native's frame of the same number, a periphery equal
+// bit for bit to the last fresh frame's (the same decoded periphery upsampled again; the foveae are
+// fixed), a periphery with detail (more than 1000 colours), and the whole frame above
+// kSwappedLateMinSsim against native's frame. Once the agent is resumed, frames have fresh
+// peripheries again, and the last is above kSwappedMinSsim.
+//
+// kSwappedLateMinSsim: measured on lavapipe at 2400x1080 (a stall of 5-6 frames): late frames SSIM
+// 0.73-0.79 against native's same frame (their periphery is 1-6 frames behind atrium's animation);
+// the frame with its periphery black 0.14, and the frame as the client drew it (the clear colour
+// around the foveae) 0.64, which the SSIM floor cannot tell from a stale periphery: the exact
+// comparison with the last fresh periphery and the colour count catch that one.
+constexpr double kSwappedLateMinSsim = 0.6;
+
+TEST_F(Split, SwappedLateAgentShowsThePreviousPeriphery) {
+    constexpr int kLateRunFrames = 30;
+    constexpr size_t kStallAfter = 6;    // presented images before the stall
+    constexpr size_t kStalledFrames = 5; // presented images during it
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    ASSERT_TRUE(built(SPLITVK_E2E_XR_READBACK_LAYER_DIR));
+    const auto argv = atrium_argv(2, kLateRunFrames, false);
+    Grab native;
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, with_present_readback(env(), out_ / "native-presents"),
+                                         "native", kLateRunFrames, &native));
+    Env e = split_env(kSwappedLossTileWait);
+    e["SPLITVK_CLIENT_RENDERS"] = "fovea";
+    e["SPLITVK_EYES"] = "2";
+    e["SPLITVK_STATS"] = (out_ / "stats.csv").string();
+    const auto presents = out_ / "split-presents";
+    ProcessSpec spec;
+    spec.argv = argv;
+    spec.env = with_present_readback(e, presents);
+    spec.out_dir = out_;
+    spec.name = "split";
+    Process p(spec);
+    ASSERT_TRUE(p.start()) << p.error();
+    const size_t before = wait_for_presents(p, presents, kStallAfter, 120s);
+    // The listener and its session: one process group.
+    ASSERT_EQ(::kill(-agent_.pid(), SIGSTOP), 0);
+    const size_t stalled = wait_for_presents(p, presents, before + kStalledFrames, 120s);
+    ::kill(-agent_.pid(), SIGCONT);
+    const bool held = p.wait_for_line("holding frame " + std::to_string(kLateRunFrames - 1), 240s);
+    auto r = p.terminate(10s);
+    ASSERT_TRUE(held) << r.describe() << "\n" << tail(r.err(), 30);
+    ASSERT_TRUE(r.ok()) << r.describe() << "\n" << tail(r.err(), 30);
+    std::cout << "  agent stopped after " << before << " presented frames, resumed after " << stalled << "\n";
+    ASSERT_GE(before, kStallAfter) << tail(r.err(), 30);
+    ASSERT_GE(stalled, before + kStalledFrames) << tail(r.err(), 30);
+    const std::string &err = r.err();
+    EXPECT_FALSE(grep(err, "its periphery is the previous frame's").empty()) << tail(err, 30);
+
+    std::map<int, bool> late, fresh; // per frame: no periphery in time; the agent's periphery in time
+    for (const auto &row : stats_rows(read_file(out_ / "stats.csv"))) {
+        const int frame = static_cast<int>(row.at("frame"));
+        late[frame] = row.at("late") != 0;
+        fresh[frame] = row.at("late") == 0 && row.at("periphery_bytes") > 0;
+    }
+    const auto native_presents = present_readbacks(out_ / "native-presents");
+    const auto split_presents = present_readbacks(presents);
+    ASSERT_EQ(split_presents.size(), native_presents.size());
+    const auto foveae = default_foveae(kWidth, kHeight, 2);
+    int saved = 0; // PNGs of the first few mismatches only: 2400x1080 each
+    const auto artefacts = [&](const std::string &name, const Image &expected, const Image &actual) {
+        return ++saved <= 3 ? save_mismatch_artefacts(out_, name, expected, actual) : std::string();
+    };
+    int late_shown = 0, fresh_after = 0, last_late = -1, last_fresh = -1;
+    double lowest = 1;
+    Image last_fresh_image, last_fresh_native;
+    for (const auto &[n, path] : split_presents) {
+        if (!late.count(n)) continue; // not a split frame
+        Image a, b;
+        ASSERT_TRUE(load_present(native_presents.at(n), &a)) << native_presents.at(n);
+        ASSERT_TRUE(load_present(path, &b)) << path;
+        for (const Rect &f : foveae) {
+            const auto cmp = compare_exact(a, b, f.x, f.y, f.w, f.h);
+            EXPECT_TRUE(cmp.equal()) << "present " << n << ", fovea at " << f.x << "," << f.y << ": "
+                                     << cmp.summary() << "\n"
+                                     << artefacts("fovea-" + std::to_string(n), a, b);
+        }
+        if (fresh.at(n)) {
+            last_fresh = n;
+            last_fresh_image = b;
+            last_fresh_native = a;
+            if (last_late >= 0) ++fresh_after;
+            continue;
+        }
+        if (!late.at(n) || last_fresh < 0) continue; // before the first periphery: shown as drawn
+        ++late_shown;
+        last_late = n;
+        fresh_after = 0;
+        const auto same = compare_exact(periphery_only(last_fresh_image, foveae), periphery_only(b, foveae));
+        EXPECT_TRUE(same.equal()) << "present " << n << ": the periphery is not frame " << last_fresh
+                                  << "'s: " << same.summary() << "\n"
+                                  << artefacts("late-" + std::to_string(n), last_fresh_image, b);
+        const double s = ssim(a, b);
+        lowest = std::min(lowest, s);
+        EXPECT_GE(s, kSwappedLateMinSsim) << "present " << n << "\n"
+                                          << artefacts("late-" + std::to_string(n), a, b);
+        EXPECT_GT(distinct_colours(periphery_only(b, foveae)), 1000u)
+            << "present " << n << ": a blank periphery";
+        const double black = ssim(a, foveae_only(b, foveae));
+        EXPECT_LT(black, kSwappedLateMinSsim) << "the floor would not notice a black periphery";
+        if (late_shown == 1)
+            std::cout << "  present " << n << " (late): SSIM " << s << " against native, " << black
+                      << " with its periphery black\n";
+    }
+    std::cout << "  " << late_shown << " late frames showed the last fresh frame's periphery; lowest SSIM "
+              << lowest << " (floor " << kSwappedLateMinSsim << "); " << fresh_after
+              << " fresh frames after the last late one (" << last_late << ")\n";
+    EXPECT_GE(late_shown, 3) << "the stall did not make late frames";
+    EXPECT_GE(fresh_after, 1) << "no fresh periphery after the agent resumed";
+    EXPECT_EQ(last_fresh, kLateRunFrames - 1) << "the last frame's periphery is not fresh";
+    const double s = ssim(last_fresh_native, last_fresh_image);
+    std::cout << "  the last frame: SSIM " << s << " (floor " << kSwappedMinSsim << ")\n";
+    EXPECT_GE(s, kSwappedMinSsim) << save_mismatch_artefacts(out_, "last", last_fresh_native,
+                                                             last_fresh_image);
+    EXPECT_TRUE(client_validation_clean(validation_log_));
+    if (!HasFailure()) { // 10 MB a frame: kept only to look into a failure
+        std::filesystem::remove_all(out_ / "native-presents");
+        std::filesystem::remove_all(presents);
+    }
+}
+
+// Issue 21, item 6: the swapped split's agent killed mid-run (its session with it: SIGKILL to the
+// process group; the listener alone would leave the session running). The layer says the agent went
+// away, stops cutting, and the next present answers VK_ERROR_OUT_OF_DATE_KHR once, so atrium
+// recreates its swapchain (it says so once). The user guide bounds what is shown meanwhile: frames
+// already recorded cut, at most SPLITVK_PRESENT_DEPTH + 1 for an application that records every
+// frame (atrium), get the last periphery; every frame after them is drawn whole and equals native's
+// frame of the same number everywhere. Every presented image is read back and compared; the frames
+// presented after the kill that are not native's are counted, printed and held to that bound.
+TEST_F(Split, SwappedKilledAgentRendersWholeFramesAgain) {
+    constexpr int kLossRunFrames = 24;
+    constexpr size_t kKillAfter = 6; // presented images before the kill
+    constexpr int kPresentDepth = 1; // SPLITVK_PRESENT_DEPTH's default
+    constexpr int kNotNativeBound = kPresentDepth + 1;
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    ASSERT_TRUE(built(SPLITVK_E2E_XR_READBACK_LAYER_DIR));
+    const auto argv = atrium_argv(2, kLossRunFrames, false);
+    Grab native;
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, with_present_readback(env(), out_ / "native-presents"),
+                                         "native", kLossRunFrames, &native));
+    Env e = split_env(kSwappedLossTileWait);
+    e["SPLITVK_CLIENT_RENDERS"] = "fovea";
+    e["SPLITVK_EYES"] = "2";
+    const auto presents = out_ / "split-presents";
+    ProcessSpec spec;
+    spec.argv = argv;
+    spec.env = with_present_readback(e, presents);
+    spec.out_dir = out_;
+    spec.name = "split";
+    Process p(spec);
+    ASSERT_TRUE(p.start()) << p.error();
+    const size_t before = wait_for_presents(p, presents, kKillAfter, 120s);
+    agent_.kill();
+    // Every image presented from here on was presented after the kill.
+    const size_t killed_at = present_readbacks(presents).size();
+    const bool held = p.wait_for_line("holding frame " + std::to_string(kLossRunFrames - 1), 240s);
+    Image grabbed;
+    std::string error;
+    const bool grabbed_ok =
+        held && grab_stable(display(), 0, 0, kWidth, kHeight, out_ / "split.raw", &grabbed, &error);
+    auto r = p.terminate(10s);
+    ASSERT_TRUE(held) << r.describe() << "\n" << tail(r.err(), 30);
+    ASSERT_TRUE(r.ok()) << r.describe() << "\n" << tail(r.err(), 30);
+    ASSERT_TRUE(grabbed_ok) << error;
+    ASSERT_GE(before, kKillAfter) << tail(r.err(), 30);
+    const std::string &err = r.err();
+    EXPECT_FALSE(grep(err, "swapped split: passes into 2400x1080 swapchain images are cut").empty())
+        << tail(err, 30);
+    EXPECT_FALSE(grep(err, "went away").empty()) << tail(err, 30);
+    EXPECT_EQ(grep(err, "this present answers VK_ERROR_OUT_OF_DATE_KHR once").size(), 1u) << tail(err, 30);
+    // Atrium records every frame, so its frames turn whole without the recreation too; an application
+    // that records once (vkcube) would not.
+    const auto recreations = grep(err, "recreating the swapchain");
+    EXPECT_EQ(recreations.size(), 1u) << tail(err, 30);
+    for (const std::string &line : recreations) {
+        EXPECT_NE(line.find("vkQueuePresentKHR returned VK_ERROR_OUT_OF_DATE_KHR"), std::string::npos)
+            << line;
+        std::cout << "  " << line << "\n";
+    }
+    std::cout << "  killed after " << killed_at << " presented frames\n";
+
+    const auto native_presents = present_readbacks(out_ / "native-presents");
+    const auto split_presents = present_readbacks(presents);
+    ASSERT_EQ(split_presents.size(), native_presents.size());
+    const auto foveae = default_foveae(kWidth, kHeight, 2);
+    int saved = 0; // PNGs of the first few mismatches only: 2400x1080 each
+    const auto artefacts = [&](const std::string &name, const Image &expected, const Image &actual) {
+        return ++saved <= 3 ? save_mismatch_artefacts(out_, name, expected, actual) : std::string();
+    };
+    int not_native = 0, last_not_native = -1, split_before = 0;
+    for (const auto &[n, path] : split_presents) {
+        Image a, b;
+        ASSERT_TRUE(load_present(native_presents.at(n), &a)) << native_presents.at(n);
+        ASSERT_TRUE(load_present(path, &b)) << path;
+        for (const Rect &f : foveae) {
+            const auto cmp = compare_exact(a, b, f.x, f.y, f.w, f.h);
+            EXPECT_TRUE(cmp.equal()) << "present " << n << ", fovea at " << f.x << "," << f.y << ": "
+                                     << cmp.summary() << "\n"
+                                     << artefacts("fovea-" + std::to_string(n), a, b);
+        }
+        const bool native_frame = compare_exact(a, b).equal();
+        if (static_cast<size_t>(n) < killed_at) {
+            if (!native_frame) ++split_before;
+        } else if (!native_frame) {
+            ++not_native;
+            last_not_native = n;
+            const double s = ssim(a, b);
+            std::cout << "  present " << n << " after the kill is not native's (SSIM " << s << ")\n";
+            EXPECT_GE(s, kSwappedLateMinSsim) << "present " << n << "\n"
+                                              << artefacts("lost-" + std::to_string(n), a, b);
+        }
+    }
+    std::cout << "  " << not_native << " of " << split_presents.size() - killed_at
+              << " frames presented after the kill are not native's (bound SPLITVK_PRESENT_DEPTH + 1 = "
+              << kNotNativeBound << "); the last is " << last_not_native << "; " << split_before << " of "
+              << killed_at << " before it were split\n";
+    RecordProperty("not_native_after_kill", std::to_string(not_native));
+    EXPECT_LE(not_native, kNotNativeBound);
+    EXPECT_GT(split_before, 0) << "no frame before the kill was split";
+    const auto same = compare_exact(native.image, grabbed);
+    EXPECT_TRUE(same.equal()) << "the frame on screen at the end is not native's: " << same.summary() << "\n"
+                              << save_mismatch_artefacts(out_, "held", native.image, grabbed);
+    EXPECT_TRUE(client_validation_clean(validation_log_));
+    if (!HasFailure()) {
+        std::filesystem::remove_all(out_ / "native-presents");
+        std::filesystem::remove_all(presents);
+    }
+}
+
 // Issue 18, item 3: a stereo frame has two foveae wherever its last pass draws. With SPLITVK_EYES=2
 // the left and right halves of the image each get their fovea, also on the paths whose last pass is
 // one full-screen pass over both eyes (hdr's tone mapping, deferred's lighting and post, multiview's
@@ -1462,18 +1754,6 @@ TEST_F(Split, FoveaMaskLeavesTheFrameUnchanged) {
             expect_split_frame(native.image, masked.image, default_foveae(kWidth, kHeight, 2)));
     }
     expect_clean_validation();
-}
-
-// The presented images VK_LAYER_SPLITVK_test_xr_readback wrote to `dir` (present-<N>.pam): N -> path.
-std::map<int, std::filesystem::path> present_readbacks(const std::filesystem::path &dir) {
-    std::map<int, std::filesystem::path> all;
-    for (const auto &[numbers, path] : numbered_files(dir, std::regex(R"(present-(\d+)\.pam)")))
-        all[numbers[0]] = path;
-    return all;
-}
-
-bool load_present(const std::filesystem::path &path, Image *image) {
-    return read_pam(path, &image->width, &image->height, &image->bgr0);
 }
 
 // The mask with SPLITVK_FOVEA=auto follows the fovea's size. At SPLITVK_SCALE=1 the periphery is
