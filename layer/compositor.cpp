@@ -113,6 +113,18 @@ bool overlaps(const ClippedTile &a, const ClippedTile &b) {
            b.offset.y < a.offset.y + int32_t(a.extent.height);
 }
 
+// Memory for `req`, device-local where a type is (any type otherwise); false with nothing allocated.
+bool allocate_device_local(const DeviceState &device, const VkMemoryRequirements &req, VkDeviceMemory *out) {
+    uint32_t type = find_memory_type(device, req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+    if (type == UINT32_MAX) type = find_memory_type(device, req.memoryTypeBits, 0);
+    if (type == UINT32_MAX) return false;
+    VkMemoryAllocateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    info.allocationSize = req.size;
+    info.memoryTypeIndex = type;
+    return device.dispatch.AllocateMemory(device.handle, &info, nullptr, out) == VK_SUCCESS;
+}
+
 } // namespace
 
 std::vector<VkRect2D> periphery_bands(VkExtent2D image, std::span<const VkBufferImageCopy> tiles) {
@@ -554,13 +566,7 @@ bool Compositor::ensure_periphery_image(Slot &s, VkExtent2D periphery, std::stri
     }
     VkMemoryRequirements req{};
     k.GetImageMemoryRequirements(d, s.periphery, &req);
-    uint32_t type = find_memory_type(device_, req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
-    if (type == UINT32_MAX) type = find_memory_type(device_, req.memoryTypeBits, 0);
-    VkMemoryAllocateInfo mem_info{};
-    mem_info.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-    mem_info.allocationSize = req.size;
-    mem_info.memoryTypeIndex = type;
-    if (type == UINT32_MAX || k.AllocateMemory(d, &mem_info, nullptr, &s.periphery_memory) != VK_SUCCESS ||
+    if (!allocate_device_local(device_, req, &s.periphery_memory) ||
         k.BindImageMemory(d, s.periphery, s.periphery_memory, 0) != VK_SUCCESS) {
         *error = "cannot allocate the periphery image's memory";
         return false;
@@ -1009,13 +1015,7 @@ bool Compositor::ensure_latest_periphery(VkExtent2D extent, std::string *error) 
     }
     VkMemoryRequirements req{};
     k.GetImageMemoryRequirements(d, latest_, &req);
-    uint32_t type = find_memory_type(device_, req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
-    if (type == UINT32_MAX) type = find_memory_type(device_, req.memoryTypeBits, 0);
-    VkMemoryAllocateInfo mem_info{};
-    mem_info.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-    mem_info.allocationSize = req.size;
-    mem_info.memoryTypeIndex = type;
-    if (type == UINT32_MAX || k.AllocateMemory(d, &mem_info, nullptr, &latest_memory_) != VK_SUCCESS ||
+    if (!allocate_device_local(device_, req, &latest_memory_) ||
         k.BindImageMemory(d, latest_, latest_memory_, 0) != VK_SUCCESS) {
         destroy_latest_periphery();
         *error = "cannot allocate the latest periphery's memory";
@@ -1047,13 +1047,7 @@ bool Compositor::ensure_saved_buffer(Slot &s, VkDeviceSize size, std::string *er
     }
     VkMemoryRequirements req{};
     k.GetBufferMemoryRequirements(d, s.saved, &req);
-    uint32_t type = find_memory_type(device_, req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
-    if (type == UINT32_MAX) type = find_memory_type(device_, req.memoryTypeBits, 0);
-    VkMemoryAllocateInfo mem_info{};
-    mem_info.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-    mem_info.allocationSize = req.size;
-    mem_info.memoryTypeIndex = type;
-    if (type == UINT32_MAX || k.AllocateMemory(d, &mem_info, nullptr, &s.saved_memory) != VK_SUCCESS ||
+    if (!allocate_device_local(device_, req, &s.saved_memory) ||
         k.BindBufferMemory(d, s.saved, s.saved_memory, 0) != VK_SUCCESS) {
         *error = "cannot allocate the memory the foveae are saved in";
         return false;
