@@ -1030,6 +1030,35 @@ TEST_F(Split, VkcubeOneEyeFoveaEqualsNative) {
     EXPECT_TRUE(client_validation_clean(validation_log_));
 }
 
+// The swapped split on vkcube (issue 21), which records its command buffers once per swapchain image:
+// they are cut at that recording, and every frame composites the agent's periphery around the
+// client's own fovea, bit-exact against native.
+TEST_F(Split, SwappedVkcubeFoveaEqualsNative) {
+    ASSERT_TRUE(find_program("vkcube", env())) << "vkcube is not installed (vulkan-tools)";
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    constexpr uint32_t kCube = 600;
+    const std::vector<std::string> argv = {
+        "vkcube", "--width", std::to_string(kCube), "--height", std::to_string(kCube), "--c", "1000"};
+    Env native_env = env();
+    use_hold_layer(native_env, kFrames - 1);
+    Env split = split_env();
+    split["SPLITVK_EYES"] = "1";
+    split["SPLITVK_CLIENT_RENDERS"] = "fovea";
+    use_hold_layer(split, kFrames - 1);
+    Grab native, grabbed;
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, native_env, "native", kFrames, &native, kCube, kCube, false));
+    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, split, "split", kFrames, &grabbed, kCube, kCube, false));
+    const std::string err = grabbed.result.err();
+    EXPECT_TRUE(grep(err, "running unsplit").empty()) << tail(err, 30);
+    EXPECT_TRUE(grep(err, "cannot render the periphery").empty()) << tail(err, 30);
+    EXPECT_FALSE(grep(err, "swapchain images are cut to the foveae; the agent renders the periphery").empty())
+        << tail(err, 30);
+    EXPECT_TRUE(grep(err, "periphery is the previous frame's").empty()) << tail(err, 30);
+    ASSERT_NO_FATAL_FAILURE(
+        expect_split_frame(native.image, grabbed.image, default_foveae(kCube, kCube, 1), /*quality=*/false));
+    EXPECT_TRUE(client_validation_clean(validation_log_));
+}
+
 // Frames that are almost always late (issue 19): one line says so, with the reason and the settings
 // that help; an agent that keeps up never gets it.
 TEST_F(Split, MostlyLateFramesAreSaidOnceWithWhatHelps) {
