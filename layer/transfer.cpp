@@ -65,7 +65,7 @@ VkRect2D rect_of(VkOffset3D o, VkExtent3D e) {
 void note_swapchain_write(VkCommandBuffer cb, const Side &dst, const VkRect2D &region) {
     split::CommandTracker *tracker = split_tracker(cb);
     if (!tracker) return;
-    tracker->note_transfer(codec::handle_value(dst.image), dst.extent, region);
+    tracker->note_transfer(codec::handle_value(dst.image), dst.extent, region, dst.cut);
 }
 
 // Copies and resolves: one extent for both sides. Returns false when the command goes down as

@@ -99,7 +99,7 @@ void CommandTracker::note_mask(const FrameFoveaSize &size) {
     entry.masked = larger(entry.masked, size);
 }
 
-void CommandTracker::note_transfer(uint64_t image, VkExtent2D extent, const VkRect2D &region) {
+void CommandTracker::note_transfer(uint64_t image, VkExtent2D extent, const VkRect2D &region, bool cut) {
     if (region.extent.width == 0 || region.extent.height == 0) return;
     const VkViewport as_viewport{static_cast<float>(region.offset.x),
                                  static_cast<float>(region.offset.y),
@@ -107,7 +107,9 @@ void CommandTracker::note_transfer(uint64_t image, VkExtent2D extent, const VkRe
                                  static_cast<float>(region.extent.height),
                                  0.f,
                                  1.f};
-    drawn_entry(image, extent).coverage |= viewport_coverage(as_viewport, extent);
+    DrawnImage &entry = drawn_entry(image, extent);
+    entry.coverage |= viewport_coverage(as_viewport, extent);
+    entry.cut = entry.cut || cut;
 }
 
 void PassPredictions::note_begin(uint64_t render_pass, const PassPrediction &prediction) {

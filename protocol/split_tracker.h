@@ -169,8 +169,10 @@ public:
     // at the pass's end when it changed none (end_split).
     void note_foveae();
     // A copy or blit into swapchain image `image` (of `extent`) wrote `region`: it counts as drawing
-    // there (issue 11), covering what a viewport of that rectangle would.
-    void note_transfer(uint64_t image, VkExtent2D extent, const VkRect2D &region);
+    // there (issue 11), covering what a viewport of that rectangle would. `cut`: in the swapped split
+    // it wrote the client's full-size picture, whose periphery the client did not render (its passes
+    // and dispatches were cut), so the frame's periphery must come from the agent as for a cut pass.
+    void note_transfer(uint64_t image, VkExtent2D extent, const VkRect2D &region, bool cut = false);
     // Inside a split pass into a swapchain image: the client left the foveae of `size` unshaded.
     void note_mask(const FrameFoveaSize &size);
     // Secondary command buffers (issue 11, item 4). A secondary that continues a render pass

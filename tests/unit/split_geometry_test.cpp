@@ -759,6 +759,11 @@ TEST(SplitTracker, TransfersIntoTheSwapchainImageAreDrawing) {
     CommandTracker empty;
     empty.note_transfer(7, {2400, 1080}, {{0, 0}, {0, 10}});
     EXPECT_TRUE(empty.drawn().empty());
+    // The swapped split: a copy of the client's full-size picture makes its frame a cut one (the
+    // periphery comes from the agent), as atrium --path compute writes the image; a plain one does not.
+    EXPECT_FALSE(t.drawn()[0].cut);
+    t.note_transfer(7, {2400, 1080}, whole, /*cut=*/true);
+    EXPECT_TRUE(t.drawn()[0].cut);
 }
 
 TEST(SplitTracker, SecondariesGiveTheExecutingPassItsFoveae) {

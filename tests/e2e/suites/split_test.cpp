@@ -476,9 +476,12 @@ TEST_P(SplitSwapped, FoveaeExactPeripheryClose) {
     ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, env(), "native", kFrames, &native));
     ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, swapped_env(c.eyes, c.guard), "split", kFrames, &split));
     const std::string &err = split.result.err();
-    // The client cut its passes, and rendered no periphery of its own.
-    EXPECT_FALSE(grep(err, "swapped split: passes into 2400x1080 swapchain images are cut").empty())
-        << tail(err, 30);
+    // The client cut its passes, and rendered no periphery of its own. (The compute path writes the
+    // swapchain image with a copy only: its frames count as cut from that copy, and no pass says so.)
+    if (std::string(c.path) != "compute") {
+        EXPECT_FALSE(grep(err, "swapped split: passes into 2400x1080 swapchain images are cut").empty())
+            << tail(err, 30);
+    }
     EXPECT_TRUE(grep(err, "render their periphery at").empty()) << tail(err, 30);
     EXPECT_TRUE(grep(err, "cannot render the periphery").empty()) << tail(err, 30);
     if (c.guard) {
@@ -515,13 +518,14 @@ TEST_P(SplitSwapped, FoveaeExactPeripheryClose) {
     expect_clean_validation();
 }
 
-INSTANTIATE_TEST_SUITE_P(Swapped, SplitSwapped,
-                         ::testing::Values(SwappedCase{"direct", 2, nullptr},
-                                           SwappedCase{"secondary", 2, nullptr},
-                                           SwappedCase{"hdr", 1, "guard:64"}),
-                         [](const ::testing::TestParamInfo<SwappedCase> &p) {
-                             return std::string(p.param.name ? p.param.name : p.param.path);
-                         });
+INSTANTIATE_TEST_SUITE_P(
+    Swapped, SplitSwapped,
+    ::testing::Values(SwappedCase{"direct", 2, nullptr}, SwappedCase{"secondary", 2, nullptr},
+                      SwappedCase{"hdr", 1, "guard:64"}, SwappedCase{"deferred", 1, "guard:64"},
+                      SwappedCase{"multiview", 2, "guard:64"}, SwappedCase{"compute", 2, nullptr}),
+    [](const ::testing::TestParamInfo<SwappedCase> &p) {
+        return std::string(p.param.name ? p.param.name : p.param.path);
+    });
 
 // An agent that does not render the periphery (--no-periphery: it does not grant kSwappedSplit)
 // leaves a client that asked for SPLITVK_CLIENT_RENDERS=fovea on the paper's split: one warning
