@@ -179,6 +179,7 @@ protected:
     }
 
     // Fovea exact, whole frame above the floors (`quality`: atrium's floors apply).
+    void expect_vkcube_fovea_exact(const Env &mode, std::string *split_err);
     void expect_split_frame(const Image &native, const Image &split, const std::vector<Rect> &foveae,
                             bool quality = true) {
         ASSERT_GT(distinct_colours(native), 1000u) << "the native grab looks blank";
@@ -1009,11 +1010,11 @@ TEST_F(Split, SecondariesOfADynamicRenderingSplit) {
     expect_clean_validation();
 }
 
-// vkcube, unmodified: SPLITVK_EYES=1 (one fovea centred in the window). vkcube has no --hold, so
-// the test hold layer freezes it after frame 3. Its dynamic viewport and scissor are what the
-// client scales and the agent cuts to the fovea. vkcube's picture is a cube on a flat background,
-// which makes whole-frame SSIM mean little; the fovea (which holds the cube's centre) is the test.
-TEST_F(Split, VkcubeOneEyeFoveaEqualsNative) {
+// vkcube 600x600 with SPLITVK_EYES=1 (one fovea centred in the window), native and split with `mode`
+// on top of the split's settings, both frozen after frame 3 by the test hold layer (vkcube has no
+// --hold); the fovea exact against native. vkcube's picture is a cube on a flat background, which
+// makes whole-frame SSIM mean little; the fovea (which holds the cube's centre) is the test.
+void Split::expect_vkcube_fovea_exact(const Env &mode, std::string *split_err) {
     ASSERT_TRUE(find_program("vkcube", env())) << "vkcube is not installed (vulkan-tools)";
     ASSERT_NO_FATAL_FAILURE(start_agent());
     constexpr uint32_t kCube = 600;
@@ -1023,44 +1024,37 @@ TEST_F(Split, VkcubeOneEyeFoveaEqualsNative) {
     use_hold_layer(native_env, kFrames - 1);
     Env split = split_env();
     split["SPLITVK_EYES"] = "1";
+    for (const auto &[name, value] : mode)
+        split[name] = value;
     use_hold_layer(split, kFrames - 1);
     Grab native, grabbed;
     ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, native_env, "native", kFrames, &native, kCube, kCube, false));
     ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, split, "split", kFrames, &grabbed, kCube, kCube, false));
-    EXPECT_TRUE(grep(grabbed.result.err(), "running unsplit").empty()) << tail(grabbed.result.err(), 30);
-    EXPECT_TRUE(grep(grabbed.result.err(), "periphery's").empty()) << tail(grabbed.result.err(), 30);
+    *split_err = grabbed.result.err();
+    EXPECT_TRUE(grep(*split_err, "running unsplit").empty()) << tail(*split_err, 30);
     ASSERT_NO_FATAL_FAILURE(
         expect_split_frame(native.image, grabbed.image, default_foveae(kCube, kCube, 1), /*quality=*/false));
     EXPECT_TRUE(client_validation_clean(validation_log_));
+}
+
+// vkcube, unmodified: its dynamic viewport and scissor are what the client scales and the agent cuts
+// to the fovea.
+TEST_F(Split, VkcubeOneEyeFoveaEqualsNative) {
+    std::string err;
+    ASSERT_NO_FATAL_FAILURE(expect_vkcube_fovea_exact({}, &err));
+    EXPECT_TRUE(grep(err, "periphery's").empty()) << tail(err, 30);
 }
 
 // The swapped split on vkcube (issue 21), which records its command buffers once per swapchain image:
 // they are cut at that recording, and every frame composites the agent's periphery around the
 // client's own fovea, bit-exact against native.
 TEST_F(Split, SwappedVkcubeFoveaEqualsNative) {
-    ASSERT_TRUE(find_program("vkcube", env())) << "vkcube is not installed (vulkan-tools)";
-    ASSERT_NO_FATAL_FAILURE(start_agent());
-    constexpr uint32_t kCube = 600;
-    const std::vector<std::string> argv = {
-        "vkcube", "--width", std::to_string(kCube), "--height", std::to_string(kCube), "--c", "1000"};
-    Env native_env = env();
-    use_hold_layer(native_env, kFrames - 1);
-    Env split = split_env();
-    split["SPLITVK_EYES"] = "1";
-    split["SPLITVK_CLIENT_RENDERS"] = "fovea";
-    use_hold_layer(split, kFrames - 1);
-    Grab native, grabbed;
-    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, native_env, "native", kFrames, &native, kCube, kCube, false));
-    ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, split, "split", kFrames, &grabbed, kCube, kCube, false));
-    const std::string err = grabbed.result.err();
-    EXPECT_TRUE(grep(err, "running unsplit").empty()) << tail(err, 30);
+    std::string err;
+    ASSERT_NO_FATAL_FAILURE(expect_vkcube_fovea_exact({{"SPLITVK_CLIENT_RENDERS", "fovea"}}, &err));
     EXPECT_TRUE(grep(err, "cannot render the periphery").empty()) << tail(err, 30);
     EXPECT_FALSE(grep(err, "swapchain images are cut to the foveae; the agent renders the periphery").empty())
         << tail(err, 30);
     EXPECT_TRUE(grep(err, "periphery is the previous frame's").empty()) << tail(err, 30);
-    ASSERT_NO_FATAL_FAILURE(
-        expect_split_frame(native.image, grabbed.image, default_foveae(kCube, kCube, 1), /*quality=*/false));
-    EXPECT_TRUE(client_validation_clean(validation_log_));
 }
 
 // Frames that are almost always late (issue 19): one line says so, with the reason and the settings
