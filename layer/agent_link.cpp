@@ -94,12 +94,14 @@ protocol::Hello base_hello(const Settings &settings, const std::string &client_n
     hello.client_name = client_name;
     hello.codec_fingerprint = protocol::session_fingerprint(codec::kCodecFingerprint);
     hello.capabilities = protocol::capability::kZstdPayloads;
-    // SPLITVK_VERIFY compares whole frames with the agent's replay, which only an unsplit frame
-    // can match: verification and the split exclude each other.
-    hello.capabilities |= settings.verify
-                              ? protocol::capability::kVerifyFrames
-                              : protocol::capability::kFoveaTiles | protocol::capability::kAgentScissor;
-    if (!settings.verify && settings.client_renders == ClientRenders::Fovea)
+    // SPLITVK_VERIFY compares the client's frames with the agent's replay. The paper's split makes
+    // the two differ everywhere (the client's periphery is scaled), so verification turns it off.
+    // The swapped split stays on: its agent renders the whole frame natively, which is what the
+    // client's foveae must equal and what its periphery is measured against (verification.h).
+    const bool split = !settings.verify || settings.client_renders == ClientRenders::Fovea;
+    if (settings.verify) hello.capabilities |= protocol::capability::kVerifyFrames;
+    if (split) hello.capabilities |= protocol::capability::kFoveaTiles | protocol::capability::kAgentScissor;
+    if (settings.client_renders == ClientRenders::Fovea)
         hello.capabilities |= protocol::capability::kSwappedSplit;
     return hello;
 }

@@ -45,7 +45,7 @@
 //    so none of this can hang: the frame shows the periphery.
 //
 // Verification (SPLITVK_VERIFY=full): verification.h; presents that verify stay on the
-// application's thread.
+// application's thread. In the swapped split the frame is read back after its composite, as shown.
 
 #include "present.h"
 
@@ -235,9 +235,11 @@ struct SplitPresent {
 // `p.queue`. `waits`: the application's present semaphores (synchronous) or {p.taken}. Returns
 // the semaphore the present must wait on instead of `waits`, or VK_NULL_HANDLE when `waits` are
 // untouched (the present then goes ahead as the app asked). `lock`: take the queue's lock around
-// the submits (the present thread; the application's thread holds it already).
+// the submits (the present thread; the application's thread holds it already). `held`: the
+// frame's SPLITVK_STATS row is left there for the caller to complete (verification measures the
+// frame after its present) and record, instead of being recorded here.
 VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<const VkSemaphore> waits,
-                                  bool lock) {
+                                  bool lock, FrameRecord *held = nullptr) {
     using Clock = std::chrono::steady_clock;
     Session &session = *dev.session;
     FrameRecord record;
@@ -339,7 +341,10 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
         record.periphery_ms = latest_periphery_ms(dev);
         if (compositor) record.merge_gpu_ms = compositor->latest_gpu_ms();
     }
-    session.stats().record(record);
+    if (held)
+        *held = record;
+    else
+        session.stats().record(record);
     // Late for the sizing only when an agent was there with this frame and its tiles did not come:
     // frames without an agent (or before a joining one's first) say nothing about the fovea, and
     // counting them would shrink it to nothing through every reconnect.
@@ -745,7 +750,8 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     message.queue_id = codec::handle_value(queue);
     message.gaze = gaze;
     message.images.push_back({codec::handle_value(swapchain.handle), image_index});
-    // Verification (the split is off then): every layer of the image, as the runtime gets it.
+    // Verification: every layer of the image, as the runtime gets it. Nothing is composited into it
+    // then: the paper's split is off, and the swapped split does not cut a runtime's images.
     std::optional<PendingVerify> pending;
     if (session.verify()) pending = read_back_runtime_image(dev, queue, swapchain, image_index, frame);
     if (pending) message.flags |= protocol::kPresentVerify;
@@ -969,12 +975,20 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         drain_presents(dev);
         queue_lock = lock_queue(queue);
     }
-    if (session.verify()) pending = read_back_presented_image(dev, queue, present, frame);
-    if (pending) message.flags |= protocol::kPresentVerify;
+    // A split frame under verification is the swapped split's (the paper's split is off then,
+    // verification.h): it is read back after its composite, as it is shown. Any other frame before
+    // anything of the layer's, as the application drew it.
+    const bool verify_shown = session.verify() && split.split && presented_image_verifiable(queue, present);
+    if (session.verify() && !split.split) pending = read_back_presented_image(dev, queue, present, frame);
+    if (pending || verify_shown) message.flags |= protocol::kPresentVerify;
     session.send_metadata(protocol::MessageType::FramePresent, protocol::encode(message));
 
     VkSemaphore composited = VK_NULL_HANDLE;
     VkSemaphore redirected = VK_NULL_HANDLE;
+    // verify_shown: what the comparison needs of the frame, and its stats row, held until then.
+    bool cut = false;
+    std::vector<VkRect2D> foveae;
+    FrameRecord record;
     if (split.split) {
         SplitPresent p;
         p.queue = queue;
@@ -997,7 +1011,10 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
             drain_presents(dev); // nothing taken: this frame goes here, after the thread's
             queue_lock = lock_queue(queue);
         }
-        composited = composite_split_frame(dev, p, waits, /*lock=*/false);
+        cut = p.cut;
+        for (const split::LayerFovea &fovea : p.split.foveae)
+            if (fovea.layer == 0) foveae.push_back(fovea.rect);
+        composited = composite_split_frame(dev, p, waits, /*lock=*/false, verify_shown ? &record : nullptr);
         if (composited) {
             present.waitSemaphoreCount = 1;
             present.pWaitSemaphores = &composited;
@@ -1012,10 +1029,26 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
                 present.pWaitSemaphores = &redirected;
             }
     }
+    if (verify_shown) {
+        pending = read_back_presented_image(dev, queue, present, frame);
+        // A cut frame shows the agent's periphery around the client's foveae (Compositor::
+        // composite_periphery keeps the same rects); one drawn whole must match whole.
+        if (pending && cut) {
+            pending->periphery = true;
+            pending->foveae = std::move(foveae);
+            // Its own periphery came, or it showed an earlier one (late, flagged invalid or mismatched).
+            pending->late = record.periphery_bytes == 0;
+        }
+    }
     const VkResult result = after_agent_loss(
         session, *pPresentInfo, note_presented(*pPresentInfo, dev.dispatch.QueuePresentKHR(queue, &present)));
     queue_lock = {};
-    if (pending) compare_verified_frame(dev, *pending);
+    std::optional<double> psnr;
+    if (pending) psnr = compare_verified_frame(dev, *pending);
+    if (verify_shown) {
+        record.periphery_psnr_db = psnr;
+        session.stats().record(record);
+    }
     return result;
 }
 

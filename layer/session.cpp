@@ -109,7 +109,15 @@ void Session::adopt_locked(AgentLink &&agent) {
     verify_ = settings_.verify && (capabilities & protocol::capability::kVerifyFrames);
     if (settings_.verify && !verify_)
         SPLITVK_WARN("splitvk-agent at %s cannot verify frames; SPLITVK_VERIFY ignored", address_.c_str());
-    if (capabilities & protocol::capability::kFoveaTiles) {
+    // Verification and the paper's split exclude each other (base_hello): an agent that cannot
+    // render the periphery leaves a verifying client unsplit, comparing whole frames.
+    const bool split = (capabilities & protocol::capability::kFoveaTiles) &&
+                       (!verify_ || (capabilities & protocol::capability::kSwappedSplit));
+    if (!split && verify_ && (capabilities & protocol::capability::kFoveaTiles) && !splitting())
+        SPLITVK_WARN("splitvk-agent at %s cannot render the periphery (SPLITVK_CLIENT_RENDERS=fovea); "
+                     "SPLITVK_VERIFY compares whole frames, unsplit",
+                     address_.c_str());
+    if (split) {
         if (!stats_) stats_ = std::make_unique<FrameStats>(settings_.stats_path);
         // Which side renders what is decided by the first agent that accepts the split, and kept:
         // the client's screen-space targets are created for it (full size in the swapped split).

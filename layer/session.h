@@ -28,6 +28,7 @@
 
 #include "agent_link.h"
 #include "fovea_size.h"
+#include "frame_difference.h"
 #include "live_state_log.h"
 #include "metadata.h" // the metadata messages
 #include "physical_device.h"
@@ -184,12 +185,16 @@ public:
     // Time the application's threads spent comparing mapped memory at submits (memory.cpp).
     std::atomic<uint64_t> memory_compare_ns{0};
 
-    // SPLITVK_VERIFY=full: frames compared and pixels that differed (verification.cpp).
+    // SPLITVK_VERIFY=full: frames compared and pixels that differed where they must not (every
+    // pixel, or the foveae of a frame with the swapped split's periphery; verification.cpp).
     std::atomic<uint64_t> verified_frames{0};
+    std::atomic<uint64_t> verified_whole_frames{0}; // of those, every pixel of which must have matched
     std::atomic<uint64_t> mismatching_pixels{0};
     std::atomic<uint64_t> compared_pixels{0};    // every layer of each verified image, mismatching included
     std::atomic<uint32_t> largest_difference{0}; // of one colour channel, over every verified frame
     std::atomic<uint64_t> difference_sum{0};     // of every differing pixel's colour channels
+    // The swapped split: every verified frame that showed the agent's periphery, against native.
+    PeripheryScore periphery_score;
 
     // Split mode (present.cpp): frames composited, and those whose tiles came too late (or not at
     // all) and whose centre is the periphery's.

@@ -44,8 +44,8 @@ SplitFrame take_split_frame(DeviceState &device, VkImage image, EyeMode eyes, co
                             const split::FrameFoveaSize &size = {});
 
 // Whether the layer rewrites split passes on this device: it has a session whose agent accepted the
-// split (Session::splitting(): SPLITVK_VERIFY is off, since verification compares whole frames with
-// the agent's, which the split makes differ on purpose).
+// split (Session::splitting(); under SPLITVK_VERIFY only the swapped split, whose agent renders
+// whole frames to compare with: the paper's split makes every pixel differ on purpose).
 bool split_enabled(const DeviceState &device);
 // Whether passes recorded now are cut to the foveae rather than scaled (SPLITVK_CLIENT_RENDERS=fovea,
 // issue 21): split_enabled, the session cutting (Session::cutting(): fovea mode with a live agent),

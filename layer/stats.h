@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cstdint>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -53,6 +54,10 @@ struct FrameRecord {
     // part), and its Tiles payload as received; 0 in a frame without one.
     double periphery_decode_ms = 0;
     uint64_t periphery_bytes = 0;
+    // The swapped split under SPLITVK_VERIFY=full: the presented frame (the client's foveae over
+    // the agent's periphery, upsampled) against the agent's native frame, PSNR over the whole image;
+    // infinite for equal images. Unset (an empty field) in every other frame.
+    std::optional<double> periphery_psnr_db;
 };
 
 class FrameStats {

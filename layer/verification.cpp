@@ -1,15 +1,17 @@
 // SPLITVK_VERIFY=full. At present the layer reads the presented image back with a copy of its own,
-// submitted on the present queue: it waits on the application's wait semaphores and signals a
-// semaphore of the layer's, which the present then waits on instead. Each swapchain image has
-// its own command buffer, readback buffer, fence and semaphore (the Mesa overlay's scheme, minus
-// its bug of reusing one slot per submit index, which lets a frame overwrite a copy still in
-// flight). The layer then waits (bounded) for its copy and for the agent's VerifyFrame of the
-// same frame, compares the two pixel by pixel, logs mismatching frames at info level, and
-// vkDestroyDevice logs `[splitvk] verify: F frames, M mismatching pixels` once. A frame the agent
-// does not return in time counts as all of its pixels mismatching.
+// submitted on the present queue: it waits on the application's wait semaphores (in the swapped
+// split, on the composite's: what is read back is what is shown) and signals a semaphore of the
+// layer's, which the present then waits on instead. Each swapchain image has its own command
+// buffer, readback buffer, fence and semaphore (the Mesa overlay's scheme, minus its bug of reusing
+// one slot per submit index, which lets a frame overwrite a copy still in flight). The layer then
+// waits (bounded) for its copy and for the agent's VerifyFrame of the same frame, compares the two
+// pixel by pixel (frame_difference.h), logs mismatching frames at info level, and vkDestroyDevice
+// logs the summary once. A frame the agent does not return in time counts as all of its pixels
+// mismatching.
 
 #include "verification.h"
 
+#include "frame_difference.h"
 #include "host_buffer.h"
 #include "log.h"
 #include "queue.h"
@@ -20,6 +22,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <map>
@@ -123,64 +126,72 @@ std::optional<protocol::VerifyFrame> wait_verify_frame(Session &session, uint64_
 
 } // namespace
 
-void compare_verified_frame(DeviceState &dev, const PendingVerify &p) {
+std::optional<double> compare_verified_frame(DeviceState &dev, const PendingVerify &p) {
     Session &session = *dev.session;
     VerifyReadback &r = *p.readback;
     const uint32_t layers = p.swapchain->array_layers;
-    const uint64_t pixels = uint64_t{p.swapchain->extent.width} * p.swapchain->extent.height * layers;
+    const uint32_t width = p.swapchain->extent.width;
+    const uint32_t height = p.swapchain->extent.height;
+    const uint64_t pixels = uint64_t{width} * height * layers;
     const bool copied =
         dev.dispatch.WaitForFences(dev.handle, 1, &r.fence, VK_TRUE, kFenceWaitNs) == VK_SUCCESS;
     r.in_flight = !copied;
     if (copied) invalidate_host_buffer(dev, r.staging);
     const auto theirs = wait_verify_frame(session, p.frame);
     uint64_t mismatches = pixels;
+    std::optional<double> psnr;
     if (!copied) {
         SPLITVK_INFO("verify: frame %llu: the layer's readback did not finish", (unsigned long long)p.frame);
     } else if (!theirs) {
         SPLITVK_INFO("verify: frame %llu: no frame from the agent", (unsigned long long)p.frame);
-    } else if (theirs->width != p.swapchain->extent.width || theirs->height != p.swapchain->extent.height ||
-               theirs->layers != layers || theirs->pixels.size() != pixels * 4) {
+    } else if (theirs->width != width || theirs->height != height || theirs->layers != layers ||
+               theirs->pixels.size() != pixels * 4) {
         SPLITVK_INFO(
             "verify: frame %llu: the agent's frame is %ux%u in %u layer(s), the client's %ux%u in %u",
-            (unsigned long long)p.frame, theirs->width, theirs->height, theirs->layers,
-            p.swapchain->extent.width, p.swapchain->extent.height, layers);
+            (unsigned long long)p.frame, theirs->width, theirs->height, theirs->layers, width, height,
+            layers);
     } else {
-        mismatches = 0;
-        const uint8_t *mine = r.staging.mapped;
-        const uint8_t *other = theirs->pixels.data();
-        uint32_t largest = 0;
-        uint64_t channel_sum = 0;
-        for (uint64_t i = 0; i < pixels; ++i) {
-            if (std::memcmp(mine + i * 4, other + i * 4, 4) == 0) continue;
-            ++mismatches;
-            // Another GPU rasterises differently (issue 10): by how much is what tells a rounding
-            // difference from a wrong picture.
-            for (int c = 0; c < 3; ++c) {
-                const auto d = static_cast<uint32_t>(std::abs(int{mine[i * 4 + c]} - int{other[i * 4 + c]}));
-                largest = std::max(largest, d);
-                channel_sum += d;
-            }
-        }
-        session.largest_difference.store(std::max(session.largest_difference.load(), largest));
-        session.difference_sum.fetch_add(channel_sum);
+        // In the swapped split only the foveae must match; a frame without them must match whole.
+        const std::span<const VkRect2D> exact =
+            p.periphery ? std::span<const VkRect2D>(p.foveae) : std::span<const VkRect2D>();
+        const FrameDifference d =
+            compare_frames(r.staging.mapped, theirs->pixels.data(), width, height, layers, exact);
+        mismatches = d.mismatches;
+        // Another GPU rasterises differently (issue 10): by how much is what tells a rounding
+        // difference from a wrong picture.
+        session.largest_difference.store(std::max(session.largest_difference.load(), d.largest));
+        session.difference_sum.fetch_add(d.channel_sum);
         if (mismatches)
-            SPLITVK_INFO("verify: frame %llu: %llu of %llu pixels differ", (unsigned long long)p.frame,
-                         (unsigned long long)mismatches, (unsigned long long)pixels);
+            SPLITVK_INFO("verify: frame %llu: %llu of %llu pixels differ%s", (unsigned long long)p.frame,
+                         (unsigned long long)mismatches, (unsigned long long)pixels,
+                         p.periphery ? " in its foveae" : "");
+        if (p.periphery) {
+            psnr = session.periphery_score.add(d, p.late);
+            if (p.late)
+                SPLITVK_INFO("verify: frame %llu showed an earlier periphery (late): PSNR %.1f dB",
+                             (unsigned long long)p.frame, *psnr);
+        }
     }
     session.verified_frames.fetch_add(1);
+    if (!p.periphery) session.verified_whole_frames.fetch_add(1);
     session.mismatching_pixels.fetch_add(mismatches);
     session.compared_pixels.fetch_add(pixels);
+    return psnr;
+}
+
+bool presented_image_verifiable(VkQueue queue, const VkPresentInfoKHR &present) {
+    if (present.swapchainCount == 0) return false;
+    const SwapchainState *sc = find_swapchain(present.pSwapchains[0]);
+    return sc && sc->transfer_src && codec::is_verifiable_format(sc->format) &&
+           present.pImageIndices[0] < sc->images.size() && queue_family_of(queue) != UINT32_MAX;
 }
 
 std::optional<PendingVerify> read_back_presented_image(DeviceState &dev, VkQueue queue,
                                                        VkPresentInfoKHR &present, uint64_t frame) {
-    if (present.swapchainCount == 0) return std::nullopt;
+    if (!presented_image_verifiable(queue, present)) return std::nullopt;
     const SwapchainState *sc = find_swapchain(present.pSwapchains[0]);
     const uint32_t index = present.pImageIndices[0];
     const uint32_t family = queue_family_of(queue);
-    if (!sc || !sc->transfer_src || !codec::is_verifiable_format(sc->format) || index >= sc->images.size() ||
-        family == UINT32_MAX)
-        return std::nullopt;
     std::unique_lock lock(g_mutex);
     VerifyReadback &r = g_readbacks[{sc->handle, index}];
     bool ready = r.pool != VK_NULL_HANDLE;
@@ -202,7 +213,7 @@ std::optional<PendingVerify> read_back_presented_image(DeviceState &dev, VkQueue
     // A node of g_readbacks, which the lock the result holds keeps in place.
     present.waitSemaphoreCount = 1;
     present.pWaitSemaphores = &r.semaphore;
-    return PendingVerify{frame, sc, index, &r, std::move(lock)};
+    return PendingVerify{frame, sc, index, &r, std::move(lock), false, {}, false};
 }
 
 std::optional<PendingVerify> read_back_runtime_image(DeviceState &dev, VkQueue queue,
@@ -227,7 +238,7 @@ std::optional<PendingVerify> read_back_runtime_image(DeviceState &dev, VkQueue q
     const VkSubmitInfo submit = submit_info(&r.command_buffer);
     if (dev.dispatch.QueueSubmit(queue, 1, &submit, r.fence) != VK_SUCCESS) return std::nullopt;
     r.in_flight = true;
-    return PendingVerify{frame, &sc, index, &r, {}};
+    return PendingVerify{frame, &sc, index, &r, {}, false, {}, false};
 }
 
 void release_verify_readbacks(DeviceState &device, VkSwapchainKHR swapchain) {
@@ -242,14 +253,44 @@ void release_verify_readbacks(DeviceState &device, VkSwapchainKHR swapchain) {
     }
 }
 
+namespace {
+
+std::string decibels(double db) {
+    if (std::isinf(db)) return "inf dB (equal)";
+    char text[32];
+    std::snprintf(text, sizeof(text), "%.1f dB", db);
+    return text;
+}
+
+} // namespace
+
 void report_verify_summary(DeviceState &device) {
     if (!device.session || !device.session->verify()) return;
     const Session &s = *device.session;
+    const uint64_t frames = s.verified_frames.load();
     const uint64_t mismatching = s.mismatching_pixels.load();
-    splitvk::log_result("verify: %llu frames, %llu mismatching pixels",
-                        static_cast<unsigned long long>(s.verified_frames.load()),
-                        static_cast<unsigned long long>(mismatching));
-    // A line of its own: the one above is what scripts and tests match whole.
+    if (s.splitting() && s.client_renders() == ClientRenders::Fovea) {
+        const PeripheryScore::Totals periphery = s.periphery_score.totals();
+        // Scripts and tests match this line whole; the details follow on lines of their own.
+        splitvk::log_result(
+            "verify: %llu frames, foveae %llu mismatching pixels, periphery PSNR %s",
+            static_cast<unsigned long long>(frames), static_cast<unsigned long long>(mismatching),
+            periphery.frames
+                ? (decibels(periphery.psnr_db) + " (lowest " + decibels(periphery.lowest_db) + ")").c_str()
+                : "none (no frame showed the agent's periphery)");
+        splitvk::log_result(
+            "verify: %llu frames showed the agent's periphery (PSNR over the whole image, mismatches in "
+            "their foveae only), %llu of them late (an earlier frame's periphery, which lowers their "
+            "PSNR); %llu drawn whole were compared whole",
+            static_cast<unsigned long long>(periphery.frames),
+            static_cast<unsigned long long>(periphery.late),
+            static_cast<unsigned long long>(s.verified_whole_frames.load()));
+    } else {
+        // A line of its own: scripts and tests match it whole.
+        splitvk::log_result("verify: %llu frames, %llu mismatching pixels",
+                            static_cast<unsigned long long>(frames),
+                            static_cast<unsigned long long>(mismatching));
+    }
     splitvk::log_result("verify: %llu pixels compared (every array layer of each image)",
                         static_cast<unsigned long long>(s.compared_pixels.load()));
     if (mismatching)

@@ -75,7 +75,8 @@ public:
     bool moving_gaze() const { return moving_gaze_; }
     const FoveaSize &fovea() const { return fovea_; }
     // Off: everything replays as recorded (SPLITVK_VERIFY compares whole frames, and the client
-    // does not split then). Set before the first command.
+    // does not split then, or only in the swapped split, which keeps it off). Set before the first
+    // command.
     void set_enabled(bool enabled) { enabled_ = enabled; }
     bool enabled() const { return enabled_; }
 

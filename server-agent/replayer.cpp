@@ -25,7 +25,8 @@ std::string hex(uint64_t v) {
 Replayer::Replayer(uint64_t session_id, const MemoryLimits &limits, protocol::DeviceDescription device)
     : session_id_(session_id), memory_(context_, limits), guard_(session_id, std::move(device)) {
     table = &table_;
-    // Whole frames until the client's SplitConfig says it splits (a verifying client never does).
+    // Whole frames until the client's SplitConfig says it splits (a verifying client does only in the
+    // swapped split, which replays whole frames all the same).
     fovea_.set_enabled(false);
 }
 

@@ -55,7 +55,9 @@ public:
     // The client's address of a bound buffer, mapped to the agent's own (buffer_addresses.h).
     bool buffer_address(const protocol::BufferAddress &message, std::string *error);
     // FramePresent: hands the first presented image's fovea to the tile streamer (when tiles are
-    // enabled); with kPresentVerify, also waits for the frame's work and reads each image back.
+    // enabled); with kPresentVerify, also waits for the frame's work and reads each image back (in
+    // the swapped split too: its passes replay whole, so that is the native frame, which the client
+    // compares its foveae and its periphery with).
     bool frame_present(const protocol::FramePresent &message, std::vector<protocol::VerifyFrame> &verify,
                        std::string *error);
     // Where Tiles messages go. Tiles start with SplitConfig: the client sends it only when it

@@ -1,12 +1,15 @@
-// SPLITVK_STATS (layer/stats.h): the CSV's columns (new ones only ever at the end) and the summary
-// line's mode.
+// SPLITVK_STATS (layer/stats.h): the CSV's columns (new ones only ever at the end), the periphery's
+// PSNR field, and the summary line's mode.
 
 #include "stats.h"
 
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -23,33 +26,55 @@ std::vector<std::string> split_csv(const std::string &line) {
     return fields;
 }
 
-TEST(FrameStats, PeripheryColumnsComeLastAndCarryTheSwappedSplitsFigures) {
+// The header and the first row of a file written with `records`.
+std::pair<std::string, std::string> header_and_row(const std::vector<FrameRecord> &records) {
     const std::string path = ::testing::TempDir() + "splitvk_stats_" + std::to_string(::getpid()) + ".csv";
     {
         FrameStats stats(path);
-        FrameRecord record;
-        record.frame = 7;
-        record.present_to_composite_ms = 1.5;
-        record.periphery_decode_ms = 2.25;
-        record.periphery_bytes = 4096;
-        stats.record(record);
+        for (const FrameRecord &record : records)
+            stats.record(record);
     }
     std::ifstream in(path);
     std::string header, row;
-    ASSERT_TRUE(std::getline(in, header));
-    ASSERT_TRUE(std::getline(in, row));
+    std::getline(in, header);
+    std::getline(in, row);
     std::remove(path.c_str());
+    return {header, row};
+}
+
+TEST(FrameStats, PeripheryColumnsComeLastAndCarryTheSwappedSplitsFigures) {
+    FrameRecord record;
+    record.frame = 7;
+    record.present_to_composite_ms = 1.5;
+    record.periphery_decode_ms = 2.25;
+    record.periphery_bytes = 4096;
+    record.periphery_psnr_db = 38.125;
+    const auto [header, row] = header_and_row({record});
     const auto names = split_csv(header), values = split_csv(row);
     ASSERT_EQ(names.size(), values.size()) << header << "\n" << row;
-    ASSERT_GE(names.size(), 3u);
+    ASSERT_GE(names.size(), 4u);
     // The columns before them keep their order: present_to_composite_ms was the last.
-    EXPECT_EQ(names[names.size() - 3], "present_to_composite_ms");
-    EXPECT_EQ(names[names.size() - 2], "periphery_decode_ms");
-    EXPECT_EQ(names.back(), "periphery_bytes");
+    EXPECT_EQ(names[names.size() - 4], "present_to_composite_ms");
+    EXPECT_EQ(names[names.size() - 3], "periphery_decode_ms");
+    EXPECT_EQ(names[names.size() - 2], "periphery_bytes");
+    EXPECT_EQ(names.back(), "periphery_psnr_db");
     EXPECT_EQ(values[0], "7");
-    EXPECT_EQ(values[values.size() - 3], "1.500");
-    EXPECT_EQ(values[values.size() - 2], "2.250");
-    EXPECT_EQ(values.back(), "4096");
+    EXPECT_EQ(values[values.size() - 4], "1.500");
+    EXPECT_EQ(values[values.size() - 3], "2.250");
+    EXPECT_EQ(values[values.size() - 2], "4096");
+    EXPECT_EQ(values.back(), "38.125");
+}
+
+// Outside verification in the swapped split there is no PSNR: the field is empty, not 0. Equal
+// images give "inf", which strtod reads back.
+TEST(FrameStats, PeripheryPsnrIsEmptyWhenNotMeasuredAndInfWhenEqual) {
+    FrameRecord record;
+    record.periphery_bytes = 4096;
+    EXPECT_TRUE(header_and_row({record}).second.ends_with(",4096,")) << header_and_row({record}).second;
+    record.periphery_psnr_db = std::numeric_limits<double>::infinity();
+    const std::string row = header_and_row({record}).second;
+    ASSERT_TRUE(row.ends_with(",4096,inf")) << row;
+    EXPECT_EQ(std::strtod(row.c_str() + row.size() - 3, nullptr), std::numeric_limits<double>::infinity());
 }
 
 TEST(FrameStats, SummaryNamesTheMode) {

@@ -99,8 +99,9 @@ inline std::vector<std::map<std::string, double>> stats_rows(const std::string &
         std::map<std::string, double> row;
         std::stringstream fields(lines[i]);
         size_t column = 0;
+        // An empty field is a value the layer did not measure (periphery_psnr_db): left out of the row.
         for (std::string field; std::getline(fields, field, ',') && column < names.size(); ++column)
-            row[names[column]] = std::stod(field);
+            if (!field.empty()) row[names[column]] = std::stod(field);
         rows.push_back(std::move(row));
     }
     return rows;
