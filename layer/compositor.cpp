@@ -1160,6 +1160,25 @@ bool Compositor::ensure_saved_buffer(Slot &s, VkDeviceSize size, std::string *er
     return true;
 }
 
+namespace {
+
+// The band of a seam: its rectangle less the fovea, as the rectangles around the fovea
+// (periphery_bands of the rectangle, the fovea its one tile), in image coordinates. The feather
+// copies and draws these only: inside the fovea the copy back overwrites whatever is there.
+std::vector<VkRect2D> seam_bands(const VkRect2D &rect, const VkRect2D &fovea) {
+    VkBufferImageCopy inner{};
+    inner.imageOffset = {fovea.offset.x - rect.offset.x, fovea.offset.y - rect.offset.y, 0};
+    inner.imageExtent = {fovea.extent.width, fovea.extent.height, 1};
+    std::vector<VkRect2D> bands = periphery_bands(rect.extent, std::span(&inner, 1));
+    for (VkRect2D &band : bands) {
+        band.offset.x += rect.offset.x;
+        band.offset.y += rect.offset.y;
+    }
+    return bands;
+}
+
+} // namespace
+
 // Called only while the slot is idle (its fence waited for), so the old image can go.
 bool Compositor::ensure_seam_image(Slot &s, VkExtent2D extent, std::string *error) {
     if (s.seam && s.seam_extent.width >= extent.width && s.seam_extent.height >= extent.height) return true;
@@ -1381,18 +1400,20 @@ void Compositor::record_periphery(Slot &s, uint32_t image_index, std::span<const
     if (has_foveae)
         k.CmdCopyImageToBuffer(cb, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, s.saved,
                                static_cast<uint32_t>(copy_regions_.size()), copy_regions_.data());
-    // The client's seam rectangles (its foveae and the bands around them) into the seam image.
+    // The client's bands around its foveae into the seam image, each seam's at its place there.
     if (feathered) {
         std::vector<VkImageCopy> seam_copies;
-        for (const Seam &seam : seams_) {
-            VkImageCopy copy{};
-            copy.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-            copy.srcOffset = {seam.rect.offset.x, seam.rect.offset.y, 0};
-            copy.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-            copy.dstOffset = {seam.x, 0, 0};
-            copy.extent = {seam.rect.extent.width, seam.rect.extent.height, 1};
-            seam_copies.push_back(copy);
-        }
+        for (const Seam &seam : seams_)
+            for (const VkRect2D &band : seam_bands(seam.rect, seam.fovea)) {
+                VkImageCopy copy{};
+                copy.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+                copy.srcOffset = {band.offset.x, band.offset.y, 0};
+                copy.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+                copy.dstOffset = {seam.x + band.offset.x - seam.rect.offset.x,
+                                  band.offset.y - seam.rect.offset.y, 0};
+                copy.extent = {band.extent.width, band.extent.height, 1};
+                seam_copies.push_back(copy);
+            }
         k.CmdCopyImage(cb, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, s.seam,
                        VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, static_cast<uint32_t>(seam_copies.size()),
                        seam_copies.data());
@@ -1461,11 +1482,23 @@ void Compositor::record_seams(Slot &s, VkImage image) {
                              VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
                          0, 0, nullptr, 0, nullptr, 2, to_draw);
 
+    // One pass for every seam, its render area their bounding box: blends where seams overlap (which
+    // distinct eyes' never do) are ordered within a subpass, so no barrier is needed between them.
+    VkRect2D area = seams_.front().rect;
+    for (const Seam &seam : seams_) {
+        const int32_t x1 = std::max(area.offset.x + int32_t(area.extent.width),
+                                    seam.rect.offset.x + int32_t(seam.rect.extent.width));
+        const int32_t y1 = std::max(area.offset.y + int32_t(area.extent.height),
+                                    seam.rect.offset.y + int32_t(seam.rect.extent.height));
+        area.offset.x = std::min(area.offset.x, seam.rect.offset.x);
+        area.offset.y = std::min(area.offset.y, seam.rect.offset.y);
+        area.extent = {uint32_t(x1 - area.offset.x), uint32_t(y1 - area.offset.y)};
+    }
     VkRenderPassBeginInfo pass{};
     pass.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
     pass.renderPass = seam_pass_;
     pass.framebuffer = s.framebuffer;
-    pass.renderArea = {{0, 0}, extent_};
+    pass.renderArea = area;
     k.CmdBeginRenderPass(cb, &pass, VK_SUBPASS_CONTENTS_INLINE);
     k.CmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, feather_pipeline_);
     k.CmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, feather_layout_, 0, 1, &s.seam_set, 0,
@@ -1484,16 +1517,8 @@ void Compositor::record_seams(Slot &s, VkImage image) {
         push.fovea_max[1] = float(seam.fovea.offset.y) + float(seam.fovea.extent.height);
         push.feather = float(feather_);
         k.CmdPushConstants(cb, feather_layout_, VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
-        // The band only: the seam rectangle less the fovea, as the rectangles around it
-        // (periphery_bands of the rectangle, the fovea as its one tile), so no fragment is shaded
-        // inside the fovea, whose copy back overwrites it anyway.
-        VkBufferImageCopy fovea{};
-        fovea.imageOffset = {seam.fovea.offset.x - seam.rect.offset.x,
-                             seam.fovea.offset.y - seam.rect.offset.y, 0};
-        fovea.imageExtent = {seam.fovea.extent.width, seam.fovea.extent.height, 1};
-        for (VkRect2D band : periphery_bands(seam.rect.extent, std::span(&fovea, 1))) {
-            band.offset.x += seam.rect.offset.x;
-            band.offset.y += seam.rect.offset.y;
+        // The band only (no fragment inside the fovea, whose copy back overwrites it anyway).
+        for (const VkRect2D &band : seam_bands(seam.rect, seam.fovea)) {
             k.CmdSetScissor(cb, 0, 1, &band);
             k.CmdDraw(cb, 3, 1, 0, 0);
         }

@@ -147,7 +147,10 @@ public:
     // frames are feathered alike. A format the device cannot blend into gets the hard seam (logged once).
     // Cost on lavapipe (2 busy cores, best of 12, DISABLED_Cost) at 2400x1080 with the stereo
     // foveae, blit: 18.9 ms, 18.6 ms late (composite() with tiles: 18.7 ms); the two copies of the
-    // foveae cost little beside the upsample.
+    // foveae cost little beside the upsample. The feather (16 pixels, or 1: it hardly depends on the
+    // band's width) adds 7-9 ms there (23-25 ms against 15-17 ms, best of 12 on a busy machine): about
+    // 2 ms the copy of the bands, the rest the blending pass, most of it a cost of lavapipe's per
+    // render pass rather than of the band's 58k fragments.
     VkResult composite_periphery(VkQueue queue, uint32_t image_index, std::span<const VkSemaphore> waits,
                                  const PeripheryImage *periphery, std::span<const VkRect2D> keep,
                                  VkSemaphore *signal, uint32_t feather = 0);
