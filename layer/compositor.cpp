@@ -23,6 +23,10 @@
 // of the image into a slot's buffer, the agent's decoded periphery parts into the compositor's
 // latest periphery image, which is upsampled over the image as in 3 (the blit straight from it,
 // the draw from a copy in the slot's periphery image), and the foveae are copied back as in 4.
+// With a feathered seam (SPLITVK_SEAM), each fovea's seam rectangle (the fovea grown by the
+// feather, which the client rendered too) is also copied out, into the slot's seam image, before the
+// upsample; after it, a blending draw mixes those pixels back in across the band around each fovea;
+// only then are the foveae copied back.
 
 #include "compositor.h"
 
@@ -30,6 +34,7 @@
 #include "host_buffer.h"
 #include "instance.h"
 #include "log.h"
+#include "split_geometry.h"
 #include "swapchain.h"
 #include "upsample_shaders.h"
 #include "vk_util.h"
@@ -49,6 +54,15 @@ struct PushConstants {
     float scale[2];
     float texel_size[2];
     float max_centre[2];
+};
+
+// shaders/feather.frag's.
+struct FeatherPushConstants {
+    int32_t seam_origin[2];
+    int32_t client_origin[2];
+    float fovea_min[2];
+    float fovea_max[2];
+    float feather;
 };
 
 constexpr VkFormatFeatureFlags kSwapchainFeatures = VK_FORMAT_FEATURE_TRANSFER_SRC_BIT |
@@ -225,6 +239,13 @@ struct Compositor::Slot {
     VkBuffer saved = VK_NULL_HANDLE;
     VkDeviceMemory saved_memory = VK_NULL_HANDLE;
     VkDeviceSize saved_size = 0;
+    // composite_periphery() with a feather: the client's seam rectangles side by side (sampled by
+    // the feather draw; TRANSFER_DST|SAMPLED, the swapchain's format), and the set that names it.
+    VkImage seam = VK_NULL_HANDLE;
+    VkDeviceMemory seam_memory = VK_NULL_HANDLE;
+    VkImageView seam_view = VK_NULL_HANDLE;
+    VkExtent2D seam_extent{};
+    VkDescriptorSet seam_set = VK_NULL_HANDLE;
     // Timed: the composite's two timestamps, copied by the GPU (gpu_timing.h).
     HostBuffer timing;
     CommandTiming timestamps;     // the query pair of the recording (record())
@@ -343,7 +364,8 @@ bool Compositor::init(std::string *error) {
     if (k.CreateDescriptorSetLayout(d, &set_layout_info, nullptr, &set_layout_) != VK_SUCCESS)
         return fail("descriptor set layout");
 
-    const uint32_t count = std::max<uint32_t>(1, static_cast<uint32_t>(images_.size()));
+    // Two sets per slot: the upsample draw's periphery and the feather draw's seam image.
+    const uint32_t count = 2 * std::max<uint32_t>(1, static_cast<uint32_t>(images_.size()));
     VkDescriptorPoolSize pool_size{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, count};
     VkDescriptorPoolCreateInfo descriptor_pool_info{};
     descriptor_pool_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
@@ -386,7 +408,10 @@ bool Compositor::init(std::string *error) {
     dependencies[0].srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
     dependencies[0].dstStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
     dependencies[0].srcAccessMask = 0;
-    dependencies[0].dstAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+    // READ too for the feather's pass (create_feather_pipeline), which loads the attachment and must
+    // have the same dependencies to share the framebuffers.
+    dependencies[0].dstAccessMask =
+        VK_ACCESS_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
     dependencies[1].srcSubpass = 0;
     dependencies[1].dstSubpass = VK_SUBPASS_EXTERNAL;
     dependencies[1].srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
@@ -474,12 +499,84 @@ bool Compositor::init(std::string *error) {
     const bool have_pipeline =
         have_vert && have_frag &&
         k.CreateGraphicsPipelines(d, VK_NULL_HANDLE, 1, &pipeline_info, nullptr, &pipeline_) == VK_SUCCESS;
-    if (vert) k.DestroyShaderModule(d, vert, nullptr);
     if (frag) k.DestroyShaderModule(d, frag, nullptr);
-    if (!have_pipeline) return fail("pipeline");
+    if (!have_pipeline) {
+        if (vert) k.DestroyShaderModule(d, vert, nullptr);
+        return fail("pipeline");
+    }
+    create_feather_pipeline(vert, render_pass_info, pipeline_info);
+    if (vert) k.DestroyShaderModule(d, vert, nullptr);
 
     slots_.resize(images_.size());
     return true;
+}
+
+void Compositor::create_feather_pipeline(VkShaderModule vert, VkRenderPassCreateInfo render_pass_info,
+                                         VkGraphicsPipelineCreateInfo pipeline_info) {
+    const VkDevice d = device_.handle;
+    const auto &k = device_.dispatch;
+    VkFormatProperties props{};
+    device_.instance->dispatch.GetPhysicalDeviceFormatProperties(device_.physical_device, format_, &props);
+    if (!(props.optimalTilingFeatures & VK_FORMAT_FEATURE_COLOR_ATTACHMENT_BLEND_BIT)) return;
+
+    VkPushConstantRange push{VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(FeatherPushConstants)};
+    VkPipelineLayoutCreateInfo layout_info{};
+    layout_info.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+    layout_info.setLayoutCount = 1;
+    layout_info.pSetLayouts = &set_layout_;
+    layout_info.pushConstantRangeCount = 1;
+    layout_info.pPushConstantRanges = &push;
+    if (k.CreatePipelineLayout(d, &layout_info, nullptr, &feather_layout_) != VK_SUCCESS) {
+        feather_layout_ = VK_NULL_HANDLE;
+        return;
+    }
+    // The feather blends into what the upsample left: loaded. Otherwise the upsample's pass (its
+    // dependencies name the load's read), so that the two are compatible and the slots' framebuffers
+    // serve both. Around the pass, record_seams() transitions with barriers that the dependencies repeat.
+    VkAttachmentDescription attachment = render_pass_info.pAttachments[0];
+    attachment.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
+    render_pass_info.pAttachments = &attachment;
+    if (k.CreateRenderPass(d, &render_pass_info, nullptr, &seam_pass_) != VK_SUCCESS) {
+        seam_pass_ = VK_NULL_HANDLE;
+        return;
+    }
+
+    VkShaderModule frag = VK_NULL_HANDLE;
+    VkShaderModuleCreateInfo module_info{};
+    module_info.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
+    module_info.codeSize = sizeof(shaders::feather_frag);
+    module_info.pCode = shaders::feather_frag;
+    if (!vert || k.CreateShaderModule(d, &module_info, nullptr, &frag) != VK_SUCCESS) return;
+    VkPipelineShaderStageCreateInfo stages[2]{};
+    stages[0] = pipeline_info.pStages[0];
+    stages[1].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+    stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
+    stages[1].module = frag;
+    stages[1].pName = "main";
+    // out = client * w + periphery * (1 - w), w in the source's alpha; the alpha channel keeps the
+    // periphery's (a second weight would need dual-source blending, which not every device has).
+    VkPipelineColorBlendAttachmentState blend_attachment{};
+    blend_attachment.blendEnable = VK_TRUE;
+    blend_attachment.srcColorBlendFactor = VK_BLEND_FACTOR_SRC_ALPHA;
+    blend_attachment.dstColorBlendFactor = VK_BLEND_FACTOR_ONE_MINUS_SRC_ALPHA;
+    blend_attachment.colorBlendOp = VK_BLEND_OP_ADD;
+    blend_attachment.srcAlphaBlendFactor = VK_BLEND_FACTOR_ZERO;
+    blend_attachment.dstAlphaBlendFactor = VK_BLEND_FACTOR_ONE;
+    blend_attachment.alphaBlendOp = VK_BLEND_OP_ADD;
+    blend_attachment.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
+                                      VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
+    VkPipelineColorBlendStateCreateInfo blend{};
+    blend.sType = VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO;
+    blend.attachmentCount = 1;
+    blend.pAttachments = &blend_attachment;
+    pipeline_info.pStages = stages;
+    pipeline_info.pColorBlendState = &blend;
+    pipeline_info.layout = feather_layout_;
+    pipeline_info.renderPass = seam_pass_;
+    if (k.CreateGraphicsPipelines(d, VK_NULL_HANDLE, 1, &pipeline_info, nullptr, &feather_pipeline_) !=
+        VK_SUCCESS)
+        feather_pipeline_ = VK_NULL_HANDLE;
+    k.DestroyShaderModule(d, frag, nullptr);
 }
 
 bool Compositor::init_slot(Slot &s, uint32_t image_index, std::string *error) {
@@ -527,6 +624,7 @@ bool Compositor::init_slot(Slot &s, uint32_t image_index, std::string *error) {
     set_info.descriptorSetCount = 1;
     set_info.pSetLayouts = &set_layout_;
     if (k.AllocateDescriptorSets(d, &set_info, &s.set) != VK_SUCCESS) return fail("descriptor set");
+    if (k.AllocateDescriptorSets(d, &set_info, &s.seam_set) != VK_SUCCESS) return fail("descriptor set");
     return true;
 }
 
@@ -605,6 +703,9 @@ void Compositor::destroy_slot(Slot &s) {
     if (s.periphery_memory) k.FreeMemory(d, s.periphery_memory, nullptr);
     if (s.saved) k.DestroyBuffer(d, s.saved, nullptr);
     if (s.saved_memory) k.FreeMemory(d, s.saved_memory, nullptr);
+    if (s.seam_view) k.DestroyImageView(d, s.seam_view, nullptr);
+    if (s.seam) k.DestroyImage(d, s.seam, nullptr);
+    if (s.seam_memory) k.FreeMemory(d, s.seam_memory, nullptr);
     if (s.framebuffer) k.DestroyFramebuffer(d, s.framebuffer, nullptr);
     if (s.target_view) k.DestroyImageView(d, s.target_view, nullptr);
     if (s.semaphore) k.DestroySemaphore(d, s.semaphore, nullptr);
@@ -624,6 +725,9 @@ Compositor::~Compositor() {
         if (slot) destroy_slot(*slot);
     destroy_latest_periphery();
     if (pipeline_) k.DestroyPipeline(d, pipeline_, nullptr);
+    if (feather_pipeline_) k.DestroyPipeline(d, feather_pipeline_, nullptr);
+    if (seam_pass_) k.DestroyRenderPass(d, seam_pass_, nullptr);
+    if (feather_layout_) k.DestroyPipelineLayout(d, feather_layout_, nullptr);
     if (render_pass_) k.DestroyRenderPass(d, render_pass_, nullptr);
     if (pipeline_layout_) k.DestroyPipelineLayout(d, pipeline_layout_, nullptr);
     if (descriptor_pool_) k.DestroyDescriptorPool(d, descriptor_pool_, nullptr);
@@ -1056,9 +1160,90 @@ bool Compositor::ensure_saved_buffer(Slot &s, VkDeviceSize size, std::string *er
     return true;
 }
 
+namespace {
+
+// The band of a seam: its rectangle less the fovea, as the rectangles around the fovea
+// (periphery_bands of the rectangle, the fovea its one tile), in image coordinates. The feather
+// copies and draws these only: inside the fovea the copy back overwrites whatever is there.
+std::vector<VkRect2D> seam_bands(const VkRect2D &rect, const VkRect2D &fovea) {
+    VkBufferImageCopy inner{};
+    inner.imageOffset = {fovea.offset.x - rect.offset.x, fovea.offset.y - rect.offset.y, 0};
+    inner.imageExtent = {fovea.extent.width, fovea.extent.height, 1};
+    std::vector<VkRect2D> bands = periphery_bands(rect.extent, std::span(&inner, 1));
+    for (VkRect2D &band : bands) {
+        band.offset.x += rect.offset.x;
+        band.offset.y += rect.offset.y;
+    }
+    return bands;
+}
+
+} // namespace
+
+// Called only while the slot is idle (its fence waited for), so the old image can go.
+bool Compositor::ensure_seam_image(Slot &s, VkExtent2D extent, std::string *error) {
+    if (s.seam && s.seam_extent.width >= extent.width && s.seam_extent.height >= extent.height) return true;
+    const VkDevice d = device_.handle;
+    const auto &k = device_.dispatch;
+    if (s.seam_view) k.DestroyImageView(d, s.seam_view, nullptr);
+    if (s.seam) k.DestroyImage(d, s.seam, nullptr);
+    if (s.seam_memory) k.FreeMemory(d, s.seam_memory, nullptr);
+    s.seam_view = VK_NULL_HANDLE;
+    s.seam = VK_NULL_HANDLE;
+    s.seam_memory = VK_NULL_HANDLE;
+    s.seam_extent = {};
+    // The swapchain's format: copied into as bytes, decoded (sRGB) when the feather draw reads it.
+    VkImageCreateInfo image_info{};
+    image_info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
+    image_info.imageType = VK_IMAGE_TYPE_2D;
+    image_info.format = format_;
+    image_info.extent = {extent.width, extent.height, 1};
+    image_info.mipLevels = 1;
+    image_info.arrayLayers = 1;
+    image_info.samples = VK_SAMPLE_COUNT_1_BIT;
+    image_info.tiling = VK_IMAGE_TILING_OPTIMAL;
+    image_info.usage = VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
+    image_info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+    image_info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    if (k.CreateImage(d, &image_info, nullptr, &s.seam) != VK_SUCCESS) {
+        s.seam = VK_NULL_HANDLE;
+        *error = "cannot create the image the seams are saved in";
+        return false;
+    }
+    VkMemoryRequirements req{};
+    k.GetImageMemoryRequirements(d, s.seam, &req);
+    if (!allocate_device_local(device_, req, &s.seam_memory) ||
+        k.BindImageMemory(d, s.seam, s.seam_memory, 0) != VK_SUCCESS) {
+        *error = "cannot allocate the memory the seams are saved in";
+        return false;
+    }
+    VkImageViewCreateInfo view_info{};
+    view_info.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO;
+    view_info.image = s.seam;
+    view_info.viewType = VK_IMAGE_VIEW_TYPE_2D;
+    view_info.format = format_;
+    view_info.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    if (k.CreateImageView(d, &view_info, nullptr, &s.seam_view) != VK_SUCCESS) {
+        s.seam_view = VK_NULL_HANDLE;
+        *error = "cannot create the view of the image the seams are saved in";
+        return false;
+    }
+    s.seam_extent = extent;
+    VkDescriptorImageInfo image{VK_NULL_HANDLE, s.seam_view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+    VkWriteDescriptorSet write{};
+    write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+    write.dstSet = s.seam_set;
+    write.dstBinding = 0;
+    write.descriptorCount = 1;
+    write.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+    write.pImageInfo = &image;
+    k.UpdateDescriptorSets(d, 1, &write, 0, nullptr);
+    return true;
+}
+
 VkResult Compositor::composite_periphery(VkQueue queue, uint32_t image_index,
                                          std::span<const VkSemaphore> waits, const PeripheryImage *periphery,
-                                         std::span<const VkRect2D> keep, VkSemaphore *signal) {
+                                         std::span<const VkRect2D> keep, VkSemaphore *signal,
+                                         uint32_t feather) {
     std::lock_guard lock(mutex_);
     // Window swapchains only in this slice: an OpenXR runtime's layered image is not cut.
     if (layers_ != 1) return VK_ERROR_FEATURE_NOT_PRESENT;
@@ -1108,6 +1293,34 @@ VkResult Compositor::composite_periphery(VkQueue queue, uint32_t image_index,
         return VK_ERROR_OUT_OF_DEVICE_MEMORY;
     }
     copy_buffers_.assign(copy_regions_.size(), s.saved);
+
+    // The feathered seams: around each fovea kept, its seam rectangle, by the rule the client cut its
+    // passes with (so every pixel blended is one the client rendered), side by side in the seam image.
+    seams_.clear();
+    feather_ = feather_pipeline_ ? feather : 0;
+    if (feather > 0 && !feather_pipeline_) {
+        static std::once_flag logged;
+        std::call_once(logged, [&] {
+            SPLITVK_WARN("compositor: format %d cannot be blended into: the swapped split's seam is hard",
+                         int(format_));
+        });
+    }
+    if (feather_ > 0) {
+        VkExtent2D seam_extent{};
+        for (const ClippedTile &c : kept) {
+            Seam seam;
+            seam.fovea = {c.offset, c.extent};
+            seam.rect = split::seam_rect(seam.fovea, extent_, feather_);
+            seam.x = int32_t(seam_extent.width);
+            seam_extent.width += seam.rect.extent.width;
+            seam_extent.height = std::max(seam_extent.height, seam.rect.extent.height);
+            seams_.push_back(seam);
+        }
+        if (!seams_.empty() && !ensure_seam_image(s, seam_extent, &error)) {
+            SPLITVK_WARN("compositor: %s", error.c_str());
+            return VK_ERROR_OUT_OF_DEVICE_MEMORY;
+        }
+    }
 
     // The periphery's parts, clipped to it, into the latest periphery.
     std::vector<VkBufferImageCopy> parts;
@@ -1161,7 +1374,8 @@ void Compositor::record_periphery(Slot &s, uint32_t image_index, std::span<const
     // that do not cover it leave the previous periphery there): the previous composite's blit read
     // it earlier on this queue (write-after-read: an execution dependency). The draw's periphery
     // copy: write-after-read against this slot's previous draw, as in record().
-    VkImageMemoryBarrier before[3];
+    const bool feathered = !seams_.empty();
+    VkImageMemoryBarrier before[4];
     uint32_t count = 0;
     before[count++] = colour_image_barrier(image, ready_access_, VK_ACCESS_TRANSFER_READ_BIT, present_layout_,
                                            VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
@@ -1172,6 +1386,12 @@ void Compositor::record_periphery(Slot &s, uint32_t image_index, std::span<const
         before[count++] =
             colour_image_barrier(s.periphery, 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
                                  VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+    // The seam image: its old contents go; this slot's previous feather draw sampled it (the
+    // FRAGMENT_SHADER source stage orders that read before this write).
+    if (feathered)
+        before[count++] =
+            colour_image_barrier(s.seam, 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                                 VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
     k.CmdPipelineBarrier(cb, ready_stages_ | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
                          VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr, count, before);
 
@@ -1180,6 +1400,24 @@ void Compositor::record_periphery(Slot &s, uint32_t image_index, std::span<const
     if (has_foveae)
         k.CmdCopyImageToBuffer(cb, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, s.saved,
                                static_cast<uint32_t>(copy_regions_.size()), copy_regions_.data());
+    // The client's bands around its foveae into the seam image, each seam's at its place there.
+    if (feathered) {
+        std::vector<VkImageCopy> seam_copies;
+        for (const Seam &seam : seams_)
+            for (const VkRect2D &band : seam_bands(seam.rect, seam.fovea)) {
+                VkImageCopy copy{};
+                copy.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+                copy.srcOffset = {band.offset.x, band.offset.y, 0};
+                copy.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+                copy.dstOffset = {seam.x + band.offset.x - seam.rect.offset.x,
+                                  band.offset.y - seam.rect.offset.y, 0};
+                copy.extent = {band.extent.width, band.extent.height, 1};
+                seam_copies.push_back(copy);
+            }
+        k.CmdCopyImage(cb, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, s.seam,
+                       VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, static_cast<uint32_t>(seam_copies.size()),
+                       seam_copies.data());
+    }
     // (3) The decoded parts into the latest periphery (host writes flushed before the submit).
     for (size_t i = 0; i < parts.size(); ++i)
         k.CmdCopyBufferToImage(cb, part_buffers[i], latest_, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1,
@@ -1215,11 +1453,84 @@ void Compositor::record_periphery(Slot &s, uint32_t image_index, std::span<const
                        VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &copy);
         record_upsample(s, image, latest_extent_, s.periphery, /*source_written=*/true);
     }
-    // (5) The foveae back, byte for byte, and the present layout.
+    // (5) The feathered seams, blended over the upsampled periphery around the foveae.
+    if (feathered) record_seams(s, image);
+    // (6) The foveae back, byte for byte, and the present layout. Last, after the feather too: whatever
+    // the upsample, the blend or an sRGB decode and encode left inside a fovea is overwritten by the
+    // client's own bytes, so the foveae are exact whatever the seam.
     record_tile_copies(s, image);
     if (timed_ && s.timing.buffer)
         s.timing_recorded = time_composite_end(device_, cb, s.timestamps, s.timing.buffer);
     k.EndCommandBuffer(cb);
+}
+
+void Compositor::record_seams(Slot &s, VkImage image) {
+    const auto &k = device_.dispatch;
+    const VkCommandBuffer cb = s.command_buffer;
+    // The seam image's copy before the fragment shader reads it; the upsample's writes to the image
+    // (made available to transfers by record_upsample's last barrier, at TRANSFER) before the
+    // blend reads and writes them.
+    const VkImageMemoryBarrier to_draw[2] = {
+        colour_image_barrier(s.seam, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
+                             VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL),
+        colour_image_barrier(image, VK_ACCESS_TRANSFER_WRITE_BIT,
+                             VK_ACCESS_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
+                             VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL),
+    };
+    k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                         VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT |
+                             VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
+                         0, 0, nullptr, 0, nullptr, 2, to_draw);
+
+    // One pass for every seam, its render area their bounding box: blends where seams overlap (which
+    // distinct eyes' never do) are ordered within a subpass, so no barrier is needed between them.
+    VkRect2D area = seams_.front().rect;
+    for (const Seam &seam : seams_) {
+        const int32_t x1 = std::max(area.offset.x + int32_t(area.extent.width),
+                                    seam.rect.offset.x + int32_t(seam.rect.extent.width));
+        const int32_t y1 = std::max(area.offset.y + int32_t(area.extent.height),
+                                    seam.rect.offset.y + int32_t(seam.rect.extent.height));
+        area.offset.x = std::min(area.offset.x, seam.rect.offset.x);
+        area.offset.y = std::min(area.offset.y, seam.rect.offset.y);
+        area.extent = {uint32_t(x1 - area.offset.x), uint32_t(y1 - area.offset.y)};
+    }
+    VkRenderPassBeginInfo pass{};
+    pass.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
+    pass.renderPass = seam_pass_;
+    pass.framebuffer = s.framebuffer;
+    pass.renderArea = area;
+    k.CmdBeginRenderPass(cb, &pass, VK_SUBPASS_CONTENTS_INLINE);
+    k.CmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, feather_pipeline_);
+    k.CmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, feather_layout_, 0, 1, &s.seam_set, 0,
+                            nullptr);
+    const VkViewport viewport{0.0f, 0.0f, float(extent_.width), float(extent_.height), 0.0f, 1.0f};
+    k.CmdSetViewport(cb, 0, 1, &viewport);
+    for (const Seam &seam : seams_) {
+        FeatherPushConstants push{};
+        push.seam_origin[0] = seam.rect.offset.x;
+        push.seam_origin[1] = seam.rect.offset.y;
+        push.client_origin[0] = seam.x;
+        push.client_origin[1] = 0;
+        push.fovea_min[0] = float(seam.fovea.offset.x);
+        push.fovea_min[1] = float(seam.fovea.offset.y);
+        push.fovea_max[0] = float(seam.fovea.offset.x) + float(seam.fovea.extent.width);
+        push.fovea_max[1] = float(seam.fovea.offset.y) + float(seam.fovea.extent.height);
+        push.feather = float(feather_);
+        k.CmdPushConstants(cb, feather_layout_, VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
+        // The band only (no fragment inside the fovea, whose copy back overwrites it anyway).
+        for (const VkRect2D &band : seam_bands(seam.rect, seam.fovea)) {
+            k.CmdSetScissor(cb, 0, 1, &band);
+            k.CmdDraw(cb, 3, 1, 0, 0);
+        }
+    }
+    k.CmdEndRenderPass(cb);
+    // The blend's writes before the fovea copies (write-after-write where a band meets its fovea,
+    // and the layout the copies want).
+    const VkImageMemoryBarrier to_copy =
+        colour_image_barrier(image, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                             VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+    k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0,
+                         0, nullptr, 0, nullptr, 1, &to_copy);
 }
 
 // ---------------------------------------------------------------------------- registry by swapchain

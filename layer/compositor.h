@@ -140,12 +140,20 @@ public:
     // VK_NOT_READY: no periphery was ever uploaded (present the image as it is);
     // VK_ERROR_FORMAT_NOT_SUPPORTED: `periphery` is empty or larger than the image;
     // VK_ERROR_FEATURE_NOT_PRESENT: a layered image (OpenXR; not cut in this slice).
+    // `feather` (SPLITVK_SEAM=feather:N; 0: a hard seam): around each kept fovea, in its
+    // split::seam_rect of `feather` pixels (which the client rendered too: its cut is grown alike),
+    // the client's pixels are blended into the upsampled periphery, weighted from 0 at the band's
+    // outer edge to 1 at the fovea's (shaders/feather.frag); the foveae themselves stay exact. Late
+    // frames are feathered alike. A format the device cannot blend into gets the hard seam (logged once).
     // Cost on lavapipe (2 busy cores, best of 12, DISABLED_Cost) at 2400x1080 with the stereo
     // foveae, blit: 18.9 ms, 18.6 ms late (composite() with tiles: 18.7 ms); the two copies of the
-    // foveae cost little beside the upsample.
+    // foveae cost little beside the upsample. The feather (16 pixels, or 1: it hardly depends on the
+    // band's width) adds 7-9 ms there (23-25 ms against 15-17 ms, best of 12 on a busy machine): about
+    // 2 ms the copy of the bands, the rest the blending pass, most of it a cost of lavapipe's per
+    // render pass rather than of the band's 58k fragments.
     VkResult composite_periphery(VkQueue queue, uint32_t image_index, std::span<const VkSemaphore> waits,
                                  const PeripheryImage *periphery, std::span<const VkRect2D> keep,
-                                 VkSemaphore *signal);
+                                 VkSemaphore *signal, uint32_t feather = 0);
 
     // SPLITVK_STATS' exposed wait (and SPLITVK_FOVEA=auto's, which sizes the fovea from it), before the
     // tile wait: submits an empty batch to `queue` that
@@ -169,6 +177,10 @@ private:
                UpsampleFilter filter, bool timed);
     bool init(std::string *error);
     bool init_slot(Slot &slot, uint32_t image_index, std::string *error);
+    // feather_pipeline_ and what it needs, from init()'s upsample pipeline (left null where the format
+    // cannot blend, or creation fails: the seam is then hard).
+    void create_feather_pipeline(VkShaderModule vert, VkRenderPassCreateInfo render_pass_info,
+                                 VkGraphicsPipelineCreateInfo pipeline_info);
     // Under mutex_: image `image_index`'s slot, made on first use, its previous submits finished
     // (bounded; take_waits()'s only when `wait_taken`); nullptr and *result when not.
     Slot *ready_slot(uint32_t image_index, bool wait_taken, VkResult *result);
@@ -190,6 +202,10 @@ private:
                           std::span<const VkBuffer> part_buffers);
     bool ensure_latest_periphery(VkExtent2D extent, std::string *error); // waits for every slot to resize
     bool ensure_saved_buffer(Slot &slot, VkDeviceSize size, std::string *error);
+    // The slot's copy of the client's seam rectangles (seams_), side by side; idle slot only.
+    bool ensure_seam_image(Slot &slot, VkExtent2D extent, std::string *error);
+    // The feather draw over the upsampled image (TRANSFER_DST_OPTIMAL, left there for the fovea copies).
+    void record_seams(Slot &slot, VkImage image);
     void destroy_latest_periphery();
     void destroy_slot(Slot &slot);
 
@@ -220,11 +236,25 @@ private:
     VkPipelineLayout pipeline_layout_ = VK_NULL_HANDLE;
     VkRenderPass render_pass_ = VK_NULL_HANDLE;
     VkPipeline pipeline_ = VK_NULL_HANDLE;
+    // The swapped split's feathered seam: its own push constants, a pass that loads the image (the
+    // upsample's pass need not), and the blending pipeline; null where the format cannot blend.
+    VkPipelineLayout feather_layout_ = VK_NULL_HANDLE;
+    VkRenderPass seam_pass_ = VK_NULL_HANDLE;
+    VkPipeline feather_pipeline_ = VK_NULL_HANDLE;
 
     std::mutex mutex_;                            // one present at a time per swapchain; guards the slots
     std::vector<std::unique_ptr<Slot>> slots_;    // by image index, made on first use
     std::vector<VkBufferImageCopy> copy_regions_; // this frame's tiles, for record()
     std::vector<VkBuffer> copy_buffers_;          // the buffer of each of copy_regions_
+    // composite_periphery() with a feather: each kept fovea's seam rectangle (split::seam_rect), the
+    // fovea, and where the rectangle's pixels go in the slot's seam image.
+    struct Seam {
+        VkRect2D rect{};
+        VkRect2D fovea{};
+        int32_t x = 0; // in the seam image (its rectangles side by side, at y 0)
+    };
+    std::vector<Seam> seams_;
+    uint32_t feather_ = 0; // this composite's
 
     // composite_periphery(): the agent's latest periphery (TRANSFER_SRC|DST, the swapchain's
     // format, exactly its size), under mutex_. Its layout is the one the last submitted composite

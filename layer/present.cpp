@@ -313,14 +313,17 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
     if (compositor && swapped && !p.cut) {
         composited = taken; // drawn whole: presented as it is
     } else if (compositor && p.cut) {
-        // The client's foveae stay, the agent's periphery goes around them; late, invalid or
-        // mismatched: the previous periphery again (VK_NOT_READY before any: as drawn).
+        // The client's foveae stay, the agent's periphery goes around them, feathered into them
+        // across the band the client's cut grew them by (split_settings(), as cut_scissor's);
+        // late, invalid or mismatched: the previous periphery again, feathered alike (VK_NOT_READY
+        // before any: as drawn).
         std::vector<VkRect2D> keep;
         for (const split::LayerFovea &fovea : p.split.foveae)
             if (fovea.layer == 0) keep.push_back(fovea.rect);
         auto queue_lock = lock ? lock_queue(p.queue) : std::unique_lock<std::mutex>();
         if (compositor->composite_periphery(p.queue, p.image_index, waits, tiles ? &periphery : nullptr, keep,
-                                            p.swapchain->runtime ? nullptr : &composited) != VK_SUCCESS)
+                                            p.swapchain->runtime ? nullptr : &composited,
+                                            split_settings().seam.feather) != VK_SUCCESS)
             composited = taken;
     } else if (compositor) {
         auto queue_lock = lock ? lock_queue(p.queue) : std::unique_lock<std::mutex>();

@@ -118,8 +118,9 @@ VkRect2D cut_scissor(const split::CommandTracker &tracker, size_t index, const V
     if (!tracker.swapchain_pass()) return scissor;
     // The configured fovea size: SPLITVK_FOVEA=auto is off in fovea mode, and the agent's scissors are
     // recorded for that size too.
+    // Grown by the seam's feather (SPLITVK_SEAM), which the compositor blends across.
     return split::narrow_to_foveae(scissor, tracker.viewport(index), tracker.extent(), settings.eyes,
-                                   settings.fovea, settings.gaze != GazeMode::Fixed);
+                                   settings.fovea, settings.gaze != GazeMode::Fixed, settings.seam.feather);
 }
 
 void emit_viewports(DeviceState &device, VkCommandBuffer command_buffer,

@@ -67,8 +67,8 @@ void emit_viewports(DeviceState &device, VkCommandBuffer command_buffer,
                     const split::CommandTracker &tracker);
 void emit_scissors(DeviceState &device, VkCommandBuffer command_buffer, const split::CommandTracker &tracker);
 // The scissor at `index` of a cut pass (tracker.cut()) as it goes down: within the guard of a guarded
-// pass, narrowed to the foveae (split::narrow_to_foveae, the agent's rule) in a pass into a swapchain
-// image, as recorded otherwise.
+// pass, narrowed to the foveae grown by SPLITVK_SEAM's feather (split::narrow_to_foveae, the agent's
+// rule, with split::seam_rect) in a pass into a swapchain image, as recorded otherwise.
 VkRect2D cut_scissor(const split::CommandTracker &tracker, size_t index, const VkRect2D &scissor,
                      const Settings &settings);
 

@@ -52,6 +52,10 @@ const SettingInfo kSettings[] = {
     {"CLIENT_GUARD", "guard:N (N pixels, 0 to 4096) or full", "guard:64",
      "with CLIENT_RENDERS=fovea: the client cuts its passes into screen-space targets to the foveae grown "
      "by N pixels of each target (exact only if N covers every blur's reach); full: renders them whole"},
+    {"SEAM", "feather:N (N pixels, 0 to 256) or hard", "feather:16",
+     "with CLIENT_RENDERS=fovea: the client renders each fovea grown by N pixels and blends them into the "
+     "agent's periphery across that band (the fovea stays exact); hard: the periphery meets the fovea at its "
+     "edge"},
     {"FOVEA_MASK", "depth or off", "depth",
      "depth: the client leaves the foveae out of the periphery it shades, by their depth in its passes into "
      "the "
@@ -283,6 +287,17 @@ bool apply(std::string_view name, std::string_view raw, Settings &s) {
         const auto pixels = parse_uint(std::string_view(v).substr(6));
         if (!pixels || *pixels > kMaxAgentScissorGuard) return false;
         s.client_guard = {false, *pixels};
+        return true;
+    }
+    if (name == "SEAM") {
+        if (v == "hard") {
+            s.seam = {0};
+            return true;
+        }
+        if (!v.starts_with("feather:")) return false;
+        const auto pixels = parse_uint(std::string_view(v).substr(8));
+        if (!pixels || *pixels > kMaxSeamFeather) return false;
+        s.seam = {*pixels};
         return true;
     }
     if (name == "FOVEA_MASK") {

@@ -63,6 +63,19 @@ struct ClientGuard {
     uint32_t pixels = 64;
 };
 
+// SPLITVK_SEAM (issue 21): in the swapped split, how the client's foveae meet the agent's lossy
+// periphery. Feather: the client renders each fovea grown by `pixels` (split::seam_rect) and the
+// compositor blends its pixels into the upsampled periphery across that band, from the periphery at
+// the band's outer edge to the client's at the fovea's; the fovea itself stays exact. Hard (or
+// feather:0): the periphery meets the fovea at its edge. The default, 16 pixels: about 10 texels of
+// the periphery at SPLITVK_SCALE 0.6, wider than the bilinear upsample's reach (2 pixels) and than
+// x264's 8x8 transform blocks seen at full resolution (13 pixels), so the step from sharp to blurry
+// becomes a gradient; it costs the client 16% more pixels per fovea (512x360 grown to 544x392).
+struct Seam {
+    uint32_t feather = 16; // pixels; 0: hard
+};
+inline constexpr uint32_t kMaxSeamFeather = 256;
+
 // SPLITVK_GAZE (issue 22): where the foveae sit. Fixed: centred in each eye (at the view direction
 // under OpenXR), the same every frame; OpenXR: where the runtime's eye tracking says the eyes look
 // (layer/xr_gaze.h; OpenXR eye images only); Fifo: at the gaze points another process writes into a
@@ -99,6 +112,7 @@ struct Settings {
     ClientRenders client_renders = ClientRenders::Periphery;
     PeripheryQuality periphery_quality;
     ClientGuard client_guard;
+    Seam seam;
     GazeMode gaze = GazeMode::Fixed;
     // SPLITVK_FOVEA_MASK (issue 22): the client leaves the foveae out of the periphery it shades,
     // through the depth of its passes into the swapchain image, where that is exact (layer/fovea_mask.h).

@@ -183,8 +183,24 @@ std::vector<VkRect2D> frame_foveae(const EyeCoverage &drawn, VkExtent2D image, E
     return foveae;
 }
 
+VkRect2D seam_rect(const VkRect2D &fovea, VkExtent2D image, uint32_t pixels) {
+    VkRect2D bound{{0, 0}, image};
+    const int64_t half = image.width / 2;
+    const int64_t x0 = fovea.offset.x, x1 = x0 + fovea.extent.width;
+    if (image.width >= 2 && x1 <= half) bound = left_eye(image);
+    if (image.width >= 2 && x0 >= half) bound = right_eye(image);
+    const auto clamp32 = [](int64_t v) {
+        return static_cast<int32_t>(std::clamp<int64_t>(v, INT32_MIN, INT32_MAX));
+    };
+    const int64_t p = pixels;
+    const VkRect2D grown{{clamp32(fovea.offset.x - p), clamp32(fovea.offset.y - p)},
+                         {static_cast<uint32_t>(std::min<int64_t>(fovea.extent.width + 2 * p, UINT32_MAX)),
+                          static_cast<uint32_t>(std::min<int64_t>(fovea.extent.height + 2 * p, UINT32_MAX))}};
+    return intersect(grown, bound);
+}
+
 VkRect2D fovea_scissor(const VkViewport &viewport, VkExtent2D image, EyeMode mode, const FoveaSize &fovea,
-                       bool moving_gaze) {
+                       bool moving_gaze, uint32_t seam_pixels) {
     const EyeCoverage c = viewport_coverage(viewport, image);
     if (moving_gaze) {
         // A mono fovea may sit anywhere in the image, so One and Auto cannot cut anything.
@@ -195,10 +211,11 @@ VkRect2D fovea_scissor(const VkViewport &viewport, VkExtent2D image, EyeMode mod
         return box;
     }
     VkRect2D box{};
-    if (mode != EyeMode::Two || image.width < 2) box = fovea_of_eye({{0, 0}, image}, fovea);
+    if (mode != EyeMode::Two || image.width < 2)
+        box = seam_rect(fovea_of_eye({{0, 0}, image}, fovea), image, seam_pixels);
     if (mode == EyeMode::One) return box;
     for (const VkRect2D &f : frame_foveae(c, image, EyeMode::Two, fovea))
-        box = bounding_box(box, f);
+        box = bounding_box(box, seam_rect(f, image, seam_pixels));
     return box;
 }
 
@@ -342,9 +359,9 @@ void add_fovea(std::vector<VkRect2D> &foveae, const VkRect2D &rect) {
 }
 
 VkRect2D narrow_to_foveae(const VkRect2D &scissor, const VkViewport *viewport, VkExtent2D image, EyeMode mode,
-                          const FoveaSize &fovea, bool moving_gaze) {
+                          const FoveaSize &fovea, bool moving_gaze, uint32_t seam_pixels) {
     if (!viewport) return scissor;
-    return intersect(scissor, fovea_scissor(*viewport, image, mode, fovea, moving_gaze));
+    return intersect(scissor, fovea_scissor(*viewport, image, mode, fovea, moving_gaze, seam_pixels));
 }
 
 bool window_guard_foveae(const TargetClass &kind, VkExtent2D screen, EyeMode mode, const FoveaSize &fovea,

@@ -123,15 +123,26 @@ std::vector<VkRect2D> frame_foveae(const EyeCoverage &drawn, VkExtent2D image, E
 // `moving_gaze` (SPLITVK_GAZE other than fixed): the scissor is recorded before the frame's gaze is
 // known and may be replayed for many frames, so it covers every place the fovea can move to: the
 // whole image (One, Auto) or the halves the viewport draws into (Two).
+// `seam_pixels` (the client's, in the swapped split: SPLITVK_SEAM's feather) grows every fovea by
+// seam_rect before the bounding box; the agent's scissors pass none.
 VkRect2D fovea_scissor(const VkViewport &viewport, VkExtent2D image, EyeMode mode, const FoveaSize &fovea,
-                       bool moving_gaze = false);
+                       bool moving_gaze = false, uint32_t seam_pixels = 0);
+
+// The swapped split's feathered seam (SPLITVK_SEAM=feather:N): `fovea` (of frame_foveae) grown by
+// `pixels` on every side, clamped to the image and, for a fovea that lies wholly within one half of
+// the image (an eye of a stereo frame), to that half, so that a band never reaches across the eye
+// boundary into the other eye's picture. A fovea that straddles the centre (a mono frame's) is
+// clamped to the image only. The client cuts its passes into a window's swapchain image to it
+// (fovea_scissor), and the compositor blends across it, by this one rule: what the compositor
+// blends is always what the client rendered. `pixels` 0: the fovea, clamped alike.
+VkRect2D seam_rect(const VkRect2D &fovea, VkExtent2D image, uint32_t pixels);
 
 // A scissor of a pass into a window's swapchain image cut to the foveae (the agent's rule in its split
-// passes, and the client's in SPLITVK_CLIENT_RENDERS=fovea): `scissor` intersected with
-// fovea_scissor of the viewport it pairs with. Without that viewport the eye is unknown, and the
-// scissor stays as it is until the viewport is set.
+// passes, and the client's in SPLITVK_CLIENT_RENDERS=fovea, whose foveae grow by its seam): `scissor`
+// intersected with fovea_scissor of the viewport it pairs with. Without that viewport the eye is unknown, and
+// the scissor stays as it is until the viewport is set.
 VkRect2D narrow_to_foveae(const VkRect2D &scissor, const VkViewport *viewport, VkExtent2D image, EyeMode mode,
-                          const FoveaSize &fovea, bool moving_gaze);
+                          const FoveaSize &fovea, bool moving_gaze, uint32_t seam_pixels = 0);
 
 // Every place a fovea of a window's swapchain of `screen` extent can be, in the coordinates a
 // screen-space target of class `kind` holds before its divisor: the screen's, or for an eye-sized

@@ -14,7 +14,9 @@
 #include "gpu_timing.h"
 #include "host_buffer.h"
 #include "instance.h"
+#include "split_geometry.h"
 #include "swapchain.h"
+#include "vk_util.h"
 
 #include <algorithm>
 #include <chrono>
@@ -900,6 +902,200 @@ TEST_P(CompositorTest, PeripheryCompositeKeepsFoveaeExact) {
     }
 }
 
+// The swapped split's feathered seam (SPLITVK_SEAM=feather:N): the same client frame and periphery
+// composited with a hard seam, with a feather of kFeather pixels, and late with that feather (the
+// previous periphery). The foveae are the client's byte for byte every time. Outside each fovea's
+// seam rectangle (split::seam_rect), and where the band's weight is 0, the feathered frame equals the
+// hard one (the periphery upsampled, which PeripheryCompositeKeepsFoveaeExact checks); inside the
+// band every colour is the client's and the periphery's mixed at the smoothstep weight of its
+// distance from the fovea (in linear for sRGB), so a pixel mid-band lies strictly between the two;
+// the alpha stays the periphery's. The late frame is feathered alike: it equals the fresh one.
+TEST_P(CompositorTest, PeripheryCompositeFeathersTheSeam) {
+    const auto [format, filter, timed] = GetParam();
+    const bool srgb = format == VK_FORMAT_B8G8R8A8_SRGB;
+    const VkDevice d = device_.handle;
+    std::string why;
+    if (!Compositor::supports(device_, format, &why)) GTEST_SKIP() << why;
+    VkFormatProperties props{};
+    vkGetPhysicalDeviceFormatProperties(device_.physical_device, format, &props);
+    if (!(props.optimalTilingFeatures & VK_FORMAT_FEATURE_COLOR_ATTACHMENT_BLEND_BIT))
+        GTEST_SKIP() << "the format cannot be blended into";
+    constexpr uint32_t kFeather = 8;
+
+    SwapchainState sc;
+    sc.handle = reinterpret_cast<VkSwapchainKHR>(uintptr_t{0x5f});
+    sc.extent = {kWidth, kHeight};
+    sc.format = format;
+    sc.composable = true;
+    sc.images.resize(kImages);
+    for (VkImage &image : sc.images)
+        ASSERT_NO_FATAL_FAILURE(make_image(format, sc.extent, 1, Compositor::kSwapchainUsage, &image));
+    const VkDeviceSize bytes = VkDeviceSize{kWidth} * kHeight * 4;
+    VkBuffer buffer = VK_NULL_HANDLE;
+    uint8_t *mapped = nullptr;
+    ASSERT_NO_FATAL_FAILURE(make_host_buffer(bytes, &buffer, &mapped));
+    VkCommandBuffer cb = VK_NULL_HANDLE;
+    VkFence fence = VK_NULL_HANDLE;
+    ASSERT_NO_FATAL_FAILURE(make_command_buffer(&cb, &fence));
+    VkSemaphoreCreateInfo semaphore_info{};
+    semaphore_info.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
+    VkSemaphore rendered = VK_NULL_HANDLE;
+    ASSERT_EQ(vkCreateSemaphore(d, &semaphore_info, nullptr, &rendered), VK_SUCCESS);
+    std::string error;
+    UploadPool uploads(device_);
+    auto compositor = Compositor::create(device_, sc, family_, &error, filter, timed);
+    ASSERT_TRUE(compositor) << error;
+
+    const auto barrier = [&](VkImage image, VkImageLayout from, VkImageLayout to, VkAccessFlags src_access,
+                             VkAccessFlags dst_access) {
+        const VkImageMemoryBarrier b = colour_image_barrier(image, src_access, dst_access, from, to);
+        vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
+                             nullptr, 0, nullptr, 1, &b);
+    };
+    VkBufferImageCopy whole{};
+    whole.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    whole.imageExtent = {kWidth, kHeight, 1};
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    const VkPipelineStageFlags transfer_stage = VK_PIPELINE_STAGE_TRANSFER_BIT;
+    const auto run = [&](const VkSemaphore *wait, const VkSemaphore *signal) {
+        vkEndCommandBuffer(cb);
+        VkSubmitInfo submit{};
+        submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+        submit.commandBufferCount = 1;
+        submit.pCommandBuffers = &cb;
+        submit.waitSemaphoreCount = wait ? 1 : 0;
+        submit.pWaitSemaphores = wait;
+        submit.pWaitDstStageMask = &transfer_stage;
+        submit.signalSemaphoreCount = signal ? 1 : 0;
+        submit.pSignalSemaphores = signal;
+        ASSERT_EQ(vkQueueSubmit(queue_, 1, &submit, fence), VK_SUCCESS);
+        ASSERT_EQ(vkWaitForFences(d, 1, &fence, VK_TRUE, 10'000'000'000ull), VK_SUCCESS);
+        vkResetFences(d, 1, &fence);
+    };
+
+    // A fovea that straddles the centre, and one by the bottom-left corner whose band the image cuts.
+    const VkRect2D keep[2] = {{{30, 14}, {20, 14}}, {{2, 33}, {10, 10}}};
+    std::vector<uint8_t> client(bytes);
+    for (uint32_t y = 0; y < kHeight; ++y)
+        for (uint32_t x = 0; x < kWidth; ++x)
+            for (uint32_t c = 0; c < 4; ++c)
+                client[(size_t{y} * kWidth + x) * 4 + c] = tile_byte(x, y, c, 0);
+    // Composites the client's frame into image `index` with `feather`, with the periphery (or late,
+    // the latest), and reads the result back into *shown.
+    const auto composite = [&](uint32_t index, bool late, uint32_t feather, std::vector<uint8_t> *shown) {
+        const VkImage image = sc.images[index];
+        std::memcpy(mapped, client.data(), bytes);
+        vkBeginCommandBuffer(cb, &begin);
+        barrier(image, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0,
+                VK_ACCESS_TRANSFER_WRITE_BIT);
+        vkCmdCopyBufferToImage(cb, buffer, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &whole);
+        barrier(image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR,
+                VK_ACCESS_TRANSFER_WRITE_BIT, 0);
+        ASSERT_NO_FATAL_FAILURE(run(nullptr, &rendered));
+        VkSemaphore waits = rendered;
+        if (timed) {
+            VkFence done = VK_NULL_HANDLE;
+            ASSERT_EQ(compositor->take_waits(queue_, index, std::span(&rendered, 1), &waits, &done),
+                      VK_SUCCESS);
+        }
+        PeripheryImage periphery;
+        periphery.extent = kPeriphery;
+        if (!late) {
+            std::vector<uint8_t> pixels(size_t{kPeriphery.width} * kPeriphery.height * 4);
+            for (uint32_t y = 0; y < kPeriphery.height; ++y)
+                for (uint32_t x = 0; x < kPeriphery.width; ++x)
+                    for (uint32_t c = 0; c < 4; ++c)
+                        pixels[(size_t{y} * kPeriphery.width + x) * 4 + c] = content(x, y, c, 3);
+            auto upload = uploads.take(pixels.size(), &error);
+            ASSERT_TRUE(upload) << error;
+            std::memcpy(upload->mapped, pixels.data(), pixels.size());
+            uploads.flush(*upload);
+            periphery.parts.push_back({{{0, 0}, kPeriphery}, upload->buffer, 0, upload});
+        }
+        VkSemaphore signal = VK_NULL_HANDLE;
+        ASSERT_EQ(compositor->composite_periphery(queue_, index, std::span(&waits, 1),
+                                                  late ? nullptr : &periphery, keep, &signal, feather),
+                  VK_SUCCESS);
+        vkBeginCommandBuffer(cb, &begin);
+        barrier(image, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, 0,
+                VK_ACCESS_TRANSFER_READ_BIT);
+        vkCmdCopyImageToBuffer(cb, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, buffer, 1, &whole);
+        ASSERT_NO_FATAL_FAILURE(run(&signal, nullptr));
+        shown->assign(mapped, mapped + bytes);
+    };
+    std::vector<uint8_t> hard, feathered, late;
+    ASSERT_NO_FATAL_FAILURE(composite(0, false, 0, &hard));
+    ASSERT_NO_FATAL_FAILURE(composite(1, false, kFeather, &feathered));
+    ASSERT_NO_FATAL_FAILURE(composite(0, true, kFeather, &late));
+
+    const auto linear = [&](float byte) { return srgb ? srgb_to_linear(byte / 255.0f) : byte / 255.0f; };
+    const auto encoded = [&](float l) {
+        return 255.0f * (srgb ? linear_to_srgb(l) : std::clamp(l, 0.0f, 1.0f));
+    };
+    uint64_t fovea_mismatches = 0, outside_mismatches = 0, band_pixels = 0, mid_band = 0,
+             mid_band_between = 0;
+    float worst = 0.0f;
+    for (uint32_t y = 0; y < kHeight; ++y)
+        for (uint32_t x = 0; x < kWidth; ++x) {
+            const size_t at = (size_t{y} * kWidth + x) * 4;
+            float w = 0.0f;
+            bool in_fovea = false;
+            for (const VkRect2D &f : keep) {
+                const VkRect2D seam = split::seam_rect(f, sc.extent, kFeather);
+                const auto inside = [&](const VkRect2D &r) {
+                    return int(x) >= r.offset.x && int(x) < r.offset.x + int(r.extent.width) &&
+                           int(y) >= r.offset.y && int(y) < r.offset.y + int(r.extent.height);
+                };
+                in_fovea = in_fovea || inside(f);
+                if (!inside(seam)) continue;
+                const float cx = x + 0.5f, cy = y + 0.5f;
+                const float dx = std::max({f.offset.x - cx, cx - (f.offset.x + f.extent.width), 0.0f});
+                const float dy = std::max({f.offset.y - cy, cy - (f.offset.y + f.extent.height), 0.0f});
+                const float t = std::clamp(1.0f - std::sqrt(dx * dx + dy * dy) / kFeather, 0.0f, 1.0f);
+                w = std::max(w, t * t * (3.0f - 2.0f * t));
+            }
+            if (in_fovea) {
+                fovea_mismatches += std::memcmp(hard.data() + at, client.data() + at, 4) != 0;
+                fovea_mismatches += std::memcmp(feathered.data() + at, client.data() + at, 4) != 0;
+                continue;
+            }
+            if (w <= 0.0f) {
+                outside_mismatches += std::memcmp(hard.data() + at, feathered.data() + at, 4) != 0;
+                continue;
+            }
+            ++band_pixels;
+            outside_mismatches += feathered[at + 3] != hard[at + 3]; // the periphery's alpha
+            for (uint32_t c = 0; c < 3; ++c) {
+                const float periphery = hard[at + c], mine = client[at + c], shown = feathered[at + c];
+                const float expected = encoded(linear(mine) * w + linear(periphery) * (1.0f - w));
+                worst = std::max(worst, std::abs(expected - shown));
+                if (w > 0.25f && w < 0.75f && std::abs(mine - periphery) >= 16.0f) {
+                    ++mid_band;
+                    mid_band_between +=
+                        shown > std::min(mine, periphery) && shown < std::max(mine, periphery);
+                }
+            }
+        }
+    EXPECT_EQ(fovea_mismatches, 0u);
+    EXPECT_EQ(outside_mismatches, 0u) << "the feather reached past its band";
+    EXPECT_GT(band_pixels, 300u);
+    EXPECT_LE(worst, 2.0f) << "the band is not the smoothstep blend of client and periphery";
+    EXPECT_GT(mid_band, 50u);
+    EXPECT_EQ(mid_band_between, mid_band) << "mid-band pixels not strictly between client and periphery";
+    size_t late_mismatches = 0;
+    for (size_t i = 0; i < late.size(); ++i)
+        late_mismatches += late[i] != feathered[i];
+    EXPECT_EQ(late_mismatches, 0u) << "a late frame is not feathered alike";
+
+    compositor.reset(); // waits for its submits
+    release_gpu_timing(device_);
+    vkDestroySemaphore(d, rendered, nullptr);
+    if (validation_) {
+        EXPECT_EQ(g_messages, 0);
+    }
+}
+
 // The upsample's bands: together with the tiles they cover every pixel of the image exactly once.
 TEST(PeripheryBands, CoverTheImageAroundTheTilesExactlyOnce) {
     const auto tile = [](int32_t x, int32_t y, uint32_t w, uint32_t h) {
@@ -1060,16 +1256,19 @@ TEST_P(CompositorTest, DISABLED_Cost) {
     agent.extent = periphery;
     agent.parts = {{{{0, 0}, {half, periphery.height}}, part->buffer, 0, part},
                    {{{int32_t(half), 0}, {periphery.width - half, periphery.height}}, part->buffer, 0, part}};
-    const auto composite_periphery = [&](const PeripheryImage *with) {
+    const auto composite_periphery = [&](const PeripheryImage *with, uint32_t feather) {
         VkSemaphore signal = VK_NULL_HANDLE;
-        ASSERT_EQ(compositor->composite_periphery(queue_, 0, {}, with, rects, &signal), VK_SUCCESS);
+        ASSERT_EQ(compositor->composite_periphery(queue_, 0, {}, with, rects, &signal, feather), VK_SUCCESS);
         submit_and_wait(signal);
     };
-    const double swapped = best([&] { composite_periphery(&agent); });
-    const double swapped_late = best([&] { composite_periphery(nullptr); });
+    const double swapped = best([&] { composite_periphery(&agent, 0); });
+    const double swapped_late = best([&] { composite_periphery(nullptr, 0); });
+    // The default seam (SPLITVK_SEAM=feather:16).
+    const double feathered = best([&] { composite_periphery(&agent, 16); });
     std::printf("cost %ux%u filter %d: composite, whole image %.2f ms; around the foveae with tiles %.2f ms; "
-                "vkCmdBlitImage (linear) alone %.2f ms; composite_periphery %.2f ms, late %.2f ms\n",
-                width, height, int(filter), whole, around, blit, swapped, swapped_late);
+                "vkCmdBlitImage (linear) alone %.2f ms; composite_periphery %.2f ms, late %.2f ms, "
+                "feather:16 %.2f ms\n",
+                width, height, int(filter), whole, around, blit, swapped, swapped_late, feathered);
     compositor.reset(); // before the upload pool, whose buffer its last tiles hold
 }
 

@@ -143,6 +143,18 @@ TEST_F(SettingsTest, SwappedSplit) {
     EXPECT_FALSE(load({{"SPLITVK_CLIENT_GUARD", "guard:4097"}}).valid());
 }
 
+// SPLITVK_SEAM: a feathered seam of 16 pixels by default; hard is a feather of none.
+TEST_F(SettingsTest, Seam) {
+    EXPECT_EQ(load({}).settings.seam.feather, 16u);
+    EXPECT_EQ(load({{"SPLITVK_SEAM", "feather:32"}}).settings.seam.feather, 32u);
+    EXPECT_EQ(load({{"SPLITVK_SEAM", "feather:0"}}).settings.seam.feather, 0u);
+    EXPECT_EQ(load({{"SPLITVK_SEAM", "feather:256"}}).settings.seam.feather, 256u);
+    EXPECT_EQ(load({{"SPLITVK_SEAM", "Hard"}}).settings.seam.feather, 0u);
+    const auto bad = load({{"SPLITVK_SEAM", "feather:257"}});
+    EXPECT_FALSE(bad.valid());
+    EXPECT_EQ(bad.settings.seam.feather, 16u) << "a bad value leaves the default";
+}
+
 // SPLITVK_UNSUPPORTED: fail (the default) or passthrough, in any case, from the file too.
 TEST_F(SettingsTest, UnsupportedExtensions) {
     EXPECT_EQ(load({}).settings.unsupported, UnsupportedMode::Fail);
@@ -200,6 +212,7 @@ TEST_F(SettingsTest, InvalidValuesAreOneLineErrorsNamingTheSetting) {
         {"CLIENT_RENDERS", {"", "both", "agent", "1", "foveae"}},
         {"PERIPHERY_QUALITY", {"", "-1", "52", "23.5", "best", "lossy"}},
         {"CLIENT_GUARD", {"", "off", "guard", "guard:", "guard:-1", "guard:4097", "64"}},
+        {"SEAM", {"", "soft", "feather", "feather:", "feather:-1", "feather:257", "feather:1.5", "16"}},
         {"GAZE", {"", "fifo:", "fifo", "pipe:/tmp/gaze", "eyes", "1"}},
         {"CODEC", {"", "h264", "x265", "lz4"}},
         {"TILE_WAIT", {"", "0", "-5", "60001", "1.5", "soon"}},

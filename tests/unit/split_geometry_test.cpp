@@ -941,6 +941,71 @@ TEST(SplitGeometry, NarrowToFoveaeCutsByTheViewportsFoveaScissor) {
     EXPECT_RECT(narrow_to_foveae(all, &left, image, EyeMode::Two, fovea, true), 0, 0, 1200u, 1080u);
 }
 
+// The swapped split's seam (SPLITVK_SEAM=feather:N): each fovea grown by N, clamped to the image and
+// to the eye it lies in, so that the two eyes' bands never reach across the eye boundary.
+TEST(SplitGeometry, SeamRectGrowsTheFoveaWithinItsEye) {
+    const VkExtent2D image{2400, 1080};
+    const VkRect2D left_fovea{{344, 360}, {512, 360}}, right_fovea{{1544, 360}, {512, 360}};
+    EXPECT_RECT(seam_rect(left_fovea, image, 16), 328, 344, 544u, 392u);
+    EXPECT_RECT(seam_rect(right_fovea, image, 16), 1528, 344, 544u, 392u);
+    EXPECT_RECT(seam_rect(left_fovea, image, 0), 344, 360, 512u, 360u);
+    // A mono frame's centred fovea straddles the eye boundary: only the image bounds it.
+    EXPECT_RECT(seam_rect({{688, 360}, {1024, 360}}, image, 16), 672, 344, 1056u, 392u);
+    // At the image's edges (a fovea at a gaze in a corner).
+    EXPECT_RECT(seam_rect({{0, 0}, {512, 360}}, image, 16), 0, 0, 528u, 376u);
+    EXPECT_RECT(seam_rect({{1888, 720}, {512, 360}}, image, 16), 1872, 704, 528u, 376u);
+    // At the eye boundary, from either side: clamped to the fovea's own eye.
+    const VkRect2D left_inner{{688, 360}, {512, 360}}, right_inner{{1200, 360}, {512, 360}};
+    EXPECT_RECT(seam_rect(left_inner, image, 16), 672, 344, 528u, 392u);
+    EXPECT_RECT(seam_rect(right_inner, image, 16), 1200, 344, 528u, 392u);
+    for (const uint32_t pixels : {1u, 16u, 256u, 100000u}) {
+        const VkRect2D a = seam_rect(left_inner, image, pixels), b = seam_rect(right_inner, image, pixels);
+        EXPECT_LE(a.offset.x + int32_t(a.extent.width), 1200) << pixels;
+        EXPECT_GE(b.offset.x, 1200) << pixels;
+        EXPECT_EQ(intersect(a, b).extent.width * intersect(a, b).extent.height, 0u) << pixels;
+        // Never past the image.
+        EXPECT_GE(a.offset.y, 0) << pixels;
+        EXPECT_LE(b.offset.y + int64_t{b.extent.height}, 1080) << pixels;
+    }
+    // An odd width: the left eye is W/2 wide, the right the rest.
+    EXPECT_RECT(seam_rect({{100, 10}, {400, 20}}, {1001, 100}, 200), 0, 0, 500u, 100u);
+    EXPECT_RECT(seam_rect({{600, 10}, {300, 20}}, {1001, 100}, 200), 500, 0, 501u, 100u);
+    // A fovea at the gaze, pushed against the eye boundary, stays in its eye.
+    const VkRect2D at_gaze = fovea_at_gaze(left_eye(image), {kGazeOne, kGazeOne / 2}, FoveaSize{});
+    EXPECT_RECT(seam_rect(at_gaze, image, 16), 672, 344, 528u, 392u);
+}
+
+// The client's cut with a seam: every fovea a viewport can draw into, each grown by seam_rect (the
+// agent's scissors, with none, are as they were).
+TEST(SplitGeometry, FoveaScissorWithASeamHoldsEveryGrownFovea) {
+    const FoveaSize fovea;
+    const VkExtent2D image{2400, 1080};
+    const VkViewport left{0.f, 0.f, 1200.f, 1080.f, 0.f, 1.f}, right{1200.f, 0.f, 1200.f, 1080.f, 0.f, 1.f},
+        whole{0.f, 0.f, 2400.f, 1080.f, 0.f, 1.f};
+    EXPECT_RECT(fovea_scissor(left, image, EyeMode::Two, fovea, false, 16), 328, 344, 544u, 392u);
+    EXPECT_RECT(fovea_scissor(right, image, EyeMode::Two, fovea, false, 16), 1528, 344, 544u, 392u);
+    EXPECT_RECT(fovea_scissor(whole, image, EyeMode::Two, fovea, false, 16), 328, 344, 1744u, 392u);
+    EXPECT_RECT(fovea_scissor(whole, image, EyeMode::One, fovea, false, 16), 672, 344, 1056u, 392u);
+    // Auto: the centred fovea and the left eye's, both grown.
+    EXPECT_RECT(fovea_scissor(left, image, EyeMode::Auto, fovea, false, 16), 328, 344, 1400u, 392u);
+    // A moving gaze already holds the whole eye.
+    EXPECT_RECT(fovea_scissor(left, image, EyeMode::Two, fovea, true, 16), 0, 0, 1200u, 1080u);
+    // A feather wider than the eye: the left eye's cut stays in the left eye.
+    EXPECT_RECT(fovea_scissor(left, image, EyeMode::Two, fovea, false, 4096), 0, 0, 1200u, 1080u);
+    const VkRect2D all{{0, 0}, image};
+    EXPECT_RECT(narrow_to_foveae(all, &right, image, EyeMode::Two, fovea, false, 16), 1528, 344, 544u, 392u);
+    EXPECT_RECT(narrow_to_foveae(all, &right, image, EyeMode::Two, fovea, false), 1544, 360, 512u, 360u);
+    // Every frame fovea's seam lies within the cut of the viewports that drew it.
+    for (const EyeMode mode : {EyeMode::One, EyeMode::Two, EyeMode::Auto})
+        for (const VkViewport &v : {left, right, whole}) {
+            const VkRect2D cut = fovea_scissor(v, image, mode, fovea, false, 16);
+            for (const VkRect2D &f : frame_foveae(viewport_coverage(v, image), image, mode, fovea)) {
+                const VkRect2D seam = seam_rect(f, image, 16);
+                EXPECT_TRUE(same(intersect(seam, cut), seam)) << int(mode) << " " << v.x << "," << v.width;
+            }
+        }
+}
+
 // The guard of a screen-space target (SPLITVK_AGENT_SCISSOR=guard:N, SPLITVK_CLIENT_GUARD): every place a
 // fovea can be, into the target's pixels rounded outwards, grown by N.
 TEST(SplitGeometry, WindowGuardRectMapsEveryFoveaPlaceIntoTheTarget) {
