@@ -113,7 +113,7 @@ void Session::adopt_locked(AgentLink &&agent) {
         if (!stats_) stats_ = std::make_unique<FrameStats>(settings_.stats_path);
         // Which side renders what is decided by the first agent that accepts the split, and kept:
         // the client's screen-space targets are created for it (full size in the swapped split).
-        if (!splitting_.exchange(true) && settings_.client_renders == ClientRenders::Fovea) {
+        if (!splitting_.exchange(true) && asks_swapped_split(settings_)) {
             if (capabilities & protocol::capability::kSwappedSplit) {
                 client_renders_.store(ClientRenders::Fovea);
                 stats_->set_client_renders_fovea(true);
