@@ -53,6 +53,9 @@ struct FrameRecord {
     // part), and its Tiles payload as received; 0 in a frame without one.
     double periphery_decode_ms = 0;
     uint64_t periphery_bytes = 0;
+    // SPLITVK_FOVEA=auto passed the frame through (Session::passing_through()): shown as drawn, no
+    // fovea (width 0), no tiles.
+    bool passed_through = false;
 };
 
 class FrameStats {
@@ -93,6 +96,7 @@ private:
     bool client_renders_fovea_ = false;
     uint64_t frames_ = 0;
     uint64_t late_ = 0;
+    uint64_t passed_through_ = 0;
     uint64_t tile_bytes_ = 0;
     std::chrono::steady_clock::time_point first_{};
     std::chrono::steady_clock::time_point last_{};
