@@ -383,10 +383,16 @@ def picture_quality(reference, picture, foveae):
     with open(reference, "rb") as f:  # the PNG's IHDR: width and height at bytes 16..24
         header = f.read(24)
     pixels = int.from_bytes(header[16:20], "big") * int.from_bytes(header[20:24], "big")
-    share = 1 - sum(w * h for _, _, w, h in foveae) / pixels
-    return {"ssim": whole_ssim, "psnr": whole_psnr,
-            "periphery_ssim": 1 - (1 - painted_ssim) / share,
-            "periphery_psnr": painted_psnr + 10 * math.log10(share) if math.isfinite(painted_psnr) else painted_psnr}
+    periphery_ssim, periphery_psnr = periphery_scores(painted_ssim, painted_psnr,
+                                                      1 - sum(w * h for _, _, w, h in foveae) / pixels)
+    return {"ssim": whole_ssim, "psnr": whole_psnr, "periphery_ssim": periphery_ssim, "periphery_psnr": periphery_psnr}
+
+
+def periphery_scores(painted_ssim, painted_psnr, share):
+    """The periphery's SSIM and PSNR from the frame's, measured with the foveae painted alike in both
+    pictures, where the periphery is `share` of the pixels (see picture_quality)."""
+    psnr = painted_psnr + 10 * math.log10(share) if math.isfinite(painted_psnr) else painted_psnr
+    return 1 - (1 - painted_ssim) / share, psnr
 
 
 def grab_pictures(args, build, path, out_dir, timeout_s, held_argv, envs):
