@@ -5,9 +5,11 @@
 #include "log.h"
 #include "vk_codec.h"
 
+#include <atomic>
 #include <cstdlib>
 #include <fstream>
 #include <iterator>
+#include <mutex>
 
 namespace splitvk {
 namespace {
@@ -98,12 +100,33 @@ protocol::Hello base_hello(const Settings &settings, const std::string &client_n
     // the two differ everywhere (the client's periphery is scaled), so verification turns it off.
     // The swapped split stays on: its agent renders the whole frame natively, which is what the
     // client's foveae must equal and what its periphery is measured against (verification.h).
-    const bool split = !settings.verify || settings.client_renders == ClientRenders::Fovea;
+    const bool swapped = asks_swapped_split(settings);
     if (settings.verify) hello.capabilities |= protocol::capability::kVerifyFrames;
-    if (split) hello.capabilities |= protocol::capability::kFoveaTiles | protocol::capability::kAgentScissor;
-    if (settings.client_renders == ClientRenders::Fovea)
-        hello.capabilities |= protocol::capability::kSwappedSplit;
+    if (!settings.verify || swapped)
+        hello.capabilities |= protocol::capability::kFoveaTiles | protocol::capability::kAgentScissor;
+    if (swapped) hello.capabilities |= protocol::capability::kSwappedSplit;
     return hello;
+}
+
+namespace {
+std::atomic<bool> g_openxr_application{false};
+} // namespace
+
+void note_openxr_application() {
+    g_openxr_application.store(true);
+}
+
+bool asks_swapped_split(const Settings &settings) {
+    if (settings.client_renders != ClientRenders::Fovea) return false;
+    if (!g_openxr_application.load()) return true;
+    static std::once_flag logged;
+    std::call_once(logged, [] {
+        SPLITVK_WARN(
+            "SPLITVK_CLIENT_RENDERS=fovea: the client does not cut an OpenXR runtime's eye images yet; "
+            "this OpenXR application is split the paper's way (the client renders the periphery, the "
+            "agent the foveae)");
+    });
+    return false;
 }
 
 protocol::Result<AgentLink> connect_agent(const Settings &settings, const protocol::Hello &hello,

@@ -190,7 +190,7 @@ VKAPI_ATTR VkResult VKAPI_CALL BeginCommandBuffer(VkCommandBuffer commandBuffer,
     CommandBufferState *state = find_state(commandBuffer);
     if (!state) return result;
     begin_afresh(*state);
-    if (state->level == VK_COMMAND_BUFFER_LEVEL_SECONDARY && result == VK_SUCCESS && split_enabled(dev))
+    if (state->level == VK_COMMAND_BUFFER_LEVEL_SECONDARY && result == VK_SUCCESS && split_recording(dev))
         begin_secondary(dev, commandBuffer, *pBeginInfo);
     if (result == VK_SUCCESS && capturing(dev)) {
         encode_vkBeginCommandBuffer(state->encoder, commandBuffer, pBeginInfo, state->level);

@@ -216,6 +216,9 @@ struct SplitPresent {
     // The swapped split: the frame's passes were cut to its foveae, so the agent's periphery goes
     // around them (Compositor::composite_periphery). Decided at the application's present.
     bool cut = false;
+    // Presented while the session passes frames through (Session::passing_through()): drawn split
+    // before the switch, it has no tiles to wait for, and shows the periphery alone.
+    bool passing_through = false;
     uint64_t frame = 0;
     std::chrono::steady_clock::time_point sent{};   // FramePresent
     double frame_ms = 0;                            // Session::frame_interval_ms() at the app's present
@@ -274,7 +277,7 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
     if (p.cut)
         parts = split::periphery_parts(split::scaled_extent(p.swapchain->extent, session.settings().scale));
     // Keeps the pixels alive through composite().
-    const auto tiles = swapped && !p.cut
+    const auto tiles = (swapped && !p.cut) || p.passing_through
                            ? nullptr
                            : frame_tiles(session, p.frame, p.split, exposure, p.cut ? &parts : nullptr);
     const auto waited = Clock::now();
@@ -675,17 +678,34 @@ VkSemaphore copy_swapchain_image(DeviceState &dev, VkQueue queue, const Swapchai
     return r.semaphore;
 }
 
-// The swapped split lost its agent (Session::take_forced_out_of_date): this present answers
-// VK_ERROR_OUT_OF_DATE_KHR, once per loss, unless the driver's answer is worse. The image was
-// presented; the application recreates its swapchain and records its command buffers again, whole
-// (cutting() is false now), which an application that records them once would never do by itself.
-VkResult after_agent_loss(Session &session, const VkPresentInfoKHR &info, VkResult result) {
-    if (!session.take_forced_out_of_date()) return result;
-    SPLITVK_INFO("present: the agent that rendered the periphery is gone: this present answers "
-                 "VK_ERROR_OUT_OF_DATE_KHR once, so that the application records its frames again, whole");
+// This present answers VK_ERROR_OUT_OF_DATE_KHR, unless the driver's answer is worse, when the
+// application must record its command buffers again, which one that records them once would never do
+// by itself: the swapped split lost its agent (Session::take_forced_out_of_date: cutting() is false
+// now, the frames are recorded whole), or SPLITVK_FOVEA=auto switched between splitting and passing
+// through (Session::take_payoff_out_of_date: the targets are made again too, for the new mode). The
+// image was presented; the application recreates its swapchain, and the switch takes effect then.
+VkResult forced_out_of_date(Session &session, const VkPresentInfoKHR &info, VkResult result) {
+    if (session.take_forced_out_of_date()) {
+        SPLITVK_INFO(
+            "present: the agent that rendered the periphery is gone: this present answers "
+            "VK_ERROR_OUT_OF_DATE_KHR once, so that the application records its frames again, whole");
+    } else if (!session.take_payoff_out_of_date()) {
+        return result;
+    }
     for (uint32_t i = 0; info.pResults && i < info.swapchainCount; ++i)
         info.pResults[i] = worse(info.pResults[i], VK_ERROR_OUT_OF_DATE_KHR);
     return worse(result, VK_ERROR_OUT_OF_DATE_KHR);
+}
+
+// A frame passed through (SPLITVK_FOVEA=auto): a row of the statistics with no fovea, and no tiles of
+// its own or older kept waiting.
+void note_passed_through(Session &session, uint64_t frame, double frame_ms) {
+    if (TileStream *tiles = session.tiles()) tiles->take(frame, std::chrono::steady_clock::now());
+    FrameRecord record;
+    record.frame = frame;
+    record.frame_ms = frame_ms;
+    record.passed_through = true;
+    session.stats().record(record);
 }
 
 // Frames replayed with no split pass before the warning: an application may present a few copied
@@ -968,7 +988,13 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         if (split.split) message.fovea_size = split.fovea_size; // perhaps larger: a mask's (fovea_mask.h)
     }
     const bool redirect = split.split && drawn != pPresentInfo->pImageIndices[0];
-    const double frame_ms = split.split ? session.frame_interval_ms() : 0;
+    // SPLITVK_FOVEA=auto passing frames through: the agent replays them and sends no tiles.
+    const bool passing_through = session.splitting() && session.passing_through();
+    if (passing_through) message.flags |= protocol::kPresentPassThrough;
+    const double frame_ms = split.split || session.judges_payoff() ? session.frame_interval_ms() : 0;
+    // May decide a switch, which this present's answer asks the application to follow.
+    if (session.splitting()) session.observe_payoff(dev, frame_ms);
+    const bool drawn_split = split.split;
     // The present thread's case (see the top of this file); everything else happens here, after
     // the thread's frames, with the queue this thread's for the rest of the call.
     const bool async = split.split && !redirect && session.settings().present_depth > 0 &&
@@ -998,6 +1024,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         p.swapchain = split_swapchain;
         p.image_index = drawn;
         p.cut = frame_cut(p.swapchain, split);
+        p.passing_through = passing_through;
         p.split = std::move(split);
         p.frame = frame;
         p.sent = std::chrono::steady_clock::now();
@@ -1009,7 +1036,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         if (async) {
             if (const auto result = present_async(dev, p, waits)) {
                 if (pPresentInfo->pResults) pPresentInfo->pResults[0] = *result;
-                return after_agent_loss(session, *pPresentInfo, *result);
+                return forced_out_of_date(session, *pPresentInfo, *result);
             }
             drain_presents(dev); // nothing taken: this frame goes here, after the thread's
             queue_lock = lock_queue(queue);
@@ -1043,8 +1070,9 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
             pending->late = record.periphery_bytes == 0;
         }
     }
-    const VkResult result = after_agent_loss(
-        session, *pPresentInfo, note_presented(*pPresentInfo, dev.dispatch.QueuePresentKHR(queue, &present)));
+    const VkResult presented = note_presented(*pPresentInfo, dev.dispatch.QueuePresentKHR(queue, &present));
+    if (passing_through && !drawn_split) note_passed_through(session, frame, frame_ms);
+    const VkResult result = forced_out_of_date(session, *pPresentInfo, presented);
     queue_lock = {};
     std::optional<double> psnr;
     if (pending) psnr = compare_verified_frame(dev, *pending);

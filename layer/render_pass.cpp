@@ -169,8 +169,8 @@ PassTarget pass_target(DeviceState &dev, const VkRenderPassBeginInfo *begin) {
     const FramebufferState *fb = g_framebuffers.find(begin->framebuffer);
     if (!fb) return t;
     const std::span<const VkImageView> views = begin_views(begin, fb);
-    t.swapchain = split_enabled(dev) && find_target(static_cast<uint32_t>(views.size()), views.data(),
-                                                    &t.image, &t.extent, &t.runtime);
+    t.swapchain = split_recording(dev) && find_target(static_cast<uint32_t>(views.size()), views.data(),
+                                                      &t.image, &t.extent, &t.runtime);
     t.scaled = fb->scaled;
     if (!t.swapchain) t.extent = fb->extent;
     decide_cut(dev, t, views);
@@ -179,7 +179,7 @@ PassTarget pass_target(DeviceState &dev, const VkRenderPassBeginInfo *begin) {
 
 PassTarget rendering_target(DeviceState &dev, const VkRenderingInfo *info) {
     PassTarget t;
-    const bool splitting = split_enabled(dev);
+    const bool splitting = split_recording(dev);
     const auto consider = [&](VkImageView view) {
         if (!view) return;
         if (splitting && !t.swapchain && split_target(view, &t.image, &t.extent, &t.runtime))

@@ -66,7 +66,7 @@ bool scaled_targets_created(const DeviceState &device) {
 bool screen_space_create_info(DeviceState &device, const VkImageCreateInfo &app, VkImageCreateInfo *down,
                               GuardTarget *guard) {
     const Settings &settings = split_settings();
-    if (settings.targets != TargetMode::Auto || !split_enabled(device)) return false;
+    if (settings.targets != TargetMode::Auto || !split_recording(device)) return false;
     VkExtent2D screen{};
     if (!screen_of(device, &screen)) return false; // before the first swapchain: full size
     const split::TargetClass c = split::classify_target(app, screen, settings.eyes);
@@ -127,7 +127,9 @@ VkRect2D scale_image_rect(VkImage image, uint32_t mip, const VkRect2D &rect) {
 
 bool screen_space_attachment(const DeviceState &device, const VkFramebufferAttachmentImageInfo &info) {
     const Settings &settings = split_settings();
-    if (settings.targets != TargetMode::Auto) return false;
+    // Images are made full size while the device does not split (before an agent accepts it, or
+    // passing its frames through), and so are their framebuffers.
+    if (settings.targets != TargetMode::Auto || !split_recording(device)) return false;
     // Fovea mode keeps every target full size (screen_space_create_info).
     if (device.session && device.session->client_renders() == ClientRenders::Fovea) return false;
     VkExtent2D screen{};

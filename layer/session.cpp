@@ -6,6 +6,7 @@
 #include "content_snapshot.h"
 #include "descriptor_set.h"
 #include "device.h"
+#include "image.h"
 #include "instance.h"
 #include "layer_settings.h"
 #include "log.h"
@@ -121,7 +122,7 @@ void Session::adopt_locked(AgentLink &&agent) {
         if (!stats_) stats_ = std::make_unique<FrameStats>(settings_.stats_path);
         // Which side renders what is decided by the first agent that accepts the split, and kept:
         // the client's screen-space targets are created for it (full size in the swapped split).
-        if (!splitting_.exchange(true) && settings_.client_renders == ClientRenders::Fovea) {
+        if (!splitting_.exchange(true) && asks_swapped_split(settings_)) {
             if (capabilities & protocol::capability::kSwappedSplit) {
                 client_renders_.store(ClientRenders::Fovea);
                 stats_->set_client_renders_fovea(true);
@@ -179,8 +180,10 @@ std::unique_ptr<Session> Session::open(const DeviceState &device, const VkDevice
     if (!loaded.valid()) return nullptr;
     std::unique_ptr<Session> session(new Session());
     session->settings_ = loaded.settings;
-    if (loaded.settings.fovea.automatic)
+    if (loaded.settings.fovea.automatic) {
         session->auto_fovea_ = std::make_unique<AutoFovea>(loaded.settings.fovea, loaded.settings.max_mbps);
+        session->payoff_ = std::make_unique<SplitPayoff>();
+    }
     session->address_ = loaded.settings.server.host + ":" + std::to_string(loaded.settings.server.port);
     session->device_id_ = codec::handle_value(device.handle);
     session->uploads_ = std::make_unique<UploadPool>(device);
@@ -415,6 +418,90 @@ double Session::frame_interval_ms() {
                           : std::chrono::duration<double, std::milli>(now - last_present_).count();
     last_present_ = now;
     return ms;
+}
+
+namespace {
+
+// Presents the application may make after its present was answered VK_ERROR_OUT_OF_DATE_KHR before
+// the layer concludes it will not recreate its swapchain.
+constexpr uint32_t kSwitchPatience = 30;
+
+SplitPayoff::Mode payoff_mode(bool passing_through) {
+    return passing_through ? SplitPayoff::Mode::PassThrough : SplitPayoff::Mode::Split;
+}
+
+size_t scaled_targets_alive(const DeviceState &device) {
+    size_t scaled = 0;
+    for_each_image(device, [&](VkImage, const ImageState &image) { scaled += image.screen_space; });
+    return scaled;
+}
+
+} // namespace
+
+void Session::observe_payoff(const DeviceState &device, double frame_ms) {
+    if (!payoff_ || client_renders() == ClientRenders::Fovea) return;
+    std::lock_guard lock(payoff_mutex_);
+    if (payoff_->settled()) return;
+    const bool through = passing_through();
+    if (std::exchange(check_kept_targets_, false)) {
+        // Targets made scaled for the split and still alive would be drawn at the periphery's size
+        // and read by passes that are not scaled any more: such an application cannot pass through.
+        if (const size_t kept = scaled_targets_alive(device)) {
+            SPLITVK_WARN("SPLITVK_FOVEA=auto: the application kept %zu screen-space target(s) made for the "
+                         "split through its swapchain's recreation, so its frames cannot pass through; the "
+                         "split stays on",
+                         kept);
+            payoff_->settle(SplitPayoff::Mode::Split);
+            wanted_pass_through_ = false;
+            passing_through_.store(false);
+            payoff_out_of_date_.store(true); // recorded unscaled since the switch: record again
+            return;
+        }
+    }
+    if (wanted_pass_through_ != through) {
+        if (++presents_since_switch_ > kSwitchPatience) {
+            SPLITVK_WARN(
+                "SPLITVK_FOVEA=auto: the application did not recreate its swapchain when its present "
+                "was answered VK_ERROR_OUT_OF_DATE_KHR; its frames stay %s",
+                through ? "passed through" : "split");
+            payoff_->settle(payoff_mode(through));
+            wanted_pass_through_ = through;
+        }
+        return;
+    }
+    const auto decided = payoff_->observe(payoff_mode(through), frame_ms);
+    if (!decided) return;
+    const bool to_pass_through = decided->to == SplitPayoff::Mode::PassThrough;
+    const bool switching = to_pass_through != through;
+    if (decided->probe) {
+        SPLITVK_INFO(
+            "SPLITVK_FOVEA=auto: frames take %.1f ms %s; measuring them %s (the application's present "
+            "answers VK_ERROR_OUT_OF_DATE_KHR once)",
+            through ? decided->native_ms : decided->split_ms, through ? "passed through" : "split",
+            to_pass_through ? "passed through" : "split");
+    } else if (to_pass_through) {
+        SPLITVK_INFO("SPLITVK_FOVEA=auto: the split does not pay here (%.1f ms a frame split, %.1f ms passed "
+                     "through): frames pass through, and the split is measured again now and then",
+                     decided->split_ms, decided->native_ms);
+    } else {
+        SPLITVK_INFO("SPLITVK_FOVEA=auto: the split pays (%.1f ms a frame split, %.1f ms passed through): "
+                     "frames are split",
+                     decided->split_ms, decided->native_ms);
+    }
+    if (!switching) return;
+    wanted_pass_through_ = to_pass_through;
+    presents_since_switch_ = 0;
+    payoff_out_of_date_.store(true);
+}
+
+void Session::swapchain_recreated() {
+    if (!payoff_) return;
+    std::lock_guard lock(payoff_mutex_);
+    if (wanted_pass_through_ == passing_through()) return;
+    passing_through_.store(wanted_pass_through_);
+    check_kept_targets_ = wanted_pass_through_;
+    SPLITVK_INFO(wanted_pass_through_ ? "SPLITVK_FOVEA=auto: frames pass through from this swapchain on"
+                                      : "SPLITVK_FOVEA=auto: frames are split from this swapchain on");
 }
 
 void Session::run_receiver() {

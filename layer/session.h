@@ -32,6 +32,7 @@
 #include "live_state_log.h"
 #include "metadata.h" // the metadata messages
 #include "physical_device.h"
+#include "split_payoff.h"
 #include "stats.h"
 #include "tile_stream.h"
 #include "transport.h"
@@ -111,6 +112,24 @@ public:
     FrameSizing size_frame(int64_t xr_frame, double frame_ms);
     // Milliseconds since the previous call (0 the first time): present-to-present frame time.
     double frame_interval_ms();
+
+    // SPLITVK_FOVEA=auto where the split does not pay (split_payoff.h): the device then creates its
+    // targets and records its passes as if it did not split (split_recording(), split.h), and its
+    // frames go to the screen as drawn, with no tiles asked for. A switch either way is asked for by
+    // answering the application's present with VK_ERROR_OUT_OF_DATE_KHR (take_payoff_out_of_date()),
+    // and takes effect when it recreates its swapchain (swapchain_recreated()): its targets are made
+    // again, and its command buffers recorded, for the new mode.
+    bool passing_through() const { return passing_through_.load(std::memory_order_relaxed); }
+    // Whether the application's presents are timed for it (observe_payoff()).
+    bool judges_payoff() const { return payoff_ != nullptr; }
+    // A window's present on the application's thread (not an OpenXR eye image: a runtime's swapchain
+    // is never recreated on request), with its time since the previous one.
+    void observe_payoff(const DeviceState &device, double frame_ms);
+    // vkCreateSwapchainKHR: a switch asked for takes effect.
+    void swapchain_recreated();
+    // A switch was asked for since the last call: the application's present answers
+    // VK_ERROR_OUT_OF_DATE_KHR. True once per switch.
+    bool take_payoff_out_of_date() { return payoff_out_of_date_.exchange(false); }
     codec::EncodeHooks *hooks() { return &hooks_; }
     uint64_t device_id() const { return device_id_; }
 
@@ -294,7 +313,14 @@ private:
     std::unique_ptr<TileStream> tiles_;
     std::unique_ptr<FrameStats> stats_;
     std::unique_ptr<AutoFovea> auto_fovea_;
-    std::mutex sizing_mutex_; // the OpenXR frame being sized, below
+    std::atomic<bool> passing_through_{false}; // passing_through()
+    std::atomic<bool> payoff_out_of_date_{false};
+    std::mutex payoff_mutex_; // what follows: presents may come from several threads
+    std::unique_ptr<SplitPayoff> payoff_;
+    bool wanted_pass_through_ = false; // the switch asked for, until the application follows it
+    uint32_t presents_since_switch_ = 0;
+    bool check_kept_targets_ = false; // at the first present after switching to pass through
+    std::mutex sizing_mutex_;         // the OpenXR frame being sized, below
     int64_t sized_xr_frame_ = -1;
     split::FrameFoveaSize xr_frame_size_;
     std::chrono::steady_clock::time_point xr_frame_start_{};

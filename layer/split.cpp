@@ -21,6 +21,10 @@ bool split_enabled(const DeviceState &device) {
     return device.session != nullptr && device.session->splitting();
 }
 
+bool split_recording(const DeviceState &device) {
+    return split_enabled(device) && !device.session->passing_through();
+}
+
 bool split_cutting(const DeviceState &device) {
     if (!split_enabled(device) || !device.session->cutting()) return false;
     if (!scaled_targets_created(device)) return true;

@@ -47,6 +47,11 @@ SplitFrame take_split_frame(DeviceState &device, VkImage image, EyeMode eyes, co
 // split (Session::splitting(); under SPLITVK_VERIFY only the swapped split, whose agent renders
 // whole frames to compare with: the paper's split makes every pixel differ on purpose).
 bool split_enabled(const DeviceState &device);
+// Whether passes recorded and targets created now are split: split_enabled, and the session not
+// passing its frames through (SPLITVK_FOVEA=auto where the split does not pay: Session::
+// passing_through()). Submits and presents go by split_enabled: a command buffer recorded split
+// before the switch still draws scaled, and its frame is still composited.
+bool split_recording(const DeviceState &device);
 // Whether passes recorded now are cut to the foveae rather than scaled (SPLITVK_CLIENT_RENDERS=fovea,
 // issue 21): split_enabled, the session cutting (Session::cutting(): fovea mode with a live agent),
 // and no screen-space target of the device created scaled (one made before the agent chose the mode

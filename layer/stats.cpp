@@ -72,6 +72,7 @@ void FrameStats::record(const FrameRecord &r) {
     last_ = now;
     ++frames_;
     if (r.late) ++late_;
+    if (r.passed_through) ++passed_through_;
     tile_bytes_ += r.tile_bytes + r.periphery_bytes;
     if (r.frame_ms > 0) frame_ms_.push_back(r.frame_ms);
     if (r.xr_frame >= 0 && r.xr_frame != last_xr_frame_) {
@@ -133,7 +134,10 @@ std::string FrameStats::summary() {
                   mode, static_cast<unsigned long long>(frames_), quantile(sorted, 0.5),
                   quantile(sorted, 0.75) - quantile(sorted, 0.25), mbits,
                   static_cast<unsigned long long>(late_));
-    return line;
+    std::string summary = line;
+    if (passed_through_ > 0)
+        summary += ", " + std::to_string(passed_through_) + " passed through (SPLITVK_FOVEA=auto)";
+    return summary;
 }
 
 } // namespace splitvk

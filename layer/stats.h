@@ -58,6 +58,9 @@ struct FrameRecord {
     // the agent's periphery, upsampled) against the agent's native frame, PSNR over the whole image;
     // infinite for equal images. Unset (an empty field) in every other frame.
     std::optional<double> periphery_psnr_db;
+    // SPLITVK_FOVEA=auto passed the frame through (Session::passing_through()): shown as drawn, no
+    // fovea (width 0), no tiles.
+    bool passed_through = false;
 };
 
 class FrameStats {
@@ -98,6 +101,7 @@ private:
     bool client_renders_fovea_ = false;
     uint64_t frames_ = 0;
     uint64_t late_ = 0;
+    uint64_t passed_through_ = 0;
     uint64_t tile_bytes_ = 0;
     std::chrono::steady_clock::time_point first_{};
     std::chrono::steady_clock::time_point last_{};

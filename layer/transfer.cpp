@@ -33,11 +33,11 @@ Side side_of(DeviceState &dev, VkImage image, bool destination) {
     s.image = image;
     if (is_screen_space(image)) {
         s.kind = Kind::Scaled;
-    } else if (destination && split_enabled(dev) && !(split_swapped(dev) && !split_cutting(dev)) &&
+    } else if (destination && split_recording(dev) && !(split_swapped(dev) && !split_cutting(dev)) &&
                swapchain_image_extent(image, &s.extent)) {
         s.kind = Kind::Swapchain;
         s.cut = split_cutting(dev);
-    } else if (!destination && split_enabled(dev) && swapchain_image_extent(image, &s.extent)) {
+    } else if (!destination && split_recording(dev) && swapchain_image_extent(image, &s.extent)) {
         log_unscalable_once("a copy out of a swapchain image reads what the client drew: its periphery "
                             "part is scaled into the top-left (the app's own read-back, not the display)");
     }
@@ -208,7 +208,7 @@ bool dispatch_writes_screen_space(VkCommandBuffer cb) {
 // a copy or blit rather than a pass (atrium --path compute).
 void after_transfer(DeviceState &dev, VkCommandBuffer cb, VkImage dst) {
     VkExtent2D extent{};
-    if (!split_enabled(dev) || !swapchain_image_extent(dst, &extent)) return;
+    if (!split_recording(dev) || !swapchain_image_extent(dst, &extent)) return;
     if (CommandTiming *timing = command_buffer_timing(cb)) time_split_pass_ended(dev, cb, *timing);
 }
 

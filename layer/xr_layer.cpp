@@ -29,6 +29,7 @@
 // Everything else goes straight to the next layer or the runtime. Where the Vulkan layer is not on
 // the session's device (it was disabled, or has no agent), this layer only forwards.
 
+#include "agent_link.h"
 #include "device.h"
 #include "gaze.h"
 #include "layer_settings.h"
@@ -719,6 +720,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
                 "directions");
     }
     SPLITVK_INFO("%s active in '%s'", kApiLayerName, info ? info->applicationInfo.applicationName : "?");
+    note_openxr_application();
     std::lock_guard lock(g_mutex);
     g_instances[*instance] = std::move(state);
     return result;

@@ -749,6 +749,10 @@ bool Replayer::frame_present(const protocol::FramePresent &message,
                 frame.foveae.clear();
                 frame.periphery = {};
                 frame.invalid = true;
+            } else if (message.flags & protocol::kPresentPassThrough) {
+                // The client shows the frame as it drew it: nothing to read back or encode.
+                frame.foveae.clear();
+                frame.periphery = {};
             }
             frame.first_submit = frame_first_submit_;
             frame.present = received;

@@ -46,14 +46,19 @@ periphery/native and VARIANT/split, and it ends with four lines for the first pa
   exposed-wait/frame: R  all exposed wait (the tile wait after the client's GPU had finished its
                          frame, SPLITVK_STATS' exposed_wait_ms) over all split frame time
   tile-bytes/raw: R      compressed tile bytes over raw tile bytes
-and with --client-renders fovea a fifth:
+Before the final lines, with --picture-frame N (default 30), one line per split: the picture it held
+at frame N-1, grabbed from the X server, against native's: SSIM and PSNR over the frame, and over the
+periphery alone (the foveae are exact in both splits).
+And with --client-renders fovea a fifth final line:
   swapped/native: R      the swapped split's median frame time over native's
 Timings never pass or fail."""
 import argparse
 import datetime
 import json
+import math
 import os
 import platform
+import re
 import resource
 import shlex
 import shutil
@@ -191,6 +196,10 @@ def register(subparsers):
                    help="fovea: also run each round's swapped split (split-swapped: SPLITVK_CLIENT_RENDERS=fovea, the "
                         "client renders only the foveae, the agent the periphery, lossily) and end with "
                         "swapped/native beside split/native (default: %(default)s: the paper's split alone)")
+    p.add_argument("--picture-frame", type=int, default=30, metavar="N",
+                   help="after the rounds, hold frame N-1 of native, the split and (with --client-renders fovea) the "
+                        "swapped split on screen, grab each from the X server and report SSIM and PSNR against "
+                        "native, over the frame and over the periphery; 0: none (default: %(default)s)")
     p.add_argument("--periphery-quality", default="23",
                    help="SPLITVK_PERIPHERY_QUALITY of the swapped split: x264 CRF 0-51 or lossless (default: %(default)s)")
     p.add_argument("--codec", choices=("x264", "zstd", "raw"), default="x264", help="default: %(default)s")
@@ -334,6 +343,79 @@ def check_link(args, build):
     return binary
 
 
+def stereo_foveae(width, height, fovea):
+    """The two foveae of a side-by-side window with SPLITVK_EYES=2: `fovea` (WxH, or the paper's
+    512x360 for auto) centred in each eye, as (x, y, w, h)."""
+    try:
+        fw, fh = (int(v) for v in fovea.lower().split("x"))
+    except ValueError:
+        fw, fh = 512, 360
+    eye_w = width // 2
+    fw, fh = min(fw, eye_w), min(fh, height)
+    return [(e * eye_w + (eye_w - fw) // 2, (height - fh) // 2, fw, fh) for e in (0, 1)]
+
+
+SSIM_RE = re.compile(r"SSIM .*All:([0-9.]+|inf)")
+PSNR_RE = re.compile(r"PSNR .*average:([0-9.]+|inf)")
+
+
+def picture_quality(reference, picture, foveae):
+    """SSIM and PSNR of the PNG `picture` against `reference` (ffmpeg's ssim and psnr filters), over the
+    whole frame and over the periphery alone. For the periphery both pictures get the foveae painted
+    black, so that the foveae add no error, and the error is spread over the periphery's pixels:
+    PSNR exactly (the mean squared error over the periphery is the frame's over its share of the
+    pixels), SSIM to the windows that straddle a fovea's edge (1 - SSIM over the periphery's share).
+    Both splits' foveae are exact against native, so the periphery is where they differ."""
+    def measure(boxes):
+        paint = ",".join(f"drawbox=x={x}:y={y}:w={w}:h={h}:color=black:t=fill" for x, y, w, h in boxes) or "null"
+        graph = (f"[0:v]format=rgb24,{paint},split[a1][a2];[1:v]format=rgb24,{paint},split[b1][b2];"
+                 "[a1][b1]ssim;[a2][b2]psnr")
+        r = subprocess.run(["ffmpeg", "-hide_banner", "-nostats", "-i", reference, "-i", picture,
+                            "-filter_complex", graph, "-f", "null", "-"],
+                           stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        ssim, psnr = SSIM_RE.search(r.stderr), PSNR_RE.search(r.stderr)
+        if r.returncode != 0 or not ssim or not psnr:
+            raise common.BenchError(f"ffmpeg could not compare {picture} with {reference}:\n" + common.tail(r.stderr))
+        return float(ssim.group(1)), float(psnr.group(1))
+
+    whole_ssim, whole_psnr = measure([])
+    painted_ssim, painted_psnr = measure(foveae)
+    with open(reference, "rb") as f:  # the PNG's IHDR: width and height at bytes 16..24
+        header = f.read(24)
+    pixels = int.from_bytes(header[16:20], "big") * int.from_bytes(header[20:24], "big")
+    periphery_ssim, periphery_psnr = periphery_scores(painted_ssim, painted_psnr,
+                                                      1 - sum(w * h for _, _, w, h in foveae) / pixels)
+    return {"ssim": whole_ssim, "psnr": whole_psnr, "periphery_ssim": periphery_ssim, "periphery_psnr": periphery_psnr}
+
+
+def periphery_scores(painted_ssim, painted_psnr, share):
+    """The periphery's SSIM and PSNR from the frame's, measured with the foveae painted alike in both
+    pictures, where the periphery is `share` of the pixels (see picture_quality)."""
+    psnr = painted_psnr + 10 * math.log10(share) if math.isfinite(painted_psnr) else painted_psnr
+    return 1 - (1 - painted_ssim) / share, psnr
+
+
+def grab_pictures(args, build, path, out_dir, timeout_s, held_argv, envs):
+    """--picture-frame: native, the split and the swapped split (where `envs` has one) each hold frame
+    N-1 of `path` on screen, grabbed from the X server; returns {mode: picture_quality against native}."""
+    frames = args.picture_frame
+    prefix = "" if path == "direct" else f"{path}-"
+    grabs = {}
+    for mode, env in envs.items():
+        if env is None:
+            continue
+        grabs[mode] = os.path.join(out_dir, f"{prefix}{mode}-frame{frames - 1}.png")
+        common.run_held(build, held_argv(frames), env, frames - 1, grabs[mode], args.width, args.height, out_dir,
+                        f"{prefix}{mode}-hold", timeout_s)
+    foveae = stereo_foveae(args.width, args.height, args.fovea)
+    quality = {mode: dict(picture_quality(grabs["native"], png, foveae), frame=frames - 1, png=png)
+               for mode, png in grabs.items() if mode != "native"}
+    print(f"  pictures{'' if path == 'direct' else ' ' + path} (frame {frames - 1} against native): "
+          + "   ".join(f"{mode} SSIM {q['ssim']:.4f} PSNR {q['psnr']:.2f} dB (periphery {q['periphery_ssim']:.4f}, "
+                       f"{q['periphery_psnr']:.2f} dB)" for mode, q in quality.items()), flush=True)
+    return quality
+
+
 def cpu_run(argv, env, timeout_s, frames, cpu):
     """common.run, adding the run's CPU time per frame (user + system of the app and its threads,
     start-up included, from the children's rusage) to the list `cpu`."""
@@ -373,6 +455,8 @@ def measure(args):
     for c in client_cpus + agent_cpus:
         if c not in available:
             raise common.BenchError(f"CPU {c} is not available to this process (have {cpu_text(sorted(available))})")
+    if args.picture_frame < 0 or args.picture_frame > args.frames:
+        raise common.BenchError("--picture-frame must be between 0 and --frames")
     if args.eye_size and not args.xr:
         raise common.BenchError("--eye-size goes with --xr")
     if args.xr:
@@ -525,6 +609,12 @@ def measure(args):
                     label = f" {path}" if len(args.paths) > 1 or path != "direct" else ""
                     print(f"  round {i + 1}/{args.rounds}{label}: " + "   ".join(line)
                           + f"   [{time.monotonic() - start:5.0f} s, load {os.getloadavg()[0]:.2f}]", flush=True)
+            if args.picture_frame:
+                for path in args.paths:
+                    runs[path]["pictures"] = grab_pictures(
+                        args, build, path, out_dir, timeout_s,
+                        lambda frames, p=path: argv(p, args.width, args.height, frames, os.devnull) + ["--hold"],
+                        {"native": client_env, "split": split_env, "split-swapped": variant_env.get("split-swapped")})
     machine["load_after"] = os.getloadavg()
     return summarize(args, machine, runs, (pw, ph), out_dir, time.monotonic() - start)
 
@@ -633,6 +723,7 @@ def path_summary(path, runs):
         "xr": xr_summary(runs),
         "auto": auto_summary(runs.get("variant_rows", {}).get("split-auto")),
         "swapped": swapped_summary(runs.get("variant_rows", {}).get("split-swapped")),
+        "pictures": runs.get("pictures"),
         "variant_periphery": {v: q3(g) for v, g in
                               ((v, [float(r["periphery_ms"]) for rnd in rounds for r in rnd
                                     if float(r.get("periphery_ms") or 0) > 0])
@@ -918,6 +1009,9 @@ def print_ratio_lines(res):
             n_mean, s_mean = per_path[0]["native"].get("mean"), measured["split-swapped"].get("mean")
             if n_mean and s_mean:
                 print(f"swapped/native by means: {s_mean / n_mean:.3f}")
+        for mode, q in (per_path[0].get("pictures") or {}).items():
+            print(f"picture of {mode} against native (frame {q['frame']}, from the X server): SSIM {q['ssim']:.4f}, "
+                  f"PSNR {q['psnr']:.2f} dB; periphery SSIM {q['periphery_ssim']:.4f}, PSNR {q['periphery_psnr']:.2f} dB")
         for name, t in (per_path[0].get("variant_periphery") or {}).items():
             if name == "split-swapped":
                 continue  # the swapped split's own render is in its line above, not a periphery

@@ -1,6 +1,7 @@
 """The parts of scripts/bench paper that decide what is reported: the variants table, the ratios
 and the usage errors. Timings themselves are never tested; these are the pure functions around them."""
 import argparse
+import math
 import os
 import sys
 import unittest
@@ -147,6 +148,25 @@ class Usage(unittest.TestCase):
         with self.assertRaises(argparse.ArgumentTypeError):
             paper.path_names("forward")
 
+
+
+class Pictures(unittest.TestCase):
+    def test_the_foveae_are_centred_in_each_eye(self):
+        self.assertEqual(paper.stereo_foveae(2400, 1080, "512x360"), [(344, 360, 512, 360), (1544, 360, 512, 360)])
+
+    def test_a_fovea_larger_than_the_eye_is_the_eye(self):
+        self.assertEqual(paper.stereo_foveae(400, 200, "512x360"), [(0, 0, 200, 200), (200, 0, 200, 200)])
+
+    def test_auto_compares_at_the_papers_fovea(self):
+        self.assertEqual(paper.stereo_foveae(2400, 1080, "auto:0.6x0.6"), paper.stereo_foveae(2400, 1080, "512x360"))
+
+    def test_the_periphery_carries_all_of_the_error(self):
+        # Half the pixels are foveae painted alike: the error over the periphery is twice the frame's
+        # (3 dB less PSNR), and its dissimilarity twice the frame's.
+        ssim, psnr = paper.periphery_scores(0.98, 40.0, 0.5)
+        self.assertAlmostEqual(ssim, 0.96)
+        self.assertAlmostEqual(psnr, 40.0 + 10 * math.log10(0.5))
+        self.assertEqual(paper.periphery_scores(1.0, float("inf"), 0.5), (1.0, float("inf")))
 
 if __name__ == "__main__":
     unittest.main()

@@ -2117,6 +2117,90 @@ TEST_F(Split, FoveaMaskFollowsAnAutoFoveaWithoutHoles) {
     }
 }
 
+// SPLITVK_FOVEA=auto where the split does not pay (issue 22): vkcube's frames take a couple of
+// milliseconds natively, less than the agent's path, so split frames are slower than native ones.
+// auto measures both (a present answered VK_ERROR_OUT_OF_DATE_KHR makes vkcube, which records its
+// command buffers once, recreate its swapchain and record them again in the other mode), passes the
+// frames through, and measures the split again later, which loses again. Every frame passed through
+// (a stats row with no fovea) equals native's frame of the same number, read back below splitvk and
+// validation; validation stays clean through the switches.
+TEST_F(Split, AutoPassesFramesThroughWhereTheSplitDoesNotPay) {
+    ASSERT_TRUE(find_program("vkcube", env())) << "vkcube is not installed (vulkan-tools)";
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    ASSERT_TRUE(built(SPLITVK_E2E_XR_READBACK_LAYER_DIR));
+    constexpr int kCubeFrames = 480; // the split's first hold and window, both modes probed twice
+    const auto run = [&](Env e, const std::string &name) {
+        use_bottom_layer(e, kPresentReadbackLayerName, SPLITVK_E2E_XR_READBACK_LAYER_DIR);
+        std::filesystem::create_directories(out_ / (name + "-presents"));
+        e["TEST_PRESENT_READBACK_DIR"] = (out_ / (name + "-presents")).string();
+        ProcessSpec spec;
+        spec.argv = {
+            "vkcube",         "--width", "160", "--height", "160", "--c", std::to_string(kCubeFrames),
+            "--present_mode", "0"};
+        spec.env = e;
+        spec.out_dir = out_;
+        spec.name = name;
+        return run_process(spec, 240s);
+    };
+    const ProcessResult native = run(env(), "native");
+    ASSERT_TRUE(native.ok()) << native.describe() << "\n" << tail(native.err(), 30);
+    Env e = split_env();
+    e["SPLITVK_EYES"] = "1";
+    e["SPLITVK_FOVEA"] = "auto";
+    e["SPLITVK_STATS"] = (out_ / "stats.csv").string();
+    const ProcessResult split = run(e, "split");
+    ASSERT_TRUE(split.ok()) << split.describe() << "\n" << tail(split.err(), 30);
+    const std::string &err = split.err();
+    EXPECT_GE(grep(err, "SPLITVK_FOVEA=auto: the split does not pay here").size(), 2u) << tail(err, 30);
+    EXPECT_GE(grep(err, "SPLITVK_FOVEA=auto: frames pass through from this swapchain on").size(), 2u)
+        << tail(err, 30);
+    EXPECT_GE(grep(err, "SPLITVK_FOVEA=auto: frames are split from this swapchain on").size(), 1u)
+        << tail(err, 30);
+    EXPECT_TRUE(grep(err, "cannot pass through").empty()) << tail(err, 30);
+    EXPECT_FALSE(grep(err, "passed through (SPLITVK_FOVEA=auto)").empty()) << tail(err, 30);
+
+    // Frames passed through: no fovea, no tiles. The split's frames come before and between them.
+    std::set<int> passed, split_frames;
+    for (const auto &row : stats_rows(read_file(out_ / "stats.csv"))) {
+        const int frame = static_cast<int>(row.at("frame"));
+        if (row.at("fovea_w") == 0) {
+            EXPECT_EQ(row.at("tile_bytes"), 0) << "frame " << frame;
+            passed.insert(frame);
+        } else {
+            split_frames.insert(frame);
+        }
+    }
+    ASSERT_FALSE(passed.empty());
+    ASSERT_FALSE(split_frames.empty());
+    EXPECT_LT(*split_frames.begin(), *passed.begin()) << "the split is measured first";
+    EXPECT_GT(*split_frames.rbegin(), *passed.begin()) << "the split was never measured again";
+    const auto native_presents = present_readbacks(out_ / "native-presents");
+    const auto split_presents = present_readbacks(out_ / "split-presents");
+    int compared = 0, differ = 0;
+    for (const int n : passed) {
+        const auto a = native_presents.find(n), b = split_presents.find(n);
+        ASSERT_NE(a, native_presents.end()) << "native has no present " << n;
+        ASSERT_NE(b, split_presents.end()) << "the split run has no present " << n;
+        Image x, y;
+        ASSERT_TRUE(load_present(a->second, &x)) << a->second;
+        ASSERT_TRUE(load_present(b->second, &y)) << b->second;
+        ++compared;
+        const auto same = compare_exact(x, y);
+        if (!same.equal() && ++differ <= 3)
+            ADD_FAILURE() << "present " << n << ", passed through, differs from native: " << same.summary()
+                          << "\n"
+                          << save_mismatch_artefacts(out_, "present-" + std::to_string(n), x, y);
+    }
+    std::cout << "  " << passed.size() << " of " << passed.size() + split_frames.size()
+              << " frames passed through, " << compared << " compared with native, " << differ << " differ\n";
+    EXPECT_EQ(differ, 0);
+    expect_clean_validation();
+    if (!HasFailure()) {
+        std::filesystem::remove_all(out_ / "native-presents");
+        std::filesystem::remove_all(out_ / "split-presents");
+    }
+}
+
 // SPLITVK_GAZE=fifo:PATH (issue 22): the foveae follow gaze points written into a named pipe. The
 // script's points are multiples of 1/8, so the fovea each gives is computed from the definition
 // (fovea.h: fovea_at_gaze), not from splitvk's code.

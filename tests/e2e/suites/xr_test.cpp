@@ -786,6 +786,33 @@ TEST_F(XrAtrium, MultiviewLayersFoveaeExactAgainstNative) {
         "native", "skewed", true, [&](int eye) { return fovea_at_view(kSkewedFov[eye], 192, 160); }, true);
 }
 
+// SPLITVK_CLIENT_RENDERS=fovea in an OpenXR application (issue 21): the client does not cut a runtime's
+// eye images yet, so it does not ask for the swapped split. One warning, and the eye images are split
+// the paper's way, each layer's fovea exact against native. Asking for it used to leave them whole
+// and unsplit, with a warning blaming the application's passes.
+TEST_F(XrAtrium, SwappedSplitAskedForSplitsTheEyeImagesThePapersWay) {
+    const auto native = run_atrium(atrium_native_env("native"), "native", {"--multiview"});
+    ASSERT_TRUE(native.ok()) << native.describe() << "\n" << tail(native.err(), 30);
+    Agent agent;
+    ASSERT_TRUE(agent.start(clean_env(), out_)) << agent.error();
+    Env e = atrium_split_env("split", agent);
+    e["SPLITVK_CLIENT_RENDERS"] = "fovea";
+    const auto split = run_atrium(e, "split", {"--multiview"});
+    ASSERT_TRUE(split.ok()) << split.describe() << "\n" << tail(split.err(), 30);
+    const std::string &err = split.err();
+    EXPECT_EQ(
+        grep(err, "SPLITVK_CLIENT_RENDERS=fovea: the client does not cut an OpenXR runtime's eye images yet")
+            .size(),
+        1u)
+        << tail(err, 30);
+    EXPECT_TRUE(grep(err, "cannot render the periphery").empty()) << tail(err, 30);
+    EXPECT_TRUE(grep(err, "none split").empty()) << tail(err, 30);
+    EXPECT_TRUE(grep(err, "[splitvk] error:").empty()) << tail(err, 30);
+    const Rect centred = default_foveae(192, 160, 1)[0];
+    expect_both_eyes_split(
+        "native", "split", true, [&](int) { return centred; }, false);
+}
+
 // SPLITVK_GAZE=fifo:PATH under OpenXR (issue 22): the pipe's left and right points place the foveae
 // of the application's views 0 and 1, in a swapchain per eye and in one layered swapchain drawn with
 // multiview, exact against native at the gaze and not at the centre. A regular file stands in for
