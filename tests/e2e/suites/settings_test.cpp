@@ -115,6 +115,7 @@ const std::map<std::string, std::string> &bad_values() {
         {"CLIENT_RENDERS", "both"},    // periphery or fovea
         {"PERIPHERY_QUALITY", "52"},   // CRF 0 to 51
         {"CLIENT_GUARD", "guard:x"},   // guard:N or full
+        {"SEAM", "feather:-1"},        // hard or feather:N
         {"GAZE", "pipe:/tmp/gaze"},    // not a gaze source
         {"CODEC", "h265"},             // not a codec splitvk has
         {"TILE_WAIT", "0"},            // 1 to 60000

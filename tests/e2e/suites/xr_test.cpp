@@ -471,26 +471,12 @@ TEST_F(XrAtrium, PerEyeFoveaeExactAgainstNativeFrameByFrame) {
     // SPLITVK_STATS has a row per released eye image: xr_frame groups a frame's two rows, xr_view says
     // which eye each is (-1 before the first xrEndFrame named the swapchains), and the summary counts
     // OpenXR frames.
-    const auto lines = split_lines(read_file(out_ / "split" / "stats.csv"));
-    ASSERT_FALSE(lines.empty());
-    std::vector<std::string> names;
-    std::stringstream header(lines[0]);
-    for (std::string f; std::getline(header, f, ',');)
-        names.push_back(f);
-    const auto column = [&](const std::string &name) {
-        return static_cast<size_t>(std::find(names.begin(), names.end(), name) - names.begin());
-    };
-    const size_t xr_frame = column("xr_frame"), xr_view = column("xr_view");
-    ASSERT_LT(xr_frame, names.size()) << lines[0];
-    ASSERT_LT(xr_view, names.size()) << lines[0];
     std::map<int, std::multiset<int>> views_by_frame;
-    for (size_t i = 1; i < lines.size(); ++i) {
-        std::vector<std::string> fields;
-        std::stringstream row(lines[i]);
-        for (std::string f; std::getline(row, f, ',');)
-            fields.push_back(f);
-        if (fields.size() != names.size()) continue;
-        views_by_frame[std::stoi(fields[xr_frame])].insert(std::stoi(fields[xr_view]));
+    const auto rows = stats_rows(read_file(out_ / "split" / "stats.csv"));
+    ASSERT_FALSE(rows.empty());
+    for (const auto &row : rows) {
+        ASSERT_TRUE(row.count("xr_frame") && row.count("xr_view")) << "no xr_frame or xr_view column";
+        views_by_frame[static_cast<int>(row.at("xr_frame"))].insert(static_cast<int>(row.at("xr_view")));
     }
     ASSERT_EQ(views_by_frame.size(), static_cast<size_t>(kFrames));
     // One after the other (atrium ends a frame it does not render before its first: that one has no
