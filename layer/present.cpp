@@ -993,7 +993,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
     if (passing_through) message.flags |= protocol::kPresentPassThrough;
     const double frame_ms = split.split || session.judges_payoff() ? session.frame_interval_ms() : 0;
     // May decide a switch, which this present's answer asks the application to follow.
-    if (session.splitting()) session.observe_payoff(dev, frame_ms);
+    if (session.splitting()) session.observe_payoff(dev, frame_ms, message.fovea_size);
     const bool drawn_split = split.split;
     // The present thread's case (see the top of this file); everything else happens here, after
     // the thread's frames, with the queue this thread's for the rest of the call.

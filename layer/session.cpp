@@ -438,7 +438,8 @@ size_t scaled_targets_alive(const DeviceState &device) {
 
 } // namespace
 
-void Session::observe_payoff(const DeviceState &device, double frame_ms) {
+void Session::observe_payoff(const DeviceState &device, double frame_ms,
+                             const split::FrameFoveaSize &fovea_size) {
     if (!payoff_ || client_renders() == ClientRenders::Fovea) return;
     std::lock_guard lock(payoff_mutex_);
     if (payoff_->settled()) return;
@@ -469,7 +470,8 @@ void Session::observe_payoff(const DeviceState &device, double frame_ms) {
         }
         return;
     }
-    const auto decided = payoff_->observe(payoff_mode(through), frame_ms);
+    const bool steady = fovea_size == std::exchange(payoff_fovea_size_, fovea_size);
+    const auto decided = payoff_->observe(payoff_mode(through), frame_ms, steady);
     if (!decided) return;
     const bool to_pass_through = decided->to == SplitPayoff::Mode::PassThrough;
     const bool switching = to_pass_through != through;

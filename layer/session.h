@@ -124,7 +124,8 @@ public:
     bool judges_payoff() const { return payoff_ != nullptr; }
     // A window's present on the application's thread (not an OpenXR eye image: a runtime's swapchain
     // is never recreated on request), with its time since the previous one.
-    void observe_payoff(const DeviceState &device, double frame_ms);
+    // `fovea_size`: the size the present's frame asked for.
+    void observe_payoff(const DeviceState &device, double frame_ms, const split::FrameFoveaSize &fovea_size);
     // vkCreateSwapchainKHR: a switch asked for takes effect.
     void swapchain_recreated();
     // A switch was asked for since the last call: the application's present answers
@@ -319,8 +320,9 @@ private:
     std::unique_ptr<SplitPayoff> payoff_;
     bool wanted_pass_through_ = false; // the switch asked for, until the application follows it
     uint32_t presents_since_switch_ = 0;
-    bool check_kept_targets_ = false; // at the first present after switching to pass through
-    std::mutex sizing_mutex_;         // the OpenXR frame being sized, below
+    split::FrameFoveaSize payoff_fovea_size_; // the previous present's
+    bool check_kept_targets_ = false;         // at the first present after switching to pass through
+    std::mutex sizing_mutex_;                 // the OpenXR frame being sized, below
     int64_t sized_xr_frame_ = -1;
     split::FrameFoveaSize xr_frame_size_;
     std::chrono::steady_clock::time_point xr_frame_start_{};

@@ -35,7 +35,7 @@ void SplitPayoff::settle(Mode mode) {
     mode_ = mode;
 }
 
-std::optional<SplitPayoff::Switch> SplitPayoff::observe(Mode mode, double frame_ms) {
+std::optional<SplitPayoff::Switch> SplitPayoff::observe(Mode mode, double frame_ms, bool steady) {
     if (settled_) return std::nullopt;
     // The switch asked for has not been followed yet; presents of the mode it left say nothing.
     if (mode != wanted_) return std::nullopt;
@@ -45,6 +45,10 @@ std::optional<SplitPayoff::Switch> SplitPayoff::observe(Mode mode, double frame_
         window_.clear();
     }
     if (++presents_ <= kSkip + hold_ || frame_ms <= 0) return std::nullopt;
+    if (!steady) {
+        window_.clear();
+        return std::nullopt;
+    }
     window_.push_back(frame_ms);
     if (window_.size() < kWindow) return std::nullopt;
     measured_[index(mode)] = median(window_);

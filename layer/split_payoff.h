@@ -18,7 +18,7 @@
 //     kLongestHold), so the loser is probed ever more rarely;
 //   - the stint was a hold: probe the other mode.
 // The first stint is the split's, held kFirstHold presents so that the fovea's own sizing settles
-// before it is measured.
+// before it is measured; a window in which the fovea's size changed is not measured either.
 //
 // A switch takes effect only once the application follows it (it recreates its swapchain, session.h);
 // presents of the other mode until then are not counted. Not thread-safe: the application's present
@@ -40,10 +40,12 @@ public:
         bool probe = false;   // to measure the other mode, not a verdict
     };
 
-    // One present's time since the previous one, presented in `mode`. Returns what it decides, when it
-    // decides: a probe of the other mode, or after a probe the faster mode (`mode` itself when the
-    // probe won).
-    std::optional<Switch> observe(Mode mode, double frame_ms);
+    // One present's time since the previous one, presented in `mode`. `steady`: the fovea's size is
+    // the previous present's (SPLITVK_FOVEA=auto's own sizing moves it while it settles, and a
+    // split's frame time with it): a window is measured at one size, and one the size changed in
+    // starts again. Returns what it decides, when it decides: a probe of the other mode, or after a
+    // probe the faster mode (`mode` itself when the probe won).
+    std::optional<Switch> observe(Mode mode, double frame_ms, bool steady = true);
     // The mode the presents should be in.
     Mode wanted() const { return wanted_; }
     // The application cannot follow a switch: stay in `mode` for good.

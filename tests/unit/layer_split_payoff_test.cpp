@@ -129,6 +129,25 @@ TEST(SplitPayoff, TheMedianIgnoresAStall) {
     EXPECT_EQ(d->to, Mode::PassThrough);
 }
 
+TEST(SplitPayoff, AWindowInWhichTheFoveaMovedIsMeasuredAgain) {
+    // auto's own sizing grows the fovea while the split's first stint runs, and the split's frame time
+    // falls with it: only a window at one size counts.
+    SplitPayoff payoff;
+    uint32_t presents = 0;
+    for (; presents < SplitPayoff::kSkip + SplitPayoff::kFirstHold + SplitPayoff::kWindow - 1; ++presents)
+        ASSERT_FALSE(payoff.observe(Mode::Split, 9).has_value());
+    EXPECT_FALSE(payoff.observe(Mode::Split, 9, /*steady=*/false).has_value()) << "the window starts again";
+    std::optional<SplitPayoff::Switch> d;
+    uint32_t after = 0;
+    while (!d && after < 1000) {
+        ++after;
+        d = payoff.observe(Mode::Split, 3);
+    }
+    ASSERT_TRUE(d.has_value());
+    EXPECT_EQ(after, SplitPayoff::kWindow);
+    EXPECT_DOUBLE_EQ(d->split_ms, 3) << "measured at the settled size only";
+}
+
 TEST(SplitPayoff, SettledDecidesNothingMore) {
     SplitPayoff payoff;
     payoff.settle(Mode::Split);
