@@ -72,6 +72,16 @@ struct PeripheryImage {
     std::vector<FoveaTile> parts;
 };
 
+// An image the compositor makes for itself (a slot's periphery and seam copies, the swapped
+// split's latest periphery): device-local memory, and a view where a draw samples it; all null and
+// `extent` {} when there is none.
+struct CompositorImage {
+    VkImage image = VK_NULL_HANDLE;
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    VkImageView view = VK_NULL_HANDLE;
+    VkExtent2D extent{};
+};
+
 // The periphery filter, a specialisation constant of shaders/upsample.frag.
 // BilinearBlit is no shader's: the upsample is a vkCmdBlitImage with a linear filter (bilinear
 // too), where the format allows it (else Bilinear).
@@ -259,9 +269,7 @@ private:
     // composite_periphery(): the agent's latest periphery (TRANSFER_SRC|DST, the swapchain's
     // format, exactly its size), under mutex_. Its layout is the one the last submitted composite
     // left it in; `latest_filled_` once a composite uploaded into it.
-    VkImage latest_ = VK_NULL_HANDLE;
-    VkDeviceMemory latest_memory_ = VK_NULL_HANDLE;
-    VkExtent2D latest_extent_{};
+    CompositorImage latest_;
     VkImageLayout latest_layout_ = VK_IMAGE_LAYOUT_UNDEFINED;
     bool latest_filled_ = false;
 };
