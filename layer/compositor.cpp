@@ -203,6 +203,20 @@ bool create_compositor_image(const DeviceState &device, VkFormat format, VkExten
     return true;
 }
 
+// `view` as what a set of set_layout_ samples (its one binding, the sampler immutable), read in
+// SHADER_READ_ONLY_OPTIMAL.
+void write_sampled_view(const DeviceState &device, VkDescriptorSet set, VkImageView view) {
+    VkDescriptorImageInfo image{VK_NULL_HANDLE, view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+    VkWriteDescriptorSet write{};
+    write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+    write.dstSet = set;
+    write.dstBinding = 0;
+    write.descriptorCount = 1;
+    write.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+    write.pImageInfo = &image;
+    device.dispatch.UpdateDescriptorSets(device.handle, 1, &write, 0, nullptr);
+}
+
 } // namespace
 
 std::vector<VkRect2D> periphery_bands(VkExtent2D image, std::span<const VkBufferImageCopy> tiles) {
@@ -698,17 +712,7 @@ bool Compositor::ensure_periphery_image(Slot &s, VkExtent2D periphery, std::stri
                                      VK_IMAGE_USAGE_SAMPLED_BIT,
                                  /*with_view=*/true, "the periphery image", s.periphery, error))
         return false;
-    const VkDevice d = device_.handle;
-    const auto &k = device_.dispatch;
-    VkDescriptorImageInfo image{VK_NULL_HANDLE, s.periphery.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-    VkWriteDescriptorSet write{};
-    write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-    write.dstSet = s.set;
-    write.dstBinding = 0;
-    write.descriptorCount = 1;
-    write.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-    write.pImageInfo = &image;
-    k.UpdateDescriptorSets(d, 1, &write, 0, nullptr);
+    write_sampled_view(device_, s.set, s.periphery.view);
     return true;
 }
 
@@ -1174,17 +1178,7 @@ bool Compositor::ensure_seam_image(Slot &s, VkExtent2D extent, std::string *erro
                                  VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
                                  /*with_view=*/true, "the image the seams are saved in", s.seam, error))
         return false;
-    const VkDevice d = device_.handle;
-    const auto &k = device_.dispatch;
-    VkDescriptorImageInfo image{VK_NULL_HANDLE, s.seam.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-    VkWriteDescriptorSet write{};
-    write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-    write.dstSet = s.seam_set;
-    write.dstBinding = 0;
-    write.descriptorCount = 1;
-    write.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-    write.pImageInfo = &image;
-    k.UpdateDescriptorSets(d, 1, &write, 0, nullptr);
+    write_sampled_view(device_, s.seam_set, s.seam.view);
     return true;
 }
 
