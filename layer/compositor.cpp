@@ -203,6 +203,23 @@ bool create_compositor_image(const DeviceState &device, VkFormat format, VkExten
     return true;
 }
 
+// The layout of a draw that samples one set of `set_layout` and takes `push_size` bytes of push
+// constants in its fragment shader; false with `out` null.
+bool create_draw_layout(const DeviceState &device, VkDescriptorSetLayout set_layout, uint32_t push_size,
+                        VkPipelineLayout *out) {
+    VkPushConstantRange push{VK_SHADER_STAGE_FRAGMENT_BIT, 0, push_size};
+    VkPipelineLayoutCreateInfo layout_info{};
+    layout_info.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+    layout_info.setLayoutCount = 1;
+    layout_info.pSetLayouts = &set_layout;
+    layout_info.pushConstantRangeCount = 1;
+    layout_info.pPushConstantRanges = &push;
+    if (device.dispatch.CreatePipelineLayout(device.handle, &layout_info, nullptr, out) == VK_SUCCESS)
+        return true;
+    *out = VK_NULL_HANDLE;
+    return false;
+}
+
 // `view` as what a set of set_layout_ samples (its one binding, the sampler immutable), read in
 // SHADER_READ_ONLY_OPTIMAL.
 void write_sampled_view(const DeviceState &device, VkDescriptorSet set, VkImageView view) {
@@ -447,14 +464,7 @@ bool Compositor::init(std::string *error) {
     if (k.CreateDescriptorPool(d, &descriptor_pool_info, nullptr, &descriptor_pool_) != VK_SUCCESS)
         return fail("descriptor pool");
 
-    VkPushConstantRange push{VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(PushConstants)};
-    VkPipelineLayoutCreateInfo layout_info{};
-    layout_info.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
-    layout_info.setLayoutCount = 1;
-    layout_info.pSetLayouts = &set_layout_;
-    layout_info.pushConstantRangeCount = 1;
-    layout_info.pPushConstantRanges = &push;
-    if (k.CreatePipelineLayout(d, &layout_info, nullptr, &pipeline_layout_) != VK_SUCCESS)
+    if (!create_draw_layout(device_, set_layout_, sizeof(PushConstants), &pipeline_layout_))
         return fail("pipeline layout");
 
     // The draw overwrites every pixel, so the old contents need not be loaded. The layout stays
@@ -591,17 +601,7 @@ void Compositor::create_feather_pipeline(VkShaderModule vert, VkRenderPassCreate
     device_.instance->dispatch.GetPhysicalDeviceFormatProperties(device_.physical_device, format_, &props);
     if (!(props.optimalTilingFeatures & VK_FORMAT_FEATURE_COLOR_ATTACHMENT_BLEND_BIT)) return;
 
-    VkPushConstantRange push{VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(FeatherPushConstants)};
-    VkPipelineLayoutCreateInfo layout_info{};
-    layout_info.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
-    layout_info.setLayoutCount = 1;
-    layout_info.pSetLayouts = &set_layout_;
-    layout_info.pushConstantRangeCount = 1;
-    layout_info.pPushConstantRanges = &push;
-    if (k.CreatePipelineLayout(d, &layout_info, nullptr, &feather_layout_) != VK_SUCCESS) {
-        feather_layout_ = VK_NULL_HANDLE;
-        return;
-    }
+    if (!create_draw_layout(device_, set_layout_, sizeof(FeatherPushConstants), &feather_layout_)) return;
     // The feather blends into what the upsample left: loaded. Otherwise the upsample's pass (its
     // dependencies name the load's read), so that the two are compatible and the slots' framebuffers
     // serve both. Around the pass, record_seams() transitions with barriers that the dependencies repeat.
