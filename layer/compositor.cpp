@@ -756,6 +756,11 @@ Compositor::~Compositor() {
     if (pool_) k.DestroyCommandPool(d, pool_, nullptr);
 }
 
+VkImageMemoryBarrier Compositor::layered_barrier(VkImage image, VkAccessFlags src, VkAccessFlags dst,
+                                                 VkImageLayout from, VkImageLayout to) const {
+    return colour_image_barrier(image, src, dst, from, to, 0, 0, layers_);
+}
+
 void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
     const auto &k = device_.dispatch;
     const VkCommandBuffer cb = s.command_buffer;
@@ -764,11 +769,6 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
                           (periphery.width != extent_.width || periphery.height != extent_.height);
     const bool has_tiles = !copy_regions_.empty();
 
-    // Every layer of the image and of the periphery copy: a layered image is composited whole.
-    const auto layered_barrier = [&](VkImage target, VkAccessFlags src, VkAccessFlags dst, VkImageLayout from,
-                                     VkImageLayout to) {
-        return colour_image_barrier(target, src, dst, from, to, 0, 0, layers_);
-    };
     k.ResetCommandBuffer(cb, 0);
     VkCommandBufferBeginInfo begin{};
     begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
@@ -823,11 +823,6 @@ void Compositor::record_upsample(Slot &s, VkImage image, VkExtent2D periphery, V
     const auto &k = device_.dispatch;
     const VkCommandBuffer cb = s.command_buffer;
     const bool has_tiles = !copy_regions_.empty();
-    // Every layer of the image and of the periphery copy: a layered image is composited whole.
-    const auto layered_barrier = [&](VkImage target, VkAccessFlags src, VkAccessFlags dst, VkImageLayout from,
-                                     VkImageLayout to) {
-        return colour_image_barrier(target, src, dst, from, to, 0, 0, layers_);
-    };
     // The periphery's writes to the image (a blit's or a draw's) before the tile copies
     // overwrite the fovea (write-after-write), or before the present.
     const auto after_periphery = [&](VkPipelineStageFlags stage, VkAccessFlags access, VkImageLayout layout) {

@@ -197,6 +197,10 @@ private:
     void read_timing(Slot &slot); // after the slot's fence: its composite's GPU time
     bool ensure_periphery_image(Slot &slot, VkExtent2D periphery, std::string *error);
     void record(Slot &slot, uint32_t image_index, VkExtent2D periphery); // periphery {} = no upsample
+    // A barrier over every layer of `image` (the swapchain's or the slot's periphery copy): a layered
+    // image is composited whole.
+    VkImageMemoryBarrier layered_barrier(VkImage image, VkAccessFlags src, VkAccessFlags dst,
+                                         VkImageLayout from, VkImageLayout to) const;
     // The upsample of `source` (`periphery` large) over the image, which is in TRANSFER_SRC_OPTIMAL
     // after transfer reads, around copy_regions_, then the image to where record_tile_copies()
     // wants it (or to the present layout when there is nothing to copy). `source_written`: it is in
