@@ -337,8 +337,8 @@ struct Compositor::Slot {
     VkDescriptorSet seam_set = VK_NULL_HANDLE;
     // Timed: the composite's two timestamps, copied by the GPU (gpu_timing.h).
     HostBuffer timing;
-    CommandTiming timestamps;     // the query pair of the recording (record())
-    bool timing_recorded = false; // by record()
+    CommandTiming timestamps;     // the query pair of the recording (begin_recording())
+    bool timing_recorded = false; // by end_recording()
     bool timing_pending = false;  // submitted, not read yet
     // take_waits(): the empty submit that stands in for the application's semaphores.
     VkSemaphore taken = VK_NULL_HANDLE;
@@ -761,14 +761,9 @@ VkImageMemoryBarrier Compositor::layered_barrier(VkImage image, VkAccessFlags sr
     return colour_image_barrier(image, src, dst, from, to, 0, 0, layers_);
 }
 
-void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
+void Compositor::begin_recording(Slot &s) {
     const auto &k = device_.dispatch;
     const VkCommandBuffer cb = s.command_buffer;
-    const VkImage image = images_[image_index];
-    const bool upsample = periphery.width > 0 && periphery.height > 0 &&
-                          (periphery.width != extent_.width || periphery.height != extent_.height);
-    const bool has_tiles = !copy_regions_.empty();
-
     k.ResetCommandBuffer(cb, 0);
     VkCommandBufferBeginInfo begin{};
     begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
@@ -777,6 +772,25 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
     s.timing_recorded = false;
     s.timestamps = {};
     if (timed_ && s.timing.buffer) time_composite_begin(device_, cb, s.timestamps);
+}
+
+void Compositor::end_recording(Slot &s) {
+    const VkCommandBuffer cb = s.command_buffer;
+    const auto &k = device_.dispatch;
+    if (timed_ && s.timing.buffer)
+        s.timing_recorded = time_composite_end(device_, cb, s.timestamps, s.timing.buffer);
+    k.EndCommandBuffer(cb);
+}
+
+void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
+    const auto &k = device_.dispatch;
+    const VkCommandBuffer cb = s.command_buffer;
+    const VkImage image = images_[image_index];
+    const bool upsample = periphery.width > 0 && periphery.height > 0 &&
+                          (periphery.width != extent_.width || periphery.height != extent_.height);
+    const bool has_tiles = !copy_regions_.empty();
+
+    begin_recording(s);
 
     // The submit waits on the application's semaphores at the TRANSFER stage; the first barrier's
     // source stage is TRANSFER too, so its layout transition happens after that wait (a semaphore
@@ -813,9 +827,7 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
     }
 
     record_tile_copies(s, image);
-    if (timed_ && s.timing.buffer)
-        s.timing_recorded = time_composite_end(device_, cb, s.timestamps, s.timing.buffer);
-    k.EndCommandBuffer(cb);
+    end_recording(s);
 }
 
 void Compositor::record_upsample(Slot &s, VkImage image, VkExtent2D periphery, VkImage source,
@@ -1297,14 +1309,7 @@ void Compositor::record_periphery(Slot &s, uint32_t image_index, std::span<const
     const VkImage image = images_[image_index];
     const bool has_foveae = !copy_regions_.empty();
     const bool upload = !parts.empty();
-    k.ResetCommandBuffer(cb, 0);
-    VkCommandBufferBeginInfo begin{};
-    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
-    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-    k.BeginCommandBuffer(cb, &begin);
-    s.timing_recorded = false;
-    s.timestamps = {};
-    if (timed_ && s.timing.buffer) time_composite_begin(device_, cb, s.timestamps);
+    begin_recording(s);
 
     // (1) The image to TRANSFER_SRC after the application's semaphores (waited on at TRANSFER, as in
     // record()); the latest periphery to TRANSFER_DST for the upload, keeping its contents (parts
@@ -1396,9 +1401,7 @@ void Compositor::record_periphery(Slot &s, uint32_t image_index, std::span<const
     // the upsample, the blend or an sRGB decode and encode left inside a fovea is overwritten by the
     // client's own bytes, so the foveae are exact whatever the seam.
     record_tile_copies(s, image);
-    if (timed_ && s.timing.buffer)
-        s.timing_recorded = time_composite_end(device_, cb, s.timestamps, s.timing.buffer);
-    k.EndCommandBuffer(cb);
+    end_recording(s);
 }
 
 void Compositor::record_seams(Slot &s, VkImage image) {

@@ -196,6 +196,10 @@ private:
     Slot *ready_slot(uint32_t image_index, bool wait_taken, VkResult *result);
     void read_timing(Slot &slot); // after the slot's fence: its composite's GPU time
     bool ensure_periphery_image(Slot &slot, VkExtent2D periphery, std::string *error);
+    // The slot's command buffer begun afresh (the idle slot's: its fence waited for), with the
+    // composite's first timestamp when timed; end_recording(): its last, and the buffer ended.
+    void begin_recording(Slot &slot);
+    void end_recording(Slot &slot);
     void record(Slot &slot, uint32_t image_index, VkExtent2D periphery); // periphery {} = no upsample
     // A barrier over every layer of `image` (the swapchain's or the slot's periphery copy): a layered
     // image is composited whole.
