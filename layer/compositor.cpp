@@ -139,6 +139,101 @@ bool allocate_device_local(const DeviceState &device, const VkMemoryRequirements
     return device.dispatch.AllocateMemory(device.handle, &info, nullptr, out) == VK_SUCCESS;
 }
 
+void destroy_compositor_image(const DeviceState &device, CompositorImage &owned) {
+    const VkDevice d = device.handle;
+    const auto &k = device.dispatch;
+    if (owned.view) k.DestroyImageView(d, owned.view, nullptr);
+    if (owned.image) k.DestroyImage(d, owned.image, nullptr);
+    if (owned.memory) k.FreeMemory(d, owned.memory, nullptr);
+    owned = {};
+}
+
+// `owned` (which nothing in flight reads any more) replaced by an `extent` image of `format` with
+// `layers` array layers, optimal tiling, in device-local memory, with a 2D view of its first layer
+// when `with_view` (the draw samples single-layer images only). False with one line in `error`
+// about `what` the image is, `owned` left empty.
+bool create_compositor_image(const DeviceState &device, VkFormat format, VkExtent2D extent, uint32_t layers,
+                             VkImageUsageFlags usage, bool with_view, const char *what,
+                             CompositorImage &owned, std::string *error) {
+    destroy_compositor_image(device, owned);
+    const VkDevice d = device.handle;
+    const auto &k = device.dispatch;
+    const auto fail = [&](const char *line) {
+        destroy_compositor_image(device, owned);
+        *error = std::string(line) + what;
+        return false;
+    };
+    VkImageCreateInfo image_info{};
+    image_info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
+    image_info.imageType = VK_IMAGE_TYPE_2D;
+    image_info.format = format;
+    image_info.extent = {extent.width, extent.height, 1};
+    image_info.mipLevels = 1;
+    image_info.arrayLayers = layers;
+    image_info.samples = VK_SAMPLE_COUNT_1_BIT;
+    image_info.tiling = VK_IMAGE_TILING_OPTIMAL;
+    image_info.usage = usage;
+    image_info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+    image_info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    if (k.CreateImage(d, &image_info, nullptr, &owned.image) != VK_SUCCESS) {
+        owned.image = VK_NULL_HANDLE;
+        return fail("cannot create ");
+    }
+    VkMemoryRequirements req{};
+    k.GetImageMemoryRequirements(d, owned.image, &req);
+    if (!allocate_device_local(device, req, &owned.memory)) {
+        owned.memory = VK_NULL_HANDLE;
+        return fail("cannot allocate the memory of ");
+    }
+    if (k.BindImageMemory(d, owned.image, owned.memory, 0) != VK_SUCCESS)
+        return fail("cannot allocate the memory of ");
+    if (with_view) {
+        VkImageViewCreateInfo view_info{};
+        view_info.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO;
+        view_info.image = owned.image;
+        view_info.viewType = VK_IMAGE_VIEW_TYPE_2D;
+        view_info.format = format;
+        view_info.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+        if (k.CreateImageView(d, &view_info, nullptr, &owned.view) != VK_SUCCESS) {
+            owned.view = VK_NULL_HANDLE;
+            return fail("cannot create the view of ");
+        }
+    }
+    owned.extent = extent;
+    return true;
+}
+
+// The layout of a draw that samples one set of `set_layout` and takes `push_size` bytes of push
+// constants in its fragment shader; false with `out` null.
+bool create_draw_layout(const DeviceState &device, VkDescriptorSetLayout set_layout, uint32_t push_size,
+                        VkPipelineLayout *out) {
+    VkPushConstantRange push{VK_SHADER_STAGE_FRAGMENT_BIT, 0, push_size};
+    VkPipelineLayoutCreateInfo layout_info{};
+    layout_info.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+    layout_info.setLayoutCount = 1;
+    layout_info.pSetLayouts = &set_layout;
+    layout_info.pushConstantRangeCount = 1;
+    layout_info.pPushConstantRanges = &push;
+    if (device.dispatch.CreatePipelineLayout(device.handle, &layout_info, nullptr, out) == VK_SUCCESS)
+        return true;
+    *out = VK_NULL_HANDLE;
+    return false;
+}
+
+// `view` as what a set of set_layout_ samples (its one binding, the sampler immutable), read in
+// SHADER_READ_ONLY_OPTIMAL.
+void write_sampled_view(const DeviceState &device, VkDescriptorSet set, VkImageView view) {
+    VkDescriptorImageInfo image{VK_NULL_HANDLE, view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+    VkWriteDescriptorSet write{};
+    write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+    write.dstSet = set;
+    write.dstBinding = 0;
+    write.descriptorCount = 1;
+    write.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+    write.pImageInfo = &image;
+    device.dispatch.UpdateDescriptorSets(device.handle, 1, &write, 0, nullptr);
+}
+
 } // namespace
 
 std::vector<VkRect2D> periphery_bands(VkExtent2D image, std::span<const VkBufferImageCopy> tiles) {
@@ -228,10 +323,7 @@ struct Compositor::Slot {
     VkFramebuffer framebuffer = VK_NULL_HANDLE;
     VkDescriptorSet set = VK_NULL_HANDLE;
     // The copy of the periphery the draw samples; at least as large as the periphery.
-    VkImage periphery = VK_NULL_HANDLE;
-    VkDeviceMemory periphery_memory = VK_NULL_HANDLE;
-    VkImageView periphery_view = VK_NULL_HANDLE;
-    VkExtent2D periphery_extent{};
+    CompositorImage periphery;
     // The buffers of the tiles the slot's submit copies from: held until its fence has signalled.
     std::vector<std::shared_ptr<const void>> tiles_in_use;
     // composite_periphery(): the client's foveae, copied out of the image before the periphery is
@@ -241,15 +333,12 @@ struct Compositor::Slot {
     VkDeviceSize saved_size = 0;
     // composite_periphery() with a feather: the client's seam rectangles side by side (sampled by
     // the feather draw; TRANSFER_DST|SAMPLED, the swapchain's format), and the set that names it.
-    VkImage seam = VK_NULL_HANDLE;
-    VkDeviceMemory seam_memory = VK_NULL_HANDLE;
-    VkImageView seam_view = VK_NULL_HANDLE;
-    VkExtent2D seam_extent{};
+    CompositorImage seam;
     VkDescriptorSet seam_set = VK_NULL_HANDLE;
     // Timed: the composite's two timestamps, copied by the GPU (gpu_timing.h).
     HostBuffer timing;
-    CommandTiming timestamps;     // the query pair of the recording (record())
-    bool timing_recorded = false; // by record()
+    CommandTiming timestamps;     // the query pair of the recording (begin_recording())
+    bool timing_recorded = false; // by end_recording()
     bool timing_pending = false;  // submitted, not read yet
     // take_waits(): the empty submit that stands in for the application's semaphores.
     VkSemaphore taken = VK_NULL_HANDLE;
@@ -375,14 +464,7 @@ bool Compositor::init(std::string *error) {
     if (k.CreateDescriptorPool(d, &descriptor_pool_info, nullptr, &descriptor_pool_) != VK_SUCCESS)
         return fail("descriptor pool");
 
-    VkPushConstantRange push{VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(PushConstants)};
-    VkPipelineLayoutCreateInfo layout_info{};
-    layout_info.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
-    layout_info.setLayoutCount = 1;
-    layout_info.pSetLayouts = &set_layout_;
-    layout_info.pushConstantRangeCount = 1;
-    layout_info.pPushConstantRanges = &push;
-    if (k.CreatePipelineLayout(d, &layout_info, nullptr, &pipeline_layout_) != VK_SUCCESS)
+    if (!create_draw_layout(device_, set_layout_, sizeof(PushConstants), &pipeline_layout_))
         return fail("pipeline layout");
 
     // The draw overwrites every pixel, so the old contents need not be loaded. The layout stays
@@ -519,17 +601,7 @@ void Compositor::create_feather_pipeline(VkShaderModule vert, VkRenderPassCreate
     device_.instance->dispatch.GetPhysicalDeviceFormatProperties(device_.physical_device, format_, &props);
     if (!(props.optimalTilingFeatures & VK_FORMAT_FEATURE_COLOR_ATTACHMENT_BLEND_BIT)) return;
 
-    VkPushConstantRange push{VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(FeatherPushConstants)};
-    VkPipelineLayoutCreateInfo layout_info{};
-    layout_info.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
-    layout_info.setLayoutCount = 1;
-    layout_info.pSetLayouts = &set_layout_;
-    layout_info.pushConstantRangeCount = 1;
-    layout_info.pPushConstantRanges = &push;
-    if (k.CreatePipelineLayout(d, &layout_info, nullptr, &feather_layout_) != VK_SUCCESS) {
-        feather_layout_ = VK_NULL_HANDLE;
-        return;
-    }
+    if (!create_draw_layout(device_, set_layout_, sizeof(FeatherPushConstants), &feather_layout_)) return;
     // The feather blends into what the upsample left: loaded. Otherwise the upsample's pass (its
     // dependencies name the load's read), so that the two are compatible and the slots' framebuffers
     // serve both. Around the pass, record_seams() transitions with barriers that the dependencies repeat.
@@ -631,64 +703,16 @@ bool Compositor::init_slot(Slot &s, uint32_t image_index, std::string *error) {
 // Called only while the slot is idle (its fence waited for), so the old image can go.
 bool Compositor::ensure_periphery_image(Slot &s, VkExtent2D periphery, std::string *error) {
     // Exactly the periphery's size: the blit clamps its filter to the image's edge.
-    if (s.periphery && s.periphery_extent.width == periphery.width &&
-        s.periphery_extent.height == periphery.height)
+    if (s.periphery.image && s.periphery.extent.width == periphery.width &&
+        s.periphery.extent.height == periphery.height)
         return true;
-    const VkDevice d = device_.handle;
-    const auto &k = device_.dispatch;
-    if (s.periphery_view) k.DestroyImageView(d, s.periphery_view, nullptr);
-    if (s.periphery) k.DestroyImage(d, s.periphery, nullptr);
-    if (s.periphery_memory) k.FreeMemory(d, s.periphery_memory, nullptr);
-    s.periphery_view = VK_NULL_HANDLE;
-    s.periphery = VK_NULL_HANDLE;
-    s.periphery_memory = VK_NULL_HANDLE;
-    s.periphery_extent = {};
-
     // The swapchain's format: the copy moves bytes, and sampling an sRGB image decodes them.
-    VkImageCreateInfo image_info{};
-    image_info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
-    image_info.imageType = VK_IMAGE_TYPE_2D;
-    image_info.format = format_;
-    image_info.extent = {periphery.width, periphery.height, 1};
-    image_info.mipLevels = 1;
-    image_info.arrayLayers = layers_;
-    image_info.samples = VK_SAMPLE_COUNT_1_BIT;
-    image_info.tiling = VK_IMAGE_TILING_OPTIMAL;
-    image_info.usage =
-        VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
-    image_info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
-    image_info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    if (k.CreateImage(d, &image_info, nullptr, &s.periphery) != VK_SUCCESS) {
-        *error = "cannot create the periphery image";
+    if (!create_compositor_image(device_, format_, periphery, layers_,
+                                 VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT |
+                                     VK_IMAGE_USAGE_SAMPLED_BIT,
+                                 /*with_view=*/true, "the periphery image", s.periphery, error))
         return false;
-    }
-    VkMemoryRequirements req{};
-    k.GetImageMemoryRequirements(d, s.periphery, &req);
-    if (!allocate_device_local(device_, req, &s.periphery_memory) ||
-        k.BindImageMemory(d, s.periphery, s.periphery_memory, 0) != VK_SUCCESS) {
-        *error = "cannot allocate the periphery image's memory";
-        return false;
-    }
-    VkImageViewCreateInfo view_info{};
-    view_info.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO;
-    view_info.image = s.periphery;
-    view_info.viewType = VK_IMAGE_VIEW_TYPE_2D;
-    view_info.format = format_;
-    view_info.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-    if (k.CreateImageView(d, &view_info, nullptr, &s.periphery_view) != VK_SUCCESS) {
-        *error = "cannot create the periphery image's view";
-        return false;
-    }
-    s.periphery_extent = periphery;
-    VkDescriptorImageInfo image{VK_NULL_HANDLE, s.periphery_view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-    VkWriteDescriptorSet write{};
-    write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-    write.dstSet = s.set;
-    write.dstBinding = 0;
-    write.descriptorCount = 1;
-    write.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-    write.pImageInfo = &image;
-    k.UpdateDescriptorSets(d, 1, &write, 0, nullptr);
+    write_sampled_view(device_, s.set, s.periphery.view);
     return true;
 }
 
@@ -698,14 +722,10 @@ void Compositor::destroy_slot(Slot &s) {
     if (s.in_flight) k.WaitForFences(d, 1, &s.fence, VK_TRUE, kDestroyWaitNs);
     s.tiles_in_use.clear();
     destroy_host_buffer(device_, s.timing);
-    if (s.periphery_view) k.DestroyImageView(d, s.periphery_view, nullptr);
-    if (s.periphery) k.DestroyImage(d, s.periphery, nullptr);
-    if (s.periphery_memory) k.FreeMemory(d, s.periphery_memory, nullptr);
+    destroy_compositor_image(device_, s.periphery);
     if (s.saved) k.DestroyBuffer(d, s.saved, nullptr);
     if (s.saved_memory) k.FreeMemory(d, s.saved_memory, nullptr);
-    if (s.seam_view) k.DestroyImageView(d, s.seam_view, nullptr);
-    if (s.seam) k.DestroyImage(d, s.seam, nullptr);
-    if (s.seam_memory) k.FreeMemory(d, s.seam_memory, nullptr);
+    destroy_compositor_image(device_, s.seam);
     if (s.framebuffer) k.DestroyFramebuffer(d, s.framebuffer, nullptr);
     if (s.target_view) k.DestroyImageView(d, s.target_view, nullptr);
     if (s.semaphore) k.DestroySemaphore(d, s.semaphore, nullptr);
@@ -736,19 +756,14 @@ Compositor::~Compositor() {
     if (pool_) k.DestroyCommandPool(d, pool_, nullptr);
 }
 
-void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
+VkImageMemoryBarrier Compositor::layered_barrier(VkImage image, VkAccessFlags src, VkAccessFlags dst,
+                                                 VkImageLayout from, VkImageLayout to) const {
+    return colour_image_barrier(image, src, dst, from, to, 0, 0, layers_);
+}
+
+void Compositor::begin_recording(Slot &s) {
     const auto &k = device_.dispatch;
     const VkCommandBuffer cb = s.command_buffer;
-    const VkImage image = images_[image_index];
-    const bool upsample = periphery.width > 0 && periphery.height > 0 &&
-                          (periphery.width != extent_.width || periphery.height != extent_.height);
-    const bool has_tiles = !copy_regions_.empty();
-
-    // Every layer of the image and of the periphery copy: a layered image is composited whole.
-    const auto layered_barrier = [&](VkImage target, VkAccessFlags src, VkAccessFlags dst, VkImageLayout from,
-                                     VkImageLayout to) {
-        return colour_image_barrier(target, src, dst, from, to, 0, 0, layers_);
-    };
     k.ResetCommandBuffer(cb, 0);
     VkCommandBufferBeginInfo begin{};
     begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
@@ -757,6 +772,25 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
     s.timing_recorded = false;
     s.timestamps = {};
     if (timed_ && s.timing.buffer) time_composite_begin(device_, cb, s.timestamps);
+}
+
+void Compositor::end_recording(Slot &s) {
+    const VkCommandBuffer cb = s.command_buffer;
+    const auto &k = device_.dispatch;
+    if (timed_ && s.timing.buffer)
+        s.timing_recorded = time_composite_end(device_, cb, s.timestamps, s.timing.buffer);
+    k.EndCommandBuffer(cb);
+}
+
+void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
+    const auto &k = device_.dispatch;
+    const VkCommandBuffer cb = s.command_buffer;
+    const VkImage image = images_[image_index];
+    const bool upsample = periphery.width > 0 && periphery.height > 0 &&
+                          (periphery.width != extent_.width || periphery.height != extent_.height);
+    const bool has_tiles = !copy_regions_.empty();
+
+    begin_recording(s);
 
     // The submit waits on the application's semaphores at the TRANSFER stage; the first barrier's
     // source stage is TRANSFER too, so its layout transition happens after that wait (a semaphore
@@ -771,7 +805,7 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
             // Old contents are not needed. This slot's previous submit sampled the periphery
             // image in the fragment shader; the host waited for its fence, but the execution
             // dependency from FRAGMENT_SHADER states the write-after-read order on the queue too.
-            layered_barrier(s.periphery, 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+            layered_barrier(s.periphery.image, 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
                             VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL),
         };
         k.CmdPipelineBarrier(cb, ready_stages_ | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
@@ -780,10 +814,10 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
         copy.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, layers_};
         copy.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, layers_};
         copy.extent = {periphery.width, periphery.height, 1};
-        k.CmdCopyImage(cb, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, s.periphery,
+        k.CmdCopyImage(cb, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, s.periphery.image,
                        VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &copy);
 
-        record_upsample(s, image, periphery, s.periphery, /*source_written=*/true);
+        record_upsample(s, image, periphery, s.periphery.image, /*source_written=*/true);
     } else if (has_tiles) {
         // Tiles over what the application rendered: keep the contents (old layout, not UNDEFINED).
         VkImageMemoryBarrier b = layered_barrier(image, ready_access_, VK_ACCESS_TRANSFER_WRITE_BIT,
@@ -793,9 +827,7 @@ void Compositor::record(Slot &s, uint32_t image_index, VkExtent2D periphery) {
     }
 
     record_tile_copies(s, image);
-    if (timed_ && s.timing.buffer)
-        s.timing_recorded = time_composite_end(device_, cb, s.timestamps, s.timing.buffer);
-    k.EndCommandBuffer(cb);
+    end_recording(s);
 }
 
 void Compositor::record_upsample(Slot &s, VkImage image, VkExtent2D periphery, VkImage source,
@@ -803,11 +835,6 @@ void Compositor::record_upsample(Slot &s, VkImage image, VkExtent2D periphery, V
     const auto &k = device_.dispatch;
     const VkCommandBuffer cb = s.command_buffer;
     const bool has_tiles = !copy_regions_.empty();
-    // Every layer of the image and of the periphery copy: a layered image is composited whole.
-    const auto layered_barrier = [&](VkImage target, VkAccessFlags src, VkAccessFlags dst, VkImageLayout from,
-                                     VkImageLayout to) {
-        return colour_image_barrier(target, src, dst, from, to, 0, 0, layers_);
-    };
     // The periphery's writes to the image (a blit's or a draw's) before the tile copies
     // overwrite the fovea (write-after-write), or before the present.
     const auto after_periphery = [&](VkPipelineStageFlags stage, VkAccessFlags access, VkImageLayout layout) {
@@ -856,7 +883,7 @@ void Compositor::record_upsample(Slot &s, VkImage image, VkExtent2D periphery, V
         // copy's read of the swapchain image before the draw overwrites it (write-after-read:
         // an execution dependency, plus the transition to the attachment layout).
         VkImageMemoryBarrier to_draw[2] = {
-            layered_barrier(s.periphery, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
+            layered_barrier(s.periphery.image, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
                             VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL),
             layered_barrier(image, 0, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
                             VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL),
@@ -880,8 +907,8 @@ void Compositor::record_upsample(Slot &s, VkImage image, VkExtent2D periphery, V
         PushConstants push{};
         push.scale[0] = float(periphery.width) / float(extent_.width);
         push.scale[1] = float(periphery.height) / float(extent_.height);
-        push.texel_size[0] = 1.0f / float(s.periphery_extent.width);
-        push.texel_size[1] = 1.0f / float(s.periphery_extent.height);
+        push.texel_size[0] = 1.0f / float(s.periphery.extent.width);
+        push.texel_size[1] = 1.0f / float(s.periphery.extent.height);
         push.max_centre[0] = float(periphery.width) - 0.5f;
         push.max_centre[1] = float(periphery.height) - 0.5f;
         k.CmdPushConstants(cb, pipeline_layout_, VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
@@ -1074,19 +1101,13 @@ VkResult Compositor::submit(Slot &s, VkQueue queue, std::span<const VkSemaphore>
 // ---------------------------------------------------------------------------- the swapped split
 
 void Compositor::destroy_latest_periphery() {
-    const VkDevice d = device_.handle;
-    const auto &k = device_.dispatch;
-    if (latest_) k.DestroyImage(d, latest_, nullptr);
-    if (latest_memory_) k.FreeMemory(d, latest_memory_, nullptr);
-    latest_ = VK_NULL_HANDLE;
-    latest_memory_ = VK_NULL_HANDLE;
-    latest_extent_ = {};
+    destroy_compositor_image(device_, latest_);
     latest_layout_ = VK_IMAGE_LAYOUT_UNDEFINED;
     latest_filled_ = false;
 }
 
 bool Compositor::ensure_latest_periphery(VkExtent2D extent, std::string *error) {
-    if (latest_ && latest_extent_.width == extent.width && latest_extent_.height == extent.height)
+    if (latest_.image && latest_.extent.width == extent.width && latest_.extent.height == extent.height)
         return true;
     const VkDevice d = device_.handle;
     const auto &k = device_.dispatch;
@@ -1100,33 +1121,9 @@ bool Compositor::ensure_latest_periphery(VkExtent2D extent, std::string *error) 
         }
     destroy_latest_periphery();
     // The swapchain's format: the parts are copied in as bytes, as fovea tiles are.
-    VkImageCreateInfo image_info{};
-    image_info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
-    image_info.imageType = VK_IMAGE_TYPE_2D;
-    image_info.format = format_;
-    image_info.extent = {extent.width, extent.height, 1};
-    image_info.mipLevels = 1;
-    image_info.arrayLayers = 1;
-    image_info.samples = VK_SAMPLE_COUNT_1_BIT;
-    image_info.tiling = VK_IMAGE_TILING_OPTIMAL;
-    image_info.usage = VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
-    image_info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
-    image_info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    if (k.CreateImage(d, &image_info, nullptr, &latest_) != VK_SUCCESS) {
-        latest_ = VK_NULL_HANDLE;
-        *error = "cannot create the latest periphery's image";
-        return false;
-    }
-    VkMemoryRequirements req{};
-    k.GetImageMemoryRequirements(d, latest_, &req);
-    if (!allocate_device_local(device_, req, &latest_memory_) ||
-        k.BindImageMemory(d, latest_, latest_memory_, 0) != VK_SUCCESS) {
-        destroy_latest_periphery();
-        *error = "cannot allocate the latest periphery's memory";
-        return false;
-    }
-    latest_extent_ = extent;
-    return true;
+    return create_compositor_image(device_, format_, extent, 1,
+                                   VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                                   /*with_view=*/false, "the latest periphery's image", latest_, error);
 }
 
 // Called only while the slot is idle (its fence waited for), so the old buffer can go.
@@ -1181,62 +1178,14 @@ std::vector<VkRect2D> seam_bands(const VkRect2D &rect, const VkRect2D &fovea) {
 
 // Called only while the slot is idle (its fence waited for), so the old image can go.
 bool Compositor::ensure_seam_image(Slot &s, VkExtent2D extent, std::string *error) {
-    if (s.seam && s.seam_extent.width >= extent.width && s.seam_extent.height >= extent.height) return true;
-    const VkDevice d = device_.handle;
-    const auto &k = device_.dispatch;
-    if (s.seam_view) k.DestroyImageView(d, s.seam_view, nullptr);
-    if (s.seam) k.DestroyImage(d, s.seam, nullptr);
-    if (s.seam_memory) k.FreeMemory(d, s.seam_memory, nullptr);
-    s.seam_view = VK_NULL_HANDLE;
-    s.seam = VK_NULL_HANDLE;
-    s.seam_memory = VK_NULL_HANDLE;
-    s.seam_extent = {};
+    if (s.seam.image && s.seam.extent.width >= extent.width && s.seam.extent.height >= extent.height)
+        return true;
     // The swapchain's format: copied into as bytes, decoded (sRGB) when the feather draw reads it.
-    VkImageCreateInfo image_info{};
-    image_info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
-    image_info.imageType = VK_IMAGE_TYPE_2D;
-    image_info.format = format_;
-    image_info.extent = {extent.width, extent.height, 1};
-    image_info.mipLevels = 1;
-    image_info.arrayLayers = 1;
-    image_info.samples = VK_SAMPLE_COUNT_1_BIT;
-    image_info.tiling = VK_IMAGE_TILING_OPTIMAL;
-    image_info.usage = VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
-    image_info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
-    image_info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    if (k.CreateImage(d, &image_info, nullptr, &s.seam) != VK_SUCCESS) {
-        s.seam = VK_NULL_HANDLE;
-        *error = "cannot create the image the seams are saved in";
+    if (!create_compositor_image(device_, format_, extent, 1,
+                                 VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
+                                 /*with_view=*/true, "the image the seams are saved in", s.seam, error))
         return false;
-    }
-    VkMemoryRequirements req{};
-    k.GetImageMemoryRequirements(d, s.seam, &req);
-    if (!allocate_device_local(device_, req, &s.seam_memory) ||
-        k.BindImageMemory(d, s.seam, s.seam_memory, 0) != VK_SUCCESS) {
-        *error = "cannot allocate the memory the seams are saved in";
-        return false;
-    }
-    VkImageViewCreateInfo view_info{};
-    view_info.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO;
-    view_info.image = s.seam;
-    view_info.viewType = VK_IMAGE_VIEW_TYPE_2D;
-    view_info.format = format_;
-    view_info.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-    if (k.CreateImageView(d, &view_info, nullptr, &s.seam_view) != VK_SUCCESS) {
-        s.seam_view = VK_NULL_HANDLE;
-        *error = "cannot create the view of the image the seams are saved in";
-        return false;
-    }
-    s.seam_extent = extent;
-    VkDescriptorImageInfo image{VK_NULL_HANDLE, s.seam_view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-    VkWriteDescriptorSet write{};
-    write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-    write.dstSet = s.seam_set;
-    write.dstBinding = 0;
-    write.descriptorCount = 1;
-    write.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-    write.pImageInfo = &image;
-    k.UpdateDescriptorSets(d, 1, &write, 0, nullptr);
+    write_sampled_view(device_, s.seam_set, s.seam.view);
     return true;
 }
 
@@ -1260,7 +1209,7 @@ VkResult Compositor::composite_periphery(VkQueue queue, uint32_t image_index,
         SPLITVK_WARN("compositor: %s", error.c_str());
         return VK_ERROR_OUT_OF_DEVICE_MEMORY;
     }
-    if (!blit_ && !ensure_periphery_image(s, latest_extent_, &error)) {
+    if (!blit_ && !ensure_periphery_image(s, latest_.extent, &error)) {
         SPLITVK_WARN("compositor: %s", error.c_str());
         return VK_ERROR_OUT_OF_DEVICE_MEMORY;
     }
@@ -1328,7 +1277,7 @@ VkResult Compositor::composite_periphery(VkQueue queue, uint32_t image_index,
     if (periphery)
         for (const FoveaTile &t : periphery->parts) {
             ClippedTile c;
-            if (!clip(t, latest_extent_, 1, &c)) continue;
+            if (!clip(t, latest_.extent, 1, &c)) continue;
             VkBufferImageCopy region{};
             region.bufferOffset =
                 t.offset +
@@ -1360,14 +1309,7 @@ void Compositor::record_periphery(Slot &s, uint32_t image_index, std::span<const
     const VkImage image = images_[image_index];
     const bool has_foveae = !copy_regions_.empty();
     const bool upload = !parts.empty();
-    k.ResetCommandBuffer(cb, 0);
-    VkCommandBufferBeginInfo begin{};
-    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
-    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-    k.BeginCommandBuffer(cb, &begin);
-    s.timing_recorded = false;
-    s.timestamps = {};
-    if (timed_ && s.timing.buffer) time_composite_begin(device_, cb, s.timestamps);
+    begin_recording(s);
 
     // (1) The image to TRANSFER_SRC after the application's semaphores (waited on at TRANSFER, as in
     // record()); the latest periphery to TRANSFER_DST for the upload, keeping its contents (parts
@@ -1380,17 +1322,17 @@ void Compositor::record_periphery(Slot &s, uint32_t image_index, std::span<const
     before[count++] = colour_image_barrier(image, ready_access_, VK_ACCESS_TRANSFER_READ_BIT, present_layout_,
                                            VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
     if (upload)
-        before[count++] = colour_image_barrier(latest_, 0, VK_ACCESS_TRANSFER_WRITE_BIT, latest_layout_,
+        before[count++] = colour_image_barrier(latest_.image, 0, VK_ACCESS_TRANSFER_WRITE_BIT, latest_layout_,
                                                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
     if (!blit_)
         before[count++] =
-            colour_image_barrier(s.periphery, 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                                 VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+            colour_image_barrier(s.periphery.image, 0, VK_ACCESS_TRANSFER_WRITE_BIT,
+                                 VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
     // The seam image: its old contents go; this slot's previous feather draw sampled it (the
     // FRAGMENT_SHADER source stage orders that read before this write).
     if (feathered)
         before[count++] =
-            colour_image_barrier(s.seam, 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+            colour_image_barrier(s.seam.image, 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
                                  VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
     k.CmdPipelineBarrier(cb, ready_stages_ | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
                          VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr, count, before);
@@ -1414,13 +1356,13 @@ void Compositor::record_periphery(Slot &s, uint32_t image_index, std::span<const
                 copy.extent = {band.extent.width, band.extent.height, 1};
                 seam_copies.push_back(copy);
             }
-        k.CmdCopyImage(cb, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, s.seam,
+        k.CmdCopyImage(cb, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, s.seam.image,
                        VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, static_cast<uint32_t>(seam_copies.size()),
                        seam_copies.data());
     }
     // (3) The decoded parts into the latest periphery (host writes flushed before the submit).
     for (size_t i = 0; i < parts.size(); ++i)
-        k.CmdCopyBufferToImage(cb, part_buffers[i], latest_, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1,
+        k.CmdCopyBufferToImage(cb, part_buffers[i], latest_.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1,
                                &parts[i]);
     // The saved foveae before they are copied back; the upload before the latest periphery is read
     // (by this submit and by later ones on the queue, which this barrier's second scope covers).
@@ -1433,7 +1375,7 @@ void Compositor::record_periphery(Slot &s, uint32_t image_index, std::span<const
     saved.buffer = s.saved;
     saved.size = VK_WHOLE_SIZE;
     const VkImageMemoryBarrier uploaded =
-        colour_image_barrier(latest_, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT,
+        colour_image_barrier(latest_.image, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT,
                              VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
     if (has_foveae || upload)
         k.CmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
@@ -1443,15 +1385,15 @@ void Compositor::record_periphery(Slot &s, uint32_t image_index, std::span<const
     // around copy_regions_): the blit straight from the latest periphery; the draw samples a copy
     // of it in the slot's periphery image, as record()'s does.
     if (blit_) {
-        record_upsample(s, image, latest_extent_, latest_, /*source_written=*/false);
+        record_upsample(s, image, latest_.extent, latest_.image, /*source_written=*/false);
     } else {
         VkImageCopy copy{};
         copy.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
         copy.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-        copy.extent = {latest_extent_.width, latest_extent_.height, 1};
-        k.CmdCopyImage(cb, latest_, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, s.periphery,
+        copy.extent = {latest_.extent.width, latest_.extent.height, 1};
+        k.CmdCopyImage(cb, latest_.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, s.periphery.image,
                        VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &copy);
-        record_upsample(s, image, latest_extent_, s.periphery, /*source_written=*/true);
+        record_upsample(s, image, latest_.extent, s.periphery.image, /*source_written=*/true);
     }
     // (5) The feathered seams, blended over the upsampled periphery around the foveae.
     if (feathered) record_seams(s, image);
@@ -1459,9 +1401,7 @@ void Compositor::record_periphery(Slot &s, uint32_t image_index, std::span<const
     // the upsample, the blend or an sRGB decode and encode left inside a fovea is overwritten by the
     // client's own bytes, so the foveae are exact whatever the seam.
     record_tile_copies(s, image);
-    if (timed_ && s.timing.buffer)
-        s.timing_recorded = time_composite_end(device_, cb, s.timestamps, s.timing.buffer);
-    k.EndCommandBuffer(cb);
+    end_recording(s);
 }
 
 void Compositor::record_seams(Slot &s, VkImage image) {
@@ -1471,7 +1411,7 @@ void Compositor::record_seams(Slot &s, VkImage image) {
     // (made available to transfers by record_upsample's last barrier, at TRANSFER) before the
     // blend reads and writes them.
     const VkImageMemoryBarrier to_draw[2] = {
-        colour_image_barrier(s.seam, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
+        colour_image_barrier(s.seam.image, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
                              VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL),
         colour_image_barrier(image, VK_ACCESS_TRANSFER_WRITE_BIT,
                              VK_ACCESS_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,

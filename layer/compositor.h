@@ -72,6 +72,16 @@ struct PeripheryImage {
     std::vector<FoveaTile> parts;
 };
 
+// An image the compositor makes for itself (a slot's periphery and seam copies, the swapped
+// split's latest periphery): device-local memory, and a view where a draw samples it; all null and
+// `extent` {} when there is none.
+struct CompositorImage {
+    VkImage image = VK_NULL_HANDLE;
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    VkImageView view = VK_NULL_HANDLE;
+    VkExtent2D extent{};
+};
+
 // The periphery filter, a specialisation constant of shaders/upsample.frag.
 // BilinearBlit is no shader's: the upsample is a vkCmdBlitImage with a linear filter (bilinear
 // too), where the format allows it (else Bilinear).
@@ -186,7 +196,15 @@ private:
     Slot *ready_slot(uint32_t image_index, bool wait_taken, VkResult *result);
     void read_timing(Slot &slot); // after the slot's fence: its composite's GPU time
     bool ensure_periphery_image(Slot &slot, VkExtent2D periphery, std::string *error);
+    // The slot's command buffer begun afresh (the idle slot's: its fence waited for), with the
+    // composite's first timestamp when timed; end_recording(): its last, and the buffer ended.
+    void begin_recording(Slot &slot);
+    void end_recording(Slot &slot);
     void record(Slot &slot, uint32_t image_index, VkExtent2D periphery); // periphery {} = no upsample
+    // A barrier over every layer of `image` (the swapchain's or the slot's periphery copy): a layered
+    // image is composited whole.
+    VkImageMemoryBarrier layered_barrier(VkImage image, VkAccessFlags src, VkAccessFlags dst,
+                                         VkImageLayout from, VkImageLayout to) const;
     // The upsample of `source` (`periphery` large) over the image, which is in TRANSFER_SRC_OPTIMAL
     // after transfer reads, around copy_regions_, then the image to where record_tile_copies()
     // wants it (or to the present layout when there is nothing to copy). `source_written`: it is in
@@ -259,9 +277,7 @@ private:
     // composite_periphery(): the agent's latest periphery (TRANSFER_SRC|DST, the swapchain's
     // format, exactly its size), under mutex_. Its layout is the one the last submitted composite
     // left it in; `latest_filled_` once a composite uploaded into it.
-    VkImage latest_ = VK_NULL_HANDLE;
-    VkDeviceMemory latest_memory_ = VK_NULL_HANDLE;
-    VkExtent2D latest_extent_{};
+    CompositorImage latest_;
     VkImageLayout latest_layout_ = VK_IMAGE_LAYOUT_UNDEFINED;
     bool latest_filled_ = false;
 };
