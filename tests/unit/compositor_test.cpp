@@ -170,6 +170,8 @@ protected:
             vkDeviceWaitIdle(d);
             for (const VkFence fence : made_.fences)
                 vkDestroyFence(d, fence, nullptr);
+            for (const VkSemaphore semaphore : made_.semaphores)
+                vkDestroySemaphore(d, semaphore, nullptr);
             for (const VkCommandPool pool : made_.pools)
                 vkDestroyCommandPool(d, pool, nullptr);
             for (const VkBuffer buffer : made_.buffers)
@@ -265,6 +267,77 @@ protected:
         made_.fences.push_back(*fence);
     }
 
+    // What a window's composite starts from: a swapchain of kImages images of `format`, kWidth x
+    // kHeight, the application's staging buffer of one image, a command buffer with its fence, and the
+    // semaphore the application's rendering signals.
+    struct Window {
+        SwapchainState sc;
+        VkBuffer buffer = VK_NULL_HANDLE;
+        uint8_t *mapped = nullptr;
+        VkCommandBuffer cb = VK_NULL_HANDLE;
+        VkFence fence = VK_NULL_HANDLE;
+        VkSemaphore rendered = VK_NULL_HANDLE;
+    };
+    void make_window(VkFormat format, uintptr_t handle, Window *w) {
+        w->sc.handle = reinterpret_cast<VkSwapchainKHR>(handle);
+        w->sc.extent = {kWidth, kHeight};
+        w->sc.format = format;
+        w->sc.composable = true;
+        w->sc.images.resize(kImages);
+        for (VkImage &image : w->sc.images)
+            ASSERT_NO_FATAL_FAILURE(make_image(format, w->sc.extent, 1, Compositor::kSwapchainUsage, &image));
+        ASSERT_NO_FATAL_FAILURE(make_host_buffer(VkDeviceSize{kWidth} * kHeight * 4, &w->buffer, &w->mapped));
+        ASSERT_NO_FATAL_FAILURE(make_command_buffer(&w->cb, &w->fence));
+        VkSemaphoreCreateInfo semaphore_info{};
+        semaphore_info.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
+        ASSERT_EQ(vkCreateSemaphore(device_.handle, &semaphore_info, nullptr, &w->rendered), VK_SUCCESS);
+        made_.semaphores.push_back(w->rendered);
+    }
+
+    // Ends w.cb and submits it, waiting on `wait` at the transfer stage and signalling `signal`, then
+    // waits for it.
+    void submit_and_wait(const Window &w, const VkSemaphore *wait, const VkSemaphore *signal) {
+        vkEndCommandBuffer(w.cb);
+        const VkPipelineStageFlags transfer_stage = VK_PIPELINE_STAGE_TRANSFER_BIT;
+        VkSubmitInfo submit{};
+        submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+        submit.commandBufferCount = 1;
+        submit.pCommandBuffers = &w.cb;
+        submit.waitSemaphoreCount = wait ? 1 : 0;
+        submit.pWaitSemaphores = wait;
+        submit.pWaitDstStageMask = &transfer_stage;
+        submit.signalSemaphoreCount = signal ? 1 : 0;
+        submit.pSignalSemaphores = signal;
+        ASSERT_EQ(vkQueueSubmit(queue_, 1, &submit, w.fence), VK_SUCCESS);
+        ASSERT_EQ(vkWaitForFences(device_.handle, 1, &w.fence, VK_TRUE, 10'000'000'000ull), VK_SUCCESS);
+        vkResetFences(device_.handle, 1, &w.fence);
+    }
+
+    // The application's frame: `pixels` (kWidth x kHeight, 4 bytes each) copied into image `index`,
+    // which ends in PRESENT_SRC_KHR with w.rendered signalled, as a present finds it.
+    void render_frame(const Window &w, uint32_t index, const std::vector<uint8_t> &pixels) {
+        const VkImage image = w.sc.images[index];
+        std::memcpy(w.mapped, pixels.data(), pixels.size());
+        VkCommandBufferBeginInfo begin{};
+        begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+        vkBeginCommandBuffer(w.cb, &begin);
+        const VkImageMemoryBarrier to_copy =
+            colour_image_barrier(image, 0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                                 VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+        vkCmdPipelineBarrier(w.cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
+                             nullptr, 0, nullptr, 1, &to_copy);
+        VkBufferImageCopy whole{};
+        whole.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        whole.imageExtent = {kWidth, kHeight, 1};
+        vkCmdCopyBufferToImage(w.cb, w.buffer, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &whole);
+        const VkImageMemoryBarrier to_present =
+            colour_image_barrier(image, VK_ACCESS_TRANSFER_WRITE_BIT, 0, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                                 VK_IMAGE_LAYOUT_PRESENT_SRC_KHR);
+        vkCmdPipelineBarrier(w.cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, 0, 0,
+                             nullptr, 0, nullptr, 1, &to_present);
+        submit_and_wait(w, nullptr, &w.rendered);
+    }
+
     // What the make_* helpers made, destroyed in TearDown before the device (the compositor, which
     // uses them, is gone by then).
     struct Made {
@@ -273,6 +346,7 @@ protected:
         std::vector<VkDeviceMemory> memories;
         std::vector<VkCommandPool> pools;
         std::vector<VkFence> fences;
+        std::vector<VkSemaphore> semaphores;
     } made_;
     bool validation_ = false;
     VkInstance instance_ = VK_NULL_HANDLE;
@@ -301,25 +375,14 @@ TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
     if (!Compositor::supports(device_, format, &why)) GTEST_SKIP() << why;
 
     // The "swapchain" images, the application's staging/readback buffer, sync objects.
-    SwapchainState sc;
-    sc.handle = reinterpret_cast<VkSwapchainKHR>(uintptr_t{0x5c});
-    sc.extent = {kWidth, kHeight};
-    sc.format = format;
-    sc.composable = true;
-    sc.images.resize(kImages);
-    for (VkImage &image : sc.images)
-        ASSERT_NO_FATAL_FAILURE(make_image(format, sc.extent, 1, Compositor::kSwapchainUsage, &image));
+    Window window;
+    ASSERT_NO_FATAL_FAILURE(make_window(format, 0x5c, &window));
+    SwapchainState &sc = window.sc;
     const VkDeviceSize bytes = VkDeviceSize{kWidth} * kHeight * 4;
-    VkBuffer buffer = VK_NULL_HANDLE;
-    uint8_t *mapped = nullptr;
-    ASSERT_NO_FATAL_FAILURE(make_host_buffer(bytes, &buffer, &mapped));
-    VkCommandBuffer cb = VK_NULL_HANDLE;
-    VkFence fence = VK_NULL_HANDLE;
-    ASSERT_NO_FATAL_FAILURE(make_command_buffer(&cb, &fence));
-    VkSemaphoreCreateInfo semaphore_info{};
-    semaphore_info.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
-    VkSemaphore rendered = VK_NULL_HANDLE;
-    ASSERT_EQ(vkCreateSemaphore(d, &semaphore_info, nullptr, &rendered), VK_SUCCESS);
+    const VkBuffer buffer = window.buffer;
+    uint8_t *const mapped = window.mapped;
+    const VkCommandBuffer cb = window.cb;
+    const VkSemaphore rendered = window.rendered;
 
     std::string error;
     UploadPool uploads(device_); // outlives the compositor, which holds its buffers
@@ -345,7 +408,6 @@ TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
     whole.imageExtent = {kWidth, kHeight, 1};
     VkCommandBufferBeginInfo begin{};
     begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
-    const VkPipelineStageFlags transfer_stage = VK_PIPELINE_STAGE_TRANSFER_BIT;
 
     std::vector<uint8_t> rendered_pixels(bytes);
     for (uint32_t frame = 0; frame < kFrames; ++frame) {
@@ -356,24 +418,7 @@ TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
             for (uint32_t x = 0; x < kWidth; ++x)
                 for (uint32_t c = 0; c < 4; ++c)
                     rendered_pixels[(size_t{y} * kWidth + x) * 4 + c] = content(x, y, c, frame);
-        std::memcpy(mapped, rendered_pixels.data(), bytes);
-        vkBeginCommandBuffer(cb, &begin);
-        barrier(image, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0,
-                VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT);
-        vkCmdCopyBufferToImage(cb, buffer, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &whole);
-        barrier(image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR,
-                VK_ACCESS_TRANSFER_WRITE_BIT, 0, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT);
-        vkEndCommandBuffer(cb);
-        VkSubmitInfo submit{};
-        submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-        submit.commandBufferCount = 1;
-        submit.pCommandBuffers = &cb;
-        submit.signalSemaphoreCount = 1;
-        submit.pSignalSemaphores = &rendered;
-        ASSERT_EQ(vkQueueSubmit(queue_, 1, &submit, fence), VK_SUCCESS);
-        ASSERT_EQ(vkWaitForFences(d, 1, &fence, VK_TRUE, 10'000'000'000ull), VK_SUCCESS);
-        vkResetFences(d, 1, &fence);
+        ASSERT_NO_FATAL_FAILURE(render_frame(window, index, rendered_pixels));
 
         // Three tiles, written into upload buffers as the layer's decoder writes them: one in the
         // middle, one reaching past the right edge and one past the top-left corner (each copied
@@ -414,14 +459,7 @@ TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
         barrier(image, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, 0,
                 VK_ACCESS_TRANSFER_READ_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT);
         vkCmdCopyImageToBuffer(cb, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, buffer, 1, &whole);
-        vkEndCommandBuffer(cb);
-        submit.waitSemaphoreCount = 1;
-        submit.pWaitSemaphores = &signal;
-        submit.pWaitDstStageMask = &transfer_stage;
-        submit.signalSemaphoreCount = 0;
-        ASSERT_EQ(vkQueueSubmit(queue_, 1, &submit, fence), VK_SUCCESS);
-        ASSERT_EQ(vkWaitForFences(d, 1, &fence, VK_TRUE, 10'000'000'000ull), VK_SUCCESS);
-        vkResetFences(d, 1, &fence);
+        ASSERT_NO_FATAL_FAILURE(submit_and_wait(window, &signal, nullptr));
         const uint8_t *shown = mapped;
 
         // The tiles, byte for byte, clipped to the image.
@@ -493,7 +531,6 @@ TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
     }
     compositor.reset(); // waits for its submits
     release_gpu_timing(device_);
-    vkDestroySemaphore(d, rendered, nullptr);
     if (validation_) {
         EXPECT_EQ(g_messages, 0);
     }
@@ -693,29 +730,17 @@ TEST_P(CompositorTest, LayeredRuntimeImageGetsEachLayersTilesAndPeriphery) {
 TEST_P(CompositorTest, PeripheryCompositeKeepsFoveaeExact) {
     const auto [format, filter, timed] = GetParam();
     const bool srgb = format == VK_FORMAT_B8G8R8A8_SRGB;
-    const VkDevice d = device_.handle;
     std::string why;
     if (!Compositor::supports(device_, format, &why)) GTEST_SKIP() << why;
 
-    SwapchainState sc;
-    sc.handle = reinterpret_cast<VkSwapchainKHR>(uintptr_t{0x5e});
-    sc.extent = {kWidth, kHeight};
-    sc.format = format;
-    sc.composable = true;
-    sc.images.resize(kImages);
-    for (VkImage &image : sc.images)
-        ASSERT_NO_FATAL_FAILURE(make_image(format, sc.extent, 1, Compositor::kSwapchainUsage, &image));
+    Window window;
+    ASSERT_NO_FATAL_FAILURE(make_window(format, 0x5e, &window));
+    SwapchainState &sc = window.sc;
     const VkDeviceSize bytes = VkDeviceSize{kWidth} * kHeight * 4;
-    VkBuffer buffer = VK_NULL_HANDLE;
-    uint8_t *mapped = nullptr;
-    ASSERT_NO_FATAL_FAILURE(make_host_buffer(bytes, &buffer, &mapped));
-    VkCommandBuffer cb = VK_NULL_HANDLE;
-    VkFence fence = VK_NULL_HANDLE;
-    ASSERT_NO_FATAL_FAILURE(make_command_buffer(&cb, &fence));
-    VkSemaphoreCreateInfo semaphore_info{};
-    semaphore_info.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
-    VkSemaphore rendered = VK_NULL_HANDLE;
-    ASSERT_EQ(vkCreateSemaphore(d, &semaphore_info, nullptr, &rendered), VK_SUCCESS);
+    const VkBuffer buffer = window.buffer;
+    uint8_t *const mapped = window.mapped;
+    const VkCommandBuffer cb = window.cb;
+    const VkSemaphore rendered = window.rendered;
 
     std::string error;
     UploadPool uploads(device_);
@@ -742,21 +767,8 @@ TEST_P(CompositorTest, PeripheryCompositeKeepsFoveaeExact) {
     whole.imageExtent = {kWidth, kHeight, 1};
     VkCommandBufferBeginInfo begin{};
     begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
-    const VkPipelineStageFlags transfer_stage = VK_PIPELINE_STAGE_TRANSFER_BIT;
     const auto run = [&](const VkSemaphore *wait, const VkSemaphore *signal) {
-        vkEndCommandBuffer(cb);
-        VkSubmitInfo submit{};
-        submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-        submit.commandBufferCount = 1;
-        submit.pCommandBuffers = &cb;
-        submit.waitSemaphoreCount = wait ? 1 : 0;
-        submit.pWaitSemaphores = wait;
-        submit.pWaitDstStageMask = &transfer_stage;
-        submit.signalSemaphoreCount = signal ? 1 : 0;
-        submit.pSignalSemaphores = signal;
-        ASSERT_EQ(vkQueueSubmit(queue_, 1, &submit, fence), VK_SUCCESS);
-        ASSERT_EQ(vkWaitForFences(d, 1, &fence, VK_TRUE, 10'000'000'000ull), VK_SUCCESS);
-        vkResetFences(d, 1, &fence);
+        submit_and_wait(window, wait, signal);
     };
 
     // The client's foveae: two eyes, one reaching past the top-left corner.
@@ -784,14 +796,7 @@ TEST_P(CompositorTest, PeripheryCompositeKeepsFoveaeExact) {
             for (uint32_t x = 0; x < kWidth; ++x)
                 for (uint32_t c = 0; c < 4; ++c)
                     rendered_pixels[(size_t{y} * kWidth + x) * 4 + c] = tile_byte(x, y, c, frame);
-        std::memcpy(mapped, rendered_pixels.data(), bytes);
-        vkBeginCommandBuffer(cb, &begin);
-        barrier(image, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0,
-                VK_ACCESS_TRANSFER_WRITE_BIT);
-        vkCmdCopyBufferToImage(cb, buffer, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &whole);
-        barrier(image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR,
-                VK_ACCESS_TRANSFER_WRITE_BIT, 0);
-        ASSERT_NO_FATAL_FAILURE(run(nullptr, &rendered));
+        ASSERT_NO_FATAL_FAILURE(render_frame(window, index, rendered_pixels));
 
         VkSemaphore waits = rendered;
         if (timed) {
@@ -896,7 +901,6 @@ TEST_P(CompositorTest, PeripheryCompositeKeepsFoveaeExact) {
 
     compositor.reset(); // waits for its submits
     release_gpu_timing(device_);
-    vkDestroySemaphore(d, rendered, nullptr);
     if (validation_) {
         EXPECT_EQ(g_messages, 0);
     }
@@ -913,7 +917,6 @@ TEST_P(CompositorTest, PeripheryCompositeKeepsFoveaeExact) {
 TEST_P(CompositorTest, PeripheryCompositeFeathersTheSeam) {
     const auto [format, filter, timed] = GetParam();
     const bool srgb = format == VK_FORMAT_B8G8R8A8_SRGB;
-    const VkDevice d = device_.handle;
     std::string why;
     if (!Compositor::supports(device_, format, &why)) GTEST_SKIP() << why;
     VkFormatProperties props{};
@@ -922,25 +925,14 @@ TEST_P(CompositorTest, PeripheryCompositeFeathersTheSeam) {
         GTEST_SKIP() << "the format cannot be blended into";
     constexpr uint32_t kFeather = 8;
 
-    SwapchainState sc;
-    sc.handle = reinterpret_cast<VkSwapchainKHR>(uintptr_t{0x5f});
-    sc.extent = {kWidth, kHeight};
-    sc.format = format;
-    sc.composable = true;
-    sc.images.resize(kImages);
-    for (VkImage &image : sc.images)
-        ASSERT_NO_FATAL_FAILURE(make_image(format, sc.extent, 1, Compositor::kSwapchainUsage, &image));
+    Window window;
+    ASSERT_NO_FATAL_FAILURE(make_window(format, 0x5f, &window));
+    SwapchainState &sc = window.sc;
     const VkDeviceSize bytes = VkDeviceSize{kWidth} * kHeight * 4;
-    VkBuffer buffer = VK_NULL_HANDLE;
-    uint8_t *mapped = nullptr;
-    ASSERT_NO_FATAL_FAILURE(make_host_buffer(bytes, &buffer, &mapped));
-    VkCommandBuffer cb = VK_NULL_HANDLE;
-    VkFence fence = VK_NULL_HANDLE;
-    ASSERT_NO_FATAL_FAILURE(make_command_buffer(&cb, &fence));
-    VkSemaphoreCreateInfo semaphore_info{};
-    semaphore_info.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
-    VkSemaphore rendered = VK_NULL_HANDLE;
-    ASSERT_EQ(vkCreateSemaphore(d, &semaphore_info, nullptr, &rendered), VK_SUCCESS);
+    const VkBuffer buffer = window.buffer;
+    uint8_t *const mapped = window.mapped;
+    const VkCommandBuffer cb = window.cb;
+    const VkSemaphore rendered = window.rendered;
     std::string error;
     UploadPool uploads(device_);
     auto compositor = Compositor::create(device_, sc, family_, &error, filter, timed);
@@ -957,21 +949,8 @@ TEST_P(CompositorTest, PeripheryCompositeFeathersTheSeam) {
     whole.imageExtent = {kWidth, kHeight, 1};
     VkCommandBufferBeginInfo begin{};
     begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
-    const VkPipelineStageFlags transfer_stage = VK_PIPELINE_STAGE_TRANSFER_BIT;
     const auto run = [&](const VkSemaphore *wait, const VkSemaphore *signal) {
-        vkEndCommandBuffer(cb);
-        VkSubmitInfo submit{};
-        submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-        submit.commandBufferCount = 1;
-        submit.pCommandBuffers = &cb;
-        submit.waitSemaphoreCount = wait ? 1 : 0;
-        submit.pWaitSemaphores = wait;
-        submit.pWaitDstStageMask = &transfer_stage;
-        submit.signalSemaphoreCount = signal ? 1 : 0;
-        submit.pSignalSemaphores = signal;
-        ASSERT_EQ(vkQueueSubmit(queue_, 1, &submit, fence), VK_SUCCESS);
-        ASSERT_EQ(vkWaitForFences(d, 1, &fence, VK_TRUE, 10'000'000'000ull), VK_SUCCESS);
-        vkResetFences(d, 1, &fence);
+        submit_and_wait(window, wait, signal);
     };
 
     // A fovea that straddles the centre, and one by the bottom-left corner whose band the image cuts.
@@ -985,14 +964,7 @@ TEST_P(CompositorTest, PeripheryCompositeFeathersTheSeam) {
     // the latest), and reads the result back into *shown.
     const auto composite = [&](uint32_t index, bool late, uint32_t feather, std::vector<uint8_t> *shown) {
         const VkImage image = sc.images[index];
-        std::memcpy(mapped, client.data(), bytes);
-        vkBeginCommandBuffer(cb, &begin);
-        barrier(image, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0,
-                VK_ACCESS_TRANSFER_WRITE_BIT);
-        vkCmdCopyBufferToImage(cb, buffer, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &whole);
-        barrier(image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR,
-                VK_ACCESS_TRANSFER_WRITE_BIT, 0);
-        ASSERT_NO_FATAL_FAILURE(run(nullptr, &rendered));
+        ASSERT_NO_FATAL_FAILURE(render_frame(window, index, client));
         VkSemaphore waits = rendered;
         if (timed) {
             VkFence done = VK_NULL_HANDLE;
@@ -1090,7 +1062,6 @@ TEST_P(CompositorTest, PeripheryCompositeFeathersTheSeam) {
 
     compositor.reset(); // waits for its submits
     release_gpu_timing(device_);
-    vkDestroySemaphore(d, rendered, nullptr);
     if (validation_) {
         EXPECT_EQ(g_messages, 0);
     }
