@@ -771,6 +771,8 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     }
     message.frame = frame;
     message.queue_id = codec::handle_value(queue);
+    // The frame a resync brought the agent in at: its submits reached no agent, nor will its tiles.
+    if (frame < session.first_replayed_frame()) message.flags |= protocol::kPresentNoTiles;
     message.gaze = gaze;
     message.images.push_back({codec::handle_value(swapchain.handle), image_index});
     // Verification: every layer of the image, as the runtime gets it. Nothing is composited into it
@@ -988,9 +990,10 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         if (split.split) message.fovea_size = split.fovea_size; // perhaps larger: a mask's (fovea_mask.h)
     }
     const bool redirect = split.split && drawn != pPresentInfo->pImageIndices[0];
-    // SPLITVK_FOVEA=auto passing frames through: the agent replays them and sends no tiles.
+    // SPLITVK_FOVEA=auto passing frames through, and the frame a resync brought the agent in at: the
+    // agent replays them and sends no tiles.
     const bool passing_through = session.splitting() && session.passing_through();
-    if (passing_through) message.flags |= protocol::kPresentPassThrough;
+    if (passing_through || frame < session.first_replayed_frame()) message.flags |= protocol::kPresentNoTiles;
     const double frame_ms = split.split || session.judges_payoff() ? session.frame_interval_ms() : 0;
     // May decide a switch, which this present's answer asks the application to follow.
     if (session.splitting()) session.observe_payoff(dev, frame_ms, message.fovea_size);

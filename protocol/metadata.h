@@ -117,9 +117,11 @@ struct PresentedImage {
 };
 
 inline constexpr uint32_t kPresentVerify = 1u << 0; // read the images back and send VerifyFrame
-// The client shows this frame as it drew it (SPLITVK_FOVEA=auto passing frames through, issue 22):
-// replay it, and read back and send no tiles. An agent that ignores it sends tiles the client drops.
-inline constexpr uint32_t kPresentPassThrough = 1u << 1;
+// The client takes no tiles for this frame: replay it, and read back and send nothing. A frame
+// SPLITVK_FOVEA=auto passes through (issue 22), and the frame a resync brings the agent in at, whose
+// submits were made before it answered (its images hold nothing of the frame). An agent that ignores
+// it sends tiles the client drops.
+inline constexpr uint32_t kPresentNoTiles = 1u << 1;
 
 struct FramePresent {
     uint64_t frame = 0;

@@ -749,8 +749,8 @@ bool Replayer::frame_present(const protocol::FramePresent &message,
                 frame.foveae.clear();
                 frame.periphery = {};
                 frame.invalid = true;
-            } else if (message.flags & protocol::kPresentPassThrough) {
-                // The client shows the frame as it drew it: nothing to read back or encode.
+            } else if (message.flags & protocol::kPresentNoTiles) {
+                // The client takes no tiles for this frame: nothing to read back or encode.
                 frame.foveae.clear();
                 frame.periphery = {};
             }
