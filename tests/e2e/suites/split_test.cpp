@@ -2340,10 +2340,13 @@ TEST_F(Split, BadGazeInputKeepsTheFixedFovea) {
 // the settled size and the one probed above it in the last frames, and no later than a bound from
 // the levels it moved: layer/fovea_size.h), larger than the default straight to the agent and
 // smaller behind the slow link. The last
-// frame on screen is exact at its rectangles in both runs. About 25 s.
+// frame on screen is exact at its rectangles in both runs. About 30 s.
 TEST_F(Split, AutoFoveaSettlesSmallerBehindASlowLink) {
     constexpr uint32_t kAutoWidth = 960, kAutoHeight = 432, kEye = kAutoWidth / 2;
-    constexpr int kAutoFrames = 120;
+    // Enough for a fovea that grows at every decision all the way to the largest size (about ten
+    // levels of kSettle + kWindow frames) to have held it through the last 30 frames, and fewer than
+    // the 156 presents after which auto first measures passing frames through (layer/split_payoff.h).
+    constexpr int kAutoFrames = 150;
     // (kSettle + kWindow) frames a level, the first frame's report a frame late, and the level the
     // tiles of the frames in flight at each change cost; twice that, for a window on the way that
     // fell between the growing and the shrinking share (the hysteresis) and held.
