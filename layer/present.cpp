@@ -197,6 +197,15 @@ std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, 
     return nullptr;
 }
 
+// The rectangles of a frame's foveae in its image's first layer: what the swapped split's composite
+// keeps of the client's pixels, and what its verification compares exactly.
+std::vector<VkRect2D> first_layer_foveae(const SplitFrame &split) {
+    std::vector<VkRect2D> rects;
+    for (const split::LayerFovea &fovea : split.foveae)
+        if (fovea.layer == 0) rects.push_back(fovea.rect);
+    return rects;
+}
+
 // Whether a frame's passes were cut to its foveae (the swapped split; window swapchains only in this
 // slice), so that its periphery is the agent's to fill.
 bool frame_cut(const SwapchainState *swapchain, const SplitFrame &split) {
@@ -320,9 +329,7 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
         // across the band the client's cut grew them by (split_settings(), as cut_scissor's);
         // late, invalid or mismatched: the previous periphery again, feathered alike (VK_NOT_READY
         // before any: as drawn).
-        std::vector<VkRect2D> keep;
-        for (const split::LayerFovea &fovea : p.split.foveae)
-            if (fovea.layer == 0) keep.push_back(fovea.rect);
+        const std::vector<VkRect2D> keep = first_layer_foveae(p.split);
         auto queue_lock = lock ? lock_queue(p.queue) : std::unique_lock<std::mutex>();
         if (compositor->composite_periphery(p.queue, p.image_index, waits, tiles ? &periphery : nullptr, keep,
                                             p.swapchain->runtime ? nullptr : &composited,
@@ -1045,8 +1052,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
             queue_lock = lock_queue(queue);
         }
         cut = p.cut;
-        for (const split::LayerFovea &fovea : p.split.foveae)
-            if (fovea.layer == 0) foveae.push_back(fovea.rect);
+        if (verify_shown) foveae = first_layer_foveae(p.split);
         composited = composite_split_frame(dev, p, waits, /*lock=*/false, verify_shown ? &record : nullptr);
         if (composited) {
             present.waitSemaphoreCount = 1;
