@@ -65,13 +65,13 @@ std::vector<VkRect2D> foveae_of(VkExtent2D image, EyeMode eyes, const FoveaSize 
 
 // The scaled texels that lie wholly inside `fovea`, less kFoveaMaskGuard on every side, within
 // `area`; zero extent when none.
-VkRect2D mask_of(const VkRect2D &fovea, double scale, const VkRect2D &area) {
-    const auto x0 = static_cast<int64_t>(std::ceil(fovea.offset.x * scale)) + kFoveaMaskGuard;
-    const auto y0 = static_cast<int64_t>(std::ceil(fovea.offset.y * scale)) + kFoveaMaskGuard;
+VkRect2D mask_of(const VkRect2D &fovea, split::AxisScale scale, const VkRect2D &area) {
+    const auto x0 = static_cast<int64_t>(std::ceil(fovea.offset.x * scale.x)) + kFoveaMaskGuard;
+    const auto y0 = static_cast<int64_t>(std::ceil(fovea.offset.y * scale.y)) + kFoveaMaskGuard;
     const auto x1 =
-        static_cast<int64_t>(std::floor((fovea.offset.x + fovea.extent.width) * scale)) - kFoveaMaskGuard;
+        static_cast<int64_t>(std::floor((fovea.offset.x + fovea.extent.width) * scale.x)) - kFoveaMaskGuard;
     const auto y1 =
-        static_cast<int64_t>(std::floor((fovea.offset.y + fovea.extent.height) * scale)) - kFoveaMaskGuard;
+        static_cast<int64_t>(std::floor((fovea.offset.y + fovea.extent.height) * scale.y)) - kFoveaMaskGuard;
     if (x1 <= x0 || y1 <= y0) return {};
     const VkRect2D inner{{static_cast<int32_t>(x0), static_cast<int32_t>(y0)},
                          {static_cast<uint32_t>(x1 - x0), static_cast<uint32_t>(y1 - y0)}};
@@ -97,8 +97,9 @@ void record_mask(DeviceState &device, VkCommandBuffer command_buffer, split::Com
     const std::optional<FoveaSize> size = recorded_size(device, &sized);
     if (!size) return;
     std::vector<VkClearRect> rects;
+    const split::AxisScale scale = split::axis_scale(image, split_settings().scale);
     for (const VkRect2D &fovea : foveae_of(image, split_settings().eyes, *size)) {
-        const VkRect2D mask = mask_of(fovea, split_settings().scale, area);
+        const VkRect2D mask = mask_of(fovea, scale, area);
         if (mask.extent.width > 0 && mask.extent.height > 0) rects.push_back({mask, 0, 1});
     }
     if (rects.empty()) return;

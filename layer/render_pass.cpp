@@ -262,8 +262,8 @@ void leave_split(DeviceState &dev, VkCommandBuffer cb) {
 }
 
 VkRect2D scaled_area(const VkRect2D &area, VkExtent2D extent) {
-    const double scale = split_settings().scale;
-    return split::scale_rect(area, scale, split::scaled_extent(extent, scale));
+    const VkExtent2D scaled = split::scaled_extent(extent, split_settings().scale);
+    return split::scale_rect(area, split::axis_scale(extent, scaled), scaled);
 }
 
 // The images of a render pass instance's attachments, for their final layouts (resource.h).

@@ -51,7 +51,7 @@ VkRect2D scale_side(const Side &s, uint32_t mip, const VkRect2D &r) {
         return scale_image_rect(s.image, mip, r);
     case Kind::Swapchain:
         if (s.cut) return r;
-        return split::scale_rect(r, scale, split::scaled_extent(s.extent, scale));
+        return split::scale_rect(r, split::axis_scale(s.extent, scale), split::scaled_extent(s.extent, scale));
     case Kind::Plain:
         break;
     }

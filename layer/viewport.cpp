@@ -29,9 +29,10 @@ void set_viewports(DeviceState &dev, VkCommandBuffer cb, uint32_t first, uint32_
         down(viewports);
         return emit_scissors(dev, cb, *tracker);
     }
+    const split::AxisScale scale = split::axis_scale(tracker->extent(), split_settings().scale);
     std::vector<VkViewport> scaled(viewports, viewports + count);
     for (VkViewport &v : scaled)
-        v = split::scale_viewport(v, split_settings().scale);
+        v = split::scale_viewport(v, scale);
     down(scaled.data());
 }
 
@@ -49,8 +50,8 @@ void set_scissors(VkCommandBuffer cb, uint32_t first, uint32_t count, const VkRe
             cut[i] = cut_scissor(*tracker, with_count ? i : first + i, scissors[i], split_settings());
         return down(cut.data());
     }
-    const double scale = split_settings().scale;
-    const VkExtent2D extent = split::scaled_extent(tracker->extent(), scale);
+    const VkExtent2D extent = split::scaled_extent(tracker->extent(), split_settings().scale);
+    const split::AxisScale scale = split::axis_scale(tracker->extent(), extent);
     std::vector<VkRect2D> scaled(scissors, scissors + count);
     for (VkRect2D &r : scaled)
         r = split::scale_rect(r, scale, extent);

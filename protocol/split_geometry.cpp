@@ -28,21 +28,30 @@ VkExtent2D scaled_extent(VkExtent2D full, double scale) {
     return {static_cast<uint32_t>(w), static_cast<uint32_t>(h)};
 }
 
-VkViewport scale_viewport(const VkViewport &viewport, double scale) {
+AxisScale axis_scale(VkExtent2D full, VkExtent2D scaled) {
+    return {full.width ? static_cast<double>(scaled.width) / full.width : 1.0,
+            full.height ? static_cast<double>(scaled.height) / full.height : 1.0};
+}
+
+AxisScale axis_scale(VkExtent2D full, double scale) {
+    return axis_scale(full, scaled_extent(full, scale));
+}
+
+VkViewport scale_viewport(const VkViewport &viewport, AxisScale scale) {
     VkViewport out = viewport;
-    out.x = static_cast<float>(viewport.x * scale);
-    out.y = static_cast<float>(viewport.y * scale);
-    out.width = static_cast<float>(viewport.width * scale);
-    out.height = static_cast<float>(viewport.height * scale);
+    out.x = static_cast<float>(viewport.x * scale.x);
+    out.y = static_cast<float>(viewport.y * scale.y);
+    out.width = static_cast<float>(viewport.width * scale.x);
+    out.height = static_cast<float>(viewport.height * scale.y);
     return out;
 }
 
-VkRect2D scale_rect(const VkRect2D &rect, double scale, VkExtent2D scaled) {
-    const int64_t x0 = std::clamp<int64_t>(floor_scaled(rect.offset.x, scale), 0, scaled.width);
-    const int64_t y0 = std::clamp<int64_t>(floor_scaled(rect.offset.y, scale), 0, scaled.height);
-    const int64_t x1 =
-        std::clamp<int64_t>(ceil_scaled(int64_t{rect.offset.x} + rect.extent.width, scale), x0, scaled.width);
-    const int64_t y1 = std::clamp<int64_t>(ceil_scaled(int64_t{rect.offset.y} + rect.extent.height, scale),
+VkRect2D scale_rect(const VkRect2D &rect, AxisScale scale, VkExtent2D scaled) {
+    const int64_t x0 = std::clamp<int64_t>(floor_scaled(rect.offset.x, scale.x), 0, scaled.width);
+    const int64_t y0 = std::clamp<int64_t>(floor_scaled(rect.offset.y, scale.y), 0, scaled.height);
+    const int64_t x1 = std::clamp<int64_t>(ceil_scaled(int64_t{rect.offset.x} + rect.extent.width, scale.x),
+                                           x0, scaled.width);
+    const int64_t y1 = std::clamp<int64_t>(ceil_scaled(int64_t{rect.offset.y} + rect.extent.height, scale.y),
                                            y0, scaled.height);
     return {{static_cast<int32_t>(x0), static_cast<int32_t>(y0)},
             {static_cast<uint32_t>(x1 - x0), static_cast<uint32_t>(y1 - y0)}};

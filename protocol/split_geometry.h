@@ -18,14 +18,29 @@ namespace splitvk::split {
 // ceil(s·W) x ceil(s·H), at least 1x1.
 VkExtent2D scaled_extent(VkExtent2D full, double scale);
 
-// A viewport of the full image mapped into the scaled one: x, y, width and height times s; the
-// depth range is unchanged.
-VkViewport scale_viewport(const VkViewport &viewport, double scale);
+// How a full-resolution extent maps onto its scaled one, per axis: scaled / full. The scaled extent
+// is rounded up, so wherever s·W is not whole the factor is a little above s. Drawing with it makes
+// a scaled pass fill its scaled extent to its last row and column, and that is what everything that
+// reads the scaled image assumes: the compositor upsamples scaled / full per axis, and a later pass
+// samples a scaled target by normalised coordinates. With s itself, a 1007-row eye scaled by 0.6
+// would draw 604.2 rows into 605, and the unshaded last row would be upsampled into the picture.
+struct AxisScale {
+    double x = 1.0;
+    double y = 1.0;
+};
+AxisScale axis_scale(VkExtent2D full, VkExtent2D scaled);
+// The same for `full` scaled by `scale` (scaled_extent).
+AxisScale axis_scale(VkExtent2D full, double scale);
+
+// A viewport of the full image mapped into the scaled one: x and width times scale.x, y and height
+// times scale.y; the depth range is unchanged.
+VkViewport scale_viewport(const VkViewport &viewport, AxisScale scale);
 
 // An integer rectangle (scissor, render area, clear rect) of the full image mapped into the
-// scaled one: x0 = floor(x·s), x1 = ceil((x+w)·s), clamped to `scaled`. Rounding outwards keeps
-// every pixel the full-resolution rectangle touches covered by the periphery.
-VkRect2D scale_rect(const VkRect2D &rect, double scale, VkExtent2D scaled);
+// scaled one: x0 = floor(x·scale.x), x1 = ceil((x+w)·scale.x), and alike in y, clamped to
+// `scaled`. Rounding outwards keeps every pixel the full-resolution rectangle touches covered by
+// the periphery.
+VkRect2D scale_rect(const VkRect2D &rect, AxisScale scale, VkExtent2D scaled);
 
 // The intersection of two rectangles; when empty, a zero-extent rectangle at a's clamped offset.
 VkRect2D intersect(const VkRect2D &a, const VkRect2D &b);

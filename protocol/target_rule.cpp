@@ -91,7 +91,8 @@ VkExtent2D mip_extent(VkExtent2D base, uint32_t mip) {
 }
 
 VkRect2D scale_target_rect(const VkRect2D &rect, VkExtent2D full, uint32_t mip, double scale) {
-    return scale_rect(rect, scale, mip_extent(scaled_extent(full, scale), mip));
+    const VkExtent2D scaled = mip_extent(scaled_extent(full, scale), mip);
+    return scale_rect(rect, axis_scale(mip_extent(full, mip), scaled), scaled);
 }
 
 GroupRange scaled_group_range(uint32_t base, uint32_t count, double scale) {

@@ -53,8 +53,8 @@ VkExtent3D scaled_target_extent(VkExtent3D full, double scale);
 VkExtent2D mip_extent(VkExtent2D base, uint32_t mip);
 
 // A region (copy, blit, resolve, clear) of mip `mip` of a screen-space target whose app-visible
-// extent is `full`, mapped into the scaled image: offsets and ends times s, rounded outwards as
-// scale_rect does and clamped to the scaled mip.
+// extent is `full`, mapped into the scaled image: offsets and ends times the mip's axis_scale,
+// rounded outwards as scale_rect does and clamped to the scaled mip.
 VkRect2D scale_target_rect(const VkRect2D &rect, VkExtent2D full, uint32_t mip, double scale);
 
 // The group count of a dispatch over a scaled target: ceil(n·s), at least 1 (covers every scaled

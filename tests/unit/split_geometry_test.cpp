@@ -32,29 +32,64 @@ TEST(SplitGeometry, ScaledExtentIsThePapersPeriphery) {
 }
 
 TEST(SplitGeometry, ViewportScalesAllButDepth) {
-    const VkViewport v = scale_viewport({1200.f, 0.f, 1200.f, 1080.f, 0.25f, 0.75f}, 0.6);
+    const VkViewport v = scale_viewport({1200.f, 0.f, 1200.f, 1080.f, 0.25f, 0.75f}, axis_scale({2400, 1080}, 0.6));
     EXPECT_FLOAT_EQ(v.x, 720.f);
     EXPECT_FLOAT_EQ(v.y, 0.f);
     EXPECT_FLOAT_EQ(v.width, 720.f);
     EXPECT_FLOAT_EQ(v.height, 648.f);
     EXPECT_FLOAT_EQ(v.minDepth, 0.25f);
     EXPECT_FLOAT_EQ(v.maxDepth, 0.75f);
-    const VkViewport flipped = scale_viewport({0.f, 1080.f, 2400.f, -1080.f, 0.f, 1.f}, 0.5);
+    const VkViewport flipped = scale_viewport({0.f, 1080.f, 2400.f, -1080.f, 0.f, 1.f}, axis_scale({2400, 1080}, 0.5));
     EXPECT_FLOAT_EQ(flipped.y, 540.f);
     EXPECT_FLOAT_EQ(flipped.height, -540.f);
 }
 
 TEST(SplitGeometry, RectsRoundOutwardsAndClamp) {
     const VkExtent2D scaled = scaled_extent({2400, 1080}, 0.6);
-    EXPECT_RECT(scale_rect({{0, 0}, {2400, 1080}}, 0.6, scaled), 0, 0, 1440u, 648u);
-    EXPECT_RECT(scale_rect({{1200, 0}, {1200, 1080}}, 0.6, scaled), 720, 0, 720u, 648u);
+    const AxisScale scale = axis_scale({2400, 1080}, scaled);
+    EXPECT_RECT(scale_rect({{0, 0}, {2400, 1080}}, scale, scaled), 0, 0, 1440u, 648u);
+    EXPECT_RECT(scale_rect({{1200, 0}, {1200, 1080}}, scale, scaled), 720, 0, 720u, 648u);
     // 1 -> 0.6 floors to 0; 1+2=3 -> 1.8 ceils to 2.
-    EXPECT_RECT(scale_rect({{1, 1}, {2, 2}}, 0.6, scaled), 0, 0, 2u, 2u);
+    EXPECT_RECT(scale_rect({{1, 1}, {2, 2}}, scale, scaled), 0, 0, 2u, 2u);
     // A scissor past the image is clamped to the scaled extent.
-    EXPECT_RECT(scale_rect({{2000, 1000}, {1000, 1000}}, 0.6, scaled), 1200, 600, 240u, 48u);
-    EXPECT_RECT(scale_rect({{5000, 0}, {10, 10}}, 0.6, scaled), 1440, 0, 0u, 6u);
+    EXPECT_RECT(scale_rect({{2000, 1000}, {1000, 1000}}, scale, scaled), 1200, 600, 240u, 48u);
+    EXPECT_RECT(scale_rect({{5000, 0}, {10, 10}}, scale, scaled), 1440, 0, 0u, 6u);
     // The 'whole surface' scissor some apps use.
-    EXPECT_RECT(scale_rect({{0, 0}, {0x7fffffffu, 0x7fffffffu}}, 0.6, scaled), 0, 0, 1440u, 648u);
+    EXPECT_RECT(scale_rect({{0, 0}, {0x7fffffffu, 0x7fffffffu}}, scale, scaled), 0, 0, 1440u, 648u);
+}
+
+// At every size, and not only where s·W is whole: the full image's viewport fills the scaled extent
+// to its last row and column, so that no pixel of the scaled image is left unshaded (the compositor
+// upsamples every one of them into the picture), and a rectangle's scaled pixels cover the scaled
+// viewport's picture of every pixel the rectangle holds.
+TEST(SplitGeometry, ScaledPassesFillTheirScaledExtentAtEverySize) {
+    for (const double s : {0.6, 0.5, 0.75, 1.0 / 3.0, 0.37, 0.9}) {
+        for (uint32_t w = 1; w <= 2100; w += (w < 64 ? 1 : 37)) {
+            for (const uint32_t h : {1u, 7u, 143u, 240u, 601u, 1007u, 1080u, w}) {
+                const VkExtent2D full{w, h};
+                const VkExtent2D scaled = scaled_extent(full, s);
+                const AxisScale scale = axis_scale(full, scaled);
+                const VkViewport v = scale_viewport({0.f, 0.f, float(w), float(h), 0.f, 1.f}, scale);
+                // The last pixel centre of the scaled extent is inside the viewport (and no more).
+                ASSERT_GT(v.x + v.width, scaled.width - 0.5f) << w << "x" << h << " at " << s;
+                ASSERT_GT(v.y + v.height, scaled.height - 0.5f) << w << "x" << h << " at " << s;
+                ASSERT_LE(v.x + v.width, scaled.width + 1e-3f) << w << "x" << h << " at " << s;
+                ASSERT_LE(v.y + v.height, scaled.height + 1e-3f) << w << "x" << h << " at " << s;
+                EXPECT_RECT(scale_rect({{0, 0}, {w, h}}, scale, scaled), 0, 0, scaled.width, scaled.height);
+                // The left and right halves (eyes side by side) keep every scaled pixel their viewport
+                // covers: the scissor's scaled end is at or past the viewport's, its start at or before.
+                const uint32_t half = w / 2;
+                const VkRect2D right = scale_rect({{int32_t(half), 0}, {w - half, h}}, scale, scaled);
+                const VkViewport rv =
+                    scale_viewport({float(half), 0.f, float(w - half), float(h), 0.f, 1.f}, scale);
+                ASSERT_LE(float(right.offset.x), rv.x + 1e-3f) << w << " at " << s;
+                ASSERT_GE(float(right.offset.x + int32_t(right.extent.width)), rv.x + rv.width - 1e-3f);
+                const VkRect2D left = scale_rect({{0, 0}, {half, h}}, scale, scaled);
+                const VkViewport lv = scale_viewport({0.f, 0.f, float(half), float(h), 0.f, 1.f}, scale);
+                ASSERT_GE(float(left.extent.width), lv.width - 1e-3f) << w << " at " << s;
+            }
+        }
+    }
 }
 
 TEST(SplitGeometry, Intersection) {
