@@ -93,6 +93,8 @@ class Format:
     block_bytes: int
     block_extent: tuple[int, int, int]
     components: list[str]  # "R", "G", "B", "A", "D", "S" in vk.xml order
+    compressed: bool = False  # a block-compressed format (BC, ETC2, EAC, ASTC, PVRTC)
+    ycbcr: bool = False  # a Y'CbCr format (vk.xml's chroma): sampled only through a conversion
 
 
 @dataclass
@@ -110,6 +112,7 @@ class ApiModel:
     handle_object_type: dict[str, str] = field(default_factory=dict)  # "VkBuffer" -> "VK_OBJECT_TYPE_BUFFER"
     negative_enums: set[str] = field(default_factory=set)        # enums with negative values (VkResult)
     formats: list["Format"] = field(default_factory=list)         # vk.xml <formats>, single-plane ones
+    format_names: list[str] = field(default_factory=list)         # vk.xml <formats>, every one
 
     def resolve(self, type_name: str) -> str:
         """The canonical name of a type (following aliases)."""
@@ -279,10 +282,13 @@ def load(registry_dir: str) -> ApiModel:
     for struct in model.structs.values():
         struct.extends = [p for p in struct.extends if model.resolve(p) in model.structs]
     for elem in registry.tree.findall("formats/format"):
+        model.format_names.append(elem.get("name"))
         if elem.find("plane") is not None:
             continue  # multi-planar (YCbCr) formats: copied per plane, not supported by splitvk
         extent = tuple(int(v) for v in (elem.get("blockExtent") or "1,1,1").split(","))
         model.formats.append(Format(name=elem.get("name"), block_bytes=int(elem.get("blockSize")),
                                     block_extent=extent,
-                                    components=[c.get("name") for c in elem.findall("component")]))
+                                    components=[c.get("name") for c in elem.findall("component")],
+                                    compressed=elem.get("compressed") is not None,
+                                    ycbcr=elem.get("chroma") is not None))
     return model

@@ -27,17 +27,22 @@ namespace {
 // Encoded tile layout, version 1 (integers little-endian):
 //
 //   header   u8 format version (1), u8 codec (1 x264, 2 zstd, 3 raw), u8 flags, u8 zero,
-//            u16 width, u16 height, u32 tile_checksum() of the width*height*4 pixel bytes (0 for
-//            a lossy tile, whose decoded pixels are not the encoder's input)
+//            u16 width, u16 height, u32 tile_checksum() of the width*height*T texel bytes (0 for
+//            a lossy tile, whose decoded pixels are not the encoder's input); T is 8 with
+//            kWideTexels, else 4
 //   x264     u32 size of the H.264 access unit, the access unit (Annex B), then with kAlphaPlane
 //            exactly one zstd frame holding the width*height alpha bytes, else nothing
-//   zstd     exactly one zstd frame holding the width*height*4 byte differences
-//   raw      the width*height*4 bytes
+//   zstd     exactly one zstd frame holding the width*height*T byte differences
+//   raw      the width*height*T bytes
+//
+// 8-byte texels are a flag rather than a new version: a 4-byte tile stays byte for byte what it
+// was, and a decoder from before them refuses an 8-byte tile as one of unknown flags.
 constexpr uint8_t kFormatVersion = 1;
 constexpr uint8_t kKeyframe = 1u << 0;
 constexpr uint8_t kAlphaPlane = 1u << 1; // x264 only; without it every alpha byte is 255
 constexpr uint8_t kLossy = 1u << 2;      // x264 only: coded at a CRF, no checksum
-constexpr uint8_t kKnownFlags = kKeyframe | kAlphaPlane | kLossy;
+constexpr uint8_t kWideTexels = 1u << 3; // 8-byte texels; zstd and raw only
+constexpr uint8_t kKnownFlags = kKeyframe | kAlphaPlane | kLossy | kWideTexels;
 
 constexpr uint32_t kMaxTileSide = 16384;
 constexpr int kZstdLevel = 1;
@@ -136,17 +141,27 @@ uint32_t tile_checksum(const uint8_t *bytes, size_t size) {
     return checksum.finish();
 }
 
+// The geometry of one stream's tiles.
+struct TileShape {
+    uint32_t width = 0;
+    uint32_t height = 0;
+    uint32_t texel_bytes = 4;
+
+    size_t bytes() const { return size_t{width} * height * texel_bytes; }
+};
+
 // Starts `out` with the header of a tile of `pixels`; a lossy one carries no checksum.
-void put_header(std::vector<uint8_t> &out, TileCodec codec, uint8_t flags, uint32_t width, uint32_t height,
+void put_header(std::vector<uint8_t> &out, TileCodec codec, uint8_t flags, const TileShape &shape,
                 const uint8_t *pixels) {
+    if (shape.texel_bytes == 8) flags |= kWideTexels;
     out.clear();
     out.push_back(kFormatVersion);
     out.push_back(wire_id(codec));
     out.push_back(flags);
     out.push_back(0);
-    put_u16(out, width);
-    put_u16(out, height);
-    put_u32(out, (flags & kLossy) ? 0 : tile_checksum(pixels, size_t{width} * height * 4));
+    put_u16(out, shape.width);
+    put_u16(out, shape.height);
+    put_u32(out, (flags & kLossy) ? 0 : tile_checksum(pixels, shape.bytes()));
 }
 
 bool fail(std::string *error, std::string message) {
@@ -163,10 +178,10 @@ struct TileHeader {
     uint32_t checksum;
 };
 
-// Checks the header against the decoder's codec and tile size. What follows the header is the
-// codec's body.
-bool read_header(std::span<const uint8_t> data, TileCodec codec, uint32_t width, uint32_t height,
-                 TileHeader *header, std::string *error) {
+// Checks the header against the decoder's codec, tile size and texel size. What follows the header
+// is the codec's body.
+bool read_header(std::span<const uint8_t> data, TileCodec codec, const TileShape &shape, TileHeader *header,
+                 std::string *error) {
     const char *name = splitvk::to_string(codec);
     if (data.size() < kTileHeaderSize)
         return fail(error, std::string(name) + " tile: " + std::to_string(data.size()) +
@@ -183,10 +198,15 @@ bool read_header(std::span<const uint8_t> data, TileCodec codec, uint32_t width,
                                std::to_string(data[3]));
     const uint32_t tile_width = get_u16(&data[4]);
     const uint32_t tile_height = get_u16(&data[6]);
-    if (tile_width != width || tile_height != height)
+    if (tile_width != shape.width || tile_height != shape.height)
         return fail(error, std::string(name) + " tile: " + size_text(tile_width, tile_height) +
-                               ", the stream's tiles are " + size_text(width, height));
-    header->flags = data[2];
+                               ", the stream's tiles are " + size_text(shape.width, shape.height));
+    const uint32_t texel_bytes = (data[2] & kWideTexels) ? 8 : 4;
+    if (texel_bytes != shape.texel_bytes)
+        return fail(error, std::string(name) + " tile: " + std::to_string(texel_bytes) +
+                               "-byte texels, the stream's are " + std::to_string(shape.texel_bytes) +
+                               "-byte");
+    header->flags = static_cast<uint8_t>(data[2] & ~kWideTexels);
     header->checksum = get_u32(&data[8]);
     return true;
 }
@@ -383,7 +403,7 @@ private:
         put_header(out, TileCodec::X264,
                    static_cast<uint8_t>((output.b_keyframe ? kKeyframe : 0) | (opaque ? 0 : kAlphaPlane) |
                                         (quality_.lossless ? 0 : kLossy)),
-                   width_, height_, pixels);
+                   TileShape{width_, height_, 4}, pixels);
         put_u32(out, static_cast<uint32_t>(size));
         // x264 guarantees the payloads of one call's NAL units are contiguous, in order.
         out.insert(out.end(), nals[0].p_payload, nals[0].p_payload + size);
@@ -469,7 +489,7 @@ public:
 private:
     bool decode_tile(std::span<const uint8_t> data, uint8_t *pixels, std::string *error) {
         TileHeader header{};
-        if (!read_header(data, TileCodec::X264, width_, height_, &header, error)) return false;
+        if (!read_header(data, TileCodec::X264, TileShape{width_, height_, 4}, &header, error)) return false;
         const bool keyframe = (header.flags & kKeyframe) != 0;
         const bool has_alpha = (header.flags & kAlphaPlane) != 0;
         const bool lossy = (header.flags & kLossy) != 0;
@@ -625,9 +645,9 @@ inline uint8_t undo_difference(uint8_t difference_byte, uint8_t previous) {
 
 class ZstdTileEncoder final : public TileEncoder {
 public:
-    ZstdTileEncoder(uint32_t width, uint32_t height)
-        : width_(width), height_(height), previous_(size_t{width} * height * 4),
-          difference_(previous_.size()), compressor_(ZSTD_createCCtx()) {}
+    explicit ZstdTileEncoder(const TileShape &shape)
+        : shape_(shape), previous_(shape.bytes()), difference_(previous_.size()),
+          compressor_(ZSTD_createCCtx()) {}
 
     bool ready() const { return compressor_ != nullptr; }
 
@@ -638,7 +658,7 @@ public:
         for (size_t i = 0; i < previous_.size(); ++i)
             difference_[i] = difference(pixels[i], previous_[i]);
         std::memcpy(previous_.data(), pixels, previous_.size());
-        put_header(out, TileCodec::Zstd, keyframe_pending_ ? kKeyframe : 0, width_, height_, pixels);
+        put_header(out, TileCodec::Zstd, keyframe_pending_ ? kKeyframe : 0, shape_, pixels);
         if (!zstd_append(compressor_.get(), difference_, out, "zstd tile", error)) {
             keyframe_pending_ = true;
             return false;
@@ -651,8 +671,7 @@ public:
     void force_keyframe() override { keyframe_pending_ = true; }
 
 private:
-    uint32_t width_;
-    uint32_t height_;
+    TileShape shape_;
     std::vector<uint8_t> previous_;
     std::vector<uint8_t> difference_;
     ZstdCompressor compressor_;
@@ -661,9 +680,9 @@ private:
 
 class ZstdTileDecoder final : public TileDecoder {
 public:
-    ZstdTileDecoder(uint32_t width, uint32_t height)
-        : width_(width), height_(height), previous_(size_t{width} * height * 4),
-          difference_(previous_.size()), decompressor_(ZSTD_createDCtx()) {}
+    explicit ZstdTileDecoder(const TileShape &shape)
+        : shape_(shape), previous_(shape.bytes()), difference_(previous_.size()),
+          decompressor_(ZSTD_createDCtx()) {}
 
     bool ready() const { return decompressor_ != nullptr; }
 
@@ -676,7 +695,7 @@ public:
 private:
     bool decode_tile(std::span<const uint8_t> data, uint8_t *pixels, std::string *error) {
         TileHeader header{};
-        if (!read_header(data, TileCodec::Zstd, width_, height_, &header, error)) return false;
+        if (!read_header(data, TileCodec::Zstd, shape_, &header, error)) return false;
         if (header.flags & (kAlphaPlane | kLossy))
             return fail(error, "zstd tile: the alpha-plane and lossy flags are for x264 tiles only");
         const bool keyframe = (header.flags & kKeyframe) != 0;
@@ -696,8 +715,7 @@ private:
         return true;
     }
 
-    uint32_t width_;
-    uint32_t height_;
+    TileShape shape_;
     std::vector<uint8_t> previous_;
     std::vector<uint8_t> difference_;
     ZstdDecompressor decompressor_;
@@ -709,11 +727,11 @@ private:
 
 class RawTileEncoder final : public TileEncoder {
 public:
-    RawTileEncoder(uint32_t width, uint32_t height) : width_(width), height_(height) {}
+    explicit RawTileEncoder(const TileShape &shape) : shape_(shape) {}
 
     bool encode(const uint8_t *pixels, std::vector<uint8_t> &out, bool *keyframe, std::string *) override {
-        put_header(out, TileCodec::Raw, kKeyframe, width_, height_, pixels);
-        out.insert(out.end(), pixels, pixels + size_t{width_} * height_ * 4);
+        put_header(out, TileCodec::Raw, kKeyframe, shape_, pixels);
+        out.insert(out.end(), pixels, pixels + shape_.bytes());
         *keyframe = true;
         return true;
     }
@@ -721,22 +739,21 @@ public:
     void force_keyframe() override {} // every raw tile is one
 
 private:
-    uint32_t width_;
-    uint32_t height_;
+    TileShape shape_;
 };
 
 class RawTileDecoder final : public TileDecoder {
 public:
-    RawTileDecoder(uint32_t width, uint32_t height) : width_(width), height_(height) {}
+    explicit RawTileDecoder(const TileShape &shape) : shape_(shape) {}
 
     bool decode(std::span<const uint8_t> data, uint8_t *pixels, std::string *error) override {
         TileHeader header{};
-        if (!read_header(data, TileCodec::Raw, width_, height_, &header, error)) return false;
+        if (!read_header(data, TileCodec::Raw, shape_, &header, error)) return false;
         if (header.flags != kKeyframe)
             return fail(error,
                         "raw tile: flags " + std::to_string(header.flags) + ", expected keyframe only");
         const std::span<const uint8_t> body = data.subspan(kTileHeaderSize);
-        const size_t expected = size_t{width_} * height_ * 4;
+        const size_t expected = shape_.bytes();
         if (body.size() != expected)
             return fail(error, "raw tile: " + std::to_string(body.size()) + " pixel bytes, expected " +
                                    std::to_string(expected));
@@ -746,20 +763,29 @@ public:
     }
 
 private:
-    uint32_t width_;
-    uint32_t height_;
+    TileShape shape_;
 };
 
-bool valid_size(uint32_t width, uint32_t height, std::string *error) {
-    if (width >= 1 && width <= kMaxTileSide && height >= 1 && height <= kMaxTileSide) return true;
-    return fail(error, "tile size " + size_text(width, height) + " is outside 1x1..16384x16384");
+bool valid_shape(TileCodec codec, const TileShape &shape, std::string *error) {
+    if (shape.width < 1 || shape.width > kMaxTileSide || shape.height < 1 || shape.height > kMaxTileSide)
+        return fail(error,
+                    "tile size " + size_text(shape.width, shape.height) + " is outside 1x1..16384x16384");
+    if (shape.texel_bytes != 4 && shape.texel_bytes != 8)
+        return fail(error, "tile texels of " + std::to_string(shape.texel_bytes) + " bytes (4 or 8 are)");
+    // x264 codes 8-bit samples, and its RGB input is 4 bytes a pixel.
+    if (codec == TileCodec::X264 && shape.texel_bytes != 4)
+        return fail(error, "x264 tiles have 4-byte texels, not " + std::to_string(shape.texel_bytes) +
+                               " (zstd and raw carry 8)");
+    return true;
 }
 
 } // namespace
 
 std::unique_ptr<TileEncoder> make_tile_encoder(TileCodec codec, uint32_t width, uint32_t height,
-                                               std::string *error, const TileQuality &quality) {
-    if (!valid_size(width, height, error)) return nullptr;
+                                               uint32_t texel_bytes, std::string *error,
+                                               const TileQuality &quality) {
+    const TileShape shape{width, height, texel_bytes};
+    if (!valid_shape(codec, shape, error)) return nullptr;
     if (!quality.lossless && quality.crf > kMaxPeripheryCrf) {
         fail(error, "tile quality: crf " + std::to_string(quality.crf) + " above " +
                         std::to_string(kMaxPeripheryCrf));
@@ -772,7 +798,7 @@ std::unique_ptr<TileEncoder> make_tile_encoder(TileCodec codec, uint32_t width, 
         return encoder;
     }
     case TileCodec::Zstd: {
-        auto encoder = std::make_unique<ZstdTileEncoder>(width, height);
+        auto encoder = std::make_unique<ZstdTileEncoder>(shape);
         if (!encoder->ready()) {
             fail(error, "zstd tile encoder: cannot create a zstd context");
             return nullptr;
@@ -780,15 +806,16 @@ std::unique_ptr<TileEncoder> make_tile_encoder(TileCodec codec, uint32_t width, 
         return encoder;
     }
     case TileCodec::Raw:
-        return std::make_unique<RawTileEncoder>(width, height);
+        return std::make_unique<RawTileEncoder>(shape);
     }
     fail(error, "unknown tile codec " + std::to_string(static_cast<int>(codec)));
     return nullptr;
 }
 
 std::unique_ptr<TileDecoder> make_tile_decoder(TileCodec codec, uint32_t width, uint32_t height,
-                                               std::string *error, bool accept_lossy) {
-    if (!valid_size(width, height, error)) return nullptr;
+                                               uint32_t texel_bytes, std::string *error, bool accept_lossy) {
+    const TileShape shape{width, height, texel_bytes};
+    if (!valid_shape(codec, shape, error)) return nullptr;
     switch (codec) {
     case TileCodec::X264: {
         auto decoder = std::make_unique<X264TileDecoder>(width, height, accept_lossy);
@@ -796,7 +823,7 @@ std::unique_ptr<TileDecoder> make_tile_decoder(TileCodec codec, uint32_t width, 
         return decoder;
     }
     case TileCodec::Zstd: {
-        auto decoder = std::make_unique<ZstdTileDecoder>(width, height);
+        auto decoder = std::make_unique<ZstdTileDecoder>(shape);
         if (!decoder->ready()) {
             fail(error, "zstd tile decoder: cannot create a zstd context");
             return nullptr;
@@ -804,10 +831,20 @@ std::unique_ptr<TileDecoder> make_tile_decoder(TileCodec codec, uint32_t width, 
         return decoder;
     }
     case TileCodec::Raw:
-        return std::make_unique<RawTileDecoder>(width, height);
+        return std::make_unique<RawTileDecoder>(shape);
     }
     fail(error, "unknown tile codec " + std::to_string(static_cast<int>(codec)));
     return nullptr;
+}
+
+uint32_t peek_texel_bytes(std::span<const uint8_t> tile) {
+    if (tile.size() < kTileHeaderSize || tile[0] != kFormatVersion || (tile[2] & ~kKnownFlags) != 0 ||
+        tile[3] != 0 || get_u16(&tile[4]) == 0 || get_u16(&tile[6]) == 0)
+        return 0;
+    const bool wide = (tile[2] & kWideTexels) != 0;
+    if (tile[1] == wire_id(TileCodec::X264)) return wide ? 0 : 4;
+    if (tile[1] == wire_id(TileCodec::Zstd) || tile[1] == wire_id(TileCodec::Raw)) return wide ? 8 : 4;
+    return 0;
 }
 
 } // namespace splitvk::tiles

@@ -4,26 +4,29 @@
 // lossless, and in the swapped split (issue 21) the parts of the downsampled periphery, which may be
 // lossy.
 //
-// A tile is width*height pixels, 4 bytes per pixel, rows tightly packed, in the swapchain image's
-// byte order (B,G,R,A or R,G,B,A). The codecs never interpret channel order. A lossless tile
-// guarantees that decode(encode(x)) == x byte for byte, all 4 bytes including alpha.
+// A tile is width*height texels of 4 or 8 bytes (its stream's texel size, tile_format.h's
+// tile_texel_bytes of the image's format), rows tightly packed, as the image stores them (B,G,R,A or
+// R,G,B,A bytes; four 16-bit channels). The codecs never interpret channel order. A lossless tile
+// guarantees that decode(encode(x)) == x byte for byte, every byte including alpha.
 //
 // Codecs (splitvk::TileCodec):
-//  - X264: H.264 (x264, High 4:4:4 Predictive, RGB coded as GBR planes), decoded with FFmpeg's h264
+//  - X264 (4-byte texels only): H.264 (x264, High 4:4:4 Predictive, RGB coded as GBR planes), decoded with
+//  FFmpeg's h264
 //    decoder. Lossless: CQP qp 0. Lossy (TileQuality::lossless false): constant quality (CRF) on the
 //    same GBR planes, so no colour conversion rounds; such tiles carry no checksum, and a decoder
 //    accepts them only when made with accept_lossy, so that a fovea tile is never lossy. Alpha
 //    travels beside it, losslessly: nothing when every alpha byte is 255, else the alpha plane
 //    zstd-compressed (intra only).
 //  - Zstd: zstd level 1 on the byte-wise difference from the stream's previous tile. Always lossless.
-//  - Raw: the pixels as they are.
+//  - Raw: the texels as they are.
 //
-// Every encoded tile starts with the same 12-byte header (format version, codec, keyframe, alpha and
-// lossy flags, width, height, a checksum of the pixels), so validation, the keyframe rule and the
-// check that decoding gave back exactly the encoder's input are the same for every codec.
+// Every encoded tile starts with the same 12-byte header (format version, codec, keyframe, alpha,
+// lossy and 8-byte-texel flags, width, height, a checksum of the texels), so validation, the keyframe
+// rule and the check that decoding gave back exactly the encoder's input are the same for every
+// codec. A 4-byte tile's header is what it was before tiles had a texel size.
 //
-// One encoder and one decoder per eye stream; frames of a stream have a fixed size (a new size
-// takes a new encoder and decoder). Encoders and decoders of different streams may run on
+// One encoder and one decoder per eye stream; frames of a stream have a fixed size and texel size (a
+// new one takes a new encoder and decoder). Encoders and decoders of different streams may run on
 // different threads at once; one object is used by one thread at a time. The X264 encoder and
 // decoder each run 2 slice threads of their own.
 
@@ -45,7 +48,7 @@ class TileEncoder {
 public:
     virtual ~TileEncoder();
 
-    // Encodes the next frame of this stream from width*height*4 bytes at `pixels` into `out`
+    // Encodes the next frame of this stream from width*height*texel_bytes bytes at `pixels` into `out`
     // (replacing its contents). *keyframe tells whether the tile can be decoded alone. False with
     // one line in *error when the codec fails (`out` is then not a tile); the next frame is then a
     // keyframe.
@@ -61,14 +64,15 @@ class TileDecoder {
 public:
     virtual ~TileDecoder();
 
-    // Decodes one encoded tile into `pixels` (width*height*4 bytes), writing each byte once, whole
+    // Decodes one encoded tile into `pixels` (width*height*texel_bytes bytes), writing each byte once, whole
     // rows in order, and never reading them back (the checksum is summed before they are stored):
     // `pixels` may be mapped, uncached device memory (the layer's upload buffer), with no copy of
     // the tile in between. Malformed input of any kind returns false with one line in *error:
     // never a crash, an over-read or an unbounded allocation. On failure `pixels` may have been
     // partly or wholly written: do not use them.
     // A non-keyframe before the first keyframe is an error, and so is a non-keyframe after a
-    // failed decode: the stream's reference is lost until the encoder sends a keyframe.
+    // failed decode: the stream's reference is lost until the encoder sends a keyframe. A tile of
+    // another texel size than the decoder's is an error.
     virtual bool decode(std::span<const uint8_t> data, uint8_t *pixels, std::string *error) = 0;
 };
 
@@ -80,12 +84,25 @@ struct TileQuality {
     uint32_t crf = 23;
 };
 
-// Null with *error when the codec cannot be set up for this size (width and height 1..16384) or
-// quality (crf above 51).
+// Null with *error when the codec cannot be set up for this size (width and height 1..16384),
+// texel size (4 or 8; X264 takes 4 only) or quality (crf above 51).
 std::unique_ptr<TileEncoder> make_tile_encoder(TileCodec codec, uint32_t width, uint32_t height,
-                                               std::string *error, const TileQuality &quality = {});
+                                               uint32_t texel_bytes, std::string *error,
+                                               const TileQuality &quality = {});
 // A decoder without `accept_lossy` refuses a lossy tile as an error.
 std::unique_ptr<TileDecoder> make_tile_decoder(TileCodec codec, uint32_t width, uint32_t height,
-                                               std::string *error, bool accept_lossy = false);
+                                               uint32_t texel_bytes, std::string *error,
+                                               bool accept_lossy = false);
+// The 4-byte decoder, for callers that predate the texel size.
+inline std::unique_ptr<TileDecoder> make_tile_decoder(TileCodec codec, uint32_t width, uint32_t height,
+                                                      std::string *error, bool accept_lossy = false) {
+    return make_tile_decoder(codec, width, height, 4, error, accept_lossy);
+}
+
+// The texel size a tile's header declares (4 or 8), read without decoding it: what to make the
+// decoder and size the pixels for before checking them against the image. 0 for a span too short
+// for the header, or a header no decoder would take (unknown version, codec or flags, an empty
+// size, 8-byte texels in an x264 tile).
+uint32_t peek_texel_bytes(std::span<const uint8_t> tile);
 
 } // namespace splitvk::tiles

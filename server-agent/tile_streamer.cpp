@@ -369,7 +369,7 @@ bool TileStreamer::encode_and_send(Slot &slot, std::string *error) {
             stream.codec != codec_ || stream.quality.lossless != frame.quality.lossless ||
             stream.quality.crf != frame.quality.crf) {
             stream = EyeStream{rect.extent.width, rect.extent.height, codec_, frame.quality, nullptr};
-            stream.encoder = tiles::make_tile_encoder(codec_, rect.extent.width, rect.extent.height,
+            stream.encoder = tiles::make_tile_encoder(codec_, rect.extent.width, rect.extent.height, 4,
                                                       &errors[eye], frame.quality);
             if (!stream.encoder) return;
         }

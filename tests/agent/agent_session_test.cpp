@@ -1512,10 +1512,10 @@ void expect_periphery_session(Agent &agent, uint64_t session) {
             std::string error;
             std::vector<uint8_t> pixels(size_t{tile.width} * tile.height * 4);
             if (frame == 0) {
-                auto strict = tiles::make_tile_decoder(tile.codec, tile.width, tile.height, &error);
+                auto strict = tiles::make_tile_decoder(tile.codec, tile.width, tile.height, 4, &error);
                 ASSERT_NE(strict, nullptr) << error;
                 EXPECT_FALSE(strict->decode(tile.data, pixels.data(), &error)) << "a lossy part, refused";
-                decoders[i] = tiles::make_tile_decoder(tile.codec, tile.width, tile.height, &error, true);
+                decoders[i] = tiles::make_tile_decoder(tile.codec, tile.width, tile.height, 4, &error, true);
                 ASSERT_NE(decoders[i], nullptr) << error;
             }
             ASSERT_TRUE(decoders[i]->decode(tile.data, pixels.data(), &error)) << error;

@@ -257,7 +257,7 @@ void tile_decoder(const uint8_t *data, size_t size) {
     const bool accept_lossy = (data[0] / 3) % 2 == 1;
     const TileSize tile = kFuzzTileSizes[data[1] % kFuzzTileSizeCount];
     std::string error;
-    auto decoder = tiles::make_tile_decoder(codec, tile.width, tile.height, &error, accept_lossy);
+    auto decoder = tiles::make_tile_decoder(codec, tile.width, tile.height, 4, &error, accept_lossy);
     if (!decoder) return;
     std::vector<uint8_t> pixels(size_t{tile.width} * tile.height * 4);
     std::span<const uint8_t> rest(data + 2, size - 2);

@@ -43,7 +43,7 @@ int main(int argc, char **argv) {
             const auto tile = fuzz::kFuzzTileSizes[s];
             if (tile.width > width || tile.height > height) continue;
             std::string error;
-            auto encoder = tiles::make_tile_encoder(codecs[c].codec, tile.width, tile.height, &error);
+            auto encoder = tiles::make_tile_encoder(codecs[c].codec, tile.width, tile.height, 4, &error);
             if (!encoder) {
                 std::fprintf(stderr, "%s %ux%u: %s\n", codecs[c].name, tile.width, tile.height,
                              error.c_str());

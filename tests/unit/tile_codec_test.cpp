@@ -8,7 +8,9 @@
 #include <cmath>
 #include <cstdint>
 #include <random>
+#include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -75,9 +77,9 @@ struct Stream {
 Stream open_stream(TileCodec codec, uint32_t width, uint32_t height) {
     Stream stream;
     std::string error;
-    stream.encoder = make_tile_encoder(codec, width, height, &error);
+    stream.encoder = make_tile_encoder(codec, width, height, 4, &error);
     EXPECT_NE(stream.encoder, nullptr) << error;
-    stream.decoder = make_tile_decoder(codec, width, height, &error);
+    stream.decoder = make_tile_decoder(codec, width, height, 4, &error);
     EXPECT_NE(stream.decoder, nullptr) << error;
     return stream;
 }
@@ -248,7 +250,7 @@ TEST_P(TileCodecTest, TrailingBytesAreRefused) {
 TEST_P(TileCodecTest, WrongSizeIsRefused) {
     Stream small = open_stream(codec(), 32, 32);
     std::string error;
-    auto decoder = make_tile_decoder(codec(), 48, 32, &error);
+    auto decoder = make_tile_decoder(codec(), 48, 32, 4, &error);
     ASSERT_TRUE(small.encoder && decoder) << error;
     const auto encoded = encode_ok(*small.encoder, synthetic_tile(32, 32, 0, AlphaKind::Opaque));
     Pixels decoded(48 * 32 * 4);
@@ -259,12 +261,12 @@ TEST_P(TileCodecTest, WrongSizeIsRefused) {
 // A tile of another codec is refused, whatever its body.
 TEST_P(TileCodecTest, OtherCodecsTilesAreRefused) {
     std::string error;
-    auto decoder = make_tile_decoder(codec(), 32, 32, &error);
+    auto decoder = make_tile_decoder(codec(), 32, 32, 4, &error);
     ASSERT_TRUE(decoder) << error;
     Pixels decoded(32 * 32 * 4);
     for (TileCodec other : {TileCodec::X264, TileCodec::Zstd, TileCodec::Raw}) {
         if (other == codec()) continue;
-        auto encoder = make_tile_encoder(other, 32, 32, &error);
+        auto encoder = make_tile_encoder(other, 32, 32, 4, &error);
         ASSERT_TRUE(encoder) << error;
         const auto encoded = encode_ok(*encoder, synthetic_tile(32, 32, 0, AlphaKind::Opaque));
         EXPECT_FALSE(decoder->decode(encoded, decoded.data(), &error)) << to_string(other);
@@ -317,10 +319,183 @@ INSTANTIATE_TEST_SUITE_P(Codecs, TileCodecTest,
 
 TEST(TileCodecFactory, RefusesEmptyAndHugeTiles) {
     std::string error;
-    EXPECT_EQ(make_tile_encoder(TileCodec::X264, 0, 16, &error), nullptr);
+    EXPECT_EQ(make_tile_encoder(TileCodec::X264, 0, 16, 4, &error), nullptr);
     EXPECT_NE(error.find("0x16"), std::string::npos) << error;
-    EXPECT_EQ(make_tile_decoder(TileCodec::Zstd, 16, 20000, &error), nullptr);
+    EXPECT_EQ(make_tile_decoder(TileCodec::Zstd, 16, 20000, 4, &error), nullptr);
     EXPECT_NE(error.find("16x20000"), std::string::npos) << error;
+}
+
+// --- 8-byte texels (RGBA16 images: zstd and raw) ---------------------------------------------
+
+// Four 16-bit channels that move with `frame`, with low bytes that are noise, so that a codec that
+// dropped or reordered half of each texel could not give the tile back.
+Pixels wide_tile(uint32_t width, uint32_t height, int frame, uint32_t seed = 7) {
+    std::mt19937 noise(seed * 1000u + static_cast<uint32_t>(frame));
+    Pixels pixels(size_t{width} * height * 8);
+    for (uint32_t y = 0; y < height; ++y)
+        for (uint32_t x = 0; x < width; ++x) {
+            uint8_t *p = &pixels[(size_t{y} * width + x) * 8];
+            const uint32_t channels[4] = {x * 517 + static_cast<uint32_t>(frame) * 97, y * 263 + 4000,
+                                          (x ^ y) * 1031, 65535 - x};
+            for (int c = 0; c < 4; ++c) {
+                const uint32_t value = channels[c] + (noise() & 7u);
+                p[c * 2] = static_cast<uint8_t>(value);
+                p[c * 2 + 1] = static_cast<uint8_t>(value >> 8);
+            }
+        }
+    return pixels;
+}
+
+class WideTexelTest : public ::testing::TestWithParam<TileCodec> {};
+
+TEST_P(WideTexelTest, TilesRoundTripBitExact) {
+    for (const auto &[width, height] : {std::pair<uint32_t, uint32_t>{64, 48}, {37, 21}, {1, 1}}) {
+        std::string error;
+        auto encoder = make_tile_encoder(GetParam(), width, height, 8, &error);
+        ASSERT_NE(encoder, nullptr) << error;
+        auto decoder = make_tile_decoder(GetParam(), width, height, 8, &error);
+        ASSERT_NE(decoder, nullptr) << error;
+        Pixels decoded(size_t{width} * height * 8);
+        for (int frame = 0; frame < 4; ++frame) {
+            const Pixels tile =
+                frame == 3 ? noise_tile(width * 2, height, 9) : wide_tile(width, height, frame);
+            bool keyframe = false;
+            const auto encoded = encode_ok(*encoder, tile, &keyframe);
+            EXPECT_EQ(keyframe, frame == 0 || GetParam() == TileCodec::Raw) << "frame " << frame;
+            EXPECT_EQ(peek_texel_bytes(encoded), 8u);
+            ASSERT_TRUE(decoder->decode(encoded, decoded.data(), &error))
+                << "frame " << frame << ": " << error;
+            ASSERT_EQ(decoded, tile) << width << "x" << height << ", frame " << frame << ": "
+                                     << first_difference(tile, decoded);
+        }
+    }
+}
+
+// A decoder takes only tiles of its own texel size: a 4-byte tile is not half of an 8-byte one, nor
+// an 8-byte tile two 4-byte ones, whatever the sizes say.
+TEST_P(WideTexelTest, TilesOfTheOtherTexelSizeAreRefused) {
+    std::string error;
+    for (const auto &[encoded_bytes, decoder_bytes] : {std::pair<uint32_t, uint32_t>{4, 8}, {8, 4}}) {
+        auto encoder = make_tile_encoder(GetParam(), 32, 16, encoded_bytes, &error);
+        auto decoder = make_tile_decoder(GetParam(), 32, 16, decoder_bytes, &error);
+        ASSERT_TRUE(encoder && decoder) << error;
+        const Pixels tile =
+            encoded_bytes == 8 ? wide_tile(32, 16, 0) : synthetic_tile(32, 16, 0, AlphaKind::Noise);
+        const auto encoded = encode_ok(*encoder, tile);
+        EXPECT_EQ(peek_texel_bytes(encoded), encoded_bytes);
+        Pixels decoded(size_t{32} * 16 * decoder_bytes);
+        error.clear();
+        EXPECT_FALSE(decoder->decode(encoded, decoded.data(), &error));
+        EXPECT_NE(error.find(std::to_string(encoded_bytes) + "-byte texels, the stream's are " +
+                             std::to_string(decoder_bytes)),
+                  std::string::npos)
+            << error;
+        EXPECT_EQ(error.find('\n'), std::string::npos) << error;
+    }
+}
+
+// Damage to an 8-byte tile is refused or harmless, as to a 4-byte one.
+TEST_P(WideTexelTest, BitFlipsAreRefusedOrHarmless) {
+    std::string error;
+    auto encoder = make_tile_encoder(GetParam(), 24, 16, 8, &error);
+    auto decoder = make_tile_decoder(GetParam(), 24, 16, 8, &error);
+    ASSERT_TRUE(encoder && decoder) << error;
+    const Pixels tile = wide_tile(24, 16, 0);
+    const auto keyframe = encode_ok(*encoder, tile);
+    std::mt19937 random(11);
+    Pixels decoded(tile.size());
+    for (int attempt = 0; attempt < 200; ++attempt) {
+        auto damaged = keyframe;
+        const size_t bit = random() % (damaged.size() * 8);
+        damaged[bit / 8] ^= static_cast<uint8_t>(1u << (bit % 8));
+        if (decoder->decode(damaged, decoded.data(), &error)) {
+            EXPECT_EQ(decoded, tile) << "attempt " << attempt << ": damaged tile decoded to other pixels";
+        }
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(Codecs, WideTexelTest, ::testing::Values(TileCodec::Zstd, TileCodec::Raw),
+                         [](const ::testing::TestParamInfo<TileCodec> &p) {
+                             return std::string(to_string(p.param));
+                         });
+
+TEST(TileCodecFactory, X264RefusesEightByteTexels) {
+    std::string error;
+    EXPECT_EQ(make_tile_encoder(TileCodec::X264, 32, 16, 8, &error), nullptr);
+    EXPECT_NE(error.find("x264 tiles have 4-byte texels, not 8"), std::string::npos) << error;
+    error.clear();
+    EXPECT_EQ(make_tile_decoder(TileCodec::X264, 32, 16, 8, &error), nullptr);
+    EXPECT_NE(error.find("x264 tiles have 4-byte texels, not 8"), std::string::npos) << error;
+}
+
+TEST(TileCodecFactory, RefusesTexelSizesOtherThanFourAndEight) {
+    for (const TileCodec codec : {TileCodec::X264, TileCodec::Zstd, TileCodec::Raw})
+        for (const uint32_t bytes : {0u, 1u, 3u, 6u, 16u}) {
+            std::string error;
+            EXPECT_EQ(make_tile_encoder(codec, 32, 16, bytes, &error), nullptr)
+                << to_string(codec) << " " << bytes;
+            EXPECT_NE(error.find("tile texels of " + std::to_string(bytes) + " bytes"), std::string::npos)
+                << error;
+            error.clear();
+            EXPECT_EQ(make_tile_decoder(codec, 32, 16, bytes, &error), nullptr)
+                << to_string(codec) << " " << bytes;
+            EXPECT_FALSE(error.empty());
+        }
+}
+
+// A 4-byte tile is what it was before tiles had a texel size: no new flag in its header, so a
+// layer that predates 8-byte texels decodes it as before (and refuses an 8-byte one).
+TEST(TileHeader, FourByteTilesCarryNoTexelFlag) {
+    std::string error;
+    auto raw = make_tile_encoder(TileCodec::Raw, 2, 1, 4, &error);
+    ASSERT_NE(raw, nullptr) << error;
+    const Pixels pixels = {1, 2, 3, 4, 5, 6, 7, 8};
+    const auto encoded = encode_ok(*raw, pixels);
+    ASSERT_EQ(encoded.size(), kTileHeaderSize + pixels.size());
+    const std::vector<uint8_t> header(encoded.begin(), encoded.begin() + 8);
+    EXPECT_EQ(header, (std::vector<uint8_t>{1, 3, 1, 0, 2, 0, 1, 0})) << "version 1, raw, keyframe only, 2x1";
+    auto wide = make_tile_encoder(TileCodec::Raw, 1, 1, 8, &error);
+    ASSERT_NE(wide, nullptr) << error;
+    const auto wide_encoded = encode_ok(*wide, pixels);
+    EXPECT_EQ(wide_encoded[2], 1u | 8u) << "keyframe and 8-byte texels";
+}
+
+TEST(TileHeader, PeekTexelBytes) {
+    std::string error;
+    for (const TileCodec codec : {TileCodec::X264, TileCodec::Zstd, TileCodec::Raw}) {
+        auto encoder = make_tile_encoder(codec, 16, 16, 4, &error);
+        ASSERT_NE(encoder, nullptr) << error;
+        EXPECT_EQ(peek_texel_bytes(encode_ok(*encoder, synthetic_tile(16, 16, 0, AlphaKind::Opaque))), 4u)
+            << to_string(codec);
+    }
+    auto zstd = make_tile_encoder(TileCodec::Zstd, 16, 16, 8, &error);
+    ASSERT_NE(zstd, nullptr) << error;
+    const auto good = encode_ok(*zstd, wide_tile(16, 16, 0));
+    ASSERT_EQ(peek_texel_bytes(good), 8u);
+    // Only the header is read: a tile whose body is cut off still says its texel size.
+    EXPECT_EQ(peek_texel_bytes(std::span(good).first(kTileHeaderSize)), 8u);
+
+    EXPECT_EQ(peek_texel_bytes({}), 0u);
+    EXPECT_EQ(peek_texel_bytes(std::span(good).first(kTileHeaderSize - 1)), 0u) << "shorter than the header";
+    const auto damaged = [&](size_t at, uint8_t value) {
+        auto copy = good;
+        copy[at] = value;
+        return peek_texel_bytes(copy);
+    };
+    EXPECT_EQ(damaged(0, 2), 0u) << "format version 2";
+    EXPECT_EQ(damaged(0, 0), 0u) << "format version 0";
+    EXPECT_EQ(damaged(1, 0), 0u) << "codec id 0";
+    EXPECT_EQ(damaged(1, 4), 0u) << "codec id 4";
+    EXPECT_EQ(damaged(1, 1), 0u) << "8-byte texels in an x264 tile";
+    EXPECT_EQ(damaged(2, 0x10 | 0x08), 0u) << "an unknown flag";
+    EXPECT_EQ(damaged(3, 1), 0u) << "the zero byte";
+    auto empty = good;
+    empty[4] = empty[5] = 0;
+    EXPECT_EQ(peek_texel_bytes(empty), 0u) << "zero width";
+    empty = good;
+    empty[6] = empty[7] = 0;
+    EXPECT_EQ(peek_texel_bytes(empty), 0u) << "zero height";
+    EXPECT_EQ(damaged(2, 0x01), 4u) << "the flag off: a 4-byte header";
 }
 
 // The alpha plane is carried only when some alpha byte is not 255: opaque x264 tiles are the
@@ -384,7 +559,7 @@ TEST(X264Tiles, LargerPictureIsRefused) {
     encoded[6] = 64;
     encoded[7] = 0;
     std::string error;
-    auto decoder = make_tile_decoder(TileCodec::X264, 64, 64, &error);
+    auto decoder = make_tile_decoder(TileCodec::X264, 64, 64, 4, &error);
     ASSERT_TRUE(decoder) << error;
     Pixels decoded(64 * 64 * 4);
     EXPECT_FALSE(decoder->decode(encoded, decoded.data(), &error));
@@ -398,7 +573,7 @@ TEST(X264Tiles, SmallerPictureIsRefused) {
     auto encoded = encode_ok(*small.encoder, synthetic_tile(32, 32, 0, AlphaKind::Opaque));
     encoded[4] = 48;
     std::string error;
-    auto decoder = make_tile_decoder(TileCodec::X264, 48, 32, &error);
+    auto decoder = make_tile_decoder(TileCodec::X264, 48, 32, 4, &error);
     ASSERT_TRUE(decoder) << error;
     Pixels decoded(48 * 32 * 4);
     EXPECT_FALSE(decoder->decode(encoded, decoded.data(), &error));
@@ -442,9 +617,9 @@ Pixels gradient_noise_image(uint32_t width, uint32_t height, int frame) {
 Stream open_lossy_stream(uint32_t width, uint32_t height, uint32_t crf, bool accept_lossy) {
     Stream stream;
     std::string error;
-    stream.encoder = make_tile_encoder(TileCodec::X264, width, height, &error, TileQuality{false, crf});
+    stream.encoder = make_tile_encoder(TileCodec::X264, width, height, 4, &error, TileQuality{false, crf});
     EXPECT_NE(stream.encoder, nullptr) << error;
-    stream.decoder = make_tile_decoder(TileCodec::X264, width, height, &error, accept_lossy);
+    stream.decoder = make_tile_decoder(TileCodec::X264, width, height, 4, &error, accept_lossy);
     EXPECT_NE(stream.decoder, nullptr) << error;
     return stream;
 }
@@ -493,7 +668,7 @@ TEST(X264LossyTiles, RefusedWithoutAcceptLossy) {
     auto with_checksum = encoded;
     with_checksum[8] = 1;
     std::string lossy_error;
-    auto accepting = make_tile_decoder(TileCodec::X264, kWidth, kHeight, &lossy_error, true);
+    auto accepting = make_tile_decoder(TileCodec::X264, kWidth, kHeight, 4, &lossy_error, true);
     ASSERT_NE(accepting, nullptr) << lossy_error;
     EXPECT_FALSE(accepting->decode(with_checksum, decoded.data(), &lossy_error));
     EXPECT_TRUE(accepting->decode(encoded, decoded.data(), &lossy_error)) << lossy_error;
@@ -503,8 +678,8 @@ TEST(X264LossyTiles, RefusedWithoutAcceptLossy) {
 TEST(X264LossyTiles, AcceptingDecoderStillChecksLosslessTiles) {
     constexpr uint32_t kWidth = 64, kHeight = 48;
     std::string error;
-    auto encoder = make_tile_encoder(TileCodec::X264, kWidth, kHeight, &error);
-    auto decoder = make_tile_decoder(TileCodec::X264, kWidth, kHeight, &error, true);
+    auto encoder = make_tile_encoder(TileCodec::X264, kWidth, kHeight, 4, &error);
+    auto decoder = make_tile_decoder(TileCodec::X264, kWidth, kHeight, 4, &error, true);
     ASSERT_TRUE(encoder && decoder) << error;
     const Pixels tile = synthetic_tile(kWidth, kHeight, 0, AlphaKind::Opaque);
     auto encoded = encode_ok(*encoder, tile);
@@ -522,8 +697,8 @@ TEST(X264LossyTiles, AcceptingDecoderStillChecksLosslessTiles) {
 TEST(TileCodecFactory, LossyQualityOnlyForX264AndWithinRange) {
     for (TileCodec codec : {TileCodec::Zstd, TileCodec::Raw}) {
         std::string error;
-        auto encoder = make_tile_encoder(codec, 32, 16, &error, TileQuality{false, 30});
-        auto decoder = make_tile_decoder(codec, 32, 16, &error, true);
+        auto encoder = make_tile_encoder(codec, 32, 16, 4, &error, TileQuality{false, 30});
+        auto decoder = make_tile_decoder(codec, 32, 16, 4, &error, true);
         ASSERT_TRUE(encoder && decoder) << error;
         const Pixels tile = synthetic_tile(32, 16, 0, AlphaKind::Noise);
         Pixels decoded(tile.size());
@@ -531,7 +706,7 @@ TEST(TileCodecFactory, LossyQualityOnlyForX264AndWithinRange) {
         EXPECT_EQ(decoded, tile) << to_string(codec);
     }
     std::string error;
-    EXPECT_EQ(make_tile_encoder(TileCodec::X264, 32, 16, &error, TileQuality{false, 52}), nullptr);
+    EXPECT_EQ(make_tile_encoder(TileCodec::X264, 32, 16, 4, &error, TileQuality{false, 52}), nullptr);
     EXPECT_NE(error.find("crf"), std::string::npos) << error;
 }
 

@@ -77,8 +77,8 @@ struct EyeResult {
 EyeResult stream_eye(TileCodec codec, const Rect &rect, const std::vector<std::vector<uint8_t>> &tiles) {
     EyeResult result;
     std::string error;
-    std::unique_ptr<TileEncoder> encoder = tiles::make_tile_encoder(codec, rect.width, rect.height, &error);
-    std::unique_ptr<TileDecoder> decoder = tiles::make_tile_decoder(codec, rect.width, rect.height, &error);
+    std::unique_ptr<TileEncoder> encoder = tiles::make_tile_encoder(codec, rect.width, rect.height, 4, &error);
+    std::unique_ptr<TileDecoder> decoder = tiles::make_tile_decoder(codec, rect.width, rect.height, 4, &error);
     if (!encoder || !decoder) {
         result.failure = "cannot create the codec: " + error;
         return result;
