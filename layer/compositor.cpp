@@ -36,6 +36,7 @@
 #include "log.h"
 #include "split_geometry.h"
 #include "swapchain.h"
+#include "tile_format.h"
 #include "upsample_shaders.h"
 #include "vk_util.h"
 
@@ -75,23 +76,6 @@ constexpr VkFormatFeatureFlags kPeripheryFeatures = VK_FORMAT_FEATURE_TRANSFER_D
                                                     VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT |
                                                     VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT;
 
-// Tiles are 4 bytes per pixel: the formats swapchains come in.
-bool four_bytes_per_texel(VkFormat format) {
-    switch (format) {
-    case VK_FORMAT_B8G8R8A8_UNORM:
-    case VK_FORMAT_B8G8R8A8_SRGB:
-    case VK_FORMAT_R8G8B8A8_UNORM:
-    case VK_FORMAT_R8G8B8A8_SRGB:
-    case VK_FORMAT_A8B8G8R8_UNORM_PACK32:
-    case VK_FORMAT_A8B8G8R8_SRGB_PACK32:
-    case VK_FORMAT_A2R10G10B10_UNORM_PACK32:
-    case VK_FORMAT_A2B10G10R10_UNORM_PACK32:
-        return true;
-    default:
-        return false;
-    }
-}
-
 // A tile (or a fovea to keep) clipped to the image.
 struct ClippedTile {
     const FoveaTile *tile = nullptr;
@@ -113,8 +97,9 @@ bool clip(const VkRect2D &rect, VkExtent2D image, ClippedTile *out) {
     return true;
 }
 
-bool clip(const FoveaTile &t, VkExtent2D image, uint32_t layers, ClippedTile *out) {
-    if (t.layer >= layers || !t.buffer || !clip(t.rect, image, out)) return false;
+bool clip(const FoveaTile &t, VkExtent2D image, uint32_t layers, uint32_t texel_bytes, ClippedTile *out) {
+    if (t.layer >= layers || !t.buffer || t.texel_bytes != texel_bytes || !clip(t.rect, image, out))
+        return false;
     out->tile = &t;
     out->layer = t.layer;
     return true;
@@ -347,19 +332,19 @@ struct Compositor::Slot {
 };
 
 bool Compositor::supports(DeviceState &device, VkFormat format, std::string *why, uint32_t layers) {
-    if (!four_bytes_per_texel(format)) {
-        *why = "format " + std::to_string(format) + " is not 4 bytes per pixel";
+    if (tile_texel_bytes(format) == 0) {
+        *why = std::string(format_name(format)) + " is not a colour format of 4 or 8 bytes a texel";
         return false;
     }
     VkFormatProperties props{};
     device.instance->dispatch.GetPhysicalDeviceFormatProperties(device.physical_device, format, &props);
     if ((props.optimalTilingFeatures & kSwapchainFeatures) != kSwapchainFeatures ||
         (props.optimalTilingFeatures & kPeripheryFeatures) != kPeripheryFeatures) {
-        *why = "format " + std::to_string(format) + " lacks transfer, colour attachment or linear sampling";
+        *why = std::string(format_name(format)) + " lacks transfer, colour attachment or linear sampling";
         return false;
     }
     if (layers > 1 && (props.optimalTilingFeatures & kBlitFeatures) != kBlitFeatures) {
-        *why = "format " + std::to_string(format) + " of a layered image does not blit with a linear filter";
+        *why = std::string(format_name(format)) + " of a layered image does not blit with a linear filter";
         return false;
     }
     return true;
@@ -368,9 +353,9 @@ bool Compositor::supports(DeviceState &device, VkFormat format, std::string *why
 Compositor::Compositor(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family,
                        UpsampleFilter filter, bool timed)
     : device_(device), swapchain_(swapchain.handle), extent_(swapchain.extent), format_(swapchain.format),
-      layers_(std::max(swapchain.array_layers, 1u)), present_layout_(swapchain.present_layout),
-      images_(swapchain.images), queue_family_(queue_family), filter_(filter),
-      blit_(filter == UpsampleFilter::BilinearBlit), timed_(timed) {
+      texel_bytes_(tile_texel_bytes(swapchain.format)), layers_(std::max(swapchain.array_layers, 1u)),
+      present_layout_(swapchain.present_layout), images_(swapchain.images), queue_family_(queue_family),
+      filter_(filter), blit_(filter == UpsampleFilter::BilinearBlit), timed_(timed) {
     if (swapchain.runtime) {
         // An OpenXR runtime's image (runtime_swapchain.h): no semaphore orders the application's
         // rendering before the composite, nor the composite before the runtime's release barrier;
@@ -1043,7 +1028,7 @@ VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<co
     std::vector<ClippedTile> clipped;
     for (const FoveaTile &t : tiles) {
         ClippedTile c;
-        if (!clip(t, extent_, layers_, &c)) continue;
+        if (!clip(t, extent_, layers_, texel_bytes_, &c)) continue;
         if (std::any_of(clipped.begin(), clipped.end(),
                         [&](const ClippedTile &o) { return overlaps(o, c); })) {
             SPLITVK_DEBUG("compositor: dropped a tile that overlaps another");
@@ -1063,10 +1048,10 @@ VkResult Compositor::composite(VkQueue queue, uint32_t image_index, std::span<co
     for (const ClippedTile &c : clipped) {
         const FoveaTile &t = *c.tile;
         VkBufferImageCopy region{};
-        // A multiple of 4, the texel size, as t.offset is.
+        // A multiple of the texel size, as t.offset is.
         region.bufferOffset =
-            t.offset +
-            (VkDeviceSize{uint32_t(c.skipped.y)} * t.rect.extent.width + uint32_t(c.skipped.x)) * 4;
+            t.offset + (VkDeviceSize{uint32_t(c.skipped.y)} * t.rect.extent.width + uint32_t(c.skipped.x)) *
+                           texel_bytes_;
         region.bufferRowLength = t.rect.extent.width;
         region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, t.layer, 1};
         region.imageOffset = {c.offset.x, c.offset.y, 0};
@@ -1235,7 +1220,7 @@ VkResult Compositor::composite_periphery(VkQueue queue, uint32_t image_index,
         region.imageOffset = {c.offset.x, c.offset.y, 0};
         region.imageExtent = {c.extent.width, c.extent.height, 1};
         copy_regions_.push_back(region);
-        saved_bytes += VkDeviceSize{c.extent.width} * c.extent.height * 4;
+        saved_bytes += VkDeviceSize{c.extent.width} * c.extent.height * texel_bytes_;
     }
     if (saved_bytes > 0 && !ensure_saved_buffer(s, saved_bytes, &error)) {
         SPLITVK_WARN("compositor: %s", error.c_str());
@@ -1277,11 +1262,11 @@ VkResult Compositor::composite_periphery(VkQueue queue, uint32_t image_index,
     if (periphery)
         for (const FoveaTile &t : periphery->parts) {
             ClippedTile c;
-            if (!clip(t, latest_.extent, 1, &c)) continue;
+            if (!clip(t, latest_.extent, 1, texel_bytes_, &c)) continue;
             VkBufferImageCopy region{};
-            region.bufferOffset =
-                t.offset +
-                (VkDeviceSize{uint32_t(c.skipped.y)} * t.rect.extent.width + uint32_t(c.skipped.x)) * 4;
+            region.bufferOffset = t.offset + (VkDeviceSize{uint32_t(c.skipped.y)} * t.rect.extent.width +
+                                              uint32_t(c.skipped.x)) *
+                                                 texel_bytes_;
             region.bufferRowLength = t.rect.extent.width;
             region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
             region.imageOffset = {c.offset.x, c.offset.y, 0};

@@ -58,10 +58,13 @@ struct SwapchainState;
 struct FoveaTile {
     VkRect2D rect{};
     VkBuffer buffer = VK_NULL_HANDLE;
-    VkDeviceSize offset = 0; // a multiple of 4, the texel size
+    VkDeviceSize offset = 0; // a multiple of the texel size
     std::shared_ptr<const void> keep;
     uint32_t layer =
         0; // the array layer it goes into (a layered OpenXR eye image); a tile past them is dropped
+    // Its texels' size as decoded (tile_format.h); a tile whose size is not the image format's is
+    // dropped, so that no texel is ever copied in at another stride.
+    uint32_t texel_bytes = 4;
 };
 
 // The swapped split (SPLITVK_CLIENT_RENDERS=fovea): the periphery the agent rendered, downsampled
@@ -231,7 +234,8 @@ private:
     VkSwapchainKHR swapchain_ = VK_NULL_HANDLE;
     VkExtent2D extent_{};
     VkFormat format_ = VK_FORMAT_UNDEFINED;
-    uint32_t layers_ = 1; // every image's array layers, each composited alike
+    uint32_t texel_bytes_ = 4; // tile_texel_bytes(format_): the stride of every tile copied in
+    uint32_t layers_ = 1;      // every image's array layers, each composited alike
     VkImageLayout present_layout_ = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
     // What orders the application's rendering before the composite (the semaphores the submit waits
     // on at TRANSFER, or for a runtime's image the queue alone), and the composite before whatever

@@ -10,7 +10,9 @@
 namespace splitvk {
 
 FrameDifference compare_frames(const uint8_t *mine, const uint8_t *theirs, uint32_t width, uint32_t height,
-                               uint32_t layers, std::span<const VkRect2D> exact) {
+                               uint32_t layers, std::span<const VkRect2D> exact, uint32_t texel_bytes) {
+    // The byte of channel c that the error is measured on: little-endian 16-bit channels' high byte.
+    const size_t channel_stride = texel_bytes / 4, channel_byte = channel_stride - 1;
     FrameDifference d;
     d.pixels = uint64_t{width} * height * layers;
     // Which pixels of the current row must be equal: all of them, or those of `exact` in layer 0.
@@ -28,14 +30,15 @@ FrameDifference compare_frames(const uint8_t *mine, const uint8_t *theirs, uint3
                     std::fill(must_match.begin() + from, must_match.begin() + to, uint8_t{1});
                 }
             }
-            const size_t row = (size_t{layer} * height + y) * width * 4;
+            const size_t row = (size_t{layer} * height + y) * width * texel_bytes;
             const uint8_t *a = mine + row;
             const uint8_t *b = theirs + row;
-            for (uint32_t x = 0; x < width; ++x, a += 4, b += 4) {
-                if (std::memcmp(a, b, 4) == 0) continue;
+            for (uint32_t x = 0; x < width; ++x, a += texel_bytes, b += texel_bytes) {
+                if (std::memcmp(a, b, texel_bytes) == 0) continue;
                 uint32_t squared = 0;
-                for (int c = 0; c < 3; ++c) {
-                    const auto diff = static_cast<uint32_t>(std::abs(int{a[c]} - int{b[c]}));
+                for (size_t c = 0; c < 3; ++c) {
+                    const size_t at = c * channel_stride + channel_byte;
+                    const auto diff = static_cast<uint32_t>(std::abs(int{a[at]} - int{b[at]}));
                     squared += diff * diff;
                     if (must_match[x]) {
                         d.largest = std::max(d.largest, diff);

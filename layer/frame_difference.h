@@ -32,10 +32,14 @@ struct FrameDifference {
     double mse() const { return samples ? squared_error / static_cast<double>(samples) : 0; }
 };
 
-// Compares `mine` with `theirs`, `width` x `height` x `layers` texels each. `exact`: the rects of
-// layer 0 in which pixels must be equal (they may overlap); empty, every pixel of every layer must.
+// Compares `mine` with `theirs`, `width` x `height` x `layers` texels of `texel_bytes` (4: 8-bit
+// RGBA/BGRA; 8: four 16-bit channels) each. `exact`: the rects of layer 0 in which pixels must be
+// equal (they may overlap); empty, every pixel of every layer must. A texel is equal when every byte
+// is; the error is measured on the first three channels, of 16-bit texels on their high bytes (an
+// 8-bit view, so that PSNR means the same for either size).
 FrameDifference compare_frames(const uint8_t *mine, const uint8_t *theirs, uint32_t width, uint32_t height,
-                               uint32_t layers, std::span<const VkRect2D> exact = {});
+                               uint32_t layers, std::span<const VkRect2D> exact = {},
+                               uint32_t texel_bytes = 4);
 
 // PSNR in dB of 8-bit channels at mean squared error `mse`: 10 log10(255^2 / mse), +infinity for
 // equal images (mse 0).

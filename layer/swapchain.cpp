@@ -30,6 +30,7 @@
 #include "screen_space.h"
 #include "session.h"
 #include "split.h"
+#include "vk_format_info.h"
 
 #include <algorithm>
 
@@ -126,14 +127,25 @@ SwapchainState *register_runtime_swapchain(DeviceState &dev, VkSwapchainKHR key,
     std::string why;
     // Several layers are eyes of one image drawn with multiview (split::runtime_eye_foveae): each
     // layer gets its periphery upsampled and its eye's fovea, as a swapchain per eye does.
-    if ((info.usage & Compositor::kSwapchainUsage) != Compositor::kSwapchainUsage)
-        why = "its images lack transfer and colour attachment usage";
+    // A depth (or stencil) swapchain is no eye picture: it is never split, and that is no news.
+    const bool depth = (info.usage & VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT) != 0 ||
+                       format_info(info.format).depth || format_info(info.format).stencil;
+    if (depth)
+        why = "a depth swapchain";
+    else if ((info.usage & Compositor::kSwapchainUsage) != Compositor::kSwapchainUsage)
+        why = std::string("its ") + format_name(info.format) +
+              " images lack transfer and colour attachment usage";
     else
         Compositor::supports(dev, info.format, &why, info.array_layers);
     state->composable = why.empty();
-    if (!state->composable)
-        SPLITVK_INFO("OpenXR swapchain %ux%u is not composable (%s): it will not be split", info.extent.width,
-                     info.extent.height, why.c_str());
+    // A colour swapchain that cannot be split is what a user asks about when their eyes are not
+    // split: its line says why, at the level a user sees.
+    if (!state->composable && depth)
+        SPLITVK_INFO("OpenXR swapchain %ux%u (%s) is a depth swapchain: it is not split", info.extent.width,
+                     info.extent.height, format_name(info.format));
+    else if (!state->composable)
+        SPLITVK_WARN("OpenXR swapchain %ux%u is not split: %s", info.extent.width, info.extent.height,
+                     why.c_str());
     note_swapchain_images(dev, key, static_cast<uint32_t>(state->images.size()), state->images.data());
     if (state->composable) note_screen_extent(dev, info.extent);
     SwapchainState *registered = g_swapchains.insert(key, std::move(state));

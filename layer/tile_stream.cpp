@@ -127,19 +127,28 @@ void TileStream::decode_tile(EyeDecoder &eye, const EyeJob &job) {
     // Only a periphery part may be lossy (the agent's downsampled periphery): a fovea tile must come
     // bit-exact, so its decoder refuses lossy data.
     const bool accept_lossy = (encoded.flags & protocol::kTilePeriphery) != 0;
-    if (!eye.decoder || eye.width != encoded.width || eye.height != encoded.height ||
-        eye.codec != encoded.codec || eye.accept_lossy != accept_lossy) {
+    // The decoder and the memory are sized by what the tile says of itself; the compositor then
+    // copies it only into an image whose texels are that size.
+    const uint32_t texel_bytes = tiles::peek_texel_bytes(encoded.data);
+    if (texel_bytes == 0) {
+        error = "a tile with a malformed header";
+        ok = false;
+        eye.decoder.reset();
+    } else if (!eye.decoder || eye.width != encoded.width || eye.height != encoded.height ||
+               eye.texel_bytes != texel_bytes || eye.codec != encoded.codec ||
+               eye.accept_lossy != accept_lossy) {
         eye.width = encoded.width;
         eye.height = encoded.height;
+        eye.texel_bytes = texel_bytes;
         eye.codec = encoded.codec;
         eye.accept_lossy = accept_lossy;
-        eye.decoder =
-            tiles::make_tile_decoder(encoded.codec, encoded.width, encoded.height, &error, accept_lossy);
+        eye.decoder = tiles::make_tile_decoder(encoded.codec, encoded.width, encoded.height, texel_bytes,
+                                               &error, accept_lossy);
         ok = eye.decoder != nullptr;
     }
     std::shared_ptr<const HostBuffer> upload;
     if (ok) {
-        upload = uploads_.take(VkDeviceSize{encoded.width} * encoded.height * 4, &error);
+        upload = uploads_.take(VkDeviceSize{encoded.width} * encoded.height * texel_bytes, &error);
         ok = upload != nullptr;
         // Without memory to decode into, the stream's reference is lost: restart it too.
         if (!ok) {
@@ -156,6 +165,7 @@ void TileStream::decode_tile(EyeDecoder &eye, const EyeJob &job) {
         // Host writes before the composite's vkQueueSubmit are visible to its copy once flushed.
         uploads_.flush(*upload);
         out.upload = std::move(upload);
+        out.texel_bytes = texel_bytes;
     }
     const auto took = Clock::now() - start;
 

@@ -40,9 +40,12 @@ namespace splitvk {
 struct DecodedTile {
     VkRect2D rect{};
     uint32_t layer = 0; // the image's array layer (a layered OpenXR eye image)
-    // rect.extent.width * height * 4 bytes from offset 0, rows packed, written by the host and
-    // flushed; the pool's again once every holder has let go.
+    // rect.extent.width * height * texel_bytes bytes from offset 0, rows packed, written by the host
+    // and flushed; the pool's again once every holder has let go.
     std::shared_ptr<const HostBuffer> upload;
+    // What the tile's header declared and it decoded to (4 or 8): the compositor copies a tile only
+    // into an image of that texel size (tile_format.h).
+    uint32_t texel_bytes = 4;
 };
 
 // One frame's tiles as decoded, with what the statistics need.
@@ -106,7 +109,7 @@ private:
         std::thread thread;
         std::deque<EyeJob> jobs; // under mutex_
         // Decoder thread only.
-        uint32_t width = 0, height = 0;
+        uint32_t width = 0, height = 0, texel_bytes = 4;
         TileCodec codec = TileCodec::X264;
         bool accept_lossy = false; // a periphery part's decoder; a fovea's never accepts lossy tiles
         std::unique_ptr<tiles::TileDecoder> decoder;

@@ -16,8 +16,8 @@
 #include "log.h"
 #include "queue.h"
 #include "session.h"
-#include "submit_rules.h"
 #include "swapchain.h"
+#include "tile_format.h"
 #include "vk_util.h"
 
 #include <algorithm>
@@ -69,7 +69,9 @@ bool create(DeviceState &dev, const SwapchainState &sc, uint32_t family, VerifyR
         return false;
 
     std::string error;
-    if (!create_host_buffer(dev, VkDeviceSize{sc.extent.width} * sc.extent.height * 4 * sc.array_layers,
+    if (!create_host_buffer(dev,
+                            VkDeviceSize{sc.extent.width} * sc.extent.height * tile_texel_bytes(sc.format) *
+                                sc.array_layers,
                             VK_BUFFER_USAGE_TRANSFER_DST_BIT, HostAccess::Read, &r.staging, &error))
         return false;
     return create_fence(dev, &r.fence) == VK_SUCCESS && create_semaphore(dev, &r.semaphore) == VK_SUCCESS;
@@ -133,6 +135,7 @@ std::optional<double> compare_verified_frame(DeviceState &dev, const PendingVeri
     const uint32_t width = p.swapchain->extent.width;
     const uint32_t height = p.swapchain->extent.height;
     const uint64_t pixels = uint64_t{width} * height * layers;
+    const uint32_t texel_bytes = tile_texel_bytes(p.swapchain->format);
     const bool copied =
         dev.dispatch.WaitForFences(dev.handle, 1, &r.fence, VK_TRUE, kFenceWaitNs) == VK_SUCCESS;
     r.in_flight = !copied;
@@ -145,7 +148,7 @@ std::optional<double> compare_verified_frame(DeviceState &dev, const PendingVeri
     } else if (!theirs) {
         SPLITVK_INFO("verify: frame %llu: no frame from the agent", (unsigned long long)p.frame);
     } else if (theirs->width != width || theirs->height != height || theirs->layers != layers ||
-               theirs->pixels.size() != pixels * 4) {
+               theirs->pixels.size() != pixels * texel_bytes) {
         SPLITVK_INFO(
             "verify: frame %llu: the agent's frame is %ux%u in %u layer(s), the client's %ux%u in %u",
             (unsigned long long)p.frame, theirs->width, theirs->height, theirs->layers, width, height,
@@ -154,8 +157,8 @@ std::optional<double> compare_verified_frame(DeviceState &dev, const PendingVeri
         // In the swapped split only the foveae must match; a frame without them must match whole.
         const std::span<const VkRect2D> exact =
             p.periphery ? std::span<const VkRect2D>(p.foveae) : std::span<const VkRect2D>();
-        const FrameDifference d =
-            compare_frames(r.staging.mapped, theirs->pixels.data(), width, height, layers, exact);
+        const FrameDifference d = compare_frames(r.staging.mapped, theirs->pixels.data(), width, height,
+                                                 layers, exact, texel_bytes);
         mismatches = d.mismatches;
         // Another GPU rasterises differently (issue 10): by how much is what tells a rounding
         // difference from a wrong picture.
@@ -182,7 +185,7 @@ std::optional<double> compare_verified_frame(DeviceState &dev, const PendingVeri
 bool presented_image_verifiable(VkQueue queue, const VkPresentInfoKHR &present) {
     if (present.swapchainCount == 0) return false;
     const SwapchainState *sc = find_swapchain(present.pSwapchains[0]);
-    return sc && sc->transfer_src && codec::is_verifiable_format(sc->format) &&
+    return sc && sc->transfer_src && tile_texel_bytes(sc->format) != 0 &&
            present.pImageIndices[0] < sc->images.size() && queue_family_of(queue) != UINT32_MAX;
 }
 
@@ -220,7 +223,7 @@ std::optional<PendingVerify> read_back_runtime_image(DeviceState &dev, VkQueue q
                                                      const SwapchainState &sc, uint32_t index,
                                                      uint64_t frame) {
     const uint32_t family = queue_family_of(queue);
-    if (!sc.transfer_src || !codec::is_verifiable_format(sc.format) || index >= sc.images.size() ||
+    if (!sc.transfer_src || !tile_texel_bytes(sc.format) != 0 || index >= sc.images.size() ||
         family == UINT32_MAX)
         return std::nullopt;
     std::lock_guard lock(g_mutex);
