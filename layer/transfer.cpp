@@ -28,7 +28,17 @@ struct Side {
     bool cut = false;
 };
 
-Side side_of(DeviceState &dev, VkImage image, bool destination) {
+// Whether split passes of `cb` drew into `image` before now: its periphery is then scaled into its
+// top-left, as every pass into it this frame has drawn it.
+bool drawn_split_in(VkCommandBuffer cb, VkImage image) {
+    const split::CommandTracker *tracker = split_tracker(cb);
+    if (!tracker) return false;
+    const uint64_t id = codec::handle_value(image);
+    return std::any_of(tracker->drawn().begin(), tracker->drawn().end(),
+                       [&](const split::DrawnImage &d) { return d.image == id; });
+}
+
+Side side_of(DeviceState &dev, VkCommandBuffer cb, VkImage image, bool destination) {
     Side s;
     s.image = image;
     if (is_screen_space(image)) {
@@ -37,6 +47,15 @@ Side side_of(DeviceState &dev, VkImage image, bool destination) {
                swapchain_image_extent(image, &s.extent)) {
         s.kind = Kind::Swapchain;
         s.cut = split_cutting(dev);
+    } else if (!destination && split_recording(dev) && !split_swapped(dev) &&
+               swapchain_image_extent(image, &s.extent) && drawn_split_in(cb, image)) {
+        // A copy out of an image this command buffer drew split (an engine's mirror window of its
+        // eye image, copied before the image is released): it reads the scaled picture the passes
+        // drew, as a screen-space target's copy does. Into another swapchain image it makes that
+        // image's frame split too (note_swapchain_write), whose present composites the agent's
+        // foveae of it; into a full-size image it is upsampled (copy_as_blit): the periphery,
+        // never the scaled miniature.
+        s.kind = Kind::Swapchain;
     } else if (!destination && split_recording(dev) && swapchain_image_extent(image, &s.extent)) {
         log_unscalable_once("a copy out of a swapchain image reads what the client drew: its periphery "
                             "part is scaled into the top-left (the app's own read-back, not the display)");
@@ -51,7 +70,8 @@ VkRect2D scale_side(const Side &s, uint32_t mip, const VkRect2D &r) {
         return scale_image_rect(s.image, mip, r);
     case Kind::Swapchain:
         if (s.cut) return r;
-        return split::scale_rect(r, split::axis_scale(s.extent, scale), split::scaled_extent(s.extent, scale));
+        return split::scale_rect(r, split::axis_scale(s.extent, scale),
+                                 split::scaled_extent(s.extent, scale));
     case Kind::Plain:
         break;
     }
@@ -73,14 +93,14 @@ void note_swapchain_write(VkCommandBuffer cb, const Side &dst, const VkRect2D &r
 template <class Region>
 bool scale_copies(DeviceState &dev, VkCommandBuffer cb, VkImage src, VkImage dst, uint32_t count,
                   const Region *regions, std::vector<Region> &out) {
-    const Side s = side_of(dev, src, false), d = side_of(dev, dst, true);
+    const Side s = side_of(dev, cb, src, false), d = side_of(dev, cb, dst, true);
     if (s.kind != Kind::Scaled && d.kind != Kind::Scaled && d.kind != Kind::Swapchain) return false;
     if (s.kind == Kind::Plain && d.kind == Kind::Swapchain && d.cut) {
         // Fovea mode: full size on both sides, as recorded.
     } else if (s.kind == Kind::Plain && d.kind == Kind::Swapchain)
         log_unscalable_once("a resolve into a swapchain image from a full-size image: the client's periphery "
                             "shows its top-left part (the foveae stay exact)");
-    else if (s.kind != Kind::Scaled || d.kind == Kind::Plain)
+    else if (s.kind == Kind::Plain || d.kind == Kind::Plain)
         log_unscalable_once("a copy between a screen-space target and a full-size image: the full-size one "
                             "holds the scaled picture in its top-left on the client (periphery only)");
     out.assign(regions, regions + count);
@@ -119,14 +139,23 @@ void scale_corners(const Side &s, uint32_t mip, VkOffset3D corners[2]) {
     corners[1].y = flip_y ? r.offset.y : ny1;
 }
 
-// A copy into a swapchain image from a full-size image cannot keep one extent for both sides: it
-// goes down as a nearest-filtered blit of the whole region into the scaled top-left (the periphery
-// only; the agent replays the copy). Same format on both sides, so the blit converts nothing.
+// A copy between a swapchain image that holds the scaled picture and a full-size image cannot keep
+// one extent for both sides: it goes down as a blit of the whole region. Into a swapchain image, a
+// nearest-filtered one into the scaled top-left (the periphery only; the agent replays the copy);
+// out of one drawn split into a full-size image, a linear one of the scaled region over the whole
+// region, so that the full-size image holds the periphery upsampled (a composable swapchain's
+// format filters linearly, Compositor::supports). Same format on both sides: the blit converts
+// nothing.
 template <class Region>
 bool copy_as_blit(DeviceState &dev, VkCommandBuffer cb, VkImage src, VkImageLayout src_layout, VkImage dst,
                   VkImageLayout dst_layout, uint32_t count, const Region *regions) {
-    const Side s = side_of(dev, src, false), d = side_of(dev, dst, true);
-    if (s.kind != Kind::Plain || d.kind != Kind::Swapchain || d.cut) return false;
+    const Side s = side_of(dev, cb, src, false), d = side_of(dev, cb, dst, true);
+    const bool into = s.kind == Kind::Plain && d.kind == Kind::Swapchain && !d.cut;
+    const bool out_of = s.kind == Kind::Swapchain && d.kind == Kind::Plain;
+    if (!into && !out_of) return false;
+    if (out_of)
+        log_unscalable_once("a copy out of an image drawn split into a full-size image holds its periphery, "
+                            "upsampled (an agent's foveae come only into swapchain images)");
     std::vector<VkImageBlit> blits;
     for (uint32_t i = 0; i < count; ++i) {
         const Region &r = regions[i];
@@ -139,21 +168,26 @@ bool copy_as_blit(DeviceState &dev, VkCommandBuffer cb, VkImage src, VkImageLayo
         b.dstOffsets[0] = r.dstOffset;
         b.dstOffsets[1] = {r.dstOffset.x + static_cast<int32_t>(r.extent.width),
                            r.dstOffset.y + static_cast<int32_t>(r.extent.height), r.dstOffset.z + 1};
-        scale_corners(d, r.dstSubresource.mipLevel, b.dstOffsets);
-        note_swapchain_write(cb, d, rect_of(r.dstOffset, r.extent));
-        if (b.dstOffsets[0].x != b.dstOffsets[1].x && b.dstOffsets[0].y != b.dstOffsets[1].y)
+        if (into) {
+            scale_corners(d, r.dstSubresource.mipLevel, b.dstOffsets);
+            note_swapchain_write(cb, d, rect_of(r.dstOffset, r.extent));
+        } else {
+            scale_corners(s, r.srcSubresource.mipLevel, b.srcOffsets);
+        }
+        if (b.dstOffsets[0].x != b.dstOffsets[1].x && b.dstOffsets[0].y != b.dstOffsets[1].y &&
+            b.srcOffsets[0].x != b.srcOffsets[1].x && b.srcOffsets[0].y != b.srcOffsets[1].y)
             blits.push_back(b);
     }
     if (!blits.empty())
         dev.dispatch.CmdBlitImage(cb, src, src_layout, dst, dst_layout, static_cast<uint32_t>(blits.size()),
-                                  blits.data(), VK_FILTER_NEAREST);
+                                  blits.data(), into ? VK_FILTER_NEAREST : VK_FILTER_LINEAR);
     return true;
 }
 
 template <class Region>
 bool scale_blits(DeviceState &dev, VkCommandBuffer cb, VkImage src, VkImage dst, uint32_t count,
                  const Region *regions, std::vector<Region> &out) {
-    const Side s = side_of(dev, src, false), d = side_of(dev, dst, true);
+    const Side s = side_of(dev, cb, src, false), d = side_of(dev, cb, dst, true);
     if (s.kind == Kind::Plain && d.kind == Kind::Plain) return false;
     out.assign(regions, regions + count);
     for (uint32_t i = 0; i < count; ++i) {
