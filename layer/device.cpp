@@ -21,6 +21,8 @@
 
 #include <vulkan/vk_layer.h>
 
+#include <cstdlib>
+#include <mutex>
 #include <string>
 
 namespace splitvk {
@@ -64,6 +66,28 @@ DeviceState &device_state_by_key(DispatchKey key) {
         std::abort();
     }
     return *state;
+}
+
+// What vkDestroyDevice says and stops, for the devices an application never destroys (hello_xr and
+// many engines exit with theirs alive): at exit, or when the loader unloads this library, each
+// such device has its present thread drain and stop (a joinable thread left in its map would end
+// the process in std::terminate), its session close (the agent hears a normal end), and its split
+// and verify lines printed, and SPLITVK_STATS keeps every row it wrote. Nothing is destroyed in
+// the driver: the process is ending, and what the application left alive is the driver's to drop.
+// glibc runs a library's atexit handlers when it is unloaded as well, so this never outlives the code.
+void finish_devices_at_exit() {
+    for (std::unique_ptr<DeviceState> &state : g_devices.take_all()) {
+        if (!state->session) continue;
+        stop_presents(*state);
+        state->session->close();
+        report_verify_summary(*state);
+        report_split_summary(*state);
+        // Its threads joined, its upload memory freed while the driver is still loaded (its own
+        // exit handlers were registered first, so they run after this one).
+        state->session.reset();
+        // The rest is left to the process's end, as the application left the device.
+        (void)state.release();
+    }
 }
 
 } // namespace
@@ -173,6 +197,8 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateDevice(VkPhysicalDevice physicalDevice,
     instance->dispatch.GetPhysicalDeviceMemoryProperties(physicalDevice, &state->memory_properties);
     state->session = Session::open(*state, pCreateInfo, instance->application_name);
     g_devices.insert(dispatch_key(*pDevice), std::move(state));
+    static std::once_flag exit_hook;
+    std::call_once(exit_hook, [] { std::atexit(finish_devices_at_exit); });
     SPLITVK_DEBUG("device created");
     return VK_SUCCESS;
 }

@@ -11,6 +11,7 @@
 #include <mutex>
 #include <shared_mutex>
 #include <unordered_map>
+#include <vector>
 
 namespace splitvk {
 
@@ -37,6 +38,17 @@ public:
         auto state = std::move(it->second);
         map_.erase(it);
         return state;
+    }
+
+    // Every state, removed: what is left at exit.
+    std::vector<std::unique_ptr<State>> take_all() {
+        std::unique_lock lock(mutex_);
+        std::vector<std::unique_ptr<State>> out;
+        out.reserve(map_.size());
+        for (auto &[key, state] : map_)
+            out.push_back(std::move(state));
+        map_.clear();
+        return out;
     }
 
 private:

@@ -301,8 +301,8 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
             if (!tile.upload) continue;
             // Copied by the GPU straight from where the tile was decoded (UploadPool).
             (p.cut ? periphery.parts : foveae)
-                .push_back({tile.rect, tile.upload->buffer, 0, tile.upload, tile.layer});
-            record.raw_bytes += uint64_t{tile.rect.extent.width} * tile.rect.extent.height * 4;
+                .push_back({tile.rect, tile.upload->buffer, 0, tile.upload, tile.layer, tile.texel_bytes});
+            record.raw_bytes += uint64_t{tile.rect.extent.width} * tile.rect.extent.height * tile.texel_bytes;
         }
         const double decode_ms = std::chrono::duration<double, std::milli>(tiles->decode).count();
         (p.cut ? record.periphery_bytes : record.tile_bytes) = tiles->bytes;
@@ -791,6 +791,15 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     if (pending) {
         queue_lock = {};
         compare_verified_frame(dev, *pending);
+        if (session.has_stats()) {
+            // A verified eye image, unsplit: its row says when it came and which frame it was of.
+            FrameRecord record;
+            record.frame = frame;
+            record.frame_ms = session.frame_interval_ms();
+            record.xr_frame = static_cast<int64_t>(xr_frame);
+            record.xr_view = xr_view;
+            session.stats().record(record);
+        }
     }
     if (!split.split) return;
     SplitPresent p;
@@ -1087,6 +1096,11 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
     if (pending) psnr = compare_verified_frame(dev, *pending);
     if (verify_shown) {
         record.periphery_psnr_db = psnr;
+        session.stats().record(record);
+    } else if (pending && session.has_stats()) {
+        // A frame verified unsplit: its row says when it came, with no fovea and no tiles.
+        record.frame = frame;
+        record.frame_ms = session.frame_interval_ms();
         session.stats().record(record);
     }
     return result;

@@ -118,8 +118,10 @@ void Session::adopt_locked(AgentLink &&agent) {
         SPLITVK_WARN("splitvk-agent at %s cannot render the periphery (SPLITVK_CLIENT_RENDERS=fovea); "
                      "SPLITVK_VERIFY compares whole frames, unsplit",
                      address_.c_str());
+    // A verifying session has rows too (its frames unsplit, verification.h), so SPLITVK_STATS is
+    // written whether the agent splits or verifies.
+    if ((split || verify_) && !stats_) stats_ = std::make_unique<FrameStats>(settings_.stats_path);
     if (split) {
-        if (!stats_) stats_ = std::make_unique<FrameStats>(settings_.stats_path);
         // Which side renders what is decided by the first agent that accepts the split, and kept:
         // the client's screen-space targets are created for it (full size in the swapped split).
         if (!splitting_.exchange(true) && asks_swapped_split(settings_)) {

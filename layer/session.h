@@ -96,6 +96,8 @@ public:
     // Split mode: the decoded tiles of the agent (tile_stream.h), and per-frame statistics.
     TileStream *tiles() { return tiles_.get(); }
     FrameStats &stats() { return *stats_; }
+    // Whether an agent has split or verified for this session: before, there are no statistics.
+    bool has_stats() const { return stats_ != nullptr; }
     // SPLITVK_FOVEA=auto: the size of every frame's foveae (fovea_size.h); nullptr otherwise.
     AutoFovea *auto_fovea() { return auto_fovea_.get(); }
     // SPLITVK_FOVEA=auto: the size the frame being presented takes, and whether the sizing hears its

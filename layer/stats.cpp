@@ -75,6 +75,7 @@ void FrameStats::record(const FrameRecord &r) {
     if (r.passed_through) ++passed_through_;
     tile_bytes_ += r.tile_bytes + r.periphery_bytes;
     if (r.frame_ms > 0) frame_ms_.push_back(r.frame_ms);
+    if (r.xr_frame >= 0) ++eye_images_;
     if (r.xr_frame >= 0 && r.xr_frame != last_xr_frame_) {
         if (xr_frames_ > 0)
             xr_frame_ms_.push_back(std::chrono::duration<double, std::milli>(now - xr_frame_start_).count());
@@ -121,11 +122,16 @@ std::string FrameStats::summary() {
         std::snprintf(line, sizeof(line),
                       "%s: %llu eye images in %llu OpenXR frames, OpenXR frame time median %.1f ms (IQR %.1f "
                       "ms), %.1f Mbit/s of tiles, %llu late",
-                      mode, static_cast<unsigned long long>(frames_),
+                      mode, static_cast<unsigned long long>(eye_images_),
                       static_cast<unsigned long long>(xr_frames_), quantile(sorted, 0.5),
                       quantile(sorted, 0.75) - quantile(sorted, 0.25), mbits,
                       static_cast<unsigned long long>(late_));
-        return line;
+        std::string summary = line;
+        // A window the application presents beside its eyes (a mirror) is counted apart: its
+        // presents are not eye images.
+        if (frames_ > eye_images_)
+            summary += ", and " + std::to_string(frames_ - eye_images_) + " window presents";
+        return summary;
     }
     auto sorted = frame_ms_;
     std::sort(sorted.begin(), sorted.end());

@@ -30,7 +30,7 @@ struct FrameRecord {
     double merge_ms = 0;     // upload and composite, as recorded and submitted on this thread
     double merge_gpu_ms = 0; // GPU time of the latest completed composite (gpu_timing.h)
     uint64_t tile_bytes = 0; // Tiles payload received (the foveae's; the periphery's: periphery_bytes)
-    uint64_t raw_bytes = 0;  // the same tiles uncompressed (4 bytes per pixel)
+    uint64_t raw_bytes = 0;  // the same tiles uncompressed (at their texel size)
     double agent_draw_ms = 0;
     double agent_readback_ms = 0;
     double agent_encode_ms = 0;
@@ -100,6 +100,7 @@ private:
     std::vector<double> xr_frame_ms_;
     bool client_renders_fovea_ = false;
     uint64_t frames_ = 0;
+    uint64_t eye_images_ = 0; // of frames_, the OpenXR eye images (rows with an xr_frame)
     uint64_t late_ = 0;
     uint64_t passed_through_ = 0;
     uint64_t tile_bytes_ = 0;

@@ -88,5 +88,21 @@ TEST(FrameStats, SummaryNamesTheMode) {
     EXPECT_EQ(stats.summary().rfind("split (client renders fovea): 1 frames", 0), 0u) << stats.summary();
 }
 
+// A mirror window beside the eyes: its presents are counted as window presents, not eye images,
+// so that the summary's counts agree with the application's.
+TEST(FrameStats, SummaryCountsAMirrorWindowApartFromTheEyeImages) {
+    FrameStats stats("");
+    for (int64_t frame = 0; frame < 3; ++frame) {
+        FrameRecord eye;
+        eye.xr_frame = frame;
+        stats.record(eye);
+        eye.xr_view = 1;
+        stats.record(eye);
+        stats.record(FrameRecord{}); // the mirror window's present
+    }
+    EXPECT_EQ(stats.summary().rfind("split: 6 eye images in 3 OpenXR frames", 0), 0u) << stats.summary();
+    EXPECT_TRUE(stats.summary().ends_with(", and 3 window presents")) << stats.summary();
+}
+
 } // namespace
 } // namespace splitvk

@@ -32,14 +32,16 @@ TEST(SplitGeometry, ScaledExtentIsThePapersPeriphery) {
 }
 
 TEST(SplitGeometry, ViewportScalesAllButDepth) {
-    const VkViewport v = scale_viewport({1200.f, 0.f, 1200.f, 1080.f, 0.25f, 0.75f}, axis_scale({2400, 1080}, 0.6));
+    const VkViewport v =
+        scale_viewport({1200.f, 0.f, 1200.f, 1080.f, 0.25f, 0.75f}, axis_scale({2400, 1080}, 0.6));
     EXPECT_FLOAT_EQ(v.x, 720.f);
     EXPECT_FLOAT_EQ(v.y, 0.f);
     EXPECT_FLOAT_EQ(v.width, 720.f);
     EXPECT_FLOAT_EQ(v.height, 648.f);
     EXPECT_FLOAT_EQ(v.minDepth, 0.25f);
     EXPECT_FLOAT_EQ(v.maxDepth, 0.75f);
-    const VkViewport flipped = scale_viewport({0.f, 1080.f, 2400.f, -1080.f, 0.f, 1.f}, axis_scale({2400, 1080}, 0.5));
+    const VkViewport flipped =
+        scale_viewport({0.f, 1080.f, 2400.f, -1080.f, 0.f, 1.f}, axis_scale({2400, 1080}, 0.5));
     EXPECT_FLOAT_EQ(flipped.y, 540.f);
     EXPECT_FLOAT_EQ(flipped.height, -540.f);
 }

@@ -1063,6 +1063,25 @@ TEST_F(Xr, HelloXrFoveaeExactAgainstNative) {
     ASSERT_NO_FATAL_FAILURE(expect_foveae_exact("native", "split"));
     expect_split_stats("split", 20);
     expect_no_new_validation("native", "split");
+    // hello_xr exits with its VkDevice alive: the summary comes at exit all the same.
+    EXPECT_FALSE(grep(split.err(), "[splitvk] split: ").empty()) << tail(split.err(), 30);
+    EXPECT_FALSE(grep(split.err(), " eye images in ").empty()) << tail(split.err(), 30);
+}
+
+// An application that never destroys its device (hello_xr) under SPLITVK_VERIFY=full: the verify
+// line is printed at exit, and SPLITVK_STATS has a row for every eye image verified.
+TEST_F(Xr, VerifyLineAndStatsAtExitWithoutVkDestroyDevice) {
+    Agent agent;
+    ASSERT_TRUE(agent.start(clean_env(), out_)) << agent.error();
+    Env e = split_env("verify", agent);
+    e["SPLITVK_VERIFY"] = "full";
+    const auto run = run_hello_xr(e, "verify", 4);
+    ASSERT_TRUE(run.ok()) << run.describe() << "\n" << tail(run.err(), 30);
+    const auto verified = grep(run.err(), "[splitvk] verify: ");
+    ASSERT_FALSE(verified.empty()) << tail(run.err(), 30);
+    EXPECT_FALSE(grep(run.err(), " frames, 0 mismatching pixels").empty()) << tail(run.err(), 30);
+    const StatsSummary stats = read_stats(out_ / "verify" / "stats.csv");
+    EXPECT_GE(stats.frames, 10) << "rows in " << (out_ / "verify" / "stats.csv");
 }
 
 // XR_APILAYER_LUNARG_core_validation above splitvk's API layer: it sees the application's calls as
