@@ -105,6 +105,7 @@ split::CommandTracker *FoveaShading::tracker(VkCommandBuffer cb) {
 }
 
 void FoveaShading::begin_command_buffer(VkCommandBuffer cb, const VkCommandBufferBeginInfo *info) {
+    transfer_reads_.erase(cb);
     split::CommandTracker *t = tracker(cb);
     if (!t) return;
     t->reset();
@@ -151,6 +152,7 @@ std::optional<FoveaShading::PassScissor> FoveaShading::pass_scissor(VkCommandBuf
     s.extent = t.extent();
     s.generation = generation_;
     if (s.swapchain) {
+        if (copied_out(primary, t.image())) return std::nullopt;
         s.eyes = runtime_fovea_areas(t.image(), t.extent());
     } else {
         const auto guard = guard_rects_.find(primary);
@@ -181,6 +183,35 @@ void FoveaShading::transfer_into(VkCommandBuffer cb, VkImage image, uint32_t cou
     if (!t || !swapchains_.find_image(image, &image_id, &extent)) return;
     for (uint32_t i = 0; i < count; ++i)
         t->note_transfer(image_id, extent, rects[i]);
+}
+
+void FoveaShading::note_transfer_reads(VkCommandBuffer cb, std::vector<uint64_t> image_ids) {
+    if (!enabled_) return;
+    if (image_ids.empty())
+        transfer_reads_.erase(cb);
+    else
+        transfer_reads_[cb] = std::move(image_ids);
+}
+
+const std::vector<uint64_t> &FoveaShading::transfer_reads(VkCommandBuffer cb) const {
+    static const std::vector<uint64_t> none;
+    const auto it = transfer_reads_.find(cb);
+    return it == transfer_reads_.end() ? none : it->second;
+}
+
+bool FoveaShading::copied_out(VkCommandBuffer cb, uint64_t image_id) const {
+    const std::vector<uint64_t> &reads = transfer_reads(cb);
+    return std::find(reads.begin(), reads.end(), image_id) != reads.end();
+}
+
+void FoveaShading::begin_swapchain_pass(VkCommandBuffer cb, split::CommandTracker &t, uint64_t image_id,
+                                        VkExtent2D extent) {
+    t.begin_split(image_id, extent);
+    if (!copied_out_logged_ && copied_out(cb, image_id))
+        SPLITVK_INFO("fovea shading: swapchain image 0x%llx is copied out of in its command buffer; its "
+                     "passes are shaded whole",
+                     static_cast<unsigned long long>(image_id));
+    copied_out_logged_ |= copied_out(cb, image_id);
 }
 
 void FoveaShading::execute_commands(VkCommandBuffer cb, uint32_t count, const VkCommandBuffer *secondaries) {
@@ -295,6 +326,14 @@ void FoveaShading::enter_guarded(VkCommandBuffer cb, split::CommandTracker &t,
     VkRect2D rect{};
     GuardRefusal refused;
     if (!scissor_.guard) return;
+    if (const std::vector<uint64_t> &reads = transfer_reads(cb); !reads.empty()) {
+        if (!copied_guard_logged_)
+            SPLITVK_INFO("SPLITVK_AGENT_SCISSOR=guard:%u: swapchain image 0x%llx is copied out of in a "
+                         "command buffer; its passes into screen-space targets are replayed whole",
+                         scissor_.pixels, static_cast<unsigned long long>(reads.front()));
+        copied_guard_logged_ = true;
+        return;
+    }
     if (!guard_rect(views, &extent, &rect, &refused)) {
         const VkExtent2D &e = refused.extent;
         if (e.width && refused.runtime && !runtime_unmapped_logged_)
@@ -324,8 +363,8 @@ void FoveaShading::enter_guarded(VkCommandBuffer cb, split::CommandTracker &t,
 
 void FoveaShading::enter_split(VkCommandBuffer cb, split::CommandTracker &t, uint64_t image_id,
                                VkExtent2D extent) {
-    t.begin_split(image_id, extent);
-    emit_scissors(cb, t);
+    begin_swapchain_pass(cb, t, image_id, extent);
+    if (!copied_out(cb, image_id)) emit_scissors(cb, t); // else the app's scissors are in effect
 }
 
 void FoveaShading::begin_render_pass(VkCommandBuffer cb, const VkRenderPassBeginInfo &begin, bool secondary) {
@@ -352,7 +391,7 @@ void FoveaShading::begin_render_pass(VkCommandBuffer cb, const VkRenderPassBegin
             // Its secondaries are executed as variants scissored for it (pass_scissor); the
             // viewports they draw with give the foveae. Only vkCmdExecuteCommands may follow in
             // the primary: no scissors to set.
-            t->begin_split(image_id, extent);
+            begin_swapchain_pass(cb, *t, image_id, extent);
             t->contents_in_secondaries();
             return;
         }
@@ -372,7 +411,7 @@ void FoveaShading::begin_rendering(VkCommandBuffer cb, const VkRenderingInfo &in
                 // As begin_render_pass's: its secondaries are executed as variants scissored for
                 // it, the viewports they draw with give the foveae (the client's layer notes the
                 // same ones).
-                t->begin_split(image_id, extent);
+                begin_swapchain_pass(cb, *t, image_id, extent);
                 t->contents_in_secondaries();
                 return;
             }
@@ -401,12 +440,13 @@ void FoveaShading::end_pass(VkCommandBuffer cb) {
 }
 
 void FoveaShading::emit_scissors(VkCommandBuffer cb, const split::CommandTracker &t) {
+    const bool whole = t.swapchain_pass() && copied_out(cb, t.image());
     const auto guard = t.in_split() && !t.swapchain_pass() ? guard_rects_.find(cb) : guard_rects_.end();
-    const auto runtime = t.in_split() && guard == guard_rects_.end()
+    const auto runtime = t.in_split() && !whole && guard == guard_rects_.end()
                              ? runtime_fovea_areas(t.image(), t.extent())
                              : std::nullopt;
     const auto out = [&](size_t i, const VkRect2D &r) {
-        if (!t.in_split()) return r;
+        if (!t.in_split() || whole) return r;
         if (guard != guard_rects_.end()) return split::intersect(r, guard->second);
         const VkViewport *v = t.viewport(i);
         // Without viewport i the eye is unknown; the scissor is narrowed once the viewport is set.

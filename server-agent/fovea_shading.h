@@ -112,6 +112,18 @@ public:
     // Secondaries executed inside a split pass: the foveae of the viewports they drew with.
     void execute_commands(VkCommandBuffer cb, uint32_t count, const VkCommandBuffer *secondaries);
 
+    // Mirror windows: an engine that copies or blits a swapchain image (an OpenXR eye image) into
+    // another one (its desktop window's) in the same command buffer makes the second image's foveae
+    // read pixels of the first that its own foveae do not cover. `image_ids` are the swapchain
+    // images that transfers in `cb`'s recording read (its executed secondaries' included), known
+    // before its commands are replayed (set right after its vkBeginCommandBuffer). Its split passes
+    // into those images are replayed whole, and, under guard:N, so are its passes into screen-space
+    // targets (their pixels reach the copied image away from its foveae too). The foveae noted for
+    // the images stay those of the viewports drawn with, as on the client.
+    void note_transfer_reads(VkCommandBuffer cb, std::vector<uint64_t> image_ids);
+    // What note_transfer_reads said for `cb`'s recording in progress or last recorded.
+    const std::vector<uint64_t> &transfer_reads(VkCommandBuffer cb) const;
+
     // Secondaries inside scissored passes (issue 19, item 5). A secondary that continues a render
     // pass is recorded before the agent knows which pass will execute it (its stream arrives at its
     // vkEndCommandBuffer, before the primary's), so its own recording keeps the app's scissors and
@@ -169,6 +181,12 @@ private:
     void enter_split(VkCommandBuffer cb, split::CommandTracker &tracker, uint64_t image_id,
                      VkExtent2D extent);
     void emit_scissors(VkCommandBuffer cb, const split::CommandTracker &tracker);
+    // Whether a split pass of `cb` into swapchain image `image_id` is replayed whole
+    // (note_transfer_reads).
+    bool copied_out(VkCommandBuffer cb, uint64_t image_id) const;
+    // begin_split for a pass into a swapchain image, saying once per session that one is replayed whole.
+    void begin_swapchain_pass(VkCommandBuffer cb, split::CommandTracker &tracker, uint64_t image_id,
+                              VkExtent2D extent);
     split::CommandTracker *tracker(VkCommandBuffer cb);
 
     ReplayDispatch &vk_;
@@ -202,6 +220,10 @@ private:
     bool unmapped_logged_ = false;         // a pass replayed whole: said once
     bool runtime_unmapped_logged_ = false; // one of OpenXR eye images' (GuardRefusal::runtime)
     bool variant_logged_ = false;
+    bool copied_out_logged_ = false;
+    bool copied_guard_logged_ = false;
+    // note_transfer_reads, by command buffer (absent: none)
+    std::unordered_map<VkCommandBuffer, std::vector<uint64_t>> transfer_reads_;
     uint64_t generation_ = 0;                                           // configure() calls
     std::unordered_map<VkCommandBuffer, PassScissor> pending_variants_; // begin_variant, until begun
     std::unordered_map<VkFramebuffer, std::vector<VkImageView>> framebuffers_;

@@ -176,6 +176,7 @@ bool Replayer::replay(std::span<const uint8_t> payload, std::string *error) {
     while (ok && d.ok() && !d.at_end()) {
         const size_t offset = d.offset();
         bool ends_command_buffer = false; // its stream is complete once dispatched
+        bool begins_command_buffer = false;
         if (payload.size() - offset >= 2) {
             const auto id = static_cast<VkCommandId>(protocol::load_le16(payload.data() + offset));
             // Both encoded as u16 command id, u64 commandBuffer id.
@@ -183,6 +184,7 @@ bool Replayer::replay(std::span<const uint8_t> payload, std::string *error) {
                 payload.size() - offset >= 10) {
                 const uint64_t command_buffer = protocol::load_le64(payload.data() + offset + 2);
                 if (id == VkCommandId::vkBeginCommandBuffer) begun_at[command_buffer] = offset;
+                begins_command_buffer = id == VkCommandId::vkBeginCommandBuffer;
                 ends_command_buffer = id == VkCommandId::vkEndCommandBuffer;
             }
             if (id == VkCommandId::vkCreateDevice && !peek_create_device(payload, offset, error)) {
@@ -207,6 +209,12 @@ bool Replayer::replay(std::span<const uint8_t> payload, std::string *error) {
         }
         ok = codec::dispatch_decoded(d, *this);
         if (ok) ++commands_;
+        if (ok && d.ok() && begins_command_buffer) {
+            const uint64_t command_buffer = protocol::load_le64(payload.data() + offset + 2);
+            if (const auto *entry = table_.find(command_buffer))
+                prescan_transfer_reads(payload, d.offset(), command_buffer,
+                                       codec::to_handle<VkCommandBuffer>(entry->handle));
+        }
         if (ok && d.ok() && ends_command_buffer) {
             const uint64_t command_buffer = protocol::load_le64(payload.data() + offset + 2);
             if (const auto begin = begun_at.find(command_buffer); begin != begun_at.end())
@@ -935,6 +943,92 @@ VkCommandBuffer Replayer::secondary_variant(uint64_t id, VkCommandBuffer seconda
     }
     it->second.variants.emplace_back(scissor, variant);
     return variant;
+}
+
+namespace {
+
+// What prescan_transfer_reads decodes the recording with: the swapchain images that transfers of
+// one command buffer read, up to its vkEndCommandBuffer. Everything else is decoded and skipped.
+class TransferReads final : public codec::CommandVisitor {
+public:
+    TransferReads(uint64_t command_buffer, const SwapchainImages &swapchains, const FoveaShading &fovea)
+        : command_buffer_(command_buffer), swapchains_(swapchains), fovea_(fovea) {}
+
+    bool ended() const { return ended_; }
+    std::vector<uint64_t> take() { return std::move(images_); }
+
+    bool unhandled(codec::VkCommandId) override { return true; }
+    bool vkEndCommandBuffer(const codec::Decoded_vkEndCommandBuffer &c) override {
+        ended_ |= c.commandBuffer_id == command_buffer_;
+        return true;
+    }
+    bool vkCmdCopyImage(const codec::Decoded_vkCmdCopyImage &c) override {
+        return read(c.commandBuffer_id, c.srcImage);
+    }
+    bool vkCmdCopyImage2(const codec::Decoded_vkCmdCopyImage2 &c) override {
+        return read(c.commandBuffer_id, c.pCopyImageInfo ? c.pCopyImageInfo->srcImage : VK_NULL_HANDLE);
+    }
+    bool vkCmdBlitImage(const codec::Decoded_vkCmdBlitImage &c) override {
+        return read(c.commandBuffer_id, c.srcImage);
+    }
+    bool vkCmdBlitImage2(const codec::Decoded_vkCmdBlitImage2 &c) override {
+        return read(c.commandBuffer_id, c.pBlitImageInfo ? c.pBlitImageInfo->srcImage : VK_NULL_HANDLE);
+    }
+    bool vkCmdResolveImage(const codec::Decoded_vkCmdResolveImage &c) override {
+        return read(c.commandBuffer_id, c.srcImage);
+    }
+    bool vkCmdResolveImage2(const codec::Decoded_vkCmdResolveImage2 &c) override {
+        return read(c.commandBuffer_id, c.pResolveImageInfo ? c.pResolveImageInfo->srcImage : VK_NULL_HANDLE);
+    }
+    bool vkCmdCopyImageToBuffer(const codec::Decoded_vkCmdCopyImageToBuffer &c) override {
+        return read(c.commandBuffer_id, c.srcImage);
+    }
+    bool vkCmdCopyImageToBuffer2(const codec::Decoded_vkCmdCopyImageToBuffer2 &c) override {
+        return read(c.commandBuffer_id,
+                    c.pCopyImageToBufferInfo ? c.pCopyImageToBufferInfo->srcImage : VK_NULL_HANDLE);
+    }
+    // Secondaries are recorded before the primaries that execute them: their own prescan said
+    // what they read. (A secondary's own split passes were recorded before this primary's copy
+    // was known: they keep their scissors.)
+    bool vkCmdExecuteCommands(const codec::Decoded_vkCmdExecuteCommands &c) override {
+        if (c.commandBuffer_id != command_buffer_ || !c.pCommandBuffers) return true;
+        for (uint32_t i = 0; i < c.commandBufferCount; ++i)
+            for (uint64_t image : fovea_.transfer_reads(c.pCommandBuffers[i]))
+                add(image);
+        return true;
+    }
+
+private:
+    bool read(uint64_t command_buffer, VkImage image) {
+        uint64_t image_id = 0;
+        VkExtent2D extent{};
+        if (command_buffer == command_buffer_ && image && swapchains_.find_image(image, &image_id, &extent))
+            add(image_id);
+        return true;
+    }
+    void add(uint64_t image_id) {
+        if (std::find(images_.begin(), images_.end(), image_id) == images_.end()) images_.push_back(image_id);
+    }
+
+    uint64_t command_buffer_;
+    const SwapchainImages &swapchains_;
+    const FoveaShading &fovea_;
+    std::vector<uint64_t> images_;
+    bool ended_ = false;
+};
+
+} // namespace
+
+void Replayer::prescan_transfer_reads(std::span<const uint8_t> payload, size_t offset, uint64_t id,
+                                      VkCommandBuffer command_buffer) {
+    if (!fovea_.enabled()) return;
+    TransferReads reads(id, swapchains_, fovea_);
+    // A decoding error is the replay's to report, when it reaches it; what was read until then counts.
+    codec::Decoder d(payload.subspan(offset), table_, prescan_arena_);
+    while (d.ok() && !d.at_end() && !reads.ended())
+        if (!codec::dispatch_decoded(d, reads)) break;
+    prescan_arena_.reset();
+    fovea_.note_transfer_reads(command_buffer, reads.take());
 }
 
 // --- the limit guard (limit_guard.h) ---------------------------------------------------------

@@ -196,6 +196,12 @@ private:
     VkCommandBuffer secondary_variant(uint64_t id, VkCommandBuffer secondary,
                                       const FoveaShading::PassScissor &scissor);
     void forget_secondary(uint64_t id);
+    // Right after the vkBeginCommandBuffer of `command_buffer` (client id `id`) ending at `offset`:
+    // the swapchain images its recording's transfers read, for FoveaShading::note_transfer_reads.
+    // A light decode of the recording that follows in the payload (a command buffer's stream is
+    // sent whole, after the objects it names), up to its vkEndCommandBuffer; nothing is replayed.
+    void prescan_transfer_reads(std::span<const uint8_t> payload, size_t offset, uint64_t id,
+                                VkCommandBuffer command_buffer);
 
     uint64_t session_id_;
     VulkanContext context_;
@@ -231,6 +237,7 @@ private:
     VkCommandPool variant_pool_ = VK_NULL_HANDLE;
     codec::Arena variant_arena_; // a variant is recorded while the primary's commands use arena_
     bool recording_variant_ = false;
+    codec::Arena prescan_arena_; // prescan_transfer_reads' decoding, while the payload's uses arena_
     bool variant_failed_logged_ = false;
     uint64_t kept_stream_bytes_ = 0; // of secondaries_' streams
     BufferAddressMap addresses_;     // by the agent's buffer handle values
