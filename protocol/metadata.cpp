@@ -1,5 +1,6 @@
 #include "metadata.h"
 
+#include "tile_format.h"
 #include "wire.h"
 
 #include <algorithm>
@@ -395,12 +396,18 @@ Result<VerifyFrame> decode_verify_frame(std::span<const uint8_t> payload, uint32
     Decoder d(payload, max_bytes);
     VerifyFrame m;
     fields(d, m);
+    // The agent reads an image back at its format's tile texel size, as it reads foveae.
+    const uint32_t texel_bytes = tile_texel_bytes(static_cast<VkFormat>(m.format));
     if (d.ok() && (m.layers == 0 || m.layers >= kMaxImageArrayLayers))
         d.fail("layer count " + std::to_string(m.layers) + " out of range");
+    else if (d.ok() && texel_bytes == 0)
+        d.fail(std::string("pixels of ") + format_name(static_cast<VkFormat>(m.format)) +
+               ", not a format tiles carry");
     else if (d.ok() && (m.width > kMaxVerifyExtent || m.height > kMaxVerifyExtent ||
-                        m.pixels.size() != uint64_t{m.width} * m.height * m.layers * 4))
+                        m.pixels.size() != uint64_t{m.width} * m.height * m.layers * texel_bytes))
         d.fail("pixel data does not match " + std::to_string(m.layers) + " layer(s) of " +
-               std::to_string(m.width) + "x" + std::to_string(m.height) + " at 4 bytes per pixel");
+               std::to_string(m.width) + "x" + std::to_string(m.height) + " at " +
+               std::to_string(texel_bytes) + " bytes per pixel");
     return d.finish(std::move(m), "VerifyFrame");
 }
 

@@ -164,13 +164,14 @@ struct Connection::Impl : std::enable_shared_from_this<Connection::Impl> {
 
     // Closes the connection with a reason. I/O thread only; the first call wins. on_closed hears
     // of closures this side did not ask for (report = false for close() and the destructor).
-    void fail(const std::string &reason, bool report = true) {
+    void fail(const std::string &reason, bool report = true, bool by_peer = false) {
         ClosedHandler handler;
         {
             std::lock_guard lock(mutex);
             if (closed) return;
             closed = true;
             close_reason = reason;
+            closed_by_peer = by_peer;
             if (started && report) handler = on_closed_handler;
             send_cv.notify_all();
             receive_cv.notify_all();
@@ -221,7 +222,7 @@ struct Connection::Impl : std::enable_shared_from_this<Connection::Impl> {
         read_in_flight = false;
         if (ec) {
             if (is_closed()) return;
-            fail(describe_receive_error(ec));
+            fail(describe_receive_error(ec), true, peer_ended(ec));
             return;
         }
         {
@@ -240,6 +241,15 @@ struct Connection::Impl : std::enable_shared_from_this<Connection::Impl> {
             return;
         }
         read_some();
+    }
+
+    // Whether `ec` of a read or a write is the peer ending the connection between two messages: its
+    // EOF (a TLS close_notify reads as one), a TLS peer closing without close_notify, or a reset
+    // (a peer that closes with bytes of ours unread resets, and a write after that fails with EPIPE).
+    bool peer_ended(const asio::error_code &ec) const {
+        const bool ended = ec == asio::error::eof || (tls && ec == asio::ssl::error::stream_truncated) ||
+                           ec == asio::error::connection_reset || ec == asio::error::broken_pipe;
+        return ended && decoder.at_message_boundary();
     }
 
     std::string describe_receive_error(const asio::error_code &ec) const {
@@ -486,7 +496,8 @@ struct Connection::Impl : std::enable_shared_from_this<Connection::Impl> {
             if (is_closed()) return;
             fail(ec == asio::error::broken_pipe || ec == asio::error::connection_reset
                      ? "connection reset by peer (while sending)"
-                     : "send failed: " + ec.message());
+                     : "send failed: " + ec.message(),
+                 true, peer_ended(ec));
             return;
         }
         {
@@ -591,6 +602,7 @@ struct Connection::Impl : std::enable_shared_from_this<Connection::Impl> {
     bool closed = false;
     bool started = false;
     std::string close_reason;
+    bool closed_by_peer = false;
     ClosedHandler on_closed_handler;
     MessageHandler on_message_handler;
     std::shared_ptr<Compressor> compressor;
@@ -819,6 +831,11 @@ bool Connection::is_open() const {
 std::string Connection::close_reason() const {
     std::lock_guard lock(impl_->mutex);
     return impl_->close_reason;
+}
+
+bool Connection::closed_by_peer() const {
+    std::lock_guard lock(impl_->mutex);
+    return impl_->closed_by_peer;
 }
 
 std::string Connection::peer_address() const {

@@ -210,6 +210,10 @@ public:
 
     bool is_open() const;
     std::string close_reason() const; // empty while open
+    // Whether the peer ended the connection between two messages, however it did (EOF, a TLS
+    // close_notify, a reset, or a write failing because of one): its normal end, not an error.
+    // False while open, and for a close of this side's or an error.
+    bool closed_by_peer() const;
     std::string peer_address() const; // "127.0.0.1:7447", "[::1]:7447"
     std::string local_address() const;
     // "TLS 1.3 (TLS_AES_256_GCM_SHA384)" or "plaintext", for logs.

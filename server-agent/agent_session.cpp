@@ -19,8 +19,6 @@ using protocol::to_wire;
 namespace {
 
 constexpr auto kHandshakeTimeout = 10s;
-// Connection::close_reason() when the client closed its side at a message boundary: how it ends.
-constexpr std::string_view kPeerClosed = "peer closed the connection";
 
 // The types a client may send; anything else (the rest of the Vulkan range included) is a
 // protocol error that ends the session.
@@ -194,8 +192,9 @@ int Session::run() {
         if (r == protocol::SendResult::Queued) return true;
         // A client ends its session by closing its side without waiting for the tiles of frames it
         // will not composite (an unsplit one waits for none): the backlog of frames the session
-        // still replays after that has tiles nobody reads, which is no error.
-        if (r == protocol::SendResult::Closed && connection_->close_reason() == kPeerClosed) return true;
+        // still replays after that has tiles nobody reads, which is no error. Tiles it left unread
+        // make its close a reset, and the send that meets it fails: its close all the same.
+        if (r == protocol::SendResult::Closed && connection_->closed_by_peer()) return true;
         *send_error = std::string("sending Tiles: ") + protocol::to_string(r);
         return false;
     });
@@ -204,9 +203,8 @@ int Session::run() {
         auto message = connection_->receive(500ms);
         if (!message) {
             if (connection_->is_open()) continue;
-            const std::string reason = connection_->close_reason();
-            if (reason == kPeerClosed) break;
-            return fail(reason, kSessionError);
+            if (connection_->closed_by_peer()) break;
+            return fail(connection_->close_reason(), kSessionError);
         }
         ++messages_;
         if (recorder_) recorder_->message(message->type, message->payload);
@@ -338,6 +336,8 @@ bool Session::handle(protocol::Message &message, bool *done, std::string *error)
         for (auto &frame : frames) {
             const auto r =
                 connection_->send_owned(MessageType::VerifyFrame, protocol::encode(frame), 10000ms);
+            // Closed by the client: the loop ends the session when it has taken what came before.
+            if (r == protocol::SendResult::Closed && connection_->closed_by_peer()) break;
             if (r != protocol::SendResult::Queued) {
                 *error = std::string("sending VerifyFrame: ") + protocol::to_string(r);
                 return false;

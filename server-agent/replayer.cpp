@@ -2,6 +2,7 @@
 
 #include "log.h"
 #include "submit_rules.h"
+#include "vk_format_info.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -455,6 +456,7 @@ bool Replayer::vkCreateImage(const codec::Decoded_vkCreateImage &c) {
     if (!ReplayVisitorBase::vkCreateImage(c)) return false;
     memory_.image_created(c.pImage[0], *c.pCreateInfo);
     fovea_.image_created(c.pImage[0], *c.pCreateInfo);
+    swapchains_.image_created(c.pImage[0], *c.pCreateInfo);
     return true;
 }
 
@@ -462,6 +464,7 @@ bool Replayer::vkDestroyImage(const codec::Decoded_vkDestroyImage &c) {
     if (!ReplayVisitorBase::vkDestroyImage(c)) return false;
     memory_.image_destroyed(c.image);
     fovea_.image_destroyed(c.image);
+    swapchains_.image_destroyed(c.image);
     return true;
 }
 
@@ -630,10 +633,14 @@ bool Replayer::image_layouts(const protocol::ImageLayouts &message, std::string 
 }
 
 bool Replayer::swapchain_images(const protocol::SwapchainImages &message, std::string *error) {
-    if (!swapchains_.create(message, error)) {
+    std::string warning;
+    if (!swapchains_.create(message, error, &warning)) {
         *error = "SwapchainImages: swapchain " + hex(message.swapchain_id) + ": " + *error;
         return false;
     }
+    if (!warning.empty())
+        SPLITVK_WARN("session %llu: swapchain %s: %s", static_cast<unsigned long long>(session_id_),
+                     hex(message.swapchain_id).c_str(), warning.c_str());
     return true;
 }
 
@@ -737,10 +744,11 @@ bool Replayer::frame_present(const protocol::FramePresent &message,
             frame.image = image.image;
             frame.layout = image.layout;
             frame.format = image.format;
+            frame.extent = image.extent;
+            frame.layers = image.layers;
             frame.foveae = std::move(foveae);
             if (swapped_) {
                 frame.foveae.clear();
-                uint64_t image_id = 0;
                 if (swapchains_.runtime_image(image.image_id)) {
                     // Not in this slice: the client does not cut an OpenXR runtime's images either.
                     if (!runtime_periphery_logged_)
@@ -748,7 +756,7 @@ bool Replayer::frame_present(const protocol::FramePresent &message,
                                      "images (the client renders them whole)",
                                      static_cast<unsigned long long>(session_id_));
                     runtime_periphery_logged_ = true;
-                } else if (swapchains_.find_image(image.image, &image_id, &frame.extent)) {
+                } else {
                     frame.periphery = split::scaled_extent(frame.extent, periphery_scale_);
                 }
             }
@@ -784,9 +792,12 @@ bool Replayer::frame_present(const protocol::FramePresent &message,
             return false;
         }
         if (unsupported) {
-            if (!unsupported_format_logged_)
-                SPLITVK_WARN("session %llu: verification reads back only 8-bit BGRA/RGBA swapchains; skipped",
-                             static_cast<unsigned long long>(session_id_));
+            SwapchainImages::Presented image;
+            std::string ignored;
+            if (!unsupported_format_logged_ &&
+                swapchains_.presented(presented.swapchain_id, presented.image_index, &image, &ignored))
+                SPLITVK_WARN("session %llu: verification skips the images of %s (not a format tiles carry)",
+                             static_cast<unsigned long long>(session_id_), format_name(image.format));
             unsupported_format_logged_ = true;
             continue;
         }

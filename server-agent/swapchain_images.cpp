@@ -1,10 +1,20 @@
 #include "swapchain_images.h"
 
-#include "submit_rules.h"
+#include "tile_format.h"
+#include "vk_format_info.h"
 
 #include <cstring>
 
 namespace splitvk::agent {
+
+namespace {
+
+std::string shape_text(VkFormat format, VkExtent2D extent, uint32_t layers) {
+    return std::string(format_name(format)) + " " + std::to_string(extent.width) + "x" +
+           std::to_string(extent.height) + " in " + std::to_string(layers) + " layer(s)";
+}
+
+} // namespace
 
 SwapchainImages::~SwapchainImages() {
     if (!context_.device) return;
@@ -32,7 +42,65 @@ void SwapchainImages::release(Swapchain &swapchain) {
     swapchain.memory.clear();
 }
 
-bool SwapchainImages::create(const protocol::SwapchainImages &message, std::string *error) {
+void SwapchainImages::image_created(VkImage image, const VkImageCreateInfo &info) {
+    if (info.imageType != VK_IMAGE_TYPE_2D || info.samples != VK_SAMPLE_COUNT_1_BIT) return;
+    created_[image] = {info.format, {info.extent.width, info.extent.height}, info.arrayLayers};
+}
+
+void SwapchainImages::image_destroyed(VkImage image) {
+    created_.erase(image);
+}
+
+bool SwapchainImages::adopt(const protocol::SwapchainImages &message, Swapchain &swapchain,
+                            std::string *error, std::string *warning) const {
+    const Shape declared{
+        static_cast<VkFormat>(message.format), {message.width, message.height}, message.array_layers};
+    swapchain.shape = declared;
+    for (size_t i = 0; i < message.image_ids.size(); ++i) {
+        const uint64_t id = message.image_ids[i];
+        const codec::HandleTable::Entry *entry = table_.find(id);
+        if (!entry || entry->type != VK_OBJECT_TYPE_IMAGE) {
+            *error = "runtime swapchain image " + std::to_string(id) + " is not a live image";
+            return false;
+        }
+        const VkImage image = codec::to_handle<VkImage>(entry->handle);
+        const auto created = created_.find(image);
+        if (created == created_.end()) {
+            *error = "runtime swapchain image " + std::to_string(id) + " is not a 2D single-sample image";
+            return false;
+        }
+        if (i == 0) {
+            swapchain.shape = created->second;
+        } else if (created->second != swapchain.shape) {
+            *error = "runtime swapchain image " + std::to_string(id) + " is " +
+                     shape_text(created->second.format, created->second.extent, created->second.layers) +
+                     ", the swapchain's first image " +
+                     shape_text(swapchain.shape.format, swapchain.shape.extent, swapchain.shape.layers);
+            return false;
+        }
+        swapchain.images.push_back(image);
+    }
+    if (swapchain.shape != declared)
+        *warning = "its images are " +
+                   shape_text(swapchain.shape.format, swapchain.shape.extent, swapchain.shape.layers) +
+                   ", the client declared " + shape_text(declared.format, declared.extent, declared.layers) +
+                   "; they are read back as they are";
+    return true;
+}
+
+bool SwapchainImages::check_format(const protocol::SwapchainImages &message, std::string *error) const {
+    // The agent makes these images itself: a value vk.xml does not list, or a format no surface
+    // presents, would reach the driver's vkCreateImage as undefined behaviour.
+    const VkFormat format = static_cast<VkFormat>(message.format);
+    const FormatInfo info = format_info(format);
+    if (info.block_bytes != 0 && !info.depth && !info.stencil && !info.compressed && !info.ycbcr) return true;
+    *error = std::string(format_name(format)) + " (VkFormat " + std::to_string(message.format) +
+             ") is not a colour format a window presents";
+    return false;
+}
+
+bool SwapchainImages::create(const protocol::SwapchainImages &message, std::string *error,
+                             std::string *warning) {
     if (!context_.device) {
         *error = "SwapchainImages before vkCreateDevice";
         return false;
@@ -50,18 +118,14 @@ bool SwapchainImages::create(const protocol::SwapchainImages &message, std::stri
     if (message.source == protocol::SwapchainImages::Source::Runtime) {
         // An OpenXR runtime's images: the client created them with vkCreateImage, which this session
         // replayed, so they are adopted rather than made.
-        for (uint64_t id : message.image_ids) {
-            const codec::HandleTable::Entry *entry = table_.find(id);
-            if (!entry || entry->type != VK_OBJECT_TYPE_IMAGE) {
-                *error = "runtime swapchain image " + std::to_string(id) + " is not a live image";
-                return false;
-            }
-            swapchain.images.push_back(codec::to_handle<VkImage>(entry->handle));
-        }
+        if (!adopt(message, swapchain, error, warning)) return false;
         swapchains_.emplace(message.swapchain_id, std::move(swapchain));
         newest_ = {message.width, message.height};
         return true;
     }
+    if (!check_format(message, error)) return false;
+    swapchain.shape = {
+        static_cast<VkFormat>(message.format), {message.width, message.height}, message.array_layers};
     swapchain.info.image_ids.clear();
     VkImageCreateInfo info{};
     info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
@@ -135,8 +199,8 @@ bool SwapchainImages::presented(uint64_t swapchain_id, uint32_t image_index, Pre
     const Swapchain *swapchain = presented_swapchain(swapchain_id, image_index, error);
     if (!swapchain) return false;
     *out = {swapchain->images[image_index], swapchain->info.image_ids[image_index],
-            static_cast<VkFormat>(swapchain->info.format),
-            static_cast<VkImageLayout>(swapchain->info.presented_layout)};
+            swapchain->shape.format,        static_cast<VkImageLayout>(swapchain->info.presented_layout),
+            swapchain->shape.extent,        swapchain->shape.layers};
     return true;
 }
 
@@ -238,18 +302,21 @@ bool SwapchainImages::read_back(uint64_t swapchain_id, uint32_t image_index, Rec
     const Swapchain *found = presented_swapchain(swapchain_id, image_index, error);
     if (!found) return false;
     const Swapchain &swapchain = *found;
-    if (!codec::is_verifiable_format(static_cast<VkFormat>(swapchain.info.format))) {
+    const Shape &shape = swapchain.shape;
+    const uint32_t texel_bytes = tile_texel_bytes(shape.format);
+    if (texel_bytes == 0) {
         *unsupported = true;
         return true;
     }
     // The whole image is every layer of it (verification); a rectangle is one of layer 0.
-    const uint32_t layers = rect.width == 0 ? swapchain.info.array_layers : 1;
-    if (rect.width == 0) rect = {0, 0, swapchain.info.width, swapchain.info.height};
-    if (rect.x + rect.width > swapchain.info.width || rect.y + rect.height > swapchain.info.height) {
+    const uint32_t layers = rect.width == 0 ? shape.layers : 1;
+    if (rect.width == 0) rect = {0, 0, shape.extent.width, shape.extent.height};
+    if (rect.height == 0 || uint64_t{rect.x} + rect.width > shape.extent.width ||
+        uint64_t{rect.y} + rect.height > shape.extent.height) {
         *error = "readback rectangle outside the image";
         return false;
     }
-    const VkDeviceSize bytes = VkDeviceSize{rect.width} * rect.height * 4 * layers;
+    const VkDeviceSize bytes = VkDeviceSize{rect.width} * rect.height * texel_bytes * layers;
     if (!ensure_readback(bytes, error)) return false;
 
     VkBufferImageCopy region{};
@@ -275,7 +342,7 @@ bool SwapchainImages::read_back(uint64_t swapchain_id, uint32_t image_index, Rec
     out.image_index = image_index;
     out.width = rect.width;
     out.height = rect.height;
-    out.format = swapchain.info.format;
+    out.format = static_cast<uint32_t>(shape.format);
     out.layers = layers;
     out.pixels.resize(static_cast<size_t>(bytes));
     std::memcpy(out.pixels.data(), staging_.mapped, out.pixels.size());

@@ -2,6 +2,8 @@
 
 #include "log.h"
 #include "periphery.h"
+#include "tile_format.h"
+#include "vk_format_info.h"
 
 #include <algorithm>
 #include <cstring>
@@ -17,24 +19,18 @@ namespace {
 constexpr uint64_t kFenceWaitNs = 30'000'000'000; // a frame that long is a lost GPU, not a slow one
 constexpr auto kSlotWait = 30s;
 
-// The formats whose pixels are 4 bytes, as the tiles are (the 8-bit colour ones, the 10-bit packed
-// ones, the packed floats).
-bool four_bytes_per_pixel(VkFormat format) {
-    switch (format) {
-    case VK_FORMAT_R8G8B8A8_UNORM:
-    case VK_FORMAT_R8G8B8A8_SRGB:
-    case VK_FORMAT_B8G8R8A8_UNORM:
-    case VK_FORMAT_B8G8R8A8_SRGB:
-    case VK_FORMAT_A8B8G8R8_UNORM_PACK32:
-    case VK_FORMAT_A8B8G8R8_SRGB_PACK32:
-    case VK_FORMAT_A2R10G10B10_UNORM_PACK32:
-    case VK_FORMAT_A2B10G10R10_UNORM_PACK32:
-    case VK_FORMAT_B10G11R11_UFLOAT_PACK32:
-    case VK_FORMAT_E5B9G9R9_UFLOAT_PACK32:
-        return true;
-    default:
-        return false;
-    }
+std::string rect_text(const split::LayerFovea &fovea) {
+    const VkRect2D &r = fovea.rect;
+    return std::to_string(r.extent.width) + "x" + std::to_string(r.extent.height) + " at " +
+           std::to_string(r.offset.x) + "," + std::to_string(r.offset.y) + " in layer " +
+           std::to_string(fovea.layer);
+}
+
+bool inside(const split::LayerFovea &fovea, VkExtent2D extent, uint32_t layers) {
+    const VkRect2D &r = fovea.rect;
+    return fovea.layer < layers && r.offset.x >= 0 && r.offset.y >= 0 && r.extent.width > 0 &&
+           r.extent.height > 0 && uint64_t(r.offset.x) + r.extent.width <= extent.width &&
+           uint64_t(r.offset.y) + r.extent.height <= extent.height;
 }
 
 uint32_t micros(Clock::duration d) {
@@ -195,7 +191,7 @@ void TileStreamer::record_copy(Slot &slot) {
         region.imageOffset = {rect.offset.x, rect.offset.y, 0};
         region.imageExtent = {rect.extent.width, rect.extent.height, 1};
         regions.push_back(region);
-        offset += VkDeviceSize{rect.extent.width} * rect.extent.height * 4;
+        offset += VkDeviceSize{rect.extent.width} * rect.extent.height * slot.frame.texel_bytes;
     }
     if (slot.frame.periphery.width > 0)
         VulkanContext::record_present_downsample(slot.command_buffer, slot.frame.image, slot.frame.layout,
@@ -208,26 +204,27 @@ void TileStreamer::record_copy(Slot &slot) {
 
 bool TileStreamer::prepare_periphery(Slot &slot, Frame &frame, bool *skip, std::string *error) {
     *skip = false;
-    if (!four_bytes_per_pixel(frame.format)) {
+    // The periphery is downsampled and may be coded lossily, as colour: 4-byte texels only.
+    if (frame.texel_bytes != 4) {
         if (!unsupported_format_logged_)
-            SPLITVK_INFO("tiles: the periphery of VkFormat %d is not sent (not 4 bytes a pixel); the client "
+            SPLITVK_INFO("tiles: the periphery of %s is not sent (not 4 bytes a texel); the client "
                          "shows its foveae over the last periphery it has",
-                         static_cast<int>(frame.format));
+                         format_name(frame.format));
         unsupported_format_logged_ = true;
         *skip = true;
         return true;
     }
     if (frame.format != periphery_format_) {
         if (!context_.blit_filter(frame.format, &periphery_filter_)) {
-            *error = "the periphery of VkFormat " + std::to_string(frame.format) +
+            *error = std::string("the periphery of ") + format_name(frame.format) +
                      " cannot be blitted on this GPU";
             return false;
         }
         periphery_format_ = frame.format;
         if (periphery_filter_ != VK_FILTER_LINEAR)
-            SPLITVK_INFO("tiles: VkFormat %d cannot be filtered linearly on this GPU; the periphery is "
+            SPLITVK_INFO("tiles: %s cannot be filtered linearly on this GPU; the periphery is "
                          "downsampled with the nearest filter",
-                         static_cast<int>(frame.format));
+                         format_name(frame.format));
     }
     if (slot.scaled.format != frame.format || slot.scaled.extent.width != frame.periphery.width ||
         slot.scaled.extent.height != frame.periphery.height) {
@@ -240,12 +237,47 @@ bool TileStreamer::prepare_periphery(Slot &slot, Frame &frame, bool *skip, std::
     // Lossy only where x264 codes the bytes as colour; lossless (as asked or not) otherwise.
     const bool lossy = !periphery_quality_.lossless && split::periphery_lossy_format(frame.format);
     if (!periphery_quality_.lossless && !lossy && !lossless_format_logged_) {
-        SPLITVK_INFO("tiles: the periphery of VkFormat %d travels losslessly (lossy is for 8-bit RGBA/BGRA)",
-                     static_cast<int>(frame.format));
+        SPLITVK_INFO("tiles: the periphery of %s travels losslessly (lossy is for 8-bit RGBA/BGRA)",
+                     format_name(frame.format));
         lossless_format_logged_ = true;
     }
     frame.quality = lossy ? tiles::TileQuality{false, periphery_quality_.crf} : tiles::TileQuality{};
     return true;
+}
+
+bool TileStreamer::check_readable(Frame &frame) {
+    if (frame.foveae.empty() && frame.periphery.width == 0) return true;
+    std::string why;
+    if (frame.texel_bytes == 0) {
+        why = std::string(format_name(frame.format)) + " is not a format tiles carry";
+    } else if (frame.periphery.width == 0) {
+        for (const split::LayerFovea &fovea : frame.foveae)
+            if (!inside(fovea, frame.extent, frame.layers)) {
+                why = "a fovea of " + rect_text(fovea) + " is outside the image (" +
+                      std::to_string(frame.extent.width) + "x" + std::to_string(frame.extent.height) +
+                      " in " + std::to_string(frame.layers) + " layer(s))";
+                break;
+            }
+    }
+    if (why.empty()) return true;
+    if (!unreadable_logged_)
+        SPLITVK_WARN("tiles: frame %llu: %s; it is not read back, and its tiles go as invalid (the client "
+                     "shows its periphery); said once",
+                     static_cast<unsigned long long>(frame.frame), why.c_str());
+    unreadable_logged_ = true;
+    frame.foveae.clear();
+    frame.periphery = {};
+    frame.invalid = true;
+    return false;
+}
+
+TileCodec TileStreamer::stream_codec(const Frame &frame) {
+    if (frame.texel_bytes != 8 || codec_ != TileCodec::X264) return codec_;
+    if (!wide_codec_logged_)
+        SPLITVK_INFO("tiles: %s has 8-byte texels, which x264 does not take: its tiles travel with zstd",
+                     format_name(frame.format));
+    wide_codec_logged_ = true;
+    return TileCodec::Zstd;
 }
 
 bool TileStreamer::present(Frame frame, std::string *error) {
@@ -262,7 +294,8 @@ bool TileStreamer::present(Frame frame, std::string *error) {
         }
     }
     if (!slot.command_buffer && !create_slot(slot, error)) return false;
-    if (frame.periphery.width > 0) {
+    frame.texel_bytes = tile_texel_bytes(frame.format);
+    if (check_readable(frame) && frame.periphery.width > 0) {
         bool skip = false;
         if (!prepare_periphery(slot, frame, &skip, error)) return false;
         if (skip) frame.periphery = {};
@@ -270,7 +303,7 @@ bool TileStreamer::present(Frame frame, std::string *error) {
 
     VkDeviceSize bytes = 0;
     for (const auto &[layer, rect] : frame.foveae)
-        bytes += VkDeviceSize{rect.extent.width} * rect.extent.height * 4;
+        bytes += VkDeviceSize{rect.extent.width} * rect.extent.height * frame.texel_bytes;
     slot.frame = std::move(frame);
     VkFence fences[] = {slot.drawn, slot.copied};
     vkResetFences(context_.device, 2, fences);
@@ -362,15 +395,17 @@ bool TileStreamer::encode_and_send(Slot &slot, std::string *error) {
     // Each eye is its own stream with its own encoder: encode them on parallel threads (the first
     // on this one) and join before sending, so a frame's tiles travel as one message.
     std::vector<std::string> errors(frame.foveae.size());
+    const TileCodec codec = frame.foveae.empty() ? codec_ : stream_codec(frame);
     auto encode_eye = [&](size_t eye, const uint8_t *pixels) {
         const VkRect2D &rect = frame.foveae[eye].rect;
         EyeStream &stream = eyes_[eye];
         if (!stream.encoder || stream.width != rect.extent.width || stream.height != rect.extent.height ||
-            stream.codec != codec_ || stream.quality.lossless != frame.quality.lossless ||
-            stream.quality.crf != frame.quality.crf) {
-            stream = EyeStream{rect.extent.width, rect.extent.height, codec_, frame.quality, nullptr};
-            stream.encoder = tiles::make_tile_encoder(codec_, rect.extent.width, rect.extent.height, 4,
-                                                      &errors[eye], frame.quality);
+            stream.texel_bytes != frame.texel_bytes || stream.codec != codec ||
+            stream.quality.lossless != frame.quality.lossless || stream.quality.crf != frame.quality.crf) {
+            stream = EyeStream{
+                rect.extent.width, rect.extent.height, frame.texel_bytes, codec, frame.quality, nullptr};
+            stream.encoder = tiles::make_tile_encoder(codec, rect.extent.width, rect.extent.height,
+                                                      frame.texel_bytes, &errors[eye], frame.quality);
             if (!stream.encoder) return;
         }
         protocol::EncodedTile &tile = message.tiles[eye];
@@ -379,7 +414,7 @@ bool TileStreamer::encode_and_send(Slot &slot, std::string *error) {
         tile.width = rect.extent.width;
         tile.height = rect.extent.height;
         tile.array_layer = frame.foveae[eye].layer;
-        tile.codec = codec_;
+        tile.codec = codec;
         bool keyframe = false;
         if (!stream.encoder->encode(pixels, tile.data, &keyframe, &errors[eye])) {
             stream.encoder.reset(); // the next frame starts a new stream with a keyframe
@@ -394,7 +429,7 @@ bool TileStreamer::encode_and_send(Slot &slot, std::string *error) {
     std::vector<const uint8_t *> pixels;
     for (const auto &[layer, rect] : frame.foveae) {
         pixels.push_back(base + offset);
-        offset += size_t{rect.extent.width} * rect.extent.height * 4;
+        offset += size_t{rect.extent.width} * rect.extent.height * frame.texel_bytes;
     }
     for (size_t eye = 1; eye < frame.foveae.size(); ++eye)
         threads.emplace_back(encode_eye, eye, pixels[eye]);

@@ -14,6 +14,12 @@
 // (split::periphery_parts) are read back, encoded (lossily for 8-bit colour) and sent as tiles
 // flagged kTilePeriphery, the parts on parallel threads as the eyes are.
 //
+// Every buffer and region is sized by the image's own format (tile_texel_bytes(), 4 or 8 bytes a
+// texel) and checked against its own extent and layers, whatever the client declared: a frame whose
+// format tiles cannot carry, or whose foveae do not lie in the image, is read back not at all and
+// sent as kTilesInvalid (the client then shows its periphery), said once. 8-byte tiles travel with
+// zstd where the session asked for x264, which takes 4-byte texels only.
+//
 // Staging: kSlots frames may be in flight between the replay thread and the worker, each with
 // its own command buffer, fences and host buffer. When all are busy, present() waits for the
 // oldest (bounded), which is the back-pressure that keeps the agent from running ahead of its
@@ -61,14 +67,17 @@ public:
         uint32_t image_index = 0;
         VkImage image = VK_NULL_HANDLE; // left in `layout` by the frame's submits
         VkImageLayout layout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+        // The image as it is: what the read-back is sized by and checked against.
         VkFormat format = VK_FORMAT_UNDEFINED;
-        std::vector<split::LayerFovea> foveae; // may be empty: an empty Tiles message
-        // The swapped split: the image's extent and the scaled extent it is sent at; foveae are
-        // then ignored (present() fills them with the periphery's parts). {0, 0}: the foveae.
         VkExtent2D extent{};
+        uint32_t layers = 1;
+        std::vector<split::LayerFovea> foveae; // may be empty: an empty Tiles message
+        // The swapped split: the scaled extent the image is sent at; foveae are then ignored
+        // (present() fills them with the periphery's parts). {0, 0}: the foveae.
         VkExtent2D periphery{};
         tiles::TileQuality quality; // what present() chose for this frame's tiles
-        bool invalid = false;       // limit_guard.h: sent as kTilesInvalid, with no tiles
+        uint32_t texel_bytes = 0;   // present(): tile_texel_bytes(format) of a frame it reads back
+        bool invalid = false;       // limit_guard.h, or unreadable: sent as kTilesInvalid, no tiles
         std::chrono::steady_clock::time_point first_submit{}; // of the frame: draw time without timestamps
         std::chrono::steady_clock::time_point present{};      // FramePresent received
     };
@@ -107,7 +116,7 @@ private:
     // One eye's stream: encoders are stateful, so an eye keeps its encoder while its size and the
     // codec stay the same.
     struct EyeStream {
-        uint32_t width = 0, height = 0;
+        uint32_t width = 0, height = 0, texel_bytes = 4;
         TileCodec codec = TileCodec::X264;
         tiles::TileQuality quality;
         std::unique_ptr<tiles::TileEncoder> encoder;
@@ -119,9 +128,15 @@ private:
     void destroy_slot(Slot &slot);
     void record_copy(Slot &slot);
     // The swapped split: the scaled image, the filter and the parts of a periphery frame. False with
-    // one line in `error` when its format cannot be blitted; *skip when it is not 4 bytes a pixel
-    // (sent as an empty Tiles, said once).
+    // one line in `error` when its format cannot be blitted; *skip when its tiles are not 4 bytes a
+    // texel (sent as an empty Tiles, said once).
     bool prepare_periphery(Slot &slot, Frame &frame, bool *skip, std::string *error);
+    // Empties a frame whose image cannot be read back as asked (its format, or a fovea outside the
+    // image) and marks it invalid, with one line the first time. Returns whether it was readable.
+    bool check_readable(Frame &frame);
+    // The codec of a stream of `texel_bytes` texels: the session's, or zstd for 8-byte texels where
+    // the session's is x264 (said once).
+    TileCodec stream_codec(const Frame &frame);
     void run_worker();
     bool encode_and_send(Slot &slot, std::string *error);
     bool wait_fence(VkFence fence);
@@ -136,6 +151,8 @@ private:
     VkFormat periphery_format_ = VK_FORMAT_UNDEFINED; // the one periphery_filter_ is for
     bool lossless_format_logged_ = false;
     bool unsupported_format_logged_ = false;
+    bool unreadable_logged_ = false; // check_readable()
+    bool wide_codec_logged_ = false; // stream_codec(), worker thread
     VkCommandPool pool_ = VK_NULL_HANDLE;
     std::array<Slot, kSlots> slots_{};
     size_t next_slot_ = 0;

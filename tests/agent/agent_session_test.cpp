@@ -10,6 +10,7 @@
 #include "tile_codec.h"
 #include "transport.h"
 #include "vk_codec.h"
+#include "vk_format_info.h"
 #include "wire.h"
 
 #include <algorithm>
@@ -1571,6 +1572,395 @@ TEST(AgentPeriphery, NoPeripheryRefusesTheSwappedSplit) {
     EXPECT_TRUE(agent.wait_for_end(1, "error")) << agent.log();
     EXPECT_TRUE(agent.wait_for_log("PeripheryConfig without capability kSwappedSplit")) << agent.log();
     expect_good_session(agent, 2);
+}
+
+// --- images whose format or size is not what the tiles were sized for ----------------------------
+
+// A `width`x`height` swapchain image of `format` filled from a buffer with texel_value() bytes, and
+// `frames` presents of it (verified with `verify`). With `runtime`, the image is the client's own
+// vkCreateImage of `runtime_image` (an OpenXR runtime's), adopted under a declared `format`,
+// extent and `declared_layers`, with an eye in each declared layer (SwapchainView).
+struct FormatStream {
+    VkFormat format = VK_FORMAT_R16G16B16A16_UNORM;
+    uint32_t width = 48, height = 32;
+    uint32_t frames = 1;
+    bool verify = false;
+    bool runtime = false;
+    VkImageCreateInfo runtime_image{}; // with `runtime`: what the image is
+    uint32_t declared_layers = 1;
+};
+
+constexpr uint64_t kFormatImageMemory = 0x5200, kSourceImage = 0x9100, kSourceMemory = 0x5300;
+
+uint8_t texel_value(uint32_t x, uint32_t y, uint32_t k) {
+    return static_cast<uint8_t>(x * 5 + y * 11 + k * 37 + 3);
+}
+
+uint32_t block_bytes(VkFormat format) {
+    return format_info(format).block_bytes;
+}
+
+bool run_format_stream(Client &client, const FormatStream &f, std::string *why) {
+    codec::Encoder e;
+    encode_setup(e);
+    VkDevice dev = id<VkDevice>(kDevice);
+    // The buffer holds the image as it is: a runtime image's own format and extent.
+    const VkFormat image_format = f.runtime ? f.runtime_image.format : f.format;
+    const uint32_t image_width = f.runtime ? f.runtime_image.extent.width : f.width;
+    const uint32_t image_height = f.runtime ? f.runtime_image.extent.height : f.height;
+    const VkDeviceSize bytes = VkDeviceSize{image_width} * image_height * block_bytes(image_format);
+    VkBufferCreateInfo buffer{};
+    buffer.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+    buffer.size = bytes;
+    buffer.usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+    VkBuffer b = id<VkBuffer>(kPictureBuffer);
+    codec::encode_vkCreateBuffer(e, dev, &buffer, nullptr, &b);
+    VkMemoryAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    alloc.allocationSize = bytes;
+    VkDeviceMemory m = id<VkDeviceMemory>(kPictureMemory);
+    codec::encode_vkAllocateMemory(e, dev, &alloc, nullptr, &m);
+    codec::encode_vkBindBufferMemory(e, dev, b, m, 0);
+    // The picture goes to the swapchain image through an image of its own: a copy from an image into
+    // a swapchain image is drawing into it (its foveae are read back), as the layer notes it.
+    VkImageCreateInfo source_info = f.runtime_image;
+    source_info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
+    source_info.imageType = VK_IMAGE_TYPE_2D;
+    source_info.format = image_format;
+    source_info.extent = {image_width, image_height, 1};
+    source_info.mipLevels = 1;
+    source_info.arrayLayers = 1;
+    source_info.samples = VK_SAMPLE_COUNT_1_BIT;
+    source_info.tiling = VK_IMAGE_TILING_OPTIMAL;
+    source_info.usage = VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+    VkImage source = id<VkImage>(kSourceImage);
+    codec::encode_vkCreateImage(e, dev, &source_info, nullptr, &source);
+    alloc.allocationSize = 1 << 20;
+    VkDeviceMemory sm = id<VkDeviceMemory>(kSourceMemory);
+    codec::encode_vkAllocateMemory(e, dev, &alloc, nullptr, &sm);
+    codec::encode_vkBindImageMemory(e, dev, source, sm, 0);
+    if (f.runtime) {
+        VkImage image = id<VkImage>(kImage);
+        codec::encode_vkCreateImage(e, dev, &f.runtime_image, nullptr, &image);
+        VkDeviceMemory im = id<VkDeviceMemory>(kFormatImageMemory);
+        codec::encode_vkAllocateMemory(e, dev, &alloc, nullptr, &im);
+        codec::encode_vkBindImageMemory(e, dev, image, im, 0);
+    }
+    if (!client.commands(e)) return *why = "send setup", false;
+    protocol::MemoryData picture;
+    picture.device_id = kDevice;
+    picture.memory_id = kPictureMemory;
+    for (uint32_t y = 0; y < image_height; ++y)
+        for (uint32_t x = 0; x < image_width; ++x)
+            for (uint32_t k = 0; k < block_bytes(image_format); ++k)
+                picture.bytes.push_back(texel_value(x, y, k));
+    if (!client.send(MessageType::MemoryData, protocol::encode(picture))) return *why = "send", false;
+
+    protocol::SwapchainImages sc;
+    sc.device_id = kDevice;
+    sc.swapchain_id = kSwapchain;
+    sc.width = f.width;
+    sc.height = f.height;
+    sc.format = f.format;
+    sc.array_layers = f.declared_layers;
+    sc.usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+    sc.image_ids = {kImage};
+    if (f.runtime) sc.source = protocol::SwapchainImages::Source::Runtime;
+    if (!client.send(MessageType::SwapchainImages, protocol::encode(sc))) return *why = "send", false;
+    for (uint32_t layer = 0; f.runtime && layer < f.declared_layers; ++layer) {
+        protocol::SwapchainView view{kDevice, kSwapchain, -0.8f, 0.8f,    0.8f,    -0.8f,
+                                     layer,   0,          0,     f.width, f.height};
+        if (!client.send(MessageType::SwapchainView, protocol::encode(view))) return *why = "send", false;
+    }
+    if (!client.send(MessageType::SplitConfig, protocol::encode(protocol::SplitConfig{})))
+        return *why = "send", false;
+
+    VkCommandPoolCreateInfo pool{};
+    pool.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    VkCommandPool p = id<VkCommandPool>(kPool);
+    codec::encode_vkCreateCommandPool(e, dev, &pool, nullptr, &p);
+    for (uint32_t frame = 0; frame < f.frames; ++frame) {
+        VkCommandBufferAllocateInfo cba{};
+        cba.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+        cba.commandPool = p;
+        cba.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+        cba.commandBufferCount = 1;
+        VkCommandBuffer cb = id<VkCommandBuffer>(kCommandBuffer + frame);
+        codec::encode_vkAllocateCommandBuffers(e, dev, &cba, &cb);
+        VkCommandBufferBeginInfo begin{};
+        begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+        codec::encode_vkBeginCommandBuffer(e, cb, &begin, VK_COMMAND_BUFFER_LEVEL_PRIMARY);
+        VkImageMemoryBarrier ib[2] = {};
+        for (VkImageMemoryBarrier &barrier : ib) {
+            barrier.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+            barrier.dstAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+            barrier.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+            barrier.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+            barrier.srcQueueFamilyIndex = barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+            barrier.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, VK_REMAINING_ARRAY_LAYERS};
+        }
+        ib[0].image = id<VkImage>(kImage);
+        ib[1].image = id<VkImage>(kSourceImage);
+        codec::encode_vkCmdPipelineBarrier(e, cb, VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                                           VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr, 2, ib);
+        VkBufferImageCopy region{};
+        region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        region.imageExtent = {image_width, image_height, 1};
+        codec::encode_vkCmdCopyBufferToImage(e, cb, b, id<VkImage>(kSourceImage),
+                                             VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+        ib[1].srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+        ib[1].dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+        ib[1].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+        ib[1].newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+        codec::encode_vkCmdPipelineBarrier(e, cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                                           VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr, 1,
+                                           &ib[1]);
+        VkImageCopy copy{};
+        copy.srcSubresource = copy.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        copy.extent = {image_width, image_height, 1};
+        codec::encode_vkCmdCopyImage(e, cb, id<VkImage>(kSourceImage), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                                     id<VkImage>(kImage), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &copy);
+        ib[0].srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+        ib[0].dstAccessMask = 0;
+        ib[0].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+        ib[0].newLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+        codec::encode_vkCmdPipelineBarrier(e, cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                                           VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, 0, 0, nullptr, 0, nullptr, 1,
+                                           &ib[0]);
+        codec::encode_vkEndCommandBuffer(e, cb);
+        VkSubmitInfo submit{};
+        submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+        submit.commandBufferCount = 1;
+        submit.pCommandBuffers = &cb;
+        codec::encode_vkQueueSubmit(e, id<VkQueue>(kQueue), 1, &submit, VK_NULL_HANDLE);
+        if (!client.commands(e)) return *why = "send commands", false;
+        protocol::FramePresent present;
+        present.frame = frame;
+        present.queue_id = kQueue;
+        present.flags = f.verify ? protocol::kPresentVerify : 0;
+        present.images = {{kSwapchain, 0}};
+        if (!client.send(MessageType::FramePresent, protocol::encode(present)))
+            return *why = "send present", false;
+    }
+    return true;
+}
+
+// The Tiles and VerifyFrame messages of `frames` frames, in the order each kind came (a frame's
+// VerifyFrame leaves with its present, its Tiles when encoded); false when they do not all come.
+struct Replies {
+    std::vector<protocol::Tiles> tiles;
+    std::vector<protocol::VerifyFrame> verify;
+};
+bool collect(Client &client, uint32_t frames, bool verify, Replies *out, std::string *why) {
+    while (out->tiles.size() < frames || (verify && out->verify.size() < frames)) {
+        auto reply = client.connection->receive(60s);
+        if (!reply) return *why = "no reply: " + client.connection->close_reason(), false;
+        if (reply->type == protocol::to_wire(MessageType::Tiles)) {
+            auto tiles = protocol::decode_tiles(reply->payload, 1u << 20);
+            if (!tiles) return *why = tiles.error(), false;
+            out->tiles.push_back(std::move(*tiles));
+        } else if (reply->type == protocol::to_wire(MessageType::VerifyFrame)) {
+            auto frame = protocol::decode_verify_frame(reply->payload, 1u << 20);
+            if (!frame) return *why = frame.error(), false;
+            out->verify.push_back(std::move(*frame));
+        }
+    }
+    return true;
+}
+
+// An RGBA16 window image (as xrgears' eye images are): its foveae are read back at 8 bytes a texel
+// and travel with zstd though the session asked for x264, each tile decoding to the image's bytes
+// exactly; verification reads the whole image back at 8 bytes a texel too.
+TEST_F(AgentTest, EightByteImagesTravelLosslesslyWithZstd) {
+    Client client;
+    ASSERT_TRUE(client.connect(agent_)) << client.error;
+    FormatStream f;
+    f.frames = 2;
+    f.verify = true;
+    std::string why;
+    ASSERT_TRUE(run_format_stream(client, f, &why)) << why << "\n" << agent_.log();
+    Replies replies;
+    ASSERT_TRUE(collect(client, f.frames, true, &replies, &why)) << why << "\n" << agent_.log();
+    std::vector<std::unique_ptr<tiles::TileDecoder>> decoders;
+    for (uint32_t frame = 0; frame < f.frames; ++frame) {
+        const protocol::Tiles *tiles = &replies.tiles[frame];
+        EXPECT_EQ(tiles->frame, frame);
+        EXPECT_EQ(tiles->flags, 0u);
+        EXPECT_EQ(tiles->format, static_cast<uint32_t>(VK_FORMAT_R16G16B16A16_UNORM));
+        ASSERT_FALSE(tiles->tiles.empty()) << agent_.log();
+        decoders.resize(tiles->tiles.size());
+        for (size_t i = 0; i < tiles->tiles.size(); ++i) {
+            const protocol::EncodedTile &tile = tiles->tiles[i];
+            EXPECT_EQ(tile.codec, TileCodec::Zstd);
+            ASSERT_EQ(tiles::peek_texel_bytes(tile.data), 8u);
+            std::string error;
+            if (!decoders[i])
+                decoders[i] = tiles::make_tile_decoder(tile.codec, tile.width, tile.height, 8, &error);
+            ASSERT_NE(decoders[i], nullptr) << error;
+            std::vector<uint8_t> pixels(size_t{tile.width} * tile.height * 8);
+            ASSERT_TRUE(decoders[i]->decode(tile.data, pixels.data(), &error)) << error;
+            for (uint32_t y = 0; y < tile.height; ++y)
+                for (uint32_t x = 0; x < tile.width; ++x)
+                    for (uint32_t k = 0; k < 8; ++k)
+                        ASSERT_EQ(pixels[(size_t{y} * tile.width + x) * 8 + k],
+                                  texel_value(tile.x + x, tile.y + y, k))
+                            << "tile " << i << " at " << x << "," << y << " byte " << k;
+        }
+        const protocol::VerifyFrame *whole = &replies.verify[frame];
+        ASSERT_EQ(whole->pixels.size(), size_t{f.width} * f.height * 8);
+        EXPECT_EQ(whole->pixels[(size_t{7} * f.width + 5) * 8 + 6], texel_value(5, 7, 6));
+    }
+    client.bye();
+    EXPECT_TRUE(agent_.wait_for_end(1, "closed by the client")) << agent_.log();
+    EXPECT_EQ(agent_.occurrences("VK_FORMAT_R16G16B16A16_UNORM has 8-byte texels, which x264 does not take"),
+              1u)
+        << agent_.log();
+    EXPECT_EQ(agent_.log().find("] error:"), std::string::npos) << agent_.log();
+}
+
+// A 16-byte format (RGBA32F) is no format tiles carry: nothing is read back, each frame's Tiles is
+// invalid (the client shows its periphery), and it is said once.
+TEST_F(AgentTest, SixteenByteImagesAreNotReadBackAndTheirTilesAreInvalid) {
+    Client client;
+    ASSERT_TRUE(client.connect(agent_)) << client.error;
+    FormatStream f;
+    f.format = VK_FORMAT_R32G32B32A32_SFLOAT;
+    f.frames = 3;
+    f.verify = true;
+    std::string why;
+    ASSERT_TRUE(run_format_stream(client, f, &why)) << why << "\n" << agent_.log();
+    Replies replies;
+    ASSERT_TRUE(collect(client, f.frames, false, &replies, &why)) << why << "\n" << agent_.log();
+    for (uint32_t frame = 0; frame < f.frames; ++frame) {
+        const protocol::Tiles *tiles = &replies.tiles[frame];
+        EXPECT_EQ(tiles->frame, frame);
+        EXPECT_EQ(tiles->flags, protocol::kTilesInvalid);
+        EXPECT_TRUE(tiles->tiles.empty());
+    }
+    client.bye();
+    EXPECT_TRUE(agent_.wait_for_end(1, "closed by the client")) << agent_.log();
+    EXPECT_EQ(agent_.occurrences("VK_FORMAT_R32G32B32A32_SFLOAT is not a format tiles carry"), 1u)
+        << agent_.log();
+    EXPECT_EQ(agent_.occurrences("verification skips the images of VK_FORMAT_R32G32B32A32_SFLOAT"), 1u)
+        << agent_.log();
+}
+
+// An OpenXR runtime's image that is not what the client declared: smaller, in one layer where two
+// were declared, and 8 bytes a texel where 4 were. The eyes the client placed in the declared
+// layers lie outside the image: nothing is read back from it (the over-write the wrong sizes would
+// have made), the frame's Tiles are invalid, and the session goes on to its normal end.
+TEST_F(AgentTest, ARuntimeImageUnlikeItsDeclarationIsNotReadBeyond) {
+    Client client;
+    ASSERT_TRUE(client.connect(agent_)) << client.error;
+    FormatStream f;
+    f.format = VK_FORMAT_R8G8B8A8_UNORM;
+    f.width = 64;
+    f.height = 32;
+    f.declared_layers = 2;
+    f.frames = 2;
+    f.verify = true;
+    f.runtime = true;
+    f.runtime_image.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
+    f.runtime_image.imageType = VK_IMAGE_TYPE_2D;
+    f.runtime_image.format = VK_FORMAT_R16G16B16A16_UNORM;
+    f.runtime_image.extent = {16, 8, 1};
+    f.runtime_image.mipLevels = 1;
+    f.runtime_image.arrayLayers = 1;
+    f.runtime_image.samples = VK_SAMPLE_COUNT_1_BIT;
+    f.runtime_image.tiling = VK_IMAGE_TILING_OPTIMAL;
+    f.runtime_image.usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT |
+                            VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+    std::string why;
+    ASSERT_TRUE(run_format_stream(client, f, &why)) << why << "\n" << agent_.log();
+    Replies replies;
+    ASSERT_TRUE(collect(client, f.frames, true, &replies, &why)) << why << "\n" << agent_.log();
+    for (uint32_t frame = 0; frame < f.frames; ++frame) {
+        const protocol::Tiles *tiles = &replies.tiles[frame];
+        EXPECT_EQ(tiles->flags, protocol::kTilesInvalid) << agent_.log();
+        EXPECT_TRUE(tiles->tiles.empty());
+        // Verification reads the image as it is: 16x8 at 8 bytes, its one layer.
+        const protocol::VerifyFrame *whole = &replies.verify[frame];
+        EXPECT_EQ(whole->width, 16u);
+        EXPECT_EQ(whole->layers, 1u);
+        EXPECT_EQ(whole->format, static_cast<uint32_t>(VK_FORMAT_R16G16B16A16_UNORM));
+        ASSERT_EQ(whole->pixels.size(), size_t{16} * 8 * 8);
+        EXPECT_EQ(whole->pixels[(size_t{3} * 16 + 9) * 8 + 2], texel_value(9, 3, 2));
+    }
+    client.bye();
+    EXPECT_TRUE(agent_.wait_for_end(1, "closed by the client")) << agent_.log();
+    EXPECT_EQ(agent_.occurrences("its images are VK_FORMAT_R16G16B16A16_UNORM 16x8 in 1 layer(s), the client "
+                                 "declared VK_FORMAT_R8G8B8A8_UNORM 64x32 in 2 layer(s)"),
+              1u)
+        << agent_.log();
+    EXPECT_EQ(agent_.occurrences("is outside the image (16x8 in 1 layer(s))"), 1u) << agent_.log();
+}
+
+// A window swapchain of a format no window presents (depth, or a value vk.xml does not list) is
+// refused before the driver makes images of it: one line, and only that session ends.
+TEST_F(AgentTest, AWindowSwapchainOfNoColourFormatEndsOnlyThatSession) {
+    Client client;
+    ASSERT_TRUE(client.connect(agent_)) << client.error;
+    codec::Encoder e;
+    encode_setup(e);
+    ASSERT_TRUE(client.commands(e));
+    protocol::SwapchainImages sc;
+    sc.device_id = kDevice;
+    sc.swapchain_id = kSwapchain;
+    sc.width = kWidth;
+    sc.height = kHeight;
+    sc.format = 0x7ffffff0;
+    sc.usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT;
+    sc.image_ids = {kImage};
+    ASSERT_TRUE(client.send(MessageType::SwapchainImages, protocol::encode(sc)));
+    client.connection->flush(5000ms);
+    expect_error_then_recovery(
+        1, "an unknown VkFormat (VkFormat 2147483632) is not a colour format a window presents");
+}
+
+// The client closes while the agent is still sending it tiles it will never read: its kernel
+// resets the connection, and the agent's send or read meets the reset. That is the client's close,
+// as a clean one is (it used to end the session with "sending Tiles: connection closed").
+TEST_F(AgentTest, AClientThatResetsWhileTilesAreSentEndsCleanly) {
+    const int fd = raw_connect(agent_);
+    ASSERT_GE(fd, 0);
+    ASSERT_TRUE(raw_handshake(fd));
+    uint32_t sequence = 2;
+    const auto send_message = [&](MessageType type, const std::vector<uint8_t> &payload) {
+        return write_all(fd, protocol::encode_frame(protocol::to_wire(type), sequence++, payload));
+    };
+    codec::Encoder e;
+    encode_setup(e);
+    ASSERT_TRUE(send_message(MessageType::Commands, e.take()));
+    protocol::SwapchainImages sc;
+    sc.device_id = kDevice;
+    sc.swapchain_id = kSwapchain;
+    sc.width = 512;
+    sc.height = 512;
+    sc.format = VK_FORMAT_R16G16B16A16_UNORM;
+    sc.usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+    sc.image_ids = {kImage};
+    ASSERT_TRUE(send_message(MessageType::SwapchainImages, protocol::encode(sc)));
+    protocol::SplitConfig split;
+    split.codec = TileCodec::Raw; // large tiles: the socket's buffers fill at once
+    ASSERT_TRUE(send_message(MessageType::SplitConfig, protocol::encode(split)));
+    // Each present asks for the whole image back: its tiles fill the socket, which this client
+    // never reads.
+    constexpr uint64_t kPresents = 60;
+    for (uint64_t frame = 0; frame < kPresents; ++frame) {
+        protocol::FramePresent present;
+        present.frame = frame;
+        present.queue_id = kQueue;
+        present.flags = protocol::kPresentVerify;
+        present.images = {{kSwapchain, 0}};
+        ASSERT_TRUE(send_message(MessageType::FramePresent, protocol::encode(present)));
+    }
+    ASSERT_TRUE(agent_.wait_for_log("session 1: first frame submitted")) << agent_.log();
+    std::this_thread::sleep_for(200ms);
+    linger abort_now{1, 0};
+    ASSERT_EQ(setsockopt(fd, SOL_SOCKET, SO_LINGER, &abort_now, sizeof(abort_now)), 0);
+    close(fd);
+    EXPECT_TRUE(agent_.wait_for_end(1, "closed by the client")) << agent_.log();
+    EXPECT_EQ(agent_.log().find("] error:"), std::string::npos) << agent_.log();
 }
 
 } // namespace

@@ -253,13 +253,16 @@ void tile_decoder(const uint8_t *data, size_t size) {
     if (size < 2) return;
     static constexpr TileCodec kCodecs[] = {TileCodec::X264, TileCodec::Zstd, TileCodec::Raw};
     const TileCodec codec = kCodecs[data[0] % 3];
-    // Half the inputs decode as the swapped split's periphery does, lossy x264 tiles accepted.
+    // Half the inputs decode as the swapped split's periphery does, lossy x264 tiles accepted, and
+    // half as an 8-byte image's foveae do (an x264 decoder of those is refused at once).
     const bool accept_lossy = (data[0] / 3) % 2 == 1;
+    const uint32_t texel_bytes = (data[0] / 6) % 2 == 1 ? 8 : 4;
     const TileSize tile = kFuzzTileSizes[data[1] % kFuzzTileSizeCount];
     std::string error;
-    auto decoder = tiles::make_tile_decoder(codec, tile.width, tile.height, 4, &error, accept_lossy);
+    auto decoder =
+        tiles::make_tile_decoder(codec, tile.width, tile.height, texel_bytes, &error, accept_lossy);
     if (!decoder) return;
-    std::vector<uint8_t> pixels(size_t{tile.width} * tile.height * 4);
+    std::vector<uint8_t> pixels(size_t{tile.width} * tile.height * texel_bytes);
     std::span<const uint8_t> rest(data + 2, size - 2);
     for (size_t i = 0; i < kFuzzMaxTiles && rest.size() >= 4; ++i) {
         const size_t length = std::min<size_t>(protocol::load_le32(rest.data()), rest.size() - 4);

@@ -17,7 +17,9 @@ namespace splitvk::fuzz {
 // resolve their ids as they would in a session. Recorded seeds are such streams (--record-corpus).
 void agent_messages(const uint8_t *data, size_t size);
 
-// One tile stream: byte 0 picks the codec (x264, zstd, raw), byte 1 the tile size, then up to 8
+// One tile stream: byte 0 picks the codec (modulo 3: x264, zstd, raw), whether lossy tiles are
+// accepted (the next bit, base 3) and the texel size (the one after: 4 or 8), byte 1 the tile size,
+// then up to 8
 // tiles, each a u32 little-endian length and that many bytes (the last one takes what is left
 // when its length runs past the end). Every tile goes through one TileDecoder, in order.
 void tile_decoder(const uint8_t *data, size_t size);

@@ -10,6 +10,7 @@
 #include "tile_codec.h"
 #include "wire.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -74,6 +75,43 @@ int main(int argc, char **argv) {
             out.write(reinterpret_cast<const char *>(seed.data()), static_cast<std::streamsize>(seed.size()));
             if (!out) {
                 std::fprintf(stderr, "%s: cannot write it\n", path.c_str());
+                return 1;
+            }
+            ++written;
+            if (codecs[c].codec == TileCodec::X264) continue;
+            // The same frames as an RGBA16 image holds them (each byte widened to 16 bits), for the
+            // 8-byte decoders (byte 0 + 6: fuzz_targets.h).
+            auto wide = tiles::make_tile_encoder(codecs[c].codec, tile.width, tile.height, 8, &error);
+            if (!wide) {
+                std::fprintf(stderr, "%s %ux%u, 8-byte texels: %s\n", codecs[c].name, tile.width, tile.height,
+                             error.c_str());
+                return 1;
+            }
+            std::vector<uint8_t> wide_seed = {static_cast<uint8_t>(c + 6), s};
+            std::vector<uint8_t> wide_pixels(pixels.size() * 2);
+            for (size_t f = 0; f < std::min(frames, fuzz::kFuzzMaxTiles); ++f) {
+                for (uint32_t y = 0; y < tile.height; ++y)
+                    for (uint32_t x = 0; x < tile.width * 4; ++x) {
+                        const uint8_t byte = raw[f * frame_bytes + (size_t{y0 + y} * width + x0) * 4 + x];
+                        wide_pixels[(size_t{y} * tile.width * 4 + x) * 2] = byte;
+                        wide_pixels[(size_t{y} * tile.width * 4 + x) * 2 + 1] = byte;
+                    }
+                std::vector<uint8_t> encoded;
+                bool keyframe = false;
+                if (!wide->encode(wide_pixels.data(), encoded, &keyframe, &error)) {
+                    std::fprintf(stderr, "%s: %s\n", codecs[c].name, error.c_str());
+                    return 1;
+                }
+                uint8_t length[4];
+                protocol::store_le32(length, static_cast<uint32_t>(encoded.size()));
+                wide_seed.insert(wide_seed.end(), length, length + 4);
+                wide_seed.insert(wide_seed.end(), encoded.begin(), encoded.end());
+            }
+            std::ofstream wide_out(path + "-rgba16", std::ios::binary);
+            wide_out.write(reinterpret_cast<const char *>(wide_seed.data()),
+                           static_cast<std::streamsize>(wide_seed.size()));
+            if (!wide_out) {
+                std::fprintf(stderr, "%s-rgba16: cannot write it\n", path.c_str());
                 return 1;
             }
             ++written;

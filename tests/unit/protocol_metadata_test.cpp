@@ -238,6 +238,25 @@ TEST(ProtocolSession, VerifyFrameChecksPixelCount) {
     EXPECT_FALSE(decode_verify_frame(encode(m), 1 << 20).ok());
 }
 
+// The pixels of an RGBA16 image are 8 bytes each, as its tiles are; a format tiles do not carry
+// has no read-back to verify.
+TEST(ProtocolSession, VerifyFramePixelsAreTheFormatsTexelSize) {
+    VerifyFrame m{5, 0x55, 1, 3, 2, VK_FORMAT_R16G16B16A16_UNORM, std::vector<uint8_t>(3 * 2 * 8, 7)};
+    const auto back = decode_verify_frame(encode(m), 1 << 20);
+    ASSERT_TRUE(back.ok()) << back.error();
+    EXPECT_EQ(back->pixels, m.pixels);
+    m.pixels.resize(3 * 2 * 4);
+    const auto short_pixels = decode_verify_frame(encode(m), 1 << 20);
+    ASSERT_FALSE(short_pixels.ok());
+    EXPECT_NE(short_pixels.error().find("at 8 bytes per pixel"), std::string::npos) << short_pixels.error();
+    m.format = VK_FORMAT_R32G32B32A32_SFLOAT;
+    m.pixels.assign(3 * 2 * 16, 7);
+    const auto wide = decode_verify_frame(encode(m), 1 << 20);
+    ASSERT_FALSE(wide.ok());
+    EXPECT_NE(wide.error().find("VK_FORMAT_R32G32B32A32_SFLOAT, not a format tiles carry"), std::string::npos)
+        << wide.error();
+}
+
 TEST(ProtocolSession, ImageLayoutsRoundTripAndRanges) {
     ImageLayouts m;
     m.device_id = 3;

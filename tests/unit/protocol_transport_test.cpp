@@ -303,6 +303,8 @@ TEST(ProtocolTransport, PeerCloseReportedOnce) {
     EXPECT_EQ(client_closed.first(), "peer closed the connection");
     EXPECT_FALSE(pair.client->is_open());
     EXPECT_EQ(pair.client->close_reason(), "peer closed the connection");
+    EXPECT_TRUE(pair.client->closed_by_peer());
+    EXPECT_FALSE(pair.server->closed_by_peer()) << "this side's own close";
     // What arrived before the EOF is still there.
     auto goodbye = pair.client->try_receive();
     ASSERT_TRUE(goodbye);
@@ -329,8 +331,50 @@ TEST(ProtocolTransport, PeerResetReportedOnce) {
     fd->reset();
     ASSERT_TRUE(reset_watch.wait());
     EXPECT_EQ(reset_watch.first(), "connection reset by peer");
+    EXPECT_TRUE((*raw_client)->closed_by_peer()) << "a reset between messages is the peer's end";
     (*raw_client)->close();
     EXPECT_EQ(reset_watch.count(), 1u);
+}
+
+// A peer that closes while this side is still sending to it, with what it was sent unread (the
+// layer closing while the agent sends the tiles of its last frames): its kernel answers with a
+// reset, and the send or the read that meets it fails. That is the peer's end, not an error.
+TEST(ProtocolTransport, PeerClosingWhileThisSideSendsIsThePeersEnd) {
+    auto acceptor = Acceptor::listen("127.0.0.1", 0);
+    ASSERT_TRUE(acceptor.ok());
+    UniqueFd raw(::socket(AF_INET, SOCK_STREAM, 0));
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    address.sin_port = htons((*acceptor)->port());
+    ASSERT_EQ(::connect(raw.get(), reinterpret_cast<sockaddr *>(&address), sizeof(address)), 0);
+    auto fd = (*acceptor)->accept(2s);
+    ASSERT_TRUE(fd.ok() && *fd);
+    CloseWatch closed;
+    ConnectionOptions options;
+    options.compression.enabled = false;
+    auto server = Connection::adopt(std::move(fd).value(), options);
+    ASSERT_TRUE(server.ok());
+    (*server)->start(closed.handler());
+    const std::vector<uint8_t> payload(256 * 1024, 0x5a);
+    for (int i = 0; i < 16; ++i)
+        ASSERT_EQ((*server)->send(MessageType::Tiles, payload, 5000ms), SendResult::Queued);
+    char some[4096];
+    ASSERT_GT(::recv(raw.get(), some, sizeof(some), 0), 0);
+    raw.reset(); // with most of it unread
+    SendResult result = SendResult::Queued;
+    for (int i = 0; i < 1000 && result == SendResult::Queued; ++i) {
+        result = (*server)->send(MessageType::Tiles, payload, 1000ms);
+        if (result == SendResult::QueueFull) result = SendResult::Queued;
+    }
+    EXPECT_EQ(result, SendResult::Closed);
+    ASSERT_TRUE(closed.wait());
+    // Whichever the kernel reports first: the EOF to the read, or the reset to a read or a write.
+    EXPECT_TRUE(closed.first() == "peer closed the connection" ||
+                closed.first().rfind("connection reset by peer", 0) == 0)
+        << closed.first();
+    EXPECT_TRUE((*server)->closed_by_peer()) << (*server)->close_reason();
+    (*server)->close();
 }
 
 TEST(ProtocolTransport, LocalCloseFromAnyThreadIsIdempotent) {
@@ -344,6 +388,7 @@ TEST(ProtocolTransport, LocalCloseFromAnyThreadIsIdempotent) {
     for (auto &t : closers)
         t.join();
     EXPECT_EQ(pair.client->close_reason(), "closed by test");
+    EXPECT_FALSE(pair.client->closed_by_peer());
     EXPECT_FALSE(pair.client->is_open());
     EXPECT_EQ(pair.client->send(MessageType::Ping, {}), SendResult::Closed);
     pair.client.reset(); // the destructor after close is fine too
@@ -787,6 +832,7 @@ TEST(ProtocolTransport, MalformedBytesCloseTheConnectionWithAReason) {
         ASSERT_TRUE(closed.wait());
         EXPECT_EQ(closed.first().rfind(c.reason, 0), 0u) << closed.first();
         EXPECT_EQ(closed.first().find('\n'), std::string::npos);
+        EXPECT_FALSE((*server)->closed_by_peer()) << "an error, a message cut short included";
         // The server hung up: the raw socket reads EOF (or a reset).
         pollfd entry{raw.get(), POLLIN, 0};
         ASSERT_EQ(::poll(&entry, 1, 5000), 1);
