@@ -15,7 +15,7 @@
 //    brought in, and the last eye images' foveae are again those of the split frames before the kill.
 // hello_xr's hand cubes move (the simulated controllers); the fovea holds only the static centre
 // cube, so foveae of different frames compare exactly, whole images do not.
-// splitvk-atrium --xr (deterministic per frame number, small --eye-size, a few frames, no validation:
+// splitvk-atrium --xr (deterministic per frame number, small --xr-eye-size, a few frames, no validation:
 // xr.AtriumThroughMonado has it) through the same readback layer:
 //  - Per eye: every eye image of every frame, native against split for the same image and release
 //    (the same frame), fovea bit-exact, periphery different; the frames split with none late.
@@ -380,7 +380,7 @@ protected:
                      "--",
                      atrium_path().string(),
                      "--xr",
-                     "--eye-size",
+                     "--xr-eye-size",
                      kEyeSize,
                      "--frames",
                      std::to_string(kFrames)};
