@@ -24,6 +24,17 @@ struct PathName {
     PathKind kind;
     const char *name;
 };
+struct XrFormatName {
+    VkFormat format;
+    const char *name;
+};
+constexpr XrFormatName xr_format_names[] = {
+    {VK_FORMAT_R8G8B8A8_SRGB, "srgb"},
+    {VK_FORMAT_R8G8B8A8_UNORM, "rgba8"},
+    {VK_FORMAT_R16G16B16A16_UNORM, "rgba16"},
+    {VK_FORMAT_R16G16B16A16_SFLOAT, "rgba16f"},
+};
+
 constexpr PathName path_names[] = {
     {PathKind::direct, "direct"},       {PathKind::hdr, "hdr"},
     {PathKind::deferred, "deferred"},   {PathKind::multiview, "multiview"},
@@ -105,7 +116,7 @@ options:
   --xr                   draw through OpenXR (XR_KHR_vulkan_enable2, a head-mounted display, a LOCAL
                          or STAGE space) into the runtime's eye swapchains instead of a window: one
                          swapchain per eye, each eye a mono frame of --path direct, hdr or deferred,
-                         at the runtime's recommended size (or --eye-size), with the runtime's eye
+                         at the runtime's recommended size (or --xr-eye-size), with the runtime's eye
                          offsets and fields of view (--width, --height, --srgb and --present-mode do
                          not apply). --frames N ends the session after N frames; --hold re-renders
                          frame N-1 until SIGTERM or SIGINT, printing 'holding frame N-1' once the
@@ -116,9 +127,20 @@ options:
   --side-by-side         with --xr: one swapchain twice an eye's width, the left eye drawn into its
                          left half and the right eye into its right half (a stereo frame of --path
                          direct, hdr or deferred), each half an imageRect of the projection layer
-  --eye-size WxH         with --xr: create the eye swapchains (or the two-layer one) at WxH instead
-                         of the runtime's recommended size; at most the system's maximum image size
-                         (the paper's eyes: --eye-size 1200x1080)
+  --xr-eye-size WxH      with --xr: create the eye swapchains (or the two-layer one) at WxH instead
+                         of the runtime's recommended size, odd sizes included; at most the system's
+                         maximum image size (the paper's eyes: --xr-eye-size 1200x1080)
+  --xr-format NAME       with --xr: the eye swapchains' format, which the runtime must offer
+                         (xrEnumerateSwapchainFormats), instead of the first 8-bit one it offers:
+                           srgb     R8G8B8A8_SRGB
+                           rgba8    R8G8B8A8_UNORM (the shaders encode sRGB; not --multiview)
+                           rgba16   R16G16B16A16_UNORM (8 bytes a texel, as xrgears has it)
+                           rgba16f  R16G16B16A16_SFLOAT (an HDR engine's)
+                         Every format but rgba8 holds linear colours, as OpenXR reads them
+  --xr-mirror            with --xr: a desktop window of the eye's size (on DISPLAY) that shows each
+                         frame's left eye, as engines mirror it: blitted from the eye image in the
+                         frame's command buffer after the eye is drawn and before the image is
+                         released to the runtime, then presented
   --help                 show this text
 
 On start it prints 'atrium: T triangles, 49 textures, WxH per eye, path NAME'. When the last frame has been
@@ -205,13 +227,23 @@ Options parse_options(int argc, char **argv) {
                 throw std::invalid_argument("--resize-at: expected WxH, got '" + size + "'");
             o.resize_width = parse_number<uint32_t>(arg, size.substr(0, x), 16, 16384);
             o.resize_height = parse_number<uint32_t>(arg, size.substr(x + 1), 16, 16384);
-        } else if (arg == "--eye-size") {
+        } else if (arg == "--xr-eye-size") {
             const std::string size(value());
             const auto x = size.find('x');
             if (x == std::string::npos)
-                throw std::invalid_argument("--eye-size: expected WxH, got '" + size + "'");
+                throw std::invalid_argument("--xr-eye-size: expected WxH, got '" + size + "'");
             o.eye_width = parse_number<uint32_t>(arg, size.substr(0, x), 16, 16384);
             o.eye_height = parse_number<uint32_t>(arg, size.substr(x + 1), 16, 16384);
+        } else if (arg == "--xr-format") {
+            const std::string_view name = value();
+            const auto known = std::find_if(std::begin(xr_format_names), std::end(xr_format_names),
+                                            [&](const XrFormatName &f) { return name == f.name; });
+            if (known == std::end(xr_format_names))
+                throw std::invalid_argument("--xr-format: expected srgb, rgba8, rgba16 or rgba16f, got '" +
+                                            std::string(name) + "'");
+            o.xr_format = known->format;
+        } else if (arg == "--xr-mirror") {
+            o.xr_mirror = true;
         } else if (arg == "--xr") {
             o.xr = true;
         } else if (arg == "--multiview") {
@@ -254,6 +286,9 @@ Options parse_options(int argc, char **argv) {
             throw std::invalid_argument("--xr renders the runtime's two views: not with --eyes 1");
         if (o.multiview && o.side_by_side)
             throw std::invalid_argument("--side-by-side and --multiview are two layouts: one at a time");
+        if (o.multiview && o.xr_format == VK_FORMAT_R8G8B8A8_UNORM)
+            throw std::invalid_argument(
+                "--xr-format rgba8 does not go with --multiview (its shader writes linear colours)");
         if (o.multiview) o.path = PathKind::direct; // the multiview pass is the path
     } else if (o.multiview) {
         throw std::invalid_argument("--multiview goes with --xr (in a window: --path multiview)");
@@ -261,7 +296,9 @@ Options parse_options(int argc, char **argv) {
         throw std::invalid_argument(
             "--side-by-side goes with --xr (a window's frame is side by side already)");
     } else if (o.eye_width) {
-        throw std::invalid_argument("--eye-size goes with --xr (in a window: --width and --height)");
+        throw std::invalid_argument("--xr-eye-size goes with --xr (in a window: --width and --height)");
+    } else if (o.xr_format != VK_FORMAT_UNDEFINED || o.xr_mirror) {
+        throw std::invalid_argument("--xr-format and --xr-mirror go with --xr");
     }
     if (o.path != PathKind::direct && o.path != PathKind::secondary &&
         (o.static_viewports || o.clear_depth_per_eye))

@@ -55,9 +55,14 @@ struct Options {
     bool multiview = false;
     // --side-by-side (--xr): one swapchain twice an eye's width, each eye a half (two imageRects).
     bool side_by_side = false;
-    // --eye-size WxH (with --xr): the eye swapchains' size instead of the runtime's recommended one.
+    // --xr-eye-size WxH: the eye swapchains' size instead of the runtime's recommended one.
     uint32_t eye_width = 0;
     uint32_t eye_height = 0;
+    // --xr-format NAME: the eye swapchains' format, if the runtime offers it (UNDEFINED: atrium's
+    // own preference, 8-bit sRGB first).
+    VkFormat xr_format = VK_FORMAT_UNDEFINED;
+    // --xr-mirror: each frame's left eye blitted into a desktop window of atrium's and presented.
+    bool xr_mirror = false;
     bool help = false;
 };
 

@@ -85,7 +85,7 @@ struct FullscreenInfo {
 };
 
 // A FullscreenInfo for SPIR-V array `code`. `display` names the format of a target that receives
-// display colours: the shader then encodes sRGB itself when that format does not.
+// display colours: the shader then encodes sRGB itself unless that format takes linear colours.
 template <size_t N>
 FullscreenInfo fullscreen_info(VkRenderPass pass, const uint32_t (&code)[N], uint32_t inputs,
                                uint32_t push_bytes, std::optional<VkFormat> display = std::nullopt) {
@@ -95,7 +95,7 @@ FullscreenInfo fullscreen_info(VkRenderPass pass, const uint32_t (&code)[N], uin
     info.fragment_bytes = sizeof(code);
     info.inputs = inputs;
     info.push_bytes = push_bytes;
-    if (display) info.encode_srgb = !is_srgb(*display);
+    if (display) info.encode_srgb = !takes_linear(*display);
     return info;
 }
 

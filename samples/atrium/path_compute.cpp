@@ -87,7 +87,7 @@ ComputePath::ComputePath(const SceneGpu &scene, const Swapchain &swapchain, cons
 
     const VkShaderModule module = create_shader(device_, spirv::post_comp, sizeof(spirv::post_comp));
     // Blitting into an sRGB swapchain encodes; into a UNORM one the shader encodes itself.
-    const VkBool32 encode_srgb = is_srgb(swapchain.format()) ? VK_FALSE : VK_TRUE;
+    const VkBool32 encode_srgb = takes_linear(swapchain.format()) ? VK_FALSE : VK_TRUE;
     const VkSpecializationMapEntry entry{0, 0, sizeof(VkBool32)};
     const VkSpecializationInfo specialization{1, &entry, sizeof(encode_srgb), &encode_srgb};
     VkComputePipelineCreateInfo info{};

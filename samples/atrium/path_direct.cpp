@@ -18,7 +18,7 @@ DirectPath::DirectPath(const SceneGpu &scene, const Swapchain &swapchain, const 
 
     ScenePipelineInfo info;
     info.render_pass = present_pass_;
-    info.encode_srgb = !is_srgb(swapchain_.format());
+    info.encode_srgb = !takes_linear(swapchain_.format());
     const VkFormat color_format = swapchain_.format();
     VkPipelineRenderingCreateInfoKHR rendering{};
     rendering.sType = VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO_KHR;

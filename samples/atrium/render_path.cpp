@@ -19,9 +19,10 @@ float srgb_to_linear(float c) {
 } // namespace
 
 VkClearColorValue sky_clear(VkFormat format) {
-    // A UNORM target stores the clear colour as given; an SRGB one encodes it.
+    // An 8-bit UNORM target stores the clear colour as given; one that takes linear colours is
+    // cleared to the linear sky (an sRGB one encodes it back).
     VkClearColorValue clear{{sky_srgb[0], sky_srgb[1], sky_srgb[2], 1.0f}};
-    if (is_srgb(format))
+    if (takes_linear(format))
         for (int i = 0; i < 3; ++i)
             clear.float32[i] = srgb_to_linear(sky_srgb[i]);
     return clear;

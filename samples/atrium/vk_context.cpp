@@ -119,7 +119,8 @@ VkContext::VkContext(const XcbWindow &window, bool dynamic_rendering, bool multi
     create_device(dynamic_rendering, multiview, engine_extensions, true, buffer_address, nullptr);
 }
 
-VkContext::VkContext(const VkCreators &creators, bool dynamic_rendering, bool multiview) {
+VkContext::VkContext(const VkCreators &creators, bool dynamic_rendering, bool multiview,
+                     const XcbWindow *window) {
     VkApplicationInfo app{};
     app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
     app.pApplicationName = "splitvk-atrium";
@@ -129,7 +130,19 @@ VkContext::VkContext(const VkCreators &creators, bool dynamic_rendering, bool mu
     VkInstanceCreateInfo instance_info{};
     instance_info.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
     instance_info.pApplicationInfo = &app;
+    const char *surface_extensions[] = {VK_KHR_SURFACE_EXTENSION_NAME, VK_KHR_XCB_SURFACE_EXTENSION_NAME};
+    if (window) {
+        instance_info.enabledExtensionCount = 2;
+        instance_info.ppEnabledExtensionNames = surface_extensions;
+    }
     instance_ = creators.create_instance(instance_info);
+    if (window) {
+        VkXcbSurfaceCreateInfoKHR surface_info{};
+        surface_info.sType = VK_STRUCTURE_TYPE_XCB_SURFACE_CREATE_INFO_KHR;
+        surface_info.connection = window->connection();
+        surface_info.window = window->window();
+        ATRIUM_VK_CHECK(vkCreateXcbSurfaceKHR(instance_, &surface_info, nullptr, &surface_));
+    }
     physical_device_ = creators.physical_device(instance_);
     vkGetPhysicalDeviceProperties(physical_device_, &properties_);
     if (properties_.apiVersion < VK_API_VERSION_1_1)
@@ -145,7 +158,15 @@ VkContext::VkContext(const VkCreators &creators, bool dynamic_rendering, bool mu
     if (graphics == families.end())
         throw Error(std::string(properties_.deviceName) + " has no graphics queue");
     queue_family_ = uint32_t(graphics - families.begin());
-    create_device(dynamic_rendering, multiview, false, false, false, &creators.create_device);
+    if (window) {
+        VkBool32 present = VK_FALSE;
+        if (vkGetPhysicalDeviceSurfaceSupportKHR(physical_device_, queue_family_, surface_, &present) !=
+                VK_SUCCESS ||
+            !present)
+            throw Error(std::string(properties_.deviceName) +
+                        "'s graphics queue cannot present to the X window");
+    }
+    create_device(dynamic_rendering, multiview, false, window != nullptr, false, &creators.create_device);
 }
 
 void VkContext::create_device(

@@ -27,9 +27,11 @@ public:
     // VK_KHR_buffer_device_address and its bufferDeviceAddress feature.
     VkContext(const XcbWindow &window, bool dynamic_rendering, bool multiview = false,
               bool engine_extensions = false, bool buffer_address = false);
-    // No window: the instance and device come from `creators` (Vulkan 1.1, a graphics queue, no
-    // swapchain extension); surface() is VK_NULL_HANDLE.
-    VkContext(const VkCreators &creators, bool dynamic_rendering, bool multiview);
+    // The instance and device come from `creators` (Vulkan 1.1, a graphics queue). Without a
+    // window there is no swapchain extension and surface() is VK_NULL_HANDLE; with one, the surface
+    // is `window`'s and the queue must be able to present to it.
+    VkContext(const VkCreators &creators, bool dynamic_rendering, bool multiview,
+              const XcbWindow *window = nullptr);
     ~VkContext();
     VkContext(const VkContext &) = delete;
     VkContext &operator=(const VkContext &) = delete;

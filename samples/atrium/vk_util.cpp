@@ -48,6 +48,11 @@ bool is_srgb(VkFormat format) {
     return format == VK_FORMAT_B8G8R8A8_SRGB || format == VK_FORMAT_R8G8B8A8_SRGB;
 }
 
+bool takes_linear(VkFormat format) {
+    return is_srgb(format) || format == VK_FORMAT_R16G16B16A16_UNORM ||
+           format == VK_FORMAT_R16G16B16A16_SFLOAT;
+}
+
 VkShaderModule create_shader(VkDevice device, const uint32_t *code, size_t bytes) {
     VkShaderModuleCreateInfo info{};
     info.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;

@@ -16,6 +16,11 @@ void vk_check(VkResult result, const char *call);
 
 bool is_srgb(VkFormat format);
 
+// Whether a colour target of this format takes linear colours: an sRGB format encodes them as it
+// stores them, a 16-bit one keeps them as they are (HDR targets; OpenXR reads every format but an
+// sRGB one as linear). An 8-bit UNORM target takes display colours: the shaders encode sRGB into it.
+bool takes_linear(VkFormat format);
+
 // Throws Error when the driver rejects the code.
 VkShaderModule create_shader(VkDevice device, const uint32_t *code, size_t bytes);
 

@@ -9,6 +9,7 @@
 #include "scene_gpu.h"
 #include "textures.h"
 #include "vk_context.h"
+#include "xcb_window.h"
 
 #include <vulkan/vulkan.h>
 #define XR_USE_GRAPHICS_API_VULKAN
@@ -136,6 +137,10 @@ const char *format_name(VkFormat format) {
         return "R8G8B8A8_UNORM";
     case VK_FORMAT_B8G8R8A8_UNORM:
         return "B8G8R8A8_UNORM";
+    case VK_FORMAT_R16G16B16A16_UNORM:
+        return "R16G16B16A16_UNORM";
+    case VK_FORMAT_R16G16B16A16_SFLOAT:
+        return "R16G16B16A16_SFLOAT";
     default:
         return "?";
     }
@@ -195,6 +200,151 @@ private:
     std::vector<VkFramebuffer> framebuffers_;
 };
 
+// --xr-mirror: a desktop window that shows the left eye, mirrored as engines do it. In the frame's
+// command buffer, after the eye is drawn and before its image goes back to the runtime, the eye is
+// blitted into the window's swapchain image, which is presented once the eye image is released.
+class XrMirror {
+public:
+    // The window's swapchain is sRGB where the eye image holds linear colours, so that the blit
+    // encodes them for the display, and UNORM where it holds display colours already.
+    XrMirror(VkContext &context, VkFormat eye_format, VkExtent2D eye_extent)
+        : context_(context), eye_extent_(eye_extent),
+          swapchain_(context, {takes_linear(eye_format) ? VK_FORMAT_B8G8R8A8_SRGB : VK_FORMAT_B8G8R8A8_UNORM,
+                               VK_PRESENT_MODE_MAILBOX_KHR, false, true}) {
+        VkFormatProperties eye{}, window{};
+        vkGetPhysicalDeviceFormatProperties(context.physical_device(), eye_format, &eye);
+        vkGetPhysicalDeviceFormatProperties(context.physical_device(), swapchain_.format(), &window);
+        if (!(eye.optimalTilingFeatures & VK_FORMAT_FEATURE_BLIT_SRC_BIT) ||
+            !(window.optimalTilingFeatures & VK_FORMAT_FEATURE_BLIT_DST_BIT))
+            throw Error(std::string("--xr-mirror: ") + context.properties().deviceName +
+                        " cannot blit the eye images into the window");
+        VkSemaphoreCreateInfo semaphore{};
+        semaphore.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
+        for (VkSemaphore &s : acquired_)
+            ATRIUM_VK_CHECK(vkCreateSemaphore(context.device(), &semaphore, nullptr, &s));
+        create_rendered();
+    }
+    ~XrMirror() {
+        destroy_rendered();
+        for (VkSemaphore s : acquired_)
+            vkDestroySemaphore(context_.device(), s, nullptr);
+    }
+    XrMirror(const XrMirror &) = delete;
+    XrMirror &operator=(const XrMirror &) = delete;
+
+    VkExtent2D extent() const { return swapchain_.extent(); }
+
+    // A window image for the frame in `slot`, whose previous submission is done; the submission
+    // that blits into it waits for acquired(slot) at the transfer stage and signals rendered().
+    void acquire(uint32_t slot) {
+        for (;;) {
+            if (out_of_date_) recreate();
+            const VkResult r = vkAcquireNextImageKHR(context_.device(), swapchain_.handle(), UINT64_MAX,
+                                                     acquired_[slot], VK_NULL_HANDLE, &image_);
+            if (r == VK_SUCCESS || r == VK_SUBOPTIMAL_KHR) return;
+            if (r != VK_ERROR_OUT_OF_DATE_KHR) ATRIUM_VK_CHECK(r);
+            out_of_date_ = true;
+        }
+    }
+    VkSemaphore acquired(uint32_t slot) const { return acquired_[slot]; }
+    VkSemaphore rendered() const { return rendered_[image_]; }
+
+    // The blit of the eye at the origin of layer 0 of `eye` (in COLOR_ATTACHMENT_OPTIMAL, as the
+    // frame's last pass leaves it, and again afterwards) into the acquired window image.
+    void record(VkCommandBuffer cmd, VkImage eye) const {
+        VkImageMemoryBarrier to_blit[2]{};
+        for (VkImageMemoryBarrier &b : to_blit) {
+            b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+            b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+            b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+            b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+        }
+        to_blit[0].srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+        to_blit[0].dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+        to_blit[0].oldLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+        to_blit[0].newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+        to_blit[0].image = eye;
+        to_blit[1].dstAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+        to_blit[1].oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+        to_blit[1].newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+        to_blit[1].image = swapchain_.images()[image_];
+        // The window image's transition waits for the acquire semaphore, waited for at TRANSFER.
+        vkCmdPipelineBarrier(cmd,
+                             VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                             VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr, 2, to_blit);
+
+        const VkExtent2D window = swapchain_.extent();
+        VkImageBlit blit{};
+        blit.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        blit.srcOffsets[1] = {int32_t(eye_extent_.width), int32_t(eye_extent_.height), 1};
+        blit.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        blit.dstOffsets[1] = {int32_t(window.width), int32_t(window.height), 1};
+        const bool same_size = window.width == eye_extent_.width && window.height == eye_extent_.height;
+        vkCmdBlitImage(cmd, eye, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, swapchain_.images()[image_],
+                       VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &blit,
+                       same_size ? VK_FILTER_NEAREST : VK_FILTER_LINEAR);
+
+        VkImageMemoryBarrier after[2] = {to_blit[0], to_blit[1]};
+        after[0].srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+        after[0].dstAccessMask = VK_ACCESS_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+        after[0].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+        after[0].newLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+        after[1].srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+        after[1].dstAccessMask = 0;
+        after[1].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+        after[1].newLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+        vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                             VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT |
+                                 VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT,
+                             0, 0, nullptr, 0, nullptr, 2, after);
+    }
+
+    void present() {
+        const VkSwapchainKHR swapchain = swapchain_.handle();
+        VkPresentInfoKHR info{};
+        info.sType = VK_STRUCTURE_TYPE_PRESENT_INFO_KHR;
+        info.waitSemaphoreCount = 1;
+        info.pWaitSemaphores = &rendered_[image_];
+        info.swapchainCount = 1;
+        info.pSwapchains = &swapchain;
+        info.pImageIndices = &image_;
+        const VkResult r = vkQueuePresentKHR(context_.queue(), &info);
+        if (r == VK_ERROR_OUT_OF_DATE_KHR || r == VK_SUBOPTIMAL_KHR)
+            out_of_date_ = true;
+        else
+            ATRIUM_VK_CHECK(r);
+    }
+
+private:
+    void create_rendered() {
+        VkSemaphoreCreateInfo semaphore{};
+        semaphore.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
+        rendered_.resize(swapchain_.images().size());
+        for (VkSemaphore &s : rendered_)
+            ATRIUM_VK_CHECK(vkCreateSemaphore(context_.device(), &semaphore, nullptr, &s));
+    }
+    void destroy_rendered() {
+        for (VkSemaphore s : rendered_)
+            vkDestroySemaphore(context_.device(), s, nullptr);
+        rendered_.clear();
+    }
+    void recreate() {
+        ATRIUM_VK_CHECK(vkDeviceWaitIdle(context_.device()));
+        destroy_rendered();
+        swapchain_.recreate();
+        create_rendered();
+        out_of_date_ = false;
+    }
+
+    VkContext &context_;
+    VkExtent2D eye_extent_;
+    Swapchain swapchain_;
+    VkSemaphore acquired_[frames_in_flight]{};
+    std::vector<VkSemaphore> rendered_; // per window image: waited for by its present
+    uint32_t image_ = 0;
+    bool out_of_date_ = false;
+};
+
 // A command buffer, the fence of its last submission, and the uniforms slot it draws with.
 struct Submission {
     VkDevice device = VK_NULL_HANDLE;
@@ -252,6 +402,9 @@ private:
     // One frame of the loop (xrWaitFrame .. xrEndFrame); true when it rendered `frame`.
     bool frame_loop_iteration(uint64_t frame);
     void render_eyes(uint64_t frame, const XrView (&head_views)[view_count]);
+    // The runtime's views, and the size of swapchain i's eye image (each eye's rectangle).
+    std::vector<XrViewConfigurationView> configuration_views() const;
+    VkExtent2D eye_extent(const std::vector<XrViewConfigurationView> &views, uint32_t i) const;
 
     const Options &options_;
     const volatile std::sig_atomic_t *stop_;
@@ -268,6 +421,7 @@ private:
     PFN_xrGetVulkanGraphicsDevice2KHR get_vk_device_ = nullptr;
     PFN_xrCreateVulkanDeviceKHR create_vk_device_ = nullptr;
 
+    std::optional<XcbWindow> mirror_window_; // outlives the surface of context_
     std::optional<VkContext> context_;
     XrOwned<XrSession, xrDestroySession> session_;
     XrOwned<XrSpace, xrDestroySpace> world_space_, head_space_; // LOCAL (or STAGE), VIEW
@@ -287,6 +441,7 @@ private:
     std::optional<SceneGpu> scene_gpu_;
     std::vector<std::unique_ptr<RenderPath>> paths_; // per eye
     std::unique_ptr<XrMultiviewPass> multiview_pass_;
+    std::unique_ptr<XrMirror> mirror_;
     std::vector<std::unique_ptr<Submission>> submissions_; // [frame slot * swapchains + swapchain]
     uint32_t frame_slot_ = 0;
 };
@@ -414,7 +569,12 @@ void XrApp::create_vulkan() {
         vk_check(vk_result, "xrCreateVulkanDeviceKHR: vkCreateDevice");
         return device;
     };
-    context_.emplace(creators, options_.dynamic_rendering, multiview_);
+    if (options_.xr_mirror) {
+        const VkExtent2D size = eye_extent(configuration_views(), 0);
+        mirror_window_.emplace(size.width, size.height, "splitvk-atrium mirror");
+    }
+    context_.emplace(creators, options_.dynamic_rendering, multiview_,
+                     mirror_window_ ? &*mirror_window_ : nullptr);
 }
 
 void XrApp::create_session() {
@@ -483,7 +643,7 @@ void XrApp::create_actions() {
     ATRIUM_XR_CHECK(instance, xrAttachSessionActionSets(session_.handle, &attach));
 }
 
-void XrApp::create_swapchains() {
+std::vector<XrViewConfigurationView> XrApp::configuration_views() const {
     const XrInstance instance = instance_.handle;
     uint32_t count = 0;
     ATRIUM_XR_CHECK(instance,
@@ -493,45 +653,68 @@ void XrApp::create_swapchains() {
     ATRIUM_XR_CHECK(instance, xrEnumerateViewConfigurationViews(instance, system_, view_type, count, &count,
                                                                 views.data()));
     if (count != view_count) throw Error(system_name_ + " has " + std::to_string(count) + " views, not 2");
+    return views;
+}
 
-    // An 8-bit RGBA or BGRA format, sRGB first: the runtime then reads what it expects. The scene
-    // shaders encode sRGB themselves into a UNORM image, but the multiview one does not.
+VkExtent2D XrApp::eye_extent(const std::vector<XrViewConfigurationView> &views, uint32_t i) const {
+    if (options_.eye_width) { // --xr-eye-size: any size up to the system's maximum
+        const uint32_t max_width = std::min(views[0].maxImageRectWidth, views[1].maxImageRectWidth);
+        const uint32_t max_height = std::min(views[0].maxImageRectHeight, views[1].maxImageRectHeight);
+        if (options_.eye_width > max_width || options_.eye_height > max_height)
+            throw Error("--xr-eye-size " + std::to_string(options_.eye_width) + "x" +
+                        std::to_string(options_.eye_height) + ": " + system_name_ + " takes at most " +
+                        std::to_string(max_width) + "x" + std::to_string(max_height));
+        return {options_.eye_width, options_.eye_height};
+    }
+    // One image for both eyes has the larger of their recommended sizes.
+    uint32_t width = views[i].recommendedImageRectWidth, height = views[i].recommendedImageRectHeight;
+    if (multiview_ || side_by_side_) {
+        width = std::max(width, views[1].recommendedImageRectWidth);
+        height = std::max(height, views[1].recommendedImageRectHeight);
+    }
+    return {width, height};
+}
+
+void XrApp::create_swapchains() {
+    const XrInstance instance = instance_.handle;
+    const std::vector<XrViewConfigurationView> views = configuration_views();
+
     uint32_t formats = 0;
     ATRIUM_XR_CHECK(instance, xrEnumerateSwapchainFormats(session_.handle, 0, &formats, nullptr));
     std::vector<int64_t> offered(formats);
     ATRIUM_XR_CHECK(instance,
                     xrEnumerateSwapchainFormats(session_.handle, formats, &formats, offered.data()));
-    for (VkFormat wanted : {VK_FORMAT_R8G8B8A8_SRGB, VK_FORMAT_B8G8R8A8_SRGB, VK_FORMAT_R8G8B8A8_UNORM,
-                            VK_FORMAT_B8G8R8A8_UNORM}) {
-        if (multiview_ && !is_srgb(wanted)) continue;
-        if (std::find(offered.begin(), offered.end(), int64_t(wanted)) != offered.end()) {
-            format_ = wanted;
-            break;
+    const auto is_offered = [&](VkFormat format) {
+        return std::find(offered.begin(), offered.end(), int64_t(format)) != offered.end();
+    };
+    if (options_.xr_format != VK_FORMAT_UNDEFINED) {
+        if (!is_offered(options_.xr_format))
+            throw Error(std::string("--xr-format: the OpenXR runtime offers no ") +
+                        format_name(options_.xr_format) + " swapchain format");
+        format_ = options_.xr_format;
+    } else {
+        // An 8-bit RGBA or BGRA format, sRGB first: the runtime then reads what it expects. The
+        // scene shaders encode sRGB themselves into a UNORM image, but the multiview one does not.
+        for (VkFormat wanted : {VK_FORMAT_R8G8B8A8_SRGB, VK_FORMAT_B8G8R8A8_SRGB, VK_FORMAT_R8G8B8A8_UNORM,
+                                VK_FORMAT_B8G8R8A8_UNORM}) {
+            if (multiview_ && !is_srgb(wanted)) continue;
+            if (is_offered(wanted)) {
+                format_ = wanted;
+                break;
+            }
         }
+        if (format_ == VK_FORMAT_UNDEFINED)
+            throw Error(multiview_ ? "the OpenXR runtime offers no 8-bit sRGB RGBA or BGRA swapchain format"
+                                   : "the OpenXR runtime offers no 8-bit RGBA or BGRA swapchain format");
     }
-    if (format_ == VK_FORMAT_UNDEFINED)
-        throw Error(multiview_ ? "the OpenXR runtime offers no 8-bit sRGB RGBA or BGRA swapchain format"
-                               : "the OpenXR runtime offers no 8-bit RGBA or BGRA swapchain format");
 
     for (uint32_t i = 0; i < swapchain_count_; ++i) {
-        // One image for both eyes has the larger of their recommended sizes.
-        uint32_t width = views[i].recommendedImageRectWidth, height = views[i].recommendedImageRectHeight;
-        if (multiview_ || side_by_side_) {
-            width = std::max(width, views[1].recommendedImageRectWidth);
-            height = std::max(height, views[1].recommendedImageRectHeight);
-        }
-        if (options_.eye_width) { // --eye-size: any size up to the system's maximum
-            const uint32_t max_width = std::min(views[0].maxImageRectWidth, views[1].maxImageRectWidth);
-            const uint32_t max_height = std::min(views[0].maxImageRectHeight, views[1].maxImageRectHeight);
-            if (options_.eye_width > max_width || options_.eye_height > max_height)
-                throw Error("--eye-size " + std::to_string(options_.eye_width) + "x" +
-                            std::to_string(options_.eye_height) + ": " + system_name_ + " takes at most " +
-                            std::to_string(max_width) + "x" + std::to_string(max_height));
-            width = options_.eye_width;
-            height = options_.eye_height;
-        }
+        const VkExtent2D eye = eye_extent(views, i);
+        const uint32_t width = eye.width, height = eye.height;
         XrSwapchainCreateInfo info = xr<XrSwapchainCreateInfo>(XR_TYPE_SWAPCHAIN_CREATE_INFO);
-        info.usageFlags = XR_SWAPCHAIN_USAGE_COLOR_ATTACHMENT_BIT;
+        // The mirror blits from the eye images.
+        info.usageFlags = XR_SWAPCHAIN_USAGE_COLOR_ATTACHMENT_BIT |
+                          (options_.xr_mirror ? XR_SWAPCHAIN_USAGE_TRANSFER_SRC_BIT : 0);
         info.format = format_;
         info.sampleCount = 1;
         info.width = side_by_side_ ? 2 * width : width;
@@ -595,6 +778,7 @@ void XrApp::create_renderer() {
             paths_.back()->create_targets();
         }
     }
+    if (options_.xr_mirror) mirror_ = std::make_unique<XrMirror>(*context_, format_, extents_[0]);
     for (uint32_t i = 0; i < frames_in_flight * swapchain_count_; ++i)
         submissions_.push_back(std::make_unique<Submission>(context_->device(), context_->queue_family()));
 }
@@ -660,6 +844,10 @@ void XrApp::render_eyes(uint64_t frame, const XrView (&head_views)[view_count]) 
         wait.timeout = XR_INFINITE_DURATION;
         ATRIUM_XR_CHECK(instance, xrWaitSwapchainImage(swapchain, &wait));
 
+        // The left eye is mirrored: it is the first swapchain's, alone or with the right eye.
+        const bool mirrored = mirror_ && sc == 0;
+        if (mirrored) mirror_->acquire(frame_slot_);
+
         VkCommandBuffer cmd = submission.commands;
         ATRIUM_VK_CHECK(vkResetCommandPool(context_->device(), submission.pool, 0));
         VkCommandBufferBeginInfo begin{};
@@ -670,17 +858,29 @@ void XrApp::render_eyes(uint64_t frame, const XrView (&head_views)[view_count]) 
             multiview_pass_->record(cmd, slot, image);
         else
             paths_[sc]->record({cmd, slot, image, false});
+        if (mirrored) mirror_->record(cmd, images_[sc]->images()[image]);
         ATRIUM_VK_CHECK(vkEndCommandBuffer(cmd));
         ATRIUM_VK_CHECK(vkResetFences(context_->device(), 1, &submission.done));
         VkSubmitInfo submit{};
         submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
         submit.commandBufferCount = 1;
         submit.pCommandBuffers = &cmd;
+        const VkSemaphore acquired = mirrored ? mirror_->acquired(frame_slot_) : VK_NULL_HANDLE;
+        const VkSemaphore rendered = mirrored ? mirror_->rendered() : VK_NULL_HANDLE;
+        const VkPipelineStageFlags wait_stage = VK_PIPELINE_STAGE_TRANSFER_BIT;
+        if (mirrored) {
+            submit.waitSemaphoreCount = 1;
+            submit.pWaitSemaphores = &acquired;
+            submit.pWaitDstStageMask = &wait_stage;
+            submit.signalSemaphoreCount = 1;
+            submit.pSignalSemaphores = &rendered;
+        }
         ATRIUM_VK_CHECK(vkQueueSubmit(context_->queue(), 1, &submit, submission.done));
 
         XrSwapchainImageReleaseInfo release =
             xr<XrSwapchainImageReleaseInfo>(XR_TYPE_SWAPCHAIN_IMAGE_RELEASE_INFO);
         ATRIUM_XR_CHECK(instance, xrReleaseSwapchainImage(swapchain, &release));
+        if (mirrored) mirror_->present();
     }
     frame_slot_ = (frame_slot_ + 1) % frames_in_flight;
 }
@@ -779,6 +979,9 @@ int XrApp::run() {
                 multiview_      ? "one swapchain of 2 layers (multiview)"
                 : side_by_side_ ? "one swapchain, the eyes side by side"
                                 : "one swapchain per eye");
+    if (mirror_)
+        std::printf("xr: the left eye mirrored into a %ux%u window\n", mirror_->extent().width,
+                    mirror_->extent().height);
     std::fflush(stdout);
 
     // xrEndFrame-to-xrEndFrame CPU time of the rendered frames; frame 0 counts from the loop's start.
@@ -789,7 +992,8 @@ int XrApp::run() {
     bool finished = false;  // all frames rendered, or stopped by a signal
     for (;;) {
         if (!poll_events()) break;
-        finished = *stop_ || (frame >= options_.frames && !options_.hold);
+        const bool closed = mirror_window_ && mirror_window_->close_requested();
+        finished = *stop_ || closed || (frame >= options_.frames && !options_.hold);
         if (finished && !exit_requested_) {
             if (!running_) break; // no session to end
             ATRIUM_XR_CHECK(instance_.handle, xrRequestExitSession(session_.handle));

@@ -137,7 +137,7 @@ def guard_setting(text):
 
 
 def eye_size(text):
-    """'1200x1080' -> (1200, 1080) (splitvk-atrium --eye-size takes 16..16384 each)."""
+    """'1200x1080' -> (1200, 1080) (splitvk-atrium --xr-eye-size takes 16..16384 each)."""
     w, x, h = text.partition("x")
     if not x or not w.isdigit() or not h.isdigit() or not (16 <= int(w) <= 16384 and 16 <= int(h) <= 16384):
         raise argparse.ArgumentTypeError(f"--eye-size '{text}': expected WxH, each 16..16384 (e.g. 1200x1080)")
@@ -485,7 +485,7 @@ def measure(args):
     def xr_argv(path, frames, times_path):
         # The runtime's service outside the confinement (the headset's compositor), the app inside it.
         return [XR_RUNTIME, "run", "--"] + client_prefix + [
-            build.atrium, "--xr", "--path", path, "--eye-size", f"{ew}x{eh}", "--frames", str(frames),
+            build.atrium, "--xr", "--path", path, "--xr-eye-size", f"{ew}x{eh}", "--frames", str(frames),
             "--frame-times", times_path]
 
     timeout_s = 300 + 3 * args.frames
@@ -1225,7 +1225,7 @@ def paths_markdown(res):
 
 def xr_note(c):
     """What the OpenXR runs (--xr) are, for the docs."""
-    return (f"Through OpenXR: splitvk-atrium `--xr --eye-size {c['eye_size']}` (one swapchain per eye, each split "
+    return (f"Through OpenXR: splitvk-atrium `--xr --xr-eye-size {c['eye_size']}` (one swapchain per eye, each split "
             "with one centred fovea of the same size) under `scripts/xr-runtime run` (Monado, headless null "
             "compositor; its service is not confined), native and split in the same rounds on the same "
             "confined client and agent with splitvk's OpenXR layer on; frame times are between `xrEndFrame` "

@@ -15,7 +15,7 @@
 //    brought in, and the last eye images' foveae are again those of the split frames before the kill.
 // hello_xr's hand cubes move (the simulated controllers); the fovea holds only the static centre
 // cube, so foveae of different frames compare exactly, whole images do not.
-// splitvk-atrium --xr (deterministic per frame number, small --eye-size, a few frames, no validation:
+// splitvk-atrium --xr (deterministic per frame number, small --xr-eye-size, a few frames, no validation:
 // xr.AtriumThroughMonado has it) through the same readback layer:
 //  - Per eye: every eye image of every frame, native against split for the same image and release
 //    (the same frame), fovea bit-exact, periphery different; the frames split with none late.
@@ -35,6 +35,7 @@
 #include "agent.h"
 #include "e2e_test.h"
 #include "fovea.h"
+#include "xr_readback.h"
 
 #include <algorithm>
 #include <array>
@@ -53,52 +54,10 @@ namespace {
 
 using namespace std::chrono_literals;
 
-constexpr const char *kReadbackLayerName = "VK_LAYER_SPLITVK_test_xr_readback";
-constexpr const char *kXrLayerName = "XR_APILAYER_SPLITVK_split_render";
 constexpr const char *kXrSkewFovName = "XR_APILAYER_SPLITVK_test_skew_fov";
 constexpr const char *kXrCoreValidationName = "XR_APILAYER_LUNARG_core_validation";
 constexpr const char *kSystemXrLayers = "/usr/share/openxr/1/api_layers/explicit.d";
 constexpr int kEyeImages = 6; // two swapchains of three images
-
-// An eye image as the readback layer wrote it: RGBA texels, rows packed.
-struct EyeImage {
-    uint32_t width = 0, height = 0;
-    std::vector<uint8_t> rgba;
-    uint32_t texel(uint32_t x, uint32_t y) const {
-        uint32_t v = 0;
-        std::memcpy(&v, rgba.data() + (size_t{y} * width + x) * 4, 4);
-        return v;
-    }
-};
-
-bool load_pam(const std::filesystem::path &path, EyeImage *image) {
-    return read_pam(path, &image->width, &image->height, &image->rgba);
-}
-
-// The native and split readbacks of one released image, both `width` x `height`.
-void load_pair(const std::filesystem::path &native, const std::filesystem::path &split, uint32_t width,
-               uint32_t height, EyeImage *a, EyeImage *b) {
-    ASSERT_TRUE(load_pam(native, a) && load_pam(split, b));
-    ASSERT_EQ(a->width, width);
-    ASSERT_EQ(a->height, height);
-    ASSERT_EQ(b->width, width);
-    ASSERT_EQ(b->height, height);
-}
-
-// The bgr0 Image of the harness (for its PNG artefacts), alpha in the fourth byte.
-Image to_image(const EyeImage &e) {
-    Image image;
-    image.width = e.width;
-    image.height = e.height;
-    image.bgr0.resize(e.rgba.size());
-    for (size_t i = 0; i < e.rgba.size(); i += 4) {
-        image.bgr0[i] = e.rgba[i + 2];
-        image.bgr0[i + 1] = e.rgba[i + 1];
-        image.bgr0[i + 2] = e.rgba[i];
-        image.bgr0[i + 3] = e.rgba[i + 3];
-    }
-    return image;
-}
 
 // The newest readback of each eye image in `dir` (image<K>-<N>.pam): K -> (N, path).
 std::map<int, std::pair<int, std::filesystem::path>> newest_readbacks(const std::filesystem::path &dir) {
@@ -109,60 +68,6 @@ std::map<int, std::pair<int, std::filesystem::path>> newest_readbacks(const std:
         if (it == newest.end() || it->second.first < n) newest[k] = {n, path};
     }
     return newest;
-}
-
-struct Mismatch {
-    uint64_t pixels = 0, mismatched = 0;
-};
-
-// Texels (all four bytes) that differ within `r`.
-Mismatch compare_rect(const EyeImage &a, const EyeImage &b, const Rect &r) {
-    Mismatch m;
-    for (uint32_t y = r.y; y < r.y + r.h; ++y)
-        for (uint32_t x = r.x; x < r.x + r.w; ++x) {
-            ++m.pixels;
-            if (a.texel(x, y) != b.texel(x, y)) ++m.mismatched;
-        }
-    return m;
-}
-
-bool inside(const Rect &r, uint32_t x, uint32_t y) {
-    return x >= r.x && x < r.x + r.w && y >= r.y && y < r.y + r.h;
-}
-
-// Validation log messages by ID ("VUID-...", "SYNC-...", or the message's first words).
-std::map<std::string, int> message_ids(const std::filesystem::path &log) {
-    std::map<std::string, int> ids;
-    const std::regex id(R"((VUID-[A-Za-z0-9_-]+|SYNC-[A-Z-]+|UNASSIGNED-[A-Za-z0-9_.-]+))");
-    for (const std::string &l : split_lines(read_file(log))) {
-        if (l.empty() || l[0] == ' ' || l[0] == '\t') continue;
-        std::smatch m;
-        ++ids[std::regex_search(l, m, id) ? m[1].str() : l.substr(0, 60)];
-    }
-    return ids;
-}
-
-std::string describe(const std::map<std::string, int> &ids) {
-    std::string s;
-    for (const auto &[id, n] : ids)
-        s += "\n  " + id + " x" + std::to_string(n);
-    return s.empty() ? " none" : s;
-}
-
-struct StatsSummary {
-    int frames = 0, late = 0, with_tiles = 0;
-    bool last_with_tiles = false;
-};
-
-StatsSummary read_stats(const std::filesystem::path &csv) {
-    StatsSummary s;
-    for (auto &row : stats_rows(read_file(csv))) {
-        ++s.frames;
-        s.late += row["late"] != 0;
-        s.last_with_tiles = row["tile_bytes"] > 0;
-        s.with_tiles += s.last_with_tiles;
-    }
-    return s;
 }
 
 class Xr : public ::testing::Test {
@@ -380,7 +285,7 @@ protected:
                      "--",
                      atrium_path().string(),
                      "--xr",
-                     "--eye-size",
+                     "--xr-eye-size",
                      kEyeSize,
                      "--frames",
                      std::to_string(kFrames)};
@@ -389,14 +294,6 @@ protected:
         spec.out_dir = out_;
         spec.name = run;
         return run_process(spec, std::chrono::seconds(120));
-    }
-
-    // Every readback in `dir`: (K, N) -> path.
-    static std::map<std::pair<int, int>, std::filesystem::path> readbacks(const std::filesystem::path &dir) {
-        std::map<std::pair<int, int>, std::filesystem::path> all;
-        for (const auto &[numbers, path] : numbered_files(dir, std::regex(R"(image(\d+)-(\d+)\.pam)")))
-            all[{numbers[0], numbers[1]}] = path;
-        return all;
     }
 
     void expect_both_eyes_split(const std::string &native_run, const std::string &split_run, bool layered,

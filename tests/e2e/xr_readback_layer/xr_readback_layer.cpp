@@ -23,9 +23,11 @@
 // per swapchain a present names), whichever thread presents (splitvk's present thread does).
 //
 // Each copy is transitioned from its layout and back with a command buffer of the layer's own. A
-// PAM file (P7, TUPLTYPE RGB_ALPHA for 4-byte texels, GRAYSCALE otherwise) holds the texels
-// unconverted; the layers copied (both eyes of a layered image drawn with multiview) one below the
-// other, so that a file of an image of L layers is L times its height.
+// PAM file (P7, MAXVAL 255) holds the texels unconverted, DEPTH bytes each: TUPLTYPE RGB_ALPHA for
+// the 4-byte formats, the format's name (R16G16B16A16_UNORM, R16G16B16A16_SFLOAT) for the 8-byte
+// ones, whose bytes stay as the texels hold them (little-endian channels). The layers copied (both
+// eyes of a layered image drawn with multiview) lie one below the other, so that a file of an image
+// of L layers is L times its height. Images of other formats are not read back.
 //
 // Its own Vulkan calls go to the next layer (the driver), so that no layer above it sees them.
 // Built into the build tree only and never installed.
@@ -141,8 +143,23 @@ uint32_t texel_size(VkFormat format) {
     case VK_FORMAT_B8G8R8A8_UNORM:
     case VK_FORMAT_B8G8R8A8_SRGB:
         return 4;
+    case VK_FORMAT_R16G16B16A16_UNORM:
+    case VK_FORMAT_R16G16B16A16_SFLOAT:
+        return 8;
     default:
         return 0; // not read back
+    }
+}
+
+// PAM's TUPLTYPE for the texels of `format`: readers tell the 8-byte formats apart by it.
+const char *tuple_type(VkFormat format) {
+    switch (format) {
+    case VK_FORMAT_R16G16B16A16_UNORM:
+        return "R16G16B16A16_UNORM";
+    case VK_FORMAT_R16G16B16A16_SFLOAT:
+        return "R16G16B16A16_SFLOAT";
+    default:
+        return "RGB_ALPHA";
     }
 }
 
@@ -177,8 +194,7 @@ void write_pam(const std::filesystem::path &path, const ImageInfo &info, const u
     {
         std::ofstream out(tmp, std::ios::binary);
         out << "P7\nWIDTH " << info.extent.width << "\nHEIGHT " << info.extent.height * info.layers
-            << "\nDEPTH " << size << "\nMAXVAL 255\nTUPLTYPE " << (size == 4 ? "RGB_ALPHA" : "GRAYSCALE")
-            << "\nENDHDR\n";
+            << "\nDEPTH " << size << "\nMAXVAL 255\nTUPLTYPE " << tuple_type(info.format) << "\nENDHDR\n";
         out.write(reinterpret_cast<const char *>(texels),
                   static_cast<std::streamsize>(size_t{info.extent.width} * info.extent.height * info.layers *
                                                size));
