@@ -93,6 +93,30 @@ const SettingInfo kSettings[] = {
      "splitvk out of its way"},
 };
 
+// Each is documented in docs/settings.md, "Variables of the scripts"; the unit tests check that
+// every SPLITVK_* variable the scripts and tests read is here.
+const ScriptVariable kScriptVariables[] = {
+    {"SPLITVK_CACHE", "scripts/xr-runtime", "the folder Monado is built into (default ~/.cache/splitvk)"},
+    {"SPLITVK_MONADO_TARBALL", "scripts/xr-runtime",
+     "the Monado source snapshot to build (default ../shared/third_party/monado/)"},
+    {"SPLITVK_XR_SERVICE_LOG", "scripts/xr-runtime", "a file that receives monado-service's log of each run"},
+    {"SPLITVK_FUZZ_SECONDS", "scripts/test", "CPU seconds of fuzzing per target (default 60)"},
+    {"SPLITVK_FUZZ_VERBOSE", "the fuzz targets (scripts/fuzz)", "one line per message that fails to decode"},
+    {"SPLITVK_TEST_SHOW_LOG", "splitvk_agent_tests", "print the agent's log of a few tests"},
+    {"SPLITVK_COST_SIZE", "splitvk_compositor_tests",
+     "WxH of the composite whose cost the disabled test measures"},
+    {"SPLITVK_E2E_BUILD_DIR", "the e2e test programs", "the build tree to test"},
+    {"SPLITVK_E2E_EXPLICIT_LAYER_DIR", "the e2e test programs", "the folder of the explicit layer manifest"},
+    {"SPLITVK_E2E_IMPLICIT_DATA_DIR", "the e2e test programs",
+     "the data folder of the implicit layer manifest"},
+    {"SPLITVK_E2E_OUTPUT_DIR", "the e2e test programs", "where the tests keep what each test ran"},
+};
+
+bool is_script_variable(std::string_view name) {
+    return std::any_of(std::begin(kScriptVariables), std::end(kScriptVariables),
+                       [&](const ScriptVariable &v) { return name == v.name; });
+}
+
 struct Source {
     std::string label; // "SPLITVK_SCALE" or "splitvk_split_render.scale (file:3)"
     std::string value;
@@ -504,6 +528,10 @@ std::span<const SettingInfo> setting_table() {
     return kSettings;
 }
 
+std::span<const ScriptVariable> script_variable_table() {
+    return kScriptVariables;
+}
+
 LoadedSettings load_settings(const Environment &environment, const std::string &working_directory) {
     LoadedSettings result;
 
@@ -548,6 +576,7 @@ LoadedSettings load_settings(const Environment &environment, const std::string &
         if (std::find(std::begin(kManifestVariables), std::end(kManifestVariables), key) !=
             std::end(kManifestVariables))
             continue;
+        if (is_script_variable(key)) continue;
         if (const auto *info = find_setting(std::string_view(key).substr(kEnvPrefix.size()))) {
             choose(info, Source{key, value});
         } else {

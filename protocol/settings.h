@@ -165,6 +165,17 @@ struct SettingInfo {
 
 std::span<const SettingInfo> setting_table();
 
+// A SPLITVK_* environment variable that the project's scripts or test programs read, not the
+// layer: the layer takes it for none of its settings and does not warn about it, since a user who
+// exports one (SPLITVK_CACHE, to move the Monado build) runs every Vulkan application with it.
+struct ScriptVariable {
+    const char *name;    // the whole variable: "SPLITVK_CACHE"
+    const char *read_by; // "scripts/xr-runtime"
+    const char *description;
+};
+
+std::span<const ScriptVariable> script_variable_table();
+
 using Environment = std::vector<std::pair<std::string, std::string>>;
 
 struct LoadedSettings {

@@ -2,6 +2,8 @@
 
 #include <filesystem>
 #include <fstream>
+#include <regex>
+#include <set>
 #include <sstream>
 
 #include <gtest/gtest.h>
@@ -268,6 +270,42 @@ TEST_F(SettingsTest, UnknownVariablesWarnButManifestVariablesAreKnown) {
     EXPECT_NE(loaded.warnings.front().find("SPLITVK_SCALE"), std::string::npos) << "lists the known names";
 }
 
+// The scripts' own variables are neither settings nor unknown: a user who exports one for the
+// scripts (SPLITVK_CACHE) must not get a warning from every application. Near misses still warn.
+TEST_F(SettingsTest, ScriptVariablesAreNotWarnedAbout) {
+    Environment env;
+    for (const ScriptVariable &v : script_variable_table())
+        env.emplace_back(v.name, "/somewhere");
+    ASSERT_FALSE(env.empty());
+    const auto loaded = load(env);
+    EXPECT_TRUE(loaded.valid()) << loaded.errors.front();
+    EXPECT_TRUE(loaded.warnings.empty()) << loaded.warnings.front();
+    EXPECT_EQ(loaded.settings.server.host, "127.0.0.1");
+    EXPECT_DOUBLE_EQ(loaded.settings.scale, 0.6);
+
+    const auto near_miss = load({{"SPLITVK_CACHE_DIR", "/somewhere"}});
+    ASSERT_EQ(near_miss.warnings.size(), 1u);
+    EXPECT_NE(near_miss.warnings.front().find("unknown setting SPLITVK_CACHE_DIR"), std::string::npos);
+    // Only the environment: the settings file holds the layer's keys alone.
+    write_file("vk_layer_settings.txt", "splitvk_split_render.cache = /somewhere\n");
+    EXPECT_EQ(load({}).warnings.size(), 1u);
+}
+
+TEST(ScriptVariables, AreNoSettingsNorManifestVariables) {
+    std::set<std::string> seen;
+    for (const ScriptVariable &v : script_variable_table()) {
+        const std::string name = v.name;
+        EXPECT_TRUE(name.starts_with("SPLITVK_")) << name;
+        EXPECT_TRUE(seen.insert(name).second) << name << " is in the table twice";
+        EXPECT_NE(name, "SPLITVK_ENABLE");
+        EXPECT_NE(name, "SPLITVK_DISABLE");
+        for (const SettingInfo &info : setting_table())
+            EXPECT_NE(name, std::string("SPLITVK_") + info.name) << "a setting of the layer";
+        EXPECT_NE(std::string(v.read_by), "");
+        EXPECT_NE(std::string(v.description), "");
+    }
+}
+
 TEST_F(SettingsTest, SettingsFileInWorkingDirectory) {
     write_file("vk_layer_settings.txt",
                "# splitvk\n"
@@ -341,6 +379,61 @@ TEST(SettingsDocs, EverySettingIsDocumented) {
             << "docs/settings.md does not state what " << variable << " accepts: " << info.accepted;
         EXPECT_NE(readme.find(variable), std::string::npos) << variable << " missing from README.md";
     }
+}
+
+// docs/settings.md lists the scripts' variables too, apart from the layer's settings.
+TEST(SettingsDocs, EveryScriptVariableIsDocumented) {
+    const std::string reference = read_text(SPLITVK_SOURCE_DIR "/docs/settings.md");
+    const auto section = reference.find("## Variables of the scripts");
+    ASSERT_NE(section, std::string::npos) << "docs/settings.md has no section for the scripts' variables";
+    for (const ScriptVariable &v : script_variable_table()) {
+        const std::string variable = std::string("`") + v.name + "`";
+        EXPECT_NE(reference.find(variable, section), std::string::npos)
+            << variable << " missing from docs/settings.md's section of the scripts' variables";
+    }
+}
+
+// Every SPLITVK_* variable that a script or test program takes from the environment is a setting,
+// a manifest variable, or in script_variable_table(); otherwise whoever sets it for the script gets
+// the layer's "unknown setting" warning in every application.
+TEST(ScriptVariables, EveryVariableTheScriptsAndTestsReadIsKnown) {
+    // scripts/common.sh's own shell variables, set for the scripts that source it, never exported.
+    const std::set<std::string> shell_variables = {"SPLITVK_PHASE_RUNNING", "SPLITVK_XVFB_PID"};
+    std::set<std::string> known = {"SPLITVK_ENABLE", "SPLITVK_DISABLE"};
+    for (const SettingInfo &info : setting_table())
+        known.insert(std::string("SPLITVK_") + info.name);
+    for (const ScriptVariable &v : script_variable_table())
+        known.insert(v.name);
+    // Reads from the environment: getenv("X") and env_or("X", ...) in C++, ${X:-...} and ${X-...}
+    // in shell, os.environ.get("X") and os.environ["X"] in Python.
+    const std::regex reads(
+        R"re((?:getenv|env_or)\("(SPLITVK_[A-Z0-9_]+)"|\$\{(SPLITVK_[A-Z0-9_]+):?-|environ(?:\.get\(|\[)["'](SPLITVK_[A-Z0-9_]+))re");
+    const fs::path root = SPLITVK_SOURCE_DIR;
+    size_t files = 0;
+    std::set<std::string> found;
+    for (const char *folder : {"scripts", "tests", ".ci"}) {
+        for (const auto &entry : fs::recursive_directory_iterator(root / folder)) {
+            if (!entry.is_regular_file()) continue;
+            const std::string ext = entry.path().extension().string();
+            // Extensionless files are scripts under scripts/ and .ci/, but fuzz inputs under tests/.
+            const bool script = ext.empty() && std::string(folder) != "tests";
+            if (!script && ext != ".sh" && ext != ".py" && ext != ".cpp" && ext != ".h") continue;
+            ++files;
+            const std::string text = read_text(entry.path().string());
+            for (std::sregex_iterator it(text.begin(), text.end(), reads), end; it != end; ++it) {
+                const std::string name = (*it)[1].matched ? (*it)[1] : (*it)[2].matched ? (*it)[2] : (*it)[3];
+                found.insert(name);
+                if (!known.count(name) && !shell_variables.count(name))
+                    ADD_FAILURE() << fs::relative(entry.path(), root).string() << " reads " << name
+                                  << ", which the layer would warn about: add it to kScriptVariables "
+                                     "(protocol/settings.cpp) and docs/settings.md";
+            }
+        }
+    }
+    EXPECT_GT(files, 50u) << "the scan found too few files under " << root;
+    // The scan sees the reads it must see, so that a pattern gone stale cannot pass silently.
+    for (const char *name : {"SPLITVK_CACHE", "SPLITVK_FUZZ_SECONDS", "SPLITVK_E2E_BUILD_DIR"})
+        EXPECT_TRUE(found.count(name)) << "the scan did not find " << name << " read";
 }
 
 } // namespace

@@ -92,6 +92,8 @@ protected:
         if (const char *cache = std::getenv("SPLITVK_CACHE")) e["SPLITVK_CACHE"] = cache;
         const auto dir = out_ / run;
         std::filesystem::create_directories(dir / "images");
+        // Kept with the run's output; the application sees the variable too, as the layer must allow.
+        e["SPLITVK_XR_SERVICE_LOG"] = (dir / "service.log").string();
         // This loader chains explicit layers in the order their manifests are found: the readback
         // layer's folder comes last, below the system's (validation); validation is named here too
         // so that the app's own request for it does not put it below the readback layer.
@@ -259,6 +261,7 @@ protected:
         Env e = clean_env();
         if (const char *cache = std::getenv("SPLITVK_CACHE")) e["SPLITVK_CACHE"] = cache;
         std::filesystem::create_directories(out_ / run / "images");
+        e["SPLITVK_XR_SERVICE_LOG"] = (out_ / run / "service.log").string();
         e["VK_LAYER_PATH"] = SPLITVK_E2E_XR_READBACK_LAYER_DIR;
         e["VK_INSTANCE_LAYERS"] = kReadbackLayerName;
         e["TEST_XR_READBACK_DIR"] = (out_ / run / "images").string();
