@@ -654,7 +654,8 @@ void Session::close() {
     current_connection_.store(nullptr); // closing it is not the agent going away
     if (connection_) connection_->flush(kCloseFlush);
     const protocol::ConnectionStats stats = connection_ ? connection_->stats() : protocol::ConnectionStats{};
-    SPLITVK_INFO("session to %s: %llu frames, %.2f ms comparing memory, %llu messages, %llu payload bytes, "
+    // Presents: every window present and every OpenXR release of an image (depth swapchains' too).
+    SPLITVK_INFO("session to %s: %llu presents, %.2f ms comparing memory, %llu messages, %llu payload bytes, "
                  "%llu bytes on the wire",
                  address_.c_str(), static_cast<unsigned long long>(current_frame()),
                  static_cast<double>(memory_compare_ns.load()) / 1e6,

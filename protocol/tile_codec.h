@@ -93,11 +93,6 @@ std::unique_ptr<TileEncoder> make_tile_encoder(TileCodec codec, uint32_t width, 
 std::unique_ptr<TileDecoder> make_tile_decoder(TileCodec codec, uint32_t width, uint32_t height,
                                                uint32_t texel_bytes, std::string *error,
                                                bool accept_lossy = false);
-// The 4-byte decoder, for callers that predate the texel size.
-inline std::unique_ptr<TileDecoder> make_tile_decoder(TileCodec codec, uint32_t width, uint32_t height,
-                                                      std::string *error, bool accept_lossy = false) {
-    return make_tile_decoder(codec, width, height, 4, error, accept_lossy);
-}
 
 // The texel size a tile's header declares (4 or 8), read without decoding it: what to make the
 // decoder and size the pixels for before checking them against the image. 0 for a span too short

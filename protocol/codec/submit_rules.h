@@ -70,17 +70,4 @@ std::vector<Barrier> with_local_queue_families(const Barrier *barriers, uint32_t
     return out;
 }
 
-// Formats whose presented images verification compares: 4 bytes per pixel, 8 bits per channel.
-inline bool is_verifiable_format(VkFormat format) {
-    switch (format) {
-    case VK_FORMAT_B8G8R8A8_UNORM:
-    case VK_FORMAT_B8G8R8A8_SRGB:
-    case VK_FORMAT_R8G8B8A8_UNORM:
-    case VK_FORMAT_R8G8B8A8_SRGB:
-        return true;
-    default:
-        return false;
-    }
-}
-
 } // namespace splitvk::codec

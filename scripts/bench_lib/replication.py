@@ -21,7 +21,7 @@ import tempfile
 from . import common
 
 APP_NAME = "splitvk-atrium"
-SESSION_RE = re.compile(r"session to \S+: (\d+) frames, ([\d.]+) ms comparing memory, (\d+) messages, "
+SESSION_RE = re.compile(r"session to \S+: (\d+) presents, ([\d.]+) ms comparing memory, (\d+) messages, "
                         r"(\d+) payload bytes, (\d+) bytes on the wire")
 
 
