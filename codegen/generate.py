@@ -4,7 +4,7 @@
 Usage: generate.py --registry /usr/share/vulkan/registry --out DIR TARGET...
 Targets: dispatch (instance/device dispatch tables), layer (layer entry points and lookup),
 formats (vk_format_info.h: block sizes of single-plane formats), envelope (vk_envelope_tables.h:
-how device limits, features and formats combine),
+how device limits, features and formats combine), results (vk_result_name.h: every VkResult's name),
 codec (the Vulkan wire codec: encoders, decoders, dispatch, smoke test). All consume the same
 model from vkregistry.py.
 """
@@ -20,6 +20,7 @@ import emit_envelope  # noqa: E402
 import emit_formats  # noqa: E402
 import emit_layer  # noqa: E402
 import emit_replay  # noqa: E402
+import emit_results  # noqa: E402
 import vkregistry  # noqa: E402
 
 EMITTERS = {
@@ -29,6 +30,7 @@ EMITTERS = {
     "replay": emit_replay.emit,
     "formats": emit_formats.emit,
     "envelope": emit_envelope.emit,
+    "results": emit_results.emit,
 }
 
 

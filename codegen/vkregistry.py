@@ -113,6 +113,7 @@ class ApiModel:
     negative_enums: set[str] = field(default_factory=set)        # enums with negative values (VkResult)
     formats: list["Format"] = field(default_factory=list)         # vk.xml <formats>, single-plane ones
     format_names: list[str] = field(default_factory=list)         # vk.xml <formats>, every one
+    result_names: list[str] = field(default_factory=list)         # every VkResult, aliases left out
 
     def resolve(self, type_name: str) -> str:
         """The canonical name of a type (following aliases)."""
@@ -170,6 +171,26 @@ def _itertext_without_comments(elem):
             yield from _itertext_without_comments(child)
         if child.tail:
             yield child.tail
+
+
+def _for_vulkan(elem) -> bool:
+    return "vulkan" in (elem.get("api") or "vulkan").split(",")
+
+
+def _result_names(tree) -> list[str]:
+    """Every VkResult enumerant of vk.xml that vulkan_core.h declares, whatever the selection: its
+    <enums> and what each Vulkan version and each supported extension adds. Aliases are left out
+    (the value is named by the enumerant they alias)."""
+    names = [e.get("name") for e in tree.findall("enums[@name='VkResult']/enum")
+             if _for_vulkan(e) and not e.get("alias")]
+    parents = tree.findall("feature") + tree.findall("extensions/extension")
+    for parent in parents:
+        if not _for_vulkan(parent) or "vulkan" not in (parent.get("supported") or "vulkan").split(","):
+            continue
+        for e in parent.iter("enum"):
+            if e.get("extends") == "VkResult" and _for_vulkan(e) and not e.get("alias"):
+                names.append(e.get("name"))
+    return list(dict.fromkeys(names))
 
 
 def load(registry_dir: str) -> ApiModel:
@@ -281,6 +302,7 @@ def load(registry_dir: str) -> ApiModel:
     # A structure may name parents outside the selection in `structextends`: keep the selected ones.
     for struct in model.structs.values():
         struct.extends = [p for p in struct.extends if model.resolve(p) in model.structs]
+    model.result_names = _result_names(registry.tree)
     for elem in registry.tree.findall("formats/format"):
         model.format_names.append(elem.get("name"))
         if elem.find("plane") is not None:

@@ -1462,54 +1462,68 @@ void Compositor::record_seams(Slot &s, VkImage image) {
 
 namespace {
 
+// One per swapchain. Its lock is held while its compositor is made or replaced (pipelines, a
+// wait for the old one's submits), which concerns that swapchain's presents only.
 struct Entry {
-    DeviceState *device = nullptr;
+    explicit Entry(DeviceState *d) : device(d) {}
+    DeviceState *const device;
+    std::mutex mutex; // what follows
     std::unique_ptr<Compositor> compositor;
     uint32_t failed_family = UINT32_MAX; // create() failed for this family (logged once)
 };
 
+// The map only: held for a lookup, never while a compositor is made, used or destroyed.
 std::mutex g_mutex;
-std::unordered_map<VkSwapchainKHR, Entry> g_compositors;
+std::unordered_map<VkSwapchainKHR, std::shared_ptr<Entry>> g_compositors;
 
 } // namespace
 
 Compositor *compositor_for(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family,
                            bool timed) {
     if (!swapchain.composable || queue_family == UINT32_MAX) return nullptr;
-    std::lock_guard lock(g_mutex);
-    Entry &e = g_compositors[swapchain.handle];
-    e.device = &device;
-    if (e.compositor && e.compositor->queue_family() == queue_family) return e.compositor.get();
-    if (e.failed_family == queue_family) return nullptr;
-    e.compositor.reset(); // made for another queue family: its command pool cannot serve this one
+    std::shared_ptr<Entry> e;
+    {
+        std::lock_guard lock(g_mutex);
+        std::shared_ptr<Entry> &slot = g_compositors[swapchain.handle];
+        if (!slot || slot->device != &device) slot = std::make_shared<Entry>(&device);
+        e = slot;
+    }
+    // One made for another queue family (its command pool cannot serve this one) is destroyed
+    // after the lock, as it waits for its submits.
+    std::unique_ptr<Compositor> replaced;
+    std::lock_guard lock(e->mutex);
+    if (e->compositor && e->compositor->queue_family() == queue_family) return e->compositor.get();
+    if (e->failed_family == queue_family) return nullptr;
+    replaced = std::move(e->compositor);
     std::string error;
-    e.compositor = Compositor::create(device, swapchain, queue_family, &error, kDefaultUpsampleFilter, timed);
-    if (!e.compositor) {
-        e.failed_family = queue_family;
+    e->compositor =
+        Compositor::create(device, swapchain, queue_family, &error, kDefaultUpsampleFilter, timed);
+    if (!e->compositor) {
+        e->failed_family = queue_family;
         SPLITVK_WARN("compositor: swapchain %dx%d presents uncomposited: %s", int(swapchain.extent.width),
                      int(swapchain.extent.height), error.c_str());
     }
-    return e.compositor.get();
+    return e->compositor.get();
 }
 
 void release_compositor(DeviceState &, VkSwapchainKHR swapchain) {
-    std::unique_ptr<Compositor> doomed;
+    std::shared_ptr<Entry> doomed;
     {
         std::lock_guard lock(g_mutex);
         const auto it = g_compositors.find(swapchain);
         if (it == g_compositors.end()) return;
-        doomed = std::move(it->second.compositor);
+        doomed = std::move(it->second);
         g_compositors.erase(it);
     }
 }
 
 void release_compositors(DeviceState &device) {
-    std::vector<std::unique_ptr<Compositor>> doomed;
+    std::vector<std::shared_ptr<Entry>> doomed;
     {
         std::lock_guard lock(g_mutex);
         for (auto it = g_compositors.begin(); it != g_compositors.end();) {
-            if (it->second.device == &device) {
-                doomed.push_back(std::move(it->second.compositor));
+            if (it->second->device == &device) {
+                doomed.push_back(std::move(it->second));
                 it = g_compositors.erase(it);
             } else {
                 ++it;

@@ -186,6 +186,7 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateDevice(VkPhysicalDevice physicalDevice,
     }
 
     auto state = std::make_unique<DeviceState>();
+    state->memory = make_memory_objects();
     state->handle = *pDevice;
     state->physical_device = physicalDevice;
     state->instance = instance;

@@ -11,7 +11,11 @@
 namespace splitvk {
 
 struct InstanceState;
+struct MemoryObjects;
 class Session;
+
+// memory.cpp: the device's allocations and mapped ranges.
+std::shared_ptr<MemoryObjects> make_memory_objects();
 
 struct DeviceState {
     VkDevice handle = VK_NULL_HANDLE;
@@ -23,6 +27,9 @@ struct DeviceState {
     // The replication session (session.h); null when no agent answered at vkCreateDevice. Set
     // before the device is published and kept until vkDestroyDevice, so reading it needs no lock.
     std::unique_ptr<Session> session;
+    // Its VkDeviceMemory objects and their shadows (memory.cpp), under a lock of their own; made
+    // with the device, before it is published.
+    std::shared_ptr<MemoryObjects> memory;
     // The loader's vkSetDeviceLoaderData, for dispatchable objects the layer creates itself.
     PFN_vkSetDeviceLoaderData set_loader_data = nullptr;
 };

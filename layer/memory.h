@@ -1,6 +1,7 @@
 #pragma once
 
 // VkDeviceMemory (memory.cpp): the shadow copies of mapped memory behind MemoryData (DESIGN §3).
+// Their state is the device's (DeviceState::memory), under locks of its own, never one of the process.
 
 #include "device.h"
 

@@ -62,6 +62,7 @@
 #include "stats.h"
 #include "swapchain.h"
 #include "verification.h"
+#include "vk_result_name.h"
 #include "vk_util.h"
 
 #include <algorithm>
@@ -400,21 +401,6 @@ int severity(VkResult r) {
     }
 }
 
-const char *present_result_name(VkResult r) {
-    switch (r) {
-    case VK_SUBOPTIMAL_KHR:
-        return "VK_SUBOPTIMAL_KHR";
-    case VK_ERROR_OUT_OF_DATE_KHR:
-        return "VK_ERROR_OUT_OF_DATE_KHR";
-    case VK_ERROR_SURFACE_LOST_KHR:
-        return "VK_ERROR_SURFACE_LOST_KHR";
-    case VK_ERROR_DEVICE_LOST:
-        return "VK_ERROR_DEVICE_LOST";
-    default:
-        return r < 0 ? "an error" : "success";
-    }
-}
-
 VkResult worse(VkResult a, VkResult b) {
     return severity(b) > severity(a) ? b : a;
 }
@@ -481,7 +467,7 @@ void run_present_thread(DeviceState &dev, PresentThread &t) {
             SPLITVK_INFO(
                 "present thread: frame %llu: vkQueuePresentKHR answered %s; the application hears it "
                 "at its next present or acquire",
-                static_cast<unsigned long long>(p.frame), present_result_name(result));
+                static_cast<unsigned long long>(p.frame), vk_result_name(result));
         lock.lock();
         SwapchainPresents &sc = g_swapchain_presents[p.swapchain->handle];
         erase_one(sc.queued, p.image_index);

@@ -589,8 +589,13 @@ size_t Session::live_object_count() {
 }
 
 void Session::send_locked(protocol::MessageType type, std::vector<uint8_t> &&payload) {
+    send_locked(type, std::move(payload), kSendWait);
+}
+
+void Session::send_locked(protocol::MessageType type, std::vector<uint8_t> &&payload,
+                          std::chrono::milliseconds wait) {
     if (!live()) return;
-    note_send_locked(connection_->send_owned(type, std::move(payload), kSendWait));
+    note_send_locked(connection_->send_owned(type, std::move(payload), wait));
 }
 
 void Session::send_all_locked(std::vector<LiveMessage> &&messages) {
@@ -619,15 +624,29 @@ void Session::flush() {
 }
 
 void Session::send_commands(std::span<const uint8_t> payload) {
+    const bool room = wait_for_room(payload.size());
     std::lock_guard lock(mutex_);
     flush_locked();
-    send_locked(protocol::MessageType::Commands, std::vector<uint8_t>(payload.begin(), payload.end()));
+    send_locked(protocol::MessageType::Commands, std::vector<uint8_t>(payload.begin(), payload.end()),
+                room ? kSendWait : 0ms);
 }
 
 void Session::send_metadata(protocol::MessageType type, std::vector<uint8_t> &&payload) {
+    const bool room = wait_for_room(payload.size());
     std::lock_guard lock(mutex_);
     flush_locked();
-    send_locked(type, std::move(payload));
+    send_locked(type, std::move(payload), room ? kSendWait : 0ms);
+}
+
+bool Session::wait_for_room(size_t bytes) {
+    std::shared_ptr<protocol::Connection> connection;
+    {
+        std::lock_guard lock(mutex_);
+        if (!live() || !connection_) return true;
+        connection = connection_;
+        bytes += encoder_.size();
+    }
+    return connection->wait_for_room(bytes, kSendWait);
 }
 
 std::optional<std::vector<uint8_t>> Session::receive_verify_frame(std::chrono::milliseconds timeout) {

@@ -287,6 +287,12 @@ private:
     // receive_verify_frame(), Goodbye ends the session.
     void run_receiver();
     void send_locked(protocol::MessageType type, std::vector<uint8_t> &&payload);
+    void send_locked(protocol::MessageType type, std::vector<uint8_t> &&payload,
+                     std::chrono::milliseconds wait);
+    // Waits, with no lock held, until the connection has room for `bytes` and the pending batch,
+    // so that a large message waits for a slow link before it takes mutex_ rather than while it
+    // holds it. False if the room did not come in time.
+    bool wait_for_room(size_t bytes);
     void send_all_locked(std::vector<LiveMessage> &&messages); // a snapshot: compressed on every core
     void note_send_locked(protocol::SendResult result);
 
@@ -307,7 +313,8 @@ private:
     // The connection whose closure means the agent went away: a late report from one that failed
     // its handshake or was replaced is ignored.
     std::atomic<protocol::Connection *> current_connection_{nullptr};
-    std::unique_ptr<protocol::Connection> connection_;
+    // Shared with a sender waiting for room in its queue (wait_for_room) outside mutex_.
+    std::shared_ptr<protocol::Connection> connection_;
     CaptureHooks hooks_;
     codec::Encoder encoder_;
     LiveStateLog log_; // under mutex_, changed with each encode into encoder_

@@ -812,6 +812,16 @@ std::optional<Message> Connection::receive(std::chrono::milliseconds timeout) {
     return impl_->pop_inbound(lock);
 }
 
+bool Connection::wait_for_room(size_t bytes, std::chrono::milliseconds timeout) {
+    if (impl_->on_io_thread()) timeout = std::chrono::milliseconds(0); // it cannot drain while we wait
+    std::unique_lock lock(impl_->mutex);
+    const auto has_room = [&] {
+        return impl_->closed || impl_->send_bytes == 0 ||
+               impl_->send_bytes + bytes <= impl_->options.send_queue_limit;
+    };
+    return has_room() || (timeout.count() > 0 && impl_->send_cv.wait_for(lock, timeout, has_room));
+}
+
 bool Connection::flush(std::chrono::milliseconds timeout) {
     if (impl_->on_io_thread()) timeout = std::chrono::milliseconds(0); // it cannot drain while we wait
     std::unique_lock lock(impl_->mutex);

@@ -196,6 +196,11 @@ public:
     std::optional<Message> try_receive();
     std::optional<Message> receive(std::chrono::milliseconds timeout);
 
+    // Waits at most `timeout` until a message of `bytes` would be queued without waiting (or the
+    // connection closed). True if it would. For a sender that must not wait for room while it holds
+    // a lock others need: it waits here first, with no lock held.
+    bool wait_for_room(size_t bytes, std::chrono::milliseconds timeout);
+
     // Waits at most `timeout` until every queued message has been written to the socket. True if
     // the queue drained. Use before close() to deliver a final Reject or Goodbye. (On the I/O
     // thread it does not wait.)

@@ -4,6 +4,8 @@
 // instance, physical device or queue families. With --validate the instance enables
 // VK_LAYER_KHRONOS_validation (synchronization validation on) and routes every message to the log.
 
+#include "vk_result_name.h" // vk_result_name(), for the agent's log lines
+
 #include <vulkan/vulkan.h>
 
 #include <cstdint>
@@ -104,7 +106,5 @@ private:
     uint64_t session_id_ = 0;
     bool surface_extension_ = false;
 };
-
-const char *vk_result_name(VkResult result);
 
 } // namespace splitvk::agent
