@@ -13,13 +13,17 @@ set -uo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 runtime=$root/scripts/xr-runtime
 work=$(mktemp -d)
+stderr=
 
-# Only the processes and folders this test's runs recorded.
+# Only the processes and folders this test's runs recorded, and a pid only while it still names
+# what was recorded (the application's sleep, the service), not a process that reused it.
 cleanup() {
-  local f pid dir
+  local f pid dir comm
   for f in "$work"/*/app.pid "$work"/*/service.pid; do
     [ -s "$f" ] || continue
     pid=$(cat "$f")
+    comm=$(cat "/proc/$pid/comm" 2>/dev/null)
+    [ "$comm" = sleep ] || [ "$comm" = monado-service ] || continue
     kill -KILL "$pid" 2>/dev/null
   done
   for f in "$work"/*/runtime.dir; do
@@ -37,7 +41,7 @@ fail() {
   exit 1
 }
 
-bash "$runtime" build >/dev/null || { stderr=; fail "scripts/xr-runtime build failed"; }
+bash "$runtime" build >/dev/null || fail "scripts/xr-runtime build failed"
 
 # The application of every run: it records its pid, its sibling monado-service's (both are
 # children of the script) and the run's XDG_RUNTIME_DIR in its case's folder, then does as told.
