@@ -6,19 +6,24 @@
 #    says so, and without SPLITVK_XR_SERVICE_LOG the log is kept where the line says;
 #  - a run where nothing dies: the application's status, its standard input passed through, no
 #    line, and neither the service nor the run's folder left behind;
+#  - the Vulkan layers the application is run with are not loaded into the service;
 #  - the script itself terminated (a test's timeout): the application and the service go with it.
 # Every run is bounded by timeout(1), so a script that blocks fails this test instead of hanging it.
 set -uo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 runtime=$root/scripts/xr-runtime
 work=$(mktemp -d)
+stderr=
 
-# Only the processes and folders this test's runs recorded.
+# Only the processes and folders this test's runs recorded, and a pid only while it still names
+# what was recorded (the application's sleep, the service), not a process that reused it.
 cleanup() {
-  local f pid dir
+  local f pid dir comm
   for f in "$work"/*/app.pid "$work"/*/service.pid; do
     [ -s "$f" ] || continue
     pid=$(cat "$f")
+    comm=$(cat "/proc/$pid/comm" 2>/dev/null)
+    [ "$comm" = sleep ] || [ "$comm" = monado-service ] || continue
     kill -KILL "$pid" 2>/dev/null
   done
   for f in "$work"/*/runtime.dir; do
@@ -36,7 +41,7 @@ fail() {
   exit 1
 }
 
-bash "$runtime" build >/dev/null || { stderr=; fail "scripts/xr-runtime build failed"; }
+bash "$runtime" build >/dev/null || fail "scripts/xr-runtime build failed"
 
 # The application of every run: it records its pid, its sibling monado-service's (both are
 # children of the script) and the run's XDG_RUNTIME_DIR in its case's folder, then does as told.
@@ -50,6 +55,18 @@ case $1 in
   kill-and-exit) kill -"$2" "$(cat "$APP_DIR/service.pid")"; sleep 1; exit "$3" ;;
   read-and-exit) read -r line; echo "$line" >"$APP_DIR/read"; exit "$2" ;;
   hang) exec sleep 300 ;;
+  layers)
+    # The service creates its compositor's Vulkan device for the first session: an OpenXR
+    # application runs until its input closes, and the service's libraries are read meanwhile.
+    hello_xr -g Vulkan2 < <(sleep 10) >"$APP_DIR/hello_xr.log" 2>&1 &
+    maps=/proc/$(cat "$APP_DIR/service.pid")/maps
+    for _ in $(seq 1 100); do
+      grep -q libVkLayer_MESA_device_select "$maps" && break
+      sleep 0.1
+    done
+    cp "$maps" "$APP_DIR/service.maps"
+    wait $!
+    ;;
 esac
 APP
 chmod +x "$work/app"
@@ -116,6 +133,25 @@ input=/dev/null
 gone "$dir/service.pid" || fail "clean: monado-service outlived the run"
 [ ! -e "$(cat "$dir/runtime.dir")" ] || fail "clean: the run's folder is left behind"
 echo "clean run: exit $rc after $elapsed ms"
+
+# The service is the runtime, not the application: neither the Vulkan layers the application is run
+# with nor an implicit splitvk are loaded into it (its compositor's Vulkan device is up by the time
+# its socket is).
+validation=/usr/share/vulkan/explicit_layer.d/VkLayer_khronos_validation.json
+if [ ! -f "$validation" ]; then
+  echo "layers: skipped, the Khronos validation layer is not installed (vulkan-validationlayers)"
+elif ! command -v hello_xr >/dev/null; then
+  echo "layers: skipped, hello_xr is not installed (libopenxr-utils)"
+else
+  run_case layers 90 VK_INSTANCE_LAYERS=VK_LAYER_KHRONOS_validation SPLITVK_ENABLE=1 -- layers
+  [ "$rc" -eq 0 ] || fail "layers: the run returned $rc (hello_xr: $(tail -1 "$dir/hello_xr.log"))"
+  # Mesa's implicit device-select layer is loaded with every instance: the device is up.
+  grep -q libVkLayer_MESA_device_select "$dir/service.maps" ||
+    fail "layers: monado-service created no Vulkan instance for the session"
+  ! grep -q libVkLayer_khronos_validation "$dir/service.maps" ||
+    fail "layers: the application's VK_INSTANCE_LAYERS were loaded into monado-service"
+  echo "layers: the application's Vulkan layers stay out of monado-service"
+fi
 
 # The script terminated mid-run: the application and the service go with it.
 dir=$work/terminated

@@ -905,6 +905,12 @@ TEST_F(XrAtrium, GazeFromTheRuntimesEyeTrackingMovesExactFoveae) {
             EXPECT_NEAR(foveae[frame][eye].x, ahead.x, 1) << "frame " << frame << " eye " << eye;
             EXPECT_NEAR(foveae[frame][eye].y, ahead.y, 1) << "frame " << frame << " eye " << eye;
         }
+
+    // The runtime's service runs without the application's Vulkan layers (scripts/xr-runtime); with
+    // them, its compositor's own device was split too and replicated to this agent beside atrium's.
+    EXPECT_TRUE(grep(agent.log(), "Monado Compositor").empty())
+        << "monado-service's own Vulkan device was split:\n"
+        << tail(agent.log(), 20);
 }
 
 // SPLITVK_VERIFY=full on a layered eye image (--multiview; the split is off while verifying): the
