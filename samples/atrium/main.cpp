@@ -51,6 +51,9 @@ extern "C" void on_stop_signal(int) {
 void install_signal_handlers() {
     struct sigaction action = {};
     action.sa_handler = on_stop_signal;
+    // Restarted, so that a stop never interrupts a call under way: Monado's client fails its IPC
+    // (XR_ERROR_INSTANCE_LOST) when recvmsg returns EINTR. sigsuspend returns all the same.
+    action.sa_flags = SA_RESTART;
     sigemptyset(&action.sa_mask);
     sigaction(SIGTERM, &action, nullptr);
     sigaction(SIGINT, &action, nullptr);
