@@ -14,12 +14,55 @@ namespace {
 
 using namespace std::chrono_literals;
 
+constexpr const char *kKeepLayerName = "VK_LAYER_SPLITVK_test_keep";
+
+// The `[splitvk] split: N frames, ...` summary line's frame count; -1 without one.
+long long split_frames(const std::string &err) {
+    const std::regex line(R"(^\[splitvk\] split: (\d+) frames, )");
+    long long frames = -1;
+    for (const std::string &l : split_lines(err)) {
+        std::smatch m;
+        if (std::regex_search(l, m, line)) frames = std::stoll(m[1]);
+    }
+    return frames;
+}
+
 class Boundary : public XTest {
 protected:
     void SetUp() override {
         XTest::SetUp();
         ASSERT_TRUE(built(explicit_layer_dir()));
+        ASSERT_TRUE(built(atrium_path()));
+        ASSERT_TRUE(built(agent_path()));
     }
+
+    void start_agent() { ASSERT_TRUE(agent_.start(env(), out_)) << agent_.error(); }
+
+    // splitvk against the test's agent, its present thread in use (one frame may wait in it).
+    Env split_env() {
+        Env e = env();
+        use_explicit_layers(e, {kLayerName});
+        e["SPLITVK_SERVER"] = agent_.address();
+        e["SPLITVK_TILE_WAIT"] = "60000";
+        e["SPLITVK_PRESENT_DEPTH"] = "1";
+        e["SPLITVK_LOG_LEVEL"] = "info";
+        return e;
+    }
+
+    // VK_LAYER_SPLITVK_test_keep above splitvk (its folder searched first: this loader chains
+    // explicit layers in the order their manifests are found), keeping the device and the instance.
+    static void keep_device_alive(Env &e) {
+        e["VK_INSTANCE_LAYERS"] = std::string(kKeepLayerName) + ":" + e["VK_INSTANCE_LAYERS"];
+        e["VK_ADD_LAYER_PATH"] = std::string(SPLITVK_E2E_KEEP_LAYER_DIR) + ":" + e["VK_ADD_LAYER_PATH"];
+        e["TEST_KEEP_ALIVE"] = "1";
+    }
+
+    std::vector<std::string> atrium_argv(int frames) const {
+        return {atrium_path().string(), "--width", "640", "--height", "288", "--eyes", "2", "--frames",
+                std::to_string(frames)};
+    }
+
+    Agent agent_;
 };
 
 // vkGetDeviceQueue needs no external synchronisation: eight threads get the same queue at once, the
@@ -39,6 +82,32 @@ TEST_F(Boundary, QueuesGotFromManyThreadsAtOnceThenDeviceWaitIdle) {
     ASSERT_TRUE(r.ok()) << r.describe() << "\n" << tail(r.err());
     EXPECT_FALSE(grep(r.out(), "concurrent queues: 500 rounds, 8 threads").empty()) << r.out();
     EXPECT_TRUE(grep(r.err(), "[splitvk] error").empty()) << tail(r.err());
+}
+
+// A window application that exits with its device and instance alive (the keep layer above splitvk
+// never passes their destroys down), split against an agent with a frame in the present thread:
+// the layer's exit handler drains and stops that thread, closes the session and prints the split
+// summary. Without it the thread, still joinable at exit, ends the process in std::terminate.
+TEST_F(Boundary, WindowAppExitingWithItsDeviceAliveEndsCleanly) {
+    ASSERT_TRUE(built(std::filesystem::path(SPLITVK_E2E_KEEP_LAYER_DIR) / "VkLayer_splitvk_test_keep.json"));
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    constexpr int kFrames = 12;
+    Env e = split_env();
+    keep_device_alive(e);
+    const auto r = run_app(atrium_argv(kFrames), e, out_, "atrium-keep", 180s);
+    const std::string err = r.err();
+    ASSERT_TRUE(r.ok()) << r.describe() << "\n" << tail(err, 30);
+    // The keep layer was in the chain and kept both.
+    EXPECT_FALSE(grep(err, "keep alive: vkDestroyDevice not passed down").empty()) << tail(err, 30);
+    EXPECT_FALSE(grep(err, "keep alive: vkDestroyInstance not passed down").empty()) << tail(err, 30);
+    EXPECT_TRUE(grep(err, "terminate").empty()) << tail(err, 30);
+    EXPECT_TRUE(grep(err, "[splitvk] error").empty()) << tail(err, 30);
+    EXPECT_EQ(split_frames(err), kFrames) << tail(err, 30);
+    // The agent heard a normal end, not a dropped connection.
+    const auto closed = [&] { return !grep(agent_.log(), "closed by the client").empty(); };
+    for (int i = 0; i < 100 && !closed(); ++i)
+        std::this_thread::sleep_for(100ms);
+    EXPECT_TRUE(closed()) << tail(agent_.log(), 20);
 }
 
 } // namespace
