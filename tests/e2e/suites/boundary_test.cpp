@@ -15,6 +15,8 @@ namespace {
 using namespace std::chrono_literals;
 
 constexpr const char *kKeepLayerName = "VK_LAYER_SPLITVK_test_keep";
+// The call of vkCmdEndRenderPass that throws: a few frames into splitvk-atrium's.
+constexpr int kThrowingCall = 6;
 
 // The `[splitvk] split: N frames, ...` summary line's frame count; -1 without one.
 long long split_frames(const std::string &err) {
@@ -108,6 +110,65 @@ TEST_F(Boundary, WindowAppExitingWithItsDeviceAliveEndsCleanly) {
     for (int i = 0; i < 100 && !closed(); ++i)
         std::this_thread::sleep_for(100ms);
     EXPECT_TRUE(closed()) << tail(agent_.log(), 20);
+}
+
+// An exception inside the layer (TEST_SPLITVK_THROW: a std::bad_alloc thrown in vkCmdEndRenderPass's
+// boundary right after one of its calls went through the layer and down, as a capture that fails to
+// allocate would) never reaches the application: one error line naming the entry point and what was
+// thrown, the device stops splitting (the frames before it have the agent's tiles, those after it
+// none: their centre is the periphery's) and atrium, whose call returns nothing, runs to its end.
+TEST_F(Boundary, ExceptionInsideTheLayerStopsTheSplitNotTheApp) {
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    constexpr int kFrames = 12;
+    Env e = split_env();
+    e["TEST_SPLITVK_THROW"] = "vkCmdEndRenderPass:" + std::to_string(kThrowingCall);
+    const auto stats_path = out_ / "stats.csv";
+    e["SPLITVK_STATS"] = stats_path.string();
+    const auto r = run_app(atrium_argv(kFrames), e, out_, "atrium-throw", 180s);
+    const std::string err = r.err();
+    ASSERT_TRUE(r.ok()) << r.describe() << "\n" << tail(err, 30);
+    const auto errors = lines_starting_with(err, "[splitvk] error: ");
+    ASSERT_EQ(errors.size(), 1u) << tail(err, 30);
+    EXPECT_EQ(errors[0], "[splitvk] error: vkCmdEndRenderPass: std::bad_alloc (std::bad_alloc) thrown inside "
+                         "splitvk; the call returns no result; splitvk stops splitting this device: the "
+                         "periphery alone fills the frames from now on");
+    const auto rows = stats_rows(read_file(stats_path));
+    ASSERT_EQ(rows.size(), static_cast<size_t>(kFrames)) << read_file(stats_path);
+    int with_tiles = 0;
+    bool tiles_after_the_throw = false;
+    for (const auto &row : rows) {
+        const bool tiles = row.at("tile_bytes") > 0;
+        if (tiles && with_tiles != static_cast<int>(row.at("frame"))) tiles_after_the_throw = true;
+        with_tiles += tiles;
+    }
+    std::cout << "  " << with_tiles << " of " << kFrames << " frames had tiles\n";
+    EXPECT_GE(with_tiles, 1) << read_file(stats_path);
+    EXPECT_LT(with_tiles, kFrames - 2) << read_file(stats_path);
+    EXPECT_FALSE(tiles_after_the_throw) << "a frame after one without tiles had them:\n"
+                                        << read_file(stats_path);
+}
+
+// A command that returns a VkResult and creates an object: the exception after the driver made the
+// fence fails the call with VK_ERROR_OUT_OF_HOST_MEMORY (the probe stops there, exit 1, its own
+// line with -1), and the layer's one line says the fence stays with the driver.
+TEST_F(Boundary, ExceptionInACreateFailsItWithOutOfHostMemory) {
+    Env e = env();
+    use_explicit_layers(e, {kLayerName});
+    e["SPLITVK_SERVER"] = "127.0.0.1:" + std::to_string(free_loopback_port());
+    e["TEST_SPLITVK_THROW"] = "vkCreateFence";
+    const auto r = run_app({probe_path().string()}, e, out_, "probe-throw", 60s);
+    ASSERT_TRUE(r.exited) << r.describe() << "\n" << tail(r.err());
+    EXPECT_EQ(r.exit_code, 1) << tail(r.err());
+    EXPECT_FALSE(
+        grep(r.err(), "splitvk-e2e-probe: vkCreateFence(device, &fci, nullptr, &fence) failed: -1").empty())
+        << tail(r.err());
+    const auto errors = lines_starting_with(r.err(), "[splitvk] error: ");
+    ASSERT_EQ(errors.size(), 1u) << tail(r.err());
+    EXPECT_EQ(errors[0],
+              "[splitvk] error: vkCreateFence: std::bad_alloc (std::bad_alloc) thrown inside splitvk; "
+              "the call returns VK_ERROR_OUT_OF_HOST_MEMORY (what the driver made for it, if anything, "
+              "is not destroyed: it stays alive until its parent is); splitvk stops splitting this device: "
+              "running unsplit from now on");
 }
 
 } // namespace
