@@ -91,8 +91,8 @@ bool entry_threw(const char *name, DeviceState *device, EntryReturns returns, bo
         if (said.exchange(true)) return bad_alloc;
         SPLITVK_ERROR(
             "%s: %s thrown inside splitvk; %s%s%s%s", name, what, answer(returns, bad_alloc),
-            creates ? " (what the driver made for it, if anything, is not destroyed: it stays alive "
-                      "until its parent is)"
+            creates ? " (what was made for it below splitvk, if anything, is not destroyed: it stays "
+                      "alive until its parent is)"
                     : "",
             ended ? "; splitvk stops splitting this device: " : "", ended ? session->fallback() : "");
     } catch (...) {

@@ -12,10 +12,11 @@
 // where the command returns no result.
 //
 // An exception thrown after the call went down and succeeded is answered with that error all the
-// same: the application is told the call failed, although the driver did it. What the driver
-// created for it (a vkCreate*'s object) is then not destroyed, since the layer cannot tell how much
-// of it its own state already holds; the application, told the call failed, will neither use nor
-// destroy it, so it stays alive in the driver until its parent is destroyed. The error line says so.
+// same: the application is told the call failed, although the driver (for OpenXR, the runtime) did
+// it. What that made for it (a vkCreate*'s object) is then not destroyed, since the layer cannot
+// tell how much of it its own state already holds; the application, told the call failed, will
+// neither use nor destroy it, so it stays alive below splitvk until its parent is destroyed. The
+// error line says so.
 
 #include <vulkan/vulkan.h>
 

@@ -150,7 +150,7 @@ TEST_F(Boundary, ExceptionInsideTheLayerStopsTheSplitNotTheApp) {
 
 // A command that returns a VkResult and creates an object: the exception after the driver made the
 // fence fails the call with VK_ERROR_OUT_OF_HOST_MEMORY (the probe stops there, exit 1, its own
-// line with -1), and the layer's one line says the fence stays with the driver.
+// line with -1), and the layer's one line says the fence stays alive below it.
 TEST_F(Boundary, ExceptionInACreateFailsItWithOutOfHostMemory) {
     Env e = env();
     use_explicit_layers(e, {kLayerName});
@@ -166,9 +166,9 @@ TEST_F(Boundary, ExceptionInACreateFailsItWithOutOfHostMemory) {
     ASSERT_EQ(errors.size(), 1u) << tail(r.err());
     EXPECT_EQ(errors[0],
               "[splitvk] error: vkCreateFence: std::bad_alloc (std::bad_alloc) thrown inside splitvk; "
-              "the call returns VK_ERROR_OUT_OF_HOST_MEMORY (what the driver made for it, if anything, "
-              "is not destroyed: it stays alive until its parent is); splitvk stops splitting this device: "
-              "running unsplit from now on");
+              "the call returns VK_ERROR_OUT_OF_HOST_MEMORY (what was made for it below splitvk, if "
+              "anything, is not destroyed: it stays alive until its parent is); splitvk stops splitting "
+              "this device: running unsplit from now on");
 }
 
 } // namespace
