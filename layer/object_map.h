@@ -19,6 +19,8 @@ namespace splitvk {
 template <typename Key, typename State>
 class ObjectMap {
 public:
+    // Replaces any state `key` had: for a handle the driver has just made (and so may reuse from
+    // an object destroyed before), never one another thread may be naming for the first time.
     State *insert(Key key, std::unique_ptr<State> state) {
         std::unique_lock lock(mutex_);
         auto &slot = map_[key];
