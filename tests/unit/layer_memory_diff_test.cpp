@@ -123,7 +123,7 @@ TEST(LayerMappedShadow, ARemapOfAnUnmappedRangeSendsOnlyNewWrites) {
 
 // Exit status 0 when a shadow of 1 GiB, under an address space cap of 256 MiB, is refused
 // cleanly: no shadow, and nothing compared.
-int shadow_without_memory() {
+[[maybe_unused]] int shadow_without_memory() {
     rlimit cap{};
     cap.rlim_cur = cap.rlim_max = rlim_t{256} << 20;
     if (setrlimit(RLIMIT_AS, &cap) != 0) return 2;
