@@ -309,10 +309,23 @@ std::vector<uint8_t> encode(const SwapchainImages &m) {
     return encode_fields(m, 56 + 8 * m.image_ids.size());
 }
 
+namespace {
+
+// A VkFormat field of a message: an enumerant's values stop at INT32_MAX, and a larger value is no
+// VkFormat at all (holding it in one is undefined), so a decoder refuses it before anything looks
+// the format up.
+void check_format(Decoder &d, uint32_t format) {
+    if (d.ok() && format > uint32_t{INT32_MAX})
+        d.fail("format " + std::to_string(format) + " is no VkFormat");
+}
+
+} // namespace
+
 Result<SwapchainImages> decode_swapchain_images(std::span<const uint8_t> payload) {
     Decoder d(payload);
     SwapchainImages m;
     fields(d, m);
+    check_format(d, m.format);
     if (d.ok() && (m.width == 0 || m.height == 0 || m.width > kMaxVerifyExtent ||
                    m.height > kMaxVerifyExtent || m.array_layers == 0 || m.array_layers > 16))
         d.fail("swapchain extent or layers out of range");
@@ -396,8 +409,9 @@ Result<VerifyFrame> decode_verify_frame(std::span<const uint8_t> payload, uint32
     Decoder d(payload, max_bytes);
     VerifyFrame m;
     fields(d, m);
+    check_format(d, m.format);
     // The agent reads an image back at its format's tile texel size, as it reads foveae.
-    const uint32_t texel_bytes = tile_texel_bytes(static_cast<VkFormat>(m.format));
+    const uint32_t texel_bytes = d.ok() ? tile_texel_bytes(static_cast<VkFormat>(m.format)) : 0;
     if (d.ok() && (m.layers == 0 || m.layers >= kMaxImageArrayLayers))
         d.fail("layer count " + std::to_string(m.layers) + " out of range");
     else if (d.ok() && texel_bytes == 0)
@@ -484,6 +498,7 @@ Result<ImageLayouts> decode_image_layouts(std::span<const uint8_t> payload) {
     Decoder d(payload);
     ImageLayouts m;
     fields(d, m);
+    check_format(d, m.format);
     if (d.ok() && (m.width == 0 || m.height == 0 || m.depth == 0 || m.width > kMaxImageExtent ||
                    m.height > kMaxImageExtent || m.depth > kMaxImageExtent))
         d.fail("extent " + std::to_string(m.width) + "x" + std::to_string(m.height) + "x" +
