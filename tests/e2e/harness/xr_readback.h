@@ -186,6 +186,19 @@ inline StatsSummary read_stats(const std::filesystem::path &csv) {
     return s;
 }
 
+// A native run's environment made a split one: splitvk's Vulkan layer on top of the chain, its
+// OpenXR API layer on, the agent at `agent`, per-frame stats into `stats`.
+inline void add_split_layers(Env &e, const std::string &agent, const std::filesystem::path &stats) {
+    e["VK_LAYER_PATH"] = explicit_layer_dir().string() + ":" + e["VK_LAYER_PATH"];
+    e["VK_INSTANCE_LAYERS"] = std::string(kLayerName) + ":" + e["VK_INSTANCE_LAYERS"];
+    e["XR_API_LAYER_PATH"] = (build_dir() / "manifest" / "openxr").string();
+    e["XR_ENABLE_API_LAYERS"] = kXrLayerName;
+    e["SPLITVK_SERVER"] = agent;
+    e["SPLITVK_STATS"] = stats.string();
+    e["SPLITVK_LOG_LEVEL"] = "info";
+    e["SPLITVK_TILE_WAIT"] = "60000"; // a busy machine must not turn the compared frames late
+}
+
 // Every row of the run's SPLITVK_STATS (at `csv`) split with tiles, none late, at least `min_frames`.
 inline void expect_split_stats(const std::filesystem::path &csv, int min_frames) {
     const StatsSummary s = read_stats(csv);

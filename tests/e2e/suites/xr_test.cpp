@@ -109,14 +109,7 @@ protected:
     // Split: splitvk's Vulkan layer above validation above the readback layer, its OpenXR layer on.
     Env split_env(const std::string &run, const Agent &agent) {
         Env e = native_env(run);
-        e["VK_LAYER_PATH"] = explicit_layer_dir().string() + ":" + e["VK_LAYER_PATH"];
-        e["VK_INSTANCE_LAYERS"] = std::string(kLayerName) + ":" + e["VK_INSTANCE_LAYERS"];
-        e["XR_API_LAYER_PATH"] = (build_dir() / "manifest" / "openxr").string();
-        e["XR_ENABLE_API_LAYERS"] = kXrLayerName;
-        e["SPLITVK_SERVER"] = agent.address();
-        e["SPLITVK_STATS"] = (out_ / run / "stats.csv").string();
-        e["SPLITVK_LOG_LEVEL"] = "info";
-        e["SPLITVK_TILE_WAIT"] = "60000"; // a busy machine must not turn the compared frames late
+        add_split_layers(e, agent.address(), out_ / run / "stats.csv");
         return e;
     }
 
@@ -252,14 +245,7 @@ protected:
 
     Env atrium_split_env(const std::string &run, const Agent &agent) {
         Env e = atrium_native_env(run);
-        e["VK_LAYER_PATH"] = explicit_layer_dir().string() + ":" + e["VK_LAYER_PATH"];
-        e["VK_INSTANCE_LAYERS"] = std::string(kLayerName) + ":" + e["VK_INSTANCE_LAYERS"];
-        e["XR_API_LAYER_PATH"] = (build_dir() / "manifest" / "openxr").string();
-        e["XR_ENABLE_API_LAYERS"] = kXrLayerName;
-        e["SPLITVK_SERVER"] = agent.address();
-        e["SPLITVK_STATS"] = (out_ / run / "stats.csv").string();
-        e["SPLITVK_LOG_LEVEL"] = "info";
-        e["SPLITVK_TILE_WAIT"] = "60000"; // a busy machine must not turn the compared frames late
+        add_split_layers(e, agent.address(), out_ / run / "stats.csv");
         return e;
     }
 
