@@ -736,31 +736,6 @@ void note_split_or_not(Session &session, uint64_t frame, bool split) {
     }
 }
 
-// The rows of OpenXR eye images released and not yet recorded: their frame's latency ends at its
-// xrEndFrame, after every release of the frame (finish_runtime_frame).
-std::mutex g_eye_rows_mutex;
-std::map<const DeviceState *, std::vector<FrameRecord>> g_eye_rows;
-
-void hold_eye_row(const DeviceState &dev, const FrameRecord &record) {
-    std::lock_guard lock(g_eye_rows_mutex);
-    g_eye_rows[&dev].push_back(record);
-}
-
-// Takes the held rows of frames up to `xr_frame` (every one when UINT64_MAX), in release order.
-std::vector<FrameRecord> take_eye_rows(const DeviceState &dev, uint64_t xr_frame) {
-    std::lock_guard lock(g_eye_rows_mutex);
-    const auto it = g_eye_rows.find(&dev);
-    if (it == g_eye_rows.end()) return {};
-    std::vector<FrameRecord> taken;
-    std::erase_if(it->second, [&](const FrameRecord &row) {
-        if (static_cast<uint64_t>(row.xr_frame) > xr_frame) return false;
-        taken.push_back(row);
-        return true;
-    });
-    if (it->second.empty()) g_eye_rows.erase(it);
-    return taken;
-}
-
 // SPLITVK_STATS: the application has this image from now on (FrameRecord::frame_latency_ms).
 void note_acquired(DeviceState &dev, VkSwapchainKHR swapchain, VkResult result, uint32_t index) {
     if (!dev.session || !dev.session->has_stats() || (result != VK_SUCCESS && result != VK_SUBOPTIMAL_KHR))
@@ -838,14 +813,14 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     }
     if (!split.split) {
         // An eye image unsplit (verified, passed through, or without an agent): its row says when it
-        // came and which frame it was of.
-        if (session.has_stats()) {
+        // came and which frame it was of. A swapchain that is never split (a depth one) has none.
+        if (session.has_stats() && swapchain.composable) {
             FrameRecord record;
             record.frame = frame;
             record.frame_ms = session.frame_interval_ms();
             record.xr_frame = static_cast<int64_t>(xr_frame);
             record.xr_view = xr_view;
-            hold_eye_row(dev, record);
+            dev.session->stats().hold_eye_row(record);
         }
         return;
     }
@@ -863,12 +838,12 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     p.xr_view = xr_view;
     FrameRecord record;
     composite_split_frame(dev, p, {}, /*lock=*/false, &record);
-    hold_eye_row(dev, record);
+    dev.session->stats().hold_eye_row(record);
 }
 
 void finish_runtime_frame(DeviceState &dev, uint64_t xr_frame, std::optional<double> frame_latency_ms) {
     if (!dev.session || !dev.session->has_stats()) return;
-    for (FrameRecord &row : take_eye_rows(dev, xr_frame)) {
+    for (FrameRecord &row : dev.session->stats().take_eye_rows(xr_frame)) {
         // An earlier frame's rows are here only if that frame was never ended: no latency.
         if (static_cast<uint64_t>(row.xr_frame) == xr_frame) row.frame_latency_ms = frame_latency_ms;
         dev.session->stats().record(row);
@@ -968,7 +943,7 @@ void report_split_summary(DeviceState &device) {
     if (!device.session) return;
     // Eye images of a frame that was never ended keep their rows, without a latency.
     if (device.session->has_stats())
-        for (const FrameRecord &row : take_eye_rows(device, UINT64_MAX))
+        for (const FrameRecord &row : device.session->stats().take_eye_rows(UINT64_MAX))
             device.session->stats().record(row);
     if (!device.session->splitting()) return;
     // A short session that never split ends before the warning's count: it says so now.

@@ -178,4 +178,20 @@ std::string FrameStats::summary() {
     return summary;
 }
 
+void FrameStats::hold_eye_row(const FrameRecord &record) {
+    std::lock_guard lock(held_mutex_);
+    held_eye_rows_.push_back(record);
+}
+
+std::vector<FrameRecord> FrameStats::take_eye_rows(uint64_t xr_frame) {
+    std::lock_guard lock(held_mutex_);
+    std::vector<FrameRecord> taken;
+    std::erase_if(held_eye_rows_, [&](const FrameRecord &row) {
+        if (static_cast<uint64_t>(row.xr_frame) > xr_frame) return false;
+        taken.push_back(row);
+        return true;
+    });
+    return taken;
+}
+
 } // namespace splitvk

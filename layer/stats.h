@@ -117,11 +117,20 @@ public:
     // time median ...".
     std::string summary();
 
+    // OpenXR: an eye image's row, held from its release until its frame's xrEndFrame, whose return
+    // ends the frame's latency; take_eye_rows() hands back those of frames up to `xr_frame`
+    // (every one for UINT64_MAX), in release order.
+    void hold_eye_row(const FrameRecord &record);
+    std::vector<FrameRecord> take_eye_rows(uint64_t xr_frame);
+
     // The CSV header: column names with their units.
     static const char *csv_header();
 
 private:
     std::mutex mutex_;
+    // held_eye_rows_, apart from mutex_: rows taken out are then record()ed.
+    std::mutex held_mutex_;
+    std::vector<FrameRecord> held_eye_rows_;
     // Appends `text` with one write (a regular file takes it whole); false after an error.
     bool append(const std::string &text);
 
