@@ -9,6 +9,11 @@ Every forwarded command gets an entry point in namespace splitvk::entry, of one 
   call, then the hand-written rewrite::<Name>, which makes the driver call with the split's changes;
 - manual (MANUAL_COMMANDS): declared here, defined by hand in layer/.
 The observe:: and rewrite:: hooks are declared in the generated header.
+
+What the loader is handed is none of those but its exception boundary in namespace splitvk::boundary
+(layer/entry_boundary.h), one per command, generated here for the four kinds alike: the entry point
+called in a try block, and a catch that turns whatever was thrown into one line and the command's
+error result, so that no exception unwinds into the application.
 """
 from allowlist import DEVICE_EXTENSIONS
 from codec_policy import FORWARD, POLICY
@@ -189,6 +194,35 @@ def _rewritten_body(c, by_name, handle_types):
             _capture_block(c, canon, handle_types, " && result >= 0") + ["    return result;"])
 
 
+def _boundary_function(c):
+    """The exception boundary of `c`'s entry point (layer/entry_boundary.h): what vkGet*ProcAddr hand out."""
+    ret = c.return_type
+    call = f"entry::{c.short_name}({c.arguments})"
+    # The device whose split an exception ends: the one a device-level call is made on. None for
+    # vkDestroyDevice, whose handle the driver may have freed by then (and whose state is gone).
+    first = c.params[0]
+    on_device = c.level == "device" and c.name != "vkDestroyDevice"
+    key = f"find_device(dispatch_key({first.name}))" if on_device else "nullptr"
+    creates = "true" if c.name.startswith(("vkCreate", "vkAllocate")) else "false"
+    returns = {"void": "Nothing", "VkResult": "VkResult"}.get(ret, "Value")
+    threw = (f'entry_threw("{c.name}", {key}, EntryReturns::{returns}, {creates}, said)')
+    if ret == "void":
+        body = [f"        {call};", f'        test_throw_point("{c.name}");']
+        caught = [f"        {threw};"]
+    else:
+        body = [f"        const {ret} result = {call};", f'        test_throw_point("{c.name}");',
+                "        return result;"]
+        if ret == "VkResult":
+            caught = [f"        return vk_result_of_throw({threw});"]
+        else:
+            caught = [f"        {threw};", "        return {};"]
+    return [f"VKAPI_ATTR {ret} VKAPI_CALL {c.short_name}({c.signature}) {{",
+            "    try {", *body,
+            "    } catch (...) {",
+            "        static std::atomic<bool> said{false};", *caught,
+            "    }", "}", ""]
+
+
 def emit(model):
     commands = [c for c in model.commands if c.name not in LOADER_ANSWERED]
     by_name = {c.name: c for c in model.commands}
@@ -232,6 +266,13 @@ def emit(model):
         header += guarded(c.protect, [
             f"VKAPI_ATTR {c.return_type} VKAPI_CALL {c.short_name}({c.signature});"])
     header += ["", "} // namespace entry", "",
+               "// What the loader is handed: each entry point inside its exception boundary",
+               "// (entry_boundary.h). The layer's own calls go to entry:: directly.",
+               "namespace boundary {", ""]
+    for c in commands:
+        header += guarded(c.protect, [
+            f"VKAPI_ATTR {c.return_type} VKAPI_CALL {c.short_name}({c.signature});"])
+    header += ["", "} // namespace boundary", "",
                "struct DeviceState;", "",
                "// Hand-written observers of generated entry points (layer_overrides.OBSERVED_COMMANDS).",
                "namespace observe {", ""]
@@ -251,7 +292,7 @@ def emit(model):
     header += ["", "} // namespace rewrite", "} // namespace splitvk", ""]
 
     source = [HEADER.format(script="emit_layer.py"), '#include "layer_entry_points.h"', "",
-              '#include "capture.h"', '#include "descriptor_set.h"', '#include "dispatch.h"', '#include "vk_codec.h"', "", "#include <algorithm>", "#include <cstring>", "#include <iterator>", "#include <span>", "#include <vector>", "",
+              '#include "capture.h"', '#include "descriptor_set.h"', '#include "dispatch.h"', '#include "entry_boundary.h"', '#include "vk_codec.h"', "", "#include <algorithm>", "#include <atomic>", "#include <cstring>", "#include <iterator>", "#include <span>", "#include <vector>", "",
               "namespace splitvk {", "namespace entry {", ""]
     for c in commands:
         if c.name in MANUAL_COMMANDS:
@@ -266,13 +307,16 @@ def emit(model):
         source += guarded(c.protect, [
             f"VKAPI_ATTR {c.return_type} VKAPI_CALL {c.short_name}({c.signature}) {{",
             *body, "}", ""])
-    source += ["} // namespace entry", "",
+    source += ["} // namespace entry", "", "namespace boundary {", ""]
+    for c in commands:
+        source += guarded(c.protect, _boundary_function(c))
+    source += ["} // namespace boundary", "",
                "namespace {", "",
                "// Sorted by name (strcmp order) for binary search.",
                "const EntryPoint kEntryPoints[] = {"]
     for c in sorted(commands, key=lambda c: c.name.encode()):
         source += guarded(c.protect, [
-            f"    {{\"{c.name}\", reinterpret_cast<PFN_vkVoidFunction>(entry::{c.short_name}), "
+            f"    {{\"{c.name}\", reinterpret_cast<PFN_vkVoidFunction>(boundary::{c.short_name}), "
             f"{_LEVEL_ENUM[c.level]}}},"])
     source += ["};", ""]
     source += ["const char *const kForwardedDeviceExtensions[] = {"]

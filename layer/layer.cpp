@@ -1,12 +1,14 @@
 // The loader interface: version negotiation and the layer's vkGet*ProcAddr.
 
 #include "device.h"
+#include "entry_boundary.h"
 #include "instance.h"
 #include "layer_entry_points.h"
 #include "layer_settings.h"
 
 #include <vulkan/vk_layer.h>
 
+#include <atomic>
 #include <cstring>
 
 namespace splitvk {
@@ -25,7 +27,7 @@ namespace entry {
 VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetDeviceProcAddr(VkDevice device, const char *pName) {
     if (!pName) return nullptr;
     if (std::strcmp(pName, "vkGetDeviceProcAddr") == 0) {
-        return reinterpret_cast<PFN_vkVoidFunction>(GetDeviceProcAddr);
+        return reinterpret_cast<PFN_vkVoidFunction>(boundary::GetDeviceProcAddr);
     }
     const EntryPoint *entry = find_entry_point(pName);
     const bool device_level = entry && entry->level == EntryLevel::Device;
@@ -36,7 +38,7 @@ VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetDeviceProcAddr(VkDevice device, cons
     if (!state && device != VK_NULL_HANDLE) {
         if (const PFN_vkGetDeviceProcAddr next = passthrough_device_proc_addr(dispatch_key(device))) {
             if (std::strcmp(pName, "vkDestroyDevice") == 0)
-                return reinterpret_cast<PFN_vkVoidFunction>(DestroyDevice);
+                return reinterpret_cast<PFN_vkVoidFunction>(boundary::DestroyDevice);
             return next(device, pName);
         }
     }
@@ -48,10 +50,10 @@ VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetDeviceProcAddr(VkDevice device, cons
 VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetInstanceProcAddr(VkInstance instance, const char *pName) {
     if (!pName) return nullptr;
     if (std::strcmp(pName, "vkGetInstanceProcAddr") == 0) {
-        return reinterpret_cast<PFN_vkVoidFunction>(GetInstanceProcAddr);
+        return reinterpret_cast<PFN_vkVoidFunction>(boundary::GetInstanceProcAddr);
     }
     if (std::strcmp(pName, "vkGetDeviceProcAddr") == 0) {
-        return reinterpret_cast<PFN_vkVoidFunction>(GetDeviceProcAddr);
+        return reinterpret_cast<PFN_vkVoidFunction>(boundary::GetDeviceProcAddr);
     }
     const EntryPoint *entry = find_entry_point(pName);
     if (entry && entry->level == EntryLevel::Global) return entry->function;
@@ -68,15 +70,10 @@ VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetInstanceProcAddr(VkInstance instance
 } // namespace entry
 } // namespace splitvk
 
-// The library's only exported symbol (see layer.map). Interface version 2 hands the loader our
-// vkGet*ProcAddr through the negotiation struct, so they are not exported: a loader that fails
-// to negotiate then finds no fallback and leaves the layer out, which is how SPLITVK_DISABLE=1
-// takes effect even when VK_INSTANCE_LAYERS names the layer. Not exporting them also means no
-// call inside this library can bind to the loader's own vkGetInstanceProcAddr.
-extern "C" {
+namespace splitvk {
+namespace {
 
-[[gnu::visibility("default")]] VKAPI_ATTR VkResult VKAPI_CALL
-vkNegotiateLoaderLayerInterfaceVersion(VkNegotiateLayerInterface *pVersionStruct) {
+VkResult negotiate(VkNegotiateLayerInterface *pVersionStruct) {
     if (!pVersionStruct || pVersionStruct->sType != LAYER_NEGOTIATE_INTERFACE_STRUCT) {
         return VK_ERROR_INITIALIZATION_FAILED;
     }
@@ -87,13 +84,37 @@ vkNegotiateLoaderLayerInterfaceVersion(VkNegotiateLayerInterface *pVersionStruct
     // global enumeration commands from the manifest.
     if (pVersionStruct->loaderLayerInterfaceVersion < 2) return VK_ERROR_INITIALIZATION_FAILED;
     pVersionStruct->loaderLayerInterfaceVersion = 2;
-    pVersionStruct->pfnGetInstanceProcAddr = splitvk::entry::GetInstanceProcAddr;
-    pVersionStruct->pfnGetDeviceProcAddr = splitvk::entry::GetDeviceProcAddr;
+    // Every function the library hands out is an entry point inside its exception boundary
+    // (entry_boundary.h): these two, and all they answer with.
+    pVersionStruct->pfnGetInstanceProcAddr = splitvk::boundary::GetInstanceProcAddr;
+    pVersionStruct->pfnGetDeviceProcAddr = splitvk::boundary::GetDeviceProcAddr;
     // vk_layerGetPhysicalDeviceProcAddr is only asked for physical-device commands the loader does
     // not know; every one splitvk intercepts is known and reaches it through GetInstanceProcAddr.
     // Without one, the loader hands the layers above us the next layer's.
     pVersionStruct->pfnGetPhysicalDeviceProcAddr = nullptr;
     return VK_SUCCESS;
+}
+
+} // namespace
+} // namespace splitvk
+
+extern "C" {
+
+// The library's only exported symbol (see layer.map). Interface version 2 hands the loader our
+// vkGet*ProcAddr through the negotiation struct, so they are not exported: a loader that fails
+// to negotiate then finds no fallback and leaves the layer out, which is how SPLITVK_DISABLE=1
+// takes effect even when VK_INSTANCE_LAYERS names the layer. Not exporting them also means no
+// call inside this library can bind to the loader's own vkGetInstanceProcAddr.
+// Its exception boundary is written out here: it is in no table.
+[[gnu::visibility("default")]] VKAPI_ATTR VkResult VKAPI_CALL
+vkNegotiateLoaderLayerInterfaceVersion(VkNegotiateLayerInterface *pVersionStruct) {
+    try {
+        return splitvk::negotiate(pVersionStruct);
+    } catch (...) {
+        static std::atomic<bool> said{false};
+        return splitvk::vk_result_of_throw(splitvk::entry_threw(
+            "vkNegotiateLoaderLayerInterfaceVersion", nullptr, splitvk::EntryReturns::VkResult, false, said));
+    }
 }
 
 } // extern "C"

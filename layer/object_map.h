@@ -11,6 +11,7 @@
 #include <mutex>
 #include <shared_mutex>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace splitvk {
@@ -18,11 +19,25 @@ namespace splitvk {
 template <typename Key, typename State>
 class ObjectMap {
 public:
+    // Replaces any state `key` had: for a handle the driver has just made (and so may reuse from
+    // an object destroyed before), never one another thread may be naming for the first time.
     State *insert(Key key, std::unique_ptr<State> state) {
         std::unique_lock lock(mutex_);
         auto &slot = map_[key];
         slot = std::move(state);
         return slot.get();
+    }
+
+    // The state of `key`, made by `make()` under the map's lock if there was none, and whether
+    // this call made it. For objects that several threads may name first at once (a queue that
+    // vkGetDeviceQueue hands to each): a check then an insert would let two of them make a state
+    // each and the second replace the first while another thread holds it.
+    template <class Make>
+    std::pair<State *, bool> insert_if_absent(Key key, Make &&make) {
+        std::unique_lock lock(mutex_);
+        auto [it, inserted] = map_.try_emplace(key);
+        if (inserted) it->second = make();
+        return {it->second.get(), inserted};
     }
 
     State *find(Key key) const {

@@ -64,12 +64,15 @@ std::map<const DeviceState *, std::vector<VkQueue>> g_device_queues;
 
 void note_queue(DeviceState &dev, VkQueue queue, uint32_t family) {
     if (!dev.session || queue == VK_NULL_HANDLE) return;
-    if (g_queues.find(queue)) return; // keeps the mutex another thread may hold
-    auto info = std::make_unique<QueueInfo>();
-    info->family = family;
-    g_queues.insert(queue, std::move(info));
+    // Under the device list's lock, so that a vkDeviceWaitIdle after any thread's vkGetDeviceQueue
+    // returned finds the queue in its list, and finds it there once: it locks each queue it lists.
     std::lock_guard lock(g_device_queues_mutex);
-    g_device_queues[&dev].push_back(queue);
+    const auto make = [&] {
+        auto info = std::make_unique<QueueInfo>();
+        info->family = family;
+        return info;
+    };
+    if (g_queues.insert_if_absent(queue, make).second) g_device_queues[&dev].push_back(queue);
 }
 
 // Every queue of `dev`, locked in one order (by handle) so that two callers cannot deadlock.

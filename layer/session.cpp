@@ -565,6 +565,22 @@ void Session::fail(const std::string &reason) {
     }
 }
 
+bool Session::abandon() {
+    if (abandoned_.exchange(true)) return false;
+    {
+        std::lock_guard lock(reconnect_mutex_);
+        closing_ = true; // the reconnector ends; close() or the destructor joins it
+        pending_agent_.reset();
+        resync_pending_.store(false);
+    }
+    failure_logged_.store(true);
+    if (client_renders() == ClientRenders::Fovea) force_out_of_date_.store(true);
+    live_.store(false);
+    if (tiles_) tiles_->abandon();
+    reconnect_wake_.notify_all();
+    return true;
+}
+
 void Session::send_metadata_logged(protocol::MessageType type, std::vector<uint8_t> &&payload,
                                    uint64_t holder, std::span<const uint64_t> killers) {
     std::lock_guard lock(mutex_);

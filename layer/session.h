@@ -241,6 +241,13 @@ public:
     // split cutting() turns false with it, and the next present answers VK_ERROR_OUT_OF_DATE_KHR
     // once (take_forced_out_of_date()).
     void fail(const std::string &reason);
+    // An exception inside the layer (entry_boundary.h) left the capture stream or the layer's state
+    // with a hole an agent would replay: the agent is dropped and none is brought in again, for the
+    // session's life; its frames show what fallback() says. No line of its own (the boundary's says
+    // it). True for the call that ended the replication, false after.
+    bool abandon();
+    // What the application gets once no agent serves the session, for log lines.
+    const char *fallback() const;
     // The swapped split lost its agent since the last call: the application's next present answers
     // VK_ERROR_OUT_OF_DATE_KHR, so that an application that records its command buffers once (cut
     // to the foveae) recreates its swapchain and records them again, whole. True once per loss.
@@ -285,7 +292,6 @@ private:
     void adopt_locked(AgentLink &&agent);
     void stop_receiver();
     void run_reconnect();
-    const char *fallback() const; // what the app gets once the agent is gone, for log lines
     // The agent's messages, on a thread of the layer's: Tiles to the decoders, VerifyFrame to
     // receive_verify_frame(), Goodbye ends the session.
     void run_receiver();
@@ -302,6 +308,7 @@ private:
     std::mutex mutex_;
     std::atomic<bool> live_{false};
     std::atomic<bool> failure_logged_{false};
+    std::atomic<bool> abandoned_{false}; // abandon()
     std::atomic<uint64_t> frame_{0};
     bool verify_ = false;
     std::atomic<bool> splitting_{false};

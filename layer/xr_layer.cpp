@@ -31,6 +31,7 @@
 
 #include "agent_link.h"
 #include "device.h"
+#include "entry_boundary.h"
 #include "gaze.h"
 #include "layer_settings.h"
 #include "log.h"
@@ -42,6 +43,7 @@
 #include <vulkan/vulkan.h>
 #define XR_USE_GRAPHICS_API_VULKAN
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -49,6 +51,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <string_view>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -647,31 +650,90 @@ XRAPI_ATTR XrResult XRAPI_CALL BeginFrame(XrSession session, const XrFrameBeginI
 XRAPI_ATTR XrResult XRAPI_CALL GetInstanceProcAddr(XrInstance instance, const char *name,
                                                    PFN_xrVoidFunction *function);
 
+XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo *info,
+                                                      const XrApiLayerCreateInfo *layer_info,
+                                                      XrInstance *instance);
+
+// The exception boundary (entry_boundary.h) of every function this layer hands out: `Function`
+// inside a try block, named `Name` in the error line, with the split of the device its first
+// argument leads to (a session's, or its swapchain's session's) ended by an exception.
+template <size_t N>
+struct EntryName {
+    constexpr EntryName(const char (&text)[N]) { std::copy_n(text, N, name); }
+    char name[N];
+};
+
+template <class Handle>
+DeviceState *device_of(Handle) {
+    return nullptr;
+}
+DeviceState *device_of(XrSession session) {
+    std::lock_guard lock(g_mutex);
+    const auto it = g_sessions.find(session);
+    return it == g_sessions.end() ? nullptr : it->second->device;
+}
+DeviceState *device_of(XrSwapchain swapchain) {
+    XrSession session = XR_NULL_HANDLE;
+    {
+        std::lock_guard lock(g_mutex);
+        const auto it = g_swapchains.find(swapchain);
+        if (it == g_swapchains.end()) return nullptr;
+        session = it->second->session;
+    }
+    return device_of(session);
+}
+
+template <auto Function, EntryName Name>
+struct Boundary;
+template <class First, class... Rest, XrResult (*Function)(First, Rest...), EntryName Name>
+struct Boundary<Function, Name> {
+    static XRAPI_ATTR XrResult XRAPI_CALL call(First first, Rest... rest) {
+        try {
+            const XrResult result = Function(first, rest...);
+            test_throw_point(Name.name);
+            return result;
+        } catch (...) {
+            static std::atomic<bool> said{false};
+            constexpr bool creates = std::string_view(Name.name).starts_with("xrCreate");
+            return entry_threw(Name.name, device_of(first), EntryReturns::XrResult, creates, said)
+                       ? XR_ERROR_OUT_OF_MEMORY
+                       : XR_ERROR_RUNTIME_FAILURE;
+        }
+    }
+};
+
 struct Intercepted {
     const char *name;
     PFN_xrVoidFunction function;
 };
+template <auto Function, EntryName Name>
+Intercepted intercepted() {
+    return {Name.name, reinterpret_cast<PFN_xrVoidFunction>(&Boundary<Function, Name>::call)};
+}
+
 const Intercepted kIntercepted[] = {
-    {"xrGetInstanceProcAddr", reinterpret_cast<PFN_xrVoidFunction>(GetInstanceProcAddr)},
-    {"xrDestroyInstance", reinterpret_cast<PFN_xrVoidFunction>(DestroyInstance)},
-    {"xrCreateSession", reinterpret_cast<PFN_xrVoidFunction>(CreateSession)},
-    {"xrDestroySession", reinterpret_cast<PFN_xrVoidFunction>(DestroySession)},
-    {"xrCreateSwapchain", reinterpret_cast<PFN_xrVoidFunction>(CreateSwapchain)},
-    {"xrDestroySwapchain", reinterpret_cast<PFN_xrVoidFunction>(DestroySwapchain)},
-    {"xrEnumerateSwapchainImages", reinterpret_cast<PFN_xrVoidFunction>(EnumerateSwapchainImages)},
-    {"xrAcquireSwapchainImage", reinterpret_cast<PFN_xrVoidFunction>(AcquireSwapchainImage)},
-    {"xrReleaseSwapchainImage", reinterpret_cast<PFN_xrVoidFunction>(ReleaseSwapchainImage)},
-    {"xrEndFrame", reinterpret_cast<PFN_xrVoidFunction>(EndFrame)},
-    {"xrWaitFrame", reinterpret_cast<PFN_xrVoidFunction>(WaitFrame)},
-    {"xrBeginFrame", reinterpret_cast<PFN_xrVoidFunction>(BeginFrame)},
+    intercepted<GetInstanceProcAddr, "xrGetInstanceProcAddr">(),
+    intercepted<DestroyInstance, "xrDestroyInstance">(),
+    intercepted<CreateSession, "xrCreateSession">(),
+    intercepted<DestroySession, "xrDestroySession">(),
+    intercepted<CreateSwapchain, "xrCreateSwapchain">(),
+    intercepted<DestroySwapchain, "xrDestroySwapchain">(),
+    intercepted<EnumerateSwapchainImages, "xrEnumerateSwapchainImages">(),
+    intercepted<AcquireSwapchainImage, "xrAcquireSwapchainImage">(),
+    intercepted<ReleaseSwapchainImage, "xrReleaseSwapchainImage">(),
+    intercepted<EndFrame, "xrEndFrame">(),
+    intercepted<WaitFrame, "xrWaitFrame">(),
+    intercepted<BeginFrame, "xrBeginFrame">(),
 };
 // The eye gaze's, handed out only for instances that have it: their InstanceState::gaze is never null.
 const Intercepted kInterceptedForGaze[] = {
-    {"xrSuggestInteractionProfileBindings",
-     reinterpret_cast<PFN_xrVoidFunction>(SuggestInteractionProfileBindings)},
-    {"xrAttachSessionActionSets", reinterpret_cast<PFN_xrVoidFunction>(AttachSessionActionSets)},
-    {"xrSyncActions", reinterpret_cast<PFN_xrVoidFunction>(SyncActions)},
+    intercepted<SuggestInteractionProfileBindings, "xrSuggestInteractionProfileBindings">(),
+    intercepted<AttachSessionActionSets, "xrAttachSessionActionSets">(),
+    intercepted<SyncActions, "xrSyncActions">(),
 };
+// What the loader is handed at negotiation, inside the same boundary.
+const auto kGetInstanceProcAddr = &Boundary<GetInstanceProcAddr, "xrGetInstanceProcAddr">::call;
+const auto kCreateApiLayerInstance = &Boundary<CreateApiLayerInstance, "xrCreateApiLayerInstance">::call;
 
 XRAPI_ATTR XrResult XRAPI_CALL GetInstanceProcAddr(XrInstance instance, const char *name,
                                                    PFN_xrVoidFunction *function) {
@@ -774,9 +836,11 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
 } // namespace
 } // namespace splitvk::xr
 
-extern "C" __attribute__((visibility("default"))) XrResult XRAPI_CALL xrNegotiateLoaderApiLayerInterface(
-    const XrNegotiateLoaderInfo *loader_info, const char *layer_name, XrNegotiateApiLayerRequest *request) {
-    using namespace splitvk::xr;
+namespace splitvk::xr {
+namespace {
+
+XrResult negotiate(const XrNegotiateLoaderInfo *loader_info, const char *layer_name,
+                   XrNegotiateApiLayerRequest *request) {
     if (!loader_info || !request || loader_info->structType != XR_LOADER_INTERFACE_STRUCT_LOADER_INFO ||
         loader_info->structVersion != XR_LOADER_INFO_STRUCT_VERSION ||
         loader_info->structSize != sizeof(XrNegotiateLoaderInfo) ||
@@ -792,7 +856,24 @@ extern "C" __attribute__((visibility("default"))) XrResult XRAPI_CALL xrNegotiat
     if (splitvk::disabled_by_environment()) return XR_ERROR_INITIALIZATION_FAILED;
     request->layerInterfaceVersion = XR_CURRENT_LOADER_API_LAYER_VERSION;
     request->layerApiVersion = XR_CURRENT_API_VERSION;
-    request->getInstanceProcAddr = GetInstanceProcAddr;
-    request->createApiLayerInstance = CreateApiLayerInstance;
+    request->getInstanceProcAddr = kGetInstanceProcAddr;
+    request->createApiLayerInstance = kCreateApiLayerInstance;
     return XR_SUCCESS;
+}
+
+} // namespace
+} // namespace splitvk::xr
+
+// Its exception boundary is written out here: it is in no table.
+extern "C" __attribute__((visibility("default"))) XrResult XRAPI_CALL xrNegotiateLoaderApiLayerInterface(
+    const XrNegotiateLoaderInfo *loader_info, const char *layer_name, XrNegotiateApiLayerRequest *request) {
+    try {
+        return splitvk::xr::negotiate(loader_info, layer_name, request);
+    } catch (...) {
+        static std::atomic<bool> said{false};
+        return splitvk::entry_threw("xrNegotiateLoaderApiLayerInterface", nullptr,
+                                    splitvk::EntryReturns::XrResult, false, said)
+                   ? XR_ERROR_OUT_OF_MEMORY
+                   : XR_ERROR_RUNTIME_FAILURE;
+    }
 }

@@ -10,12 +10,15 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <iostream>
 #include <map>
 #include <regex>
 #include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 namespace splitvk::e2e {
 
@@ -181,6 +184,33 @@ inline StatsSummary read_stats(const std::filesystem::path &csv) {
         s.with_tiles += s.last_with_tiles;
     }
     return s;
+}
+
+// Every row of the run's SPLITVK_STATS (at `csv`) split with tiles, none late, at least `min_frames`.
+inline void expect_split_stats(const std::filesystem::path &csv, int min_frames) {
+    const StatsSummary s = read_stats(csv);
+    std::cout << "  " << csv.parent_path().filename().string() << ": " << s.frames << " frames split, "
+              << s.with_tiles << " with tiles, " << s.late << " late\n";
+    EXPECT_GE(s.frames, min_frames) << "SPLITVK_STATS: too few split frames";
+    EXPECT_EQ(s.late, 0) << "SPLITVK_STATS: late frames";
+    EXPECT_EQ(s.with_tiles, s.frames) << "SPLITVK_STATS: frames without tiles";
+}
+
+// No Khronos validation message ID in the split run's log that the native run's lacks.
+inline void expect_no_new_validation(const std::filesystem::path &native_log,
+                                     const std::filesystem::path &split_log) {
+    const auto native = message_ids(native_log);
+    const auto split = message_ids(split_log);
+    int native_n = 0, split_n = 0;
+    for (const auto &[id, n] : native)
+        native_n += n;
+    for (const auto &[id, n] : split)
+        split_n += n;
+    std::cout << "  Khronos validation: " << native_n << " message(s) native, " << split_n << " split\n";
+    for (const auto &[id, n] : split)
+        EXPECT_TRUE(native.count(id))
+            << "validation message " << id << " (x" << n << ") only with splitvk; native:" << describe(native)
+            << "\nsplit:" << describe(split) << "\nfirst: " << first_message(read_file(split_log));
 }
 
 } // namespace splitvk::e2e

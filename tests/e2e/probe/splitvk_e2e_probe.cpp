@@ -4,7 +4,7 @@
 // and creates and destroys a descriptor set layout and a descriptor pool.
 //
 //   splitvk-e2e-probe [--app-name NAME] [--sync-hazard] [--device-extension NAME]...
-//                     [--list-device-extensions]
+//                     [--list-device-extensions] [--concurrent-queues ROUNDS]
 //
 // With --sync-hazard the barrier between the two fills is left out: a write-after-write hazard that
 // only synchronization validation reports. The validation tests use it to prove that
@@ -14,11 +14,19 @@
 // that enables extensions blindly does (the unsupported-extension tests). --list-device-extensions
 // prints `device extension: NAME` for each extension vkEnumerateDeviceExtensionProperties lists, and
 // stops before creating a device.
+// --concurrent-queues ROUNDS creates and destroys ROUNDS devices instead; on each, several threads
+// released at once call vkGetDeviceQueue for the same queues (legal: it needs no external
+// synchronisation), then the main thread calls vkDeviceWaitIdle. It prints
+// `concurrent queues: R rounds, T threads` once all returned.
 #include <vulkan/vulkan.h>
 
+#include <algorithm>
+#include <atomic>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace {
@@ -37,7 +45,57 @@ struct Options {
     bool sync_hazard = false;
     std::vector<const char *> device_extensions;
     bool list_device_extensions = false;
+    int concurrent_queue_rounds = 0;
 };
+
+// --concurrent-queues: each round a fresh device, so that every round's vkGetDeviceQueue calls are
+// the first for their queues, which is when the layer learns of a queue.
+int concurrent_queues(VkPhysicalDevice gpu, uint32_t family, uint32_t queue_count, int rounds) {
+    constexpr int kThreads = 8;
+    const std::vector<float> priorities(queue_count, 1.0f);
+    VkDeviceQueueCreateInfo qci{};
+    qci.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO;
+    qci.queueFamilyIndex = family;
+    qci.queueCount = queue_count;
+    qci.pQueuePriorities = priorities.data();
+    VkDeviceCreateInfo dci{};
+    dci.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+    dci.queueCreateInfoCount = 1;
+    dci.pQueueCreateInfos = &qci;
+    for (int round = 0; round < rounds; ++round) {
+        VkDevice device = VK_NULL_HANDLE;
+        CHECK(vkCreateDevice(gpu, &dci, nullptr, &device));
+        // Resolved once: the loader's trampoline is not what is raced.
+        const auto get_queue =
+            reinterpret_cast<PFN_vkGetDeviceQueue>(vkGetDeviceProcAddr(device, "vkGetDeviceQueue"));
+        std::atomic<int> ready{0};
+        std::atomic<bool> go{false};
+        std::vector<std::thread> threads;
+        std::vector<VkQueue> got(kThreads, VK_NULL_HANDLE);
+        for (int t = 0; t < kThreads; ++t)
+            threads.emplace_back([&, t] {
+                ready.fetch_add(1);
+                while (!go.load(std::memory_order_acquire))
+                    std::this_thread::yield();
+                get_queue(device, family, static_cast<uint32_t>(t) % queue_count, &got[t]);
+            });
+        while (ready.load() < kThreads)
+            std::this_thread::yield();
+        go.store(true, std::memory_order_release);
+        for (std::thread &thread : threads)
+            thread.join();
+        for (int t = 0; t < kThreads; ++t)
+            if (got[t] == VK_NULL_HANDLE || got[t] != got[t % queue_count]) {
+                std::fprintf(stderr, "splitvk-e2e-probe: round %d: thread %d got queue %p\n", round, t,
+                             static_cast<void *>(got[t]));
+                return 1;
+            }
+        CHECK(vkDeviceWaitIdle(device));
+        vkDestroyDevice(device, nullptr);
+    }
+    std::printf("concurrent queues: %d rounds, %d threads\n", rounds, kThreads);
+    return 0;
+}
 
 int run(const Options &options) {
     const std::string &app_name = options.app_name;
@@ -97,6 +155,13 @@ int run(const Options &options) {
     if (family == UINT32_MAX) {
         std::fprintf(stderr, "splitvk-e2e-probe: no usable queue family\n");
         return 1;
+    }
+
+    if (options.concurrent_queue_rounds > 0) {
+        const int result = concurrent_queues(gpu, family, std::min(families[family].queueCount, 4u),
+                                             options.concurrent_queue_rounds);
+        vkDestroyInstance(instance, nullptr);
+        return result;
     }
 
     float priority = 1.0f;
@@ -244,9 +309,12 @@ int main(int argc, char **argv) {
             options.device_extensions.push_back(argv[++i]);
         } else if (std::strcmp(argv[i], "--list-device-extensions") == 0) {
             options.list_device_extensions = true;
+        } else if (std::strcmp(argv[i], "--concurrent-queues") == 0 && i + 1 < argc) {
+            options.concurrent_queue_rounds = std::atoi(argv[++i]);
         } else {
             std::fprintf(stderr, "usage: splitvk-e2e-probe [--app-name NAME] [--sync-hazard] "
-                                 "[--device-extension NAME]... [--list-device-extensions]\n");
+                                 "[--device-extension NAME]... [--list-device-extensions] "
+                                 "[--concurrent-queues ROUNDS]\n");
             return 2;
         }
     }

@@ -217,29 +217,11 @@ protected:
     }
 
     void expect_split_stats(const std::string &run, int min_frames) {
-        const StatsSummary s = read_stats(out_ / run / "stats.csv");
-        std::cout << "  " << run << ": " << s.frames << " frames split, " << s.with_tiles << " with tiles, "
-                  << s.late << " late\n";
-        EXPECT_GE(s.frames, min_frames) << "SPLITVK_STATS: too few split frames";
-        EXPECT_EQ(s.late, 0) << "SPLITVK_STATS: late frames";
-        EXPECT_EQ(s.with_tiles, s.frames) << "SPLITVK_STATS: frames without tiles";
+        e2e::expect_split_stats(out_ / run / "stats.csv", min_frames);
     }
 
-    // No Khronos validation message ID in the split run that the native run lacks.
     void expect_no_new_validation(const std::string &native_run, const std::string &split_run) {
-        const auto native = message_ids(validation_logs_[native_run]);
-        const auto split = message_ids(validation_logs_[split_run]);
-        int native_n = 0, split_n = 0;
-        for (const auto &[id, n] : native)
-            native_n += n;
-        for (const auto &[id, n] : split)
-            split_n += n;
-        std::cout << "  Khronos validation: " << native_n << " message(s) native, " << split_n << " split\n";
-        for (const auto &[id, n] : split)
-            EXPECT_TRUE(native.count(id))
-                << "validation message " << id << " (x" << n
-                << ") only with splitvk; native:" << describe(native) << "\nsplit:" << describe(split)
-                << "\nfirst: " << first_message(read_file(validation_logs_[split_run]));
+        e2e::expect_no_new_validation(validation_logs_[native_run], validation_logs_[split_run]);
     }
 
     std::filesystem::path out_;

@@ -104,6 +104,7 @@ VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetInstanceProcAddr(VkInstance instance
     if (!std::strcmp(name, "vkCreateDevice")) return reinterpret_cast<PFN_vkVoidFunction>(CreateDevice);
     if (!std::strcmp(name, "vkGetDeviceProcAddr"))
         return reinterpret_cast<PFN_vkVoidFunction>(GetDeviceProcAddr);
+    if (const PFN_vkVoidFunction own = lifetime_entry_point(name)) return own;
     if (!instance) return nullptr;
     std::lock_guard lock(g_mutex);
     return g_instances[key(instance)].next(instance, name);
@@ -112,6 +113,7 @@ VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetInstanceProcAddr(VkInstance instance
 VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetDeviceProcAddr(VkDevice device, const char *name) {
     if (!std::strcmp(name, "vkGetDeviceProcAddr"))
         return reinterpret_cast<PFN_vkVoidFunction>(GetDeviceProcAddr);
+    if (const PFN_vkVoidFunction own = lifetime_entry_point(name)) return own;
     if (!std::strcmp(name, "vkDestroyDevice")) return reinterpret_cast<PFN_vkVoidFunction>(DestroyDevice);
     const PFN_vkVoidFunction next = next_device_proc_addr(device)(device, name);
     if (!next) return nullptr;
@@ -120,6 +122,10 @@ VKAPI_ATTR PFN_vkVoidFunction VKAPI_CALL GetDeviceProcAddr(VkDevice device, cons
 }
 
 } // namespace
+
+[[gnu::weak]] PFN_vkVoidFunction lifetime_entry_point(const char *) {
+    return nullptr;
+}
 
 PFN_vkGetDeviceProcAddr next_device_proc_addr(const void *dispatchable) {
     std::lock_guard lock(g_mutex);

@@ -27,6 +27,11 @@ PFN_vkVoidFunction next_instance_proc(VkPhysicalDevice gpu, const char *name);
 // allocated from the next layer) the dispatch pointer the loader's trampolines read.
 VkResult set_loader_data(VkDevice device, void *object);
 
+// Defined by a layer that replaces the plumbing's own end of an object (keep_layer/); a weak
+// default answers nullptr for the others: its vkDestroyDevice or vkDestroyInstance for `name`, or
+// nullptr to pass the call down as the plumbing does.
+PFN_vkVoidFunction lifetime_entry_point(const char *name);
+
 // Defined by each layer:
 // Its own device-level entry point for `name` (vkQueuePresentKHR, ...), or nullptr to hand the
 // next layer's out. Handed out only where the next layer has `name` (an extension's command is
