@@ -234,8 +234,10 @@ struct SplitPresent {
     double frame_ms = 0;                            // Session::frame_interval_ms() at the app's present
     double present_call_ms = 0;                     // the app's present, when the thread has the frame
     std::chrono::steady_clock::time_point called{}; // the app's present began
-    Session::FrameSizing sizing;                    // SPLITVK_FOVEA=auto
-    int64_t xr_frame = -1;                          // an OpenXR eye image's (FrameRecord::xr_frame)
+    // The application's acquire of the presented image returned (FrameRecord::frame_latency_ms).
+    std::optional<std::chrono::steady_clock::time_point> acquired;
+    Session::FrameSizing sizing; // SPLITVK_FOVEA=auto
+    int64_t xr_frame = -1;       // an OpenXR eye image's (FrameRecord::xr_frame)
     int32_t xr_view = -1;
     // Asynchronous: take_waits() has consumed the application's semaphores into `taken`, whose
     // batch signals `done`.
@@ -440,7 +442,8 @@ std::unordered_map<VkSwapchainKHR, SwapchainPresents> g_swapchain_presents;
 // The present thread's half of a frame: its tiles, the composite and the real present.
 VkResult present_split_frame(DeviceState &dev, SplitPresent &p) {
     const VkSemaphore taken = p.taken;
-    VkSemaphore wait = composite_split_frame(dev, p, {&taken, 1}, /*lock=*/true);
+    FrameRecord record;
+    VkSemaphore wait = composite_split_frame(dev, p, {&taken, 1}, /*lock=*/true, &record);
     if (!wait) wait = taken;
     VkPresentInfoKHR present{};
     present.sType = VK_STRUCTURE_TYPE_PRESENT_INFO_KHR;
@@ -450,8 +453,14 @@ VkResult present_split_frame(DeviceState &dev, SplitPresent &p) {
     const VkSwapchainKHR swapchain = p.swapchain->handle;
     present.pSwapchains = &swapchain;
     present.pImageIndices = &p.image_index;
-    const auto lock = lock_queue(p.queue);
-    return dev.dispatch.QueuePresentKHR(p.queue, &present);
+    VkResult result;
+    {
+        const auto lock = lock_queue(p.queue);
+        result = dev.dispatch.QueuePresentKHR(p.queue, &present);
+    }
+    record.frame_latency_ms = latency_ms(p.acquired, std::chrono::steady_clock::now());
+    dev.session->stats().record(record);
+    return result;
 }
 
 void run_present_thread(DeviceState &dev, PresentThread &t) {
@@ -692,12 +701,14 @@ VkResult forced_out_of_date(Session &session, const VkPresentInfoKHR &info, VkRe
 
 // A frame passed through (SPLITVK_FOVEA=auto): a row of the statistics with no fovea, and no tiles of
 // its own or older kept waiting.
-void note_passed_through(Session &session, uint64_t frame, double frame_ms) {
+void note_passed_through(Session &session, uint64_t frame, double frame_ms,
+                         std::optional<double> frame_latency_ms) {
     if (TileStream *tiles = session.tiles()) tiles->take(frame, std::chrono::steady_clock::now());
     FrameRecord record;
     record.frame = frame;
     record.frame_ms = frame_ms;
     record.passed_through = true;
+    record.frame_latency_ms = frame_latency_ms;
     session.stats().record(record);
 }
 
@@ -723,6 +734,28 @@ void note_split_or_not(Session &session, uint64_t frame, bool split) {
     } else if (session.unsplit_frames.fetch_add(1) + 1 == kUnsplitFramesBeforeWarning) {
         warn_unsplit(session);
     }
+}
+
+// SPLITVK_STATS: the application has this image from now on (FrameRecord::frame_latency_ms).
+void note_acquired(DeviceState &dev, VkSwapchainKHR swapchain, VkResult result, uint32_t index) {
+    if (!dev.session || !dev.session->has_stats() || (result != VK_SUCCESS && result != VK_SUBOPTIMAL_KHR))
+        return;
+    dev.session->acquire_times().acquired(codec::handle_value(swapchain), index,
+                                          std::chrono::steady_clock::now());
+}
+
+// The acquires the application's present ends, taken out for every swapchain it presents (the first
+// one's is the frame's).
+std::optional<std::chrono::steady_clock::time_point> take_acquired(Session &session,
+                                                                   const VkPresentInfoKHR &info) {
+    std::optional<std::chrono::steady_clock::time_point> first;
+    if (!session.has_stats()) return first;
+    for (uint32_t i = 0; i < info.swapchainCount; ++i) {
+        const auto at =
+            session.acquire_times().take(codec::handle_value(info.pSwapchains[i]), info.pImageIndices[i]);
+        if (i == 0) first = at;
+    }
+    return first;
 }
 
 } // namespace
@@ -777,17 +810,20 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     if (pending) {
         queue_lock = {};
         compare_verified_frame(dev, *pending);
-        if (session.has_stats()) {
-            // A verified eye image, unsplit: its row says when it came and which frame it was of.
+    }
+    if (!split.split) {
+        // An eye image unsplit (verified, passed through, or without an agent): its row says when it
+        // came and which frame it was of. A swapchain that is never split (a depth one) has none.
+        if (session.has_stats() && swapchain.composable) {
             FrameRecord record;
             record.frame = frame;
             record.frame_ms = session.frame_interval_ms();
             record.xr_frame = static_cast<int64_t>(xr_frame);
             record.xr_view = xr_view;
-            session.stats().record(record);
+            dev.session->stats().hold_eye_row(record);
         }
+        return;
     }
-    if (!split.split) return;
     SplitPresent p;
     p.queue = queue;
     p.swapchain = &swapchain;
@@ -800,7 +836,18 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     p.sizing = sizing;
     p.xr_frame = static_cast<int64_t>(xr_frame);
     p.xr_view = xr_view;
-    composite_split_frame(dev, p, {}, /*lock=*/false);
+    FrameRecord record;
+    composite_split_frame(dev, p, {}, /*lock=*/false, &record);
+    dev.session->stats().hold_eye_row(record);
+}
+
+void finish_runtime_frame(DeviceState &dev, uint64_t xr_frame, std::optional<double> frame_latency_ms) {
+    if (!dev.session || !dev.session->has_stats()) return;
+    for (FrameRecord &row : dev.session->stats().take_eye_rows(xr_frame)) {
+        // An earlier frame's rows are here only if that frame was never ended: no latency.
+        if (static_cast<uint64_t>(row.xr_frame) == xr_frame) row.frame_latency_ms = frame_latency_ms;
+        dev.session->stats().record(row);
+    }
 }
 
 void send_runtime_view(DeviceState &dev, const SwapchainState &swapchain,
@@ -877,6 +924,7 @@ void order_swapchain_writes(DeviceState &device, std::span<const uint64_t> image
 }
 
 void release_present_resources(DeviceState &device, VkSwapchainKHR swapchain) {
+    if (device.session) device.session->acquire_times().forget(codec::handle_value(swapchain));
     {
         std::lock_guard lock(g_async_mutex);
         g_swapchain_presents.erase(swapchain);
@@ -892,7 +940,12 @@ void release_present_resources(DeviceState &device, VkSwapchainKHR swapchain) {
 }
 
 void report_split_summary(DeviceState &device) {
-    if (!device.session || !device.session->splitting()) return;
+    if (!device.session) return;
+    // Eye images of a frame that was never ended keep their rows, without a latency.
+    if (device.session->has_stats())
+        for (const FrameRecord &row : device.session->stats().take_eye_rows(UINT64_MAX))
+            device.session->stats().record(row);
+    if (!device.session->splitting()) return;
     // A short session that never split ends before the warning's count: it says so now.
     if (device.session->unsplit_frames.load() > 0) warn_unsplit(*device.session);
     const std::string line = device.session->stats().summary();
@@ -913,6 +966,7 @@ VKAPI_ATTR VkResult VKAPI_CALL AcquireNextImageKHR(VkDevice device, VkSwapchainK
     const VkResult acquired =
         dev.dispatch.AcquireNextImageKHR(device, swapchain, timeout, semaphore, fence, pImageIndex);
     const VkResult result = after_acquire(dev, swapchain, acquired, *pImageIndex);
+    note_acquired(dev, swapchain, result, *pImageIndex);
     if ((result == VK_SUCCESS || result == VK_SUBOPTIMAL_KHR) && capturing(dev)) {
         protocol::FrameBegin message{dev.session->current_frame(), codec::handle_value(swapchain),
                                      *pImageIndex};
@@ -929,6 +983,7 @@ VKAPI_ATTR VkResult VKAPI_CALL AcquireNextImage2KHR(VkDevice device,
         return deferred;
     const VkResult acquired = dev.dispatch.AcquireNextImage2KHR(device, pAcquireInfo, pImageIndex);
     const VkResult result = after_acquire(dev, pAcquireInfo->swapchain, acquired, *pImageIndex);
+    note_acquired(dev, pAcquireInfo->swapchain, result, *pImageIndex);
     if ((result == VK_SUCCESS || result == VK_SUBOPTIMAL_KHR) && capturing(dev)) {
         protocol::FrameBegin message{dev.session->current_frame(),
                                      codec::handle_value(pAcquireInfo->swapchain), *pImageIndex};
@@ -944,6 +999,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
     const auto called = std::chrono::steady_clock::now();
     Session &session = *dev.session;
     const uint64_t frame = session.take_frame();
+    const auto acquired = take_acquired(session, *pPresentInfo);
     // A new agent joins here, where this thread owns the queue (session.h); the present thread's
     // frames use the tile stream that the new agent replaces.
     if (session.resync_pending()) {
@@ -996,7 +1052,8 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
     // agent replays them and sends no tiles.
     const bool passing_through = session.splitting() && session.passing_through();
     if (passing_through || frame < session.first_replayed_frame()) message.flags |= protocol::kPresentNoTiles;
-    const double frame_ms = split.split || session.judges_payoff() ? session.frame_interval_ms() : 0;
+    const double frame_ms =
+        split.split || session.judges_payoff() || session.has_stats() ? session.frame_interval_ms() : 0;
     // May decide a switch, which this present's answer asks the application to follow.
     if (session.splitting()) session.observe_payoff(dev, frame_ms, message.fovea_size);
     const bool drawn_split = split.split;
@@ -1035,6 +1092,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         p.sent = std::chrono::steady_clock::now();
         p.frame_ms = frame_ms;
         p.called = called;
+        p.acquired = acquired;
         p.sizing = sizing;
         p.sizing.frame_ms = frame_ms;
         const std::span<const VkSemaphore> waits{present.pWaitSemaphores, present.waitSemaphoreCount};
@@ -1048,7 +1106,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         }
         cut = p.cut;
         if (verify_shown) foveae = first_layer_foveae(p.split);
-        composited = composite_split_frame(dev, p, waits, /*lock=*/false, verify_shown ? &record : nullptr);
+        composited = composite_split_frame(dev, p, waits, /*lock=*/false, &record);
         if (composited) {
             present.waitSemaphoreCount = 1;
             present.pWaitSemaphores = &composited;
@@ -1075,18 +1133,22 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         }
     }
     const VkResult presented = note_presented(*pPresentInfo, dev.dispatch.QueuePresentKHR(queue, &present));
-    if (passing_through && !drawn_split) note_passed_through(session, frame, frame_ms);
+    const std::optional<double> latency = latency_ms(acquired, std::chrono::steady_clock::now());
+    if (passing_through && !drawn_split) note_passed_through(session, frame, frame_ms, latency);
     const VkResult result = forced_out_of_date(session, *pPresentInfo, presented);
     queue_lock = {};
     std::optional<double> psnr;
     if (pending) psnr = compare_verified_frame(dev, *pending);
-    if (verify_shown) {
+    if (drawn_split) {
         record.periphery_psnr_db = psnr;
+        record.frame_latency_ms = latency;
         session.stats().record(record);
-    } else if (pending && session.has_stats()) {
-        // A frame verified unsplit: its row says when it came, with no fovea and no tiles.
+    } else if (!passing_through && session.has_stats()) {
+        // A frame unsplit (verified, or without an agent: native through the layer): its row says
+        // when it came and when it was shown, with no fovea and no tiles.
         record.frame = frame;
-        record.frame_ms = session.frame_interval_ms();
+        record.frame_ms = frame_ms;
+        record.frame_latency_ms = latency;
         session.stats().record(record);
     }
     return result;

@@ -7,6 +7,7 @@
 #include "split_geometry.h"
 
 #include <cstdint>
+#include <optional>
 #include <span>
 
 namespace splitvk {
@@ -46,6 +47,10 @@ void begin_runtime_frame(DeviceState &device, const SwapchainState &swapchain, u
 void end_runtime_frame(DeviceState &device, VkQueue queue, const SwapchainState &swapchain,
                        uint32_t image_index, const std::vector<split::RuntimeEye> &eyes,
                        const split::Gaze &gaze, uint64_t xr_frame, int32_t xr_view);
+// xrEndFrame of OpenXR frame `xr_frame` (xrEndFrame calls before it) returned: the rows of its eye
+// images, held since their releases, go to SPLITVK_STATS with the frame's latency (xrWaitFrame
+// returning to now; unset when its xrWaitFrame was not seen).
+void finish_runtime_frame(DeviceState &device, uint64_t xr_frame, std::optional<double> frame_latency_ms);
 // xrEndFrame: a projection view gave an eye of this swapchain (its layer, sub-image rectangle and
 // field of view) that differs from what was sent before: SwapchainView, after which both sides
 // place that eye's fovea there (split::note_runtime_eye).

@@ -182,6 +182,8 @@ std::unique_ptr<Session> Session::open(const DeviceState &device, const VkDevice
     if (!loaded.valid()) return nullptr;
     std::unique_ptr<Session> session(new Session());
     session->settings_ = loaded.settings;
+    if (!loaded.settings.stats_path.empty())
+        session->stats_ = std::make_unique<FrameStats>(loaded.settings.stats_path);
     if (loaded.settings.fovea.automatic) {
         session->auto_fovea_ = std::make_unique<AutoFovea>(loaded.settings.fovea, loaded.settings.max_mbps);
         session->payoff_ = std::make_unique<SplitPayoff>();

@@ -96,8 +96,11 @@ public:
     // Split mode: the decoded tiles of the agent (tile_stream.h), and per-frame statistics.
     TileStream *tiles() { return tiles_.get(); }
     FrameStats &stats() { return *stats_; }
-    // Whether an agent has split or verified for this session: before, there are no statistics.
+    // Whether frames are recorded: SPLITVK_STATS names a file (from the start, so that frames unsplit
+    // or without an agent have rows too), or an agent has split or verified (the summary alone).
     bool has_stats() const { return stats_ != nullptr; }
+    // SPLITVK_STATS: when the application's acquires returned (FrameRecord::frame_latency_ms).
+    AcquireTimes &acquire_times() { return acquire_times_; }
     // SPLITVK_FOVEA=auto: the size of every frame's foveae (fovea_size.h); nullptr otherwise.
     AutoFovea *auto_fovea() { return auto_fovea_.get(); }
     // SPLITVK_FOVEA=auto: the size the frame being presented takes, and whether the sizing hears its
@@ -329,6 +332,7 @@ private:
     std::unique_ptr<UploadPool> uploads_; // what tiles_ decodes into; made by open()
     std::unique_ptr<TileStream> tiles_;
     std::unique_ptr<FrameStats> stats_;
+    AcquireTimes acquire_times_;
     std::unique_ptr<AutoFovea> auto_fovea_;
     std::atomic<bool> passing_through_{false}; // passing_through()
     std::atomic<bool> payoff_out_of_date_{false};

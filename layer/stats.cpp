@@ -30,7 +30,7 @@ const char *FrameStats::csv_header() {
     return "frame,frame_ms,periphery_ms,tile_wait_ms,exposed_wait_ms,network_ms,decode_ms,merge_ms,"
            "merge_gpu_ms,tile_bytes,raw_bytes,agent_draw_ms,agent_readback_ms,agent_encode_ms,"
            "present_call_ms,late,xr_frame,xr_view,fovea_x,fovea_y,fovea_w,fovea_h,present_to_composite_ms,"
-           "periphery_decode_ms,periphery_bytes,periphery_psnr_db";
+           "periphery_decode_ms,periphery_bytes,periphery_psnr_db,frame_latency_ms";
 }
 
 FrameStats::FrameStats(const std::string &path) {
@@ -87,20 +87,52 @@ void FrameStats::record(const FrameRecord &r) {
     // "inf" for equal images, which strtod and Python's float() read back.
     char psnr[32] = "";
     if (r.periphery_psnr_db) std::snprintf(psnr, sizeof(psnr), "%.3f", *r.periphery_psnr_db);
+    char latency[32] = "";
+    if (r.frame_latency_ms) std::snprintf(latency, sizeof(latency), "%.3f", *r.frame_latency_ms);
     char row[640];
     const int length = std::snprintf(
         row, sizeof(row),
         "%llu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%llu,%llu,%.3f,%.3f,%.3f,%.3f,%d,%lld,%d,%d,%d,%u,%u,%."
-        "3f,%.3f,%llu,%s\n",
+        "3f,%.3f,%llu,%s,%s\n",
         static_cast<unsigned long long>(r.frame), r.frame_ms, r.periphery_ms, r.tile_wait_ms,
         r.exposed_wait_ms, r.network_ms, r.decode_ms, r.merge_ms, r.merge_gpu_ms,
         static_cast<unsigned long long>(r.tile_bytes), static_cast<unsigned long long>(r.raw_bytes),
         r.agent_draw_ms, r.agent_readback_ms, r.agent_encode_ms, r.present_call_ms, r.late ? 1 : 0,
         static_cast<long long>(r.xr_frame), r.xr_view, r.fovea.offset.x, r.fovea.offset.y,
         r.fovea.extent.width, r.fovea.extent.height, r.present_to_composite_ms, r.periphery_decode_ms,
-        static_cast<unsigned long long>(r.periphery_bytes), psnr);
+        static_cast<unsigned long long>(r.periphery_bytes), psnr, latency);
     if (length > 0 && static_cast<size_t>(length) < sizeof(row))
         append(std::string(row, static_cast<size_t>(length)));
+}
+
+void AcquireTimes::acquired(uint64_t swapchain, uint32_t image, Clock::time_point at) {
+    std::lock_guard lock(mutex_);
+    acquired_[{swapchain, image}] = at;
+}
+
+std::optional<AcquireTimes::Clock::time_point> AcquireTimes::take(uint64_t swapchain, uint32_t image) {
+    std::lock_guard lock(mutex_);
+    const auto it = acquired_.find({swapchain, image});
+    if (it == acquired_.end()) return std::nullopt;
+    const Clock::time_point at = it->second;
+    acquired_.erase(it);
+    return at;
+}
+
+void AcquireTimes::forget(uint64_t swapchain) {
+    std::lock_guard lock(mutex_);
+    std::erase_if(acquired_, [&](const auto &entry) { return entry.first.first == swapchain; });
+}
+
+size_t AcquireTimes::size() {
+    std::lock_guard lock(mutex_);
+    return acquired_.size();
+}
+
+std::optional<double> latency_ms(std::optional<std::chrono::steady_clock::time_point> start,
+                                 std::chrono::steady_clock::time_point end) {
+    if (!start) return std::nullopt;
+    return std::chrono::duration<double, std::milli>(end - *start).count();
 }
 
 void FrameStats::set_client_renders_fovea(bool fovea) {
@@ -144,6 +176,22 @@ std::string FrameStats::summary() {
     if (passed_through_ > 0)
         summary += ", " + std::to_string(passed_through_) + " passed through (SPLITVK_FOVEA=auto)";
     return summary;
+}
+
+void FrameStats::hold_eye_row(const FrameRecord &record) {
+    std::lock_guard lock(held_mutex_);
+    held_eye_rows_.push_back(record);
+}
+
+std::vector<FrameRecord> FrameStats::take_eye_rows(uint64_t xr_frame) {
+    std::lock_guard lock(held_mutex_);
+    std::vector<FrameRecord> taken;
+    std::erase_if(held_eye_rows_, [&](const FrameRecord &row) {
+        if (static_cast<uint64_t>(row.xr_frame) > xr_frame) return false;
+        taken.push_back(row);
+        return true;
+    });
+    return taken;
 }
 
 } // namespace splitvk

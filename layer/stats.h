@@ -10,9 +10,11 @@
 
 #include <chrono>
 #include <cstdint>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace splitvk {
@@ -61,7 +63,39 @@ struct FrameRecord {
     // SPLITVK_FOVEA=auto passed the frame through (Session::passing_through()): shown as drawn, no
     // fovea (width 0), no tiles.
     bool passed_through = false;
+    // When the frame reached the screen, measured alike for frames split, passed through or unsplit
+    // (a session without an agent: native through the same layer): on a window, the application's
+    // acquire of the presented image returning to the real vkQueuePresentKHR returning (on the
+    // present thread with SPLITVK_PRESENT_DEPTH > 0); under OpenXR, xrWaitFrame returning to the
+    // runtime's xrEndFrame of that frame returning, the same value in each eye image's row. Unset
+    // (an empty field) when the start was not seen: an image presented without an acquire the layer
+    // saw, or an OpenXR frame that was never ended.
+    std::optional<double> frame_latency_ms;
 };
+
+// When the application's acquires of swapchain images returned, until the present of each image
+// (frame_latency_ms). Keyed by swapchain and image index: several images may be in flight, and an
+// image is presented in any order after its acquire. An entry without a present (the application
+// acquired and never presented, or its swapchain went out of date) is replaced by that image's
+// next acquire or dropped with its swapchain.
+class AcquireTimes {
+public:
+    using Clock = std::chrono::steady_clock;
+
+    void acquired(uint64_t swapchain, uint32_t image, Clock::time_point at);
+    // The acquire of this image that its present ends, taken out; std::nullopt when none was seen.
+    std::optional<Clock::time_point> take(uint64_t swapchain, uint32_t image);
+    void forget(uint64_t swapchain);
+    size_t size();
+
+private:
+    std::mutex mutex_;
+    std::map<std::pair<uint64_t, uint32_t>, Clock::time_point> acquired_;
+};
+
+// Milliseconds from a frame's start to `end`; unset without a start.
+std::optional<double> latency_ms(std::optional<std::chrono::steady_clock::time_point> start,
+                                 std::chrono::steady_clock::time_point end);
 
 class FrameStats {
 public:
@@ -83,11 +117,20 @@ public:
     // time median ...".
     std::string summary();
 
+    // OpenXR: an eye image's row, held from its release until its frame's xrEndFrame, whose return
+    // ends the frame's latency; take_eye_rows() hands back those of frames up to `xr_frame`
+    // (every one for UINT64_MAX), in release order.
+    void hold_eye_row(const FrameRecord &record);
+    std::vector<FrameRecord> take_eye_rows(uint64_t xr_frame);
+
     // The CSV header: column names with their units.
     static const char *csv_header();
 
 private:
     std::mutex mutex_;
+    // held_eye_rows_, apart from mutex_: rows taken out are then record()ed.
+    std::mutex held_mutex_;
+    std::vector<FrameRecord> held_eye_rows_;
     // Appends `text` with one write (a regular file takes it whole); false after an error.
     bool append(const std::string &text);
 

@@ -44,13 +44,16 @@
 #define XR_USE_GRAPHICS_API_VULKAN
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <deque>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string_view>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include <openxr/openxr.h>
@@ -79,6 +82,12 @@ struct InstanceState {
     std::unique_ptr<InstanceGaze> gaze;
 };
 
+// A frame xrWaitFrame gave the application: when the call returned, where the frame's latency
+// starts (stats.h: frame_latency_ms).
+struct WaitedFrame {
+    std::chrono::steady_clock::time_point returned{};
+};
+
 struct SessionState {
     InstanceState *instance = nullptr;
     // The Vulkan layer's state of the session's device; null where splitvk is not on it.
@@ -89,7 +98,14 @@ struct SessionState {
     std::unique_ptr<SessionGaze> gaze;
     // Where views 0 and 1 look in the frame begun last (from `gaze` or a SPLITVK_GAZE pipe).
     ViewGaze view_gaze;
+    // Frames waited for and not begun yet, oldest first (xrWaitFrame may run ahead on another
+    // thread), and the frame begun, until its xrEndFrame; a frame begun over it was discarded.
+    std::deque<WaitedFrame> waited;
+    std::optional<WaitedFrame> begun;
 };
+
+// More frames waited for than begun: a runtime blocks xrWaitFrame before this.
+constexpr size_t kMaxWaitedFrames = 4;
 
 // An eye of a swapchain and the projection view that placed it there (views 0 and 1 are the left
 // and right eye for the gaze sources).
@@ -468,12 +484,18 @@ void note_projection_view(const XrCompositionLayerProjectionView &view, uint32_t
 XRAPI_ATTR XrResult XRAPI_CALL EndFrame(XrSession session, const XrFrameEndInfo *info) {
     InstanceState *instance = nullptr;
     SessionGaze *gaze = nullptr;
+    SessionState *state = nullptr;
+    uint64_t ended = 0;
+    std::optional<WaitedFrame> begun;
     {
         std::lock_guard lock(g_mutex);
         const auto it = g_sessions.find(session);
         if (it == g_sessions.end()) return XR_ERROR_HANDLE_INVALID;
         instance = it->second->instance;
         gaze = it->second->gaze.get();
+        state = it->second.get();
+        ended = state->ended_frames;
+        begun = std::exchange(state->begun, std::nullopt);
         // The releases from here on belong to the next frame.
         ++it->second->ended_frames;
         // Which eye each swapchain's images hold, for the stats: the first view naming it.
@@ -506,7 +528,17 @@ XRAPI_ATTR XrResult XRAPI_CALL EndFrame(XrSession session, const XrFrameEndInfo 
             gaze->note_views(projection->space, info->displayTime, projection->views, projection->viewCount);
             break;
         }
-    return instance->end_frame(session, info);
+    const XrResult result = instance->end_frame(session, info);
+    if (state->device) {
+        // A frame the runtime refused was not submitted: its rows carry no latency.
+        std::optional<double> latency_ms;
+        if (XR_SUCCEEDED(result) && begun)
+            latency_ms =
+                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begun->returned)
+                    .count();
+        finish_runtime_frame(*state->device, ended, latency_ms);
+    }
+    return result;
 }
 
 // ------------------------------------------------------------------------- eye gaze (xr_gaze.h)
@@ -577,6 +609,12 @@ XRAPI_ATTR XrResult XRAPI_CALL WaitFrame(XrSession session, const XrFrameWaitInf
     SessionState *state = find_session(session);
     if (!state) return XR_ERROR_HANDLE_INVALID;
     const XrResult result = state->instance->wait_frame(session, info, frame);
+    if (XR_SUCCEEDED(result) && frame) {
+        const WaitedFrame waited{std::chrono::steady_clock::now()};
+        std::lock_guard lock(g_mutex);
+        if (state->waited.size() == kMaxWaitedFrames) state->waited.pop_front();
+        state->waited.push_back(waited);
+    }
     if (XR_SUCCEEDED(result) && frame && state->gaze) state->gaze->frame_waited(frame->predictedDisplayTime);
     return result;
 }
@@ -588,6 +626,13 @@ XRAPI_ATTR XrResult XRAPI_CALL BeginFrame(XrSession session, const XrFrameBeginI
     // already be waiting for the next one once the runtime returns.
     const XrTime predicted = state->gaze ? state->gaze->predicted() : 0;
     const XrResult result = state->instance->begin_frame(session, info);
+    if (XR_SUCCEEDED(result)) {
+        std::lock_guard lock(g_mutex);
+        if (!state->waited.empty()) {
+            state->begun = state->waited.front();
+            state->waited.pop_front();
+        }
+    }
     if (XR_FAILED(result) || !state->device) return result;
     // The frame's gaze, before the application renders it: its releases place the foveae with it.
     ViewGaze view_gaze;

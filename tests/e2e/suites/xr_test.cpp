@@ -43,6 +43,7 @@
 #include <cstring>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <map>
 #include <regex>
 #include <set>
@@ -353,12 +354,38 @@ TEST_F(XrAtrium, PerEyeFoveaeExactAgainstNativeFrameByFrame) {
     // SPLITVK_STATS has a row per released eye image: xr_frame groups a frame's two rows, xr_view says
     // which eye each is (-1 before the first xrEndFrame named the swapchains), and the summary counts
     // OpenXR frames.
+    // Each frame's rows carry that frame's one frame_latency_ms (xrWaitFrame to xrEndFrame).
     std::map<int, std::multiset<int>> views_by_frame;
-    const auto rows = stats_rows(read_file(out_ / "split" / "stats.csv"));
+    std::map<int, std::set<double>> latency_by_frame;
+    std::map<int, double> frame_ms_by_frame; // the frame's eye images' intervals: its frame time
+    const std::string csv = read_file(out_ / "split" / "stats.csv");
+    const auto rows = stats_rows(csv);
     ASSERT_FALSE(rows.empty());
     for (const auto &row : rows) {
         ASSERT_TRUE(row.count("xr_frame") && row.count("xr_view")) << "no xr_frame or xr_view column";
-        views_by_frame[static_cast<int>(row.at("xr_frame"))].insert(static_cast<int>(row.at("xr_view")));
+        const int frame = static_cast<int>(row.at("xr_frame"));
+        views_by_frame[frame].insert(static_cast<int>(row.at("xr_view")));
+        ASSERT_TRUE(row.count("frame_latency_ms")) << "an eye image's row has no latency\n" << csv;
+        latency_by_frame[frame].insert(row.at("frame_latency_ms"));
+        frame_ms_by_frame[frame] += row.at("frame_ms");
+    }
+    // The first frame waits for the agent's first tiles; after it, a frame is ended within a few
+    // frame times of its xrWaitFrame (SPLITVK_TILE_WAIT is not reached: no frame is late).
+    std::vector<double> frame_ms;
+    for (auto it = std::next(frame_ms_by_frame.begin()); it != frame_ms_by_frame.end(); ++it)
+        frame_ms.push_back(it->second);
+    std::sort(frame_ms.begin(), frame_ms.end());
+    ASSERT_FALSE(frame_ms.empty());
+    const double median_frame_ms = frame_ms[frame_ms.size() / 2];
+    for (const auto &[frame, latencies] : latency_by_frame) {
+        ASSERT_EQ(latencies.size(), 1u) << "OpenXR frame " << frame << "'s eye images differ in latency\n"
+                                        << csv;
+        EXPECT_GE(*latencies.begin(), 0.0) << "OpenXR frame " << frame;
+        if (frame != latency_by_frame.begin()->first) {
+            EXPECT_LE(*latencies.begin(), 5 * median_frame_ms)
+                << "OpenXR frame " << frame << ", median frame time " << median_frame_ms << " ms\n"
+                << csv;
+        }
     }
     ASSERT_EQ(views_by_frame.size(), static_cast<size_t>(kFrames));
     // One after the other (atrium ends a frame it does not render before its first: that one has no
