@@ -98,7 +98,7 @@ DEVICE_EXTENSIONS = [
 ] + [
     # Sharing memory, semaphores and fences with another process: what an OpenXR runtime's client
     # compositor needs on the application's device (Monado imports its eye images with opaque fds;
-    # DESIGN §9). CLIENT_ONLY_EXTENSIONS says what the agent does with them.
+    # docs/architecture.md §9). CLIENT_ONLY_EXTENSIONS says what the agent does with them.
     "VK_KHR_external_memory",
     "VK_KHR_external_memory_fd",
     "VK_KHR_external_semaphore",
@@ -106,7 +106,7 @@ DEVICE_EXTENSIONS = [
     "VK_KHR_external_fence",
     "VK_KHR_external_fence_fd",
 ] + [
-    # What modern engines enable at startup (issue 19: DXVK, vkd3d-proton, Godot 4, Unreal, Unity).
+    # What modern engines enable at startup (DXVK, vkd3d-proton, Godot 4, Unreal, Unity).
     # Recorded state the agent replays like any other vkCmd*. None of it is screen-space: the
     # conditional-rendering predicate and the transform-feedback buffers and counters live in
     # buffers each side writes with its own GPU from the same commands (vertex data, not pixels),

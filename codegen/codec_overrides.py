@@ -1,4 +1,4 @@
-"""What vk.xml cannot say about encoding, in small tables (GFXReconstruct's approach, DESIGN §8).
+"""What vk.xml cannot say about encoding, in small tables (GFXReconstruct's approach, docs/architecture.md §8).
 
 The codec is driven by vk.xml (len, altlen, optional, noautovalidity, structextends). These tables
 hold the rest: members the specification says are *ignored* in some states (so an application may

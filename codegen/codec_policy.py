@@ -1,4 +1,4 @@
-"""Which Vulkan commands cross the wire, decided one by one (DESIGN §2-3, issue 3).
+"""Which Vulkan commands cross the wire, decided one by one (docs/architecture.md §2-3).
 
 Every command in the model (core 1.0-1.3 plus allowlist.py) must be classified here, or the
 generator stops: adding an extension to the allow-list forces a decision for each of its commands.
@@ -6,7 +6,7 @@ generator stops: adding an extension to the allow-list forces a decision for eac
   FORWARD  the layer encodes the call (after the client's driver returned, so created handles are
            known) and the agent replays it. Creates, destroys, binds, updates, every vkCmd*.
   LOCAL    answered by the client's own driver and never sent: queries, host waits and status,
-           window-system queries. The application lives on the client (DESIGN §2).
+           window-system queries. The application lives on the client (docs/architecture.md §2).
   MANUAL   hand-written semantics in the layer and the agent (memory, submit, present, swapchain,
            instance and device). Encoders and decoders are still generated for them, since their
            arguments are plain; the layer decides when (and whether) to call them.
@@ -72,7 +72,7 @@ POLICY = {
     "vkQueueWaitIdle": LOCAL,            # host wait: the client's own queue
     "vkDeviceWaitIdle": LOCAL,
 
-    # --- Memory: allocation is forwarded (the agent rebinds, DESIGN §3); mapping is not. ------
+    # --- Memory: allocation is forwarded (the agent rebinds, docs/architecture.md §3); mapping is not. ------
     "vkAllocateMemory": FORWARD,         # the agent ignores type index/offsets and rebinds
     "vkFreeMemory": FORWARD,
     "vkMapMemory": MANUAL,               # shadow copies; the pointer never crosses the wire
@@ -337,7 +337,7 @@ POLICY = {
     "vkCmdWriteTimestamp": FORWARD,
     "vkCmdWriteTimestamp2": FORWARD,
 
-    # --- Engines' extensions (allowlist.py, issue 19): recorded like the core vkCmd*. -----------
+    # --- Engines' extensions (allowlist.py): recorded like the core vkCmd*. -----------
     # The predicate buffer is the agent's own, written by the same replayed copies and memory data.
     "vkCmdBeginConditionalRenderingEXT": FORWARD,
     "vkCmdEndConditionalRenderingEXT": FORWARD,

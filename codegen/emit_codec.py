@@ -1,5 +1,5 @@
 """The Vulkan wire codec: for every forwarded (and manual) command an encoder for the layer and a
-bounds-checked decoder with handle replacement for the agent (DESIGN §3, issue 3).
+bounds-checked decoder with handle replacement for the agent (docs/architecture.md §3).
 
 Outputs (in the build tree):
   vk_codec.h                public API: VkCommandId, kCodecFingerprint, encode_vk*, Decoded_vk*,

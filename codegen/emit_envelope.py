@@ -17,7 +17,7 @@ import allowlist
 from cpp import HEADER
 
 # Limits whose truth is the client's own device. The agent rebinds every resource into its own
-# allocations (DESIGN §3), answers no query, and maps no memory of the application's.
+# allocations (docs/architecture.md §3), answers no query, and maps no memory of the application's.
 CLIENT_LOCAL = {
     "minMemoryMapAlignment": "pointers the client's vkMapMemory returns",
     "nonCoherentAtomSize": "flush/invalidate ranges of the client's memory",

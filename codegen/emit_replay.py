@@ -1,4 +1,4 @@
-"""The agent's default replay (DESIGN §3, issue 3): for every FORWARD command of the wire codec, a
+"""The agent's default replay (docs/architecture.md §3): for every FORWARD command of the wire codec, a
 CommandVisitor method that calls the agent device's function with the decoded arguments and then
 apply_handle_changes(). Hand-written semantics (memory, submit, swapchain, frame marks) live in
 server-agent/ and override these methods.

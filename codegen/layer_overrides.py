@@ -15,7 +15,7 @@ MANUAL_COMMANDS = {
     "vkCreateInstance",
     "vkDestroyInstance",
     "vkEnumerateDeviceExtensionProperties",
-    # physical_device.cpp: the device envelope the application is told (issue 10).
+    # physical_device.cpp: the device envelope the application is told.
     "vkGetPhysicalDeviceProperties",
     "vkGetPhysicalDeviceProperties2",
     "vkGetPhysicalDeviceProperties2KHR",
@@ -89,7 +89,7 @@ MANUAL_COMMANDS = {
 # reused the handle value for a new object whose state the observer would remove):
 # observe::<Name>(DeviceState &, <the command's parameters>) in the namespace
 # splitvk::observe, called only on a device with a session and, for VkResult commands, on success.
-# For state the layer tracks but does not change (DESIGN §3, the reliability issue's resync).
+# For state the layer tracks but does not change (docs/architecture.md §3: the snapshot of a resync replays it).
 OBSERVED_COMMANDS = {
     # resource.cpp: where buffers and images live, and the layout of every image subresource, so
     # that a snapshot can read their contents back.

@@ -44,7 +44,7 @@ struct AgentLink {
 // (the GPU's name, the device envelope).
 protocol::Hello base_hello(const Settings &settings, const std::string &client_name);
 
-// Whether this process asks agents for the swapped split (SPLITVK_CLIENT_RENDERS=fovea, issue 21).
+// Whether this process asks agents for the swapped split (SPLITVK_CLIENT_RENDERS=fovea).
 // Not in an OpenXR application: the client does not cut a runtime's eye images yet, so asking would
 // leave them whole and unsplit; it splits them the paper's way instead (or, under SPLITVK_VERIFY,
 // not at all), and says so once.

@@ -1,5 +1,5 @@
 // VkCommandBuffer: one CommandBufferState each (command_buffer.h), and per-command-buffer streams
-// (DESIGN §3). A command buffer's commands are encoded into its own stream while it is recorded
+// (docs/architecture.md §3). A command buffer's commands are encoded into its own stream while it is recorded
 // (vkBeginCommandBuffer resets it) and sent as one Commands message at vkEndCommandBuffer; a
 // resubmit sends nothing again. The last recorded stream stays here as the command buffer's part of
 // the live-state log.
@@ -56,7 +56,7 @@ void discard_stream(CommandBufferState &state) {
 
 // vkBeginCommandBuffer, vkResetCommandBuffer, vkResetCommandPool: what the previous recording
 // left is gone (its stream, split passes, bound compute sets, layouts and timestamps), so that
-// nothing of it applies to the next one (issue 20: a stale compute set scaled a later dispatch).
+// nothing of it applies to the next one (a stale compute set scaled a later dispatch).
 void begin_afresh(CommandBufferState &state) {
     discard_stream(state);
     state.split.reset();

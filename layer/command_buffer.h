@@ -4,7 +4,7 @@
 // the device has a session, created at vkAllocateCommandBuffers, begun afresh at
 // vkBeginCommandBuffer / vkResetCommandBuffer / vkResetCommandPool, and dropped at
 // vkFreeCommandBuffers / vkDestroyCommandPool (before the driver call) or vkDestroyDevice. It holds
-// what the layer keeps of one recording: its capture stream (DESIGN §3), its split tracker (the
+// what the layer keeps of one recording: its capture stream (docs/architecture.md §3), its split tracker (the
 // split's viewports and scissors, the split passes it drew, its bound compute sets: split.h), its
 // image layout transitions (resource.h) and its split pass's timestamp pair (gpu_timing.h).
 //

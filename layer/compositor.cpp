@@ -1,4 +1,4 @@
-// Composition before present (DESIGN §4); see compositor.h for the contract.
+// Composition before present (docs/architecture.md §4); see compositor.h for the contract.
 //
 // One submit per present, on the present queue, in this order:
 //   1. wait on the application's present semaphores (at the transfer stage, the first use);

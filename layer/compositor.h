@@ -1,6 +1,6 @@
 #pragma once
 
-// Composition before present (DESIGN §4): the periphery the application rendered at the reduced
+// Composition before present (docs/architecture.md §4): the periphery the application rendered at the reduced
 // scale into the top-left of a swapchain image is upsampled to the whole image, then the fovea
 // tiles the agent rendered are written over it byte for byte, and the image is presented.
 //

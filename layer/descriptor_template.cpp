@@ -1,5 +1,5 @@
-// VkDescriptorUpdateTemplate: the layout pData is encoded with (DESIGN §8, GFXReconstruct: update
-// templates need the template's entries to encode pData). Kept only while a session exists.
+// VkDescriptorUpdateTemplate: the layout pData is encoded with (docs/architecture.md §8, GFXReconstruct:
+// update templates need the template's entries to encode pData). Kept only while a session exists.
 
 #include "descriptor_template.h"
 

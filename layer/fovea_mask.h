@@ -1,6 +1,6 @@
 #pragma once
 
-// The client does not shade the foveae (SPLITVK_FOVEA_MASK=depth, issue 22): the tiles replace
+// The client does not shade the foveae (SPLITVK_FOVEA_MASK=depth): the tiles replace
 // them, so every fragment the periphery shades there is wasted. Right after a split pass into a
 // window's swapchain image (not an OpenXR runtime's, whose foveae follow its views) begins, the layer clears
 // the scaled foveae of its depth attachment to the near end of the depth range (the end the pass's own clear

@@ -1,6 +1,6 @@
 #pragma once
 
-// SPLITVK_FOVEA=auto (issue 22): the fovea sized per frame from measured times.
+// SPLITVK_FOVEA=auto: the fovea sized per frame from measured times.
 //
 // A larger fovea is a sharper picture, and costs the agent's size-dependent path: the read-back, the
 // encode, the link and the client's decode all grow with its pixels, while the agent's draw does not

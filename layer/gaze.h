@@ -1,6 +1,6 @@
 #pragma once
 
-// Gaze sources of the layer (SPLITVK_GAZE, issue 22): where each eye looks in the frame being
+// Gaze sources of the layer (SPLITVK_GAZE): where each eye looks in the frame being
 // presented, which places that frame's foveae on both sides (split::frame_foveae, carried to the
 // agent in FramePresent).
 //

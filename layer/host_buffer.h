@@ -33,7 +33,7 @@ void destroy_host_buffer(const DeviceState &device, HostBuffer &buffer);
 void invalidate_host_buffer(const DeviceState &device, const HostBuffer &buffer);
 void flush_host_buffer(const DeviceState &device, const HostBuffer &buffer);
 
-// Upload memory that the fovea tiles are decoded straight into (issue 12): a decoder thread takes
+// Upload memory that the fovea tiles are decoded straight into: a decoder thread takes
 // a buffer, writes the tile's pixels into its mapping and flushes it; the composite copies the
 // tile's rect from it into the swapchain image on the GPU, and holds it until that copy's fence
 // has signalled. A buffer goes back to the pool when its last holder lets go, so a stream of

@@ -135,7 +135,7 @@ VKAPI_ATTR VkResult VKAPI_CALL EnumerateDeviceExtensionProperties(VkPhysicalDevi
 
     // The driver's extensions, less those splitvk cannot forward (codegen/allowlist.py). Always
     // hidden, with or without an agent, so that an application behaves the same either way and a
-    // session can start later (the reliability issue) without the app already using something
+    // session can start later (a resync) without the app already using something
     // the agent cannot replay.
     std::vector<VkExtensionProperties> all;
     VkResult result;

@@ -1,6 +1,6 @@
 #pragma once
 
-// The live-state log (DESIGN §3, replayed by the reliability issue): what is needed to rebuild the
+// The live-state log (docs/architecture.md §3, replayed at a resync): what is needed to rebuild the
 // device's current state on a fresh agent, bounded by the live objects themselves.
 //  - Objects: the encoded call that created each live object, one entry per call with a sequence
 //    number (creation order). A single-handle vkCreate*, vkAllocateMemory and vkGetDeviceQueue*
@@ -21,7 +21,7 @@
 //    image and dropped with it.
 // build_live_snapshot() (session.h) turns it into messages in that order. Out of scope: memory contents.
 // Host-visible memory is shadowed only while mapped (memory.cpp); device-local buffers and
-// images are read back on the client by the reliability issue when it sends a snapshot.
+// images are read back on the client when a resync sends a snapshot.
 // Not covered: an object destroyed while a live one created later still names it, other than
 // the retired kinds above (an image view under a live framebuffer), and command buffer streams
 // naming objects destroyed since they were recorded (the app cannot submit those either).

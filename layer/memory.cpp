@@ -1,4 +1,4 @@
-// VkDeviceMemory: allocations, maps and the shadow copies behind MemoryData (DESIGN §3).
+// VkDeviceMemory: allocations, maps and the shadow copies behind MemoryData (docs/architecture.md §3).
 //
 // Host writes through a mapped pointer are invisible to the layer. While an allocation is mapped
 // with a session, the mapped range has a shadow copy: what the agent holds there. The mapped range

@@ -1,7 +1,7 @@
 #pragma once
 
-// VkDeviceMemory (memory.cpp): the shadow copies of mapped memory behind MemoryData (DESIGN §3).
-// Their state is the device's (DeviceState::memory), under locks of its own, never one of the process.
+// VkDeviceMemory (memory.cpp): the shadow copies of mapped memory behind MemoryData (docs/architecture.md
+// §3). Their state is the device's (DeviceState::memory), under locks of its own, never one of the process.
 
 #include "device.h"
 

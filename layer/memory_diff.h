@@ -1,6 +1,6 @@
 #pragma once
 
-// The shadow-copy comparison behind MemoryData (DESIGN §3): which blocks of a mapped range the
+// The shadow-copy comparison behind MemoryData (docs/architecture.md §3): which blocks of a mapped range the
 // host changed since the last comparison, and what the shadow of a range starts from. Plain
 // functions and values, unit-tested on their own.
 

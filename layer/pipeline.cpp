@@ -1,4 +1,4 @@
-// VkPipeline: static viewport/scissor state made dynamic (DESIGN §4). Inside a split pass the
+// VkPipeline: static viewport/scissor state made dynamic (docs/architecture.md §4). Inside a split pass the
 // layer must draw with scaled viewports and scissors, which a pipeline's static state would
 // override; so pipelines are created down the chain with VIEWPORT/SCISSOR added to their dynamic
 // state (the capture keeps the app's create info: the agent decides for itself), the static

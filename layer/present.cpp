@@ -1,18 +1,17 @@
-// Acquire and present: frame marks (DESIGN §2), split mode's composite (DESIGN §4) and
-// SPLITVK_VERIFY=full.
+// Acquire and present: frame marks (docs/architecture.md §2), split mode's composite (docs/architecture.md
+// §4) and SPLITVK_VERIFY=full.
 //
 // vkAcquireNextImageKHR/2KHR -> FrameBegin{frame, swapchain, image}; vkQueuePresentKHR ->
 // FramePresent{frame, queue, flags, images}, frames counted from 0 per device in present order.
 //
-// Overlap (DESIGN §4). A split frame needs the agent's tiles of that same frame before it can be
-// composited and shown, and waiting for them on the application's thread would stall the
-// application for the agent's whole path. So vkQueuePresentKHR only takes the frame: it sends
-// FramePresent, submits an empty batch on the present queue that waits on the application's
-// present semaphores and signals a semaphore of the compositor's for that swapchain image
-// (Compositor::take_waits; per-image objects, the Mesa overlay's scheme), hands the frame to the
-// device's present thread and returns. The present thread waits for the frame's own tiles
-// (lockstep: frame N is composited with frame N's tiles or, late, with the periphery alone, never
-// with older tiles), composites on the same queue (the submit waits on the taken semaphore) and
+// Overlap (docs/architecture.md §4). A split frame needs the agent's tiles of that same frame before it can
+// be composited and shown, and waiting for them on the application's thread would stall the application for
+// the agent's whole path. So vkQueuePresentKHR only takes the frame: it sends FramePresent, submits an empty
+// batch on the present queue that waits on the application's present semaphores and signals a semaphore of
+// the compositor's for that swapchain image (Compositor::take_waits; per-image objects, the Mesa overlay's
+// scheme), hands the frame to the device's present thread and returns. The present thread waits for the
+// frame's own tiles (lockstep: frame N is composited with frame N's tiles or, late, with the periphery alone,
+// never with older tiles), composites on the same queue (the submit waits on the taken semaphore) and
 // presents. The application meanwhile records and submits frame N+1.
 //  - Depth: at most SPLITVK_PRESENT_DEPTH frames (default 1) are in the layer; a present beyond
 //    that waits for room. 0 keeps everything on the application's thread, as do presents with
@@ -116,7 +115,7 @@ struct Exposure {
 constexpr uint64_t kFramesBeforeLateVerdict = 30;
 
 // Once, when most frames the agent replays come late: the user pays for an agent that does not
-// keep up and sees the periphery alone, so the line says why and what helps (issue 19).
+// keep up and sees the periphery alone, so the line says why and what helps.
 void warn_if_late_dominates(Session &session, uint64_t late, uint32_t wait_ms) {
     const uint64_t split = session.split_frames.load();
     if (split < kFramesBeforeLateVerdict || late * 2 <= split || session.late_warned.exchange(true)) return;

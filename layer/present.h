@@ -29,7 +29,7 @@ void release_present_resources(DeviceState &device, VkSwapchainKHR swapchain);
 // Split mode: the one summary line at vkDestroyDevice.
 void report_split_summary(DeviceState &device);
 
-// Frame marks of an OpenXR runtime's swapchain (DESIGN §9). A runtime's frame never
+// Frame marks of an OpenXR runtime's swapchain (docs/architecture.md §9). A runtime's frame never
 // reaches vkQueuePresentKHR: the application acquires an image with xrAcquireSwapchainImage and hands
 // it back with xrReleaseSwapchainImage, after which the runtime's barrier gives it to the
 // compositor. Each release ends one splitvk frame of that image.

@@ -1,4 +1,4 @@
-// VkQueue submits (DESIGN §2): dirty mapped memory first, then the submit itself.
+// VkQueue submits (docs/architecture.md §2): dirty mapped memory first, then the submit itself.
 //
 // Every queue operation the layer passes down or makes takes the queue's lock (lock_queue()):
 // split mode presents from a thread of the layer's (present.cpp) on the application's queue, and

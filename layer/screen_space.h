@@ -1,6 +1,6 @@
 #pragma once
 
-// Screen-space targets on the client (DESIGN §4, issue 11). At vkCreateImage, once the device has
+// Screen-space targets on the client (docs/architecture.md §4). At vkCreateImage, once the device has
 // a composable swapchain and splits, each image is classified by protocol/target_rule.h's rule; a
 // screen-space target is created down the chain at SPLITVK_SCALE (the capture keeps the app's create
 // info: the agent replays it full size), and every command that names a region of one scales that
@@ -35,7 +35,7 @@ void note_screen_extent(DeviceState &device, VkExtent2D extent);
 // scaled extent. Logs the classification at info level. resource.cpp keeps the answer and the
 // app's extent in the image's ImageState (image.h).
 //
-// SPLITVK_CLIENT_RENDERS=fovea (issue 21): a target stays full size (false), and `*guard` gets its
+// SPLITVK_CLIENT_RENDERS=fovea: a target stays full size (false), and `*guard` gets its
 // class, for the passes into it that the client cuts to the guard (split::window_guard_rect).
 struct GuardTarget {
     split::TargetClass kind; // kind.screen_space: classified as a target
@@ -66,8 +66,8 @@ VkRect2D scale_image_rect(VkImage image, uint32_t mip, const VkRect2D &rect);
 // describes the scaled image.
 bool screen_space_attachment(const DeviceState &device, const VkFramebufferAttachmentImageInfo &info);
 
-// One info line per reason the layer met a structure it cannot scale consistently (issue 11,
-// item 5): what runs unsplit or with which periphery artefact.
+// One info line per reason the layer met a structure it cannot scale consistently: what
+// runs unsplit or with which periphery artefact.
 void log_unscalable_once(const char *reason);
 
 } // namespace splitvk

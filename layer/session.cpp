@@ -374,7 +374,7 @@ void Session::resync(DeviceState &device, VkQueue queue, uint64_t frame) {
     const auto ms = [](auto from, auto to) {
         return std::chrono::duration<double, std::milli>(to - from).count();
     };
-    // Where the resync's time goes (issue 14, item 3): waiting for the next present, the queue to
+    // Where the resync's time goes: waiting for the next present, the queue to
     // drain, the readback, and encoding and queueing the snapshot.
     SPLITVK_WARN("splitvk-agent at %s brought in at frame %llu: %zu objects, %llu buffers, %llu images, %zu "
                  "descriptor sets, %zu command buffers, %.1f MiB in %.0f ms (%.0f ms after it answered; "

@@ -1,6 +1,6 @@
 #pragma once
 
-// One replication session per VkDevice (DESIGN §2-3, issue 3): the TCP connection to
+// One replication session per VkDevice (docs/architecture.md §2-3): the TCP connection to
 // splitvk-agent and the device's global command stream.
 //
 // Opened at vkCreateDevice, with or without an agent (only invalid settings leave a device with no
@@ -9,13 +9,13 @@
 // is anything sent. Without an agent the device runs unsplit (one line) until one answers; once an
 // agent has accepted the split, the device splits for the rest of its life.
 //
-// Reconnection (the reliability issue). A thread of the session's connects with backoff whenever no
-// agent is connected: at vkCreateDevice if none answered (late join), or after the agent went away
-// (one line). A new agent is brought in at the next vkQueuePresentKHR, on the app's thread, which
-// owns the present queue for the duration of the call: resync() waits for the queue, reads back
-// the contents of every live buffer and image (resource.h), and sends the split settings and the
-// live-state snapshot (objects, contents, descriptors, command buffers) before anything else. A
-// Reject for a bad token or version ends the retries (one line): the device stays unsplit.
+// Reconnection (docs/architecture.md §3, the live-state log). A thread of the session's connects with backoff
+// whenever no agent is connected: at vkCreateDevice if none answered (late join), or after the agent went
+// away (one line). A new agent is brought in at the next vkQueuePresentKHR, on the app's thread, which owns
+// the present queue for the duration of the call: resync() waits for the queue, reads back the contents of
+// every live buffer and image (resource.h), and sends the split settings and the live-state snapshot
+// (objects, contents, descriptors, command buffers) before anything else. A Reject for a bad token or version
+// ends the retries (one line): the device stays unsplit.
 //
 // Ordering. Everything the layer sends for a device goes through this object under one mutex:
 // device-level calls are encoded into a pending batch of the global stream (record()), and every
@@ -58,7 +58,8 @@ namespace splitvk {
 struct DeviceState;
 
 // What the codec reports while encoding: an extension structure it cannot forward is logged
-// once per structure type (DESIGN §3: "logs once when an app uses something it cannot forward").
+// once per structure type (docs/architecture.md §3: "logs once when an app uses something it cannot
+// forward").
 class CaptureHooks : public codec::EncodeHooks {
 public:
     void skipped_structure(VkStructureType stype, const char *parent) override;
@@ -81,12 +82,12 @@ public:
 
     bool live() const { return live_.load(std::memory_order_relaxed); }
     bool verify() const { return verify_; }
-    // The device renders split (issue 4): split passes are scaled and presents composite. Set when
+    // The device renders split: split passes are scaled and presents composite. Set when
     // an agent first accepts the split and kept for the session's life, also while no agent is
     // connected (the centre then comes from the periphery), so command buffers recorded scaled are
     // always composited.
     bool splitting() const { return splitting_.load(std::memory_order_relaxed); }
-    // The swapped split (SPLITVK_CLIENT_RENDERS=fovea, issue 21): Fovea once the first agent that
+    // The swapped split (SPLITVK_CLIENT_RENDERS=fovea): Fovea once the first agent that
     // accepted the split granted kSwappedSplit, for the session's life; Periphery otherwise.
     ClientRenders client_renders() const { return client_renders_.load(std::memory_order_relaxed); }
     // The client cuts its passes to the foveae and leaves the periphery to the agent: the swapped

@@ -1,6 +1,6 @@
 #pragma once
 
-// The client half of the image-space split (DESIGN §4, issue 4). A split pass is a render pass
+// The client half of the image-space split (docs/architecture.md §4). A split pass is a render pass
 // instance (or dynamic rendering) that draws into a swapchain image of a composable swapchain;
 // inside it the layer passes down a rewritten call (render area, viewports, scissors and clear
 // rects scaled into the top-left ceil(s·W) x ceil(s·H)) while the capture stream keeps the app's
@@ -52,8 +52,8 @@ bool split_enabled(const DeviceState &device);
 // passing_through()). Submits and presents go by split_enabled: a command buffer recorded split
 // before the switch still draws scaled, and its frame is still composited.
 bool split_recording(const DeviceState &device);
-// Whether passes recorded now are cut to the foveae rather than scaled (SPLITVK_CLIENT_RENDERS=fovea,
-// issue 21): split_enabled, the session cutting (Session::cutting(): fovea mode with a live agent),
+// Whether passes recorded now are cut to the foveae rather than scaled (SPLITVK_CLIENT_RENDERS=fovea):
+// split_enabled, the session cutting (Session::cutting(): fovea mode with a live agent),
 // and no screen-space target of the device created scaled (one made before the agent chose the mode
 // keeps its scaled size, which a cut frame cannot use: the device then stays uncut, said once).
 bool split_cutting(const DeviceState &device);

@@ -1,6 +1,6 @@
 #pragma once
 
-// SPLITVK_FOVEA=auto where the split does not pay (issue 22): the layer passes frames through, as if
+// SPLITVK_FOVEA=auto where the split does not pay: the layer passes frames through, as if
 // there were no agent, and tries the split again now and then.
 //
 // Whether the split pays cannot be told from one side's numbers: a small frame is slower split

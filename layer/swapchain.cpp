@@ -1,8 +1,8 @@
 // VkSwapchainKHR: the agent has no surface, so a swapchain becomes offscreen images there
-// (DESIGN §3). After vkCreateSwapchainKHR the layer sends SwapchainImages (its images' ids, extent,
-// format, usage, layers); vkDestroySwapchainKHR sends SwapchainDestroyed.
+// (docs/architecture.md §3). After vkCreateSwapchainKHR the layer sends SwapchainImages (its images' ids,
+// extent, format, usage, layers); vkDestroySwapchainKHR sends SwapchainDestroyed.
 //
-// Usage the layer adds (DESIGN §4), only while a session captures, and only bits the surface
+// Usage the layer adds (docs/architecture.md §4), only while a session captures, and only bits the surface
 // supports: Compositor::kSwapchainUsage (TRANSFER_SRC, TRANSFER_DST, COLOR_ATTACHMENT) so the
 // compositor can upsample the periphery and write the fovea tiles, and TRANSFER_SRC with
 // SPLITVK_VERIFY=full to read presented images back. If the driver refuses the swapchain with

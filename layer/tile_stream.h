@@ -1,6 +1,6 @@
 #pragma once
 
-// The client's half of the tile path (DESIGN §2 and §5): Tiles messages from the agent are
+// The client's half of the tile path (docs/architecture.md §2 and §5): Tiles messages from the agent are
 // decoded on the layer's own threads, one per eye, so that eyes decode in parallel and each eye's
 // decoder (a stateful stream: P-frames reference that eye's previous frame) is used by one thread
 // in order. vkQueuePresentKHR then takes its own frame's tiles (lockstep: frame N is composited

@@ -399,7 +399,7 @@ void CmdCopyImageToBuffer2(DeviceState &, PFN_vkCmdCopyImageToBuffer2 down, VkCo
 // A dispatch with a screen-space storage image bound covers the scaled image with ceil(n·s)
 // groups. Shaders that bound-check against imageSize() then shade exactly the scaled target; a
 // shader that takes the extent from a uniform shades the scaled image's top-left part of it (a
-// periphery artefact; DESIGN §4, the agent replays it full size).
+// periphery artefact; docs/architecture.md §4, the agent replays it full size).
 void CmdDispatch(DeviceState &, PFN_vkCmdDispatch down, VkCommandBuffer commandBuffer, uint32_t groupCountX,
                  uint32_t groupCountY, uint32_t groupCountZ) {
     if (dispatch_writes_screen_space(commandBuffer)) {

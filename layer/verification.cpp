@@ -160,7 +160,7 @@ std::optional<double> compare_verified_frame(DeviceState &dev, const PendingVeri
         const FrameDifference d = compare_frames(r.staging.mapped, theirs->pixels.data(), width, height,
                                                  layers, exact, texel_bytes);
         mismatches = d.mismatches;
-        // Another GPU rasterises differently (issue 10): by how much is what tells a rounding
+        // Another GPU rasterises differently: by how much is what tells a rounding
         // difference from a wrong picture.
         session.largest_difference.store(std::max(session.largest_difference.load(), d.largest));
         session.difference_sum.fetch_add(d.channel_sum);

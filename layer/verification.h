@@ -1,8 +1,8 @@
 #pragma once
 
-// SPLITVK_VERIFY=full (present.cpp's frames, DESIGN §2): the layer reads each presented image back
-// with a copy of its own and compares it pixel by pixel with the agent's VerifyFrame of the same
-// frame (frame_difference.h).
+// SPLITVK_VERIFY=full (present.cpp's frames, docs/architecture.md §2): the layer reads each presented image
+// back with a copy of its own and compares it pixel by pixel with the agent's VerifyFrame of the same frame
+// (frame_difference.h).
 //
 // The paper's split is off then (agent_link.cpp, base_hello): its scaled periphery makes every
 // pixel differ on purpose, so both sides render whole frames and every pixel must match. The

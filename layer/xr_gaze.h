@@ -1,6 +1,6 @@
 #pragma once
 
-// SPLITVK_GAZE=openxr (issue 22): the runtime's eye tracking moves the foveae of OpenXR eye images.
+// SPLITVK_GAZE=openxr: the runtime's eye tracking moves the foveae of OpenXR eye images.
 //
 // The application never knows. At xrCreateInstance the layer adds XR_EXT_eye_gaze_interaction where
 // the runtime has it; where the system supports eye gaze, it creates an action set of its own with

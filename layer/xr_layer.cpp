@@ -1,5 +1,5 @@
-// XR_APILAYER_SPLITVK_split_render: the OpenXR API layer (DESIGN §9), in the same library as the
-// Vulkan layer, so that both see one process's state.
+// XR_APILAYER_SPLITVK_split_render: the OpenXR API layer (docs/architecture.md §9), in the same library as
+// the Vulkan layer, so that both see one process's state.
 //
 // An OpenXR application never presents to a window: it renders each eye into images of an
 // XrSwapchain, which the runtime created on the application's VkDevice (Monado imports them from

@@ -1,6 +1,6 @@
 #pragma once
 
-// zstd compression of message payloads (DESIGN §3: large payloads, memory data and shader code,
+// zstd compression of message payloads (docs/architecture.md §3: large payloads, memory data and shader code,
 // are compressed when that pays). A compressed payload is exactly one zstd frame that declares
 // its content size; the receiver refuses anything else.
 

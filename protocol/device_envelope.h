@@ -1,6 +1,6 @@
 #pragma once
 
-// The device envelope (issue 10): what the layer tells the application about its GPU, chosen so
+// The device envelope: what the layer tells the application about its GPU, chosen so
 // that the client's GPU and any agent GPU that may serve it can both honour it. An application
 // sizes and aligns by what it is told (uniform slots by minUniformBufferOffsetAlignment, textures
 // by maxImageDimension2D, ...); the agent replays those very numbers on its own GPU, so a value

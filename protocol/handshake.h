@@ -1,6 +1,6 @@
 #pragma once
 
-// The versioned handshake (DESIGN §3). The client's first message is Hello; the server answers
+// The versioned handshake (docs/architecture.md §3). The client's first message is Hello; the server answers
 // Welcome or Reject (and then closes). Nothing else may be sent before Hello / Welcome.
 //
 // Version policy: protocol_version is (major << 16) | minor. The major must match exactly: a
@@ -25,7 +25,7 @@
 namespace splitvk::protocol {
 
 inline constexpr uint16_t kProtocolMajor = 1;
-// Minor 1: Hello carries the device envelope, Welcome the agent's device (issue 10).
+// Minor 1: Hello carries the device envelope, Welcome the agent's device.
 inline constexpr uint16_t kProtocolMinor = 1;
 
 constexpr uint32_t make_protocol_version(uint16_t major, uint16_t minor) {
@@ -71,11 +71,11 @@ namespace capability {
 inline constexpr uint64_t kZstdPayloads = 1ull << 0; // compressed payloads (kFlagCompressed) accepted
 inline constexpr uint64_t kVerifyFrames = 1ull
                                           << 1; // the server returns whole presented frames (SPLITVK_VERIFY)
-inline constexpr uint64_t kFoveaTiles = 1ull << 2; // the split: SplitConfig, fovea shading, Tiles (issue 4)
-// SplitConfig may carry SPLITVK_AGENT_SCISSOR (issue 11); an agent without it refuses the longer
+inline constexpr uint64_t kFoveaTiles = 1ull << 2; // the split: SplitConfig, fovea shading, Tiles
+// SplitConfig may carry SPLITVK_AGENT_SCISSOR; an agent without it refuses the longer
 // message, so the client sends it only when this bit was granted.
 inline constexpr uint64_t kAgentScissor = 1ull << 3;
-// The swapped split (SPLITVK_CLIENT_RENDERS=fovea, issue 21): the agent renders the periphery and
+// The swapped split (SPLITVK_CLIENT_RENDERS=fovea): the agent renders the periphery and
 // streams it lossily; the client renders the foveae. Offered only by a client that asks for it;
 // granted by an agent unless it runs with --no-periphery. With it the client may send
 // PeripheryConfig (metadata.h) after SplitConfig.
@@ -94,7 +94,7 @@ inline constexpr uint32_t kMaxDeviceBlobBytes = 64 * 1024; // an encoded DeviceD
 struct Hello {
     uint32_t protocol_version = kProtocolVersion;
     uint64_t capabilities = kSupportedCapabilities;
-    std::vector<uint8_t> token; // the session secret (DESIGN §6 TOKEN); empty: none
+    std::vector<uint8_t> token; // the session secret (docs/architecture.md §6 TOKEN); empty: none
     std::string client_name;    // the application, for the server's logs
     std::string client_gpu_name;
     // kCodecFingerprint of the client's generated codec: both sides must be built from the same

@@ -1,6 +1,6 @@
 #pragma once
 
-// The client's record of the agents it trusts, as ssh's known_hosts (issue 14, docs/security.md):
+// The client's record of the agents it trusts, as ssh's known_hosts (docs/security.md):
 // $XDG_CONFIG_HOME/splitvk/known_agents (~/.config/splitvk/known_agents), one agent a line:
 //
 //   # comment

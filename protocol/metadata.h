@@ -1,6 +1,6 @@
 #pragma once
 
-// The metadata messages of a replication session (DESIGN §2-3): what is not a Vulkan call but
+// The metadata messages of a replication session (docs/architecture.md §2-3): what is not a Vulkan call but
 // the agent needs to reproduce the client's frames. Vulkan calls travel as MessageType::Commands,
 // a sequence of codec-encoded commands (protocol/codec). Ids are the client's handle values.
 //
@@ -8,7 +8,7 @@
 //   client -> server  SwapchainImages   a swapchain was created: the server makes offscreen images
 //   client -> server  SwapchainDestroyed
 //   client -> server  SwapchainView     an OpenXR eye's field of view: where that swapchain's
-//                                       fovea sits from the next frame on (DESIGN §9)
+//                                       fovea sits from the next frame on (docs/architecture.md §9)
 //   client -> server  FrameBegin        vkAcquireNextImageKHR returned an image
 //   client -> server  FramePresent      vkQueuePresentKHR: the frame's commands are all submitted
 //   server -> client  VerifyFrame       a presented image read back whole (SPLITVK_VERIFY=full)
@@ -16,11 +16,11 @@
 //                                       codec); sent once, before the first command
 //   client -> server  PeripheryConfig   the swapped split (capability kSwappedSplit): the periphery's
 //                                       scale and quality; sent once, right after SplitConfig
-//   server -> client  Tiles             the encoded fovea tiles of one presented frame (issue 4), or
-//                                       in the swapped split its downsampled periphery (issue 21)
+//   server -> client  Tiles             the encoded fovea tiles of one presented frame, or
+//                                       in the swapped split its downsampled periphery
 //   client -> server  ImageLayouts      a linear image was created: where the client's driver puts
 //                                       each of its subresources, so that the agent can re-lay
-//                                       MemoryData into its own driver's layout (issue 10)
+//                                       MemoryData into its own driver's layout
 //   client -> server  BufferAddress     vkGetBufferDeviceAddress returned an address on the client:
 //                                       the agent maps it to its own buffer's (buffer_addresses.h)
 
@@ -65,11 +65,11 @@ struct SwapchainImages {
     uint32_t array_layers = 1; // imageArrayLayers
     std::vector<uint64_t> image_ids;
     // Where the images come from. A window swapchain's images exist only on the client, so the agent
-    // makes offscreen ones under these ids. An OpenXR runtime's swapchain images (DESIGN §9) are
-    // images the client created with vkCreateImage, which the agent already replays: it adopts
-    // them. No capability bit guards the two trailing fields: the codec that forwards what an
-    // OpenXR runtime needs (external memory) came with them, and peers of different codecs refuse
-    // each other at the handshake (Hello's codec fingerprint).
+    // makes offscreen ones under these ids. An OpenXR runtime's swapchain images (docs/architecture.md §9)
+    // are images the client created with vkCreateImage, which the agent already replays: it adopts them. No
+    // capability bit guards the two trailing fields: the codec that forwards what an OpenXR runtime needs
+    // (external memory) came with them, and peers of different codecs refuse each other at the handshake
+    // (Hello's codec fingerprint).
     enum class Source : uint32_t { Window = 0, Runtime = 1 };
     Source source = Source::Window;
     // The layout the images are in when a frame ends with them (FramePresent): PRESENT_SRC_KHR (or
@@ -118,7 +118,7 @@ struct PresentedImage {
 
 inline constexpr uint32_t kPresentVerify = 1u << 0; // read the images back and send VerifyFrame
 // The client takes no tiles for this frame: replay it, and read back and send nothing. A frame
-// SPLITVK_FOVEA=auto passes through (issue 22), and the frame a resync brings the agent in at, whose
+// SPLITVK_FOVEA=auto passes through, and the frame a resync brings the agent in at, whose
 // submits were made before it answered (its images hold nothing of the frame). An agent that ignores
 // it sends tiles the client drops.
 inline constexpr uint32_t kPresentNoTiles = 1u << 1;
@@ -170,7 +170,7 @@ struct SplitConfig {
     AgentScissor agent_scissor;
 };
 
-// The swapped split (SPLITVK_CLIENT_RENDERS=fovea, issue 21; sent only when capability
+// The swapped split (SPLITVK_CLIENT_RENDERS=fovea; sent only when capability
 // kSwappedSplit was granted, right after SplitConfig): the client renders only the foveae, and the
 // agent replays every pass whole, downsamples each presented window image to
 // split::scaled_extent(image, scale) and sends it as periphery tiles (kTilePeriphery). The decoder
@@ -186,8 +186,8 @@ inline constexpr uint32_t kTileKeyframe = 1u << 0; // decodable alone (an IDR fo
 // the scaled image, and its data may be lossy (tile_codec.h). A Tiles message holds periphery tiles
 // or fovea tiles, never both.
 inline constexpr uint32_t kTilePeriphery = 1u << 1;
-// Tiles flags: the agent replayed something its GPU cannot honour in this frame (issue 10,
-// server-agent/limit_guard.h); the message carries no tiles and the client shows the periphery.
+// Tiles flags: the agent replayed something its GPU cannot honour in this frame
+// (server-agent/limit_guard.h); the message carries no tiles and the client shows the periphery.
 inline constexpr uint32_t kTilesInvalid = 1u << 0;
 
 // One eye's fovea, encoded by `codec` (tile_codec.h) as one frame of that eye's stream.

@@ -1,6 +1,6 @@
 #pragma once
 
-// The swapped split's periphery (SPLITVK_CLIENT_RENDERS=fovea, issue 21), what the agent and the
+// The swapped split's periphery (SPLITVK_CLIENT_RENDERS=fovea), what the agent and the
 // layer must agree on: the agent renders the whole frame, downsamples the presented image with a
 // linear blit to split::scaled_extent(image, PeripheryConfig::scale) and streams that scaled image
 // as Tiles flagged kTilePeriphery, one tile per part below, each in the scaled image's

@@ -1,6 +1,6 @@
 #pragma once
 
-// splitvk's settings (DESIGN §6): environment variables SPLITVK_<NAME>, and keys
+// splitvk's settings (docs/architecture.md §6): environment variables SPLITVK_<NAME>, and keys
 // `splitvk_split_render.<name>` in a Khronos-style vk_layer_settings.txt found through
 // VK_LAYER_SETTINGS_PATH (a file or a directory holding one) or the working directory.
 // The environment wins. Parsing is table-driven so the docs, the tests and the parser
@@ -19,19 +19,19 @@
 namespace splitvk {
 
 enum class EyeMode { Auto, One, Two };
-// SPLITVK_TLS (issue 14): auto is TLS for every address but loopback.
+// SPLITVK_TLS: auto is TLS for every address but loopback.
 enum class TlsMode { Auto, On, Off };
 enum class TileCodec { X264, Zstd, Raw };
-// SPLITVK_TARGETS (issue 11): Auto scales every screen-space target on the client; Swapchain only
+// SPLITVK_TARGETS: Auto scales every screen-space target on the client; Swapchain only
 // the passes into the swapchain image, as the first version did.
 enum class TargetMode { Auto, Swapchain };
-// SPLITVK_UNSUPPORTED (issue 19): what vkCreateDevice does when the application enables a device
+// SPLITVK_UNSUPPORTED: what vkCreateDevice does when the application enables a device
 // extension splitvk does not forward (codegen/allowlist.py). Fail answers
 // VK_ERROR_EXTENSION_NOT_PRESENT; Passthrough creates that device as asked and leaves it alone:
 // no session, no split, every command straight to the driver.
 enum class UnsupportedMode { Fail, Passthrough };
 
-// SPLITVK_AGENT_SCISSOR (issue 11): off replays the agent's offscreen passes in full; guard:N also
+// SPLITVK_AGENT_SCISSOR: off replays the agent's offscreen passes in full; guard:N also
 // scissors its passes into screen-space targets to the foveae grown by N pixels of each target.
 struct AgentScissor {
     bool guard = false;
@@ -39,14 +39,14 @@ struct AgentScissor {
 };
 inline constexpr uint32_t kMaxAgentScissorGuard = 4096;
 
-// SPLITVK_CLIENT_RENDERS (issue 21): which side renders what. Periphery, the paper's split: the
+// SPLITVK_CLIENT_RENDERS: which side renders what. Periphery, the paper's split: the
 // client renders the periphery at SPLITVK_SCALE and the agent the foveae, losslessly. Fovea, the
 // swapped split: the client renders only the foveae at full resolution and the agent the periphery,
 // streamed lossily (SPLITVK_PERIPHERY_QUALITY). Decided at the first connection (capability
 // kSwappedSplit); an agent that cannot do it leaves the client on Periphery, with one line.
 enum class ClientRenders { Periphery, Fovea };
 
-// SPLITVK_PERIPHERY_QUALITY (issue 21): the agent's periphery encoding in the swapped split: x264 at
+// SPLITVK_PERIPHERY_QUALITY: the agent's periphery encoding in the swapped split: x264 at
 // constant quality `crf` (0 best .. 51), or lossless.
 struct PeripheryQuality {
     bool lossless = false;
@@ -55,7 +55,7 @@ struct PeripheryQuality {
 };
 inline constexpr uint32_t kMaxPeripheryCrf = 51;
 
-// SPLITVK_CLIENT_GUARD (issue 21): in the swapped split, the client's passes into screen-space
+// SPLITVK_CLIENT_GUARD: in the swapped split, the client's passes into screen-space
 // targets are cut to the foveae grown by `pixels` of each target (the rule of SPLITVK_AGENT_SCISSOR's
 // guard:N, with its caveat), or rendered in full.
 struct ClientGuard {
@@ -63,7 +63,7 @@ struct ClientGuard {
     uint32_t pixels = 64;
 };
 
-// SPLITVK_SEAM (issue 21): in the swapped split, how the client's foveae meet the agent's lossy
+// SPLITVK_SEAM: in the swapped split, how the client's foveae meet the agent's lossy
 // periphery. Feather: the client renders each fovea grown by `pixels` (split::seam_rect) and the
 // compositor blends its pixels into the upsampled periphery across that band, from the periphery at
 // the band's outer edge to the client's at the fovea's; the fovea itself stays exact. Hard (or
@@ -76,7 +76,7 @@ struct Seam {
 };
 inline constexpr uint32_t kMaxSeamFeather = 256;
 
-// SPLITVK_GAZE (issue 22): where the foveae sit. Fixed: centred in each eye (at the view direction
+// SPLITVK_GAZE: where the foveae sit. Fixed: centred in each eye (at the view direction
 // under OpenXR), the same every frame; OpenXR: where the runtime's eye tracking says the eyes look
 // (layer/xr_gaze.h; OpenXR eye images only); Fifo: at the gaze points another process writes into a
 // named pipe (layer/gaze.h).
@@ -89,7 +89,7 @@ struct ServerAddress {
 
 // The fovea of one eye: either absolute pixels, or fractions of the eye's extent. The default,
 // 512x360 of a 1200x1080 eye, is the paper's, kept as fractions so other eye sizes scale alike.
-// SPLITVK_FOVEA=auto (issue 22) sizes it per frame from measured times (layer/fovea_size.h),
+// SPLITVK_FOVEA=auto sizes it per frame from measured times (layer/fovea_size.h),
 // starting from the default; width and height are then the most it may grow to, as fractions (the
 // whole eye unless auto:WxH says less), since the agent shades that much of every eye.
 struct FoveaSize {
@@ -114,7 +114,7 @@ struct Settings {
     ClientGuard client_guard;
     Seam seam;
     GazeMode gaze = GazeMode::Fixed;
-    // SPLITVK_FOVEA_MASK (issue 22): the client leaves the foveae out of the periphery it shades,
+    // SPLITVK_FOVEA_MASK: the client leaves the foveae out of the periphery it shades,
     // through the depth of its passes into the swapchain image, where that is exact (layer/fovea_mask.h).
     bool fovea_mask = true;
     std::string gaze_fifo; // GazeMode::Fifo: the pipe's path
@@ -134,7 +134,7 @@ struct Settings {
     std::string token; // SPLITVK_TOKEN, or the contents of SPLITVK_TOKEN_FILE
     std::string token_file;
     bool verify = false; // SPLITVK_VERIFY=full: compare every presented frame with the agent's
-    // SPLITVK_ENVELOPE (issue 10): auto tells the application limits both sides honour; client
+    // SPLITVK_ENVELOPE: auto tells the application limits both sides honour; client
     // tells it the client's own, unchecked, which only a diagnosis should want.
     bool envelope = true;
     UnsupportedMode unsupported = UnsupportedMode::Fail;

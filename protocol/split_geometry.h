@@ -1,6 +1,6 @@
 #pragma once
 
-// The image-space split's geometry (DESIGN §4), shared by the layer and the agent so that both
+// The image-space split's geometry (docs/architecture.md §4), shared by the layer and the agent so that both
 // sides scale, assign eyes and place foveae identically: the client renders the periphery of a
 // split pass into the top-left ceil(s·W) x ceil(s·H) of the swapchain image, the agent shades the
 // fovea of each eye at full resolution, and the compositor joins them by these same rectangles.
@@ -74,10 +74,10 @@ VkRect2D right_eye(VkExtent2D image);
 // The fovea of an eye: FoveaSize::pixels_for_eye, centred in the eye (rounded down).
 VkRect2D fovea_of_eye(const VkRect2D &eye, const FoveaSize &fovea);
 
-// Where the eyes look in a frame (SPLITVK_GAZE, DESIGN §9): per eye a point of that eye's image in
-// units of 1/kGazeOne of its width and height, so that both sides place the fovea with the same
-// integer arithmetic (kGazeOne/2, kGazeOne/2 is the centre). A fixed gaze places every fovea where
-// fovea_of_eye does, pixel for pixel what the split did before gaze existed.
+// Where the eyes look in a frame (SPLITVK_GAZE, docs/architecture.md §9): per eye a point of that eye's image
+// in units of 1/kGazeOne of its width and height, so that both sides place the fovea with the same integer
+// arithmetic (kGazeOne/2, kGazeOne/2 is the centre). A fixed gaze places every fovea where fovea_of_eye does,
+// pixel for pixel what the split did before gaze existed.
 inline constexpr uint32_t kGazeOne = 65536;
 struct GazePoint {
     uint32_t x = kGazeOne / 2; // 0 (left edge) .. kGazeOne (right edge)
@@ -89,7 +89,7 @@ struct Gaze {
     GazePoint eyes[2];
 };
 
-// The size of one frame's foveae where the client picks it per frame (SPLITVK_FOVEA=auto, issue 22),
+// The size of one frame's foveae where the client picks it per frame (SPLITVK_FOVEA=auto),
 // in 1/kGazeOne of each eye's width and height so that both sides compute the same pixels from it.
 // Unset (width 0): the size SplitConfig gives. A set size is never larger than SplitConfig's in
 // either dimension: the agent recorded its scissors for that one, and a smaller fovea, centred or
@@ -117,7 +117,7 @@ bool frame_fovea_size_allowed(const FoveaSize &configured, const FrameFoveaSize 
 VkRect2D fovea_at_gaze(const VkRect2D &eye, const GazePoint &point, const FoveaSize &fovea);
 
 // The foveae of a frame whose split passes drew `drawn` into `image` (sorted by x, as add_fovea
-// keeps them; none when nothing was drawn). DESIGN §4, §9:
+// keeps them; none when nothing was drawn). docs/architecture.md §4, §9:
 // - EyeMode::One: the fovea of the whole image, centred.
 // - Two: the fovea of each half drawn into. A stereo frame has two foveae wherever its last pass
 //   draws: a full-screen pass (tone mapping, a multiview compose) gives both.
@@ -191,8 +191,8 @@ struct FieldOfView {
 };
 
 // The fovea of an eye (FoveaSize::pixels_for_eye of `eye`) centred on the projection of the view
-// direction (DESIGN §9: an asymmetric field of view moves it off the image's centre). On the image
-// plane the edges lie at tan(angle); the view direction, at tan(0) = 0, lands at
+// direction (docs/architecture.md §9: an asymmetric field of view moves it off the image's centre). On the
+// image plane the edges lie at tan(angle); the view direction, at tan(0) = 0, lands at
 //   x = (0 - tan(angleLeft)) / (tan(angleRight) - tan(angleLeft)) of the eye's width, and
 //   y = (tan(angleUp) - 0) / (tan(angleUp) - tan(angleDown)) of its height (image y grows downward).
 // The fovea's offset is that centre less half its size, rounded down (a symmetric field of view
@@ -206,10 +206,10 @@ VkRect2D fovea_at_view_direction(const VkRect2D &eye, const FieldOfView &fov, co
 // not finite) or a field of view that spans nothing.
 std::optional<GazePoint> gaze_point_in_eye(const FieldOfView &fov, double x, double y, double z);
 
-// One eye of an OpenXR runtime's swapchain (DESIGN §9): a projection view of xrEndFrame that names
-// the swapchain, with the array layer (imageArrayIndex) and sub-image rectangle (imageRect) that
-// hold that eye, and its field of view. A layered swapchain drawn with multiview has an eye per
-// layer; a side-by-side one has two rectangles in one layer.
+// One eye of an OpenXR runtime's swapchain (docs/architecture.md §9): a projection view of xrEndFrame that
+// names the swapchain, with the array layer (imageArrayIndex) and sub-image rectangle (imageRect) that hold
+// that eye, and its field of view. A layered swapchain drawn with multiview has an eye per layer; a
+// side-by-side one has two rectangles in one layer.
 struct RuntimeEye {
     uint32_t layer = 0;
     VkRect2D rect{};

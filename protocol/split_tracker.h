@@ -1,9 +1,9 @@
 #pragma once
 
-// Per-command-buffer viewport/scissor state of the split (DESIGN §4), shared by the layer (which
-// rewrites the state into the scaled periphery) and the agent (which narrows scissors to the
-// foveae). Both sides feed it the application's original calls, so they agree on which viewports
-// were in effect inside each split pass and thus on the foveae drawn.
+// Per-command-buffer viewport/scissor state of the split (docs/architecture.md §4), shared by the layer
+// (which rewrites the state into the scaled periphery) and the agent (which narrows scissors to the foveae).
+// Both sides feed it the application's original calls, so they agree on which viewports were in effect inside
+// each split pass and thus on the foveae drawn.
 //
 // Dynamic viewport/scissor state persists across render pass instances within a command buffer,
 // and a pipeline with static state overrides it only while bound: the tracker keeps the app's
@@ -118,7 +118,7 @@ public:
     bool static_scissors() const { return pipeline_ && pipeline_->has_scissors; }
 
     // `swapchain`: the pass draws into swapchain image `image`, whose foveae are noted; otherwise it
-    // draws only into screen-space targets (issue 11), scaled alike but with no fovea of its own.
+    // draws only into screen-space targets, scaled alike but with no fovea of its own.
     void begin_split(uint64_t image, VkExtent2D extent, bool swapchain = true) {
         in_split_ = true;
         noted_in_pass_ = false;
@@ -128,7 +128,7 @@ public:
         cut_ = false;
         guard_.reset();
     }
-    // The client with SPLITVK_CLIENT_RENDERS=fovea (issue 21), right after begin_split: the pass keeps
+    // The client with SPLITVK_CLIENT_RENDERS=fovea, right after begin_split: the pass keeps
     // its full-size render area and viewports, and its scissors are cut instead of scaled: to the
     // foveae (split::narrow_to_foveae) in a pass into a swapchain image, to `guard` in a pass into
     // screen-space targets only (split::window_guard_rect), or not at all without one.
@@ -169,13 +169,13 @@ public:
     // at the pass's end when it changed none (end_split).
     void note_foveae();
     // A copy or blit into swapchain image `image` (of `extent`) wrote `region`: it counts as drawing
-    // there (issue 11), covering what a viewport of that rectangle would. `cut`: in the swapped split
+    // there, covering what a viewport of that rectangle would. `cut`: in the swapped split
     // it wrote the client's full-size picture, whose periphery the client did not render (its passes
     // and dispatches were cut), so the frame's periphery must come from the agent as for a cut pass.
     void note_transfer(uint64_t image, VkExtent2D extent, const VkRect2D &region, bool cut = false);
     // Inside a split pass into a swapchain image: the client left the foveae of `size` unshaded.
     void note_mask(const FrameFoveaSize &size);
-    // Secondary command buffers (issue 11, item 4). A secondary that continues a render pass
+    // Secondary command buffers. A secondary that continues a render pass
     // (RENDER_PASS_CONTINUE) does not know the image it will draw into, so it keeps the viewports it
     // draws with as recorded; they count as drawn when a primary executes it inside a split pass
     // into a swapchain image, from that image's extent. Both sides do this, so they agree on the foveae.
@@ -190,7 +190,7 @@ public:
     // The descriptor sets bound at the compute bind point, by set number (vkCmdBindDescriptorSets):
     // a dispatch scales its group counts when one of them writes a screen-space target. Part of the
     // command buffer's state, so a command buffer begun again has none bound, and its dispatches are
-    // not scaled for a set its previous recording bound (issue 20).
+    // not scaled for a set its previous recording bound.
     void bind_compute_sets(uint32_t first, uint32_t count, const VkDescriptorSet *sets) {
         if (compute_sets_.size() < size_t{first} + count) compute_sets_.resize(size_t{first} + count);
         std::copy(sets, sets + count, compute_sets_.begin() + first);
@@ -225,7 +225,7 @@ private:
     std::vector<VkDescriptorSet> compute_sets_;
 };
 
-// How a render pass's latest instance was scaled (client, issue 11 item 4): a secondary that
+// How a render pass's latest instance was scaled (client): a secondary that
 // continues the pass without naming its framebuffer is recorded for that prediction. Keyed by the
 // render pass's handle value, which a driver may hand out again once the pass is destroyed: the
 // layer forgets the value at vkDestroyRenderPass (before the driver call) and again at

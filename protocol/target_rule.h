@@ -1,6 +1,6 @@
 #pragma once
 
-// Screen-space targets (DESIGN §4, issue 11): the rule that decides, when an image is created,
+// Screen-space targets (docs/architecture.md §4): the rule that decides, when an image is created,
 // whether the client renders it at SPLITVK_SCALE, and how the regions that commands name in such an
 // image map into the scaled one. Pure functions, so that one table holds the rule and a unit test
 // pins it (tests/unit/screen_space_test.cpp); layer/screen_space.h applies it.
@@ -37,7 +37,7 @@ struct TargetClass {
 // accept one eye's extent, since Auto may find eyes side by side).
 TargetClass classify_target(const VkImageCreateInfo &info, VkExtent2D screen, EyeMode eyes);
 
-// SPLITVK_AGENT_SCISSOR=guard:N (issue 19, item 3): whether the agent may cut a pass into this
+// SPLITVK_AGENT_SCISSOR=guard:N: whether the agent may cut a pass into this
 // target to the foveae grown by N. The foveae are computed in the screen (or, with two eyes, in each
 // eye) and map to a target by its divisor alone; a layered or eye-sized target under SPLITVK_EYES=1
 // has no such mapping: its layers are eyes that a later pass composes where the agent cannot see (a

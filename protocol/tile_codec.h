@@ -1,7 +1,7 @@
 #pragma once
 
-// Codecs for the tiles the agent streams back to the layer (DESIGN §5): the fovea tiles, always
-// lossless, and in the swapped split (issue 21) the parts of the downsampled periphery, which may be
+// Codecs for the tiles the agent streams back to the layer (docs/architecture.md §5): the fovea tiles, always
+// lossless, and in the swapped split the parts of the downsampled periphery, which may be
 // lossy.
 //
 // A tile is width*height texels of 4 or 8 bytes (its stream's texel size, tile_format.h's

@@ -1,6 +1,6 @@
 #pragma once
 
-// TLS 1.3 on the link (issue 14, docs/security.md "The link"). The agent has a key and a
+// TLS 1.3 on the link (docs/security.md "The link"). The agent has a key and a
 // certificate, self-signed unless the operator brings one; the client does not trust any
 // certificate authority but pins the certificate itself, by its SHA-256 fingerprint, as ssh pins
 // host keys. OpenSSL stays inside tls.cpp and transport.cpp: this header is cheap to include.

@@ -354,7 +354,7 @@ struct Connection::Impl : std::enable_shared_from_this<Connection::Impl> {
 
     // Compresses on `workers` threads while this thread queues the results in their order, so the
     // I/O thread writes the first messages while later ones are still being compressed. Worth it
-    // for a resync's snapshot (tens of MiB, DESIGN §6), where one thread's zstd was most of the
+    // for a resync's snapshot (tens of MiB, docs/architecture.md §6), where one thread's zstd was most of the
     // time to the new agent's first frame.
     SendResult send_all(std::vector<OutboundMessage> &messages, std::chrono::milliseconds wait,
                         unsigned workers) {

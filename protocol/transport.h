@@ -1,6 +1,6 @@
 #pragma once
 
-// The TCP transport (DESIGN §2-3, issue 3): one Connection per session, each with its own Asio
+// The TCP transport (docs/architecture.md §2-3): one Connection per session, each with its own Asio
 // io_context and I/O thread, TCP_NODELAY on. Asio stays inside transport.cpp: this header is
 // cheap to include from the layer's many files.
 //

@@ -1,6 +1,6 @@
 #pragma once
 
-// splitvk's wire format (DESIGN §3): message framing, and the primitive encoding that every
+// splitvk's wire format (docs/architecture.md §3): message framing, and the primitive encoding that every
 // payload (handshake, generated Vulkan codec, metadata) is built from.
 //
 // Everything is little-endian on the wire, whatever the host. A message is a 16-byte header

@@ -3,7 +3,7 @@
 
 SPLITVK_ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 
-# Everything splitvk builds, tests, demos and benchmarks with; all Debian 12 packages (DESIGN §1).
+# Everything splitvk builds, tests, demos and benchmarks with; all Debian 12 packages (docs/architecture.md §1).
 # scripts/bench installs the same set (scripts/bench_lib/common.py): python3-matplotlib draws the
 # figures of `scripts/bench paper`.
 SPLITVK_PACKAGES=(

@@ -30,7 +30,7 @@ struct AgentOptions {
     uint64_t max_gpu_memory = kDefaultMaxGpuMemory;       // VkDeviceMemory the client asks for
     std::string record_corpus;                            // debug: write received messages here
     // A Khronos profile JSON: the agent behaves as a device with those limits and features
-    // (issue 10), to test what a stricter GPU would do without one.
+    //, to test what a stricter GPU would do without one.
     std::string emulate_limits;
     // The session process's confinement (confinement.h): the user a root agent's sessions drop
     // to, and --no-confine (debugging) to leave sessions with the agent's own rights.

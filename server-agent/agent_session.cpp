@@ -77,7 +77,7 @@ private:
     uint64_t messages_ = 0;
     uint64_t frames_ = 0;
     uint64_t capabilities_ = 0; // granted in the Welcome
-    // Where a joining session's time goes before its first frame (the client's resync, issue 14):
+    // Where a joining session's time goes before its first frame (the client's resync):
     // from the handshake, the device set-up, waiting for messages (the client reading back and
     // sending its snapshot, the I/O thread decompressing it) and replaying them.
     struct FirstFrame {
@@ -322,7 +322,7 @@ bool Session::handle(protocol::Message &message, bool *done, std::string *error)
             *error = "FrameBegin: " + m.error();
             return false;
         }
-        return true; // a frame mark; the fovea work of issue 4 starts here
+        return true; // a frame mark; the fovea work starts here
     }
     case MessageType::FramePresent: {
         auto m = protocol::decode_frame_present(message.payload);

@@ -1,6 +1,6 @@
 #pragma once
 
-// One session, served in its own process (DESIGN §8: one worker process per context is the real
+// One session, served in its own process (docs/architecture.md §8: one worker process per context is the real
 // defence): adopt the accepted socket, handshake, then replay the client's messages in order until
 // the client leaves or something fails. Any decode or replay error ends the session with one log
 // line naming what failed.

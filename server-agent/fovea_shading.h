@@ -1,6 +1,6 @@
 #pragma once
 
-// The agent half of the image-space split (DESIGN §4, issue 4): in split passes (render passes or
+// The agent half of the image-space split (docs/architecture.md §4): in split passes (render passes or
 // dynamic renderings that draw into a swapchain image) the agent keeps the app's full-resolution
 // viewports and intersects every scissor with split::fovea_scissor of its viewport (scissor i pairs
 // with viewport i): every fovea that viewport's draws can end up in, so that only foveal pixels
@@ -14,7 +14,7 @@
 // with their static values set at bind. Clear rects are left as recorded: clears shade nothing,
 // and only the fovea rects are read back.
 //
-// SPLITVK_AGENT_SCISSOR=guard:N (issue 11) extends the same scissoring to passes that draw only
+// SPLITVK_AGENT_SCISSOR=guard:N extends the same scissoring to passes that draw only
 // into screen-space targets (classified at creation by protocol/target_rule.h against the newest
 // swapchain, as on the client). Such a pass is recorded before the frame's pass into the swapchain
 // image, so its viewports do not say where the foveae will be: every place a fovea can be for
@@ -31,7 +31,7 @@
 // eye-sized target whose eyes are not the image's halves is replayed whole. Passes whose contents are in
 // secondaries are scissored alike through variants of their secondaries (begin_variant).
 //
-// SPLITVK_GAZE other than fixed (issue 22) moves the foveae from frame to frame, by a gaze that only
+// SPLITVK_GAZE other than fixed moves the foveae from frame to frame, by a gaze that only
 // the frame's FramePresent carries. Scissors are baked into command buffers when they are recorded,
 // and applications record once and submit many times (vkcube), so a scissor cut to one frame's
 // foveae would leave a later frame's fovea unshaded. Re-recording every split pass per frame would
@@ -106,7 +106,7 @@ public:
     // Command buffer commands, after the recorded call was replayed (except set_scissors, which
     // replays it).
     void begin_command_buffer(VkCommandBuffer cb, const VkCommandBufferBeginInfo *info);
-    // A copy or blit into a swapchain image counts as drawing into it (issue 11): the foveae of the
+    // A copy or blit into a swapchain image counts as drawing into it: the foveae of the
     // eyes each destination rectangle covers, as the client notes them (layer/transfer.cpp).
     void transfer_into(VkCommandBuffer cb, VkImage image, uint32_t count, const VkRect2D *rects);
     // Secondaries executed inside a split pass: the foveae of the viewports they drew with.
@@ -124,7 +124,7 @@ public:
     // What note_transfer_reads said for `cb`'s recording in progress or last recorded.
     const std::vector<uint64_t> &transfer_reads(VkCommandBuffer cb) const;
 
-    // Secondaries inside scissored passes (issue 19, item 5). A secondary that continues a render
+    // Secondaries inside scissored passes. A secondary that continues a render
     // pass is recorded before the agent knows which pass will execute it (its stream arrives at its
     // vkEndCommandBuffer, before the primary's), so its own recording keeps the app's scissors and
     // is shaded whole. For a pass that is scissored (a split pass, or a guarded one under guard:N),

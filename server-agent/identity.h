@@ -1,6 +1,6 @@
 #pragma once
 
-// The agent's TLS identity (issue 14, docs/security.md "The link"): the operator's certificate and
+// The agent's TLS identity (docs/security.md "The link"): the operator's certificate and
 // key (--tls-cert/--tls-key), or a P-256 key and a self-signed certificate the agent makes on its
 // first start and keeps in its state directory (agent.key, mode 0600, and agent.crt). Loaded once
 // by the listener, before any session is forked: a confined session could not read the files.

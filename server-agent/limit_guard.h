@@ -1,6 +1,6 @@
 #pragma once
 
-// What the agent's GPU cannot do of what it replays (issue 10). The client's application sizes
+// What the agent's GPU cannot do of what it replays. The client's application sizes
 // and aligns by the limits it was told; where those are wider than this GPU's (an application that
 // ignores what it was told, SPLITVK_ENVELOPE=client, or an --emulate-limits device), the driver
 // would draw garbage without a word (a uniform buffer offset of 0x110 on a GPU that needs 0x40

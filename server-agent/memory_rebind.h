@@ -1,7 +1,7 @@
 #pragma once
 
-// Memory rebind (DESIGN §3, GFXReconstruct's "rebind"): the agent never trusts the client's memory
-// type indices, offsets or alignments. vkAllocateMemory only records a client memory object; each
+// Memory rebind (docs/architecture.md §3, GFXReconstruct's "rebind"): the agent never trusts the client's
+// memory type indices, offsets or alignments. vkAllocateMemory only records a client memory object; each
 // bound buffer or image gets its own allocation on the agent's GPU, and MemoryData for a range of a
 // client memory object is routed to every resource bound in that range. Bytes that arrive before a
 // resource is bound are kept in a sparse, zero-initialised shadow and applied at bind time.

@@ -1,6 +1,6 @@
 #pragma once
 
-// MemoryData without idling the queue (issue 12, item 3). What the client's host wrote arrives as
+// MemoryData without idling the queue. What the client's host wrote arrives as
 // MemoryData between submits, and must reach the agent's resources after the work submitted before
 // it has stopped using them and before the work submitted after it starts. Waiting for the queue
 // to go idle does that, but stalls the replay on every memory update (a frame's uniforms). Instead,

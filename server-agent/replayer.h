@@ -1,6 +1,6 @@
 #pragma once
 
-// A session's replay of the client's command stream on the agent's own GPU (DESIGN §2-3).
+// A session's replay of the client's command stream on the agent's own GPU (docs/architecture.md §2-3).
 // The generated ReplayVisitorBase (codegen/emit_replay.py) replays forwarded commands as they are;
 // this class overrides what has real semantics: the device and its queue, submits (in order on one
 // queue, without the client's semaphores and fences), memory (memory_rebind.h), pipelines (no
@@ -64,7 +64,7 @@ public:
     // splits, and until then the agent neither restricts shading to the fovea nor sends tiles.
     void set_tile_sender(TileStreamer::Send send) { tile_sender_ = std::move(send); }
     bool split_config(const protocol::SplitConfig &message, std::string *error);
-    // The swapped split (issue 21; the session checked capability kSwappedSplit): after SplitConfig,
+    // The swapped split (the session checked capability kSwappedSplit): after SplitConfig,
     // every pass replays whole (no fovea shading) and each presented window image goes back
     // downsampled to the config's scale as periphery tiles. False with one line in `error` before
     // SplitConfig or a second time.

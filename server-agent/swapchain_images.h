@@ -1,6 +1,6 @@
 #pragma once
 
-// Swapchains on the agent (DESIGN §3): there is no surface, so a swapchain's images become
+// Swapchains on the agent (docs/architecture.md §3): there is no surface, so a swapchain's images become
 // offscreen images of the same format, extent, layers and usage (plus TRANSFER_SRC for readback),
 // registered under the client's image ids. Presented images are read back for verification
 // (SPLITVK_VERIFY=full) here.

@@ -1,6 +1,6 @@
 #pragma once
 
-// The fovea path of a presented frame on the agent (DESIGN §2 and §5).
+// The fovea path of a presented frame on the agent (docs/architecture.md §2 and §5).
 //
 // At FramePresent the replay thread records a copy of the frame's fovea rects into host memory
 // and submits it on the replay queue, behind the frame's own submits (queue order is the only
@@ -9,7 +9,7 @@
 // (one encoder per eye, as each eye is a stream of its own: x264 P-frames reference the previous
 // frame of the same eye) and sends the Tiles message.
 //
-// The swapped split (issue 21, set_periphery): the frame's presented window image is blitted to
+// The swapped split (set_periphery): the frame's presented window image is blitted to
 // Frame::periphery with a linear filter into the slot's own scaled image, and the parts of that
 // (split::periphery_parts) are read back, encoded (lossily for 8-bit colour) and sent as tiles
 // flagged kTilePeriphery, the parts on parallel threads as the eyes are.

@@ -1,6 +1,6 @@
 #pragma once
 
-// A session's own Vulkan instance and GPU (DESIGN §2-3): the agent never uses the client's
+// A session's own Vulkan instance and GPU (docs/architecture.md §2-3): the agent never uses the client's
 // instance, physical device or queue families. With --validate the instance enables
 // VK_LAYER_KHRONOS_validation (synchronization validation on) and routes every message to the log.
 

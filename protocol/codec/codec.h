@@ -1,6 +1,6 @@
 #pragma once
 
-// The runtime of splitvk's generated Vulkan wire codec (DESIGN §3, issue 3): what the generated
+// The runtime of splitvk's generated Vulkan wire codec (docs/architecture.md §3): what the generated
 // encoders (layer side) and decoders (agent side) in ${build}/generated/vk_codec*.{h,cpp} call.
 //
 //   Encoder      writes one or more commands into a WireWriter. Ids are the client's handle

@@ -37,8 +37,8 @@ std::vector<SubmitInfo> without_synchronization(const SubmitInfo *submits, uint3
 
 // A queue-family ownership transfer to or from another process (VK_QUEUE_FAMILY_EXTERNAL or
 // _FOREIGN_EXT): an OpenXR runtime's client compositor hands each eye image to its service this way,
-// and takes it back before the application draws again (DESIGN §9). The agent has no such process
-// and replays the image as an ordinary one, which such a transfer is invalid on; replayed as a
+// and takes it back before the application draws again (docs/architecture.md §9). The agent has no such
+// process and replays the image as an ordinary one, which such a transfer is invalid on; replayed as a
 // barrier of its one queue (both families ignored), it keeps the layout transition and the access
 // masks. Returns whether `barrier` was changed.
 inline bool is_other_process_queue_family(uint32_t family) {

@@ -1291,7 +1291,7 @@ def analysis_text(res):
     elif worst_agent == "agent encode":
         steps.append("Stream x264 slices as they finish (the NAL callback) so that network and decode overlap encode.")
     elif worst_agent == "client decode":
-        steps.append("Decode is on the weak client: zstd on the difference decodes about ten times cheaper (DESIGN §5).")
+        steps.append("Decode is on the weak client: zstd on the difference decodes about ten times cheaper (docs/architecture.md §5).")
     out[-1] += " " + " ".join(f"({i + 1}) {t}" for i, t in enumerate(steps))
     return "\n".join(out)
 

@@ -1,4 +1,4 @@
-"""bench payoff: SPLITVK_FOVEA=auto where the split does not pay (issue 22).
+"""bench payoff: SPLITVK_FOVEA=auto where the split does not pay.
 
 Small frames are slower split than native: the agent's path alone outlasts the whole native frame.
 `auto` measures both ways and passes frames through where the split loses. This bench runs

@@ -1,4 +1,4 @@
-// splitvk-agent end to end (issue 3): the real agent binary listens on 127.0.0.1 (only), and this
+// splitvk-agent end to end: the real agent binary listens on 127.0.0.1 (only), and this
 // test is its client, speaking the protocol library and the generated codec. Every test reads the
 // agent's log, which is part of the contract: one line per session end with its reason.
 
@@ -1314,7 +1314,7 @@ TEST(AgentRecordCorpus, WritesSeedsWithoutTheToken) {
     std::filesystem::remove_all(dir);
 }
 
-// --- the swapped split (issue 21): the agent renders the periphery -------------------------------
+// --- the swapped split: the agent renders the periphery -------------------------------
 
 // A 64x32 window image the client fills from a buffer with a smooth picture; the agent replays it
 // whole and sends the image downsampled to scale 0.5 as the two periphery parts, lossily.

@@ -1,4 +1,4 @@
-// The agent's --validate (issue 19 item 6): validation errors and warnings are counted apart, and
+// The agent's --validate: validation errors and warnings are counted apart, and
 // only errors fail the session. Messages are injected with vkSubmitDebugUtilsMessageEXT into a real
 // session instance with VK_LAYER_KHRONOS_validation, so they take the path the layer's own take.
 #include "agent_session.h"

@@ -121,7 +121,7 @@ void decode_control(const protocol::Message &m) {
             protocol::ServerHandshakeConfig config;
             config.token = {'s', 'e', 'c', 'r', 'e', 't'};
             config.codec_fingerprint = protocol::session_fingerprint(codec::kCodecFingerprint);
-            // The device envelope a client sends (issue 10), decoded and checked as the agent does.
+            // The device envelope a client sends, decoded and checked as the agent does.
             config.check_envelope = [](std::span<const uint8_t> blob) -> std::string {
                 auto envelope = protocol::decode_device_description(blob);
                 if (!envelope) return envelope.error();

@@ -1,6 +1,6 @@
 #pragma once
 
-// The fuzz targets' entry functions (DESIGN §7: the agent must survive every input). They are
+// The fuzz targets' entry functions (docs/architecture.md §7: the agent must survive every input). They are
 // plain functions so that two builds share them: the libFuzzer executables (clang,
 // -DSPLITVK_BUILD_FUZZERS=ON, see scripts/fuzz) and splitvk_fuzz_regression_tests (the normal GCC
 // build), which replays every file under tests/fuzz/regressions/<target>/ so that a crash found
@@ -25,7 +25,7 @@ void agent_messages(const uint8_t *data, size_t size);
 void tile_decoder(const uint8_t *data, size_t size);
 
 // The TLS and handshake paths a client (or a man in the middle) reaches before any session exists
-// (issue 14). Byte 0 picks the side: even, the agent's TLS server reading a client's bytes; odd,
+//. Byte 0 picks the side: even, the agent's TLS server reading a client's bytes; odd,
 // the layer's TLS client (with its certificate verifier) reading an agent's. The rest is that
 // peer's byte stream, run through OpenSSL with splitvk's own contexts over memory (tls.h), and,
 // as the agent's plaintext path sees it, through the first-bytes check and the Hello decoder with

@@ -989,8 +989,8 @@ TEST(CodecRoundTrip, CmdCopyBufferToImage) {
                                                    o.dstImageLayout, o.regionCount, o.pRegions));
 }
 
-// An OpenXR runtime's eye image (DESIGN §9): its memory is imported from the runtime's process with
-// an fd. The agent allocates ordinary memory in its place, so the import, the export and the external
+// An OpenXR runtime's eye image (docs/architecture.md §9): its memory is imported from the runtime's process
+// with an fd. The agent allocates ordinary memory in its place, so the import, the export and the external
 // image info never cross the wire; the dedicated allocation does.
 TEST(CodecRoundTrip, ExternalMemoryStructuresStayOnTheClient) {
     Session s;
@@ -1295,7 +1295,7 @@ TEST(CodecRoundTrip, QueueSubmitCodecIsGenerated) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// The extensions engines enable (issue 19): conditional rendering, transform feedback and
+// The extensions engines enable: conditional rendering, transform feedback and
 // VK_EXT_extended_dynamic_state3, with the pointers the specification lets an application leave
 // NULL (or, for the counter buffers, hold VK_NULL_HANDLE elements).
 

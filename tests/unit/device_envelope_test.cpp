@@ -104,7 +104,7 @@ TEST(DeviceEnvelope, CombineTakesWhatBothHonour) {
     EXPECT_EQ(formats_narrowed(client, envelope), 1u);
 }
 
-// The forwarded extensions' own features (issue 19) are in the envelope like the core ones: an
+// The forwarded extensions' own features are in the envelope like the core ones: an
 // agent without transform feedback hides it from the application, and a later one without it is
 // refused. The EDS3 features the layer always clears are not in it at all.
 TEST(DeviceEnvelope, ForwardedExtensionFeaturesAreInTheEnvelope) {
@@ -141,7 +141,8 @@ TEST(DeviceEnvelope, ForwardedExtensionFeaturesAreInTheEnvelope) {
 TEST(DeviceEnvelope, ViolationsNameWhatTheDeviceCannotHonour) {
     DeviceDescription told = device("client");
     DeviceDescription gpu = device("NVIDIA");
-    gpu.limits.minUniformBufferOffsetAlignment = 64; // the bug of issue 10
+    gpu.limits.minUniformBufferOffsetAlignment =
+        64; // the alignment an agent's GPU needed that the client's did not
     gpu.limits.maxImageDimension2D = 8192;
     gpu.limits.viewportBoundsRange[1] = 32767;
     gpu.limits.framebufferColorSampleCounts = VK_SAMPLE_COUNT_1_BIT;

@@ -420,7 +420,7 @@ TEST(ProtocolSession, TilesRoundTripAndLimits) {
     EXPECT_TRUE(decode_tiles(encode(empty), 1 << 20).ok()) << "a frame without split passes has no tiles";
 }
 
-// The swapped split's periphery config (issue 21): the scale within [0.1, 1] (NaN refused), the crf
+// The swapped split's periphery config: the scale within [0.1, 1] (NaN refused), the crf
 // within x264's 0..51.
 TEST(ProtocolSession, PeripheryConfigRoundTripAndLimits) {
     PeripheryConfig m;

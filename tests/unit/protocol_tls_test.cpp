@@ -1,4 +1,4 @@
-// TLS 1.3 on the link (issue 14): identities, the transport over TLS on real loopback sockets, the
+// TLS 1.3 on the link: identities, the transport over TLS on real loopback sockets, the
 // client's refusals (a pin that does not match, an expired certificate) as one line on each side,
 // the agent's sniffing of plaintext, and the known_agents file.
 

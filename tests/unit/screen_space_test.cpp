@@ -75,7 +75,7 @@ TEST(ScreenSpace, EyesAndLayers) {
     EXPECT_TRUE(classify_target(image(1201, 1080), {2401, 1080}, EyeMode::Two).screen_space);
 }
 
-// SPLITVK_AGENT_SCISSOR=guard:N (issue 19, item 3): a multiview sample drew 1280x720 eye layers and
+// SPLITVK_AGENT_SCISSOR=guard:N: a multiview sample drew 1280x720 eye layers and
 // squeezed each into a 640-wide half of a 1280x720 screen; with SPLITVK_EYES=1 the guard cut each
 // layer to the centred screen fovea, which the squeeze puts at the layers' inner edges (41,829 fovea
 // pixels wrong). Layered targets under one eye are replayed whole; everything else keeps its guard.

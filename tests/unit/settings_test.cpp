@@ -122,7 +122,7 @@ TEST_F(SettingsTest, AgentScissorGuard) {
     EXPECT_EQ(load({{"SPLITVK_AGENT_SCISSOR", "guard:0"}}).settings.agent_scissor.pixels, 0u);
 }
 
-// The swapped split's settings (issue 21): which side renders what, the periphery's quality and the
+// The swapped split's settings: which side renders what, the periphery's quality and the
 // client's guard, with their defaults and bounds.
 TEST_F(SettingsTest, SwappedSplit) {
     const Settings defaults = load({}).settings;

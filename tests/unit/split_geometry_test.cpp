@@ -149,7 +149,7 @@ TEST(SplitGeometry, DefaultFoveaIsThePapers) {
     EXPECT_RECT(fovea_of_eye({{1200, 0}, {1200, 1080}}, pixels), 1200, 490, 1200u, 100u);
 }
 
-// The frame's foveae from everything it drew (issue 18 item 3, issue 19 item 4).
+// The frame's foveae from everything it drew.
 std::vector<VkRect2D> foveae_of(std::initializer_list<VkViewport> viewports, EyeMode mode,
                                 VkExtent2D image = {2400, 1080}) {
     EyeCoverage drawn;
@@ -348,7 +348,7 @@ TEST(SplitGeometry, FoveaScissorForAMovingGazeHoldsTheWholeEye) {
                 }
 }
 
-// DESIGN §9: an eye's fovea at the projection of its view direction (for the OpenXR layer).
+// docs/architecture.md §9: an eye's fovea at the projection of its view direction (for the OpenXR layer).
 TEST(SplitGeometry, FoveaAtTheViewDirection) {
     const FoveaSize fovea; // 512x360 of a 1200x1080 eye
     const VkRect2D eye{{1200, 0}, {1200, 1080}};
@@ -767,7 +767,7 @@ TEST(SplitTracker, StaticStateFromCreateInfo) {
     EXPECT_EQ(static_viewport_state(info), nullptr);
 }
 
-// Issue 11: a pass into screen-space targets only is scaled but draws no fovea; a copy or blit into
+// A pass into screen-space targets only is scaled but draws no fovea; a copy or blit into
 // a swapchain image counts as drawing there; secondaries give the foveae of the executing pass.
 TEST(SplitTracker, OffscreenPassesDrawNoFovea) {
     CommandTracker t;
@@ -831,7 +831,7 @@ TEST(SplitTracker, SecondariesGiveTheExecutingPassItsFoveae) {
     EXPECT_TRUE(outside.drawn().empty());
 }
 
-// Issue 11 gap: a render pass handle value reused by the driver after vkDestroyRenderPass must not
+// A render pass handle value reused by the driver after vkDestroyRenderPass must not
 // hand the new pass the dead one's target (its secondaries would be recorded scaled for a pass
 // that is not, or the other way round). The layer forgets the value at destroy and at create.
 TEST(SplitTracker, ARenderPassForgottenPredictsNothing) {
@@ -874,7 +874,7 @@ TEST(SplitTracker, RenderingKeyIsWhatTheInheritanceNames) {
     EXPECT_FALSE(renderings.predict(rendering_key(one, 1, none, none, 0)).has_value());
 }
 
-// Issue 20: the compute sets a dispatch looks at are the command buffer's own, begun afresh with it
+// The compute sets a dispatch looks at are the command buffer's own, begun afresh with it
 // (the layer resets the tracker at vkBeginCommandBuffer and vkResetCommandBuffer/Pool, and drops it
 // with the command buffer): a set a previous recording bound, one that writes a screen-space target,
 // must not scale a later recording's dispatch that binds no such set.
@@ -899,7 +899,7 @@ TEST(SplitTracker, ComputeSetsEndWithTheRecording) {
     EXPECT_EQ(t.compute_sets()[0], set(0x40));
 }
 
-// Issue 20, item 5: a command buffer that dispatched over a screen-space target, reset or begun
+// A command buffer that dispatched over a screen-space target, reset or begun
 // again, then dispatches over an ordinary image: that dispatch's group counts must stay as recorded
 // (the layer scales them only when the tracker says a bound set writes a screen-space target).
 TEST(SplitTracker, ReusedCommandBufferDoesNotScaleAPlainDispatch) {

@@ -581,7 +581,7 @@ TEST(X264Tiles, SmallerPictureIsRefused) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Lossy x264 (the swapped split's periphery, issue 21)
+// Lossy x264 (the swapped split's periphery)
 
 // Peak signal-to-noise ratio over the colour bytes (alpha is lossless and left out), in dB.
 double psnr_rgb(const Pixels &expected, const Pixels &actual) {

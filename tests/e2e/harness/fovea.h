@@ -25,7 +25,7 @@ inline std::vector<Rect> default_foveae(uint32_t width, uint32_t height, int eye
 }
 
 // The fovea of an eye (at x = eye_x, eye_w wide) whose gaze is at (gx, gy), normalised to the eye
-// (SPLITVK_GAZE=fifo, issue 22): centred on floor(g·size), clamped into the eye. Points that are
+// (SPLITVK_GAZE=fifo): centred on floor(g·size), clamped into the eye. Points that are
 // multiples of 1/8 keep the floor exact whatever the eye's size.
 inline Rect fovea_at_gaze(double gx, double gy, uint32_t eye_x, uint32_t eye_w, uint32_t height) {
     const Rect centred = default_foveae(eye_w, height, 1)[0];

@@ -1,7 +1,7 @@
 // VK_LAYER_SPLITVK_test_present_fault: a test-only layer that makes the driver's vkQueuePresentKHR
 // answer VK_ERROR_OUT_OF_DATE_KHR or VK_SUBOPTIMAL_KHR once, as a real window system does when a
 // window is resized. Lavapipe under Xvfb never does on its own, and splitvk presents from a thread
-// of its own: what the driver answered that thread must still reach the application (issue 12).
+// of its own: what the driver answered that thread must still reach the application.
 // The tests put this layer BELOW splitvk, next to the driver, so that it sees the presents splitvk
 // makes, not the application's.
 //

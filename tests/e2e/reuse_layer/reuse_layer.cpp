@@ -1,4 +1,4 @@
-// VK_LAYER_SPLITVK_test_reuse: a test-only layer that stages the race of issue 20. Once the driver
+// VK_LAYER_SPLITVK_test_reuse: a test-only layer that stages a handle-reuse race. Once the driver
 // has destroyed an object it may hand the same handle value to an object that another thread
 // creates, before the destroying call has returned through the layers above. The tests put this
 // layer BELOW splitvk, next to the driver: right after the driver destroyed a command pool, a

@@ -1,4 +1,4 @@
-// Issue 20: a destroy is captured before the driver call. Once the driver has destroyed an object
+// A destroy is captured before the driver call. Once the driver has destroyed an object
 // it may hand the same handle value to an object another thread creates before the destroying call
 // returns; a destroy captured after that create ends the new object on the agent (and in the live
 // state, and in the layer's own state of it).

@@ -1,4 +1,4 @@
-// splitvk beside the layers users already run (issue 13): MangoHud and the Mesa overlay, each
+// splitvk beside the layers users already run: MangoHud and the Mesa overlay, each
 // above splitvk and below it, in the order the documented recipe (docs/user-guide.md, "Using
 // splitvk with other layers") gives with Debian's loader 1.3.239:
 //   - implicit layers are always above explicit ones, in the order their manifests are found

@@ -1,4 +1,4 @@
-// Issue 19, item 1: an application that uses its swapchain images in an order of its own, split.
+// An application that uses its swapchain images in an order of its own, split.
 // gfxrecon-replay --use-captured-swapchain-indices draws each frame into the image the capture
 // had and presents the one the driver acquired now; lavapipe's X11 WSI hands out the lowest free
 // image (0 every frame of vkcube, natively), so the replay is right only while the driver's

@@ -51,7 +51,7 @@ using namespace std::chrono_literals;
 
 // gfxrecon-replay (Debian's gfxreconstruct) of a vkcube capture, split against a real agent. In
 // its default virtual-swapchain mode it renders into images of its own and copies them into the
-// swapchain, which is split since issue 11 (below). Both ends must close cleanly, also when the
+// swapchain, which is split (below). Both ends must close cleanly, also when the
 // agent still replays frames as the client goes (that used to end the agent's session with
 // "sending Tiles: connection closed"). No --validate for the agent:
 // gfxrecon-replay's own copy into the swapchain has a hazard of its own. With
@@ -106,7 +106,7 @@ protected:
 };
 
 // Its default virtual-swapchain mode renders into images of its own and copies them into the
-// swapchain at present (issue 11): those images are screen-space targets, rendered scaled, and the
+// swapchain at present: those images are screen-space targets, rendered scaled, and the
 // copy into the swapchain image lands in its scaled top-left like a pass, so every frame is split
 // and the agent's foveae match the client's.
 TEST_F(GfxreconReplay, VirtualSwapchainCopiesAreSplit) {

@@ -1,5 +1,5 @@
-// Reliability (issue 6): the agent dies or starts late, and the application goes on (with a moving
-// gaze too: the agent that joins is given the gaze it follows, issue 22).
+// Reliability: the agent dies or starts late, and the application goes on (with a moving
+// gaze too: the agent that joins is given the gaze it follows).
 //  - Late join: splitvk-atrium starts with no agent (runs unsplit), an agent starts afterwards and
 //    is brought in with a snapshot of the live state; the held last frame has exact foveae.
 //  - Kill and restart: the agent is SIGKILLed mid-run (listener and session), the app keeps
@@ -236,7 +236,7 @@ TEST_F(Reconnect, AgentKilledAndRestartedIsBroughtBackIn) {
     ASSERT_NO_FATAL_FAILURE(expect_recovered(*app, "second-agent"));
 }
 
-// The swapped split (SPLITVK_CLIENT_RENDERS=fovea, issue 21) through a kill and a restart: the first
+// The swapped split (SPLITVK_CLIENT_RENDERS=fovea) through a kill and a restart: the first
 // agent granted it, so the session keeps it. Meanwhile the frames are drawn whole (the first present
 // after the loss answers VK_ERROR_OUT_OF_DATE_KHR); the new agent is brought in with the snapshot,
 // renders the periphery again, and the held frame is the client's exact foveae in the new agent's
@@ -260,7 +260,7 @@ TEST_F(Reconnect, SwappedSplitAgentKilledAndRestartedIsBroughtBackIn) {
     ASSERT_NO_FATAL_FAILURE(expect_recovered(*app, "second-agent"));
 }
 
-// A moving gaze (SPLITVK_GAZE=fifo, issue 22) and an agent that joins mid-run: it learns that the
+// A moving gaze (SPLITVK_GAZE=fifo) and an agent that joins mid-run: it learns that the
 // gaze moves from the SplitConfig of its resync and each frame's rectangle from that frame's
 // FramePresent, so the held frame's foveae, where the pipe's point put them rather than centred, are
 // exact. The test keeps the pipe open for writing, so the one line stays the gaze of every frame.

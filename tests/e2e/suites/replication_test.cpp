@@ -1,4 +1,4 @@
-// Command-stream replication (issue 3): a real splitvk-agent on loopback replays what the layer
+// Command-stream replication: a real splitvk-agent on loopback replays what the layer
 // captures, and SPLITVK_VERIFY=full proves every presented frame identical, pixel for pixel.
 // Also: with no agent the application runs unsplit, says so once, and exits 0.
 //
@@ -138,7 +138,7 @@ INSTANTIATE_TEST_SUITE_P(VulkanTools, ReplicationCube, ::testing::Values("vkcube
 // The agent behaves as a GPU with 256-byte buffer alignments (a desktop GPU's), the client is
 // lavapipe (16): the device envelope tells the application 256, so what it aligns by that replays
 // exactly on the agent. Without the envelope, atrium's second uniform slot sits at 0x110 and the
-// agent flags every second frame (issue 10: on an NVIDIA GPU those frames drew a flat fovea).
+// agent flags every second frame (on an NVIDIA GPU those frames drew a flat fovea).
 class ReplicationStricterAgent : public Replication, public ::testing::WithParamInterface<const char *> {};
 
 TEST_P(ReplicationStricterAgent, VerifiesWithNoViolation) {

@@ -1,4 +1,4 @@
-// Soak (issue 6): 10,000 frames of splitvk-atrium split with a real splitvk-agent on loopback, in a
+// Soak: 10,000 frames of splitvk-atrium split with a real splitvk-agent on loopback, in a
 // small window (320x144 stereo) with a small model (--model: a floor and a box, 12 triangles) so
 // that it stays affordable on two cores: lavapipe's cost is atrium's 300,000 triangles, not the
 // pixels (86 ms a frame at 320x144 with the atrium scene, 4 ms with the box, client and agent

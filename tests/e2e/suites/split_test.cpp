@@ -1,4 +1,4 @@
-// The image-space split (issue 4), judged from the X server: the client renders the periphery at
+// The image-space split, judged from the X server: the client renders the periphery at
 // SPLITVK_SCALE, a real splitvk-agent on loopback renders the foveae, and the layer composites
 // both before present. Lavapipe is deterministic, so the fovea rects of split frame K must equal
 // native frame K bit for bit; the whole frame is judged by SSIM and PSNR against native.
@@ -252,7 +252,7 @@ TEST_P(SplitAtrium, FoveaEqualsNativeBitForBit) {
     ASSERT_NO_FATAL_FAILURE(
         expect_split_frame(native.image, split.image, default_foveae(kWidth, kHeight, v.eyes)));
     expect_clean_validation();
-    // Issue 12, item 3: the agent replayed every frame without waiting for its queue to go idle
+    // The agent replayed every frame without waiting for its queue to go idle
     // before the frame's memory updates (atrium writes its uniforms each frame): they were queued
     // behind the GPU's work, and the frames above are exact all the same.
     const std::regex memory(
@@ -291,7 +291,7 @@ TEST_F(Split, ResizeKeepsFoveaeExact) {
     ASSERT_NO_FATAL_FAILURE(run_and_grab(argv, split_env(), "split", kResizeFrames, &split));
     const std::string &err = split.result.err();
     EXPECT_EQ(split_summary(err).late, 0u) << tail(err, 30);
-    // The resize reached the application as a result of its own calls (issue 12: the layer's
+    // The resize reached the application as a result of its own calls (the layer's
     // present thread presents later, and hands what the real present answered to the app's next
     // present or acquire): it recreated its swapchain, as natively.
     EXPECT_GE(grep(err, "recreating the swapchain").size(), 1u) << tail(err, 30);
@@ -299,7 +299,7 @@ TEST_F(Split, ResizeKeepsFoveaeExact) {
         << tail(native.result.err(), 30);
     EXPECT_FALSE(grep(err, "1200x540 swapchain images").empty()) << "the first swapchain was not split\n"
                                                                  << tail(err, 30);
-    // The split line is given again for the new size (issue 13, point 6).
+    // The split line is given again for the new size (point 6).
     EXPECT_EQ(
         grep(err, "split: passes into 2400x1080 swapchain images render their periphery at 1440x648").size(),
         1u)
@@ -377,7 +377,7 @@ TEST_F(Split, FrameLatencyIsMeasuredSplitAndWithoutAnAgent) {
     expect_clean_validation();
 }
 
-// The render paths of issue 11 (atrium --path) with the layer and an agent. With SPLITVK_TARGETS=auto
+// atrium's render paths (--path) with the layer and an agent. With SPLITVK_TARGETS=auto
 // (the default) the client renders every screen-space target at SPLITVK_SCALE: the HDR scene, the
 // G-buffer, the depth buffers, the bloom chain at 1/2, 1/4 and 1/8, the 2-layer multiview eye
 // texture and the compute path's storage image; the compute path's blit into the swapchain image
@@ -477,7 +477,7 @@ INSTANTIATE_TEST_SUITE_P(
         return std::string(p.param.name ? p.param.name : p.param.path);
     });
 
-// The swapped split (issue 21, SPLITVK_CLIENT_RENDERS=fovea): the client renders only the foveae
+// The swapped split (SPLITVK_CLIENT_RENDERS=fovea): the client renders only the foveae
 // (its passes into the swapchain image keep their area and viewports, their scissors cut to the
 // foveae by the agent's rule; screen-space targets stay full size, their passes cut to the foveae
 // grown by SPLITVK_CLIENT_GUARD), and the agent renders the whole frame, sends it downsampled to
@@ -634,7 +634,7 @@ INSTANTIATE_TEST_SUITE_P(Swapped, SplitSwapped,
                              return std::string(p.param.name ? p.param.name : p.param.path);
                          });
 
-// SPLITVK_VERIFY=full in the swapped split (issue 21, item 5): the split stays on, the agent renders
+// SPLITVK_VERIFY=full in the swapped split: the split stays on, the agent renders
 // every frame whole at full size and sends it back, and the layer compares what it presents (its
 // own foveae over the agent's upsampled periphery) with that native frame: the foveae bit for bit,
 // the whole image by PSNR, per frame in SPLITVK_STATS and over the run in the exit line.
@@ -896,7 +896,7 @@ Image foveae_only(const Image &image, const std::vector<Rect> &foveae) {
 // short enough that a stall costs seconds, not minutes.
 constexpr const char *kSwappedLossTileWait = "1000";
 
-// Issue 21, item 6: an agent that stalls (SIGSTOP to its listener and session, one process group) in
+// An agent that stalls (SIGSTOP to its listener and session, one process group) in
 // the swapped split. Frames whose periphery is late show the previous frame's periphery around their
 // own fresh foveae (user guide, "Late and lost agents"), never black nor the client's clear colour:
 // every presented image is read back (the readback layer at the bottom of the chain), and each late
@@ -1024,7 +1024,7 @@ TEST_F(Split, SwappedLateAgentShowsThePreviousPeriphery) {
     }
 }
 
-// Issue 21, item 6: the swapped split's agent killed mid-run (its session with it: SIGKILL to the
+// The swapped split's agent killed mid-run (its session with it: SIGKILL to the
 // process group; the listener alone would leave the session running). The layer says the agent went
 // away, stops cutting, and the next present answers VK_ERROR_OUT_OF_DATE_KHR once, so atrium
 // recreates its swapchain (it says so once). The user guide bounds what is shown meanwhile: frames
@@ -1132,7 +1132,7 @@ TEST_F(Split, SwappedKilledAgentRendersWholeFramesAgain) {
     }
 }
 
-// Issue 18, item 3: a stereo frame has two foveae wherever its last pass draws. With SPLITVK_EYES=2
+// A stereo frame has two foveae wherever its last pass draws. With SPLITVK_EYES=2
 // the left and right halves of the image each get their fovea, also on the paths whose last pass is
 // one full-screen pass over both eyes (hdr's tone mapping, deferred's lighting and post, multiview's
 // compose, compute's blit): before, only the eye holding the viewport's centre (the right one) had
@@ -1184,7 +1184,7 @@ INSTANTIATE_TEST_SUITE_P(Paths, SplitEyesTwo,
                              return std::string(p.param);
                          });
 
-// Issue 19: an application that enables VK_EXT_conditional_rendering, VK_EXT_transform_feedback and
+// An application that enables VK_EXT_conditional_rendering, VK_EXT_transform_feedback and
 // VK_EXT_extended_dynamic_state3 as engines do (atrium --engine-extensions) is split, and both foveae
 // equal native bit for bit. Atrium draws, at each eye's centre, a triangle that transform feedback
 // captured in an earlier pass, from the captured byte count, in orange under a GPU-written predicate
@@ -1335,7 +1335,7 @@ TEST_F(Split, VkcubeOneEyeFoveaEqualsNative) {
     EXPECT_TRUE(grep(err, "periphery's").empty()) << tail(err, 30);
 }
 
-// The swapped split on vkcube (issue 21), which records its command buffers once per swapchain image:
+// The swapped split on vkcube, which records its command buffers once per swapchain image:
 // they are cut at that recording, and every frame composites the agent's periphery around the
 // client's own fovea, bit-exact against native.
 TEST_F(Split, SwappedVkcubeFoveaEqualsNative) {
@@ -1347,7 +1347,7 @@ TEST_F(Split, SwappedVkcubeFoveaEqualsNative) {
     EXPECT_TRUE(grep(err, "periphery is the previous frame's").empty()) << tail(err, 30);
 }
 
-// Frames that are almost always late (issue 19): one line says so, with the reason and the settings
+// Frames that are almost always late: one line says so, with the reason and the settings
 // that help; an agent that keeps up never gets it.
 TEST_F(Split, MostlyLateFramesAreSaidOnceWithWhatHelps) {
     ASSERT_TRUE(find_program("vkcube", env())) << "vkcube is not installed (vulkan-tools)";
@@ -1425,7 +1425,7 @@ TEST_F(Split, LateAgentLeavesCompleteFrames) {
     EXPECT_TRUE(client_validation_clean(validation_log_));
 }
 
-// Issue 12, item 1: the application's vkQueuePresentKHR returns once the layer has taken the frame;
+// The application's vkQueuePresentKHR returns once the layer has taken the frame;
 // the layer's present thread waits for that frame's tiles. The agent is stopped after a few
 // composited frames, so every later frame waits the whole SPLITVK_TILE_WAIT in the layer. The
 // frames that found room in the layer must have returned to the application long before their
@@ -1533,7 +1533,7 @@ INSTANTIATE_TEST_SUITE_P(Depth, SplitShutdown, ::testing::Values(0, 1, 2),
                              return "Depth" + std::to_string(p.param);
                          });
 
-// Issue 12: what the driver's present answered the layer's present thread reaches the application.
+// What the driver's present answered the layer's present thread reaches the application.
 // VK_LAYER_SPLITVK_test_present_fault sits below splitvk and validation, next to the driver, and
 // makes the driver's present of frame kFaultFrame answer OUT_OF_DATE (the present rejected, its
 // semaphore waits consumed, as Mesa's WSI does) or SUBOPTIMAL (presented).
@@ -1624,7 +1624,7 @@ INSTANTIATE_TEST_SUITE_P(
                       PresentFault{1, "suboptimal", "VK_SUBOPTIMAL_KHR", "SuboptimalDepth1"}),
     [](const ::testing::TestParamInfo<PresentFault> &p) { return std::string(p.param.name); });
 
-// Issue 10: the agent behaves as a GPU with 256-byte buffer alignments (--emulate-limits), the
+// The agent behaves as a GPU with 256-byte buffer alignments (--emulate-limits), the
 // client is lavapipe (16). The application is told 256 (the device envelope), so the foveae stay
 // exact and the agent flags nothing.
 TEST_F(Split, StricterAgentKeepsFoveaeExact) {
@@ -1672,7 +1672,7 @@ TEST_F(Split, StricterAgentKeepsOffscreenPathFoveaeExact) {
     EXPECT_TRUE(grep(agent_.log(), "flagged invalid").empty()) << tail(agent_.log(), 30);
 }
 
-// VK_KHR_buffer_device_address (issue 19): atrium --buffer-address reads its view-projection
+// VK_KHR_buffer_device_address: atrium --buffer-address reads its view-projection
 // matrices through its frame slot's address, passed in push constants. The agent's lavapipe puts the
 // uniform buffer at another address than the client's (host pointers of two processes), so the
 // client's address replayed as it is would read nothing of the frame's: the agent translates it
@@ -1861,7 +1861,7 @@ TEST_F(Split, StatsFileIsWholeAfterSigterm) {
     EXPECT_TRUE(merge_measured) << "no composite GPU time in " << lines.size() - 1 << " rows";
 }
 
-// SPLITVK_AGENT_SCISSOR=guard:N (issue 11, item 2): the agent also scissors its passes into
+// SPLITVK_AGENT_SCISSOR=guard:N: the agent also scissors its passes into
 // screen-space targets to the foveae grown by N pixels of each target. hdr (a bloom chain at 1/2,
 // 1/4 and 1/8), deferred (G-buffer, texelFetch lighting, post) and multiview (a two-layer eye
 // texture whose layers are eye-sized targets; its centred fovea straddles both) each run with the setting
@@ -1937,7 +1937,7 @@ INSTANTIATE_TEST_SUITE_P(Paths, SplitAgentScissor,
                              return std::string(p.param.path);
                          });
 
-// Issue 19, item 3: eye layers at the window's size (--screen-layers), each squeezed into its half
+// Eye layers at the window's size (--screen-layers), each squeezed into its half
 // when composed, under SPLITVK_EYES=1. The single fovea is centred on the screen, which the squeeze
 // puts at the layers' inner edges; cutting each layer to the screen's fovea left black bands by the
 // seam. The agent cannot see how the final pass samples the layers, so it replays passes into a
@@ -1970,7 +1970,7 @@ TEST_F(SplitAgentScissorLayers, ScreenSizedLayersUnderOneEyeReplayWhole) {
     expect_clean_validation();
 }
 
-// Issue 19, item 5: passes whose contents are in secondary command buffers are scissored on the
+// Passes whose contents are in secondary command buffers are scissored on the
 // agent as inline ones are. A secondary reaches the agent before the primary that executes it, so
 // the agent records it again for each scissored pass that executes it; before, such passes were
 // replayed whole (atrium --path secondary: late on 34 of 36 frames at the default tile wait). The
@@ -2044,7 +2044,7 @@ INSTANTIATE_TEST_SUITE_P(
             "offscreen_guard", {"--path", "hdr", "--scene-in-secondaries"}, "1", "guard:64", "guarded", 1}),
     [](const ::testing::TestParamInfo<SecondaryCase> &p) { return std::string(p.param.name); });
 
-// SPLITVK_FOVEA_MASK=depth (issue 22, item 4): with SPLITVK_EYES=2 the client clears the inside of
+// SPLITVK_FOVEA_MASK=depth: with SPLITVK_EYES=2 the client clears the inside of
 // each fovea in its pass's depth (atrium's direct pass, a render pass or a dynamic rendering, clears
 // depth to 1, tests LESS and does not store it), so its draws skip the pixels the tiles replace. What the X
 // server shows must not change: the frame with the mask equals the frame without it bit for bit (the guard
@@ -2167,7 +2167,7 @@ TEST_F(Split, FoveaMaskFollowsAnAutoFoveaWithoutHoles) {
     }
 }
 
-// SPLITVK_FOVEA=auto where the split does not pay (issue 22): vkcube's frames take a couple of
+// SPLITVK_FOVEA=auto where the split does not pay: vkcube's frames take a couple of
 // milliseconds natively, and the agent sits behind 10 ms of link each way, so split frames are slower
 // than native ones whatever GPU the agent has.
 // auto measures both (a present answered VK_ERROR_OUT_OF_DATE_KHR makes vkcube, which records its
@@ -2255,7 +2255,7 @@ TEST_F(Split, AutoPassesFramesThroughWhereTheSplitDoesNotPay) {
     }
 }
 
-// SPLITVK_GAZE=fifo:PATH (issue 22): the foveae follow gaze points written into a named pipe. The
+// SPLITVK_GAZE=fifo:PATH: the foveae follow gaze points written into a named pipe. The
 // script's points are multiples of 1/8, so the fovea each gives is computed from the definition
 // (fovea.h: fovea_at_gaze), not from splitvk's code.
 struct GazeLine {
@@ -2386,7 +2386,7 @@ TEST_F(Split, BadGazeInputKeepsTheFixedFovea) {
     expect_clean_validation();
 }
 
-// SPLITVK_FOVEA=auto (issue 22, item 3): the fovea sizes itself from measured times. atrium runs
+// SPLITVK_FOVEA=auto: the fovea sizes itself from measured times. atrium runs
 // twice in stereo at 960x432, straight to the agent and behind splitvk-link with 3 Mbit/s from the
 // agent (the client's stream goes at 1 Gbit/s, so that the scene's upload takes no longer), where the
 // lossless tiles cost far more of each frame. In both runs every frame's foveae are centred in

@@ -1,4 +1,4 @@
-// The image-space split (issue 4) under validation on both sides: the client renders split passes
+// The image-space split under validation on both sides: the client renders split passes
 // into the scaled periphery and the agent shades only the foveae, with VK_LAYER_KHRONOS_validation
 // (synchronization validation on) below splitvk on the client and --validate on the agent; neither
 // may report anything. Covers dynamic viewport/scissor state (atrium stereo and mono, vkcube) and

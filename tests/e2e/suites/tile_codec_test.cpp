@@ -46,7 +46,7 @@ struct Rect {
     uint32_t x, y, width, height;
 };
 
-// The fovea of eye `eye`: the default fovea size for the eye, centred in it (DESIGN §4).
+// The fovea of eye `eye`: the default fovea size for the eye, centred in it (docs/architecture.md §4).
 Rect fovea_rect(uint32_t eye) {
     const uint32_t eye_width = kWidth / kEyes;
     const auto [width, height] = FoveaSize{}.pixels_for_eye(eye_width, kHeight);
@@ -77,8 +77,10 @@ struct EyeResult {
 EyeResult stream_eye(TileCodec codec, const Rect &rect, const std::vector<std::vector<uint8_t>> &tiles) {
     EyeResult result;
     std::string error;
-    std::unique_ptr<TileEncoder> encoder = tiles::make_tile_encoder(codec, rect.width, rect.height, 4, &error);
-    std::unique_ptr<TileDecoder> decoder = tiles::make_tile_decoder(codec, rect.width, rect.height, 4, &error);
+    std::unique_ptr<TileEncoder> encoder =
+        tiles::make_tile_encoder(codec, rect.width, rect.height, 4, &error);
+    std::unique_ptr<TileDecoder> decoder =
+        tiles::make_tile_decoder(codec, rect.width, rect.height, 4, &error);
     if (!encoder || !decoder) {
         result.failure = "cannot create the codec: " + error;
         return result;

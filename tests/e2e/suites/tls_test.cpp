@@ -1,4 +1,4 @@
-// TLS on the link end to end (issue 14): a session to a non-loopback agent is TLS 1.3, and the bytes on
+// TLS on the link end to end: a session to a non-loopback agent is TLS 1.3, and the bytes on
 // the wire hold neither the token nor a SPIR-V module; the client trusts an agent on first use and
 // records it in known_agents; a changed agent key is refused with one line and the app runs unsplit;
 // plaintext from a non-loopback client is refused by the agent with one line.

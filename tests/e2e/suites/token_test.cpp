@@ -1,4 +1,4 @@
-// Tokens end to end (issue 6): an agent started with --token-file serves only clients that present
+// Tokens end to end: an agent started with --token-file serves only clients that present
 // its token, through SPLITVK_TOKEN or SPLITVK_TOKEN_FILE. A wrong token or none is refused: one
 // line on the client naming the reason, one line on the agent, the app runs unsplit to the end and
 // exits 0, and the layer does not ask again (a token that was wrong stays wrong), so the agent sees

@@ -1,4 +1,4 @@
-// Device extensions splitvk does not forward (issue 19): an application that enables one without
+// Device extensions splitvk does not forward: an application that enables one without
 // asking gets one warning line naming it, and then (SPLITVK_UNSUPPORTED=fail, the default)
 // VK_ERROR_EXTENSION_NOT_PRESENT, or (passthrough) a device that runs unsplit with splitvk out of
 // its way. The headless probe enables VK_EXT_external_memory_host, which lavapipe offers and
@@ -17,7 +17,7 @@ namespace splitvk::e2e {
 namespace {
 
 constexpr const char *kWithheld = "VK_EXT_external_memory_host";
-// At least this share of the driver's device extensions is forwarded (issue 19).
+// At least this share of the driver's device extensions is forwarded.
 constexpr size_t kCoverageFloorPercent = 80;
 constexpr const char *kLinePrefix =
     "[splitvk] warning: 'splitvk-e2e-probe' enables device extensions splitvk "

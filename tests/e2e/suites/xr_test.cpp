@@ -1,4 +1,4 @@
-// OpenXR (issue 18, item 7): Debian's unmodified hello_xr on Monado (scripts/xr-runtime: headless,
+// OpenXR: Debian's unmodified hello_xr on Monado (scripts/xr-runtime: headless,
 // simulated HMD, static head pose, 320x240 eye images, one swapchain of three images per eye),
 // judged from what the runtime receives. VK_LAYER_SPLITVK_test_xr_readback (xr_readback_layer/),
 // at the bottom of the chain below splitvk and validation, writes every eye image as the runtime's
@@ -401,7 +401,7 @@ TEST_F(XrAtrium, PerEyeFoveaeExactAgainstNativeFrameByFrame) {
     EXPECT_FALSE(grep(split.err(), summary).empty()) << "no \"" << summary << "\"\n" << tail(split.err(), 10);
 }
 
-// SPLITVK_FOVEA=auto through OpenXR (issue 22): no depth mask on an eye image, and both eyes of a
+// SPLITVK_FOVEA=auto through OpenXR: no depth mask on an eye image, and both eyes of a
 // frame take one size, whatever the sizing decides between their two images, and the agent agrees on every
 // eye image's size: none is late and every one composited the agent's tiles, which the layer takes only at
 // the rectangles it asked for. SPLITVK_MAX_MBPS far below any traffic shrinks the fovea a step per window, so
@@ -681,7 +681,7 @@ TEST_F(XrAtrium, MultiviewLayersFoveaeExactAgainstNative) {
         "native", "skewed", true, [&](int eye) { return fovea_at_view(kSkewedFov[eye], 192, 160); }, true);
 }
 
-// SPLITVK_CLIENT_RENDERS=fovea in an OpenXR application (issue 21): the client does not cut a runtime's
+// SPLITVK_CLIENT_RENDERS=fovea in an OpenXR application: the client does not cut a runtime's
 // eye images yet, so it does not ask for the swapped split. One warning, and the eye images are split
 // the paper's way, each layer's fovea exact against native. Asking for it used to leave them whole
 // and unsplit, with a warning blaming the application's passes.
@@ -708,7 +708,7 @@ TEST_F(XrAtrium, SwappedSplitAskedForSplitsTheEyeImagesThePapersWay) {
         "native", "split", true, [&](int) { return centred; }, false);
 }
 
-// SPLITVK_GAZE=fifo:PATH under OpenXR (issue 22): the pipe's left and right points place the foveae
+// SPLITVK_GAZE=fifo:PATH under OpenXR: the pipe's left and right points place the foveae
 // of the application's views 0 and 1, in a swapchain per eye and in one layered swapchain drawn with
 // multiview, exact against native at the gaze and not at the centre. A regular file stands in for
 // the pipe (the reader takes any file and polls it at each xrBeginFrame). Frame 0 is composited
