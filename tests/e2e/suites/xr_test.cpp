@@ -981,8 +981,8 @@ TEST_F(XrAtrium, SideBySideFoveaeExactAgainstNative) {
 // image's wait, bounded at 16 ms, took 31 ms). Without the deadline each eye image would wait for
 // the link's 200 ms round trip, up to SPLITVK_TILE_WAIT's 250 ms. The OpenXR frame time behind the
 // link against the direct one's is measured and printed, not judged: on these shared cores either
-// median moves by a third from run to run with the other engineers' load (ratios of 0.73 and 1.15
-// measured).
+// median moves by a third from run to run with the other engineers' load (ratios from 0.73 to 1.37
+// measured, 0.85 and 0.93 in the last two runs).
 TEST_F(XrAtrium, DisplayTimeBoundsTheTileWaitBehindASlowLink) {
     constexpr int kDeadlineFrames = 60;
     ASSERT_TRUE(built(bin_dir() / "splitvk-link"));
@@ -1076,6 +1076,11 @@ TEST_F(XrAtrium, DisplayTimeBoundsTheTileWaitBehindASlowLink) {
     EXPECT_FALSE(grep(slow_err, " late").empty());
     EXPECT_FALSE(grep(slow_err, "no tiles from the agent in time for its display").empty())
         << tail(slow_err, 30);
+    // Most frames late: the one warning says why, without sending the user to SPLITVK_TILE_WAIT,
+    // which the display time overrules.
+    const auto verdict = grep(slow_err, "came late (no tiles in time for their display)");
+    ASSERT_EQ(verdict.size(), 1u) << tail(slow_err, 30);
+    EXPECT_EQ(verdict[0].find("SPLITVK_TILE_WAIT"), std::string::npos) << verdict[0];
     EXPECT_FALSE(grep(slow_err, ", " + std::to_string(slow_rows.late) + " late").empty())
         << "the summary does not count the late eye images\n"
         << tail(slow_err, 10);
