@@ -85,13 +85,21 @@ constexpr uint64_t kFenceWaitNs = 5'000'000'000; // the layer's own copy
 
 std::mutex g_mutex; // g_redirects's
 
-// The first split frame an agent replays after it (re)joined costs it many times a later one, and
-// nothing can be done about that ahead of the frame: lavapipe compiles its shader variants at the
-// first draw that uses them (the agent's pipelines are created when the application creates them,
-// long before), and the tile encoder starts with a keyframe. Measured on lavapipe, 2 busy cores:
-// the agent's draw 8-63 ms for vkcube's first frame against 0.8 ms after, 0.8-1.5 s for atrium's
-// at 2400x1080 against 0.25 s; x264 12-71 ms against 0.5 ms. That frame waits this long, once.
-constexpr uint32_t kFirstSplitFrameWaitMs = 5000;
+// What each runtime swapchain's composites cost (deadline::CompositeCost), by swapchain.
+std::mutex g_cost_mutex;
+std::unordered_map<VkSwapchainKHR, deadline::CompositeCost> g_composite_costs;
+
+deadline::Clock::duration composite_cost(VkSwapchainKHR swapchain) {
+    std::lock_guard lock(g_cost_mutex);
+    const auto it = g_composite_costs.find(swapchain);
+    return it == g_composite_costs.end() ? deadline::Clock::duration::zero() : it->second.estimate();
+}
+
+void add_composite_cost(VkSwapchainKHR swapchain, double ms) {
+    std::lock_guard lock(g_cost_mutex);
+    g_composite_costs[swapchain].add(
+        std::chrono::duration_cast<deadline::Clock::duration>(std::chrono::duration<double, std::milli>(ms)));
+}
 
 // How often a tile wait looks whether the GPU has finished the application's frame (exposed_wait_ms).
 constexpr auto kExposurePoll = 1ms;
@@ -116,37 +124,48 @@ constexpr uint64_t kFramesBeforeLateVerdict = 30;
 
 // Once, when most frames the agent replays come late: the user pays for an agent that does not
 // keep up and sees the periphery alone, so the line says why and what helps.
-void warn_if_late_dominates(Session &session, uint64_t late, uint32_t wait_ms) {
+void warn_if_late_dominates(Session &session, uint64_t late, uint32_t wait_ms, bool by_display) {
     const uint64_t split = session.split_frames.load();
     if (split < kFramesBeforeLateVerdict || late * 2 <= split || session.late_warned.exchange(true)) return;
+    // Under the OpenXR deadline a longer wait is not the user's to choose: the display time ends it.
+    const std::string within = by_display ? std::string("in time for their display")
+                                          : "within SPLITVK_TILE_WAIT=" + std::to_string(wait_ms) + " ms";
+    const char *longer_wait =
+        by_display ? "" : ", a longer SPLITVK_TILE_WAIT (the application waits for the agent)";
     SPLITVK_WARN(
-        "split: %llu of %llu split frames came late (no tiles within SPLITVK_TILE_WAIT=%u ms): the agent "
-        "does "
-        "not keep up with this application, so most frames show the periphery alone while it still renders "
-        "them. What helps: SPLITVK_AGENT_SCISSOR=guard:N (the agent cuts its offscreen passes to the "
-        "foveae), a "
-        "smaller SPLITVK_FOVEA, a longer SPLITVK_TILE_WAIT (the application waits for the agent), or an "
-        "agent "
-        "on a faster GPU",
-        static_cast<unsigned long long>(late), static_cast<unsigned long long>(split), wait_ms);
+        "split: %llu of %llu split frames came late (no tiles %s): the agent does not keep up with this "
+        "application, so most frames show the periphery alone while it still renders them. What helps: "
+        "SPLITVK_AGENT_SCISSOR=guard:N (the agent cuts its offscreen passes to the foveae), a smaller "
+        "SPLITVK_FOVEA%s, or an agent on a faster GPU or a nearer link",
+        static_cast<unsigned long long>(late), static_cast<unsigned long long>(split), within.c_str(),
+        longer_wait);
 }
 
 // Split mode: the frame's own tiles, waiting at most SPLITVK_TILE_WAIT (longer for the first split
-// frame after the agent joined). They must cover exactly the foveae the frame's split passes drew,
-// or in the swapped split (`periphery_parts` given) be the periphery in exactly those parts;
-// anything else counts as late.
+// frame after the agent joined), and with a display time (an OpenXR frame's) only while the frame
+// can still be composited, at `cost`, and handed to the runtime in time (deadline::tile_wait). They
+// must cover exactly the foveae the frame's split passes drew, or in the swapped split
+// (`periphery_parts` given) be the periphery in exactly those parts; anything else counts as late.
 std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, const SplitFrame &split,
-                                              Exposure &exposure,
+                                              Exposure &exposure, const deadline::FrameDisplay &display,
+                                              deadline::Clock::duration cost,
                                               const std::vector<VkRect2D> *periphery_parts = nullptr) {
     // What a frame without its tiles shows instead.
     const char *instead =
         periphery_parts ? "its periphery is the previous frame's" : "its centre is the periphery's";
     // No agent, or one that joined after this frame's submits: the periphery alone.
     if (!session.live() || !session.tiles() || frame < session.first_replayed_frame()) return nullptr;
-    const uint32_t wait_ms = session.take_first_split_frame()
-                                 ? std::max(session.settings().tile_wait_ms, kFirstSplitFrameWaitMs)
-                                 : session.settings().tile_wait_ms;
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(wait_ms);
+    deadline::TileWaitInput input;
+    input.display = display;
+    input.now = std::chrono::steady_clock::now();
+    input.composite_cost = cost;
+    input.tile_wait = std::chrono::milliseconds(session.settings().tile_wait_ms);
+    input.first_split_frame = session.take_first_split_frame();
+    const auto wait = deadline::tile_wait(input);
+    const auto wait_ms = static_cast<uint32_t>(std::chrono::ceil<std::chrono::milliseconds>(wait).count());
+    // The display time, not SPLITVK_TILE_WAIT, ended the wait.
+    const bool by_display = !input.first_split_frame && display.time && wait < input.tile_wait;
+    const auto deadline = input.now + wait;
     exposure.look();
     while (!exposure.seen && exposure.done &&
            !session.tiles()->wait_ready(
@@ -189,11 +208,14 @@ std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, 
             tiles             ? (periphery_parts ? "the agent's periphery does not match the frame's"
                                                  : "the agent's tiles do not match the frame's foveae")
             : !session.live() ? "the agent went away before its tiles came"
-                              : "no tiles from the agent within " + std::to_string(wait_ms) + " ms";
+            : by_display ? "no tiles from the agent in time for its display (" + std::to_string(wait_ms) +
+                               " ms were left)"
+                         : "no tiles from the agent within " + std::to_string(wait_ms) + " ms";
         SPLITVK_WARN("frame %llu: %s; %s (%llu such frames)", static_cast<unsigned long long>(frame),
                      why.c_str(), instead, static_cast<unsigned long long>(late + 1));
     }
-    if (session.live()) warn_if_late_dominates(session, late + 1, wait_ms);
+    if (session.live())
+        warn_if_late_dominates(session, late + 1, session.settings().tile_wait_ms, by_display);
     return nullptr;
 }
 
@@ -236,7 +258,9 @@ struct SplitPresent {
     // The application's acquire of the presented image returned (FrameRecord::frame_latency_ms).
     std::optional<std::chrono::steady_clock::time_point> acquired;
     Session::FrameSizing sizing; // SPLITVK_FOVEA=auto
-    int64_t xr_frame = -1;       // an OpenXR eye image's (FrameRecord::xr_frame)
+    // An OpenXR eye image's display time: its tiles are awaited only while it can still meet it.
+    deadline::FrameDisplay display;
+    int64_t xr_frame = -1; // an OpenXR eye image's (FrameRecord::xr_frame)
     int32_t xr_view = -1;
     // Asynchronous: take_waits() has consumed the application's semaphores into `taken`, whose
     // batch signals `done`.
@@ -290,7 +314,10 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
     // Keeps the pixels alive through composite().
     const auto tiles = (swapped && !p.cut) || p.passing_through
                            ? nullptr
-                           : frame_tiles(session, p.frame, p.split, exposure, p.cut ? &parts : nullptr);
+                           : frame_tiles(session, p.frame, p.split, exposure, p.display,
+                                         p.display.time ? composite_cost(p.swapchain->handle)
+                                                        : deadline::Clock::duration::zero(),
+                                         p.cut ? &parts : nullptr);
     const auto waited = Clock::now();
     record.tile_wait_ms = ms_between(wait_start, waited);
     if (exposure.seen) record.exposed_wait_ms = ms_between(std::max(wait_start, exposure.since), waited);
@@ -356,6 +383,10 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
         record.periphery_ms = latest_periphery_ms(dev);
         if (compositor) record.merge_gpu_ms = compositor->latest_gpu_ms();
     }
+    // What the next frames' deadlines must leave for their composite: recording and submitting it,
+    // and its GPU time where the timestamps are kept (SPLITVK_STATS; without them, the CPU's part).
+    if (p.display.time && tiles)
+        add_composite_cost(p.swapchain->handle, record.merge_ms + record.merge_gpu_ms);
     if (held)
         *held = record;
     else
@@ -768,7 +799,7 @@ void begin_runtime_frame(DeviceState &dev, const SwapchainState &swapchain, uint
 
 void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &swapchain, uint32_t image_index,
                        const std::vector<split::RuntimeEye> &eyes, const split::Gaze &gaze, uint64_t xr_frame,
-                       int32_t xr_view) {
+                       int32_t xr_view, const deadline::FrameDisplay &display) {
     if (!dev.session || image_index >= swapchain.images.size()) return;
     const auto called = std::chrono::steady_clock::now();
     Session &session = *dev.session;
@@ -835,6 +866,7 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     p.sizing = sizing;
     p.xr_frame = static_cast<int64_t>(xr_frame);
     p.xr_view = xr_view;
+    if (session.settings().xr_deadline) p.display = display;
     FrameRecord record;
     composite_split_frame(dev, p, {}, /*lock=*/false, &record);
     dev.session->stats().hold_eye_row(record);
@@ -924,6 +956,10 @@ void order_swapchain_writes(DeviceState &device, std::span<const uint64_t> image
 
 void release_present_resources(DeviceState &device, VkSwapchainKHR swapchain) {
     if (device.session) device.session->acquire_times().forget(codec::handle_value(swapchain));
+    {
+        std::lock_guard lock(g_cost_mutex);
+        g_composite_costs.erase(swapchain);
+    }
     {
         std::lock_guard lock(g_async_mutex);
         g_swapchain_presents.erase(swapchain);

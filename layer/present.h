@@ -3,6 +3,7 @@
 // Acquire and present (present.cpp): frame marks, split mode's asynchronous presents and composite.
 
 #include "device.h"
+#include "frame_deadline.h"
 #include "session.h"
 #include "split_geometry.h"
 
@@ -37,8 +38,11 @@ void report_split_summary(DeviceState &device);
 // xrAcquireSwapchainImage: FrameBegin for the image the runtime handed out.
 void begin_runtime_frame(DeviceState &device, const SwapchainState &swapchain, uint32_t image_index);
 // xrReleaseSwapchainImage, before the runtime's release: ends the frame (FramePresent) and, when its
-// passes were split, waits (bounded by SPLITVK_TILE_WAIT) for the agent's tiles and composites them
-// into the image on `queue`, leaving it in COLOR_ATTACHMENT_OPTIMAL. Synchronous, on the
+// passes were split, waits for the agent's tiles and composites them into the image on `queue`,
+// leaving it in COLOR_ATTACHMENT_OPTIMAL. The wait ends where the frame could no longer be composited
+// and handed to the runtime before `display` (its xrWaitFrame's display time), and never later than
+// SPLITVK_TILE_WAIT (deadline::tile_wait); tiles later than that leave the periphery in its centre,
+// counted late. Synchronous, on the
 // application's thread: the runtime's own barrier follows on the same queue as soon as this returns.
 // The image's foveae are its `eyes`' (the projection views' so far), each at its view direction or
 // at `gaze`'s point for it, or one centred in each layer before any (split::runtime_eye_foveae).
@@ -46,7 +50,8 @@ void begin_runtime_frame(DeviceState &device, const SwapchainState &swapchain, u
 // named this swapchain at the latest xrEndFrame, -1 before one) go to SPLITVK_STATS' row of the frame.
 void end_runtime_frame(DeviceState &device, VkQueue queue, const SwapchainState &swapchain,
                        uint32_t image_index, const std::vector<split::RuntimeEye> &eyes,
-                       const split::Gaze &gaze, uint64_t xr_frame, int32_t xr_view);
+                       const split::Gaze &gaze, uint64_t xr_frame, int32_t xr_view,
+                       const deadline::FrameDisplay &display);
 // xrEndFrame of OpenXR frame `xr_frame` (xrEndFrame calls before it) returned: the rows of its eye
 // images, held since their releases, go to SPLITVK_STATS with the frame's latency (xrWaitFrame
 // returning to now; unset when its xrWaitFrame was not seen).

@@ -32,6 +32,7 @@
 #include "agent_link.h"
 #include "device.h"
 #include "entry_boundary.h"
+#include "frame_deadline.h"
 #include "gaze.h"
 #include "layer_settings.h"
 #include "log.h"
@@ -42,11 +43,13 @@
 
 #include <vulkan/vulkan.h>
 #define XR_USE_GRAPHICS_API_VULKAN
+#define XR_USE_TIMESPEC
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <ctime> // timespec, before openxr_platform.h (XR_USE_TIMESPEC)
 #include <deque>
 #include <memory>
 #include <mutex>
@@ -80,12 +83,20 @@ struct InstanceState {
     PFN_xrBeginFrame begin_frame = nullptr;
     // SPLITVK_GAZE=openxr where the runtime took XR_EXT_eye_gaze_interaction; null otherwise.
     std::unique_ptr<InstanceGaze> gaze;
+    XrInstance handle = XR_NULL_HANDLE;
+    // XR_KHR_convert_timespec_time, where the runtime has it: each frame's display time on the
+    // layer's clock (WaitFrame). Null otherwise: frames wait for tiles as a window's present does.
+    PFN_xrConvertTimeToTimespecTimeKHR convert_time = nullptr;
+    // The application did not enable it itself: its functions stay hidden from it.
+    bool convert_time_hidden = false;
 };
 
 // A frame xrWaitFrame gave the application: when the call returned, where the frame's latency
-// starts (stats.h: frame_latency_ms).
+// starts (stats.h: frame_latency_ms), and its predicted display time and period, the deadline of its
+// tile waits (frame_deadline.h).
 struct WaitedFrame {
     std::chrono::steady_clock::time_point returned{};
+    deadline::FrameDisplay display;
 };
 
 struct SessionState {
@@ -102,6 +113,11 @@ struct SessionState {
     // thread), and the frame begun, until its xrEndFrame; a frame begun over it was discarded.
     std::deque<WaitedFrame> waited;
     std::optional<WaitedFrame> begun;
+    // The shortest predictedDisplayPeriod so far: the display's refresh period. Monado reports the
+    // application's own period instead, a multiple of the refresh period once its frames take
+    // longer, tile waits included; bounding the waits by that would let them grow with it.
+    XrDuration refresh_period = 0;
+    bool deadline_said = false;
 };
 
 // More frames waited for than begun: a runtime blocks xrWaitFrame before this.
@@ -400,6 +416,7 @@ XRAPI_ATTR XrResult XRAPI_CALL ReleaseSwapchainImage(XrSwapchain swapchain,
         split::Gaze gaze;
         uint64_t xr_frame = 0;
         int32_t xr_view = -1;
+        deadline::FrameDisplay display; // unknown for a release outside xrBeginFrame..xrEndFrame
         {
             std::lock_guard lock(g_mutex);
             if (!state->acquired.empty()) {
@@ -411,12 +428,17 @@ XRAPI_ATTR XrResult XRAPI_CALL ReleaseSwapchainImage(XrSwapchain swapchain,
             gaze = image_gaze(eyes, state->eye_views, session->view_gaze);
             xr_frame = session->ended_frames;
             xr_view = state->first_view;
+            if (session->begun) {
+                auto &first = session->begun->display.first_release;
+                if (!first) first = std::chrono::steady_clock::now();
+                display = session->begun->display;
+            }
         }
         // The application's rendering of this image has been submitted; the runtime's release
         // barrier has not: the composite goes between them on the queue.
         if (acquired)
             end_runtime_frame(*session->device, session->queue, *state->split, index, eyes, gaze, xr_frame,
-                              xr_view);
+                              xr_view, display);
     }
     return state->instance->release_swapchain_image(swapchain, info);
 }
@@ -604,14 +626,47 @@ XRAPI_ATTR XrResult XRAPI_CALL SyncActions(XrSession session, const XrActionsSyn
     return XR_FAILED(result) ? vk.sync_actions(session, info) : result;
 }
 
+// A frame's display time on the layer's clock. An XrTime is the runtime's own clock, with an epoch
+// and rate of its choosing; XR_KHR_convert_timespec_time converts it exactly to CLOCK_MONOTONIC,
+// which is read beside steady_clock here. A clock offset taken at xrWaitFrame's return would need the
+// runtime's "now", which OpenXR does not give without that extension or another like it: the return
+// is at a wake-up time of the runtime's choosing, not a known distance before the display.
+deadline::FrameDisplay frame_display(const InstanceState &instance, XrTime time, XrDuration period) {
+    deadline::FrameDisplay display;
+    display.period = std::chrono::nanoseconds(std::max<XrDuration>(period, 0));
+    timespec at{};
+    if (!instance.convert_time || time <= 0 || XR_FAILED(instance.convert_time(instance.handle, time, &at)))
+        return display;
+    timespec monotonic_now{};
+    const auto now = std::chrono::steady_clock::now();
+    if (clock_gettime(CLOCK_MONOTONIC, &monotonic_now) == 0)
+        display.time = deadline::from_monotonic(at, monotonic_now, now);
+    return display;
+}
+
 XRAPI_ATTR XrResult XRAPI_CALL WaitFrame(XrSession session, const XrFrameWaitInfo *info,
                                          XrFrameState *frame) {
     SessionState *state = find_session(session);
     if (!state) return XR_ERROR_HANDLE_INVALID;
     const XrResult result = state->instance->wait_frame(session, info, frame);
     if (XR_SUCCEEDED(result) && frame) {
-        const WaitedFrame waited{std::chrono::steady_clock::now()};
+        WaitedFrame waited;
+        waited.returned = std::chrono::steady_clock::now();
+        XrDuration refresh_period = 0;
+        {
+            std::lock_guard lock(g_mutex);
+            if (frame->predictedDisplayPeriod > 0 &&
+                (state->refresh_period == 0 || frame->predictedDisplayPeriod < state->refresh_period))
+                state->refresh_period = frame->predictedDisplayPeriod;
+            refresh_period = state->refresh_period;
+        }
+        waited.display = frame_display(*state->instance, frame->predictedDisplayTime, refresh_period);
         std::lock_guard lock(g_mutex);
+        if (waited.display.time && state->device && layer_settings().settings.xr_deadline &&
+            !std::exchange(state->deadline_said, true))
+            SPLITVK_INFO("OpenXR: eye images wait for their tiles until their display time allows (display "
+                         "period %.1f ms), at most SPLITVK_TILE_WAIT",
+                         std::chrono::duration<double, std::milli>(waited.display.period).count());
         if (state->waited.size() == kMaxWaitedFrames) state->waited.pop_front();
         state->waited.push_back(waited);
     }
@@ -750,6 +805,13 @@ XRAPI_ATTR XrResult XRAPI_CALL GetInstanceProcAddr(XrInstance instance, const ch
         if (std::strcmp(name, i.name) == 0) return ours(i);
     for (const Intercepted &i : kInterceptedForGaze)
         if (state && state->gaze && std::strcmp(name, i.name) == 0) return ours(i);
+    // An extension the layer enabled for itself is not the application's to call.
+    if (state && state->convert_time_hidden &&
+        (std::strcmp(name, "xrConvertTimeToTimespecTimeKHR") == 0 ||
+         std::strcmp(name, "xrConvertTimespecTimeToTimeKHR") == 0)) {
+        *function = nullptr;
+        return XR_ERROR_FUNCTION_UNSUPPORTED;
+    }
     if (!state) {
         *function = nullptr;
         return XR_ERROR_HANDLE_INVALID;
@@ -770,35 +832,54 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
     const XrApiLayerNextInfo &next = *layer_info->nextInfo;
     XrApiLayerCreateInfo down = *layer_info;
     down.nextInfo = next.next;
-    // SPLITVK_GAZE=openxr: the eye-gaze extension, where the application did not enable it itself and
-    // the runtime has it (one that lacks it refuses the instance, which is then made as asked).
-    bool gaze = layer_settings().settings.gaze == GazeMode::OpenXR && info;
+    // Extensions the layer needs beside the application's, where it did not enable them itself:
+    // XR_KHR_convert_timespec_time (each frame's display time, the deadline of its tile waits) and,
+    // with SPLITVK_GAZE=openxr, the eye-gaze one. A runtime that lacks one refuses the instance: it is
+    // made with fewer, down to the application's own, which it never notices.
+    std::vector<const char *> extensions;
+    if (info)
+        extensions.assign(info->enabledExtensionNames,
+                          info->enabledExtensionNames + info->enabledExtensionCount);
+    const auto has = [](const std::vector<const char *> &list, const char *name) {
+        return std::any_of(list.begin(), list.end(),
+                           [&](const char *e) { return e && std::strcmp(e, name) == 0; });
+    };
+    const bool wants_gaze = layer_settings().settings.gaze == GazeMode::OpenXR && info;
+    const bool app_converts = has(extensions, XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME);
+    std::vector<const char *> added;
+    if (info && !app_converts) added.push_back(XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME);
+    if (wants_gaze && !has(extensions, XR_EXT_EYE_GAZE_INTERACTION_EXTENSION_NAME))
+        added.push_back(XR_EXT_EYE_GAZE_INTERACTION_EXTENSION_NAME);
     XrResult result = XR_ERROR_EXTENSION_NOT_PRESENT;
-    if (gaze) {
-        std::vector<const char *> extensions(info->enabledExtensionNames,
-                                             info->enabledExtensionNames + info->enabledExtensionCount);
-        if (std::none_of(extensions.begin(), extensions.end(), [](const char *e) {
-                return std::strcmp(e, XR_EXT_EYE_GAZE_INTERACTION_EXTENSION_NAME) == 0;
-            })) {
-            extensions.push_back(XR_EXT_EYE_GAZE_INTERACTION_EXTENSION_NAME);
-            XrInstanceCreateInfo with_gaze = *info;
-            with_gaze.enabledExtensionCount = static_cast<uint32_t>(extensions.size());
-            with_gaze.enabledExtensionNames = extensions.data();
-            result = next.nextCreateApiLayerInstance(&with_gaze, &down, instance);
-        } else {
+    std::vector<const char *> enabled;
+    // Every subset of `added`, the largest first (bit i: added[i]).
+    for (uint32_t mask = (1u << added.size()) - 1;; --mask) {
+        enabled = extensions;
+        for (size_t i = 0; i < added.size(); ++i)
+            if (mask & (1u << i)) enabled.push_back(added[i]);
+        if (mask == 0) {
             result = next.nextCreateApiLayerInstance(info, &down, instance);
+            break;
         }
-        if (result == XR_ERROR_EXTENSION_NOT_PRESENT) {
-            SPLITVK_WARN(
-                "SPLITVK_GAZE=openxr: the OpenXR runtime lacks %s; the foveae stay at the view directions",
-                XR_EXT_EYE_GAZE_INTERACTION_EXTENSION_NAME);
-            gaze = false;
-        }
+        XrInstanceCreateInfo with_ours = *info;
+        with_ours.enabledExtensionCount = static_cast<uint32_t>(enabled.size());
+        with_ours.enabledExtensionNames = enabled.data();
+        result = next.nextCreateApiLayerInstance(&with_ours, &down, instance);
+        if (result != XR_ERROR_EXTENSION_NOT_PRESENT) break;
     }
-    if (!gaze) result = next.nextCreateApiLayerInstance(info, &down, instance);
+    bool gaze = wants_gaze && has(enabled, XR_EXT_EYE_GAZE_INTERACTION_EXTENSION_NAME);
+    if (wants_gaze && !gaze && XR_SUCCEEDED(result))
+        SPLITVK_WARN(
+            "SPLITVK_GAZE=openxr: the OpenXR runtime lacks %s; the foveae stay at the view directions",
+            XR_EXT_EYE_GAZE_INTERACTION_EXTENSION_NAME);
+    if (XR_SUCCEEDED(result) && !has(enabled, XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME))
+        SPLITVK_INFO("OpenXR: the runtime lacks %s: eye images wait for their tiles up to SPLITVK_TILE_WAIT, "
+                     "whatever their display time",
+                     XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME);
     if (XR_FAILED(result)) return result;
 
     auto state = std::make_unique<InstanceState>();
+    state->handle = *instance;
     state->get_instance_proc_addr = next.nextGetInstanceProcAddr;
     const bool loaded =
         load(*state, *instance, "xrDestroyInstance", &state->destroy_instance) &&
@@ -817,6 +898,10 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
         if (state->destroy_instance) state->destroy_instance(*instance);
         return XR_ERROR_INITIALIZATION_FAILED;
     }
+    if (has(enabled, XR_KHR_CONVERT_TIMESPEC_TIME_EXTENSION_NAME) &&
+        !load(*state, *instance, "xrConvertTimeToTimespecTimeKHR", &state->convert_time))
+        state->convert_time = nullptr;
+    state->convert_time_hidden = !app_converts;
     if (gaze) {
         GazeDispatch dispatch;
         if (dispatch.load(next.nextGetInstanceProcAddr, *instance))

@@ -64,6 +64,9 @@ const SettingInfo kSettings[] = {
      "where the foveae sit: fixed, centred in each eye; openxr, where the OpenXR runtime's eye tracking "
      "(XR_EXT_eye_gaze_interaction) says the eyes look; fifo:PATH, at the gaze points another process writes "
      "into the named pipe PATH (one line per point: x y, or lx ly rx ry, 0.5 0.5 the eye's centre)"},
+    {"XR_DEADLINE", "display or off", "display",
+     "display: an OpenXR eye image waits for its tiles only while it can still be shown at its display "
+     "time; off: up to TILE_WAIT"},
     {"MAX_MBPS", "Mbit/s, 0 (no bound) to 100000", "0",
      "with FOVEA=auto: the most tile traffic the fovea may grow to"},
     {"CODEC", "x264, zstd or raw", "x264", "lossless codec for the fovea tiles"},
@@ -338,6 +341,11 @@ bool apply(std::string_view name, std::string_view raw, Settings &s) {
         if (!v.starts_with("fifo:") || value.size() <= 5) return false;
         s.gaze = GazeMode::Fifo;
         s.gaze_fifo = std::string(value.substr(5)); // the path as written, not lower-cased
+        return true;
+    }
+    if (name == "XR_DEADLINE") {
+        if (v != "display" && v != "off") return false;
+        s.xr_deadline = v == "display";
         return true;
     }
     if (name == "CODEC") {

@@ -118,6 +118,9 @@ struct Settings {
     // through the depth of its passes into the swapchain image, where that is exact (layer/fovea_mask.h).
     bool fovea_mask = true;
     std::string gaze_fifo; // GazeMode::Fifo: the pipe's path
+    // SPLITVK_XR_DEADLINE: an OpenXR eye image waits for its tiles only while it can still meet its
+    // display time (layer/frame_deadline.h); off: up to tile_wait_ms, as a window's present.
+    bool xr_deadline = true;
     // SPLITVK_MAX_MBPS: the most tile traffic SPLITVK_FOVEA=auto may grow the fovea to, in Mbit/s;
     // 0: no bound but the eye.
     double max_mbps = 0;

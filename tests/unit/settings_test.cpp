@@ -216,6 +216,7 @@ TEST_F(SettingsTest, InvalidValuesAreOneLineErrorsNamingTheSetting) {
         {"CLIENT_GUARD", {"", "off", "guard", "guard:", "guard:-1", "guard:4097", "64"}},
         {"SEAM", {"", "soft", "feather", "feather:", "feather:-1", "feather:257", "feather:1.5", "16"}},
         {"GAZE", {"", "fifo:", "fifo", "pipe:/tmp/gaze", "eyes", "1"}},
+        {"XR_DEADLINE", {"", "on", "1", "vsync"}},
         {"CODEC", {"", "h264", "x265", "lz4"}},
         {"TILE_WAIT", {"", "0", "-5", "60001", "1.5", "soon"}},
         {"PRESENT_DEPTH", {"", "3", "-1", "1.5", "two"}},

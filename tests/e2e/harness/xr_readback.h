@@ -197,6 +197,9 @@ inline void add_split_layers(Env &e, const std::string &agent, const std::filesy
     e["SPLITVK_STATS"] = stats.string();
     e["SPLITVK_LOG_LEVEL"] = "info";
     e["SPLITVK_TILE_WAIT"] = "60000"; // a busy machine must not turn the compared frames late
+    // Nor their display times, which lavapipe's agent misses on a busy machine: every frame waits
+    // for its fovea, to be compared with native (XrDeadline judges the deadline itself).
+    e["SPLITVK_XR_DEADLINE"] = "off";
 }
 
 // Every row of the run's SPLITVK_STATS (at `csv`) split with tiles, none late, at least `min_frames`.

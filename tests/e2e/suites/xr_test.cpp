@@ -964,6 +964,178 @@ TEST_F(XrAtrium, SideBySideFoveaeExactAgainstNative) {
         "native", "split", false, [&](int eye) { return fovea_at_view(kSkewedFov[eye], 192, 160); }, true);
 }
 
+// The display time is an eye image's deadline (SPLITVK_XR_DEADLINE's default), with the agent behind
+// splitvk-link --delay 100ms: a fovea needs at least the link's 200 ms round trip, far past any
+// display time the 60 Hz runtime gives. Four runs of atrium, frame by frame (image K's release N is
+// the same frame in every run):
+//  - native;
+//  - the periphery alone: behind the same link with SPLITVK_XR_DEADLINE=off and SPLITVK_TILE_WAIT=1,
+//    so that every frame but the first split one shows the upsampled periphery in its centre;
+//  - split, straight to the agent, and split behind the link, both with the deadline.
+// Behind the link every eye image but the first split one is late: counted in SPLITVK_STATS and in
+// the summary, logged, and its whole image is bit-exact the periphery-alone run's (its fovea is not
+// native's); an eye image whose fovea is native's came on time. No OpenXR frame but the first split
+// one (which waits for the agent's start, once) was held for its tiles, both eye images together,
+// longer than three display periods: its own, which the deadline allows at most, and two more for
+// the scheduling of a loaded machine, whose waits wake late (on these two shared cores one eye
+// image's wait, bounded at 16 ms, took 31 ms). Without the deadline each eye image would wait for
+// the link's 200 ms round trip, up to SPLITVK_TILE_WAIT's 250 ms. The OpenXR frame time behind the
+// link against the direct one's is measured and printed, not judged: on these shared cores either
+// median moves by a third from run to run with the other engineers' load (ratios from 0.73 to 1.37
+// measured, 0.85 and 0.93 in the last two runs).
+TEST_F(XrAtrium, DisplayTimeBoundsTheTileWaitBehindASlowLink) {
+    constexpr int kDeadlineFrames = 60;
+    ASSERT_TRUE(built(bin_dir() / "splitvk-link"));
+    const std::vector<std::string> frames = {"--frames", std::to_string(kDeadlineFrames)};
+    const auto native = run_atrium(atrium_native_env("native"), "native", frames);
+    ASSERT_TRUE(native.ok()) << native.describe() << "\n" << tail(native.err(), 30);
+    Agent agent;
+    ASSERT_TRUE(agent.start(clean_env(), out_)) << agent.error();
+
+    const uint16_t port = free_loopback_port();
+    ASSERT_NE(port, 0);
+    ProcessSpec link_spec;
+    link_spec.argv = {(bin_dir() / "splitvk-link").string(),
+                      "--listen",
+                      "127.0.0.1:" + std::to_string(port),
+                      "--connect",
+                      agent.address(),
+                      "--delay",
+                      "100ms"};
+    link_spec.env = clean_env();
+    link_spec.out_dir = out_;
+    link_spec.name = "splitvk-link";
+    Process link(link_spec);
+    ASSERT_TRUE(link.start()) << link.error();
+    const auto link_log = out_ / "splitvk-link.stderr";
+    for (int i = 0; i < 100 && read_file(link_log).find("listening on") == std::string::npos; ++i)
+        std::this_thread::sleep_for(100ms);
+    ASSERT_NE(read_file(link_log).find("listening on"), std::string::npos) << read_file(link_log);
+    const std::string slow_address = "127.0.0.1:" + std::to_string(port);
+
+    const auto split_run = [&](const std::string &run, const std::string &address, bool deadline) {
+        Env e = atrium_native_env(run);
+        add_split_layers(e, address, out_ / run / "stats.csv");
+        if (deadline) {
+            e.erase("SPLITVK_XR_DEADLINE");
+            e.erase("SPLITVK_TILE_WAIT");
+        } else {
+            e["SPLITVK_TILE_WAIT"] = "1";
+        }
+        return run_atrium(e, run, frames);
+    };
+    const auto periphery = split_run("periphery", slow_address, false);
+    ASSERT_TRUE(periphery.ok()) << periphery.describe() << "\n" << tail(periphery.err(), 30);
+    const auto direct = split_run("direct", agent.address(), true);
+    ASSERT_TRUE(direct.ok()) << direct.describe() << "\n" << tail(direct.err(), 30);
+    const auto slow = split_run("slow", slow_address, true);
+    ASSERT_TRUE(slow.ok()) << slow.describe() << "\n" << tail(slow.err(), 30);
+    for (const ProcessResult *r : {&periphery, &direct, &slow})
+        EXPECT_TRUE(grep(r->err(), "[splitvk] error:").empty()) << tail(r->err(), 30);
+
+    // The display period the layer bounds the waits by, as it says once.
+    const std::regex said(R"(until their display time allows \(display period ([0-9.]+) ms\))");
+    std::smatch m;
+    const std::string slow_err = slow.err();
+    ASSERT_TRUE(std::regex_search(slow_err, m, said)) << tail(slow_err, 30);
+    const double period_ms = std::stod(m[1]);
+    EXPECT_GT(period_ms, 0.0);
+
+    struct Rows {
+        int split = 0, late = 0;
+        double held_ms = 0; // the longest an OpenXR frame's eye images waited together, but the first's
+    };
+    const auto read_rows = [&](const std::string &run) {
+        Rows r;
+        std::map<int64_t, double> held;
+        int64_t first = -1;
+        for (const auto &row : stats_rows(read_file(out_ / run / "stats.csv"))) {
+            if (row.at("fovea_w") == 0) continue;
+            ++r.split;
+            r.late += row.at("late") != 0;
+            const auto frame = static_cast<int64_t>(row.at("xr_frame"));
+            if (first < 0) first = frame;
+            if (frame != first) held[frame] += row.at("tile_wait_ms");
+        }
+        for (const auto &[frame, ms] : held)
+            r.held_ms = std::max(r.held_ms, ms);
+        return r;
+    };
+    const Rows slow_rows = read_rows("slow"), direct_rows = read_rows("direct");
+    std::cout << "  display period " << period_ms << " ms; behind the link: " << slow_rows.split
+              << " eye images split, " << slow_rows.late << " late, longest wait " << slow_rows.held_ms
+              << " ms; straight: " << direct_rows.split << " split, " << direct_rows.late
+              << " late, longest wait " << direct_rows.held_ms << " ms (per OpenXR frame)\n";
+    ASSERT_EQ(slow_rows.split, 2 * kDeadlineFrames);
+    EXPECT_EQ(slow_rows.late, slow_rows.split - 1)
+        << "behind the link only the first split eye image is on time";
+    // Its own period, and two for the scheduling (above).
+    const double bound_ms = 3 * period_ms;
+    EXPECT_LE(slow_rows.held_ms, bound_ms) << "an OpenXR frame was held past its display period";
+    EXPECT_LE(direct_rows.held_ms, bound_ms) << "an OpenXR frame was held past its display period";
+    EXPECT_FALSE(grep(slow_err, " late").empty());
+    EXPECT_FALSE(grep(slow_err, "no tiles from the agent in time for its display").empty())
+        << tail(slow_err, 30);
+    // Most frames late: the one warning says why, without sending the user to SPLITVK_TILE_WAIT,
+    // which the display time overrules.
+    const auto verdict = grep(slow_err, "came late (no tiles in time for their display)");
+    ASSERT_EQ(verdict.size(), 1u) << tail(slow_err, 30);
+    EXPECT_EQ(verdict[0].find("SPLITVK_TILE_WAIT"), std::string::npos) << verdict[0];
+    EXPECT_FALSE(grep(slow_err, ", " + std::to_string(slow_rows.late) + " late").empty())
+        << "the summary does not count the late eye images\n"
+        << tail(slow_err, 10);
+
+    // What the runtime got: late eye images the periphery alone, on-time ones a native fovea.
+    const auto n = readbacks(out_ / "native" / "images");
+    const auto p = readbacks(out_ / "periphery" / "images");
+    const auto s = readbacks(out_ / "slow" / "images");
+    ASSERT_EQ(n.size(), static_cast<size_t>(2 * kDeadlineFrames));
+    ASSERT_EQ(p.size(), n.size());
+    ASSERT_EQ(s.size(), n.size());
+    int on_time = 0, shown_periphery = 0;
+    for (const auto &[key, slow_path] : s) {
+        SCOPED_TRACE(slow_path.filename().string());
+        EyeImage a, b, c;
+        ASSERT_NO_FATAL_FAILURE(load_pair(n.at(key), slow_path, 192u, 160u, &a, &b));
+        ASSERT_TRUE(load_pam(p.at(key), &c));
+        const Rect f = default_foveae(a.width, a.height, 1)[0];
+        if (compare_rect(a, b, f).mismatched == 0) {
+            ++on_time;
+            continue;
+        }
+        ++shown_periphery;
+        const Mismatch whole = compare_rect(c, b, Rect{0, 0, b.width, b.height});
+        EXPECT_EQ(whole.mismatched, 0u)
+            << "a late eye image is not the periphery alone: " << whole.mismatched << " texels differ\n"
+            << save_mismatch_artefacts(out_, slow_path.stem().string(), to_image(c), to_image(b));
+    }
+    std::cout << "  behind the link the runtime got " << on_time << " eye images with a native fovea, "
+              << shown_periphery << " with the periphery alone\n";
+    EXPECT_EQ(shown_periphery, slow_rows.late);
+
+    // The frame rate behind the link against straight: medians of the OpenXR frame time (the frame's
+    // eye images' intervals), from the frame kSettled on: Monado's pacing learns the first split
+    // frame's long wait as the application's own time and needs some frames to forget it.
+    constexpr size_t kSettled = 20;
+    const auto median_frame_ms = [&](const std::string &run) {
+        std::map<int64_t, double> by_frame;
+        for (const auto &row : stats_rows(read_file(out_ / run / "stats.csv")))
+            by_frame[static_cast<int64_t>(row.at("xr_frame"))] += row.at("frame_ms");
+        std::vector<double> ms;
+        size_t seen = 0;
+        for (const auto &[frame, sum] : by_frame)
+            if (seen++ >= kSettled) ms.push_back(sum);
+        std::sort(ms.begin(), ms.end());
+        return ms.empty() ? 0.0 : ms[ms.size() / 2];
+    };
+    const double straight_ms = median_frame_ms("direct"), slow_ms = median_frame_ms("slow");
+    ASSERT_GT(straight_ms, 0.0);
+    const double ratio = slow_ms / straight_ms;
+    std::cout << "  OpenXR frame time median from frame " << kSettled << ": " << straight_ms
+              << " ms straight, " << slow_ms << " ms behind the link (ratio " << ratio << ")\n";
+    RecordProperty("frame_time_ratio", std::to_string(ratio));
+}
+
 TEST_F(Xr, HelloXrFoveaeExactAgainstNative) {
     const auto native = run_hello_xr(native_env("native"), "native", 4);
     ASSERT_TRUE(native.ok()) << native.describe() << "\n" << tail(native.err(), 30);
