@@ -40,10 +40,10 @@ of native and split, the client's and the agent's per-stage medians, Mbit/s of t
 mode (native, split, each variant, through OpenXR) the latency (SPLITVK_STATS' frame_latency_ms:
 the app's acquire returning to the real present returning, or xrWaitFrame returning to xrEndFrame
 returning), median and p99, beside the frame time's median, p99 and p99/median; draws the
-frame-time distributions with a latency panel and one typical frame's timeline (docs/figures/ with /usr/bin/python3
-and python3-matplotlib); with --write-docs (the default for a full run) replaces the paper section
-of docs/BENCHMARKS.md (with any path but direct, or several, its per-path section instead, and the
-figures stay in --out-dir). Per path it prints split/native, periphery/native (the client's
+frame-time distributions with a latency panel and one typical frame's timeline (docs/figures/
+with /usr/bin/python3 and python3-matplotlib); with --write-docs (the default for a full run)
+replaces the paper section of docs/BENCHMARKS.md (with any path but direct, or several, its
+per-path section instead, and the figures stay in --out-dir). Per path it prints split/native, periphery/native (the client's
 periphery render, SPLITVK_STATS' periphery_ms, over the native median frame time) and each variant's
 VARIANT/split, as `NAME[PATH]: R` lines when there are several paths; then the first path's
 periphery/native and VARIANT/split, and then four lines for the first path:
@@ -1091,10 +1091,10 @@ def latency_ratios(p):
              "xr-native": "xr-native"}
     ratios = {}
     latency = p.get("latency") or {}
-    for mode, name in short.items():
+    for mode in ("split", "split-swapped", "xr-split"):
         base = latency.get("xr-native" if mode.startswith("xr-") else "native")
-        if mode in latency and not mode.endswith("native") and base and base["median"]:
-            ratios[f"latency-{name}/native"] = latency[mode]["median"] / base["median"]
+        if mode in latency and base and base["median"]:
+            ratios[f"latency-{short[mode]}/native"] = latency[mode]["median"] / base["median"]
     for mode, t in mode_frame_times(p).items():
         if mode in short and "p99" in t and t["median"]:
             ratios[f"pacing-{short[mode]}"] = t["p99"] / t["median"]
