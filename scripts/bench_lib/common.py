@@ -247,3 +247,13 @@ def quartiles(values):
         return values[0], values[0], values[0]
     q = statistics.quantiles(values, n=4, method="inclusive")
     return q[0], statistics.median(values), q[2]
+
+
+def percentile(values, p):
+    """The value at percentile p (0-100) of a non-empty list, interpolating between neighbours (as
+    the layer's summary does)."""
+    values = sorted(values)
+    position = p / 100 * (len(values) - 1)
+    below = int(position)
+    above = min(below + 1, len(values) - 1)
+    return values[below] + (values[above] - values[below]) * (position - below)

@@ -2,9 +2,12 @@
 
 splitvk-atrium at 2400x1080, two eyes, fovea 512x360 per eye, periphery at scale 0.6, the camera
 moving with the frame number. Native and split alternate, --rounds times, against a splitvk-agent
-the bench starts. The weak device is emulated: the client (the app, the layer and its decoders,
-native runs too) is confined to --client-cpus with lavapipe's LP_NUM_THREADS=--client-threads;
-the agent (and splitvk-link with --link) runs on --agent-cpus.
+the bench starts. Native runs through splitvk's layer without an agent (SPLITVK_SERVER a port nothing
+listens on: every frame unsplit), so that its latency is measured by the same clock at the same
+points as the split's; scripts/bench passthrough --stats measures what that costs it. The weak
+device is emulated: the client (the app, the layer and its decoders, native runs too) is confined
+to --client-cpus with lavapipe's LP_NUM_THREADS=--client-threads; the agent (and splitvk-link with
+--link) runs on --agent-cpus.
 
 Each round also renders the scene natively at the periphery's size (scale x the window, 1440x648
 by default) on the client's cores: the client's periphery render, estimated, since the layer does
@@ -33,14 +36,17 @@ hundreds of ms). Reported as xr split/native beside the desktop split/native. On
 hdr or deferred (atrium --xr draws no other path per eye; layered swapchains are not split).
 
 Prints median and IQR of the frame time (every frame of every run, after --warmup frames per run)
-of native and split, the client's and the agent's per-stage medians, Mbit/s of tiles; draws the
-frame-time distributions and one typical frame's timeline (docs/figures/ with /usr/bin/python3
-and python3-matplotlib); with --write-docs (the default for a full run) replaces the paper section
-of docs/BENCHMARKS.md (with any path but direct, or several, its per-path section instead, and the
-figures stay in --out-dir). Per path it prints split/native, periphery/native (the client's
+of native and split, the client's and the agent's per-stage medians, Mbit/s of tiles, and for every
+mode (native, split, each variant, through OpenXR) the latency (SPLITVK_STATS' frame_latency_ms:
+the app's acquire returning to the real present returning, or xrWaitFrame returning to xrEndFrame
+returning), median and p99, beside the frame time's median, p99 and p99/median; draws the
+frame-time distributions with a latency panel and one typical frame's timeline (docs/figures/
+with /usr/bin/python3 and python3-matplotlib); with --write-docs (the default for a full run)
+replaces the paper section of docs/BENCHMARKS.md (with any path but direct, or several, its
+per-path section instead, and the figures stay in --out-dir). Per path it prints split/native, periphery/native (the client's
 periphery render, SPLITVK_STATS' periphery_ms, over the native median frame time) and each variant's
 VARIANT/split, as `NAME[PATH]: R` lines when there are several paths; then the first path's
-periphery/native and VARIANT/split, and it ends with four lines for the first path, nothing after them:
+periphery/native and VARIANT/split, and then four lines for the first path:
   split/native: R        split median frame time over native median frame time
   tile-wait/frame: R     median tile wait over the split median frame time
   exposed-wait/frame: R  all exposed wait (the tile wait after the client's GPU had finished its
@@ -51,7 +57,13 @@ at frame N-1, grabbed from the X server, against native's: SSIM and PSNR over th
 periphery alone (the foveae are exact in both splits).
 And with --client-renders fovea a fifth final line:
   swapped/native: R      the swapped split's median frame time over native's
-Timings never pass or fail."""
+Then the latency and pacing lines, the last of all:
+  latency-split/native: R    the split's median latency over native's
+  latency-swapped/native: R  the swapped split's (with --client-renders fovea)
+  pacing-split: R            the split's p99 frame time over its median
+  pacing-swapped: R          the swapped split's (with --client-renders fovea)
+(each path's, OpenXR's as latency-xr-split/native and pacing-xr-split, and native's pacing among the
+ratio lines before them). Timings never pass or fail."""
 import argparse
 import datetime
 import json
@@ -90,6 +102,13 @@ RENDER_PATHS = ("direct", "hdr", "deferred", "multiview", "secondary", "compute"
 VARIANTS = {"split-tls": "split over TLS 1.3", "split-guard": "split, agent scissor", "split-auto": "split, auto fovea",
             "split-shaded": "split, foveae shaded", "split-swapped": "swapped split (client renders the foveae)"}
 XR_PATHS = ("direct", "hdr", "deferred")  # splitvk-atrium --xr, one swapchain per eye
+# The modes whose latency the bench reports (frame_latency_ms), in its tables' order, and their names there.
+LATENCY_MODES = {"native": "native (the layer, no agent)", "split": "split", "split-tls": VARIANTS["split-tls"],
+                 "split-guard": VARIANTS["split-guard"], "split-auto": VARIANTS["split-auto"],
+                 "split-shaded": VARIANTS["split-shaded"], "split-swapped": "swapped split",
+                 "xr-native": "native through OpenXR", "xr-split": "split through OpenXR"}
+# The final lines' latency and pacing ratios (path_ratios' names), after split/native's four.
+FINAL_LATENCY_LINES = ("latency-split/native", "latency-swapped/native", "pacing-split", "pacing-swapped")
 XR_LAYER_NAME = "XR_APILAYER_SPLITVK_split_render"
 XR_RUNTIME = os.path.join(common.REPO, "scripts", "xr-runtime")
 FULL = {"frames": 350, "rounds": 3, "periphery_frames": 0}
@@ -416,6 +435,13 @@ def grab_pictures(args, build, path, out_dir, timeout_s, held_argv, envs):
     return quality
 
 
+def check_unsplit(r, what):
+    """Raises unless the run r (the layer without an agent) found no agent and split nothing."""
+    if "running unsplit until one answers" not in r.stderr or "[splitvk] split:" in r.stderr:
+        raise common.BenchError(f"{what} was to run through the layer without an agent, unsplit:\n"
+                                + common.tail(r.stderr))
+
+
 def cpu_run(argv, env, timeout_s, frames, cpu):
     """common.run, adding the run's CPU time per frame (user + system of the app and its threads,
     start-up included, from the children's rusage) to the list `cpu`."""
@@ -514,7 +540,9 @@ def measure(args):
                                                    ("split-shaded", args.shaded_foveae),
                                                    ("split-swapped", args.client_renders == "fovea")) if on]
     modes += ["xr-native", "xr-split"] if args.xr else []
-    runs = {path: dict({m: [] for m in modes}, periphery=[], cpu={m: [] for m in modes}, variant_rows={})
+    # latency: each run's frame_latency_ms values (SPLITVK_STATS), every mode's, native's too.
+    runs = {path: dict({m: [] for m in modes}, periphery=[], cpu={m: [] for m in modes}, variant_rows={},
+                       latency={m: [] for m in modes})
             for path in args.paths}
     start = time.monotonic()
     with common.display(build) as disp:
@@ -543,8 +571,14 @@ def measure(args):
             if args.client_renders == "fovea":
                 variant_env["split-swapped"] = dict(split_env, SPLITVK_CLIENT_RENDERS="fovea",
                                                     SPLITVK_PERIPHERY_QUALITY=args.periphery_quality)
+            # Native is the layer without an agent (its SPLITVK_SERVER a port nothing listens on): every
+            # frame unsplit, its latency measured by the same clock at the same points as the split's.
+            # scripts/bench passthrough --stats measures what the layer costs it.
+            native_env = dict(common.layer_env(client_env, build), SPLITVK_SERVER=f"127.0.0.1:{split.free_port()}")
             # Through OpenXR: splitvk's OpenXR layer too (docs/user-guide.md, "OpenXR applications").
-            xr_split_env = dict(split_env, XR_API_LAYER_PATH=build.xr_manifest_dir, XR_ENABLE_API_LAYERS=XR_LAYER_NAME)
+            xr_layers = {"XR_API_LAYER_PATH": build.xr_manifest_dir, "XR_ENABLE_API_LAYERS": XR_LAYER_NAME}
+            xr_split_env = dict(split_env, **xr_layers)
+            xr_native_env = dict(native_env, **xr_layers)
             for i in range(args.rounds):
                 # Native and split alternate their order every round; the variants trade ends with
                 # native, so the plain split sits next to native in one round and to them in the next.
@@ -556,12 +590,15 @@ def measure(args):
                     prefix = "" if path == "direct" else f"{path}-"  # a direct run's files keep their names
                     for mode in order:
                         times = os.path.join(out_dir, f"{prefix}{mode}-round{i + 1}-frames.csv")
+                        stats = os.path.join(out_dir, f"{prefix}{mode}-round{i + 1}.csv")
                         if mode in ("xr-native", "xr-split"):
                             # No client CPU time: the runtime's service is a child of the run too.
-                            stats = os.path.join(out_dir, f"{prefix}xr-split-round{i + 1}.csv")
-                            env = client_env if mode == "xr-native" else dict(xr_split_env, SPLITVK_STATS=stats)
+                            env = dict(xr_native_env if mode == "xr-native" else xr_split_env, SPLITVK_STATS=stats)
                             r = common.run(xr_argv(path, args.frames, times), env, timeout_s)
+                            # A row per eye image: two per frame.
+                            got["latency"][mode].append(frame_latencies(split.read_stats(stats, 2 * args.warmup)))
                             if mode == "xr-native":
+                                check_unsplit(r, f"the OpenXR native run (--path {path})")
                                 got[mode].append(read_frame_times(times, args.warmup))
                             else:
                                 if "running unsplit" in r.stderr or "eye images of its Vulkan device are split" \
@@ -571,11 +608,13 @@ def measure(args):
                                 got[mode].append((read_frame_times(times, args.warmup),
                                                   split.read_stats(stats, 2 * args.warmup)))
                         elif mode == "native":
-                            r = cpu_run(argv(path, args.width, args.height, args.frames, times), client_env,
-                                        timeout_s, args.frames, got["cpu"]["native"])
+                            r = cpu_run(argv(path, args.width, args.height, args.frames, times),
+                                        dict(native_env, SPLITVK_STATS=stats), timeout_s, args.frames,
+                                        got["cpu"]["native"])
+                            check_unsplit(r, f"the native run (--path {path})")
                             got["native"].append(read_frame_times(times, args.warmup))
+                            got["latency"]["native"].append(frame_latencies(split.read_stats(stats, args.warmup)))
                         elif mode == "split":
-                            stats = os.path.join(out_dir, f"{prefix}split-round{i + 1}.csv")
                             r = cpu_run(argv(path, args.width, args.height, args.frames, times),
                                         dict(split_env, SPLITVK_STATS=stats), timeout_s, args.frames,
                                         got["cpu"]["split"])
@@ -584,13 +623,14 @@ def measure(args):
                                                         + common.tail(r.stderr))
                             got["split"].append((read_frame_times(times, args.warmup),
                                                  split.read_stats(stats, args.warmup)))
+                            got["latency"]["split"].append(frame_latencies(got["split"][-1][1]))
                         else:
                             # Its stats: the size an auto fovea settled at, a variant's periphery render.
-                            stats = os.path.join(out_dir, f"{prefix}{mode}-round{i + 1}.csv")
                             r = cpu_run(argv(path, args.width, args.height, args.frames, times),
                                         dict(variant_env[mode], SPLITVK_STATS=stats), timeout_s, args.frames,
                                         got["cpu"][mode])
                             got["variant_rows"].setdefault(mode, []).append(split.read_stats(stats, args.warmup))
+                            got["latency"][mode].append(frame_latencies(got["variant_rows"][mode][-1]))
                             summary = "[splitvk] split (client renders fovea):" if mode == "split-swapped" \
                                 else "[splitvk] split:"
                             if mode == "split-tls":
@@ -626,7 +666,25 @@ def q3(values):
     # The mean too: lockstep frames behind a slower agent alternate between two times (one waits,
     # the next does not), and the median then picks one mode rather than the rate frames come at.
     mean = sum(values) / len(values) if values else 0.0
-    return {"median": m, "mean": mean, "iqr": q3_ - q1, "q1": q1, "q3": q3_, "n": len(values)}
+    # p99 over the median is the pacing: how much longer the slow frames are than the typical one.
+    return {"median": m, "mean": mean, "iqr": q3_ - q1, "q1": q1, "q3": q3_,
+            "p99": common.percentile(values, 99) if values else 0.0, "n": len(values)}
+
+
+def frame_latencies(rows):
+    """SPLITVK_STATS' frame_latency_ms of each frame in `rows`: one per OpenXR frame (each of its eye
+    images' rows carries the frame's one value), none where the layer did not see the frame start."""
+    values, frames = [], set()
+    for r in rows:
+        if not r.get("frame_latency_ms"):
+            continue
+        xr_frame = int(r.get("xr_frame") or -1)
+        if xr_frame >= 0:
+            if xr_frame in frames:
+                continue
+            frames.add(xr_frame)
+        values.append(float(r["frame_latency_ms"]))
+    return values
 
 
 def typical_frame(rows, stages):
@@ -724,6 +782,10 @@ def path_summary(path, runs):
         "auto": auto_summary(runs.get("variant_rows", {}).get("split-auto")),
         "swapped": swapped_summary(runs.get("variant_rows", {}).get("split-swapped")),
         "pictures": runs.get("pictures"),
+        # frame_latency_ms of every mode that has it (runs of a bench from before it: none).
+        "latency": {m: q3(values) for m, values in
+                    ((m, [v for run in runs.get("latency", {}).get(m, []) for v in run]) for m in LATENCY_MODES)
+                    if values},
         "variant_periphery": {v: q3(g) for v, g in
                               ((v, [float(r["periphery_ms"]) for rnd in rounds for r in rnd
                                     if float(r.get("periphery_ms") or 0) > 0])
@@ -810,6 +872,8 @@ def summarize(args, machine, runs, periphery_size, out_dir, wall_s):
         "typical_rows": list(typical) if typical else None,
         "native_frames": [v for run in runs[first]["native"] for v in run],
         "split_frames": [v for run, _ in runs[first]["split"] for v in run],
+        "latency_frames": {LATENCY_MODES[m]: [v for run in values for v in run]
+                           for m, values in runs[first]["latency"].items() if any(values)},
         "per_path": per_path,
         "xr": p["xr"],
     }
@@ -867,6 +931,26 @@ def xr_rows_markdown(res):
             f"| **split / native through OpenXR** | **{sp['median'] / n['median']:.3f}** | | | |"]
 
 
+def latency_markdown(res):
+    """The latency and pacing of every mode (none for results from before the bench measured them)."""
+    first = (res.get("per_path") or [{}])[0]
+    if not first.get("latency"):
+        return []
+    rows = ["", "Latency (`SPLITVK_STATS`' `frame_latency_ms`: the application's acquire returning to the real "
+            "present returning; through OpenXR `xrWaitFrame` returning to `xrEndFrame` returning; native "
+            "through the same layer without an agent) and pacing (p99 frame time over the median), ms:", "",
+            "| mode | frame time median | frame time p99 | pacing (p99/median) | latency median | latency p99 |",
+            "|---|---|---|---|---|---|"]
+    for label, t, lat in latency_table(first):
+        cells = f"{lat['median']:.2f} | {lat['p99']:.2f}" if lat else "n/a | n/a"
+        rows.append(f"| {label} | {t['median']:.2f} | {t['p99']:.2f} | {t['p99'] / t['median']:.3f} | {cells} |")
+    ratios = latency_ratios(first)
+    rows += ["", " ".join(f"`{name}: {ratios[name]:.3f}`" for name in FINAL_LATENCY_LINES if name in ratios)
+             + "".join(f" `{name}: {ratios[name]:.3f}`" for name in ("latency-xr-split/native", "pacing-xr-split")
+                       if name in ratios)]
+    return rows
+
+
 def tables_markdown(res):
     s, n, sp, per = res["stages"], res["native"], res["split"], res["periphery"]
     per_text = f"{per['median']:.2f}" if per else "n/a"
@@ -879,7 +963,7 @@ def tables_markdown(res):
         f"| split | {sp['median']:.2f} | {sp['iqr']:.2f} | {sp['n']} | "
         + ", ".join(f"{v:.1f}" for v in res["split_rounds"]) + " |",
         f"| **split / native** | **{sp['median'] / n['median']:.3f}** | | | |",
-    ] + variant_rows_markdown(res) + xr_rows_markdown(res) + [
+    ] + variant_rows_markdown(res) + xr_rows_markdown(res) + latency_markdown(res) + [
         "",
         f"Client (Table 1), medians in ms; {periphery_note(c)}:",
         "",
@@ -933,6 +1017,13 @@ def print_tables(res):
         print(f"client CPU per frame (all threads, start-up included): native {c['native']:.1f} ms, "
               f"split {c['split']:.1f} ms ({c['split'] / c['native']:.3f})")
     print(f"late frames (centre from the periphery): {s['late']} of {s['frames']}")
+    first = (res.get("per_path") or [{}])[0]
+    if first.get("latency"):
+        print("latency and pacing (ms)                    frame median  frame p99  p99/median  latency median  "
+              "latency p99")
+        for label, t, lat in latency_table(first):
+            cells = f"{lat['median']:15.2f} {lat['p99']:12.2f}" if lat else f"{'-':>15} {'-':>12}"
+            print(f"  {label:<40} {t['median']:13.2f} {t['p99']:10.2f} {t['p99'] / t['median']:11.3f} {cells}")
     print("paper (Snapdragon 865 + GTX 1080): native 32.2 ms, split 26.17 ms (0.813); draw 4.42, encode 15.33, "
           "network 4.99, decode 18.64, merge 0.96 ms; 707.83 Mbit/s")
     per_path = res.get("per_path") or []
@@ -972,6 +1063,41 @@ def path_ratios(p):
         ratios["xr split/native"] = xr["split"]["median"] / xr["native"]["median"] if xr["native"]["median"] else None
         ratios["xr split/native by means"] = (xr["split"]["mean"] / xr["native"]["mean"]
                                               if xr["native"].get("mean") and xr["split"].get("mean") else None)
+    ratios.update(latency_ratios(p))
+    return ratios
+
+
+def mode_frame_times(p):
+    """A path_summary's frame-time quartiles per mode (LATENCY_MODES' names)."""
+    modes = {"native": p.get("native"), "split": p.get("split")}
+    modes.update(variants_of(p))
+    if p.get("xr"):
+        modes.update({"xr-native": p["xr"]["native"], "xr-split": p["xr"]["split"]})
+    return {m: t for m, t in modes.items() if t}
+
+
+def latency_table(p):
+    """(name, frame-time quartiles, latency quartiles or None) of each mode of one path_summary, in
+    LATENCY_MODES' order."""
+    frames, latency = mode_frame_times(p), p.get("latency") or {}
+    return [(label, frames[m], latency.get(m)) for m, label in LATENCY_MODES.items() if m in frames]
+
+
+def latency_ratios(p):
+    """latency-MODE/native (median frame_latency_ms over native's, through OpenXR over OpenXR
+    native's) and pacing-MODE (p99 frame time over the median) of one path_summary, for the modes it
+    measured; none for runs from before the bench measured them."""
+    short = {"split": "split", "split-swapped": "swapped", "xr-split": "xr-split", "native": "native",
+             "xr-native": "xr-native"}
+    ratios = {}
+    latency = p.get("latency") or {}
+    for mode in ("split", "split-swapped", "xr-split"):
+        base = latency.get("xr-native" if mode.startswith("xr-") else "native")
+        if mode in latency and base and base["median"]:
+            ratios[f"latency-{short[mode]}/native"] = latency[mode]["median"] / base["median"]
+    for mode, t in mode_frame_times(p).items():
+        if mode in short and "p99" in t and t["median"]:
+            ratios[f"pacing-{short[mode]}"] = t["p99"] / t["median"]
     return ratios
 
 
@@ -990,7 +1116,7 @@ def print_ratio_lines(res):
                     print(f"{name}[{p['path']}]: {value:.3f}")
     if per_path:
         for name, value in path_ratios(per_path[0]).items():
-            if name not in ("split/native", "split/native by means") and value is not None:
+            if name not in ("split/native", "split/native by means") + FINAL_LATENCY_LINES and value is not None:
                 print(f"{name}: {value:.3f}")
         auto, measured = per_path[0].get("auto"), variants_of(per_path[0])
         if auto and "split-auto" in measured and per_path[0]["native"]["median"]:
@@ -1073,7 +1199,8 @@ def section_markdown(res, figures, docs_path, analysis):
         f"lavapipe's `LP_NUM_THREADS={c['client_threads']}`, the agent to CPU {c['agent_cpus']}; link: "
         f"{c['link']} ({'loopback, no proxy' if c['link'] == 'direct' else 'splitvk-link on loopback'}); `SPLITVK_TILE_WAIT={c.get('tile_wait', 250)}` (lockstep as in the paper). Native and split alternate, {c['rounds']} rounds of {c['frames']} frames, "
         f"the first {c['warmup']} of each run left out; {periphery_note(c)}. Medians and IQRs are over every "
-        "remaining frame." + (" " + xr_note(c) if c.get("xr") else ""),
+        "remaining frame. Native runs through splitvk's layer without an agent (every frame unsplit), "
+        "which measures its latency at the same points as the split's." + (" " + xr_note(c) if c.get("xr") else ""),
         "",
         f"- date: {res['date']}",
         f"- machine: {describe_machine(m)}; Xvfb display",
@@ -1095,7 +1222,10 @@ def section_markdown(res, figures, docs_path, analysis):
             "",
             "**Frame-time distributions** (as the paper's Figure 3): per-frame present-to-present times of "
             "every native and split frame as histograms on one axis, the medians as vertical lines; the inset "
-            "legend gives median and IQR. Read it as: the further left and narrower, the faster and steadier.",
+            "legend gives median and IQR. Read it as: the further left and narrower, the faster and steadier. "
+            "Below them, the latency panel: each mode's `frame_latency_ms` as a box (quartiles, the median a "
+            "line) with whiskers from p1 to p99, its median and p99 beside it; the shorter, the sooner a frame "
+            "reaches the screen after the application began it.",
             "",
         ]
     if figures and "timeline" in figures:
@@ -1157,7 +1287,8 @@ def paths_markdown(res):
     head = ["path", "native, ms (IQR)", "split, ms (IQR)"] + [f"{variant_label(res, v)}, ms (IQR)" for v in variants] + \
         ["periphery (GPU), ms", "periphery/native", "tile wait", "exposed wait / frame", "split/native",
          "split/native by means"] + \
-        [f"{v}/split" for v in variants] + ["tile-bytes/raw", "client CPU split/native", "late frames"] + \
+        [f"{v}/split" for v in variants] + ["tile-bytes/raw", "client CPU split/native", "late frames",
+                                            "latency split/native", "pacing split"] + \
         (["OpenXR native, ms (IQR)", "OpenXR split, ms (IQR)", "OpenXR split/native"] if c.get("xr") else [])
     rows = []
     for p in res["per_path"]:
@@ -1174,7 +1305,8 @@ def paths_markdown(res):
         row += [fmt_ratio(r.get(f"{v}/split"), "n/a") for v in variants]
         row += [f"{s['tile_bytes'] / s['raw_bytes']:.3f}" if s["raw_bytes"] else "n/a",
                 f"{cpu['split'] / cpu['native']:.3f}" if cpu.get("native") and cpu.get("split") else "n/a",
-                f"{s['late']} of {s['frames']}"]
+                f"{s['late']} of {s['frames']}", fmt_ratio(r.get("latency-split/native"), "n/a"),
+                fmt_ratio(r.get("pacing-split"), "n/a")]
         if c.get("xr"):
             xr = p.get("xr")
             row += [f"{xr['native']['median']:.2f} ({xr['native']['iqr']:.2f})",
@@ -1336,10 +1468,21 @@ def run(args):
     print(f"per-frame data: {res['out_dir']}" + (f"; docs: {args.docs} ({'per-path' if paths_section else 'paper'} "
                                                   "section replaced)" if write else ""))
     print_ratio_lines(res)
+    print_final_lines(res)
+    return 0
+
+
+def print_final_lines(res):
+    """The lines scripts read, nothing after them: split/native's four, swapped/native where the
+    swapped split ran, then the first path's latency and pacing (FINAL_LATENCY_LINES, those measured)."""
     s = res["stages"]
     split.print_final_lines(res["split"]["median"], res["native"]["median"], s["tile_wait"],
                             s.get("exposed_share", 0.0), s["tile_bytes"], s["raw_bytes"])
-    swapped = variants_of((res.get("per_path") or [{}])[0]).get("split-swapped")
+    first = (res.get("per_path") or [{}])[0]
+    swapped = variants_of(first).get("split-swapped")
     if swapped and res["native"]["median"]:
         print(f"swapped/native: {swapped['median'] / res['native']['median']:.3f}")
-    return 0
+    ratios = latency_ratios(first) if first else {}
+    for name in FINAL_LATENCY_LINES:
+        if name in ratios:
+            print(f"{name}: {ratios[name]:.3f}")

@@ -3,7 +3,9 @@
   paper_plots.py RESULTS.json DISTRIBUTION.png TIMELINE.png
 
 RESULTS.json is what bench paper writes: native_frames and split_frames (ms per frame), their
-medians and IQRs, and `typical`, the timeline segments of one typical split frame."""
+medians and IQRs, latency_frames (each mode's frame_latency_ms values, by the mode's name; absent
+in results from before the bench measured latency), and `typical`, the timeline segments of one
+typical split frame."""
 import json
 import sys
 
@@ -13,17 +15,24 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.patches import Patch  # noqa: E402
 
-NATIVE, SPLIT = "#4c72b0", "#dd8452"
+from common import percentile  # noqa: E402  (bench_lib/common.py: this script's folder is on the path)
+
+NATIVE, SPLIT, OTHER = "#4c72b0", "#dd8452", "#55a868"
 
 
 def distribution(res, path):
     native, split = res["native_frames"], res["split_frames"]
+    latency = {mode: values for mode, values in (res.get("latency_frames") or {}).items() if values}
     lo = min(min(native), min(split))
     hi = max(sorted(native)[int(0.99 * (len(native) - 1))], sorted(split)[int(0.99 * (len(split) - 1))])
     bins = 60
     step = (hi - lo) / bins if hi > lo else 1.0
     edges = [lo + i * step for i in range(bins + 1)]
-    fig, ax = plt.subplots(figsize=(7.5, 3.8), dpi=100)
+    if latency:
+        fig, (ax, lat_ax) = plt.subplots(2, 1, figsize=(7.5, 3.8 + 0.45 * len(latency) + 1.0), dpi=100,
+                                         gridspec_kw={"height_ratios": [3.8, 0.45 * len(latency) + 1.0]})
+    else:
+        fig, ax = plt.subplots(figsize=(7.5, 3.8), dpi=100)
     for values, colour, name, stats in ((native, NATIVE, "native (client alone)", res["native"]),
                                         (split, SPLIT, "split", res["split"])):
         ax.hist([min(v, hi) for v in values], bins=edges, color=colour, alpha=0.55,
@@ -39,8 +48,35 @@ def distribution(res, path):
     ax.set_xlabel("frame time, ms (present to present; the top 1 % clipped into the last bin)")
     ax.set_ylabel("frames")
     ax.legend(fontsize=8, loc="upper right")
+    if latency:
+        latency_panel(lat_ax, latency)
     fig.tight_layout()
     fig.savefig(path)
+
+
+def latency_panel(ax, latency):
+    """Each mode's frame latency as a box (quartiles, the median a line), whiskers from p1 to p99, and
+    its median and p99 written beside it; the first mode on top."""
+    modes = list(latency)
+    data = [latency[m] for m in modes]
+    colours = [NATIVE if m.startswith("native") else SPLIT if m == "split" else OTHER for m in modes]
+    boxes = ax.boxplot(data, vert=False, whis=(1, 99), showfliers=False, patch_artist=True,
+                       positions=list(range(len(modes), 0, -1)), widths=0.6)
+    for patch, colour in zip(boxes["boxes"], colours):
+        patch.set_facecolor(colour)
+        patch.set_alpha(0.55)
+    for median in boxes["medians"]:
+        median.set_color("black")
+    ax.set_yticks(list(range(len(modes), 0, -1)))
+    ax.set_yticklabels(modes, fontsize=7)
+    right = max(percentile(v, 99) for v in data)
+    for y, values in zip(range(len(modes), 0, -1), data):
+        ax.text(right * 1.02, y, f"median {percentile(values, 50):.1f}, p99 {percentile(values, 99):.1f}",
+                va="center", fontsize=7)
+    ax.set_xlim(0, right * 1.35)
+    ax.set_xlabel("frame latency, ms (acquire to the real present, or xrWaitFrame to xrEndFrame; whiskers p1-p99)",
+                  fontsize=8)
+
 
 
 LANE_ORDER = ["client app thread", "client lavapipe", "client decoders", "network", "agent"]

@@ -4,12 +4,16 @@ Runs splitvk-atrium alternately without the layer (native) and with it (explicit
 build tree), R rounds, in one invocation on one X server, and reports the frame time with the layer
 divided by the frame time without it: per round, then the median of the per-round ratios with its
 min and max. The order inside a round alternates (native first, then layer first, ...), so a slow
-drift of the machine does not favour one side."""
+drift of the machine does not favour one side.
+
+With --stats the layer runs as scripts/bench paper's native does: SPLITVK_STATS on (a row and a
+frame_latency_ms per frame) and SPLITVK_SERVER at a loopback port nothing listens on."""
 import argparse
 import json
 import os
+import tempfile
 
-from . import common
+from . import common, split
 
 APP_NAME = "splitvk-atrium"
 
@@ -26,6 +30,8 @@ def register(subparsers):
     p.add_argument("--eyes", type=int, choices=(1, 2), default=2, help="default: %(default)s")
     p.add_argument("--present-mode", choices=("fifo", "mailbox", "immediate"), default="immediate",
                    help="default: %(default)s (measure rendering, not the display's pace)")
+    p.add_argument("--stats", action="store_true",
+                   help="the layer with SPLITVK_STATS on and no agent, as bench paper's native runs")
     p.add_argument("--json", metavar="PATH", help="also write the numbers as JSON to PATH")
     common.add_build_argument(p)
     common.add_driver_argument(p)
@@ -43,15 +49,19 @@ def run(args):
     driver = "lavapipe" if args.icd == common.LAVAPIPE_ICD else args.icd
 
     print(f"passthrough: {APP_NAME} {args.width}x{args.height}, {args.eyes} eye(s), {args.frames} frames per run, "
-          f"{args.rounds} rounds, present mode {args.present_mode}, driver {driver}, build {build.path}", flush=True)
+          f"{args.rounds} rounds, present mode {args.present_mode}, driver {driver}, build {build.path}"
+          + (", the layer with SPLITVK_STATS and no agent" if args.stats else ""), flush=True)
     load_start = os.getloadavg()[0]
     rounds = []
-    with common.display(build) as disp:
+    with common.display(build) as disp, tempfile.TemporaryDirectory(prefix="splitvk-bench-passthrough-") as tmp:
         base = common.clean_env(args.icd)
         base["DISPLAY"] = disp
         base["SPLITVK_LOG_LEVEL"] = "info"  # so each run proves whether the layer was there
         native_env = base
         layered_env = common.layer_env(base, build)
+        if args.stats:
+            layered_env.update(SPLITVK_STATS=os.path.join(tmp, "stats.csv"),
+                               SPLITVK_SERVER=f"127.0.0.1:{split.free_port()}")
         for i in range(args.rounds):
             order = ("native", "layer") if i % 2 == 0 else ("layer", "native")
             result = {}
@@ -94,6 +104,7 @@ def run(args):
         summary = {
             "benchmark": "passthrough", "app": APP_NAME, "width": args.width, "height": args.height,
             "eyes": args.eyes, "frames": args.frames, "rounds": args.rounds, "present_mode": args.present_mode,
+            "stats": args.stats,
             "driver": driver, "build": build.path, "load_average": [load_start, load_end],
             "ratio": {"median": med, "min": min(ratios), "max": max(ratios), "iqr": q3 - q1,
                       "fastest_runs": best_ratio},

@@ -1,6 +1,8 @@
 """The parts of scripts/bench paper that decide what is reported: the variants table, the ratios
 and the usage errors. Timings themselves are never tested; these are the pure functions around them."""
 import argparse
+import contextlib
+import io
 import math
 import os
 import sys
@@ -110,6 +112,104 @@ class ThroughOpenXR(unittest.TestCase):
         self.assertEqual(paper.xr_eye_size(args), (1200, 1080))
         args.eye_size = (640, 480)
         self.assertEqual(paper.xr_eye_size(args), (640, 480))
+
+
+class LatencyAndPacing(unittest.TestCase):
+    """frame_latency_ms of every mode beside its frame time, and the final lines made of them."""
+
+    def test_p99_interpolates_between_neighbours(self):
+        values = [float(v) for v in range(1, 101)]  # 1..100
+        self.assertAlmostEqual(paper.common.percentile(values, 99), 99.01)
+        self.assertAlmostEqual(paper.common.percentile(values, 50), 50.5)
+        self.assertEqual(paper.common.percentile([7.0], 99), 7.0)
+        self.assertAlmostEqual(paper.q3(values)["p99"], 99.01)
+
+    def test_one_latency_per_frame_and_none_where_unmeasured(self):
+        window = [{"frame_latency_ms": "10.5", "xr_frame": "-1"}, {"frame_latency_ms": "", "xr_frame": "-1"},
+                  {"frame_latency_ms": "12", "xr_frame": "-1"}]
+        self.assertEqual(paper.frame_latencies(window), [10.5, 12.0])
+        # Under OpenXR both eye images' rows carry their frame's one value: counted once.
+        eyes = [{"frame_latency_ms": "50", "xr_frame": "3"}, {"frame_latency_ms": "50", "xr_frame": "3"},
+                {"frame_latency_ms": "60", "xr_frame": "4"}, {"frame_latency_ms": "60", "xr_frame": "4"},
+                {"frame_latency_ms": "", "xr_frame": "5"}]
+        self.assertEqual(paper.frame_latencies(eyes), [50.0, 60.0])
+        # A stats file from before the column.
+        self.assertEqual(paper.frame_latencies([{"frame_ms": "3"}]), [])
+
+    def paced(self, median, p99, mean=None):
+        return dict(quartiles(median, mean), p99=p99)
+
+    def summary(self, swapped=True, xr=False):
+        p = {"path": "direct", "native": self.paced(200.0, 220.0), "split": self.paced(100.0, 130.0),
+             "periphery": None, "variants": {"split-swapped": self.paced(250.0, 450.0)} if swapped else {},
+             "latency": {"native": self.paced(180.0, 200.0), "split": self.paced(150.0, 170.0)}}
+        if swapped:
+            p["latency"]["split-swapped"] = self.paced(360.0, 500.0)
+        if xr:
+            p["xr"] = {"native": self.paced(400.0, 500.0), "split": self.paced(300.0, 330.0)}
+            p["latency"].update({"xr-native": self.paced(80.0, 90.0), "xr-split": self.paced(60.0, 70.0)})
+        return p
+
+    def test_latency_over_native_and_p99_over_median(self):
+        r = paper.path_ratios(self.summary(xr=True))
+        self.assertAlmostEqual(r["latency-split/native"], 150.0 / 180.0)
+        self.assertAlmostEqual(r["latency-swapped/native"], 2.0)
+        self.assertAlmostEqual(r["pacing-split"], 1.3)
+        self.assertAlmostEqual(r["pacing-swapped"], 1.8)
+        self.assertAlmostEqual(r["pacing-native"], 1.1)
+        # Through OpenXR, over OpenXR's own native.
+        self.assertAlmostEqual(r["latency-xr-split/native"], 0.75)
+        self.assertAlmostEqual(r["pacing-xr-split"], 1.1)
+        self.assertAlmostEqual(r["pacing-xr-native"], 1.25)
+
+    def test_results_from_before_latency_get_no_latency_ratio(self):
+        old = {"path": "direct", "native": quartiles(200.0), "split": quartiles(100.0), "periphery": None}
+        r = paper.path_ratios(old)
+        self.assertFalse([name for name in r if name.startswith(("latency-", "pacing-"))])
+
+    def final_lines(self, p):
+        stages = {"tile_wait": 10.0, "exposed_share": 0.05, "tile_bytes": 100, "raw_bytes": 400}
+        res = {"native": p["native"], "split": p["split"], "stages": stages, "per_path": [p]}
+        out = io.StringIO()
+        with contextlib.redirect_stdout(out):
+            paper.print_final_lines(res)
+        return out.getvalue().splitlines()
+
+    def test_the_bench_ends_with_the_latency_and_pacing_lines(self):
+        lines = self.final_lines(self.summary())
+        self.assertEqual([line.split(":")[0] for line in lines],
+                         ["split/native", "tile-wait/frame", "exposed-wait/frame", "tile-bytes/raw", "swapped/native",
+                          "latency-split/native", "latency-swapped/native", "pacing-split", "pacing-swapped"])
+        self.assertEqual(lines[0], "split/native: 0.500")
+        self.assertEqual(lines[4], "swapped/native: 1.250")
+        self.assertEqual(lines[5:], ["latency-split/native: 0.833", "latency-swapped/native: 2.000",
+                                     "pacing-split: 1.300", "pacing-swapped: 1.800"])
+
+    def test_without_the_swapped_split_its_lines_are_left_out(self):
+        lines = self.final_lines(self.summary(swapped=False))
+        self.assertEqual(lines[-2:], ["latency-split/native: 0.833", "pacing-split: 1.300"])
+        self.assertFalse([line for line in lines if "swapped" in line])
+
+    def test_the_ratio_lines_before_them_leave_the_final_ones_out(self):
+        res = {"per_path": [self.summary(xr=True)], "config": {}}
+        out = io.StringIO()
+        with contextlib.redirect_stdout(out):
+            paper.print_ratio_lines(res)
+        names = [line.split(":")[0] for line in out.getvalue().splitlines()]
+        self.assertIn("latency-xr-split/native", names)
+        self.assertIn("pacing-native", names)
+        for name in paper.FINAL_LATENCY_LINES:
+            self.assertNotIn(name, names)
+
+    def test_every_mode_measured_gets_a_row(self):
+        rows = paper.latency_table(self.summary(xr=True))
+        self.assertEqual([label for label, _, _ in rows],
+                         ["native (the layer, no agent)", "split", "swapped split", "native through OpenXR",
+                          "split through OpenXR"])
+        markdown = "\n".join(paper.latency_markdown({"per_path": [self.summary()]}))
+        self.assertIn("| swapped split | 250.00 | 450.00 | 1.800 | 360.00 | 500.00 |", markdown)
+        self.assertIn("`pacing-swapped: 1.800`", markdown)
+        self.assertEqual(paper.latency_markdown({"per_path": [{"native": quartiles(1.0)}]}), [])
 
 
 class Usage(unittest.TestCase):
