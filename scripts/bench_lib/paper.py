@@ -559,6 +559,9 @@ def measure(args):
                              SPLITVK_LOG_LEVEL="info", SPLITVK_SCALE=args.scale, SPLITVK_CODEC=args.codec,
                              SPLITVK_EYES="2", SPLITVK_FOVEA=args.fovea,
                              SPLITVK_TILE_WAIT=str(args.tile_wait))
+            # Lockstep under OpenXR too: the display-time deadline would show the periphery of every
+            # frame a CPU agent finishes after the display time, and the experiment measures the split.
+            split_env["SPLITVK_XR_DEADLINE"] = "off"
             variant_env = {}
             if args.tls:  # to the same agent (it serves both on one port), through the link too
                 variant_env["split-tls"] = common.tls_split_env(split_env, agent, out_dir, base)
