@@ -336,9 +336,10 @@ TEST_F(Split, FirstSplitFrameWaitsForTheAgent) {
 // frame_latency_ms, from the acquire of the presented image to the real present, is measured by the
 // same layer for a split run and for one whose agent is missing (every frame unsplit: native through
 // the layer), so the two compare. Every row after the first few has it; none is negative, and none
-// exceeds a few frame times: with SPLITVK_PRESENT_DEPTH=1 a frame spends at most its own frame and its
-// predecessor's in the layer, so 5 median frame times leave room for a loaded machine's stalls. The
-// first frames are left out: the first split frame waits for the agent to compile its shaders.
+// exceeds a few frame times: a frame spends at most its own frame in the layer (at the default
+// SPLITVK_PRESENT_DEPTH=0; its predecessor's too at 1), so 5 median frame times leave room for a loaded
+// machine's stalls. The first frames are left out: the first split frame waits for the agent to
+// compile its shaders.
 TEST_F(Split, FrameLatencyIsMeasuredSplitAndWithoutAnAgent) {
     ASSERT_TRUE(find_program("vkcube", env())) << "vkcube is not installed (vulkan-tools)";
     ASSERT_NO_FATAL_FAILURE(start_agent());
@@ -1035,7 +1036,7 @@ TEST_F(Split, SwappedLateAgentShowsThePreviousPeriphery) {
 TEST_F(Split, SwappedKilledAgentRendersWholeFramesAgain) {
     constexpr int kLossRunFrames = 24;
     constexpr size_t kKillAfter = 6; // presented images before the kill
-    constexpr int kPresentDepth = 1; // SPLITVK_PRESENT_DEPTH's default
+    constexpr int kPresentDepth = 0; // SPLITVK_PRESENT_DEPTH's default
     constexpr int kNotNativeBound = kPresentDepth + 1;
     ASSERT_NO_FATAL_FAILURE(start_agent());
     ASSERT_TRUE(built(SPLITVK_E2E_XR_READBACK_LAYER_DIR));
