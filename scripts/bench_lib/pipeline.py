@@ -17,6 +17,7 @@ and ends with one line per mode and depth that scripts can read:
   pacing-MODE@D: R            its p99 frame time over its median
 Timings never pass or fail."""
 import argparse
+import math
 import os
 
 from . import common, paper, split
@@ -58,7 +59,7 @@ def register(subparsers):
 def percentile(values, q):
     """The nearest-rank q-quantile (0..1) of `values`."""
     ordered = sorted(values)
-    return ordered[min(len(ordered) - 1, max(0, int(round(q * len(ordered) + 0.5)) - 1))]
+    return ordered[min(len(ordered) - 1, max(0, math.ceil(q * len(ordered)) - 1))]
 
 
 def summary(rows):
