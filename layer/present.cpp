@@ -13,8 +13,9 @@
 // frame's own tiles (lockstep: frame N is composited with frame N's tiles or, late, with the periphery alone,
 // never with older tiles), composites on the same queue (the submit waits on the taken semaphore) and
 // presents. The application meanwhile records and submits frame N+1.
-//  - Depth: at most SPLITVK_PRESENT_DEPTH frames (default 1) are in the layer; a present beyond
-//    that waits for room. 0 keeps everything on the application's thread, as do presents with
+//  - Depth: at most SPLITVK_PRESENT_DEPTH frames are in the layer; a present beyond that waits
+//    for room. 0 (the default: a frame waits behind no earlier one, the least latency) keeps
+//    everything on the application's thread, as do presents with
 //    pNext, of several swapchains, unsplit frames and verification (each first drains the thread,
 //    so presents reach the driver in the application's order).
 //  - Queues: the thread uses the application's queue, so every queue operation takes the queue's

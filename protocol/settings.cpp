@@ -72,9 +72,9 @@ const SettingInfo kSettings[] = {
     {"CODEC", "x264, zstd or raw", "x264", "lossless codec for the fovea tiles"},
     {"TILE_WAIT", "milliseconds, 1 to 60000", "250",
      "longest a present waits for its frame's tiles; later, the centre comes from the periphery"},
-    {"PRESENT_DEPTH", "0, 1 or 2", "1",
+    {"PRESENT_DEPTH", "0, 1 or 2", "0",
      "split frames a present may leave to the layer's present thread while the application goes on; 0: "
-     "the application's present waits for the tiles itself"},
+     "the application's present waits for the tiles itself (the least latency)"},
     {"STATS", "a file path in an existing directory", "(none)", "write per-frame statistics as CSV"},
     {"LOG_LEVEL", "off, error, warn, info or debug", "warn", "what splitvk writes to stderr"},
     {"TOKEN", "a non-empty string without whitespace", "(none)", "shared secret the agent requires"},

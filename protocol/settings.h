@@ -130,8 +130,9 @@ struct Settings {
     uint32_t tile_wait_ms = 250;
     // Split frames the application's vkQueuePresentKHR may leave to the layer's present thread,
     // which waits for their tiles, composites and presents while the application goes on
-    // (layer/present.cpp). 0: the application's present does all of that itself.
-    uint32_t present_depth = 1;
+    // (layer/present.cpp). 0: the application's present does all of that itself, which gives each
+    // frame the least latency (docs/BENCHMARKS.md, "Present depth").
+    uint32_t present_depth = 0;
     std::string stats_path; // empty: no per-frame statistics
     LogLevel log_level = LogLevel::Warn;
     std::string token; // SPLITVK_TOKEN, or the contents of SPLITVK_TOKEN_FILE

@@ -53,6 +53,7 @@ TileStreamer::~TileStreamer() {
     for (Slot &slot : slots_)
         destroy_slot(slot);
     if (queries_) vkDestroyQueryPool(context_.device, queries_, nullptr);
+    context_.destroy(stamps_);
     if (pool_) vkDestroyCommandPool(context_.device, pool_, nullptr);
 }
 
@@ -76,6 +77,7 @@ bool TileStreamer::create_timing() {
     query_info.queryType = VK_QUERY_TYPE_TIMESTAMP;
     query_info.queryCount = 2 * kTimedFrames;
     if (vkCreateQueryPool(device, &query_info, nullptr, &queries_) != VK_SUCCESS) return false;
+    if (!context_.create_readback_buffer(2 * kTimedFrames * sizeof(uint64_t), &stamps_, &error)) return false;
     VkCommandBufferAllocateInfo alloc{};
     alloc.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
     alloc.commandPool = pool_;
@@ -95,6 +97,18 @@ bool TileStreamer::create_timing() {
         vkEndCommandBuffer(t.begin);
         vkBeginCommandBuffer(t.end, &begin);
         vkCmdWriteTimestamp(t.end, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries_, 2 * i + 1);
+        // The GPU copies the pair into host memory, which the worker reads once the frame's `drawn`
+        // fence has signalled. vkGetQueryPoolResults instead may wait for the whole device to go
+        // idle (lavapipe's does), and the next frame's work is queued by then: each frame's tiles
+        // would wait for the next frame's draw.
+        vkCmdCopyQueryPoolResults(t.end, queries_, 2 * i, 2, stamps_.buffer, 2 * i * sizeof(uint64_t),
+                                  sizeof(uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
+        VkMemoryBarrier to_host{};
+        to_host.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+        to_host.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+        to_host.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+        vkCmdPipelineBarrier(t.end, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
+                             &to_host, 0, nullptr, 0, nullptr);
         vkEndCommandBuffer(t.end);
     }
     return true;
@@ -106,6 +120,7 @@ void TileStreamer::frame_started() {
         if (!create_timing()) {
             if (queries_) vkDestroyQueryPool(context_.device, queries_, nullptr);
             queries_ = VK_NULL_HANDLE;
+            context_.destroy(stamps_);
             SPLITVK_INFO("tiles: no timestamps on the agent's queue; the draw time is wall time");
         }
     }
@@ -121,11 +136,10 @@ void TileStreamer::frame_started() {
 }
 
 uint32_t TileStreamer::timed_draw_us(uint32_t pair) {
+    // After the frame's `drawn` fence: the pair's copy has completed.
+    context_.invalidate(stamps_);
     uint64_t stamps[2] = {};
-    // After the frame's `drawn` fence: both are written (no wait bit needed).
-    if (vkGetQueryPoolResults(context_.device, queries_, 2 * pair, 2, sizeof(stamps), stamps,
-                              sizeof(uint64_t), VK_QUERY_RESULT_64_BIT) != VK_SUCCESS)
-        return 0;
+    std::memcpy(stamps, stamps_.mapped + 2 * pair * sizeof(uint64_t), sizeof(stamps));
     const uint64_t ticks = ((stamps[1] & timestamp_mask_) - (stamps[0] & timestamp_mask_)) & timestamp_mask_;
     return static_cast<uint32_t>(std::min<double>(ticks * timestamp_period_ns_ / 1000.0, UINT32_MAX));
 }

@@ -99,7 +99,7 @@ private:
 
     struct TimedFrame {
         VkCommandBuffer begin = VK_NULL_HANDLE; // resets the pair, writes the first timestamp
-        VkCommandBuffer end = VK_NULL_HANDLE;   // writes the second when the frame's work is done
+        VkCommandBuffer end = VK_NULL_HANDLE;   // the second after the frame's work; both to stamps_
     };
 
     struct Slot {
@@ -161,6 +161,7 @@ private:
     // GPU draw time (frame_started()); made at the first frame, replay thread.
     bool timing_tried_ = false;
     VkQueryPool queries_ = VK_NULL_HANDLE;
+    HostBuffer stamps_; // each pair's two timestamps, copied there by the pair's `end`
     double timestamp_period_ns_ = 0;
     uint64_t timestamp_mask_ = 0;
     std::array<TimedFrame, kTimedFrames> timed_{};

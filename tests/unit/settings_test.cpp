@@ -47,6 +47,8 @@ TEST_F(SettingsTest, DefaultsAreThePapersConfiguration) {
     EXPECT_EQ(s.log_level, LogLevel::Warn);
     EXPECT_TRUE(s.stats_path.empty());
     EXPECT_TRUE(s.token.empty());
+    // No frame waits in the layer behind an earlier one: the least latency (docs/BENCHMARKS.md).
+    EXPECT_EQ(s.present_depth, 0u);
     // 512x360 for a 1200x1080 eye, the same fractions elsewhere.
     EXPECT_EQ(s.fovea.pixels_for_eye(1200, 1080), std::make_pair(512u, 360u));
     EXPECT_EQ(s.fovea.pixels_for_eye(600, 540), std::make_pair(256u, 180u));

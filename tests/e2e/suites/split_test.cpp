@@ -1057,7 +1057,7 @@ TEST_F(Split, SwappedLateAgentShowsThePreviousPeriphery) {
 TEST_F(Split, SwappedKilledAgentRendersWholeFramesAgain) {
     constexpr int kLossRunFrames = 24;
     constexpr size_t kKillAfter = 6; // presented images before the kill
-    constexpr int kPresentDepth = 1; // SPLITVK_PRESENT_DEPTH's default
+    constexpr int kPresentDepth = 0; // SPLITVK_PRESENT_DEPTH's default
     constexpr int kNotNativeBound = kPresentDepth + 1;
     ASSERT_NO_FATAL_FAILURE(start_agent());
     ASSERT_TRUE(built(SPLITVK_E2E_XR_READBACK_LAYER_DIR));
