@@ -84,12 +84,20 @@ VulkanContext::~VulkanContext() {
 }
 
 VKAPI_ATTR VkBool32 VKAPI_CALL VulkanContext::on_message(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
-                                                         VkDebugUtilsMessageTypeFlagsEXT,
+                                                         VkDebugUtilsMessageTypeFlagsEXT types,
                                                          const VkDebugUtilsMessengerCallbackDataEXT *data,
                                                          void *user) {
     auto *self = static_cast<VulkanContext *>(user);
     const char *message = data && data->pMessage ? data->pMessage : "(no message)";
     const auto session = static_cast<unsigned long long>(self->session_id_);
+    // A message of the general type alone is the loader's or a driver's about this machine, not about
+    // what the session replays: a multiarch host's ICD manifests for another architecture make the
+    // loader report an error for each library it cannot open. It is said, and fails nothing.
+    if (!(types & (VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
+                   VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT))) {
+        SPLITVK_INFO("session %llu: loader: %s", session, message);
+        return VK_FALSE;
+    }
     // Only errors fail the session: a warning (a performance one such as OutputNotConsumed, or a
     // best-practice note) describes a clean application too.
     if (severity >= VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT) {

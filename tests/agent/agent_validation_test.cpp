@@ -45,6 +45,17 @@ TEST_F(AgentValidation, PerformanceWarningIsCountedButDoesNotFailTheSession) {
     EXPECT_EQ(closed_session_status(context_.validation_errors()), kSessionClosed);
 }
 
+// The loader's own error about this machine (an ICD manifest of another architecture, as a multiarch
+// host with mesa-vulkan-drivers:arm64 has) is of the general type alone: said, and no error.
+TEST_F(AgentValidation, LoaderErrorAboutTheMachineIsNoValidationError) {
+    submit(context_.instance, VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT,
+           VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT, "Loader Message",
+           "loader_icd_scan: Failed loading library associated with ICD JSON "
+           "/usr/lib/aarch64-linux-gnu/libvulkan_lvp.so. Ignoring this JSON");
+    EXPECT_EQ(context_.validation_errors(), 0u);
+    EXPECT_EQ(closed_session_status(context_.validation_errors()), kSessionClosed);
+}
+
 TEST_F(AgentValidation, ValidationWarningDoesNotFailTheSession) {
     submit(context_.instance, VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT,
            VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT, "test-warning", "a warning");
