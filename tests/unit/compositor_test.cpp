@@ -40,6 +40,13 @@ namespace {
 constexpr uint32_t kWidth = 80, kHeight = 45;
 constexpr VkExtent2D kPeriphery{(kWidth * 3 + 4) / 5, (kHeight * 3 + 4) / 5}; // ceil(0.6 W) x ceil(0.6 H)
 constexpr uint32_t kImages = 2, kFrames = 5;
+// How far an upsampled periphery texel may be from the exact filter, in 8-bit levels. A driver with
+// 8 sub-texel bits (Vulkan's minimum, lavapipe's) may cut each axis's filter weight by up to 2^-8,
+// up to a level per axis on a full-range edge, more where Catmull-Rom's taps add their cuts, and
+// rounding to UNORM adds half a level. lavapipe's x86-64 build stays within 2 (at either vector
+// width); its arm64 build reaches 2.00005 bilinear and 2.7 Catmull-Rom. The reference itself rounds
+// the same with or without fused multiply-adds.
+constexpr float kUpsampleTolerance = 3.0f;
 
 int g_messages = 0;
 VKAPI_ATTR VkBool32 VKAPI_CALL on_message(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
@@ -520,7 +527,8 @@ TEST_P(CompositorTest, TilesAreExactAndPeripheryIsUpsampled) {
                     worst = std::max(worst, std::abs(expected - shown[(size_t{y} * kWidth + x) * 4 + c]));
                 }
             }
-        EXPECT_LE(worst, 2.0f) << "frame " << frame << ": the periphery differs from the reference";
+        EXPECT_LE(worst, kUpsampleTolerance)
+            << "frame " << frame << ": the periphery differs from the reference";
     }
 
     if (timed) {
@@ -710,8 +718,8 @@ TEST_P(CompositorTest, LayeredRuntimeImageGetsEachLayersTilesAndPeriphery) {
                     }
                 }
             EXPECT_EQ(tile_mismatches, 0u) << "frame " << frame << " layer " << layer;
-            EXPECT_LE(worst, 2.0f) << "frame " << frame << " layer " << layer
-                                   << ": the periphery is not that layer's upsampled";
+            EXPECT_LE(worst, kUpsampleTolerance)
+                << "frame " << frame << " layer " << layer << ": the periphery is not that layer's upsampled";
         }
     }
 
@@ -895,8 +903,8 @@ TEST_P(CompositorTest, PeripheryCompositeKeepsFoveaeExact) {
                 }
             }
         EXPECT_EQ(fovea_mismatches, 0u) << "frame " << frame;
-        EXPECT_LE(worst, 2.0f) << "frame " << frame << ": the rest is not frame " << shown_periphery
-                               << "'s periphery upsampled";
+        EXPECT_LE(worst, kUpsampleTolerance)
+            << "frame " << frame << ": the rest is not frame " << shown_periphery << "'s periphery upsampled";
     }
 
     compositor.reset(); // waits for its submits
