@@ -2,7 +2,7 @@
 
 // SPLITVK_SPLIT=auto, the default, where the split does not pay: the layer passes frames through, as
 // if there were no agent, and tries the split again now and then. A small frame is slower split
-// whatever the fovea's size, so the verdict is the same for every SPLITVK_FOVEA.
+// whatever the fovea's size, so the verdict runs whatever SPLITVK_FOVEA is.
 //
 // Whether the split pays cannot be told from one side's numbers: a small frame is slower split
 // (the agent's path is longer than the whole native frame) and a large one faster, and the native

@@ -63,7 +63,7 @@ f 2 7 6
 
 def register(subparsers):
     p = subparsers.add_parser(
-        "payoff", help="native, split and SPLITVK_FOVEA=auto on small frames: does auto pass them through",
+        "payoff", help="native, the forced split and the defaults on small frames: do the defaults pass them through",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--scene", choices=("cube", "atrium", "vkcube"), default="cube", help="default: %(default)s")
     p.add_argument("--frames", type=int, default=600, help="frames per run (default: %(default)s)")
