@@ -714,7 +714,7 @@ VkSemaphore copy_swapchain_image(DeviceState &dev, VkQueue queue, const Swapchai
 // This present answers VK_ERROR_OUT_OF_DATE_KHR, unless the driver's answer is worse, when the
 // application must record its command buffers again, which one that records them once would never do
 // by itself: the swapped split lost its agent (Session::take_forced_out_of_date: cutting() is false
-// now, the frames are recorded whole), or SPLITVK_FOVEA=auto switched between splitting and passing
+// now, the frames are recorded whole), or SPLITVK_SPLIT=auto switched between splitting and passing
 // through (Session::take_payoff_out_of_date: the targets are made again too, for the new mode). The
 // image was presented; the application recreates its swapchain, and the switch takes effect then.
 VkResult forced_out_of_date(Session &session, const VkPresentInfoKHR &info, VkResult result) {
@@ -730,7 +730,7 @@ VkResult forced_out_of_date(Session &session, const VkPresentInfoKHR &info, VkRe
     return worse(result, VK_ERROR_OUT_OF_DATE_KHR);
 }
 
-// A frame passed through (SPLITVK_FOVEA=auto): a row of the statistics with no fovea, and no tiles of
+// A frame passed through (SPLITVK_SPLIT=auto): a row of the statistics with no fovea, and no tiles of
 // its own or older kept waiting.
 void note_passed_through(Session &session, uint64_t frame, double frame_ms,
                          std::optional<double> frame_latency_ms) {
@@ -1084,7 +1084,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         if (split.split) message.fovea_size = split.fovea_size; // perhaps larger: a mask's (fovea_mask.h)
     }
     const bool redirect = split.split && drawn != pPresentInfo->pImageIndices[0];
-    // SPLITVK_FOVEA=auto passing frames through, and the frame a resync brought the agent in at: the
+    // SPLITVK_SPLIT=auto passing frames through, and the frame a resync brought the agent in at: the
     // agent replays them and sends no tiles.
     const bool passing_through = session.splitting() && session.passing_through();
     if (passing_through || frame < session.first_replayed_frame()) message.flags |= protocol::kPresentNoTiles;

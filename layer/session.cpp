@@ -184,10 +184,12 @@ std::unique_ptr<Session> Session::open(const DeviceState &device, const VkDevice
     session->settings_ = loaded.settings;
     if (!loaded.settings.stats_path.empty())
         session->stats_ = std::make_unique<FrameStats>(loaded.settings.stats_path);
-    if (loaded.settings.fovea.automatic) {
+    if (loaded.settings.fovea.automatic)
         session->auto_fovea_ = std::make_unique<AutoFovea>(loaded.settings.fovea, loaded.settings.max_mbps);
-        session->payoff_ = std::make_unique<SplitPayoff>();
-    }
+    // A fixed fovea has no sizing to settle before the split's first measurement.
+    if (loaded.settings.split == SplitMode::Auto)
+        session->payoff_ =
+            std::make_unique<SplitPayoff>(loaded.settings.fovea.automatic ? SplitPayoff::kFirstHold : 0);
     session->address_ = loaded.settings.server.host + ":" + std::to_string(loaded.settings.server.port);
     session->device_id_ = codec::handle_value(device.handle);
     session->uploads_ = std::make_unique<UploadPool>(device);
@@ -452,7 +454,7 @@ void Session::observe_payoff(const DeviceState &device, double frame_ms,
         // Targets made scaled for the split and still alive would be drawn at the periphery's size
         // and read by passes that are not scaled any more: such an application cannot pass through.
         if (const size_t kept = scaled_targets_alive(device)) {
-            SPLITVK_WARN("SPLITVK_FOVEA=auto: the application kept %zu screen-space target(s) made for the "
+            SPLITVK_WARN("SPLITVK_SPLIT=auto: the application kept %zu screen-space target(s) made for the "
                          "split through its swapchain's recreation, so its frames cannot pass through; the "
                          "split stays on",
                          kept);
@@ -466,7 +468,7 @@ void Session::observe_payoff(const DeviceState &device, double frame_ms,
     if (wanted_pass_through_ != through) {
         if (++presents_since_switch_ > kSwitchPatience) {
             SPLITVK_WARN(
-                "SPLITVK_FOVEA=auto: the application did not recreate its swapchain when its present "
+                "SPLITVK_SPLIT=auto: the application did not recreate its swapchain when its present "
                 "was answered VK_ERROR_OUT_OF_DATE_KHR; its frames stay %s",
                 through ? "passed through" : "split");
             payoff_->settle(payoff_mode(through));
@@ -481,16 +483,16 @@ void Session::observe_payoff(const DeviceState &device, double frame_ms,
     const bool switching = to_pass_through != through;
     if (decided->probe) {
         SPLITVK_INFO(
-            "SPLITVK_FOVEA=auto: frames take %.1f ms %s; measuring them %s (the application's present "
+            "SPLITVK_SPLIT=auto: frames take %.1f ms %s; measuring them %s (the application's present "
             "answers VK_ERROR_OUT_OF_DATE_KHR once)",
             through ? decided->native_ms : decided->split_ms, through ? "passed through" : "split",
             to_pass_through ? "passed through" : "split");
     } else if (to_pass_through) {
-        SPLITVK_INFO("SPLITVK_FOVEA=auto: the split does not pay here (%.1f ms a frame split, %.1f ms passed "
+        SPLITVK_INFO("SPLITVK_SPLIT=auto: the split does not pay here (%.1f ms a frame split, %.1f ms passed "
                      "through): frames pass through, and the split is measured again now and then",
                      decided->split_ms, decided->native_ms);
     } else {
-        SPLITVK_INFO("SPLITVK_FOVEA=auto: the split pays (%.1f ms a frame split, %.1f ms passed through): "
+        SPLITVK_INFO("SPLITVK_SPLIT=auto: the split pays (%.1f ms a frame split, %.1f ms passed through): "
                      "frames are split",
                      decided->split_ms, decided->native_ms);
     }
@@ -506,8 +508,8 @@ void Session::swapchain_recreated() {
     if (wanted_pass_through_ == passing_through()) return;
     passing_through_.store(wanted_pass_through_);
     check_kept_targets_ = wanted_pass_through_;
-    SPLITVK_INFO(wanted_pass_through_ ? "SPLITVK_FOVEA=auto: frames pass through from this swapchain on"
-                                      : "SPLITVK_FOVEA=auto: frames are split from this swapchain on");
+    SPLITVK_INFO(wanted_pass_through_ ? "SPLITVK_SPLIT=auto: frames pass through from this swapchain on"
+                                      : "SPLITVK_SPLIT=auto: frames are split from this swapchain on");
 }
 
 void Session::run_receiver() {

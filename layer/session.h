@@ -119,12 +119,12 @@ public:
     // Milliseconds since the previous call (0 the first time): present-to-present frame time.
     double frame_interval_ms();
 
-    // SPLITVK_FOVEA=auto where the split does not pay (split_payoff.h): the device then creates its
-    // targets and records its passes as if it did not split (split_recording(), split.h), and its
-    // frames go to the screen as drawn, with no tiles asked for. A switch either way is asked for by
-    // answering the application's present with VK_ERROR_OUT_OF_DATE_KHR (take_payoff_out_of_date()),
-    // and takes effect when it recreates its swapchain (swapchain_recreated()): its targets are made
-    // again, and its command buffers recorded, for the new mode.
+    // SPLITVK_SPLIT=auto, the default, where the split does not pay (split_payoff.h): the device then creates
+    // its targets and records its passes as if it did not split (split_recording(), split.h), and its frames
+    // go to the screen as drawn, with no tiles asked for. A switch either way is asked for by answering the
+    // application's present with VK_ERROR_OUT_OF_DATE_KHR (take_payoff_out_of_date()), and takes effect when
+    // it recreates its swapchain (swapchain_recreated()): its targets are made again, and its command buffers
+    // recorded, for the new mode.
     bool passing_through() const { return passing_through_.load(std::memory_order_relaxed); }
     // Whether the application's presents are timed for it (observe_payoff()).
     bool judges_payoff() const { return payoff_ != nullptr; }

@@ -48,7 +48,7 @@ SplitFrame take_split_frame(DeviceState &device, VkImage image, EyeMode eyes, co
 // whole frames to compare with: the paper's split makes every pixel differ on purpose).
 bool split_enabled(const DeviceState &device);
 // Whether passes recorded and targets created now are split: split_enabled, and the session not
-// passing its frames through (SPLITVK_FOVEA=auto where the split does not pay: Session::
+// passing its frames through (SPLITVK_SPLIT=auto where the split does not pay: Session::
 // passing_through()). Submits and presents go by split_enabled: a command buffer recorded split
 // before the switch still draws scaled, and its frame is still composited.
 bool split_recording(const DeviceState &device);

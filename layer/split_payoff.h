@@ -1,7 +1,8 @@
 #pragma once
 
-// SPLITVK_FOVEA=auto where the split does not pay: the layer passes frames through, as if
-// there were no agent, and tries the split again now and then.
+// SPLITVK_SPLIT=auto, the default, where the split does not pay: the layer passes frames through, as
+// if there were no agent, and tries the split again now and then. A small frame is slower split
+// whatever the fovea's size, so the verdict runs whatever SPLITVK_FOVEA is.
 //
 // Whether the split pays cannot be told from one side's numbers: a small frame is slower split
 // (the agent's path is longer than the whole native frame) and a large one faster, and the native
@@ -17,8 +18,10 @@
 //     resets the hold to kFirstHold; one that lost goes back, and the hold doubles (up to
 //     kLongestHold), so the loser is probed ever more rarely;
 //   - the stint was a hold: probe the other mode.
-// The first stint is the split's, held kFirstHold presents so that the fovea's own sizing settles
-// before it is measured; a window in which the fovea's size changed is not measured either.
+// The first stint is the split's, held for the first hold (kFirstHold with SPLITVK_FOVEA=auto, so
+// that the fovea's own sizing settles before it is measured; none for a fixed fovea, so that a small
+// application is slowed for no more than its first measurement); a window in which the fovea's size
+// changed is not measured either.
 //
 // A switch takes effect only once the application follows it (it recreates its swapchain, session.h);
 // presents of the other mode until then are not counted. Not thread-safe: the application's present
@@ -39,6 +42,9 @@ public:
         double native_ms = 0; // passing through
         bool probe = false;   // to measure the other mode, not a verdict
     };
+
+    // `first_hold`: presents of the split's first stint before its first measurement (kSkip aside).
+    explicit SplitPayoff(uint32_t first_hold = kFirstHold) : hold_(first_hold) {}
 
     // One present's time since the previous one, presented in `mode`. `steady`: the fovea's size is
     // the previous present's (SPLITVK_FOVEA=auto's own sizing moves it while it settles, and a

@@ -174,7 +174,7 @@ std::string FrameStats::summary() {
                   static_cast<unsigned long long>(late_));
     std::string summary = line;
     if (passed_through_ > 0)
-        summary += ", " + std::to_string(passed_through_) + " passed through (SPLITVK_FOVEA=auto)";
+        summary += ", " + std::to_string(passed_through_) + " passed through (SPLITVK_SPLIT=auto)";
     return summary;
 }
 

@@ -60,7 +60,7 @@ struct FrameRecord {
     // the agent's periphery, upsampled) against the agent's native frame, PSNR over the whole image;
     // infinite for equal images. Unset (an empty field) in every other frame.
     std::optional<double> periphery_psnr_db;
-    // SPLITVK_FOVEA=auto passed the frame through (Session::passing_through()): shown as drawn, no
+    // SPLITVK_SPLIT=auto passed the frame through (Session::passing_through()): shown as drawn, no
     // fovea (width 0), no tiles.
     bool passed_through = false;
     // When the frame reached the screen, measured alike for frames split, passed through or unsplit

@@ -172,7 +172,7 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateSwapchainKHR(VkDevice device,
     if (!capturing(dev)) return dev.dispatch.CreateSwapchainKHR(device, pCreateInfo, pAllocator, pSwapchain);
     // The retired swapchain's frames still in the present thread go to it before it is retired.
     if (pCreateInfo->oldSwapchain) drain_presents(dev);
-    // SPLITVK_FOVEA=auto: a switch between splitting and passing through that a present asked for takes
+    // SPLITVK_SPLIT=auto: a switch between splitting and passing through that a present asked for takes
     // effect here, where the application makes its swapchain, and then its targets, again.
     dev.session->swapchain_recreated();
 

@@ -37,6 +37,10 @@ const SettingInfo kSettings[] = {
      "size of the fovea the agent renders in each eye; auto: sized per frame from measured times, as large "
      "as "
      "the agent's path keeps up with the client's own frame"},
+    {"SPLIT", "auto or always", "auto",
+     "auto: a window's frames are split only while that is measured to be faster than passing them "
+     "through, as drawn; always: every frame the layer can split is split, whatever it costs (benchmarks, "
+     "tests)"},
     {"EYES", "auto, 1 or 2", "auto",
      "eyes side by side in the swapchain image; auto: two when two viewports tile it in halves"},
     {"TARGETS", "auto or swapchain", "auto",
@@ -255,6 +259,15 @@ bool apply(std::string_view name, std::string_view raw, Settings &s) {
         return true;
     }
     if (name == "FOVEA") return parse_fovea(value, s.fovea);
+    if (name == "SPLIT") {
+        if (v == "auto")
+            s.split = SplitMode::Auto;
+        else if (v == "always")
+            s.split = SplitMode::Forced;
+        else
+            return false;
+        return true;
+    }
     if (name == "EYES") {
         if (v == "auto")
             s.eyes = EyeMode::Auto;

@@ -31,7 +31,12 @@ enum class TargetMode { Auto, Swapchain };
 // no session, no split, every command straight to the driver.
 enum class UnsupportedMode { Fail, Passthrough };
 
-// SPLITVK_AGENT_SCISSOR: off replays the agent's offscreen passes in full; guard:N also
+// SPLITVK_SPLIT: whether the split must pay for itself. Auto measures a window's frames split and
+// passed through (layer/split_payoff.h) and splits only while that is faster; Forced (`always`)
+// splits every frame it can, as a benchmark or a test of the split needs.
+enum class SplitMode { Auto, Forced };
+
+// SPLITVK_AGENT_SCISSOR (issue 11): off replays the agent's offscreen passes in full; guard:N also
 // scissors its passes into screen-space targets to the foveae grown by N pixels of each target.
 struct AgentScissor {
     bool guard = false;
@@ -106,6 +111,7 @@ struct Settings {
     ServerAddress server;
     double scale = 0.6;
     FoveaSize fovea;
+    SplitMode split = SplitMode::Auto;
     EyeMode eyes = EyeMode::Auto;
     TargetMode targets = TargetMode::Auto;
     AgentScissor agent_scissor;

@@ -88,9 +88,13 @@ def clean_env(icd):
 
 
 def layer_env(env, build):
+    """The layer from the build tree, forced to split (SPLITVK_SPLIT=always): a bench of the split
+    measures the split, where the default would pass frames that it does not pay for through. Drop
+    SPLITVK_SPLIT to measure what a user gets by default."""
     env = dict(env)
     env["VK_INSTANCE_LAYERS"] = LAYER_NAME
     env["VK_ADD_LAYER_PATH"] = build.explicit_manifest_dir
+    env["SPLITVK_SPLIT"] = "always"
     return env
 
 

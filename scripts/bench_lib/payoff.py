@@ -1,25 +1,39 @@
-"""bench payoff: SPLITVK_FOVEA=auto where the split does not pay.
+"""bench payoff: what the defaults cost a small application, where the split does not pay.
 
 Small frames are slower split than native: the agent's path alone outlasts the whole native frame.
-`auto` measures both ways and passes frames through where the split loses. This bench runs
-splitvk-atrium native, split at the default fovea, and split with SPLITVK_FOVEA=auto, in every round
-(the order alternating), against one agent on one X server, and reports each run's median frame time
-(atrium's own, present to present). The auto run is measured over its frames after the verdict
-(--settled-after, past the split's first hold and both measurement windows), so its ratio tells what
-the application runs at once auto has decided.
+By default (SPLITVK_SPLIT=auto) the layer measures both ways and passes frames through where the
+split loses. This bench runs splitvk-atrium four ways in every round (the order alternating),
+against one agent on one X server:
+  native   without the layer
+  unsplit  the layer with no agent at its address: native frames, timed by the layer's clock
+  split    the layer forced to split (SPLITVK_SPLIT=always)
+  default  the layer with the defaults, as a new user runs it
+and reports each run's median frame time (atrium's own, present to present). The default run is
+measured over its frames after the verdict (--settled-after, past both measurement windows and the
+switch), so its ratio tells what the application runs at once the layer has decided; the split's
+later probes fall inside that and are counted. The latency of a frame (SPLITVK_STATS'
+frame_latency_ms: the application's acquire returning to the driver's present returning) is compared
+on the same clock: the default run's frames passed through against the unsplit run's frames.
 
 By default the scene is a cube (--scene cube: a model of 12 triangles written into --out-dir), whose
-frames take a few milliseconds here, the case auto exists for; --scene atrium draws atrium's own
-300,000-triangle scene, where the split pays on a weak client and auto must stay split. Ends with
-two lines for tools, nothing after them:
-  split/native: R   the split's median frame time over native's
-  auto/native: R    auto's, after its verdict, over native's
+frames take a few milliseconds here; --scene atrium draws atrium's own 300,000-triangle scene, where
+the split pays on a weak client and the default must stay split; --scene vkcube runs vkcube (one eye)
+instead of atrium. vkcube times no frames of its own, so its runs are timed by the layer
+(SPLITVK_STATS' frame_ms, present to present) and the unsplit run stands for native (no native run). --fovea sets SPLITVK_FOVEA for the
+split and default runs (auto: the fovea that sizes itself, whose first measurement waits for its
+sizing). Ends with lines for tools, nothing after them:
+  split/native: R            the forced split's median frame time over native's
+  default/native: R          the default's, after its verdict, over native's
+  latency-default/native: R  median latency of the default's frames passed through over the unsplit
+                             run's frames (`none` when no frame passed through)
 Timings never pass or fail."""
 import argparse
+import csv
+import math
 import os
 import statistics
 
-from . import common, paper
+from . import common, paper, split
 
 APP_NAME = "splitvk-atrium"
 
@@ -49,13 +63,15 @@ f 2 7 6
 
 def register(subparsers):
     p = subparsers.add_parser(
-        "payoff", help="native, split and SPLITVK_FOVEA=auto on small frames: does auto pass them through",
+        "payoff", help="native, the forced split and the defaults on small frames: do the defaults pass them through",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--scene", choices=("cube", "atrium"), default="cube", help="default: %(default)s")
+    p.add_argument("--scene", choices=("cube", "atrium", "vkcube"), default="cube", help="default: %(default)s")
     p.add_argument("--frames", type=int, default=600, help="frames per run (default: %(default)s)")
-    p.add_argument("--settled-after", type=int, default=240,
-                   help="frames of the auto run left out of its median (default: %(default)s: the split's "
-                        "first hold, both measurement windows and the switches)")
+    p.add_argument("--settled-after", type=int, default=120,
+                   help="frames of the default run left out of its medians (default: %(default)s: both "
+                        "measurement windows and the switch; with --fovea auto, 240 covers the split's "
+                        "first hold too)")
+    p.add_argument("--fovea", help="SPLITVK_FOVEA of the split and default runs (default: the layer's)")
     p.add_argument("--rounds", type=int, default=3, help="default: %(default)s")
     p.add_argument("--width", type=int, default=480, help="window width (default: %(default)s)")
     p.add_argument("--height", type=int, default=270, help="window height (default: %(default)s)")
@@ -77,6 +93,25 @@ def frame_times(path, skip):
         next(f)
         values = [float(line.split(",")[1]) for line in f if line.strip()]
     return values[skip:]
+
+
+def stats_rows(path, skip):
+    """SPLITVK_STATS rows of frames >= skip."""
+    with open(path, newline="") as f:
+        return [r for r in csv.DictReader(f) if int(r["frame"]) >= skip]
+
+
+def latencies(rows):
+    return [float(r["frame_latency_ms"]) for r in rows if r.get("frame_latency_ms")]
+
+
+def passed_through(row):
+    return row["fovea_w"] == "0" and row["tile_bytes"] == "0"
+
+
+def p99(values):
+    values = sorted(values)
+    return values[min(len(values) - 1, math.ceil(0.99 * len(values)) - 1)]
 
 
 def run(args):
@@ -101,18 +136,26 @@ def run(args):
         scene = ["--model", model]
     timeout_s = 120 + args.frames
 
+    vkcube = args.scene == "vkcube"
+
     def argv(times):
+        if vkcube:
+            return ["taskset", "-c", paper.cpu_text(client_cpus), "vkcube", "--width", str(args.width), "--height",
+                    str(args.height), "--c", str(args.frames), "--present_mode", "0"]
         return ["taskset", "-c", paper.cpu_text(client_cpus), build.atrium, "--width", str(args.width), "--height", str(args.height), "--eyes", "2",
                 "--frames", str(args.frames), "--present-mode", "immediate", "--frame-times", times] + scene
 
-    print(f"payoff: {APP_NAME} --scene {args.scene} {args.width}x{args.height} stereo, {args.frames} frames per run, "
-          f"{args.rounds} rounds of native, split and split with SPLITVK_FOVEA=auto (measured after frame "
-          f"{args.settled_after}); client on CPU {paper.cpu_text(client_cpus)} with LP_NUM_THREADS="
-          f"{args.client_threads}, agent on CPU {paper.cpu_text(agent_cpus)}; load average {os.getloadavg()[0]:.2f}",
-          flush=True)
-    modes = ("native", "split", "auto")
+    fovea = f" SPLITVK_FOVEA={args.fovea}" if args.fovea else ""
+    app = "vkcube (mono)" if vkcube else f"{APP_NAME} --scene {args.scene} stereo"
+    print(f"payoff: {app} {args.width}x{args.height}, {args.frames} frames per run, "
+          f"{args.rounds} rounds of native, unsplit (the layer, no agent), split (SPLITVK_SPLIT=always{fovea}) and "
+          f"the defaults{fovea and ' but' + fovea} (measured after frame {args.settled_after}); client on CPU "
+          f"{paper.cpu_text(client_cpus)} with LP_NUM_THREADS={args.client_threads}, agent on CPU "
+          f"{paper.cpu_text(agent_cpus)}; load average {os.getloadavg()[0]:.2f}", flush=True)
+    modes = ("unsplit", "split", "default") if vkcube else ("native", "unsplit", "split", "default")
     medians = {m: [] for m in modes}
-    passed_lines = []
+    latency = {"unsplit": [], "default": []}
+    verdict_lines = []
     with common.display(build) as disp:
         base = common.clean_env(args.icd)
         base["DISPLAY"] = disp
@@ -120,28 +163,64 @@ def run(args):
         agent_env = dict(base, LP_NUM_THREADS=str(len(agent_cpus)))
         with common.started_agent(build, agent, agent_env, out_dir, 0,
                                   ["taskset", "-c", paper.cpu_text(agent_cpus)]) as report:
-            split_env = dict(common.layer_env(client_env, build), SPLITVK_SERVER=report["address"],
-                             SPLITVK_LOG_LEVEL="info", SPLITVK_EYES="2")
-            envs = {"native": client_env, "split": split_env, "auto": dict(split_env, SPLITVK_FOVEA="auto")}
+            layered = dict(common.layer_env(client_env, build), SPLITVK_LOG_LEVEL="info")
+            if args.fovea:
+                layered["SPLITVK_FOVEA"] = args.fovea
+            # As a new user runs it: the agent's address and nothing else (the log and the stats aside).
+            default_env = dict(layered, SPLITVK_SERVER=report["address"])
+            del default_env["SPLITVK_SPLIT"]
+            split_env = dict(layered, SPLITVK_SERVER=report["address"], SPLITVK_EYES="1" if vkcube else "2")
+            # No agent answers there: every frame is native, through the layer (its stats rows too).
+            unsplit_env = dict(layered, SPLITVK_SERVER=f"127.0.0.1:{split.free_port()}")
+            envs = {"native": client_env, "unsplit": unsplit_env, "split": split_env, "default": default_env}
             for i in range(args.rounds):
                 line = []
                 for mode in modes if i % 2 == 0 else modes[::-1]:
                     times = os.path.join(out_dir, f"{mode}-round{i + 1}-frames.csv")
-                    r = common.run(argv(times), envs[mode], timeout_s)
-                    if mode != "native" and "[splitvk] split:" not in r.stderr:
+                    stats = os.path.join(out_dir, f"{mode}-round{i + 1}-stats.csv")
+                    env = dict(envs[mode], SPLITVK_STATS=stats) if mode in latency or vkcube else envs[mode]
+                    r = common.run(argv(times), env, timeout_s)
+                    if mode in ("split", "default") and "[splitvk] split:" not in r.stderr:
                         raise common.BenchError(f"the {mode} run did not split:\n" + common.tail(r.stderr))
-                    skip = args.settled_after if mode == "auto" else 10
-                    medians[mode].append(statistics.median(frame_times(times, skip)))
-                    if mode == "auto":
-                        verdicts = [l for l in r.stderr.splitlines() if "SPLITVK_FOVEA=auto: the split" in l]
-                        passed_lines.append(verdicts[-1].split("info: ")[-1] if verdicts else "no verdict")
+                    if mode == "unsplit" and "running unsplit" not in r.stderr:
+                        raise common.BenchError("the unsplit run found an agent:\n" + common.tail(r.stderr))
+                    skip = args.settled_after if mode == "default" else 10
+                    if vkcube:
+                        times_ms = [float(row["frame_ms"]) for row in stats_rows(stats, skip)]
+                    else:
+                        times_ms = frame_times(times, skip)
+                    medians[mode].append(statistics.median(times_ms))
                     line.append(f"{mode} {medians[mode][-1]:7.2f} ms")
+                    if mode == "unsplit":
+                        latency[mode].extend(latencies(stats_rows(stats, skip)))
+                    elif mode == "default":
+                        rows = stats_rows(stats, skip)
+                        passed = [row for row in rows if passed_through(row)]
+                        latency[mode].extend(latencies(passed))
+                        line.append(f"({len(passed)} of {len(rows)} passed through)")
+                        verdicts = [l for l in r.stderr.splitlines() if "SPLITVK_SPLIT=auto: the split" in l]
+                        verdict_lines.append(verdicts[-1].split("info: ")[-1] if verdicts else "no verdict")
                 print(f"  round {i + 1}/{args.rounds}: " + "   ".join(line), flush=True)
-    native, split, auto = (statistics.median(medians[m]) for m in modes)
-    print(f"median frame time over rounds: native {native:.2f} ms, split {split:.2f} ms, auto {auto:.2f} ms "
-          f"(after frame {args.settled_after})")
-    for i, verdict in enumerate(passed_lines):
-        print(f"  auto, round {i + 1}: {verdict}")
-    print(f"split/native: {split / native:.3f}")
-    print(f"auto/native: {auto / native:.3f}")
+    unsplit, split_ms, default = (statistics.median(medians[m]) for m in ("unsplit", "split", "default"))
+    native = unsplit if vkcube else statistics.median(medians["native"])
+    print(f"median frame time over rounds: native {native:.2f} ms{' (the unsplit runs)' if vkcube else ''}, unsplit {unsplit:.2f} ms, split {split_ms:.2f} ms, "
+          f"default {default:.2f} ms (after frame {args.settled_after})")
+    for i, verdict in enumerate(verdict_lines):
+        print(f"  default, round {i + 1}: {verdict}")
+    if not latency["unsplit"]:
+        raise common.BenchError("the unsplit runs wrote no frame_latency_ms")
+    native_latency = statistics.median(latency["unsplit"])
+    print(f"latency (frame_latency_ms, every round): unsplit median {native_latency:.2f} ms, p99 "
+          f"{p99(latency['unsplit']):.2f} ms", end="")
+    if latency["default"]:
+        print(f"; default, frames passed through: median {statistics.median(latency['default']):.2f} ms, p99 "
+              f"{p99(latency['default']):.2f} ms ({len(latency['default'])} frames)")
+    else:
+        print("; default: no frame passed through after the verdict (the split paid)")
+    print(f"split/native: {split_ms / native:.3f}")
+    print(f"default/native: {default / native:.3f}")
+    if latency["default"]:
+        print(f"latency-default/native: {statistics.median(latency['default']) / native_latency:.3f}")
+    else:
+        print("latency-default/native: none (no frame passed through)")
     return 0

@@ -1,4 +1,4 @@
-// SPLITVK_FOVEA=auto's verdict on the split (layer/split_payoff.h): each mode measured in turn, the
+// SPLITVK_SPLIT=auto's verdict on the split (layer/split_payoff.h): each mode measured in turn, the
 // faster kept, the loser probed ever more rarely, and nothing counted until a switch is followed.
 #include "split_payoff.h"
 
@@ -37,6 +37,25 @@ TEST(SplitPayoff, FirstMeasuresTheSplitAfterItsHoldThenProbesPassingThrough) {
     EXPECT_EQ(d.to, Mode::PassThrough);
     EXPECT_DOUBLE_EQ(d.split_ms, 20);
     EXPECT_EQ(payoff.wanted(), Mode::PassThrough);
+}
+
+// A fixed fovea has nothing to settle: the split is measured at once, and a slow one passes through
+// after two windows. Later holds are the same as with a sizing fovea.
+TEST(SplitPayoff, WithoutAFirstHoldASlowSplitPassesThroughAfterTwoWindows) {
+    SplitPayoff payoff(0);
+    uint32_t presents = 0;
+    auto d = run_until_decided(payoff, {20, 5}, &presents);
+    EXPECT_EQ(presents, SplitPayoff::kSkip + SplitPayoff::kWindow);
+    EXPECT_TRUE(d.probe);
+    EXPECT_EQ(d.to, Mode::PassThrough);
+    d = run_until_decided(payoff, {20, 5}, &presents);
+    EXPECT_EQ(presents, 2 * (SplitPayoff::kSkip + SplitPayoff::kWindow));
+    EXPECT_FALSE(d.probe);
+    EXPECT_EQ(d.to, Mode::PassThrough);
+    presents = 0;
+    d = run_until_decided(payoff, {20, 5}, &presents);
+    EXPECT_TRUE(d.probe);
+    EXPECT_EQ(presents, SplitPayoff::kSkip + SplitPayoff::kFirstHold + SplitPayoff::kWindow);
 }
 
 TEST(SplitPayoff, ASlowSplitPassesThroughAndIsProbedAgainNowAndThen) {

@@ -43,6 +43,7 @@ TEST_F(SettingsTest, DefaultsAreThePapersConfiguration) {
     EXPECT_EQ(s.server.port, 7447);
     EXPECT_DOUBLE_EQ(s.scale, 0.6);
     EXPECT_EQ(s.eyes, EyeMode::Auto);
+    EXPECT_EQ(s.split, SplitMode::Auto) << "the split must pay for itself unless forced";
     EXPECT_EQ(s.codec, TileCodec::X264);
     EXPECT_EQ(s.log_level, LogLevel::Warn);
     EXPECT_TRUE(s.stats_path.empty());
@@ -76,6 +77,7 @@ TEST_F(SettingsTest, ValidEnvironmentValues) {
                               {"SPLITVK_SCALE", "0.5"},
                               {"SPLITVK_FOVEA", "640x480"},
                               {"SPLITVK_EYES", "2"},
+                              {"SPLITVK_SPLIT", "Always"},
                               {"SPLITVK_CODEC", "zstd"},
                               {"SPLITVK_TILE_WAIT", "40"},
                               {"SPLITVK_PRESENT_DEPTH", "2"},
@@ -91,6 +93,7 @@ TEST_F(SettingsTest, ValidEnvironmentValues) {
     EXPECT_EQ(s.fovea.pixels_for_eye(1200, 1080), std::make_pair(640u, 480u));
     EXPECT_EQ(s.fovea.pixels_for_eye(320, 240), std::make_pair(320u, 240u)) << "clamped to the eye";
     EXPECT_EQ(s.eyes, EyeMode::Two);
+    EXPECT_EQ(s.split, SplitMode::Forced);
     EXPECT_EQ(s.codec, TileCodec::Zstd);
     EXPECT_EQ(s.tile_wait_ms, 40u);
     EXPECT_EQ(s.present_depth, 2u);
@@ -209,6 +212,7 @@ TEST_F(SettingsTest, InvalidValuesAreOneLineErrorsNamingTheSetting) {
          {"", "512", "512x", "x360", "0x360", "512x0", "0.5x360", "1.5x0.5", "-1x-1", "axb", "99999x1",
           "automatic"}},
         {"FOVEA_MASK", {"", "on", "stencil", "1"}},
+        {"SPLIT", {"", "on", "never", "forced", "1"}},
         {"MAX_MBPS", {"", "-1", "100001", "fast", "nan", "50M"}},
         {"EYES", {"", "0", "3", "both", "two"}},
         {"TARGETS", {"", "all", "offscreen", "1"}},

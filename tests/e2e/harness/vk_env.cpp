@@ -96,6 +96,9 @@ Env clean_env() {
     env["XDG_CONFIG_HOME"] = empty_home.string();
     env["XDG_DATA_HOME"] = empty_home.string();
     if (env.find("PATH") == env.end()) env["PATH"] = "/usr/local/bin:/usr/bin:/bin";
+    // The suites judge the split on frames too small for it to pay, which the default verdict would
+    // pass through after a few dozen presents; a test of the verdict erases this.
+    env["SPLITVK_SPLIT"] = "always";
     return env;
 }
 

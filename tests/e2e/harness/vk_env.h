@@ -32,7 +32,9 @@ std::filesystem::path test_output_dir();
 // VK_ADD_LAYER_PATH, VK_ICD_FILENAMES, VK_*DRIVER_FILES, SPLITVK_*, DISPLAY and XDG_*_DIRS/_HOME;
 // then VK_DRIVER_FILES = lavapipe, XDG_DATA_DIRS = /usr/share (system layers such as validation,
 // but not /usr/local/share where an installed splitvk could shadow the build tree's), and
-// XDG_CONFIG_HOME / XDG_DATA_HOME pointing at an empty folder so ~/.local layers stay out.
+// XDG_CONFIG_HOME / XDG_DATA_HOME pointing at an empty folder so ~/.local layers stay out; and
+// SPLITVK_SPLIT=always, so that every frame the layer can split is split (erase it to test the
+// default, which splits only where the split pays).
 Env clean_env();
 
 // clean_env() plus DISPLAY for the given X server.

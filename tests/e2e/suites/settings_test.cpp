@@ -109,6 +109,7 @@ const std::map<std::string, std::string> &bad_values() {
         {"SERVER", "127.0.0.1:0"},     // port 0
         {"SCALE", "2"},                // above 1
         {"FOVEA", "512"},              // no WxH
+        {"SPLIT", "never"},            // auto or always
         {"EYES", "3"},                 // auto, 1 or 2
         {"TARGETS", "offscreen"},      // auto or swapchain
         {"AGENT_SCISSOR", "guard:-8"}, // off or guard:N

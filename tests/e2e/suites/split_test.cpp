@@ -2189,92 +2189,197 @@ TEST_F(Split, FoveaMaskFollowsAnAutoFoveaWithoutHoles) {
     }
 }
 
-// SPLITVK_FOVEA=auto where the split does not pay: vkcube's frames take a couple of
-// milliseconds natively, and the agent sits behind 10 ms of link each way, so split frames are slower
-// than native ones whatever GPU the agent has.
-// auto measures both (a present answered VK_ERROR_OUT_OF_DATE_KHR makes vkcube, which records its
-// command buffers once, recreate its swapchain and record them again in the other mode), passes the
-// frames through, and measures the split again later, which loses again. Every frame passed through
-// (a stats row with no fovea) equals native's frame of the same number, read back below splitvk and
-// validation; validation stays clean through the switches.
-TEST_F(Split, AutoPassesFramesThroughWhereTheSplitDoesNotPay) {
-    ASSERT_TRUE(find_program("vkcube", env())) << "vkcube is not installed (vulkan-tools)";
-    ASSERT_NO_FATAL_FAILURE(start_agent());
-    ASSERT_TRUE(built(SPLITVK_E2E_XR_READBACK_LAYER_DIR));
-    constexpr int kCubeFrames = 480; // the split's first hold and window, both modes probed twice
-    const auto run = [&](Env e, const std::string &name) {
+// A run's frames by their SPLITVK_STATS rows: passed through (no fovea, and no tiles either) or split.
+struct PassedThrough {
+    std::set<int> passed, split;
+    int last_frame = -1;
+    bool last_passed = false;
+};
+
+// SPLITVK_SPLIT=auto's verdict on vkcube, whose every present is read back below splitvk and
+// validation, so that each frame passed through is compared with native's of the same number.
+class SplitVerdict : public Split {
+protected:
+    static constexpr int kCubeSize = 160;
+
+    // vkcube for `frames` presents, each read back into <out>/<name>-presents.
+    ProcessResult run_cube(Env e, const std::string &name, int frames) {
         use_bottom_layer(e, kPresentReadbackLayerName, SPLITVK_E2E_XR_READBACK_LAYER_DIR);
         std::filesystem::create_directories(out_ / (name + "-presents"));
         e["TEST_PRESENT_READBACK_DIR"] = (out_ / (name + "-presents")).string();
         ProcessSpec spec;
-        spec.argv = {
-            "vkcube",         "--width", "160", "--height", "160", "--c", std::to_string(kCubeFrames),
-            "--present_mode", "0"};
+        spec.argv = {"vkcube",
+                     "--width",
+                     std::to_string(kCubeSize),
+                     "--height",
+                     std::to_string(kCubeSize),
+                     "--c",
+                     std::to_string(frames),
+                     "--present_mode",
+                     "0"};
         spec.env = e;
         spec.out_dir = out_;
         spec.name = name;
         return run_process(spec, 240s);
-    };
-    const ProcessResult native = run(env(), "native");
+    }
+
+    PassedThrough passed_through(const std::filesystem::path &stats) {
+        PassedThrough r;
+        for (const auto &row : stats_rows(read_file(stats))) {
+            const int frame = static_cast<int>(row.at("frame"));
+            const bool passed = row.at("fovea_w") == 0;
+            if (passed) {
+                EXPECT_EQ(row.at("tile_bytes"), 0) << "frame " << frame;
+                r.passed.insert(frame);
+            } else {
+                r.split.insert(frame);
+            }
+            if (frame > r.last_frame) {
+                r.last_frame = frame;
+                r.last_passed = passed;
+            }
+        }
+        return r;
+    }
+
+    // Every frame passed through equals native's of the same number.
+    void expect_passed_through_exact(const std::set<int> &passed) {
+        const auto native_presents = present_readbacks(out_ / "native-presents");
+        const auto split_presents = present_readbacks(out_ / "split-presents");
+        int compared = 0, differ = 0;
+        for (const int n : passed) {
+            const auto a = native_presents.find(n), b = split_presents.find(n);
+            ASSERT_NE(a, native_presents.end()) << "native has no present " << n;
+            ASSERT_NE(b, split_presents.end()) << "the split run has no present " << n;
+            Image x, y;
+            ASSERT_TRUE(load_present(a->second, &x)) << a->second;
+            ASSERT_TRUE(load_present(b->second, &y)) << b->second;
+            ++compared;
+            const auto same = compare_exact(x, y);
+            if (!same.equal() && ++differ <= 3)
+                ADD_FAILURE() << "present " << n
+                              << ", passed through, differs from native: " << same.summary() << "\n"
+                              << save_mismatch_artefacts(out_, "present-" + std::to_string(n), x, y);
+        }
+        std::cout << "  " << compared << " frames passed through compared with native, " << differ
+                  << " differ\n";
+        EXPECT_GT(compared, 0);
+        EXPECT_EQ(differ, 0);
+    }
+
+    void remove_presents() {
+        if (HasFailure()) return; // kept only to look into a failure
+        std::filesystem::remove_all(out_ / "native-presents");
+        std::filesystem::remove_all(out_ / "split-presents");
+    }
+};
+
+// SPLITVK_FOVEA=auto where the split does not pay: vkcube's frames take a couple of milliseconds
+// natively, and the agent sits behind 10 ms of link each way, so split frames are slower than native
+// ones whatever GPU the agent has.
+// The verdict measures both (a present answered VK_ERROR_OUT_OF_DATE_KHR makes vkcube, which records
+// its command buffers once, recreate its swapchain and record them again in the other mode), passes
+// the frames through, and measures the split again later, which loses again. Every frame passed
+// through (a stats row with no fovea) equals native's frame of the same number; validation stays
+// clean through the switches.
+TEST_F(SplitVerdict, AutoPassesFramesThroughWhereTheSplitDoesNotPay) {
+    ASSERT_TRUE(find_program("vkcube", env())) << "vkcube is not installed (vulkan-tools)";
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    ASSERT_TRUE(built(SPLITVK_E2E_XR_READBACK_LAYER_DIR));
+    constexpr int kCubeFrames = 480; // the split's first hold and window, both modes probed twice
+    const ProcessResult native = run_cube(env(), "native", kCubeFrames);
     ASSERT_TRUE(native.ok()) << native.describe() << "\n" << tail(native.err(), 30);
     std::string delayed;
     ASSERT_NO_FATAL_FAILURE(start_link({"--delay", "10ms"}, &delayed));
     Env e = split_env();
+    e.erase("SPLITVK_SPLIT"); // the default verdict, with the sizing fovea's first hold
     e["SPLITVK_SERVER"] = delayed;
     e["SPLITVK_EYES"] = "1";
     e["SPLITVK_FOVEA"] = "auto";
     e["SPLITVK_STATS"] = (out_ / "stats.csv").string();
-    const ProcessResult split = run(e, "split");
+    const ProcessResult split = run_cube(e, "split", kCubeFrames);
     ASSERT_TRUE(split.ok()) << split.describe() << "\n" << tail(split.err(), 30);
     const std::string &err = split.err();
-    EXPECT_GE(grep(err, "SPLITVK_FOVEA=auto: the split does not pay here").size(), 2u) << tail(err, 30);
-    EXPECT_GE(grep(err, "SPLITVK_FOVEA=auto: frames pass through from this swapchain on").size(), 2u)
+    EXPECT_GE(grep(err, "SPLITVK_SPLIT=auto: the split does not pay here").size(), 2u) << tail(err, 30);
+    EXPECT_GE(grep(err, "SPLITVK_SPLIT=auto: frames pass through from this swapchain on").size(), 2u)
         << tail(err, 30);
-    EXPECT_GE(grep(err, "SPLITVK_FOVEA=auto: frames are split from this swapchain on").size(), 1u)
+    EXPECT_GE(grep(err, "SPLITVK_SPLIT=auto: frames are split from this swapchain on").size(), 1u)
         << tail(err, 30);
     EXPECT_TRUE(grep(err, "cannot pass through").empty()) << tail(err, 30);
-    EXPECT_FALSE(grep(err, "passed through (SPLITVK_FOVEA=auto)").empty()) << tail(err, 30);
+    EXPECT_FALSE(grep(err, "passed through (SPLITVK_SPLIT=auto)").empty()) << tail(err, 30);
 
-    // Frames passed through: no fovea, no tiles. The split's frames come before and between them.
-    std::set<int> passed, split_frames;
-    for (const auto &row : stats_rows(read_file(out_ / "stats.csv"))) {
-        const int frame = static_cast<int>(row.at("frame"));
-        if (row.at("fovea_w") == 0) {
-            EXPECT_EQ(row.at("tile_bytes"), 0) << "frame " << frame;
-            passed.insert(frame);
-        } else {
-            split_frames.insert(frame);
-        }
-    }
-    ASSERT_FALSE(passed.empty());
-    ASSERT_FALSE(split_frames.empty());
-    EXPECT_LT(*split_frames.begin(), *passed.begin()) << "the split is measured first";
-    EXPECT_GT(*split_frames.rbegin(), *passed.begin()) << "the split was never measured again";
-    const auto native_presents = present_readbacks(out_ / "native-presents");
-    const auto split_presents = present_readbacks(out_ / "split-presents");
-    int compared = 0, differ = 0;
-    for (const int n : passed) {
-        const auto a = native_presents.find(n), b = split_presents.find(n);
-        ASSERT_NE(a, native_presents.end()) << "native has no present " << n;
-        ASSERT_NE(b, split_presents.end()) << "the split run has no present " << n;
-        Image x, y;
-        ASSERT_TRUE(load_present(a->second, &x)) << a->second;
-        ASSERT_TRUE(load_present(b->second, &y)) << b->second;
-        ++compared;
-        const auto same = compare_exact(x, y);
-        if (!same.equal() && ++differ <= 3)
-            ADD_FAILURE() << "present " << n << ", passed through, differs from native: " << same.summary()
-                          << "\n"
-                          << save_mismatch_artefacts(out_, "present-" + std::to_string(n), x, y);
-    }
-    std::cout << "  " << passed.size() << " of " << passed.size() + split_frames.size()
-              << " frames passed through, " << compared << " compared with native, " << differ << " differ\n";
-    EXPECT_EQ(differ, 0);
+    // The split's frames come before and between those passed through.
+    const PassedThrough frames = passed_through(out_ / "stats.csv");
+    ASSERT_FALSE(frames.passed.empty());
+    ASSERT_FALSE(frames.split.empty());
+    EXPECT_LT(*frames.split.begin(), *frames.passed.begin()) << "the split is measured first";
+    EXPECT_GT(*frames.split.rbegin(), *frames.passed.begin()) << "the split was never measured again";
+    std::cout << "  " << frames.passed.size() << " of " << frames.passed.size() + frames.split.size()
+              << " frames passed through\n";
+    expect_passed_through_exact(frames.passed);
     expect_clean_validation();
-    if (!HasFailure()) {
-        std::filesystem::remove_all(out_ / "native-presents");
-        std::filesystem::remove_all(out_ / "split-presents");
-    }
+    remove_presents();
+}
+
+// What a new user gets: with no setting but the agent's address, a small application (vkcube, on
+// loopback, nothing between it and the agent) is split only until the split has been measured against
+// passing through, which is faster, and then passes through: a frame costs what a native one does,
+// and looks the same. A fixed fovea has no first hold, so the verdict comes after two windows.
+TEST_F(SplitVerdict, TheDefaultsPassASmallApplicationThrough) {
+    ASSERT_TRUE(find_program("vkcube", env())) << "vkcube is not installed (vulkan-tools)";
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    ASSERT_TRUE(built(SPLITVK_E2E_XR_READBACK_LAYER_DIR));
+    // The verdict at about 72 presents and a hold of 126 after it: the run ends passing through.
+    constexpr int kCubeFrames = 180;
+    const ProcessResult native = run_cube(env(), "native", kCubeFrames);
+    ASSERT_TRUE(native.ok()) << native.describe() << "\n" << tail(native.err(), 30);
+    Env e = split_env();
+    e.erase("SPLITVK_SPLIT");
+    e.erase("SPLITVK_TILE_WAIT");
+    e["SPLITVK_STATS"] = (out_ / "stats.csv").string();
+    const ProcessResult split = run_cube(e, "split", kCubeFrames);
+    ASSERT_TRUE(split.ok()) << split.describe() << "\n" << tail(split.err(), 30);
+    const std::string &err = split.err();
+    const auto verdict = grep(err, "SPLITVK_SPLIT=auto: the split does not pay here");
+    ASSERT_EQ(verdict.size(), 1u) << tail(err, 30);
+    std::cout << "  " << verdict.front() << "\n";
+    EXPECT_EQ(grep(err, "SPLITVK_SPLIT=auto: frames pass through from this swapchain on").size(), 1u)
+        << tail(err, 30);
+    EXPECT_TRUE(grep(err, "cannot pass through").empty()) << tail(err, 30);
+    EXPECT_FALSE(grep(err, "passed through (SPLITVK_SPLIT=auto)").empty()) << tail(err, 30);
+
+    const PassedThrough frames = passed_through(out_ / "stats.csv");
+    ASSERT_FALSE(frames.split.empty()) << "the split is measured first";
+    ASSERT_FALSE(frames.passed.empty());
+    EXPECT_LT(*frames.split.rbegin(), *frames.passed.begin()) << "split, then passed through for good";
+    EXPECT_EQ(frames.last_frame, kCubeFrames - 1);
+    EXPECT_TRUE(frames.last_passed) << "the run ended split";
+    EXPECT_GT(frames.passed.size(), frames.split.size());
+    std::cout << "  " << frames.split.size() << " frames split, then " << frames.passed.size()
+              << " passed through\n";
+    expect_passed_through_exact(frames.passed);
+    expect_clean_validation();
+    remove_presents();
+}
+
+// SPLITVK_SPLIT=always, which every other test of the split runs with (the harness sets it): the same
+// small application is split at every frame, with no verdict and no switch.
+TEST_F(SplitVerdict, AlwaysSplitsASmallApplication) {
+    ASSERT_TRUE(find_program("vkcube", env())) << "vkcube is not installed (vulkan-tools)";
+    ASSERT_NO_FATAL_FAILURE(start_agent());
+    ASSERT_TRUE(built(SPLITVK_E2E_XR_READBACK_LAYER_DIR));
+    constexpr int kCubeFrames = 180; // as many as the defaults take to pass through
+    Env e = split_env();
+    ASSERT_EQ(e["SPLITVK_SPLIT"], "always");
+    e["SPLITVK_STATS"] = (out_ / "stats.csv").string();
+    const ProcessResult split = run_cube(e, "split", kCubeFrames);
+    ASSERT_TRUE(split.ok()) << split.describe() << "\n" << tail(split.err(), 30);
+    EXPECT_TRUE(grep(split.err(), "SPLITVK_SPLIT=auto").empty()) << tail(split.err(), 30);
+    const PassedThrough frames = passed_through(out_ / "stats.csv");
+    EXPECT_TRUE(frames.passed.empty()) << frames.passed.size() << " frames passed through";
+    EXPECT_EQ(frames.split.size(), static_cast<size_t>(kCubeFrames));
+    expect_clean_validation();
+    std::filesystem::remove_all(out_ / "split-presents");
 }
 
 // SPLITVK_GAZE=fifo:PATH: the foveae follow gaze points written into a named pipe. The
