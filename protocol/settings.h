@@ -36,7 +36,7 @@ enum class UnsupportedMode { Fail, Passthrough };
 // splits every frame it can, as a benchmark or a test of the split needs.
 enum class SplitMode { Auto, Forced };
 
-// SPLITVK_AGENT_SCISSOR (issue 11): off replays the agent's offscreen passes in full; guard:N also
+// SPLITVK_AGENT_SCISSOR: off replays the agent's offscreen passes in full; guard:N also
 // scissors its passes into screen-space targets to the foveae grown by N pixels of each target.
 struct AgentScissor {
     bool guard = false;
