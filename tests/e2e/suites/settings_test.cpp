@@ -118,6 +118,7 @@ const std::map<std::string, std::string> &bad_values() {
         {"CLIENT_GUARD", "guard:x"},   // guard:N or full
         {"SEAM", "feather:-1"},        // hard or feather:N
         {"GAZE", "pipe:/tmp/gaze"},    // not a gaze source
+        {"XR_DEADLINE", "late"},       // display or off
         {"CODEC", "h265"},             // not a codec splitvk has
         {"TILE_WAIT", "0"},            // 1 to 60000
         {"PRESENT_DEPTH", "3"},        // 0, 1 or 2
