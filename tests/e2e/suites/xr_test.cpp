@@ -59,8 +59,6 @@ constexpr const char *kXrSkewFovName = "XR_APILAYER_SPLITVK_test_skew_fov";
 constexpr const char *kXrCoreValidationName = "XR_APILAYER_LUNARG_core_validation";
 constexpr const char *kSystemXrLayers = "/usr/share/openxr/1/api_layers/explicit.d";
 constexpr int kEyeImages = 6; // two swapchains of three images
-constexpr int kReleasesToCompare = 6;
-constexpr std::chrono::seconds kReleaseWait{30};
 
 // The newest readback of each eye image in `dir` (image<K>-<N>.pam): K -> (N, path).
 std::map<int, std::pair<int, std::filesystem::path>> newest_readbacks(const std::filesystem::path &dir) {
@@ -131,23 +129,12 @@ protected:
         e["XR_LOADER_DEBUG"] = "info";
     }
 
-    // hello_xr -g Vulkan2 under Monado (it exits when its standard input closes) for at least
-    // `seconds`, and then until the readback layer has seen every eye image released
-    // kReleasesToCompare times, for at most kReleaseWait more: a loaded machine may render only a
-    // couple of frames a second through validation, and the foveae are compared late in the run.
+    // hello_xr -g Vulkan2 under Monado for about `seconds` (it exits when its standard input closes).
     ProcessSpec hello_xr(const Env &env, const std::string &run, int seconds) {
-        const auto dir = env.find("TEST_XR_READBACK_DIR");
-        const std::string wait_for_releases =
-            "end=$((SECONDS+" + std::to_string(kReleaseWait.count()) + ")); " +
-            "while [ $SECONDS -lt $end ] && [ \"$(ls \"$1\" 2>/dev/null | awk -F'[-.]' " +
-            "'/^image[0-9]+-[0-9]+[.]pam$/ && $2+0 >= " + std::to_string(kReleasesToCompare - 1) +
-            " {print $1}' | sort -u | wc -l)\" -lt " + std::to_string(kEyeImages) + " ]; do sleep 0.2; done";
         ProcessSpec spec;
         spec.argv = {"/bin/bash", "-c",
-                     "{ sleep " + std::to_string(seconds) + "; " + wait_for_releases +
-                         "; } | \"$0\" run -- hello_xr -g Vulkan2",
-                     (source_dir() / "scripts" / "xr-runtime").string(),
-                     dir == env.end() ? std::string("/nonexistent") : dir->second};
+                     "sleep " + std::to_string(seconds) + " | \"$0\" run -- hello_xr -g Vulkan2",
+                     (source_dir() / "scripts" / "xr-runtime").string()};
         spec.env = env;
         spec.out_dir = out_;
         spec.name = run;
@@ -155,7 +142,7 @@ protected:
     }
 
     ProcessResult run_hello_xr(const Env &env, const std::string &run, int seconds) {
-        return run_process(hello_xr(env, run, seconds), std::chrono::seconds(seconds + 60) + kReleaseWait);
+        return run_process(hello_xr(env, run, seconds), std::chrono::seconds(seconds + 60));
     }
 
     // The chain the loader built: splitvk (where present) above validation above the readback layer.
@@ -193,8 +180,7 @@ protected:
         for (const auto &[k, newest] : split) {
             SCOPED_TRACE("eye image " + std::to_string(k) + ": " + newest.second.filename().string());
             ASSERT_TRUE(native_images.count(k));
-            EXPECT_GE(newest.first, kReleasesToCompare - 1)
-                << "too few frames to compare one late in the run";
+            EXPECT_GE(newest.first, 5) << "too few frames to compare one late in the run";
             EyeImage s;
             ASSERT_TRUE(load_pam(newest.second, &s)) << newest.second;
             const EyeImage &n = native_images[k];
