@@ -180,7 +180,13 @@ protected:
         for (const auto &[k, newest] : split) {
             SCOPED_TRACE("eye image " + std::to_string(k) + ": " + newest.second.filename().string());
             ASSERT_TRUE(native_images.count(k));
-            EXPECT_GE(newest.first, 5) << "too few frames to compare one late in the run";
+            // A release after the image's first, which the first split frame may have had without
+            // tiles. Not later: the runs are short on purpose. The simulated head wobbles with the
+            // time since the service started, and after about five seconds a world-fixed cube sweeps
+            // through the fovea, so that runs of different lengths would compare different pictures;
+            // a loaded machine renders only a couple of frames a second in four seconds through
+            // OpenXR core validation.
+            EXPECT_GE(newest.first, 1) << "too few frames to compare one after the first split frame";
             EyeImage s;
             ASSERT_TRUE(load_pam(newest.second, &s)) << newest.second;
             const EyeImage &n = native_images[k];
