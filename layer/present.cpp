@@ -1108,7 +1108,12 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
     const bool verify_shown = session.verify() && split.split && presented_image_verifiable(queue, present);
     if (session.verify() && !split.split) pending = read_back_presented_image(dev, queue, present, frame);
     if (pending || verify_shown) message.flags |= protocol::kPresentVerify;
-    session.send_metadata(protocol::MessageType::FramePresent, protocol::encode(message));
+    // A frame that waits for nothing of the agent's (passed through, unsplit) is shown first and
+    // told after: the send flushes the frame's captured calls, which would otherwise lie between the
+    // application's present and the display. Nothing of the application's comes between the two.
+    const bool tell_after_present = !split.split;
+    if (!tell_after_present)
+        session.send_metadata(protocol::MessageType::FramePresent, protocol::encode(message));
 
     VkSemaphore composited = VK_NULL_HANDLE;
     VkSemaphore redirected = VK_NULL_HANDLE;
@@ -1170,6 +1175,8 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
     }
     const VkResult presented = note_presented(*pPresentInfo, dev.dispatch.QueuePresentKHR(queue, &present));
     const std::optional<double> latency = latency_ms(acquired, std::chrono::steady_clock::now());
+    if (tell_after_present)
+        session.send_metadata(protocol::MessageType::FramePresent, protocol::encode(message));
     if (passing_through && !drawn_split) note_passed_through(session, frame, frame_ms, latency);
     const VkResult result = forced_out_of_date(session, *pPresentInfo, presented);
     queue_lock = {};
