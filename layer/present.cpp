@@ -86,22 +86,6 @@ constexpr uint64_t kFenceWaitNs = 5'000'000'000; // the layer's own copy
 
 std::mutex g_mutex; // g_redirects's
 
-// What each runtime swapchain's composites cost (deadline::CompositeCost), by swapchain.
-std::mutex g_cost_mutex;
-std::unordered_map<VkSwapchainKHR, deadline::CompositeCost> g_composite_costs;
-
-deadline::Clock::duration composite_cost(VkSwapchainKHR swapchain) {
-    std::lock_guard lock(g_cost_mutex);
-    const auto it = g_composite_costs.find(swapchain);
-    return it == g_composite_costs.end() ? deadline::Clock::duration::zero() : it->second.estimate();
-}
-
-void add_composite_cost(VkSwapchainKHR swapchain, double ms) {
-    std::lock_guard lock(g_cost_mutex);
-    g_composite_costs[swapchain].add(
-        std::chrono::duration_cast<deadline::Clock::duration>(std::chrono::duration<double, std::milli>(ms)));
-}
-
 // How often a tile wait looks whether the GPU has finished the application's frame (exposed_wait_ms).
 constexpr auto kExposurePoll = 1ms;
 
@@ -316,7 +300,7 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
     const auto tiles = (swapped && !p.cut) || p.passing_through
                            ? nullptr
                            : frame_tiles(session, p.frame, p.split, exposure, p.display,
-                                         p.display.time ? composite_cost(p.swapchain->handle)
+                                         p.display.time ? p.swapchain->composite_cost.estimate()
                                                         : deadline::Clock::duration::zero(),
                                          p.cut ? &parts : nullptr);
     const auto waited = Clock::now();
@@ -387,7 +371,8 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
     // What the next frames' deadlines must leave for their composite: recording and submitting it,
     // and its GPU time where the timestamps are kept (SPLITVK_STATS; without them, the CPU's part).
     if (p.display.time && tiles)
-        add_composite_cost(p.swapchain->handle, record.merge_ms + record.merge_gpu_ms);
+        p.swapchain->composite_cost.add(std::chrono::duration_cast<deadline::Clock::duration>(
+            std::chrono::duration<double, std::milli>(record.merge_ms + record.merge_gpu_ms)));
     if (held)
         *held = record;
     else
@@ -957,10 +942,6 @@ void order_swapchain_writes(DeviceState &device, std::span<const uint64_t> image
 
 void release_present_resources(DeviceState &device, VkSwapchainKHR swapchain) {
     if (device.session) device.session->acquire_times().forget(codec::handle_value(swapchain));
-    {
-        std::lock_guard lock(g_cost_mutex);
-        g_composite_costs.erase(swapchain);
-    }
     {
         std::lock_guard lock(g_async_mutex);
         g_swapchain_presents.erase(swapchain);

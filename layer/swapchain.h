@@ -4,6 +4,7 @@
 // SwapchainImages carried, and what verification reads back.
 
 #include "device.h"
+#include "frame_deadline.h"
 
 #include <vector>
 
@@ -33,6 +34,10 @@ struct SwapchainState {
     // How many images may be acquired and not yet handed to the driver's present at once: the
     // image count less the surface's minImageCount (present.cpp keeps acquires within it).
     uint32_t acquire_allowance = 0;
+    // An OpenXR runtime's swapchain: what its recent composites cost, which each frame's display-time
+    // deadline must leave for the next (present.cpp). Mutable on the const state the frame carries;
+    // only xrReleaseSwapchainImage reaches it, which OpenXR synchronises per swapchain.
+    mutable deadline::CompositeCost composite_cost;
 };
 
 // nullptr when the swapchain was created without a session.
