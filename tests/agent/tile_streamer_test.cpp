@@ -47,28 +47,10 @@ protected:
         device.pQueueCreateInfos = &queue;
         ASSERT_EQ(ctx.create_device(device, &error), VK_SUCCESS) << error;
 
-        VkImageCreateInfo image_info{};
-        image_info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
-        image_info.imageType = VK_IMAGE_TYPE_2D;
-        image_info.format = VK_FORMAT_R8G8B8A8_UNORM;
-        image_info.extent = {kSize, kSize, 1};
-        image_info.mipLevels = 1;
-        image_info.arrayLayers = 1;
-        image_info.samples = VK_SAMPLE_COUNT_1_BIT;
-        image_info.tiling = VK_IMAGE_TILING_OPTIMAL;
-        image_info.usage = VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
-        ASSERT_EQ(vkCreateImage(ctx.device, &image_info, nullptr, &image), VK_SUCCESS);
-        VkMemoryRequirements needs{};
-        vkGetImageMemoryRequirements(ctx.device, image, &needs);
-        VkMemoryAllocateInfo alloc{};
-        alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-        alloc.allocationSize = needs.size;
-        const int32_t type =
-            ctx.find_memory_type(needs.memoryTypeBits, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
-        ASSERT_GE(type, 0);
-        alloc.memoryTypeIndex = static_cast<uint32_t>(type);
-        ASSERT_EQ(vkAllocateMemory(ctx.device, &alloc, nullptr, &memory), VK_SUCCESS);
-        ASSERT_EQ(vkBindImageMemory(ctx.device, image, memory, 0), VK_SUCCESS);
+        // The target.image a client's swapchain target.image becomes on the agent, made by the agent's own
+        // helper.
+        ASSERT_TRUE(ctx.create_transfer_image(VK_FORMAT_R8G8B8A8_UNORM, {kSize, kSize}, &target, &error))
+            << error;
 
         VkCommandPoolCreateInfo pool_info{};
         pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
@@ -98,11 +80,10 @@ protected:
         streamer.reset();
         if (release) vkDestroyEvent(ctx.device, release, nullptr);
         if (pool) vkDestroyCommandPool(ctx.device, pool, nullptr);
-        if (image) vkDestroyImage(ctx.device, image, nullptr);
-        if (memory) vkFreeMemory(ctx.device, memory, nullptr);
+        ctx.destroy(target);
     }
 
-    // Frame 0's work: the whole image cleared, left in TRANSFER_SRC_OPTIMAL as if presented there.
+    // Frame 0's work: the whole target.image cleared, left in TRANSFER_SRC_OPTIMAL as if presented there.
     void record_clear() {
         VkCommandBufferBeginInfo begin{};
         begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
@@ -114,11 +95,11 @@ protected:
         barrier.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
         barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
         barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-        barrier.image = image;
+        barrier.image = target.image;
         barrier.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
         vkCmdPipelineBarrier(clear, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
                              nullptr, 0, nullptr, 1, &barrier);
-        vkCmdClearColorImage(clear, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &kColour, 1,
+        vkCmdClearColorImage(clear, target.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &kColour, 1,
                              &barrier.subresourceRange);
         barrier.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
         barrier.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
@@ -151,7 +132,7 @@ protected:
         TileStreamer::Frame f;
         f.frame = number;
         f.swapchain_id = 1;
-        f.image = image;
+        f.image = target.image;
         f.layout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
         f.format = VK_FORMAT_R8G8B8A8_UNORM;
         f.extent = {kSize, kSize};
@@ -169,8 +150,7 @@ protected:
 
     VulkanContext ctx;
     std::unique_ptr<TileStreamer> streamer;
-    VkImage image = VK_NULL_HANDLE;
-    VkDeviceMemory memory = VK_NULL_HANDLE;
+    TransferImage target;
     VkCommandPool pool = VK_NULL_HANDLE;
     VkCommandBuffer clear = VK_NULL_HANDLE, held = VK_NULL_HANDLE;
     VkEvent release = VK_NULL_HANDLE;
