@@ -47,7 +47,7 @@ protected:
         device.pQueueCreateInfos = &queue;
         ASSERT_EQ(ctx.create_device(device, &error), VK_SUCCESS) << error;
 
-        // The target.image a client's swapchain target.image becomes on the agent, made by the agent's own
+        // The image a client's swapchain image becomes on the agent, made by the agent's own
         // helper.
         ASSERT_TRUE(ctx.create_transfer_image(VK_FORMAT_R8G8B8A8_UNORM, {kSize, kSize}, &target, &error))
             << error;
@@ -83,7 +83,7 @@ protected:
         ctx.destroy(target);
     }
 
-    // Frame 0's work: the whole target.image cleared, left in TRANSFER_SRC_OPTIMAL as if presented there.
+    // Frame 0's work: the whole image cleared, left in TRANSFER_SRC_OPTIMAL as if presented there.
     void record_clear() {
         VkCommandBufferBeginInfo begin{};
         begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
