@@ -29,7 +29,6 @@ sizing). Ends with lines for tools, nothing after them:
 Timings never pass or fail."""
 import argparse
 import csv
-import math
 import os
 import statistics
 
@@ -107,11 +106,6 @@ def latencies(rows):
 
 def passed_through(row):
     return row["fovea_w"] == "0" and row["tile_bytes"] == "0"
-
-
-def p99(values):
-    values = sorted(values)
-    return values[min(len(values) - 1, math.ceil(0.99 * len(values)) - 1)]
 
 
 def run(args):
@@ -211,10 +205,10 @@ def run(args):
         raise common.BenchError("the unsplit runs wrote no frame_latency_ms")
     native_latency = statistics.median(latency["unsplit"])
     print(f"latency (frame_latency_ms, every round): unsplit median {native_latency:.2f} ms, p99 "
-          f"{p99(latency['unsplit']):.2f} ms", end="")
+          f"{common.percentile(latency['unsplit'], 99):.2f} ms", end="")
     if latency["default"]:
         print(f"; default, frames passed through: median {statistics.median(latency['default']):.2f} ms, p99 "
-              f"{p99(latency['default']):.2f} ms ({len(latency['default'])} frames)")
+              f"{common.percentile(latency['default'], 99):.2f} ms ({len(latency['default'])} frames)")
     else:
         print("; default: no frame passed through after the verdict (the split paid)")
     print(f"split/native: {split_ms / native:.3f}")

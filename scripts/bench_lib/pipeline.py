@@ -17,7 +17,6 @@ and ends with one line per mode and depth that scripts can read:
   pacing-MODE@D: R            its p99 frame time over its median
 Timings never pass or fail."""
 import argparse
-import math
 import os
 
 from . import common, paper, split
@@ -56,20 +55,14 @@ def register(subparsers):
     common.add_driver_argument(p)
 
 
-def percentile(values, q):
-    """The nearest-rank q-quantile (0..1) of `values`."""
-    ordered = sorted(values)
-    return ordered[min(len(ordered) - 1, max(0, math.ceil(q * len(ordered)) - 1))]
-
-
 def summary(rows):
     frames = [float(r["frame_ms"]) for r in rows if r["frame_ms"] and float(r["frame_ms"]) > 0]
     latency = [float(r["frame_latency_ms"]) for r in rows if r.get("frame_latency_ms")]
     if not frames or not latency:
         raise common.BenchError("a run has no frame times or no frame_latency_ms in its SPLITVK_STATS rows")
     median = split.median(frames)
-    return {"frame": median, "pacing": percentile(frames, 0.99) / median, "latency": split.median(latency),
-            "latency_p99": percentile(latency, 0.99), "late": sum(r["late"] == "1" for r in rows),
+    return {"frame": median, "pacing": common.percentile(frames, 99) / median, "latency": split.median(latency),
+            "latency_p99": common.percentile(latency, 99), "late": sum(r["late"] == "1" for r in rows),
             "frames": len(rows)}
 
 
