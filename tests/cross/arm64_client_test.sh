@@ -77,31 +77,9 @@ agent_log=$(harness_value "$out/agent.report" log)
 log "Xvfb on $display; x86-64 splitvk-agent --validate at $address"
 
 # atrium's own scene is 300k triangles, which lavapipe under qemu takes minutes a frame to draw; a
-# floor and a box (12 triangles, atrium's procedural textures on both, as the soak test has them)
-# take the same layer, wire and codec paths in seconds.
-cat >"$out/box.obj" <<'OBJ'
-v -4 0 -4
-v 4 0 -4
-v 4 0 4
-v -4 0 4
-v -1 0 -1
-v 1 0 -1
-v 1 2 -1
-v -1 2 -1
-v -1 0 1
-v 1 0 1
-v 1 2 1
-v -1 2 1
-usemtl floor
-f 1 4 3 2
-usemtl stone
-f 5 6 7 8
-f 10 9 12 11
-f 9 5 8 12
-f 6 10 11 7
-f 8 7 11 12
-OBJ
-atrium_args=(--width "$width" --height "$height" --eyes 2 --frames "$frames" --hold --model "$out/box.obj")
+# floor and a box (tests/data/floor_and_box.obj, the soak test's: 12 triangles, atrium's procedural
+# textures on both) take the same layer, wire and codec paths in seconds.
+atrium_args=(--width "$width" --height "$height" --eyes 2 --frames "$frames" --hold --model "$here/../data/floor_and_box.obj")
 
 # hold NAME ENV...: the arm64 atrium held at its last frame, grabbed to OUT_DIR/NAME.raw; prints the
 # path of its stderr.

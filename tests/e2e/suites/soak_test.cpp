@@ -17,7 +17,6 @@
 #include "e2e_test.h"
 
 #include <algorithm>
-#include <fstream>
 #include <regex>
 #include <thread>
 
@@ -72,29 +71,6 @@ int session_pid(const std::string &agent_log) {
     return -1;
 }
 
-// A floor and a box, two materials: a few draws per eye, each with its own texture.
-constexpr const char *kBoxObj = R"(v -4 0 -4
-v 4 0 -4
-v 4 0 4
-v -4 0 4
-v -1 0 -1
-v 1 0 -1
-v 1 2 -1
-v -1 2 -1
-v -1 0 1
-v 1 0 1
-v 1 2 1
-v -1 2 1
-usemtl floor
-f 1 4 3 2
-usemtl stone
-f 5 6 7 8
-f 10 9 12 11
-f 9 5 8 12
-f 6 10 11 7
-f 8 7 11 12
-)";
-
 class Soak : public XTest {};
 
 TEST_F(Soak, TenThousandSplitFramesLoseNothingAndLeakNothing) {
@@ -111,8 +87,8 @@ TEST_F(Soak, TenThousandSplitFramesLoseNothingAndLeakNothing) {
     e["SPLITVK_SERVER"] = agent.address();
     e["SPLITVK_TILE_WAIT"] = "60000"; // a busy CI machine must not turn frames late: none may be
     e["SPLITVK_LOG_LEVEL"] = "info";
-    const auto model = out_ / "box.obj";
-    std::ofstream(model) << kBoxObj;
+    // A floor and a box: a few draws per eye, each with its own texture.
+    const auto model = source_dir() / "tests" / "data" / "floor_and_box.obj";
     ProcessSpec spec;
     spec.argv = {atrium_path().string(),
                  "--width",
