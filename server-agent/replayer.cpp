@@ -453,7 +453,22 @@ bool Replayer::vkDestroyBuffer(const codec::Decoded_vkDestroyBuffer &c) {
 
 bool Replayer::vkCreateImage(const codec::Decoded_vkCreateImage &c) {
     guard_.image_created(*c.pCreateInfo);
-    if (!ReplayVisitorBase::vkCreateImage(c)) return false;
+    // The live-state snapshot that brings this agent in after the client started (a late join, a
+    // reconnect, SPLITVK_SPLIT=auto calling it back) writes every image's contents with a copy into
+    // it, which the application's usage need not allow (a texture it fills through mapped memory is
+    // SAMPLED alone): the image gets TRANSFER_DST as well, where this GPU takes it for the image.
+    VkImageCreateInfo info = *c.pCreateInfo;
+    if (!(info.usage & VK_IMAGE_USAGE_TRANSFER_DST_BIT) &&
+        info.tiling != VK_IMAGE_TILING_DRM_FORMAT_MODIFIER_EXT) {
+        VkImageFormatProperties properties{};
+        if (vkGetPhysicalDeviceImageFormatProperties(
+                context_.physical_device, info.format, info.imageType, info.tiling,
+                info.usage | VK_IMAGE_USAGE_TRANSFER_DST_BIT, info.flags, &properties) == VK_SUCCESS)
+            info.usage |= VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+    }
+    auto copy = c;
+    copy.pCreateInfo = &info;
+    if (!ReplayVisitorBase::vkCreateImage(copy)) return false;
     memory_.image_created(c.pImage[0], *c.pCreateInfo);
     fovea_.image_created(c.pImage[0], *c.pCreateInfo);
     swapchains_.image_created(c.pImage[0], *c.pCreateInfo);

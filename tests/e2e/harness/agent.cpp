@@ -11,16 +11,38 @@ std::filesystem::path agent_path() {
     return bin_dir() / "splitvk-agent";
 }
 
+namespace {
+
+size_t count_lines_with(const std::vector<std::string> &lines, const char *what) {
+    size_t n = 0;
+    for (const std::string &line : lines)
+        n += line.find(what) != std::string::npos;
+    return n;
+}
+
+} // namespace
+
 ::testing::AssertionResult agent_session_validation_clean(const std::filesystem::path &log_path) {
-    std::string log = read_file(log_path);
+    std::vector<std::string> lines = split_lines(read_file(log_path));
     const auto deadline = std::chrono::steady_clock::now() + 20s;
-    while (log.find("closed after") == std::string::npos && std::chrono::steady_clock::now() < deadline) {
+    // A session ends with "session N (pid P) ended"; one killed outright never does, so the wait is
+    // bounded and the sessions closed are what is checked.
+    const auto settled = [&] {
+        return count_lines_with(lines, "closed after") > 0 &&
+               count_lines_with(lines, ") started") == count_lines_with(lines, ") ended");
+    };
+    while (!settled() && std::chrono::steady_clock::now() < deadline) {
         std::this_thread::sleep_for(50ms);
-        log = read_file(log_path);
+        lines = split_lines(read_file(log_path));
     }
-    if (log.find("; 0 validation") != std::string::npos) return ::testing::AssertionSuccess();
+    size_t closed = 0, clean = 0;
+    for (const std::string &line : lines) {
+        if (line.find("closed after") == std::string::npos) continue;
+        ++closed;
+        clean += line.find("; 0 validation errors") != std::string::npos;
+    }
+    if (closed > 0 && clean == closed) return ::testing::AssertionSuccess();
     std::string tail_lines;
-    const auto lines = split_lines(log);
     for (size_t i = lines.size() > 15 ? lines.size() - 15 : 0; i < lines.size(); ++i)
         tail_lines += lines[i] + "\n";
     return ::testing::AssertionFailure()

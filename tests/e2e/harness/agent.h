@@ -14,8 +14,10 @@ namespace splitvk::e2e {
 
 std::filesystem::path agent_path(); // <build>/bin/splitvk-agent
 
-// Waits (at most 20 s) until the agent log at `log_path` reports its session closed, and checks
-// that the session, run with --validate, ended with no validation message.
+// Waits (at most 20 s) until the agent log at `log_path` reports a session closed and every session
+// it started ended, and checks that every session closed, run with --validate, had no validation
+// error: a client that reconnects or is brought in again by a resync has several, and the later ones
+// replay the live-state snapshot.
 ::testing::AssertionResult agent_session_validation_clean(const std::filesystem::path &log_path);
 
 // The client side: the validation log configure_validation() set up exists (the layer was
