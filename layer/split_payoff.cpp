@@ -35,6 +35,13 @@ void SplitPayoff::settle(Mode mode) {
     mode_ = mode;
 }
 
+bool SplitPayoff::clearly_decided() const {
+    const std::optional<double> &other_ms = measured_[index(other(mode_))];
+    if (!other_ms || *other_ms <= 0) return false;
+    const double ms = median(window_);
+    return ms > *other_ms * kClearly || ms * kClearly < *other_ms;
+}
+
 std::optional<SplitPayoff::Switch> SplitPayoff::observe(Mode mode, double frame_ms, bool steady) {
     if (settled_) return std::nullopt;
     // The switch asked for has not been followed yet; presents of the mode it left say nothing.
@@ -50,7 +57,8 @@ std::optional<SplitPayoff::Switch> SplitPayoff::observe(Mode mode, double frame_
         return std::nullopt;
     }
     window_.push_back(frame_ms);
-    if (window_.size() < kWindow) return std::nullopt;
+    if (window_.size() < kWindow && !(probe_ && window_.size() >= kQuickWindow && clearly_decided()))
+        return std::nullopt;
     measured_[index(mode)] = median(window_);
     window_.clear();
 

@@ -16,7 +16,10 @@
 //   - the other mode was never measured: switch to it (a probe);
 //   - the stint was a probe: keep the faster mode. A probe that won starts a hold in its mode and
 //     resets the hold to kFirstHold; one that lost goes back, and the hold doubles (up to
-//     kLongestHold), so the loser is probed ever more rarely;
+//     kLongestHold), so the loser is probed ever more rarely. A probe whose first kQuickWindow
+//     frames already differ from the other mode by more than kClearly either way is decided then:
+//     a probe of a split several times slower than passing through (a small frame) costs the
+//     application kSkip + kQuickWindow slow frames, not a whole window of them;
 //   - the stint was a hold: probe the other mode.
 // The first stint is the split's, held for the first hold (kFirstHold with SPLITVK_FOVEA=auto, so
 // that the fovea's own sizing settles before it is measured; none for a fixed fovea, so that a small
@@ -60,12 +63,18 @@ public:
 
     static constexpr uint32_t kSkip = 6;
     static constexpr uint32_t kWindow = 30;
+    static constexpr uint32_t kQuickWindow = 8;
+    // Far outside kMargin, and beyond what the median of kQuickWindow frames moves by with this
+    // machine's noise: the same mode's medians of separate windows differ by up to 1.3x here.
+    static constexpr double kClearly = 1.5;
     static constexpr uint32_t kFirstHold = 120;
     static constexpr uint32_t kLongestHold = 3840;
     static constexpr double kMargin = 0.05;
 
 private:
     void begin_stint(Mode mode, bool probe, uint32_t hold);
+    // The probe's window so far is kClearly faster or slower than the other mode's measurement.
+    bool clearly_decided() const;
 
     Mode mode_ = Mode::Split; // the mode presents are measured in
     Mode wanted_ = Mode::Split;

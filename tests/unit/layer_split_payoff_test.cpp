@@ -40,7 +40,7 @@ TEST(SplitPayoff, FirstMeasuresTheSplitAfterItsHoldThenProbesPassingThrough) {
 }
 
 // A fixed fovea has nothing to settle: the split is measured at once, and a slow one passes through
-// after two windows. Later holds are the same as with a sizing fovea.
+// after a window and a probe. Later holds are the same as with a sizing fovea.
 TEST(SplitPayoff, WithoutAFirstHoldASlowSplitPassesThroughAfterTwoWindows) {
     SplitPayoff payoff(0);
     uint32_t presents = 0;
@@ -49,7 +49,8 @@ TEST(SplitPayoff, WithoutAFirstHoldASlowSplitPassesThroughAfterTwoWindows) {
     EXPECT_TRUE(d.probe);
     EXPECT_EQ(d.to, Mode::PassThrough);
     d = run_until_decided(payoff, {20, 5}, &presents);
-    EXPECT_EQ(presents, 2 * (SplitPayoff::kSkip + SplitPayoff::kWindow));
+    EXPECT_EQ(presents, 2 * SplitPayoff::kSkip + SplitPayoff::kWindow + SplitPayoff::kQuickWindow)
+        << "passing through is clearly faster: its probe is decided early";
     EXPECT_FALSE(d.probe);
     EXPECT_EQ(d.to, Mode::PassThrough);
     presents = 0;
@@ -64,7 +65,7 @@ TEST(SplitPayoff, ASlowSplitPassesThroughAndIsProbedAgainNowAndThen) {
     run_until_decided(payoff, {20, 5}, &presents); // probe passing through
     presents = 0;
     auto d = run_until_decided(payoff, {20, 5}, &presents);
-    EXPECT_EQ(presents, SplitPayoff::kSkip + SplitPayoff::kWindow) << "a probe holds nothing";
+    EXPECT_EQ(presents, SplitPayoff::kSkip + SplitPayoff::kQuickWindow) << "a probe holds nothing";
     EXPECT_FALSE(d.probe);
     EXPECT_EQ(d.to, Mode::PassThrough) << "the probe won";
     EXPECT_DOUBLE_EQ(d.native_ms, 5);
@@ -106,6 +107,39 @@ TEST(SplitPayoff, AFastSplitStaysSplitAndTheLosingProbeComesEverMoreRarely) {
         << "the hold doubles up to its longest";
 }
 
+// A small application's split probes cost it only the few slow frames it takes to see that the
+// split still loses by far: each later probe of the split is kSkip + kQuickWindow presents.
+TEST(SplitPayoff, AProbeOfASplitSeveralTimesSlowerEndsAfterTheQuickWindow) {
+    SplitPayoff payoff(0);
+    uint32_t presents = 0;
+    run_until_decided(payoff, {20, 5}, &presents); // the split measured: probe passing through
+    run_until_decided(payoff, {20, 5}, &presents); // passing through, for a hold
+    for (int round = 0; round < 4; ++round) {
+        auto d = run_until_decided(payoff, {20, 5}, &presents);
+        ASSERT_TRUE(d.probe);
+        ASSERT_EQ(d.to, Mode::Split);
+        uint32_t split_presents = 0;
+        d = run_until_decided(payoff, {20, 5}, &split_presents);
+        EXPECT_EQ(split_presents, SplitPayoff::kSkip + SplitPayoff::kQuickWindow) << "round " << round;
+        EXPECT_FALSE(d.probe);
+        EXPECT_EQ(d.to, Mode::PassThrough);
+        EXPECT_DOUBLE_EQ(d.split_ms, 20);
+    }
+}
+
+// Within kClearly either way the quick window decides nothing: a close call gets the whole window.
+TEST(SplitPayoff, ACloseCallIsMeasuredOverTheWholeWindow) {
+    SplitPayoff payoff(0);
+    uint32_t presents = 0;
+    const Machine m{10, 13}; // the split 1.3x faster: a clear win, but not beyond kClearly
+    run_until_decided(payoff, m, &presents);
+    presents = 0;
+    const auto d = run_until_decided(payoff, m, &presents);
+    EXPECT_EQ(presents, SplitPayoff::kSkip + SplitPayoff::kWindow);
+    EXPECT_EQ(d.to, Mode::Split);
+    EXPECT_DOUBLE_EQ(d.native_ms, 13);
+}
+
 TEST(SplitPayoff, TheSplitMustWinByTheMarginOverPassingThrough) {
     // Within the margin (noise), passing through wins: the application is never slower than native.
     SplitPayoff payoff;
@@ -129,7 +163,7 @@ TEST(SplitPayoff, PresentsOfTheModeItLeftAreNotCounted) {
         EXPECT_FALSE(payoff.observe(Mode::Split, 1000).has_value());
     presents = 0;
     const auto d = run_until_decided(payoff, {20, 5}, &presents);
-    EXPECT_EQ(presents, SplitPayoff::kSkip + SplitPayoff::kWindow);
+    EXPECT_EQ(presents, SplitPayoff::kSkip + SplitPayoff::kQuickWindow);
     EXPECT_DOUBLE_EQ(d.native_ms, 5);
 }
 
