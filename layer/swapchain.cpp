@@ -179,7 +179,12 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateSwapchainKHR(VkDevice device,
     const VkImageUsageFlags app_usage = pCreateInfo->imageUsage;
     std::string why;
     VkSurfaceCapabilitiesKHR caps{};
-    const bool compose = can_compose(dev, *pCreateInfo, caps, &why);
+    // Frames passed through are shown as drawn: the swapchain is the application's own, without the
+    // compositor's usage or images, so that a frame passed through costs what a native one does (the
+    // wider usage made the window system's copy of every image to the X server 4x slower on
+    // lavapipe). A switch back to the split recreates it composable.
+    const bool passing_through = dev.session->passing_through();
+    const bool compose = !passing_through && can_compose(dev, *pCreateInfo, caps, &why);
     const VkImageUsageFlags verify_usage = dev.session->verify() ? VK_IMAGE_USAGE_TRANSFER_SRC_BIT : 0;
     // Most usage first; each attempt that adds nothing new over the next one is skipped.
     const VkImageUsageFlags attempts[] = {
@@ -209,7 +214,7 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateSwapchainKHR(VkDevice device,
     if (result != VK_SUCCESS) return result;
     const bool composable =
         compose && (info.imageUsage & Compositor::kSwapchainUsage) == Compositor::kSwapchainUsage;
-    if (!composable)
+    if (!composable && !passing_through)
         SPLITVK_INFO("swapchain %ux%u is not composable (%s): it will not be split",
                      pCreateInfo->imageExtent.width, pCreateInfo->imageExtent.height,
                      compose ? "the driver refused the usage" : why.c_str());
