@@ -271,14 +271,18 @@ void Session::run_reconnect() {
     auto backoff = kFirstRetry;
     std::unique_lock lock(reconnect_mutex_);
     while (!closing_) {
-        if (live() || pending_agent_) {
+        if (live() || pending_agent_ || agent_released_) {
             // Bounded: fail() notifies without reconnect_mutex_, so a wakeup between the check above
             // and this wait (an agent adopted by resync dying at once) would otherwise be lost.
             reconnect_wake_.wait_for(lock, kLongestRetry);
             backoff = kFirstRetry;
             continue;
         }
-        if (reconnect_wake_.wait_for(lock, backoff, [&] { return closing_; })) break;
+        // An agent called back (recall_agent()) is asked at once: frames pass through until it is in.
+        if (!std::exchange(connect_now_, false) &&
+            reconnect_wake_.wait_for(lock, backoff, [&] { return closing_ || connect_now_; }) && closing_)
+            break;
+        connect_now_ = false;
         lock.unlock();
         bool final = false;
         auto agent = connect_agent(&final);
@@ -378,14 +382,15 @@ void Session::resync(DeviceState &device, VkQueue queue, uint64_t frame) {
     };
     // Where the resync's time goes: waiting for the next present, the queue to
     // drain, the readback, and encoding and queueing the snapshot.
-    SPLITVK_WARN("splitvk-agent at %s brought in at frame %llu: %zu objects, %llu buffers, %llu images, %zu "
-                 "descriptor sets, %zu command buffers, %.1f MiB in %.0f ms (%.0f ms after it answered; "
-                 "%.0f ms to the present, %.0f idle, %.0f readback, %.0f encode and queue)",
-                 address_.c_str(), static_cast<unsigned long long>(frame), entries,
-                 static_cast<unsigned long long>(contents.buffers),
-                 static_cast<unsigned long long>(contents.images), sets, streams.size(),
-                 static_cast<double>(bytes) / (1 << 20), ms(start, now), ms(answered, now),
-                 ms(answered, start), ms(start, idle), ms(idle, readback_done), ms(readback_done, now));
+    // An agent that came back as asked is news only at info; any other is a change the user is told.
+    log(recalled_.exchange(false) ? LogLevel::Info : LogLevel::Warn,
+        "splitvk-agent at %s brought in at frame %llu: %zu objects, %llu buffers, %llu images, %zu "
+        "descriptor sets, %zu command buffers, %.1f MiB in %.0f ms (%.0f ms after it answered; "
+        "%.0f ms to the present, %.0f idle, %.0f readback, %.0f encode and queue)",
+        address_.c_str(), static_cast<unsigned long long>(frame), entries,
+        static_cast<unsigned long long>(contents.buffers), static_cast<unsigned long long>(contents.images),
+        sets, streams.size(), static_cast<double>(bytes) / (1 << 20), ms(start, now), ms(answered, now),
+        ms(answered, start), ms(start, idle), ms(idle, readback_done), ms(readback_done, now));
 }
 
 Session::~Session() {
@@ -447,7 +452,17 @@ size_t scaled_targets_alive(const DeviceState &device) {
 void Session::observe_payoff(const DeviceState &device, double frame_ms,
                              const split::FrameFoveaSize &fovea_size) {
     if (!payoff_ || client_renders() == ClientRenders::Fovea) return;
-    std::lock_guard lock(payoff_mutex_);
+    bool release = false, recall = false;
+    {
+        std::lock_guard lock(payoff_mutex_);
+        observe_payoff_locked(device, frame_ms, fovea_size, release, recall);
+    }
+    if (release) release_agent();
+    if (recall) recall_agent();
+}
+
+void Session::observe_payoff_locked(const DeviceState &device, double frame_ms,
+                                    const split::FrameFoveaSize &fovea_size, bool &release, bool &recall) {
     if (payoff_->settled()) return;
     const bool through = passing_through();
     if (std::exchange(check_kept_targets_, false)) {
@@ -462,8 +477,19 @@ void Session::observe_payoff(const DeviceState &device, double frame_ms,
             wanted_pass_through_ = false;
             passing_through_.store(false);
             payoff_out_of_date_.store(true); // recorded unscaled since the switch: record again
+            recall = true;                   // let go at the switch: the split needs it back
             return;
         }
+    }
+    if (switch_awaits_agent_) {
+        // A probe of the split waits for the agent it called back: resync() brought it in at this
+        // present, before this call, or frames go on passing through.
+        if (!live()) return;
+        switch_awaits_agent_ = false;
+        wanted_pass_through_ = false;
+        presents_since_switch_ = 0;
+        payoff_out_of_date_.store(true);
+        return;
     }
     if (wanted_pass_through_ != through) {
         if (++presents_since_switch_ > kSwitchPatience) {
@@ -473,6 +499,7 @@ void Session::observe_payoff(const DeviceState &device, double frame_ms,
                 through ? "passed through" : "split");
             payoff_->settle(payoff_mode(through));
             wanted_pass_through_ = through;
+            release = through; // passing through for good: no agent is needed
         }
         return;
     }
@@ -496,7 +523,18 @@ void Session::observe_payoff(const DeviceState &device, double frame_ms,
                      "frames are split",
                      decided->split_ms, decided->native_ms);
     }
-    if (!switching) return;
+    // A verdict for passing through lets the agent go once the frames pass through; a probe of
+    // passing through keeps it, since the split may win the probe.
+    release_when_passing_through_ = to_pass_through && !decided->probe;
+    if (!switching) {
+        if (release_when_passing_through_) release = true;
+        return;
+    }
+    if (!to_pass_through && !live()) {
+        switch_awaits_agent_ = true;
+        recall = true;
+        return;
+    }
     wanted_pass_through_ = to_pass_through;
     presents_since_switch_ = 0;
     payoff_out_of_date_.store(true);
@@ -504,12 +542,56 @@ void Session::observe_payoff(const DeviceState &device, double frame_ms,
 
 void Session::swapchain_recreated() {
     if (!payoff_) return;
-    std::lock_guard lock(payoff_mutex_);
-    if (wanted_pass_through_ == passing_through()) return;
-    passing_through_.store(wanted_pass_through_);
-    check_kept_targets_ = wanted_pass_through_;
-    SPLITVK_INFO(wanted_pass_through_ ? "SPLITVK_SPLIT=auto: frames pass through from this swapchain on"
-                                      : "SPLITVK_SPLIT=auto: frames are split from this swapchain on");
+    bool release = false;
+    {
+        std::lock_guard lock(payoff_mutex_);
+        if (wanted_pass_through_ == passing_through()) return;
+        passing_through_.store(wanted_pass_through_);
+        check_kept_targets_ = wanted_pass_through_;
+        release = wanted_pass_through_ && release_when_passing_through_;
+        SPLITVK_INFO(wanted_pass_through_ ? "SPLITVK_SPLIT=auto: frames pass through from this swapchain on"
+                                          : "SPLITVK_SPLIT=auto: frames are split from this swapchain on");
+    }
+    // The frames drawn split before this swapchain have had their tiles (the present thread was
+    // drained before its recreation): the agent has nothing more to do for this device.
+    if (release) release_agent();
+}
+
+void Session::release_agent() {
+    {
+        std::lock_guard lock(reconnect_mutex_);
+        agent_released_ = true;
+        // One that answered meanwhile is let go as well, unadopted.
+        pending_agent_.reset();
+        resync_pending_.store(false);
+    }
+    std::lock_guard lock(mutex_);
+    if (!live()) return;
+    // Its closure is not the agent going away, and nothing more is sent: from here the device is one
+    // without an agent, its calls logged for the snapshot that brings an agent back.
+    current_connection_.store(nullptr);
+    live_.store(false);
+    if (tiles_) tiles_->abandon();
+    connection_->send(protocol::MessageType::Goodbye,
+                      protocol::encode_goodbye({"the client's frames pass through (SPLITVK_SPLIT=auto)"}));
+    connection_->flush(kCloseFlush);
+    connection_->close("frames pass through");
+    SPLITVK_INFO("SPLITVK_SPLIT=auto: splitvk-agent at %s let go while frames pass through; it is called "
+                 "back when the split is measured again",
+                 address_.c_str());
+}
+
+void Session::recall_agent() {
+    {
+        std::lock_guard lock(reconnect_mutex_);
+        if (!agent_released_) return;
+        agent_released_ = false;
+        connect_now_ = true;
+    }
+    recalled_.store(true);
+    SPLITVK_INFO("SPLITVK_SPLIT=auto: calling splitvk-agent at %s back to measure the split again",
+                 address_.c_str());
+    reconnect_wake_.notify_all();
 }
 
 void Session::run_receiver() {

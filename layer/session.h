@@ -133,6 +133,14 @@ public:
     // `fovea_size`: the size the present's frame asked for.
     void observe_payoff(const DeviceState &device, double frame_ms, const split::FrameFoveaSize &fovea_size);
     // vkCreateSwapchainKHR: a switch asked for takes effect.
+    //
+    // While frames pass through by verdict (not while passing through is only being measured), the
+    // agent is let go (a Goodbye, the connection closed): the device runs exactly as it does with no
+    // agent, capturing into the live-state log and sending nothing, so that a frame passed through
+    // costs what a frame without an agent does, and the agent serves nobody for nothing. A probe of the
+    // split calls the agent back first (the reconnector, then resync() with the live-state snapshot at
+    // a present) and asks the application to switch only once the agent is in; until then frames pass
+    // through, and an agent that does not answer keeps them so.
     void swapchain_recreated();
     // A switch was asked for since the last call: the application's present answers
     // VK_ERROR_OUT_OF_DATE_KHR. True once per switch.
@@ -293,6 +301,14 @@ private:
     void adopt_locked(AgentLink &&agent);
     void stop_receiver();
     void run_reconnect();
+    // SPLITVK_SPLIT=auto's verdict to pass frames through: the agent is told goodbye and let go
+    // (swapchain_recreated()). Never under payoff_mutex_: it flushes to the agent.
+    void release_agent();
+    // observe_payoff() under payoff_mutex_: what to do with the agent after it, in `release`/`recall`.
+    void observe_payoff_locked(const DeviceState &device, double frame_ms,
+                               const split::FrameFoveaSize &fovea_size, bool &release, bool &recall);
+    // A probe of the split: the reconnector brings an agent in again.
+    void recall_agent();
     // The agent's messages, on a thread of the layer's: Tiles to the decoders, VerifyFrame to
     // receive_verify_frame(), Goodbye ends the session.
     void run_receiver();
@@ -341,9 +357,11 @@ private:
     std::unique_ptr<SplitPayoff> payoff_;
     bool wanted_pass_through_ = false; // the switch asked for, until the application follows it
     uint32_t presents_since_switch_ = 0;
-    split::FrameFoveaSize payoff_fovea_size_; // the previous present's
-    bool check_kept_targets_ = false;         // at the first present after switching to pass through
-    std::mutex sizing_mutex_;                 // the OpenXR frame being sized, below
+    split::FrameFoveaSize payoff_fovea_size_;   // the previous present's
+    bool check_kept_targets_ = false;           // at the first present after switching to pass through
+    bool release_when_passing_through_ = false; // the switch to pass through is a verdict: let the agent go
+    bool switch_awaits_agent_ = false;          // a probe of the split, asked for once the agent is back
+    std::mutex sizing_mutex_;                   // the OpenXR frame being sized, below
     int64_t sized_xr_frame_ = -1;
     split::FrameFoveaSize xr_frame_size_;
     std::chrono::steady_clock::time_point xr_frame_start_{};
@@ -362,6 +380,11 @@ private:
     // The swapped split refused a reconnecting agent that cannot render the periphery: said once
     // until an agent is brought in. Under reconnect_mutex_.
     bool swapped_refusal_logged_ = false;
+    // SPLITVK_SPLIT=auto let the agent go while frames pass through: the reconnector waits until a probe
+    // of the split calls it back (recall_agent()). Under reconnect_mutex_.
+    bool agent_released_ = false;
+    bool connect_now_ = false;          // under reconnect_mutex_: called back, so no backoff
+    std::atomic<bool> recalled_{false}; // the next resync brings back an agent let go, as asked
     std::atomic<bool> resync_pending_{false};
     std::atomic<uint64_t> first_replayed_frame_{0};
     std::chrono::steady_clock::time_point reconnected_at_{}; // under reconnect_mutex_
