@@ -26,6 +26,9 @@ sizing). Ends with lines for tools, nothing after them:
   default/native: R          the default's, after its verdict, over native's
   latency-default/native: R  median latency of the default's frames passed through over the unsplit
                              run's frames (`none` when no frame passed through)
+  passed-through/native: R   median frame time (SPLITVK_STATS' frame_ms) of the default's frames
+                             passed through over the unsplit run's frames, on the layer's clock:
+                             what a frame passed through costs, the split's probes left out
 Timings never pass or fail."""
 import argparse
 import csv
@@ -149,6 +152,7 @@ def run(args):
     modes = ("unsplit", "split", "default") if vkcube else ("native", "unsplit", "split", "default")
     medians = {m: [] for m in modes}
     latency = {"unsplit": [], "default": []}
+    layer_frame_ms = {"unsplit": [], "default": []} # the default's: its frames passed through
     verdict_lines = []
     with common.display(build) as disp:
         base = common.clean_env(args.icd)
@@ -186,11 +190,14 @@ def run(args):
                     medians[mode].append(statistics.median(times_ms))
                     line.append(f"{mode} {medians[mode][-1]:7.2f} ms")
                     if mode == "unsplit":
-                        latency[mode].extend(latencies(stats_rows(stats, skip)))
+                        rows = stats_rows(stats, skip)
+                        latency[mode].extend(latencies(rows))
+                        layer_frame_ms[mode].extend(float(row["frame_ms"]) for row in rows if row["frame_ms"])
                     elif mode == "default":
                         rows = stats_rows(stats, skip)
                         passed = [row for row in rows if passed_through(row)]
                         latency[mode].extend(latencies(passed))
+                        layer_frame_ms[mode].extend(float(row["frame_ms"]) for row in passed if row["frame_ms"])
                         line.append(f"({len(passed)} of {len(rows)} passed through)")
                         verdicts = [l for l in r.stderr.splitlines() if "SPLITVK_SPLIT=auto: the split" in l]
                         verdict_lines.append(verdicts[-1].split("info: ")[-1] if verdicts else "no verdict")
@@ -217,4 +224,9 @@ def run(args):
         print(f"latency-default/native: {statistics.median(latency['default']) / native_latency:.3f}")
     else:
         print("latency-default/native: none (no frame passed through)")
+    if layer_frame_ms["default"] and layer_frame_ms["unsplit"]:
+        print(f"passed-through/native: "
+              f"{statistics.median(layer_frame_ms['default']) / statistics.median(layer_frame_ms['unsplit']):.3f}")
+    else:
+        print("passed-through/native: none (no frame passed through)")
     return 0
