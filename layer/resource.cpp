@@ -325,20 +325,22 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateBuffer(VkDevice device, const VkBufferCreat
     return result;
 }
 
+} // namespace entry
+
+namespace observe {
+
 // The client's address of a buffer means nothing on the agent's GPU: the agent learns it here and
 // maps it to its own buffer's (server-agent/buffer_addresses.h), once per buffer (a bound buffer's
 // address never changes). Sent before the application can record a command that uses it. The log
 // entry dies with the buffer or its memory, after which the address names nothing.
-static VkDeviceAddress get_buffer_device_address(VkDevice device, const VkBufferDeviceAddressInfo *pInfo,
-                                                 PFN_vkGetBufferDeviceAddress next) {
-    DeviceState &dev = device_state(device);
-    const VkDeviceAddress address = next(device, pInfo);
-    if (!dev.session || address == 0) return address;
+void GetBufferDeviceAddress(DeviceState &dev, VkDeviceAddress address, VkDevice,
+                            const VkBufferDeviceAddressInfo *pInfo) {
+    if (address == 0) return;
     VkDeviceMemory memory = VK_NULL_HANDLE;
     {
         std::lock_guard lock(g_mutex);
         const auto it = g_buffers.find(pInfo->buffer);
-        if (it == g_buffers.end() || it->second.address_sent == address) return address;
+        if (it == g_buffers.end() || it->second.address_sent == address) return;
         memory = it->second.memory;
     }
     protocol::BufferAddress message;
@@ -353,18 +355,16 @@ static VkDeviceAddress get_buffer_device_address(VkDevice device, const VkBuffer
     std::lock_guard lock(g_mutex);
     if (const auto it = g_buffers.find(pInfo->buffer); it != g_buffers.end())
         it->second.address_sent = address;
-    return address;
 }
 
-VKAPI_ATTR VkDeviceAddress VKAPI_CALL GetBufferDeviceAddress(VkDevice device,
-                                                             const VkBufferDeviceAddressInfo *pInfo) {
-    return get_buffer_device_address(device, pInfo, device_dispatch(device).GetBufferDeviceAddress);
+void GetBufferDeviceAddressKHR(DeviceState &dev, VkDeviceAddress address, VkDevice device,
+                               const VkBufferDeviceAddressInfo *pInfo) {
+    GetBufferDeviceAddress(dev, address, device, pInfo);
 }
 
-VKAPI_ATTR VkDeviceAddress VKAPI_CALL GetBufferDeviceAddressKHR(VkDevice device,
-                                                                const VkBufferDeviceAddressInfo *pInfo) {
-    return get_buffer_device_address(device, pInfo, device_dispatch(device).GetBufferDeviceAddressKHR);
-}
+} // namespace observe
+
+namespace entry {
 
 VKAPI_ATTR VkResult VKAPI_CALL CreateImage(VkDevice device, const VkImageCreateInfo *pCreateInfo,
                                            const VkAllocationCallbacks *pAllocator, VkImage *pImage) {
