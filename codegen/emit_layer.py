@@ -22,6 +22,7 @@ called in a try block, and a catch that turns whatever was thrown into one line 
 error result, so that no exception unwinds into the application.
 """
 from allowlist import DEVICE_EXTENSIONS
+from codec_overrides import RESETS_CHILDREN
 from codec_policy import FORWARD, POLICY, TEMPLATE_COMMANDS
 from cpp import HEADER, guarded
 from layer_overrides import (EDITED_COMMANDS, LOADER_ANSWERED, LOCKED_HANDLES, MANUAL_COMMANDS,
@@ -67,7 +68,15 @@ def _destroyed_handle(c):
 
 # Destroyed objects that objects created later may name (layer/session.h: "retired").
 _RETIRED = {"vkDestroyShaderModule", "vkDestroyRenderPass", "vkDestroyPipelineLayout",
-            "vkDestroyPipelineCache"}
+            "vkDestroyPipelineCache", "vkDestroyDescriptorSetLayout"}
+
+
+def _releases_first(c, canon):
+    """Whether `c` frees objects without destroying the handle it names (vkFree*: the freed ones
+    are its array, vkResetDescriptorPool: the pool's children) and cannot fail, so that, as a
+    destroy, its observer and capture go in front of the driver call without waiting for a result."""
+    releases = c.name.startswith("vkFree") or canon.name in RESETS_CHILDREN
+    return releases and (c.return_type == "void" or (c.return_type == "VkResult" and not canon.error_codes))
 
 
 def _logged_call(c):
@@ -75,6 +84,9 @@ def _logged_call(c):
     that define `holders` and `killers`; None for the other calls."""
     if c.name in ("vkCreateGraphicsPipelines", "vkCreateComputePipelines"):
         return ["        const std::vector<uint64_t> holders = handle_ids(pPipelines, createInfoCount);",
+                "        const std::span<const uint64_t> killers;"]
+    if c.name == "vkAllocateDescriptorSets":
+        return ["        const std::vector<uint64_t> holders = handle_ids(pDescriptorSets, pAllocateInfo->descriptorSetCount);",
                 "        const std::span<const uint64_t> killers;"]
     if c.name in ("vkBindBufferMemory", "vkBindImageMemory"):
         resource = "buffer" if "Buffer" in c.name else "image"
@@ -134,6 +146,9 @@ def _capture_block(c, canon, handle_types, ok):
     created = _created_handle(c, handle_types)
     destroyed = _destroyed_handle(c)
     logged = _logged_call(canon)
+    # A destroy of VK_NULL_HANDLE does nothing: nothing for the agent to replay.
+    if destroyed and not logged:
+        ok += f" && {destroyed} != VK_NULL_HANDLE"
     lines = [f"    if (capturing(dev){ok}) [[unlikely]] {{"]
     if logged:
         lines += logged
@@ -158,8 +173,9 @@ def _records_first(c, canon):
     """Whether the capture goes in front of the driver call: a destroy's, since once the object is
     gone another thread may create one with the same handle value, and a destroy logged after that
     create would end the new object on the agent and in the live state."""
-    return (c.params[0].type != "VkCommandBuffer" and _destroyed_handle(c) is not None
-            and c.return_type == "void" and not _logged_call(canon))
+    if c.params[0].type == "VkCommandBuffer" or _logged_call(canon):
+        return False
+    return (_destroyed_handle(c) is not None and c.return_type == "void") or _releases_first(c, canon)
 
 
 def _lock_lines(c):
@@ -196,11 +212,12 @@ def _forward_body(c, by_name, handle_types, captured=True):
     observe = f"observe::{c.short_name}(dev, {_observer_arguments(c)});"
     # A destroy's observer runs before the driver call: once the driver has destroyed the object it
     # may hand the handle value to an object another thread creates, whose state the observer would
-    # then remove.
-    observe_first = c.name in OBSERVED_COMMANDS and ret == "void" and _destroyed_handle(c) is not None
+    # then remove. So does a free's (_releases_first), and neither waits for a result.
+    observe_first = c.name in OBSERVED_COMMANDS and (
+        (ret == "void" and _destroyed_handle(c) is not None) or _releases_first(c, canon))
     if observe_first:
         lines.append(f"    if (dev.session) [[unlikely]] {observe}")
-    ok = " && result >= 0" if ret == "VkResult" else ""
+    ok = " && result >= 0" if ret == "VkResult" and not _releases_first(c, canon) else ""
     capture = _capture_block(c, canon, handle_types, ok) if captured else []
     if captured and _records_first(c, canon):
         lines += capture

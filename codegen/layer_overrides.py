@@ -28,13 +28,6 @@ MANUAL_COMMANDS = {
     "vkResetCommandBuffer",
     "vkResetCommandPool",
     "vkDestroyCommandPool",
-    # descriptor_set.cpp: which bindings have immutable samplers (the encoder must skip those).
-    "vkCreateDescriptorSetLayout",
-    "vkDestroyDescriptorSetLayout",
-    "vkAllocateDescriptorSets",
-    "vkFreeDescriptorSets",
-    "vkResetDescriptorPool",
-    "vkDestroyDescriptorPool",
     # memory.cpp: allocations, maps and the shadow copies behind MemoryData.
     "vkAllocateMemory",
     "vkFreeMemory",
@@ -57,8 +50,8 @@ MANUAL_COMMANDS = {
     "vkAcquireNextImageKHR",
     "vkAcquireNextImage2KHR",
     "vkQueuePresentKHR",
-    # resource.cpp: TRANSFER_SRC added down the chain, so that a snapshot can read contents back.
-    "vkCreateBuffer",
+    # resource.cpp: TRANSFER_SRC added down the chain, so that a snapshot can read contents back; a
+    # linear image's layouts are sent after its capture (the buffer's create is rewritten: below).
     "vkCreateImage",
 }
 
@@ -107,6 +100,15 @@ OBSERVED_COMMANDS = {
     # resource.cpp: the client's buffer address, sent to the agent (BufferAddress).
     "vkGetBufferDeviceAddress",
     "vkGetBufferDeviceAddressKHR",
+    # descriptor_set.cpp: which bindings have immutable samplers (the encoder must skip those), and
+    # the sets of each pool, which its reset and destroy free (frees and resets are observed and
+    # captured before the call, as destroys: emit_layer.py).
+    "vkCreateDescriptorSetLayout",
+    "vkDestroyDescriptorSetLayout",
+    "vkAllocateDescriptorSets",
+    "vkFreeDescriptorSets",
+    "vkResetDescriptorPool",
+    "vkDestroyDescriptorPool",
     # descriptor_template.cpp: the template layout pData is encoded with (the updates' captures
     # look it up: emit_layer.py, codec_policy.TEMPLATE_COMMANDS).
     "vkCreateDescriptorUpdateTemplate",
@@ -158,6 +160,8 @@ REWRITTEN_COMMANDS = {
     # pipeline.cpp: static viewport/scissor state made dynamic down the chain, set at bind.
     "vkCreateGraphicsPipelines",
     "vkCmdBindPipeline",
+    # resource.cpp: TRANSFER_SRC added down the chain, so that a snapshot can read the buffer back.
+    "vkCreateBuffer",
 }
 
 # Commands whose answer the layer edits before the application sees it, by canonical name: their

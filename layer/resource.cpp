@@ -204,6 +204,29 @@ void for_each_readable_buffer(
             each(buffer, state.memory, state.memory_offset, state.size);
 }
 
+namespace rewrite {
+
+// The generated entry point captures the application's create info once this succeeded.
+VkResult CreateBuffer(DeviceState &dev, PFN_vkCreateBuffer down, VkDevice device,
+                      const VkBufferCreateInfo *pCreateInfo, const VkAllocationCallbacks *pAllocator,
+                      VkBuffer *pBuffer) {
+    // Every buffer usage combination accepts TRANSFER_SRC; the retry is for the exotic case.
+    VkBufferCreateInfo info = *pCreateInfo;
+    info.usage |= VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+    VkResult result = down(device, &info, pAllocator, pBuffer);
+    bool readable = result == VK_SUCCESS;
+    if (result != VK_SUCCESS && info.usage != pCreateInfo->usage) {
+        result = down(device, pCreateInfo, pAllocator, pBuffer);
+        readable = pCreateInfo->usage & VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+    }
+    if (result != VK_SUCCESS) return result;
+    std::lock_guard lock(g_mutex);
+    g_buffers[*pBuffer] = BufferState{&dev, pCreateInfo->size, readable, VK_NULL_HANDLE, 0};
+    return result;
+}
+
+} // namespace rewrite
+
 namespace observe {
 
 void DestroyBuffer(DeviceState &, VkDevice, VkBuffer buffer, const VkAllocationCallbacks *) {
@@ -299,33 +322,7 @@ void DestroyRenderPass(DeviceState &, VkDevice, VkRenderPass render_pass, const 
 
 } // namespace observe
 
-namespace entry {
-
-VKAPI_ATTR VkResult VKAPI_CALL CreateBuffer(VkDevice device, const VkBufferCreateInfo *pCreateInfo,
-                                            const VkAllocationCallbacks *pAllocator, VkBuffer *pBuffer) {
-    DeviceState &dev = device_state(device);
-    if (!dev.session) return dev.dispatch.CreateBuffer(device, pCreateInfo, pAllocator, pBuffer);
-    // Every buffer usage combination accepts TRANSFER_SRC; the retry is for the exotic case.
-    VkBufferCreateInfo info = *pCreateInfo;
-    info.usage |= VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
-    VkResult result = dev.dispatch.CreateBuffer(device, &info, pAllocator, pBuffer);
-    bool readable = result == VK_SUCCESS;
-    if (result != VK_SUCCESS && info.usage != pCreateInfo->usage) {
-        result = dev.dispatch.CreateBuffer(device, pCreateInfo, pAllocator, pBuffer);
-        readable = pCreateInfo->usage & VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
-    }
-    if (result != VK_SUCCESS) return result;
-    {
-        std::lock_guard lock(g_mutex);
-        g_buffers[*pBuffer] = BufferState{&dev, pCreateInfo->size, readable, VK_NULL_HANDLE, 0};
-    }
-    record_global(dev, LiveChange::Created, codec::handle_value(*pBuffer), [&](codec::Encoder &e) {
-        encode_vkCreateBuffer(e, device, pCreateInfo, pAllocator, pBuffer);
-    });
-    return result;
-}
-
-} // namespace entry
+namespace entry {} // namespace entry
 
 namespace observe {
 
