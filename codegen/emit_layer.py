@@ -17,7 +17,7 @@ template commands (codec_policy.TEMPLATE_COMMANDS) encode pData with the templat
 the template's observer keeps.
 
 What the loader is handed is none of those but its exception boundary in namespace splitvk::boundary
-(layer/entry_boundary.h), one per command, generated here for the four kinds alike: the entry point
+(layer/entry_boundary.h), one per command, generated here for the five kinds alike: the entry point
 called in a try block, and a catch that turns whatever was thrown into one line and the command's
 error result, so that no exception unwinds into the application.
 """
