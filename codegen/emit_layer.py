@@ -110,7 +110,7 @@ def _template_layout(c):
     captured."""
     template = next(p.name for p in c.params if p.type == "VkDescriptorUpdateTemplate")
     return (f"const codec::DescriptorTemplateLayout *template_layout = "
-            f"descriptor_template_layout({template})")
+            f"descriptor_template_layout(dev, {template})")
 
 
 def _capture_block(c, canon, handle_types, ok):

@@ -16,7 +16,7 @@ ObjectMap<VkDescriptorUpdateTemplate, codec::DescriptorTemplateLayout> g_templat
 } // namespace
 
 const codec::DescriptorTemplateLayout *
-descriptor_template_layout(VkDescriptorUpdateTemplate update_template) {
+descriptor_template_layout(const DeviceState &, VkDescriptorUpdateTemplate update_template) {
     return g_templates.find(update_template);
 }
 

@@ -103,7 +103,7 @@ class LayerEntryPoints(unittest.TestCase):
     def test_a_template_update_is_captured_with_its_templates_layout_after_the_call(self):
         body = self.entry["UpdateDescriptorSetWithTemplateKHR"][1]
         call = _index(body, "dev.dispatch.UpdateDescriptorSetWithTemplateKHR(")
-        layout = _index(body, "descriptor_template_layout(descriptorUpdateTemplate)")
+        layout = _index(body, "descriptor_template_layout(dev, descriptorUpdateTemplate)")
         record = _index(body, "encode_vkUpdateDescriptorSetWithTemplate(e, device, descriptorSet, "
                               "descriptorUpdateTemplate, pData, *template_layout)")
         note = _index(body, "note_descriptor_template_update(descriptorSet, *template_layout, pData)")
