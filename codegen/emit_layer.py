@@ -1,24 +1,32 @@
 """The layer's entry points and the name lookup behind its vkGet*ProcAddr.
 
-Every forwarded command gets an entry point in namespace splitvk::entry, of one of four kinds
+Every forwarded command gets an entry point in namespace splitvk::entry, of one of five kinds
 (layer/README.md, step 3; the lists are in layer_overrides.py):
 - forwarded: the call down through the dispatch table of the object it is called on, then its
   capture (a destroy's before the call);
-- observed (OBSERVED_COMMANDS): the same, and a call to the hand-written observe::<Name>;
+- observed (OBSERVED_COMMANDS): the same, and a call to the hand-written observe::<Name> (given the
+  returned value, for a command that returns one other than VkResult);
 - rewritten (REWRITTEN_COMMANDS, canonical names, aliases follow): the capture of the application's
   call, then the hand-written rewrite::<Name>, which makes the driver call with the split's changes;
+- edited (EDITED_COMMANDS, canonical names, aliases follow): the call down, then the hand-written
+  edit::<Name>, which changes the outputs the application is given;
 - manual (MANUAL_COMMANDS): declared here, defined by hand in layer/.
-The observe:: and rewrite:: hooks are declared in the generated header.
+The observe::, rewrite:: and edit:: hooks are declared in the generated header. Every call down on
+a handle of LOCKED_HANDLES (queues) holds that handle's lock. The captures of the descriptor update
+template commands (codec_policy.TEMPLATE_COMMANDS) encode pData with the template's layout, which
+the template's observer keeps.
 
 What the loader is handed is none of those but its exception boundary in namespace splitvk::boundary
-(layer/entry_boundary.h), one per command, generated here for the four kinds alike: the entry point
+(layer/entry_boundary.h), one per command, generated here for the five kinds alike: the entry point
 called in a try block, and a catch that turns whatever was thrown into one line and the command's
 error result, so that no exception unwinds into the application.
 """
 from allowlist import DEVICE_EXTENSIONS
-from codec_policy import FORWARD, POLICY
+from codec_overrides import RESETS_CHILDREN
+from codec_policy import FORWARD, POLICY, TEMPLATE_COMMANDS
 from cpp import HEADER, guarded
-from layer_overrides import LOADER_ANSWERED, MANUAL_COMMANDS, OBSERVED_COMMANDS, REWRITTEN_COMMANDS
+from layer_overrides import (EDITED_COMMANDS, LOADER_ANSWERED, LOCKED_HANDLES, MANUAL_COMMANDS,
+                             OBSERVED_COMMANDS, REWRITTEN_COMMANDS)
 
 _LEVEL_ENUM = {
     "global": "EntryLevel::Global",
@@ -60,7 +68,15 @@ def _destroyed_handle(c):
 
 # Destroyed objects that objects created later may name (layer/session.h: "retired").
 _RETIRED = {"vkDestroyShaderModule", "vkDestroyRenderPass", "vkDestroyPipelineLayout",
-            "vkDestroyPipelineCache"}
+            "vkDestroyPipelineCache", "vkDestroyDescriptorSetLayout"}
+
+
+def _releases_first(c, canon):
+    """Whether `c` frees objects without destroying the handle it names (vkFree*: the freed ones
+    are its array, vkResetDescriptorPool: the pool's children) and cannot fail, so that, as a
+    destroy, its observer and capture go in front of the driver call without waiting for a result."""
+    releases = c.name.startswith("vkFree") or canon.name in RESETS_CHILDREN
+    return releases and (c.return_type == "void" or (c.return_type == "VkResult" and not canon.error_codes))
 
 
 def _logged_call(c):
@@ -68,6 +84,9 @@ def _logged_call(c):
     that define `holders` and `killers`; None for the other calls."""
     if c.name in ("vkCreateGraphicsPipelines", "vkCreateComputePipelines"):
         return ["        const std::vector<uint64_t> holders = handle_ids(pPipelines, createInfoCount);",
+                "        const std::span<const uint64_t> killers;"]
+    if c.name == "vkAllocateDescriptorSets":
+        return ["        const std::vector<uint64_t> holders = handle_ids(pDescriptorSets, pAllocateInfo->descriptorSetCount);",
                 "        const std::span<const uint64_t> killers;"]
     if c.name in ("vkBindBufferMemory", "vkBindImageMemory"):
         resource = "buffer" if "Buffer" in c.name else "image"
@@ -83,6 +102,17 @@ def _logged_call(c):
     return None
 
 
+def _template_layout(c):
+    """For a command whose pData a descriptor update template lays out (TEMPLATE_COMMANDS): the
+    condition that finds the template's layout as `template_layout` (vkCmdPushDescriptorSet*'s
+    `layout` is its pipeline layout). Only a template created while the device had a session has
+    one (descriptor_template.cpp), and without it pData cannot be encoded, so the call is not
+    captured."""
+    template = next(p.name for p in c.params if p.type == "VkDescriptorUpdateTemplate")
+    return (f"const codec::DescriptorTemplateLayout *template_layout = "
+            f"descriptor_template_layout(dev, {template})")
+
+
 def _capture_block(c, canon, handle_types, ok):
     """The capture of the application's call `c` (encoded under its canonical command `canon`), as
     the lines of one `if (capturing(dev)...)` block.
@@ -92,17 +122,33 @@ def _capture_block(c, canon, handle_types, ok):
     effect on the live-state log.
     """
     handle = c.params[0]
-    encode = f"encode_{canon.name}(e, {c.arguments});"
+    templated = canon.name in TEMPLATE_COMMANDS
+    encode = f"encode_{canon.name}(e, {c.arguments}{', *template_layout' if templated else ''});"
     if handle.type == "VkCommandBuffer":
+        lines = [f"    if (capturing(dev){ok}) [[unlikely]] {{",
+                 f"        if (codec::Encoder *enc = command_buffer_encoder({handle.name})) {{",
+                 "            codec::Encoder &e = *enc;"]
+        if templated:
+            lines += [f"            if ({_template_layout(c)}) {encode}"]
+        else:
+            lines += [f"            {encode}"]
+        return lines + ["        }", "    }"]
+    if templated:
+        if canon.name != "vkUpdateDescriptorSetWithTemplate":
+            raise SystemExit(f"template command {c.name}: no capture rule outside command buffers")
+        # The set's descriptor contents in the live-state log, as vkUpdateDescriptorSets' below.
         return [f"    if (capturing(dev){ok}) [[unlikely]] {{",
-                f"        if (codec::Encoder *enc = command_buffer_encoder({handle.name})) {{",
-                "            codec::Encoder &e = *enc;",
-                f"            {encode}",
+                f"        if ({_template_layout(c)}) {{",
+                f"            record_global(dev, LiveChange::Unchanged, 0, [&](codec::Encoder &e) {{ {encode} }});",
+                "            note_descriptor_template_update(descriptorSet, *template_layout, pData);",
                 "        }",
                 "    }"]
     created = _created_handle(c, handle_types)
     destroyed = _destroyed_handle(c)
     logged = _logged_call(canon)
+    # A destroy of VK_NULL_HANDLE does nothing: nothing for the agent to replay.
+    if destroyed and not logged:
+        ok += f" && {destroyed} != VK_NULL_HANDLE"
     lines = [f"    if (capturing(dev){ok}) [[unlikely]] {{"]
     if logged:
         lines += logged
@@ -127,8 +173,32 @@ def _records_first(c, canon):
     """Whether the capture goes in front of the driver call: a destroy's, since once the object is
     gone another thread may create one with the same handle value, and a destroy logged after that
     create would end the new object on the agent and in the live state."""
-    return (c.params[0].type != "VkCommandBuffer" and _destroyed_handle(c) is not None
-            and c.return_type == "void" and not _logged_call(canon))
+    if c.params[0].type == "VkCommandBuffer" or _logged_call(canon):
+        return False
+    return (_destroyed_handle(c) is not None and c.return_type == "void") or _releases_first(c, canon)
+
+
+def _lock_lines(c):
+    """The lock a call down on `c`'s handle holds (LOCKED_HANDLES), held to the end of the entry
+    point, as its line; none for the other handles."""
+    handle = c.params[0]
+    lock = LOCKED_HANDLES.get(handle.type)
+    return [f"    const auto lock = {lock}({handle.name});"] if lock else []
+
+
+def _observer_arguments(c):
+    """What observe::<Name> is given after the DeviceState: the returned value of a command that
+    returns one other than VkResult (VkResult commands are observed on success only), then the
+    command's parameters."""
+    if c.return_type in ("void", "VkResult"):
+        return c.arguments
+    return f"result, {c.arguments}"
+
+
+def _observer_signature(c):
+    if c.return_type in ("void", "VkResult"):
+        return f"DeviceState &dev, {c.signature}"
+    return f"DeviceState &dev, {c.return_type} result, {c.signature}"
 
 
 def _forward_body(c, by_name, handle_types, captured=True):
@@ -139,18 +209,20 @@ def _forward_body(c, by_name, handle_types, captured=True):
     ret = c.return_type
     call = f"dev.dispatch.{c.short_name}({c.arguments})"
     lines = [f"    DeviceState &dev = device_state({handle.name});"]
-    observe = f"observe::{c.short_name}(dev, {c.arguments});"
+    observe = f"observe::{c.short_name}(dev, {_observer_arguments(c)});"
     # A destroy's observer runs before the driver call: once the driver has destroyed the object it
     # may hand the handle value to an object another thread creates, whose state the observer would
-    # then remove.
-    observe_first = c.name in OBSERVED_COMMANDS and ret == "void" and _destroyed_handle(c) is not None
+    # then remove. So does a free's (_releases_first), and neither waits for a result.
+    observe_first = c.name in OBSERVED_COMMANDS and (
+        (ret == "void" and _destroyed_handle(c) is not None) or _releases_first(c, canon))
     if observe_first:
         lines.append(f"    if (dev.session) [[unlikely]] {observe}")
-    ok = " && result >= 0" if ret == "VkResult" else ""
+    ok = " && result >= 0" if ret == "VkResult" and not _releases_first(c, canon) else ""
     capture = _capture_block(c, canon, handle_types, ok) if captured else []
     if captured and _records_first(c, canon):
         lines += capture
         capture = []
+    lines += _lock_lines(c)
     if ret == "void":
         lines.append(f"    {call};")
     else:
@@ -192,6 +264,14 @@ def _rewritten_body(c, by_name, handle_types):
     # A create is captured after the hook, on success: its capture names the handle the driver made.
     return (lines + [f"    const VkResult result = {hook};"] +
             _capture_block(c, canon, handle_types, " && result >= 0") + ["    return result;"])
+
+
+def _edited_body(c, by_name):
+    """Entry point body of an edited command (EDITED_COMMANDS): the call down through `c`'s own
+    dispatch slot, then the hand-written hook of its canonical command, which edits the outputs."""
+    canon = _canonical(c, by_name)
+    return (_lock_lines(c) + [f"    {_dispatch_expr(c)}.{c.short_name}({c.arguments});",
+                              f"    edit::{canon.short_name}({c.arguments});"])
 
 
 def _boundary_function(c):
@@ -243,10 +323,30 @@ def emit(model):
     clash = {c.name for c in rewritten} & (MANUAL_COMMANDS | OBSERVED_COMMANDS)
     if clash:
         raise SystemExit(f"commands (or aliases of commands) both rewritten and manual or observed: {', '.join(sorted(clash))}")
+    locked = {c.name for c in rewritten if c.params[0].type in LOCKED_HANDLES}
+    if locked:
+        raise SystemExit(f"rewritten commands on a locked handle (no lock rule for a rewrite): {', '.join(sorted(locked))}")
     not_forwarded = {c.name for c in rewritten if POLICY.get(_canonical(c, by_name).name) != FORWARD}
     if not_forwarded:
         raise SystemExit(f"rewritten commands the codec does not encode: {', '.join(sorted(not_forwarded))}")
     rewritten = {c.name for c in rewritten}
+    edited = [c for c in commands if _canonical(c, by_name).name in EDITED_COMMANDS]
+    not_canonical = {n for n in EDITED_COMMANDS if by_name[n].alias}
+    if not_canonical:
+        raise SystemExit(f"edited commands named by an alias (name the canonical one): {', '.join(sorted(not_canonical))}")
+    clash = {c.name for c in edited} & (MANUAL_COMMANDS | OBSERVED_COMMANDS | rewritten)
+    if clash:
+        raise SystemExit(f"commands (or aliases of commands) both edited and manual, observed or rewritten: {', '.join(sorted(clash))}")
+    # An edit changes only what the application is told: a command the codec encodes would send the
+    # agent the driver's answer and the application another one.
+    not_edited = {c.name for c in edited if c.return_type != "void" or c.level == "device" or
+                  POLICY.get(_canonical(c, by_name).name) == FORWARD}
+    if not_edited:
+        raise SystemExit(f"edited commands that return a value, are device-level or are encoded: {', '.join(sorted(not_edited))}")
+    edited = {c.name for c in edited}
+    unknown = set(LOCKED_HANDLES) - set(model.handle_types)
+    if unknown:
+        raise SystemExit(f"locked handle types that are not handles: {', '.join(sorted(unknown))}")
 
     header = [HEADER.format(script="emit_layer.py"), "#pragma once", "",
               "#include <vulkan/vulkan.h>", "", "namespace splitvk {", "",
@@ -278,8 +378,15 @@ def emit(model):
                "namespace observe {", ""]
     for c in commands:
         if c.name in OBSERVED_COMMANDS:
-            header += guarded(c.protect, [f"void {c.short_name}(DeviceState &dev, {c.signature});"])
+            header += guarded(c.protect, [f"void {c.short_name}({_observer_signature(c)});"])
     header += ["", "} // namespace observe", "",
+               "// Hand-written edits of what the driver answered (layer_overrides.EDITED_COMMANDS), one per",
+               "// canonical command, called after every call of it or its aliases went down.",
+               "namespace edit {", ""]
+    for name in sorted(EDITED_COMMANDS):
+        c = by_name[name]
+        header += guarded(c.protect, [f"void {c.short_name}({c.signature});"])
+    header += ["", "} // namespace edit", "",
                "// Hand-written rewrites of generated entry points (layer_overrides.REWRITTEN_COMMANDS), one",
                "// per canonical command, called only on a device with a session. The application's call is",
                "// captured before it (a create's after it, on success); `down` is the dispatch slot of the",
@@ -292,7 +399,7 @@ def emit(model):
     header += ["", "} // namespace rewrite", "} // namespace splitvk", ""]
 
     source = [HEADER.format(script="emit_layer.py"), '#include "layer_entry_points.h"', "",
-              '#include "capture.h"', '#include "descriptor_set.h"', '#include "dispatch.h"', '#include "entry_boundary.h"', '#include "vk_codec.h"', "", "#include <algorithm>", "#include <atomic>", "#include <cstring>", "#include <iterator>", "#include <span>", "#include <vector>", "",
+              '#include "capture.h"', '#include "descriptor_set.h"', '#include "dispatch.h"', '#include "entry_boundary.h"', '#include "queue.h"', '#include "vk_codec.h"', "", "#include <algorithm>", "#include <atomic>", "#include <cstring>", "#include <iterator>", "#include <span>", "#include <vector>", "",
               "namespace splitvk {", "namespace entry {", ""]
     for c in commands:
         if c.name in MANUAL_COMMANDS:
@@ -300,10 +407,12 @@ def emit(model):
         forward = POLICY.get(_canonical(c, by_name).name) == FORWARD
         if c.name in rewritten:
             body = _rewritten_body(c, by_name, model.handle_types)
+        elif c.name in edited:
+            body = _edited_body(c, by_name)
         elif c.level == "device" and (forward or c.name in OBSERVED_COMMANDS):
             body = _forward_body(c, by_name, model.handle_types, captured=forward)
         else:
-            body = [f"    return {_dispatch_expr(c)}.{c.short_name}({c.arguments});"]
+            body = _lock_lines(c) + [f"    return {_dispatch_expr(c)}.{c.short_name}({c.arguments});"]
         source += guarded(c.protect, [
             f"VKAPI_ATTR {c.return_type} VKAPI_CALL {c.short_name}({c.signature}) {{",
             *body, "}", ""])

@@ -1,10 +1,12 @@
 """Which layer entry points call hand-written code, listed under the layer file of their Vulkan concept.
 
-Everything not listed here gets a generated forwarded entry point (emit_layer.py). Three lists:
+Everything not listed here gets a generated forwarded entry point (emit_layer.py). Four lists:
 OBSERVED_COMMANDS (generated, and a hand-written observer of state the layer tracks),
 REWRITTEN_COMMANDS (generated capture, and a hand-written hook that passes down the split's changed
-call) and MANUAL_COMMANDS (whole entry points by hand). Keep the manual list to what the other two
-cannot express: object lifetime of the dispatchable handles, the loader interface, memory, queues.
+call), EDITED_COMMANDS (generated, and a hand-written hook that edits what the driver answered) and
+MANUAL_COMMANDS (whole entry points by hand). Keep the manual list to what the other three cannot
+express: object lifetime of the dispatchable handles, the loader interface, memory, queue submits.
+LOCKED_HANDLES says which lock every call down on a handle takes.
 """
 
 MANUAL_COMMANDS = {
@@ -15,16 +17,6 @@ MANUAL_COMMANDS = {
     "vkCreateInstance",
     "vkDestroyInstance",
     "vkEnumerateDeviceExtensionProperties",
-    # physical_device.cpp: the device envelope the application is told.
-    "vkGetPhysicalDeviceProperties",
-    "vkGetPhysicalDeviceProperties2",
-    "vkGetPhysicalDeviceProperties2KHR",
-    "vkGetPhysicalDeviceFeatures",
-    "vkGetPhysicalDeviceFeatures2",
-    "vkGetPhysicalDeviceFeatures2KHR",
-    "vkGetPhysicalDeviceFormatProperties",
-    "vkGetPhysicalDeviceFormatProperties2",
-    "vkGetPhysicalDeviceFormatProperties2KHR",
     # device.cpp: the device chain.
     "vkCreateDevice",
     "vkDestroyDevice",
@@ -36,29 +28,14 @@ MANUAL_COMMANDS = {
     "vkResetCommandBuffer",
     "vkResetCommandPool",
     "vkDestroyCommandPool",
-    # descriptor_template.cpp: the template layout pData is encoded with.
-    "vkCreateDescriptorUpdateTemplate",
-    "vkCreateDescriptorUpdateTemplateKHR",
-    "vkDestroyDescriptorUpdateTemplate",
-    "vkDestroyDescriptorUpdateTemplateKHR",
-    "vkUpdateDescriptorSetWithTemplate",
-    "vkUpdateDescriptorSetWithTemplateKHR",
-    "vkCmdPushDescriptorSetWithTemplateKHR",
-    # descriptor_set.cpp: which bindings have immutable samplers (the encoder must skip those).
-    "vkCreateDescriptorSetLayout",
-    "vkDestroyDescriptorSetLayout",
-    "vkAllocateDescriptorSets",
-    "vkFreeDescriptorSets",
-    "vkResetDescriptorPool",
-    "vkDestroyDescriptorPool",
     # memory.cpp: allocations, maps and the shadow copies behind MemoryData.
     "vkAllocateMemory",
     "vkFreeMemory",
     "vkMapMemory",
     "vkUnmapMemory",
     "vkFlushMappedMemoryRanges",
-    # queue.cpp: queues (their family, for the layer's own submits) and submits (dirty memory first, then the submit).
-    # Every queue operation takes the queue's lock: the layer's present thread uses the app's queues too.
+    # queue.cpp: queues (their family, for the layer's own submits) and submits (dirty memory first,
+    # then the submit), each under the queue's lock (LOCKED_HANDLES).
     "vkGetDeviceQueue",
     "vkGetDeviceQueue2",
     "vkQueueSubmit",
@@ -67,21 +44,15 @@ MANUAL_COMMANDS = {
     "vkQueueBindSparse",
     "vkQueueWaitIdle",
     "vkDeviceWaitIdle",
-    "vkQueueBeginDebugUtilsLabelEXT",
-    "vkQueueEndDebugUtilsLabelEXT",
-    "vkQueueInsertDebugUtilsLabelEXT",
     # swapchain.cpp / present.cpp: swapchain images and frame marks.
     "vkCreateSwapchainKHR",
     "vkDestroySwapchainKHR",
     "vkAcquireNextImageKHR",
     "vkAcquireNextImage2KHR",
     "vkQueuePresentKHR",
-    # resource.cpp: TRANSFER_SRC added down the chain, so that a snapshot can read contents back.
-    "vkCreateBuffer",
+    # resource.cpp: TRANSFER_SRC added down the chain, so that a snapshot can read contents back; a
+    # linear image's layouts are sent after its capture (the buffer's create is rewritten: below).
     "vkCreateImage",
-    # resource.cpp: the client's buffer address, sent to the agent (BufferAddress).
-    "vkGetBufferDeviceAddress",
-    "vkGetBufferDeviceAddressKHR",
 }
 
 # Commands whose generated entry point also tells a hand-written observer, after the call went down
@@ -89,6 +60,8 @@ MANUAL_COMMANDS = {
 # reused the handle value for a new object whose state the observer would remove):
 # observe::<Name>(DeviceState &, <the command's parameters>) in the namespace
 # splitvk::observe, called only on a device with a session and, for VkResult commands, on success.
+# A command that returns another value (an address) passes it first:
+# observe::<Name>(DeviceState &, <the value>, <the command's parameters>).
 # For state the layer tracks but does not change (docs/architecture.md §3: the snapshot of a resync replays it).
 OBSERVED_COMMANDS = {
     # resource.cpp: where buffers and images live, and the layout of every image subresource, so
@@ -124,6 +97,24 @@ OBSERVED_COMMANDS = {
     "vkDestroyFramebuffer",
     # pipeline.cpp: the static viewport/scissor state of pipelines the layer made dynamic.
     "vkDestroyPipeline",
+    # resource.cpp: the client's buffer address, sent to the agent (BufferAddress).
+    "vkGetBufferDeviceAddress",
+    "vkGetBufferDeviceAddressKHR",
+    # descriptor_set.cpp: which bindings have immutable samplers (the encoder must skip those), and
+    # the sets of each pool, which its reset and destroy free (frees and resets are observed and
+    # captured before the call, as destroys: emit_layer.py).
+    "vkCreateDescriptorSetLayout",
+    "vkDestroyDescriptorSetLayout",
+    "vkAllocateDescriptorSets",
+    "vkFreeDescriptorSets",
+    "vkResetDescriptorPool",
+    "vkDestroyDescriptorPool",
+    # descriptor_template.cpp: the template layout pData is encoded with (the updates' captures
+    # look it up: emit_layer.py, codec_policy.TEMPLATE_COMMANDS).
+    "vkCreateDescriptorUpdateTemplate",
+    "vkCreateDescriptorUpdateTemplateKHR",
+    "vkDestroyDescriptorUpdateTemplate",
+    "vkDestroyDescriptorUpdateTemplateKHR",
 }
 
 # Commands the split rewrites (layer/split.h), by canonical name: their aliases follow. The
@@ -169,6 +160,31 @@ REWRITTEN_COMMANDS = {
     # pipeline.cpp: static viewport/scissor state made dynamic down the chain, set at bind.
     "vkCreateGraphicsPipelines",
     "vkCmdBindPipeline",
+    # resource.cpp: TRANSFER_SRC added down the chain, so that a snapshot can read the buffer back.
+    "vkCreateBuffer",
+}
+
+# Commands whose answer the layer edits before the application sees it, by canonical name: their
+# aliases follow. The generated entry point calls down through the called command's own dispatch
+# slot, then the hand-written hook edit::<Name>(<the command's parameters>) in the namespace
+# splitvk::edit, which changes the outputs in place. For queries the codec does not encode.
+EDITED_COMMANDS = {
+    # physical_device.cpp: the device envelope the application is told (limits, features, formats).
+    "vkGetPhysicalDeviceProperties",
+    "vkGetPhysicalDeviceProperties2",
+    "vkGetPhysicalDeviceFeatures",
+    "vkGetPhysicalDeviceFeatures2",
+    "vkGetPhysicalDeviceFormatProperties",
+    "vkGetPhysicalDeviceFormatProperties2",
+}
+
+# The lock every call down on a handle of the type takes, by the function that returns it held.
+# Vulkan requires the operations of one queue to be externally synchronised, and the layer's present
+# thread (present.cpp) uses the application's queues: every generated entry point called on a queue
+# holds its lock around the call down, and the manual queue commands (queue.cpp, present.cpp) take
+# the same lock by hand.
+LOCKED_HANDLES = {
+    "VkQueue": "lock_queue",
 }
 
 # Global commands are answered by the loader from the manifest for interface version 2 layers;

@@ -71,6 +71,7 @@ class Command:
     origin: str               # "VK_VERSION_1_0" or the extension that introduced it
     protect: str | None       # platform macro guarding it, e.g. "VK_USE_PLATFORM_XCB_KHR"
     alias: str | None         # the command this one aliases, if any
+    error_codes: list[str] = field(default_factory=list)  # `errorcodes`: the results that say it failed
 
     @property
     def short_name(self) -> str:
@@ -276,7 +277,8 @@ def load(registry_dir: str) -> ApiModel:
             self.model.commands.append(Command(
                 name=name, return_type=proto.find("type").text, params=params,
                 level=_command_level(name, params), origin=self.featureName,
-                protect=self.featureExtraProtect, alias=alias))
+                protect=self.featureExtraProtect, alias=alias,
+                error_codes=[e for e in (cmdinfo.elem.get("errorcodes") or "").split(",") if e]))
 
     collector = Collector()
     options = generator.GeneratorOptions(

@@ -278,16 +278,10 @@ void snapshot_descriptor_contents(DeviceState &device, const std::unordered_set<
     if (set_count) *set_count = count;
 }
 
-namespace entry {
+namespace observe {
 
-VKAPI_ATTR VkResult VKAPI_CALL CreateDescriptorSetLayout(VkDevice device,
-                                                         const VkDescriptorSetLayoutCreateInfo *pCreateInfo,
-                                                         const VkAllocationCallbacks *pAllocator,
-                                                         VkDescriptorSetLayout *pSetLayout) {
-    DeviceState &dev = device_state(device);
-    const VkResult result =
-        dev.dispatch.CreateDescriptorSetLayout(device, pCreateInfo, pAllocator, pSetLayout);
-    if (result != VK_SUCCESS || !capturing(dev)) return result;
+void CreateDescriptorSetLayout(DeviceState &, VkDevice, const VkDescriptorSetLayoutCreateInfo *pCreateInfo,
+                               const VkAllocationCallbacks *, VkDescriptorSetLayout *pSetLayout) {
     auto info = std::make_shared<LayoutInfo>();
     for (uint32_t i = 0; i < pCreateInfo->bindingCount; ++i) {
         const VkDescriptorSetLayoutBinding &b = pCreateInfo->pBindings[i];
@@ -297,127 +291,69 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateDescriptorSetLayout(VkDevice device,
             b.pImmutableSamplers && b.descriptorCount > 0)
             info->immutable_sampler_bindings.insert(b.binding);
     }
+    std::unique_lock lock(g_mutex);
+    g_layouts[*pSetLayout] = std::move(info);
+}
+
+// Before the driver may hand the value to a layout another thread creates (as every destroy's
+// observer): the new layout keeps its counts.
+void DestroyDescriptorSetLayout(DeviceState &, VkDevice, VkDescriptorSetLayout descriptorSetLayout,
+                                const VkAllocationCallbacks *) {
+    if (descriptorSetLayout == VK_NULL_HANDLE) return;
+    std::unique_lock lock(g_mutex);
+    g_layouts.erase(descriptorSetLayout);
+}
+
+void AllocateDescriptorSets(DeviceState &, VkDevice, const VkDescriptorSetAllocateInfo *pAllocateInfo,
+                            VkDescriptorSet *pDescriptorSets) {
+    std::unique_lock lock(g_mutex);
+    for (uint32_t i = 0; i < pAllocateInfo->descriptorSetCount; ++i) {
+        const auto layout = g_layouts.find(pAllocateInfo->pSetLayouts[i]);
+        g_sets[pDescriptorSets[i]] = {
+            layout == g_layouts.end() ? nullptr : layout->second, pAllocateInfo->descriptorPool, {}};
+        g_pool_sets[pAllocateInfo->descriptorPool].insert(pDescriptorSets[i]);
+    }
+}
+
+// Before the driver may hand a freed set's value to a set another thread allocates (as every
+// destroy's observer); the freed sets let go of their live-state log entries.
+void FreeDescriptorSets(DeviceState &dev, VkDevice, VkDescriptorPool descriptorPool,
+                        uint32_t descriptorSetCount, const VkDescriptorSet *pDescriptorSets) {
+    std::vector<uint64_t> ids;
     {
         std::unique_lock lock(g_mutex);
-        g_layouts[*pSetLayout] = std::move(info);
-    }
-    record_global(dev, LiveChange::Created, codec::handle_value(*pSetLayout), [&](codec::Encoder &e) {
-        encode_vkCreateDescriptorSetLayout(e, device, pCreateInfo, pAllocator, pSetLayout);
-    });
-    return result;
-}
-
-VKAPI_ATTR void VKAPI_CALL DestroyDescriptorSetLayout(VkDevice device,
-                                                      VkDescriptorSetLayout descriptorSetLayout,
-                                                      const VkAllocationCallbacks *pAllocator) {
-    DeviceState &dev = device_state(device);
-    // Forgotten and recorded before the driver may hand the value to a layout another thread creates
-    // (as every destroy: codegen/emit_layer.py): the new layout keeps its counts, and the agent and
-    // the live state keep the new layout.
-    if (dev.session && descriptorSetLayout != VK_NULL_HANDLE) {
-        {
-            std::unique_lock lock(g_mutex);
-            g_layouts.erase(descriptorSetLayout);
+        const auto pool = g_pool_sets.find(descriptorPool);
+        for (uint32_t i = 0; i < descriptorSetCount; ++i) {
+            if (pDescriptorSets[i] == VK_NULL_HANDLE) continue;
+            g_sets.erase(pDescriptorSets[i]);
+            if (pool != g_pool_sets.end()) pool->second.erase(pDescriptorSets[i]);
+            ids.push_back(codec::handle_value(pDescriptorSets[i]));
         }
-        if (capturing(dev))
-            record_global(dev, LiveChange::Retired, codec::handle_value(descriptorSetLayout),
-                          [&](codec::Encoder &e) {
-                              encode_vkDestroyDescriptorSetLayout(e, device, descriptorSetLayout, pAllocator);
-                          });
     }
-    dev.dispatch.DestroyDescriptorSetLayout(device, descriptorSetLayout, pAllocator);
+    dev.session->forget(ids);
 }
 
-VKAPI_ATTR VkResult VKAPI_CALL AllocateDescriptorSets(VkDevice device,
-                                                      const VkDescriptorSetAllocateInfo *pAllocateInfo,
-                                                      VkDescriptorSet *pDescriptorSets) {
-    DeviceState &dev = device_state(device);
-    const VkResult result = dev.dispatch.AllocateDescriptorSets(device, pAllocateInfo, pDescriptorSets);
-    if (result != VK_SUCCESS || !capturing(dev)) return result;
+// As FreeDescriptorSets, for every set of the pool.
+void ResetDescriptorPool(DeviceState &dev, VkDevice, VkDescriptorPool descriptorPool,
+                         VkDescriptorPoolResetFlags) {
+    std::vector<uint64_t> ids;
     {
         std::unique_lock lock(g_mutex);
-        for (uint32_t i = 0; i < pAllocateInfo->descriptorSetCount; ++i) {
-            const auto layout = g_layouts.find(pAllocateInfo->pSetLayouts[i]);
-            g_sets[pDescriptorSets[i]] = {
-                layout == g_layouts.end() ? nullptr : layout->second, pAllocateInfo->descriptorPool, {}};
-            g_pool_sets[pAllocateInfo->descriptorPool].insert(pDescriptorSets[i]);
-        }
+        ids = forget_pool_sets_locked(descriptorPool);
     }
-    record_logged(dev, handle_ids(pDescriptorSets, pAllocateInfo->descriptorSetCount), {},
-                  [&](codec::Encoder &e) {
-                      encode_vkAllocateDescriptorSets(e, device, pAllocateInfo, pDescriptorSets);
-                  });
-    return result;
+    dev.session->forget(ids);
 }
 
-VKAPI_ATTR VkResult VKAPI_CALL FreeDescriptorSets(VkDevice device, VkDescriptorPool descriptorPool,
-                                                  uint32_t descriptorSetCount,
-                                                  const VkDescriptorSet *pDescriptorSets) {
-    DeviceState &dev = device_state(device);
-    // Forgotten and recorded before the driver may hand a freed set's value to a set another thread
-    // allocates (as every destroy: codegen/emit_layer.py). Recording first needs no result: the
-    // command's only result is VK_SUCCESS.
-    if (dev.session) {
-        std::vector<uint64_t> ids;
-        {
-            std::unique_lock lock(g_mutex);
-            const auto pool = g_pool_sets.find(descriptorPool);
-            for (uint32_t i = 0; i < descriptorSetCount; ++i) {
-                if (pDescriptorSets[i] == VK_NULL_HANDLE) continue;
-                g_sets.erase(pDescriptorSets[i]);
-                if (pool != g_pool_sets.end()) pool->second.erase(pDescriptorSets[i]);
-                ids.push_back(codec::handle_value(pDescriptorSets[i]));
-            }
-        }
-        dev.session->forget(ids);
-        if (capturing(dev))
-            record_global(dev, LiveChange::Unchanged, 0, [&](codec::Encoder &e) {
-                encode_vkFreeDescriptorSets(e, device, descriptorPool, descriptorSetCount, pDescriptorSets);
-            });
+void DestroyDescriptorPool(DeviceState &dev, VkDevice, VkDescriptorPool descriptorPool,
+                           const VkAllocationCallbacks *) {
+    if (descriptorPool == VK_NULL_HANDLE) return;
+    std::vector<uint64_t> ids;
+    {
+        std::unique_lock lock(g_mutex);
+        ids = forget_pool_sets_locked(descriptorPool);
     }
-    return dev.dispatch.FreeDescriptorSets(device, descriptorPool, descriptorSetCount, pDescriptorSets);
+    dev.session->forget(ids);
 }
 
-VKAPI_ATTR VkResult VKAPI_CALL ResetDescriptorPool(VkDevice device, VkDescriptorPool descriptorPool,
-                                                   VkDescriptorPoolResetFlags flags) {
-    DeviceState &dev = device_state(device);
-    // As FreeDescriptorSets: the pool's sets are forgotten and the reset recorded before the driver
-    // may hand their values to sets another thread allocates; VK_SUCCESS is the only result.
-    if (dev.session) {
-        std::vector<uint64_t> ids;
-        {
-            std::unique_lock lock(g_mutex);
-            ids = forget_pool_sets_locked(descriptorPool);
-        }
-        dev.session->forget(ids);
-        if (capturing(dev))
-            record_global(dev, LiveChange::Unchanged, 0, [&](codec::Encoder &e) {
-                encode_vkResetDescriptorPool(e, device, descriptorPool, flags);
-            });
-    }
-    return dev.dispatch.ResetDescriptorPool(device, descriptorPool, flags);
-}
-
-VKAPI_ATTR void VKAPI_CALL DestroyDescriptorPool(VkDevice device, VkDescriptorPool descriptorPool,
-                                                 const VkAllocationCallbacks *pAllocator) {
-    DeviceState &dev = device_state(device);
-    // Forgotten and recorded before the driver may hand the pool's value, or its sets', to objects
-    // another thread creates (as every destroy: codegen/emit_layer.py).
-    if (dev.session && descriptorPool != VK_NULL_HANDLE) {
-        std::vector<uint64_t> ids;
-        {
-            std::unique_lock lock(g_mutex);
-            ids = forget_pool_sets_locked(descriptorPool);
-        }
-        dev.session->forget(ids);
-        if (capturing(dev))
-            record_global(dev, LiveChange::Destroyed, codec::handle_value(descriptorPool),
-                          [&](codec::Encoder &e) {
-                              encode_vkDestroyDescriptorPool(e, device, descriptorPool, pAllocator);
-                          });
-    }
-    dev.dispatch.DestroyDescriptorPool(device, descriptorPool, pAllocator);
-}
-
-} // namespace entry
+} // namespace observe
 } // namespace splitvk

@@ -21,6 +21,12 @@ bool set_binding_has_immutable_samplers(VkDescriptorSet set, uint32_t binding);
 void note_descriptor_updates(uint32_t write_count, const VkWriteDescriptorSet *writes, uint32_t copy_count,
                              const VkCopyDescriptorSet *copies);
 
+// The layout of a descriptor update template of `device` created while it had a session
+// (descriptor_template.cpp), which the captures of the template updates encode pData with; nullptr
+// for any other template.
+const codec::DescriptorTemplateLayout *descriptor_template_layout(const DeviceState &device,
+                                                                  VkDescriptorUpdateTemplate update_template);
+
 // vkUpdateDescriptorSetWithTemplate: the same, through a template's layout.
 void note_descriptor_template_update(VkDescriptorSet set, const codec::DescriptorTemplateLayout &layout,
                                      const void *data);

@@ -1,4 +1,5 @@
-// VkPhysicalDevice: the device envelope the application is told (physical_device.h).
+// VkPhysicalDevice: the device envelope the application is told (physical_device.h), by the edits
+// of the generated property, feature and format queries (their KHR aliases share them).
 
 #include "physical_device.h"
 
@@ -164,53 +165,6 @@ const PhysicalDeviceState *physical_device_state(VkPhysicalDevice physical_devic
     return slot.get();
 }
 
-namespace entry {
-
-VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceProperties(VkPhysicalDevice physicalDevice,
-                                                       VkPhysicalDeviceProperties *pProperties) {
-    instance_dispatch(physicalDevice).GetPhysicalDeviceProperties(physicalDevice, pProperties);
-    if (const auto *envelope = envelope_of(physicalDevice)) pProperties->limits = envelope->limits;
-}
-
-VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceProperties2(VkPhysicalDevice physicalDevice,
-                                                        VkPhysicalDeviceProperties2 *pProperties) {
-    instance_dispatch(physicalDevice).GetPhysicalDeviceProperties2(physicalDevice, pProperties);
-    if (const auto *envelope = envelope_of(physicalDevice)) pProperties->properties.limits = envelope->limits;
-}
-
-VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceProperties2KHR(VkPhysicalDevice physicalDevice,
-                                                           VkPhysicalDeviceProperties2 *pProperties) {
-    instance_dispatch(physicalDevice).GetPhysicalDeviceProperties2KHR(physicalDevice, pProperties);
-    if (const auto *envelope = envelope_of(physicalDevice)) pProperties->properties.limits = envelope->limits;
-}
-
-VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceFeatures(VkPhysicalDevice physicalDevice,
-                                                     VkPhysicalDeviceFeatures *pFeatures) {
-    instance_dispatch(physicalDevice).GetPhysicalDeviceFeatures(physicalDevice, pFeatures);
-    if (const auto *state = enveloped(physicalDevice)) mask_core_features(*pFeatures, *state);
-}
-
-VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceFeatures2(VkPhysicalDevice physicalDevice,
-                                                      VkPhysicalDeviceFeatures2 *pFeatures) {
-    instance_dispatch(physicalDevice).GetPhysicalDeviceFeatures2(physicalDevice, pFeatures);
-    narrow_features2(physicalDevice, pFeatures);
-}
-
-VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceFeatures2KHR(VkPhysicalDevice physicalDevice,
-                                                         VkPhysicalDeviceFeatures2 *pFeatures) {
-    instance_dispatch(physicalDevice).GetPhysicalDeviceFeatures2KHR(physicalDevice, pFeatures);
-    narrow_features2(physicalDevice, pFeatures);
-}
-
-VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceFormatProperties(VkPhysicalDevice physicalDevice, VkFormat format,
-                                                             VkFormatProperties *pFormatProperties) {
-    instance_dispatch(physicalDevice)
-        .GetPhysicalDeviceFormatProperties(physicalDevice, format, pFormatProperties);
-    if (const auto *envelope = envelope_of(physicalDevice))
-        if (const VkFormatProperties *narrowed = envelope_format(*envelope, format))
-            *pFormatProperties = *narrowed;
-}
-
 namespace {
 
 void narrow_format_properties2(VkPhysicalDevice physicalDevice, VkFormat format,
@@ -232,21 +186,35 @@ void narrow_format_properties2(VkPhysicalDevice physicalDevice, VkFormat format,
 
 } // namespace
 
-VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceFormatProperties2(VkPhysicalDevice physicalDevice,
-                                                              VkFormat format,
-                                                              VkFormatProperties2 *pFormatProperties) {
-    instance_dispatch(physicalDevice)
-        .GetPhysicalDeviceFormatProperties2(physicalDevice, format, pFormatProperties);
+namespace edit {
+
+void GetPhysicalDeviceProperties(VkPhysicalDevice physicalDevice, VkPhysicalDeviceProperties *pProperties) {
+    if (const auto *envelope = envelope_of(physicalDevice)) pProperties->limits = envelope->limits;
+}
+
+void GetPhysicalDeviceProperties2(VkPhysicalDevice physicalDevice, VkPhysicalDeviceProperties2 *pProperties) {
+    if (const auto *envelope = envelope_of(physicalDevice)) pProperties->properties.limits = envelope->limits;
+}
+
+void GetPhysicalDeviceFeatures(VkPhysicalDevice physicalDevice, VkPhysicalDeviceFeatures *pFeatures) {
+    if (const auto *state = enveloped(physicalDevice)) mask_core_features(*pFeatures, *state);
+}
+
+void GetPhysicalDeviceFeatures2(VkPhysicalDevice physicalDevice, VkPhysicalDeviceFeatures2 *pFeatures) {
+    narrow_features2(physicalDevice, pFeatures);
+}
+
+void GetPhysicalDeviceFormatProperties(VkPhysicalDevice physicalDevice, VkFormat format,
+                                       VkFormatProperties *pFormatProperties) {
+    if (const auto *envelope = envelope_of(physicalDevice))
+        if (const VkFormatProperties *narrowed = envelope_format(*envelope, format))
+            *pFormatProperties = *narrowed;
+}
+
+void GetPhysicalDeviceFormatProperties2(VkPhysicalDevice physicalDevice, VkFormat format,
+                                        VkFormatProperties2 *pFormatProperties) {
     narrow_format_properties2(physicalDevice, format, pFormatProperties);
 }
 
-VKAPI_ATTR void VKAPI_CALL GetPhysicalDeviceFormatProperties2KHR(VkPhysicalDevice physicalDevice,
-                                                                 VkFormat format,
-                                                                 VkFormatProperties2 *pFormatProperties) {
-    instance_dispatch(physicalDevice)
-        .GetPhysicalDeviceFormatProperties2KHR(physicalDevice, format, pFormatProperties);
-    narrow_format_properties2(physicalDevice, format, pFormatProperties);
-}
-
-} // namespace entry
+} // namespace edit
 } // namespace splitvk

@@ -1,6 +1,7 @@
 // VkQueue submits (docs/architecture.md §2): dirty mapped memory first, then the submit itself.
 //
-// Every queue operation the layer passes down or makes takes the queue's lock (lock_queue()):
+// Every queue operation the layer passes down or makes takes the queue's lock (lock_queue(); the
+// generated entry points take it by codegen/layer_overrides.py's LOCKED_HANDLES):
 // split mode presents from a thread of the layer's (present.cpp) on the application's queue, and
 // Vulkan requires the operations of one queue to be externally synchronised. vkQueueWaitIdle and
 // vkDeviceWaitIdle first wait for the frames the present thread holds, so that "idle" includes
@@ -205,26 +206,6 @@ VKAPI_ATTR VkResult VKAPI_CALL DeviceWaitIdle(VkDevice device) {
     drain_presents(dev);
     const auto locks = lock_device_queues(dev);
     return dev.dispatch.DeviceWaitIdle(device);
-}
-
-VKAPI_ATTR void VKAPI_CALL QueueBeginDebugUtilsLabelEXT(VkQueue queue,
-                                                        const VkDebugUtilsLabelEXT *pLabelInfo) {
-    DeviceState &dev = device_state(queue);
-    const auto lock = lock_queue(queue);
-    dev.dispatch.QueueBeginDebugUtilsLabelEXT(queue, pLabelInfo);
-}
-
-VKAPI_ATTR void VKAPI_CALL QueueEndDebugUtilsLabelEXT(VkQueue queue) {
-    DeviceState &dev = device_state(queue);
-    const auto lock = lock_queue(queue);
-    dev.dispatch.QueueEndDebugUtilsLabelEXT(queue);
-}
-
-VKAPI_ATTR void VKAPI_CALL QueueInsertDebugUtilsLabelEXT(VkQueue queue,
-                                                         const VkDebugUtilsLabelEXT *pLabelInfo) {
-    DeviceState &dev = device_state(queue);
-    const auto lock = lock_queue(queue);
-    dev.dispatch.QueueInsertDebugUtilsLabelEXT(queue, pLabelInfo);
 }
 
 } // namespace entry

@@ -204,6 +204,29 @@ void for_each_readable_buffer(
             each(buffer, state.memory, state.memory_offset, state.size);
 }
 
+namespace rewrite {
+
+// The generated entry point captures the application's create info once this succeeded.
+VkResult CreateBuffer(DeviceState &dev, PFN_vkCreateBuffer down, VkDevice device,
+                      const VkBufferCreateInfo *pCreateInfo, const VkAllocationCallbacks *pAllocator,
+                      VkBuffer *pBuffer) {
+    // Every buffer usage combination accepts TRANSFER_SRC; the retry is for the exotic case.
+    VkBufferCreateInfo info = *pCreateInfo;
+    info.usage |= VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+    VkResult result = down(device, &info, pAllocator, pBuffer);
+    bool readable = result == VK_SUCCESS;
+    if (result != VK_SUCCESS && info.usage != pCreateInfo->usage) {
+        result = down(device, pCreateInfo, pAllocator, pBuffer);
+        readable = pCreateInfo->usage & VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+    }
+    if (result != VK_SUCCESS) return result;
+    std::lock_guard lock(g_mutex);
+    g_buffers[*pBuffer] = BufferState{&dev, pCreateInfo->size, readable, VK_NULL_HANDLE, 0};
+    return result;
+}
+
+} // namespace rewrite
+
 namespace observe {
 
 void DestroyBuffer(DeviceState &, VkDevice, VkBuffer buffer, const VkAllocationCallbacks *) {
@@ -299,46 +322,22 @@ void DestroyRenderPass(DeviceState &, VkDevice, VkRenderPass render_pass, const 
 
 } // namespace observe
 
-namespace entry {
+namespace entry {} // namespace entry
 
-VKAPI_ATTR VkResult VKAPI_CALL CreateBuffer(VkDevice device, const VkBufferCreateInfo *pCreateInfo,
-                                            const VkAllocationCallbacks *pAllocator, VkBuffer *pBuffer) {
-    DeviceState &dev = device_state(device);
-    if (!dev.session) return dev.dispatch.CreateBuffer(device, pCreateInfo, pAllocator, pBuffer);
-    // Every buffer usage combination accepts TRANSFER_SRC; the retry is for the exotic case.
-    VkBufferCreateInfo info = *pCreateInfo;
-    info.usage |= VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
-    VkResult result = dev.dispatch.CreateBuffer(device, &info, pAllocator, pBuffer);
-    bool readable = result == VK_SUCCESS;
-    if (result != VK_SUCCESS && info.usage != pCreateInfo->usage) {
-        result = dev.dispatch.CreateBuffer(device, pCreateInfo, pAllocator, pBuffer);
-        readable = pCreateInfo->usage & VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
-    }
-    if (result != VK_SUCCESS) return result;
-    {
-        std::lock_guard lock(g_mutex);
-        g_buffers[*pBuffer] = BufferState{&dev, pCreateInfo->size, readable, VK_NULL_HANDLE, 0};
-    }
-    record_global(dev, LiveChange::Created, codec::handle_value(*pBuffer), [&](codec::Encoder &e) {
-        encode_vkCreateBuffer(e, device, pCreateInfo, pAllocator, pBuffer);
-    });
-    return result;
-}
+namespace observe {
 
 // The client's address of a buffer means nothing on the agent's GPU: the agent learns it here and
 // maps it to its own buffer's (server-agent/buffer_addresses.h), once per buffer (a bound buffer's
 // address never changes). Sent before the application can record a command that uses it. The log
 // entry dies with the buffer or its memory, after which the address names nothing.
-static VkDeviceAddress get_buffer_device_address(VkDevice device, const VkBufferDeviceAddressInfo *pInfo,
-                                                 PFN_vkGetBufferDeviceAddress next) {
-    DeviceState &dev = device_state(device);
-    const VkDeviceAddress address = next(device, pInfo);
-    if (!dev.session || address == 0) return address;
+void GetBufferDeviceAddress(DeviceState &dev, VkDeviceAddress address, VkDevice,
+                            const VkBufferDeviceAddressInfo *pInfo) {
+    if (address == 0) return;
     VkDeviceMemory memory = VK_NULL_HANDLE;
     {
         std::lock_guard lock(g_mutex);
         const auto it = g_buffers.find(pInfo->buffer);
-        if (it == g_buffers.end() || it->second.address_sent == address) return address;
+        if (it == g_buffers.end() || it->second.address_sent == address) return;
         memory = it->second.memory;
     }
     protocol::BufferAddress message;
@@ -353,18 +352,16 @@ static VkDeviceAddress get_buffer_device_address(VkDevice device, const VkBuffer
     std::lock_guard lock(g_mutex);
     if (const auto it = g_buffers.find(pInfo->buffer); it != g_buffers.end())
         it->second.address_sent = address;
-    return address;
 }
 
-VKAPI_ATTR VkDeviceAddress VKAPI_CALL GetBufferDeviceAddress(VkDevice device,
-                                                             const VkBufferDeviceAddressInfo *pInfo) {
-    return get_buffer_device_address(device, pInfo, device_dispatch(device).GetBufferDeviceAddress);
+void GetBufferDeviceAddressKHR(DeviceState &dev, VkDeviceAddress address, VkDevice device,
+                               const VkBufferDeviceAddressInfo *pInfo) {
+    GetBufferDeviceAddress(dev, address, device, pInfo);
 }
 
-VKAPI_ATTR VkDeviceAddress VKAPI_CALL GetBufferDeviceAddressKHR(VkDevice device,
-                                                                const VkBufferDeviceAddressInfo *pInfo) {
-    return get_buffer_device_address(device, pInfo, device_dispatch(device).GetBufferDeviceAddressKHR);
-}
+} // namespace observe
+
+namespace entry {
 
 VKAPI_ATTR VkResult VKAPI_CALL CreateImage(VkDevice device, const VkImageCreateInfo *pCreateInfo,
                                            const VkAllocationCallbacks *pAllocator, VkImage *pImage) {

@@ -8,6 +8,9 @@
 // 4 x 64 MiB of incompressible bytes, far more than the layer's send queue (128 MiB) and the
 // link hold, so the flood's sends wait for room in the queue, up to seconds. A lock that
 // one of the second thread's calls shares with those sends would make it wait as long.
+//
+// And the queue lock, which must hold: a queue label another thread makes waits for the present
+// the layer is making on the same queue.
 #include "agent.h"
 #include "agent_process.h"
 #include "e2e_test.h"
@@ -102,6 +105,33 @@ TEST_F(Locks, ASlowLinkDoesNotStallAnotherThreadsMemoryOrPipelineCalls) {
             << call << " waited for the other thread's sends to the slow link\n"
             << r.out();
     }
+}
+
+// A queue operation passed down through a generated entry point takes the queue's lock, as the
+// layer's own presents do: VK_LAYER_SPLITVK_test_queue_guard (tests/e2e/queue_guard_layer), below
+// splitvk, holds one of the presents splitvk makes while another thread inserts a queue debug label
+// through splitvk on the same queue. The label must reach the driver's side only once the present
+// is through.
+TEST_F(Locks, QueueLabelWaitsForThePresentTheLayerMakes) {
+    ASSERT_TRUE(built(atrium_path()));
+    ASSERT_TRUE(built(agent_path()));
+    Env e = env();
+    Agent agent;
+    ASSERT_TRUE(agent.start(e, out_)) << agent.error();
+    use_explicit_layers(e, {kLayerName});
+    use_bottom_layer(e, "VK_LAYER_SPLITVK_test_queue_guard", SPLITVK_E2E_QUEUE_GUARD_LAYER_DIR);
+    e["TEST_QUEUE_GUARD_PRESENT"] = "2";
+    e["TEST_QUEUE_GUARD_TOP"] = SPLITVK_E2E_LAYER_LIBRARY;
+    // Frames handed to the layer's present thread, which so presents on the application's queue.
+    e["SPLITVK_PRESENT_DEPTH"] = "1";
+    e["SPLITVK_SERVER"] = agent.address();
+    e["SPLITVK_LOG_LEVEL"] = "info";
+    const auto r = run_app({atrium_path().string(), "--width", "320", "--height", "180", "--frames", "6"}, e,
+                           out_, "atrium-queue-guard", 120s);
+    ASSERT_TRUE(r.ok()) << r.describe() << "\n" << tail(r.err());
+    ASSERT_FALSE(grep(r.err(), "replicating to splitvk-agent").empty()) << "no session\n" << tail(r.err());
+    EXPECT_TRUE(grep(r.err(), "queue guard: the label overlapped the present").empty()) << tail(r.err());
+    EXPECT_EQ(grep(r.err(), "queue guard: the label waited for the present").size(), 1u) << tail(r.err());
 }
 
 } // namespace

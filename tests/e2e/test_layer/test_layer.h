@@ -27,9 +27,10 @@ PFN_vkVoidFunction next_instance_proc(VkPhysicalDevice gpu, const char *name);
 // allocated from the next layer) the dispatch pointer the loader's trampolines read.
 VkResult set_loader_data(VkDevice device, void *object);
 
-// Defined by a layer that replaces the plumbing's own end of an object (keep_layer/); a weak
-// default answers nullptr for the others: its vkDestroyDevice or vkDestroyInstance for `name`, or
-// nullptr to pass the call down as the plumbing does.
+// Defined by a layer that replaces the plumbing's own end of an object (keep_layer/), or answers a
+// command whatever the next layer has (queue_guard_layer/); a weak default answers nullptr for the
+// others: its vkDestroyDevice or vkDestroyInstance (or that command) for `name`, or nullptr to pass
+// the call down as the plumbing does.
 PFN_vkVoidFunction lifetime_entry_point(const char *name);
 
 // Defined by each layer:
