@@ -2247,12 +2247,13 @@ protected:
         return r;
     }
 
-    // Every frame passed through equals native's of the same number.
-    void expect_passed_through_exact(const std::set<int> &passed) {
+    // Each frame of `frames` equals native's of the same number: whole (no rect), or in its fovea.
+    // `what` names the frames in the lines.
+    void expect_presents_exact(const std::map<int, std::optional<Rect>> &frames, const char *what) {
         const auto native_presents = present_readbacks(out_ / "native-presents");
         const auto split_presents = present_readbacks(out_ / "split-presents");
         int compared = 0, differ = 0;
-        for (const int n : passed) {
+        for (const auto &[n, fovea] : frames) {
             const auto a = native_presents.find(n), b = split_presents.find(n);
             ASSERT_NE(a, native_presents.end()) << "native has no present " << n;
             ASSERT_NE(b, split_presents.end()) << "the split run has no present " << n;
@@ -2260,43 +2261,32 @@ protected:
             ASSERT_TRUE(load_present(a->second, &x)) << a->second;
             ASSERT_TRUE(load_present(b->second, &y)) << b->second;
             ++compared;
-            const auto same = compare_exact(x, y);
+            const auto same =
+                fovea ? compare_exact(x, y, fovea->x, fovea->y, fovea->w, fovea->h) : compare_exact(x, y);
             if (!same.equal() && ++differ <= 3)
-                ADD_FAILURE() << "present " << n
-                              << ", passed through, differs from native: " << same.summary() << "\n"
+                ADD_FAILURE() << "present " << n << " (" << what << ") differs from native"
+                              << (fovea ? " in its fovea" : "") << ": " << same.summary() << "\n"
                               << save_mismatch_artefacts(out_, "present-" + std::to_string(n), x, y);
         }
-        std::cout << "  " << compared << " frames passed through compared with native, " << differ
-                  << " differ\n";
+        std::cout << "  " << compared << " " << what << " compared with native, " << differ << " differ\n";
         EXPECT_GT(compared, 0);
         EXPECT_EQ(differ, 0);
     }
 
-    // Every split frame of `foveae` (from frame `from` on) has its fovea equal to native's frame of the
-    // same number.
+    // Every frame passed through equals native's of the same number.
+    void expect_passed_through_exact(const std::set<int> &passed) {
+        std::map<int, std::optional<Rect>> frames;
+        for (const int n : passed)
+            frames[n] = std::nullopt;
+        expect_presents_exact(frames, "frames passed through");
+    }
+
+    // Every split frame of `foveae` from frame `from` on has its fovea equal to native's.
     void expect_split_foveae_exact(const std::map<int, Rect> &foveae, int from) {
-        const auto native_presents = present_readbacks(out_ / "native-presents");
-        const auto split_presents = present_readbacks(out_ / "split-presents");
-        int compared = 0, differ = 0;
-        for (const auto &[n, f] : foveae) {
-            if (n < from) continue;
-            const auto a = native_presents.find(n), b = split_presents.find(n);
-            ASSERT_NE(a, native_presents.end()) << "native has no present " << n;
-            ASSERT_NE(b, split_presents.end()) << "the split run has no present " << n;
-            Image x, y;
-            ASSERT_TRUE(load_present(a->second, &x)) << a->second;
-            ASSERT_TRUE(load_present(b->second, &y)) << b->second;
-            ++compared;
-            const auto same = compare_exact(x, y, f.x, f.y, f.w, f.h);
-            if (!same.equal() && ++differ <= 3)
-                ADD_FAILURE() << "present " << n << ", split, has a fovea (" << f.x << "," << f.y << " "
-                              << f.w << "x" << f.h << ") that differs from native: " << same.summary() << "\n"
-                              << save_mismatch_artefacts(out_, "fovea-" + std::to_string(n), x, y);
-        }
-        std::cout << "  " << compared << " split frames from frame " << from
-                  << " on: foveae compared with native, " << differ << " differ\n";
-        EXPECT_GT(compared, 0);
-        EXPECT_EQ(differ, 0);
+        std::map<int, std::optional<Rect>> frames;
+        for (const auto &[n, fovea] : foveae)
+            if (n >= from) frames[n] = fovea;
+        expect_presents_exact(frames, "split frames' foveae");
     }
 
     void remove_presents() {
