@@ -117,7 +117,7 @@ def _capture_block(c, canon, handle_types, ok):
             live = "LiveChange::Unchanged, 0"
         lines.append(f"        record_global(dev, {live}, [&](codec::Encoder &e) {{ {encode} }});")
     if canon.name == "vkUpdateDescriptorSets":
-        lines.append("        note_descriptor_updates(descriptorWriteCount, pDescriptorWrites, "
+        lines.append("        note_descriptor_updates(dev, descriptorWriteCount, pDescriptorWrites, "
                      "descriptorCopyCount, pDescriptorCopies);")
     lines.append("    }")
     return lines

@@ -9,9 +9,16 @@
 #include "object_map.h"
 
 namespace splitvk {
-namespace {
 
-ObjectMap<VkDescriptorUpdateTemplate, codec::DescriptorTemplateLayout> g_templates;
+struct DescriptorTemplateTable {
+    ObjectMap<VkDescriptorUpdateTemplate, codec::DescriptorTemplateLayout> templates;
+};
+
+std::shared_ptr<DescriptorTemplateTable> make_descriptor_template_table() {
+    return std::make_shared<DescriptorTemplateTable>();
+}
+
+namespace {
 
 VkResult create_template(PFN_vkCreateDescriptorUpdateTemplate next, VkDevice device,
                          const VkDescriptorUpdateTemplateCreateInfo *pCreateInfo,
@@ -19,8 +26,9 @@ VkResult create_template(PFN_vkCreateDescriptorUpdateTemplate next, VkDevice dev
     DeviceState &dev = device_state(device);
     const VkResult result = next(device, pCreateInfo, pAllocator, pTemplate);
     if (result != VK_SUCCESS || !capturing(dev)) return result;
-    g_templates.insert(*pTemplate, std::make_unique<codec::DescriptorTemplateLayout>(
-                                       codec::DescriptorTemplateLayout::from(*pCreateInfo)));
+    dev.descriptor_templates->templates.insert(*pTemplate,
+                                               std::make_unique<codec::DescriptorTemplateLayout>(
+                                                   codec::DescriptorTemplateLayout::from(*pCreateInfo)));
     record_global(dev, LiveChange::Created, codec::handle_value(*pTemplate), [&](codec::Encoder &e) {
         encode_vkCreateDescriptorUpdateTemplate(e, device, pCreateInfo, pAllocator, pTemplate);
     });
@@ -35,7 +43,7 @@ void destroy_template(PFN_vkDestroyDescriptorUpdateTemplate next, VkDevice devic
     // creates (as every destroy: codegen/emit_layer.py): the new template keeps its layout, and the
     // agent and the live state keep the new template.
     if (dev.session && descriptorUpdateTemplate != VK_NULL_HANDLE) {
-        g_templates.remove(descriptorUpdateTemplate);
+        dev.descriptor_templates->templates.remove(descriptorUpdateTemplate);
         if (capturing(dev))
             record_global(dev, LiveChange::Destroyed, codec::handle_value(descriptorUpdateTemplate),
                           [&](codec::Encoder &e) {
@@ -51,12 +59,13 @@ void update_with_template(PFN_vkUpdateDescriptorSetWithTemplate next, VkDevice d
     DeviceState &dev = device_state(device);
     next(device, set, descriptorUpdateTemplate, pData);
     if (!capturing(dev)) return;
-    const codec::DescriptorTemplateLayout *layout = g_templates.find(descriptorUpdateTemplate);
+    const codec::DescriptorTemplateLayout *layout =
+        dev.descriptor_templates->templates.find(descriptorUpdateTemplate);
     if (!layout) return;
     record_global(dev, LiveChange::Unchanged, 0, [&](codec::Encoder &e) {
         encode_vkUpdateDescriptorSetWithTemplate(e, device, set, descriptorUpdateTemplate, pData, *layout);
     });
-    note_descriptor_template_update(set, *layout, pData);
+    note_descriptor_template_update(dev, set, *layout, pData);
 }
 
 } // namespace
@@ -112,7 +121,8 @@ VKAPI_ATTR void VKAPI_CALL CmdPushDescriptorSetWithTemplateKHR(
     dev.dispatch.CmdPushDescriptorSetWithTemplateKHR(commandBuffer, descriptorUpdateTemplate, layout, set,
                                                      pData);
     if (!capturing(dev)) return;
-    const codec::DescriptorTemplateLayout *template_layout = g_templates.find(descriptorUpdateTemplate);
+    const codec::DescriptorTemplateLayout *template_layout =
+        dev.descriptor_templates->templates.find(descriptorUpdateTemplate);
     codec::Encoder *e = command_buffer_encoder(commandBuffer);
     if (template_layout && e)
         encode_vkCmdPushDescriptorSetWithTemplateKHR(*e, commandBuffer, descriptorUpdateTemplate, layout, set,

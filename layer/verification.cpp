@@ -49,8 +49,18 @@ using namespace std::chrono_literals;
 constexpr auto kVerifyWait = 5000ms;             // per frame
 constexpr uint64_t kFenceWaitNs = 5'000'000'000; // the layer's own copy
 
-std::mutex g_mutex;
-std::map<std::pair<VkSwapchainKHR, uint32_t>, VerifyReadback> g_readbacks;
+} // namespace
+
+struct VerifyTable {
+    std::mutex mutex; // the map and every readback in it
+    std::map<std::pair<VkSwapchainKHR, uint32_t>, VerifyReadback> readbacks;
+};
+
+std::shared_ptr<VerifyTable> make_verify_table() {
+    return std::make_shared<VerifyTable>();
+}
+
+namespace {
 
 void destroy(DeviceState &dev, VerifyReadback &r) {
     const VkDevice d = dev.handle;
@@ -182,21 +192,21 @@ std::optional<double> compare_verified_frame(DeviceState &dev, const PendingVeri
     return psnr;
 }
 
-bool presented_image_verifiable(VkQueue queue, const VkPresentInfoKHR &present) {
+bool presented_image_verifiable(const DeviceState &dev, VkQueue queue, const VkPresentInfoKHR &present) {
     if (present.swapchainCount == 0) return false;
-    const SwapchainState *sc = find_swapchain(present.pSwapchains[0]);
+    const SwapchainState *sc = find_swapchain(dev, present.pSwapchains[0]);
     return sc && sc->transfer_src && tile_texel_bytes(sc->format) != 0 &&
-           present.pImageIndices[0] < sc->images.size() && queue_family_of(queue) != UINT32_MAX;
+           present.pImageIndices[0] < sc->images.size() && queue_family_of(dev, queue) != UINT32_MAX;
 }
 
 std::optional<PendingVerify> read_back_presented_image(DeviceState &dev, VkQueue queue,
                                                        VkPresentInfoKHR &present, uint64_t frame) {
-    if (!presented_image_verifiable(queue, present)) return std::nullopt;
-    const SwapchainState *sc = find_swapchain(present.pSwapchains[0]);
+    if (!presented_image_verifiable(dev, queue, present)) return std::nullopt;
+    const SwapchainState *sc = find_swapchain(dev, present.pSwapchains[0]);
     const uint32_t index = present.pImageIndices[0];
-    const uint32_t family = queue_family_of(queue);
-    std::unique_lock lock(g_mutex);
-    VerifyReadback &r = g_readbacks[{sc->handle, index}];
+    const uint32_t family = queue_family_of(dev, queue);
+    std::unique_lock lock(dev.readbacks->mutex);
+    VerifyReadback &r = dev.readbacks->readbacks[{sc->handle, index}];
     bool ready = r.pool != VK_NULL_HANDLE;
     if (!ready) {
         ready = create(dev, *sc, family, r);
@@ -213,7 +223,7 @@ std::optional<PendingVerify> read_back_presented_image(DeviceState &dev, VkQueue
                     &r.semaphore);
     if (dev.dispatch.QueueSubmit(queue, 1, &submit, r.fence) != VK_SUCCESS) return std::nullopt;
     r.in_flight = true;
-    // A node of g_readbacks, which the lock the result holds keeps in place.
+    // A node of the device's readbacks, which the lock the result holds keeps in place.
     present.waitSemaphoreCount = 1;
     present.pWaitSemaphores = &r.semaphore;
     return PendingVerify{frame, sc, index, &r, std::move(lock), false, {}, false};
@@ -222,12 +232,12 @@ std::optional<PendingVerify> read_back_presented_image(DeviceState &dev, VkQueue
 std::optional<PendingVerify> read_back_runtime_image(DeviceState &dev, VkQueue queue,
                                                      const SwapchainState &sc, uint32_t index,
                                                      uint64_t frame) {
-    const uint32_t family = queue_family_of(queue);
+    const uint32_t family = queue_family_of(dev, queue);
     if (!sc.transfer_src || !tile_texel_bytes(sc.format) != 0 || index >= sc.images.size() ||
         family == UINT32_MAX)
         return std::nullopt;
-    std::lock_guard lock(g_mutex);
-    VerifyReadback &r = g_readbacks[{sc.handle, index}];
+    std::lock_guard lock(dev.readbacks->mutex);
+    VerifyReadback &r = dev.readbacks->readbacks[{sc.handle, index}];
     bool ready = r.pool != VK_NULL_HANDLE;
     if (!ready) {
         ready = create(dev, sc, family, r);
@@ -245,11 +255,12 @@ std::optional<PendingVerify> read_back_runtime_image(DeviceState &dev, VkQueue q
 }
 
 void release_verify_readbacks(DeviceState &device, VkSwapchainKHR swapchain) {
-    std::lock_guard lock(g_mutex);
-    for (auto it = g_readbacks.begin(); it != g_readbacks.end();) {
+    VerifyTable &t = *device.readbacks;
+    std::lock_guard lock(t.mutex);
+    for (auto it = t.readbacks.begin(); it != t.readbacks.end();) {
         if (it->first.first == swapchain) {
             destroy(device, it->second);
-            it = g_readbacks.erase(it);
+            it = t.readbacks.erase(it);
         } else {
             ++it;
         }

@@ -47,7 +47,7 @@ struct PendingVerify {
 // Whether read_back_presented_image() can read `present`'s first image back on `queue`: the
 // swapped split decides the FramePresent's kPresentVerify by this before its composite, and reads
 // the image back after it.
-bool presented_image_verifiable(VkQueue queue, const VkPresentInfoKHR &present);
+bool presented_image_verifiable(const DeviceState &device, VkQueue queue, const VkPresentInfoKHR &present);
 // vkQueuePresentKHR, the queue's lock held: the layer's copy of the first swapchain's image, submitted
 // on `queue` after `present`'s wait semaphores, which `present` then waits on the copy instead of.
 // None where the image cannot be read back (the present is left as it was).
