@@ -32,8 +32,8 @@ struct PendingVerify {
     const SwapchainState *swapchain = nullptr;
     uint32_t image_index = 0;
     VerifyReadback *readback = nullptr;
-    // vkQueuePresentKHR's copy keeps the readbacks locked until it is compared, so that nothing
-    // releases or reuses its slot meanwhile; an OpenXR image's does not (end_runtime_frame).
+    // vkQueuePresentKHR's copy keeps its readback locked until it is compared, so that nothing
+    // releases or reuses it meanwhile; an OpenXR image's does not (end_runtime_frame).
     std::unique_lock<std::mutex> lock;
     // The swapped split, a frame cut to its foveae: what it shows around them is the agent's
     // periphery, so only `foveae` (rects of layer 0) must match, and the frame's PSNR is measured.
