@@ -178,8 +178,8 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateDevice(VkPhysicalDevice physicalDevice,
     if (result != VK_SUCCESS) return result;
 
     if (passthrough) {
-        // Nothing of splitvk's for this device: no session, no dispatch table, no object state;
-        // vkGetDeviceProcAddr answers with the next layer's commands (layer.cpp).
+        // Nothing of splitvk's for this device but the next layer's vkDestroyDevice: no session,
+        // no tables; vkGetDeviceProcAddr answers with the next layer's commands (layer.cpp).
         auto device = std::make_unique<DeviceState>();
         device->handle = *pDevice;
         device->passthrough = true;

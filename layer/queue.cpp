@@ -135,10 +135,6 @@ uint32_t queue_family_of(const DeviceState &device, VkQueue queue) {
     return info ? info->family : UINT32_MAX;
 }
 
-uint32_t queue_family_of(VkQueue queue) {
-    return queue_family_of(device_state(queue), queue);
-}
-
 std::unique_lock<std::mutex> lock_queue(const DeviceState &device, VkQueue queue) {
     QueueInfo *info = device.queues->queues.find(queue);
     return info ? std::unique_lock(info->mutex) : std::unique_lock<std::mutex>();
@@ -193,14 +189,14 @@ VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit2KHR(VkQueue queue, uint32_t submitCou
 VKAPI_ATTR VkResult VKAPI_CALL QueueBindSparse(VkQueue queue, uint32_t bindInfoCount,
                                                const VkBindSparseInfo *pBindInfo, VkFence fence) {
     DeviceState &dev = device_state(queue);
-    const auto lock = lock_queue(queue);
+    const auto lock = lock_queue(dev, queue);
     return dev.dispatch.QueueBindSparse(queue, bindInfoCount, pBindInfo, fence);
 }
 
 VKAPI_ATTR VkResult VKAPI_CALL QueueWaitIdle(VkQueue queue) {
     DeviceState &dev = device_state(queue);
     if (dev.session) drain_presents(dev);
-    const auto lock = lock_queue(queue);
+    const auto lock = lock_queue(dev, queue);
     return dev.dispatch.QueueWaitIdle(queue);
 }
 

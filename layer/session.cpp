@@ -339,7 +339,8 @@ void Session::resync(DeviceState &device, VkQueue queue, uint64_t frame) {
     const auto idle = std::chrono::steady_clock::now();
     ContentSnapshot contents;
     std::string error;
-    const bool read_back = snapshot_contents(device, queue, queue_family_of(queue), &contents, &error);
+    const bool read_back =
+        snapshot_contents(device, queue, queue_family_of(device, queue), &contents, &error);
     const auto readback_done = std::chrono::steady_clock::now();
     if (!read_back)
         SPLITVK_WARN(
