@@ -140,7 +140,7 @@ def _capture_block(c, canon, handle_types, ok):
         return [f"    if (capturing(dev){ok}) [[unlikely]] {{",
                 f"        if ({_template_layout(c)}) {{",
                 f"            record_global(dev, LiveChange::Unchanged, 0, [&](codec::Encoder &e) {{ {encode} }});",
-                "            note_descriptor_template_update(descriptorSet, *template_layout, pData);",
+                "            note_descriptor_template_update(dev, descriptorSet, *template_layout, pData);",
                 "        }",
                 "    }"]
     created = _created_handle(c, handle_types)
@@ -163,7 +163,7 @@ def _capture_block(c, canon, handle_types, ok):
             live = "LiveChange::Unchanged, 0"
         lines.append(f"        record_global(dev, {live}, [&](codec::Encoder &e) {{ {encode} }});")
     if canon.name == "vkUpdateDescriptorSets":
-        lines.append("        note_descriptor_updates(descriptorWriteCount, pDescriptorWrites, "
+        lines.append("        note_descriptor_updates(dev, descriptorWriteCount, pDescriptorWrites, "
                      "descriptorCopyCount, pDescriptorCopies);")
     lines.append("    }")
     return lines

@@ -6,8 +6,8 @@
 //
 // State exists only for command buffers allocated while the device has a session, so a device
 // that runs unsplit never allocates any. Each command buffer is externally synchronised by the
-// application (one recording thread at a time); the maps have their own lock, held only for the
-// lookup.
+// application (one recording thread at a time); the device's table has its own lock, held only for
+// the lookup.
 
 #include "command_buffer.h"
 
@@ -26,7 +26,6 @@ namespace splitvk {
 namespace {
 
 struct CommandBufferState {
-    DeviceState *device = nullptr;
     VkCommandPool pool = VK_NULL_HANDLE;
     VkCommandBufferLevel level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
     bool recording = false;
@@ -39,14 +38,30 @@ struct CommandBufferState {
     CommandTiming timing;   // its split pass's timestamps (gpu_timing.h); reset at begin
 };
 
-std::shared_mutex g_mutex;
-std::unordered_map<VkCommandBuffer, std::unique_ptr<CommandBufferState>> g_command_buffers;
-std::unordered_map<VkCommandPool, std::unordered_set<VkCommandBuffer>> g_pools;
+} // namespace
 
+struct CommandBufferTable {
+    std::shared_mutex mutex; // the maps, not the states (see the top of this file)
+    std::unordered_map<VkCommandBuffer, std::unique_ptr<CommandBufferState>> buffers;
+    std::unordered_map<VkCommandPool, std::unordered_set<VkCommandBuffer>> pools;
+};
+
+std::shared_ptr<CommandBufferTable> make_command_buffer_table() {
+    return std::make_shared<CommandBufferTable>();
+}
+
+namespace {
+
+CommandBufferState *find_state(const DeviceState &device, VkCommandBuffer command_buffer) {
+    CommandBufferTable &t = *device.command_buffers;
+    std::shared_lock lock(t.mutex);
+    const auto it = t.buffers.find(command_buffer);
+    return it == t.buffers.end() ? nullptr : it->second.get();
+}
+
+// The command buffer's own device: the dispatch key finds it.
 CommandBufferState *find_state(VkCommandBuffer command_buffer) {
-    std::shared_lock lock(g_mutex);
-    const auto it = g_command_buffers.find(command_buffer);
-    return it == g_command_buffers.end() ? nullptr : it->second.get();
+    return find_state(device_state(command_buffer), command_buffer);
 }
 
 void discard_stream(CommandBufferState &state) {
@@ -64,16 +79,16 @@ void begin_afresh(CommandBufferState &state) {
     state.timing = {};
 }
 
-// Under g_mutex (exclusive).
-void erase_locked(VkCommandBuffer command_buffer) {
-    const auto it = g_command_buffers.find(command_buffer);
-    if (it == g_command_buffers.end()) return;
-    const auto pool = g_pools.find(it->second->pool);
-    if (pool != g_pools.end()) {
+// Under t.mutex (exclusive).
+void erase_locked(CommandBufferTable &t, VkCommandBuffer command_buffer) {
+    const auto it = t.buffers.find(command_buffer);
+    if (it == t.buffers.end()) return;
+    const auto pool = t.pools.find(it->second->pool);
+    if (pool != t.pools.end()) {
         pool->second.erase(command_buffer);
-        if (pool->second.empty()) g_pools.erase(pool);
+        if (pool->second.empty()) t.pools.erase(pool);
     }
-    g_command_buffers.erase(it);
+    t.buffers.erase(it);
 }
 
 } // namespace
@@ -97,7 +112,7 @@ const CommandTiming *note_submitted(DeviceState &device, LockedImages &images,
                                     VkCommandBuffer command_buffer) {
     // The application may not free or re-record a command buffer while it is being submitted, so
     // its state stays put after the map's lock is released.
-    const CommandBufferState *state = find_state(command_buffer);
+    const CommandBufferState *state = find_state(device, command_buffer);
     if (!state) return nullptr;
     if (split_enabled(device)) note_split_drawn(images, state->split);
     apply_layouts(images, state->layouts);
@@ -109,23 +124,12 @@ split::CommandTracker *split_tracker(VkCommandBuffer command_buffer) {
     return state ? &state->split : nullptr;
 }
 
-void forget_command_buffers(DeviceState &device) {
-    std::unique_lock lock(g_mutex);
-    for (auto it = g_command_buffers.begin(); it != g_command_buffers.end();) {
-        if (it->second->device == &device) {
-            g_pools.erase(it->second->pool);
-            it = g_command_buffers.erase(it);
-        } else {
-            ++it;
-        }
-    }
-}
-
 void snapshot_command_buffers(DeviceState &device, const std::unordered_set<uint64_t> &live,
                               std::vector<std::vector<uint8_t>> &streams) {
-    std::shared_lock lock(g_mutex);
-    for (const auto &[cb, state] : g_command_buffers)
-        if (state->device == &device && !state->last_stream.empty() && live.count(codec::handle_value(cb)))
+    CommandBufferTable &t = *device.command_buffers;
+    std::shared_lock lock(t.mutex);
+    for (const auto &[cb, state] : t.buffers)
+        if (!state->last_stream.empty() && live.count(codec::handle_value(cb)))
             streams.push_back(state->last_stream);
 }
 
@@ -138,15 +142,15 @@ VKAPI_ATTR VkResult VKAPI_CALL AllocateCommandBuffers(VkDevice device,
     const VkResult result = dev.dispatch.AllocateCommandBuffers(device, pAllocateInfo, pCommandBuffers);
     if (result != VK_SUCCESS || !capturing(dev)) return result;
     {
-        std::unique_lock lock(g_mutex);
+        CommandBufferTable &t = *dev.command_buffers;
+        std::unique_lock lock(t.mutex);
         for (uint32_t i = 0; i < pAllocateInfo->commandBufferCount; ++i) {
             auto state = std::make_unique<CommandBufferState>();
-            state->device = &dev;
             state->pool = pAllocateInfo->commandPool;
             state->level = pAllocateInfo->level;
             state->encoder.set_hooks(dev.session->hooks());
-            g_command_buffers[pCommandBuffers[i]] = std::move(state);
-            g_pools[pAllocateInfo->commandPool].insert(pCommandBuffers[i]);
+            t.buffers[pCommandBuffers[i]] = std::move(state);
+            t.pools[pAllocateInfo->commandPool].insert(pCommandBuffers[i]);
         }
     }
     record_logged(dev, handle_ids(pCommandBuffers, pAllocateInfo->commandBufferCount), {},
@@ -166,10 +170,10 @@ VKAPI_ATTR void VKAPI_CALL FreeCommandBuffers(VkDevice device, VkCommandPool com
     if (dev.session) {
         std::vector<uint64_t> ids;
         {
-            std::unique_lock lock(g_mutex);
+            std::unique_lock lock(dev.command_buffers->mutex);
             for (uint32_t i = 0; i < commandBufferCount; ++i)
                 if (pCommandBuffers[i]) {
-                    erase_locked(pCommandBuffers[i]);
+                    erase_locked(*dev.command_buffers, pCommandBuffers[i]);
                     ids.push_back(codec::handle_value(pCommandBuffers[i]));
                 }
         }
@@ -187,7 +191,7 @@ VKAPI_ATTR VkResult VKAPI_CALL BeginCommandBuffer(VkCommandBuffer commandBuffer,
     DeviceState &dev = device_state(commandBuffer);
     const VkResult result = dev.dispatch.BeginCommandBuffer(commandBuffer, pBeginInfo);
     if (!dev.session) return result;
-    CommandBufferState *state = find_state(commandBuffer);
+    CommandBufferState *state = find_state(dev, commandBuffer);
     if (!state) return result;
     begin_afresh(*state);
     if (state->level == VK_COMMAND_BUFFER_LEVEL_SECONDARY && result == VK_SUCCESS && split_recording(dev))
@@ -203,7 +207,7 @@ VKAPI_ATTR VkResult VKAPI_CALL EndCommandBuffer(VkCommandBuffer commandBuffer) {
     DeviceState &dev = device_state(commandBuffer);
     const VkResult result = dev.dispatch.EndCommandBuffer(commandBuffer);
     if (!dev.session) return result;
-    CommandBufferState *state = find_state(commandBuffer);
+    CommandBufferState *state = find_state(dev, commandBuffer);
     if (!state || !state->recording) return result;
     state->recording = false;
     if (result != VK_SUCCESS || !capturing(dev)) {
@@ -221,7 +225,7 @@ VKAPI_ATTR VkResult VKAPI_CALL ResetCommandBuffer(VkCommandBuffer commandBuffer,
     DeviceState &dev = device_state(commandBuffer);
     const VkResult result = dev.dispatch.ResetCommandBuffer(commandBuffer, flags);
     if (!dev.session) return result;
-    if (CommandBufferState *state = find_state(commandBuffer)) {
+    if (CommandBufferState *state = find_state(dev, commandBuffer)) {
         begin_afresh(*state);
         state->last_stream.clear();
     }
@@ -235,11 +239,12 @@ VKAPI_ATTR VkResult VKAPI_CALL ResetCommandPool(VkDevice device, VkCommandPool c
     const VkResult result = dev.dispatch.ResetCommandPool(device, commandPool, flags);
     if (!dev.session) return result;
     {
-        std::unique_lock lock(g_mutex);
-        const auto pool = g_pools.find(commandPool);
-        if (pool != g_pools.end())
+        CommandBufferTable &t = *dev.command_buffers;
+        std::unique_lock lock(t.mutex);
+        const auto pool = t.pools.find(commandPool);
+        if (pool != t.pools.end())
             for (VkCommandBuffer cb : pool->second) {
-                auto &state = *g_command_buffers.at(cb);
+                auto &state = *t.buffers.at(cb);
                 begin_afresh(state);
                 state.last_stream.clear();
             }
@@ -258,14 +263,15 @@ VKAPI_ATTR void VKAPI_CALL DestroyCommandPool(VkDevice device, VkCommandPool com
     if (dev.session && commandPool != VK_NULL_HANDLE) {
         std::vector<uint64_t> ids;
         {
-            std::unique_lock lock(g_mutex);
-            const auto pool = g_pools.find(commandPool);
-            if (pool != g_pools.end()) {
+            CommandBufferTable &t = *dev.command_buffers;
+            std::unique_lock lock(t.mutex);
+            const auto pool = t.pools.find(commandPool);
+            if (pool != t.pools.end()) {
                 for (VkCommandBuffer cb : pool->second) {
-                    g_command_buffers.erase(cb);
+                    t.buffers.erase(cb);
                     ids.push_back(codec::handle_value(cb));
                 }
-                g_pools.erase(pool);
+                t.pools.erase(pool);
             }
         }
         dev.session->forget(ids);

@@ -3,7 +3,7 @@
 // VkCommandBuffer (command_buffer.cpp): one CommandBufferState per command buffer allocated while
 // the device has a session, created at vkAllocateCommandBuffers, begun afresh at
 // vkBeginCommandBuffer / vkResetCommandBuffer / vkResetCommandPool, and dropped at
-// vkFreeCommandBuffers / vkDestroyCommandPool (before the driver call) or vkDestroyDevice. It holds
+// vkFreeCommandBuffers / vkDestroyCommandPool (before the driver call) or with its device's table. It holds
 // what the layer keeps of one recording: its capture stream (docs/architecture.md §3), its split tracker (the
 // split's viewports and scissors, the split passes it drew, its bound compute sets: split.h), its
 // image layout transitions (resource.h) and its split pass's timestamp pair (gpu_timing.h).
@@ -54,8 +54,5 @@ const CommandTiming *note_submitted(DeviceState &device, LockedImages &images,
 // is in `live`.
 void snapshot_command_buffers(DeviceState &device, const std::unordered_set<uint64_t> &live,
                               std::vector<std::vector<uint8_t>> &streams);
-
-// vkDestroyDevice: every command buffer of the device.
-void forget_command_buffers(DeviceState &device);
 
 } // namespace splitvk

@@ -1465,27 +1465,32 @@ namespace {
 // One per swapchain. Its lock is held while its compositor is made or replaced (pipelines, a
 // wait for the old one's submits), which concerns that swapchain's presents only.
 struct Entry {
-    explicit Entry(DeviceState *d) : device(d) {}
-    DeviceState *const device;
     std::mutex mutex; // what follows
     std::unique_ptr<Compositor> compositor;
     uint32_t failed_family = UINT32_MAX; // create() failed for this family (logged once)
 };
 
-// The map only: held for a lookup, never while a compositor is made, used or destroyed.
-std::mutex g_mutex;
-std::unordered_map<VkSwapchainKHR, std::shared_ptr<Entry>> g_compositors;
-
 } // namespace
+
+struct CompositorTable {
+    // The map only: held for a lookup, never while a compositor is made, used or destroyed.
+    std::mutex mutex;
+    std::unordered_map<VkSwapchainKHR, std::shared_ptr<Entry>> compositors;
+};
+
+std::shared_ptr<CompositorTable> make_compositor_table() {
+    return std::make_shared<CompositorTable>();
+}
 
 Compositor *compositor_for(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family,
                            bool timed) {
     if (!swapchain.composable || queue_family == UINT32_MAX) return nullptr;
     std::shared_ptr<Entry> e;
     {
-        std::lock_guard lock(g_mutex);
-        std::shared_ptr<Entry> &slot = g_compositors[swapchain.handle];
-        if (!slot || slot->device != &device) slot = std::make_shared<Entry>(&device);
+        CompositorTable &t = *device.compositors;
+        std::lock_guard lock(t.mutex);
+        std::shared_ptr<Entry> &slot = t.compositors[swapchain.handle];
+        if (!slot) slot = std::make_shared<Entry>();
         e = slot;
     }
     // One made for another queue family (its command pool cannot serve this one) is destroyed
@@ -1506,29 +1511,25 @@ Compositor *compositor_for(DeviceState &device, const SwapchainState &swapchain,
     return e->compositor.get();
 }
 
-void release_compositor(DeviceState &, VkSwapchainKHR swapchain) {
+void release_compositor(DeviceState &device, VkSwapchainKHR swapchain) {
     std::shared_ptr<Entry> doomed;
     {
-        std::lock_guard lock(g_mutex);
-        const auto it = g_compositors.find(swapchain);
-        if (it == g_compositors.end()) return;
+        CompositorTable &t = *device.compositors;
+        std::lock_guard lock(t.mutex);
+        const auto it = t.compositors.find(swapchain);
+        if (it == t.compositors.end()) return;
         doomed = std::move(it->second);
-        g_compositors.erase(it);
+        t.compositors.erase(it);
     }
 }
 
 void release_compositors(DeviceState &device) {
-    std::vector<std::shared_ptr<Entry>> doomed;
+    std::unordered_map<VkSwapchainKHR, std::shared_ptr<Entry>> doomed;
     {
-        std::lock_guard lock(g_mutex);
-        for (auto it = g_compositors.begin(); it != g_compositors.end();) {
-            if (it->second->device == &device) {
-                doomed.push_back(std::move(it->second));
-                it = g_compositors.erase(it);
-            } else {
-                ++it;
-            }
-        }
+        CompositorTable &t = *device.compositors;
+        std::lock_guard lock(t.mutex);
+        doomed = std::move(t.compositors);
+        t.compositors.clear();
     }
 }
 

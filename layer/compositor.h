@@ -7,8 +7,8 @@
 // One Compositor per swapchain, used from vkQueuePresentKHR (when capturing(dev)):
 //
 //   VkPresentInfoKHR present = *pPresentInfo;
-//   const SwapchainState *sc = find_swapchain(pPresentInfo->pSwapchains[0]);
-//   Compositor *c = sc ? compositor_for(dev, *sc, queue_family_of(queue)) : nullptr;
+//   const SwapchainState *sc = find_swapchain(dev, pPresentInfo->pSwapchains[0]);
+//   Compositor *c = sc ? compositor_for(dev, *sc, queue_family_of(dev, queue)) : nullptr;
 //   VkSemaphore signal = VK_NULL_HANDLE;
 //   if (c && c->composite(queue, pPresentInfo->pImageIndices[0],
 //                         {pPresentInfo->pWaitSemaphores, pPresentInfo->waitSemaphoreCount},

@@ -49,21 +49,32 @@ struct SetInfo {
     std::map<std::pair<uint32_t, uint32_t>, Descriptor> contents; // (binding, element)
 };
 
-std::shared_mutex g_mutex;
-std::unordered_map<VkDescriptorSetLayout, std::shared_ptr<const LayoutInfo>> g_layouts;
-std::unordered_map<VkDescriptorSet, SetInfo> g_sets;
-std::unordered_map<VkDescriptorPool, std::unordered_set<VkDescriptorSet>> g_pool_sets;
+} // namespace
 
-// Returns the ids of the sets forgotten (they let go of their live-state log entries).
-std::vector<uint64_t> forget_pool_sets_locked(VkDescriptorPool pool) {
+struct DescriptorTable {
+    std::shared_mutex mutex; // the maps and every SetInfo in them
+    std::unordered_map<VkDescriptorSetLayout, std::shared_ptr<const LayoutInfo>> layouts;
+    std::unordered_map<VkDescriptorSet, SetInfo> sets;
+    std::unordered_map<VkDescriptorPool, std::unordered_set<VkDescriptorSet>> pool_sets;
+};
+
+std::shared_ptr<DescriptorTable> make_descriptor_table() {
+    return std::make_shared<DescriptorTable>();
+}
+
+namespace {
+
+// Under t.mutex (exclusive). Returns the ids of the sets forgotten (they let go of their
+// live-state log entries).
+std::vector<uint64_t> forget_pool_sets_locked(DescriptorTable &t, VkDescriptorPool pool) {
     std::vector<uint64_t> ids;
-    const auto it = g_pool_sets.find(pool);
-    if (it == g_pool_sets.end()) return ids;
+    const auto it = t.pool_sets.find(pool);
+    if (it == t.pool_sets.end()) return ids;
     for (VkDescriptorSet set : it->second) {
-        g_sets.erase(set);
+        t.sets.erase(set);
         ids.push_back(codec::handle_value(set));
     }
-    g_pool_sets.erase(it);
+    t.pool_sets.erase(it);
     return ids;
 }
 
@@ -99,7 +110,8 @@ std::pair<uint32_t, uint32_t> advance(const LayoutInfo *layout, uint32_t binding
     return {binding, element};
 }
 
-// Stores `count` descriptors of `type` from (binding, element); `at(i)` fills the i-th. Under g_mutex.
+// Stores `count` descriptors of `type` from (binding, element); `at(i)` fills the i-th. Under the
+// table's lock.
 template <class F>
 void store_locked(SetInfo &set, uint32_t binding, uint32_t element, uint32_t count, VkDescriptorType type,
                   F &&at) {
@@ -121,20 +133,22 @@ void store_inline_locked(SetInfo &set, uint32_t binding, uint32_t offset, uint32
 
 } // namespace
 
-bool set_binding_has_immutable_samplers(VkDescriptorSet set, uint32_t binding) {
-    std::shared_lock lock(g_mutex);
-    const auto it = g_sets.find(set);
-    return it != g_sets.end() && it->second.layout &&
+bool set_binding_has_immutable_samplers(const DeviceState &device, VkDescriptorSet set, uint32_t binding) {
+    DescriptorTable &t = *device.descriptors;
+    std::shared_lock lock(t.mutex);
+    const auto it = t.sets.find(set);
+    return it != t.sets.end() && it->second.layout &&
            it->second.layout->immutable_sampler_bindings.count(binding);
 }
 
-void note_descriptor_updates(uint32_t write_count, const VkWriteDescriptorSet *writes, uint32_t copy_count,
-                             const VkCopyDescriptorSet *copies) {
-    std::unique_lock lock(g_mutex);
+void note_descriptor_updates(DeviceState &device, uint32_t write_count, const VkWriteDescriptorSet *writes,
+                             uint32_t copy_count, const VkCopyDescriptorSet *copies) {
+    DescriptorTable &t = *device.descriptors;
+    std::unique_lock lock(t.mutex);
     for (uint32_t w = 0; w < write_count; ++w) {
         const VkWriteDescriptorSet &write = writes[w];
-        const auto set = g_sets.find(write.dstSet);
-        if (set == g_sets.end()) continue;
+        const auto set = t.sets.find(write.dstSet);
+        if (set == t.sets.end()) continue;
         const VkDescriptorType type = write.descriptorType;
         if (is_image_type(type) && write.pImageInfo) {
             store_locked(set->second, write.dstBinding, write.dstArrayElement, write.descriptorCount, type,
@@ -154,9 +168,9 @@ void note_descriptor_updates(uint32_t write_count, const VkWriteDescriptorSet *w
     }
     for (uint32_t c = 0; c < copy_count; ++c) {
         const VkCopyDescriptorSet &copy = copies[c];
-        const auto src = g_sets.find(copy.srcSet);
-        const auto dst = g_sets.find(copy.dstSet);
-        if (src == g_sets.end() || dst == g_sets.end()) continue;
+        const auto src = t.sets.find(copy.srcSet);
+        const auto dst = t.sets.find(copy.dstSet);
+        if (src == t.sets.end() || dst == t.sets.end()) continue;
         // Resolved now: later writes to the source do not change the destination.
         std::vector<std::pair<std::pair<uint32_t, uint32_t>, std::optional<Descriptor>>> moved;
         for (uint32_t i = 0; i < copy.descriptorCount; ++i) {
@@ -176,11 +190,12 @@ void note_descriptor_updates(uint32_t write_count, const VkWriteDescriptorSet *w
     }
 }
 
-void note_descriptor_template_update(VkDescriptorSet set, const codec::DescriptorTemplateLayout &layout,
-                                     const void *data) {
-    std::unique_lock lock(g_mutex);
-    const auto it = g_sets.find(set);
-    if (it == g_sets.end() || !data) return;
+void note_descriptor_template_update(DeviceState &device, VkDescriptorSet set,
+                                     const codec::DescriptorTemplateLayout &layout, const void *data) {
+    DescriptorTable &t = *device.descriptors;
+    std::unique_lock lock(t.mutex);
+    const auto it = t.sets.find(set);
+    if (it == t.sets.end() || !data) return;
     const auto *base = static_cast<const uint8_t *>(data);
     for (const VkDescriptorUpdateTemplateEntry &entry : layout.entries) {
         const uint8_t *at = base + entry.offset;
@@ -203,28 +218,30 @@ void note_descriptor_template_update(VkDescriptorSet set, const codec::Descripto
     }
 }
 
-bool set_writes_screen_space(VkDescriptorSet set) {
+bool set_writes_screen_space(const DeviceState &device, VkDescriptorSet set) {
     std::vector<VkImageView> views;
     {
-        std::shared_lock lock(g_mutex);
-        const auto it = g_sets.find(set);
-        if (it == g_sets.end()) return false;
+        DescriptorTable &t = *device.descriptors;
+        std::shared_lock lock(t.mutex);
+        const auto it = t.sets.find(set);
+        if (it == t.sets.end()) return false;
         for (const auto &[key, d] : it->second.contents)
             if (d.type == VK_DESCRIPTOR_TYPE_STORAGE_IMAGE && d.image.imageView)
                 views.push_back(d.image.imageView);
     }
     for (VkImageView view : views)
-        if (is_screen_space(image_of_view(view))) return true;
+        if (is_screen_space(device, image_of_view(device, view))) return true;
     return false;
 }
 
 void snapshot_descriptor_contents(DeviceState &device, const std::unordered_set<uint64_t> &live,
                                   codec::Encoder &out, size_t *set_count) {
-    // Copied out first: encoding asks has_immutable_samplers(), which takes g_mutex.
+    // Copied out first: encoding asks has_immutable_samplers(), which takes the table's lock.
     std::vector<std::pair<VkDescriptorSet, SetInfo>> sets;
     {
-        std::shared_lock lock(g_mutex);
-        for (const auto &[set, info] : g_sets)
+        DescriptorTable &t = *device.descriptors;
+        std::shared_lock lock(t.mutex);
+        for (const auto &[set, info] : t.sets)
             if (!info.contents.empty() && live.count(codec::handle_value(set))) sets.emplace_back(set, info);
     }
     const auto named = [&live](auto handle) {
@@ -280,7 +297,7 @@ void snapshot_descriptor_contents(DeviceState &device, const std::unordered_set<
 
 namespace observe {
 
-void CreateDescriptorSetLayout(DeviceState &, VkDevice, const VkDescriptorSetLayoutCreateInfo *pCreateInfo,
+void CreateDescriptorSetLayout(DeviceState &dev, VkDevice, const VkDescriptorSetLayoutCreateInfo *pCreateInfo,
                                const VkAllocationCallbacks *, VkDescriptorSetLayout *pSetLayout) {
     auto info = std::make_shared<LayoutInfo>();
     for (uint32_t i = 0; i < pCreateInfo->bindingCount; ++i) {
@@ -291,27 +308,29 @@ void CreateDescriptorSetLayout(DeviceState &, VkDevice, const VkDescriptorSetLay
             b.pImmutableSamplers && b.descriptorCount > 0)
             info->immutable_sampler_bindings.insert(b.binding);
     }
-    std::unique_lock lock(g_mutex);
-    g_layouts[*pSetLayout] = std::move(info);
+    std::unique_lock lock(dev.descriptors->mutex);
+    dev.descriptors->layouts[*pSetLayout] = std::move(info);
 }
 
 // Before the driver may hand the value to a layout another thread creates (as every destroy's
 // observer): the new layout keeps its counts.
-void DestroyDescriptorSetLayout(DeviceState &, VkDevice, VkDescriptorSetLayout descriptorSetLayout,
+void DestroyDescriptorSetLayout(DeviceState &dev, VkDevice, VkDescriptorSetLayout descriptorSetLayout,
                                 const VkAllocationCallbacks *) {
     if (descriptorSetLayout == VK_NULL_HANDLE) return;
-    std::unique_lock lock(g_mutex);
-    g_layouts.erase(descriptorSetLayout);
+    std::unique_lock lock(dev.descriptors->mutex);
+    dev.descriptors->layouts.erase(descriptorSetLayout);
 }
 
-void AllocateDescriptorSets(DeviceState &, VkDevice, const VkDescriptorSetAllocateInfo *pAllocateInfo,
+void AllocateDescriptorSets(DeviceState &dev, VkDevice, const VkDescriptorSetAllocateInfo *pAllocateInfo,
                             VkDescriptorSet *pDescriptorSets) {
-    std::unique_lock lock(g_mutex);
+    std::unique_lock lock(dev.descriptors->mutex);
     for (uint32_t i = 0; i < pAllocateInfo->descriptorSetCount; ++i) {
-        const auto layout = g_layouts.find(pAllocateInfo->pSetLayouts[i]);
-        g_sets[pDescriptorSets[i]] = {
-            layout == g_layouts.end() ? nullptr : layout->second, pAllocateInfo->descriptorPool, {}};
-        g_pool_sets[pAllocateInfo->descriptorPool].insert(pDescriptorSets[i]);
+        const auto layout = dev.descriptors->layouts.find(pAllocateInfo->pSetLayouts[i]);
+        dev.descriptors->sets[pDescriptorSets[i]] = {
+            layout == dev.descriptors->layouts.end() ? nullptr : layout->second,
+            pAllocateInfo->descriptorPool,
+            {}};
+        dev.descriptors->pool_sets[pAllocateInfo->descriptorPool].insert(pDescriptorSets[i]);
     }
 }
 
@@ -321,12 +340,12 @@ void FreeDescriptorSets(DeviceState &dev, VkDevice, VkDescriptorPool descriptorP
                         uint32_t descriptorSetCount, const VkDescriptorSet *pDescriptorSets) {
     std::vector<uint64_t> ids;
     {
-        std::unique_lock lock(g_mutex);
-        const auto pool = g_pool_sets.find(descriptorPool);
+        std::unique_lock lock(dev.descriptors->mutex);
+        const auto pool = dev.descriptors->pool_sets.find(descriptorPool);
         for (uint32_t i = 0; i < descriptorSetCount; ++i) {
             if (pDescriptorSets[i] == VK_NULL_HANDLE) continue;
-            g_sets.erase(pDescriptorSets[i]);
-            if (pool != g_pool_sets.end()) pool->second.erase(pDescriptorSets[i]);
+            dev.descriptors->sets.erase(pDescriptorSets[i]);
+            if (pool != dev.descriptors->pool_sets.end()) pool->second.erase(pDescriptorSets[i]);
             ids.push_back(codec::handle_value(pDescriptorSets[i]));
         }
     }
@@ -338,8 +357,8 @@ void ResetDescriptorPool(DeviceState &dev, VkDevice, VkDescriptorPool descriptor
                          VkDescriptorPoolResetFlags) {
     std::vector<uint64_t> ids;
     {
-        std::unique_lock lock(g_mutex);
-        ids = forget_pool_sets_locked(descriptorPool);
+        std::unique_lock lock(dev.descriptors->mutex);
+        ids = forget_pool_sets_locked(*dev.descriptors, descriptorPool);
     }
     dev.session->forget(ids);
 }
@@ -349,8 +368,8 @@ void DestroyDescriptorPool(DeviceState &dev, VkDevice, VkDescriptorPool descript
     if (descriptorPool == VK_NULL_HANDLE) return;
     std::vector<uint64_t> ids;
     {
-        std::unique_lock lock(g_mutex);
-        ids = forget_pool_sets_locked(descriptorPool);
+        std::unique_lock lock(dev.descriptors->mutex);
+        ids = forget_pool_sets_locked(*dev.descriptors, descriptorPool);
     }
     dev.session->forget(ids);
 }

@@ -15,11 +15,11 @@ namespace splitvk {
 
 // Whether `binding` of `set` has immutable samplers, whose VkDescriptorImageInfo::sampler the
 // encoder must not send (EncodeHooks::has_immutable_samplers).
-bool set_binding_has_immutable_samplers(VkDescriptorSet set, uint32_t binding);
+bool set_binding_has_immutable_samplers(const DeviceState &device, VkDescriptorSet set, uint32_t binding);
 
 // vkUpdateDescriptorSets: the descriptor contents part of the live-state log.
-void note_descriptor_updates(uint32_t write_count, const VkWriteDescriptorSet *writes, uint32_t copy_count,
-                             const VkCopyDescriptorSet *copies);
+void note_descriptor_updates(DeviceState &device, uint32_t write_count, const VkWriteDescriptorSet *writes,
+                             uint32_t copy_count, const VkCopyDescriptorSet *copies);
 
 // The layout of a descriptor update template of `device` created while it had a session
 // (descriptor_template.cpp), which the captures of the template updates encode pData with; nullptr
@@ -28,12 +28,12 @@ const codec::DescriptorTemplateLayout *descriptor_template_layout(const DeviceSt
                                                                   VkDescriptorUpdateTemplate update_template);
 
 // vkUpdateDescriptorSetWithTemplate: the same, through a template's layout.
-void note_descriptor_template_update(VkDescriptorSet set, const codec::DescriptorTemplateLayout &layout,
-                                     const void *data);
+void note_descriptor_template_update(DeviceState &device, VkDescriptorSet set,
+                                     const codec::DescriptorTemplateLayout &layout, const void *data);
 
 // Whether a storage image the set holds is a view of a screen-space image (screen_space.h): a
 // dispatch with it bound writes a split target.
-bool set_writes_screen_space(VkDescriptorSet set);
+bool set_writes_screen_space(const DeviceState &device, VkDescriptorSet set);
 
 // Snapshot part (session.h: build_live_snapshot), naming only ids in `live`: one
 // vkUpdateDescriptorSets per set with contents.

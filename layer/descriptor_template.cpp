@@ -9,24 +9,28 @@
 #include "object_map.h"
 
 namespace splitvk {
-namespace {
 
-ObjectMap<VkDescriptorUpdateTemplate, codec::DescriptorTemplateLayout> g_templates;
+struct DescriptorTemplateTable {
+    ObjectMap<VkDescriptorUpdateTemplate, codec::DescriptorTemplateLayout> templates;
+};
 
-} // namespace
+std::shared_ptr<DescriptorTemplateTable> make_descriptor_template_table() {
+    return std::make_shared<DescriptorTemplateTable>();
+}
 
 const codec::DescriptorTemplateLayout *
-descriptor_template_layout(const DeviceState &, VkDescriptorUpdateTemplate update_template) {
-    return g_templates.find(update_template);
+descriptor_template_layout(const DeviceState &dev, VkDescriptorUpdateTemplate update_template) {
+    return dev.descriptor_templates->templates.find(update_template);
 }
 
 namespace observe {
 
-void CreateDescriptorUpdateTemplate(DeviceState &, VkDevice,
+void CreateDescriptorUpdateTemplate(DeviceState &dev, VkDevice,
                                     const VkDescriptorUpdateTemplateCreateInfo *pCreateInfo,
                                     const VkAllocationCallbacks *, VkDescriptorUpdateTemplate *pTemplate) {
-    g_templates.insert(*pTemplate, std::make_unique<codec::DescriptorTemplateLayout>(
-                                       codec::DescriptorTemplateLayout::from(*pCreateInfo)));
+    dev.descriptor_templates->templates.insert(*pTemplate,
+                                               std::make_unique<codec::DescriptorTemplateLayout>(
+                                                   codec::DescriptorTemplateLayout::from(*pCreateInfo)));
 }
 
 void CreateDescriptorUpdateTemplateKHR(DeviceState &dev, VkDevice device,
@@ -38,10 +42,11 @@ void CreateDescriptorUpdateTemplateKHR(DeviceState &dev, VkDevice device,
 
 // Before the driver may hand the value to a template another thread creates (as every destroy's
 // observer): the new template keeps its layout.
-void DestroyDescriptorUpdateTemplate(DeviceState &, VkDevice,
+void DestroyDescriptorUpdateTemplate(DeviceState &dev, VkDevice,
                                      VkDescriptorUpdateTemplate descriptorUpdateTemplate,
                                      const VkAllocationCallbacks *) {
-    if (descriptorUpdateTemplate != VK_NULL_HANDLE) g_templates.remove(descriptorUpdateTemplate);
+    if (descriptorUpdateTemplate != VK_NULL_HANDLE)
+        dev.descriptor_templates->templates.remove(descriptorUpdateTemplate);
 }
 
 void DestroyDescriptorUpdateTemplateKHR(DeviceState &dev, VkDevice device,

@@ -28,14 +28,8 @@
 namespace splitvk {
 namespace {
 
+// Every device created through this layer, passthrough ones included (DeviceState::passthrough).
 ObjectMap<DispatchKey, DeviceState> g_devices;
-
-// SPLITVK_UNSUPPORTED=passthrough: the devices splitvk stays out of (passthrough_device_proc_addr).
-struct PassthroughDevice {
-    PFN_vkGetDeviceProcAddr next_get_device_proc_addr = nullptr;
-    PFN_vkDestroyDevice next_destroy_device = nullptr;
-};
-ObjectMap<DispatchKey, PassthroughDevice> g_passthrough_devices;
 
 // The device extensions of a vkCreateDevice that splitvk does not forward (codegen/allowlist.py),
 // joined with ", "; empty when it forwards them all.
@@ -52,7 +46,7 @@ std::string withheld_extensions(const VkDeviceCreateInfo &info) {
 
 const DeviceDispatchTable &device_table(DispatchKey key) {
     DeviceState *state = g_devices.find(key);
-    if (!state) {
+    if (!state || state->passthrough) {
         SPLITVK_ERROR("internal: device-level call on a handle this layer never saw");
         std::abort();
     }
@@ -61,7 +55,7 @@ const DeviceDispatchTable &device_table(DispatchKey key) {
 
 DeviceState &device_state_by_key(DispatchKey key) {
     DeviceState *state = g_devices.find(key);
-    if (!state) {
+    if (!state || state->passthrough) {
         SPLITVK_ERROR("internal: device-level call on a handle this layer never saw");
         std::abort();
     }
@@ -77,7 +71,7 @@ DeviceState &device_state_by_key(DispatchKey key) {
 // glibc runs a library's atexit handlers when it is unloaded as well, so this never outlives the code.
 void finish_devices_at_exit() {
     for (std::unique_ptr<DeviceState> &state : g_devices.take_all()) {
-        if (!state->session) continue;
+        if (state->passthrough || !state->session) continue;
         stop_presents(*state);
         state->session->close();
         report_verify_summary(*state);
@@ -90,18 +84,26 @@ void finish_devices_at_exit() {
     }
 }
 
-} // namespace
-
-void forget_device_objects(DeviceState &device) {
-    if (!device.session) return;
-    stop_presents(device);       // its frames use the compositors and the queues
-    release_compositors(device); // of swapchains the application left alive
-    forget_command_buffers(device);
-    forget_memory(device);
-    forget_resources(device);
-    release_gpu_timing(device);
-    forget_queues(device);
+void make_tables(DeviceState &state) {
+    state.memory = make_memory_objects();
+    state.queues = make_queue_table();
+    state.command_buffers = make_command_buffer_table();
+    state.images = make_image_table();
+    state.resources = make_resource_table();
+    state.render_passes = make_render_pass_table();
+    state.render_pass_depth = make_render_pass_depth_table();
+    state.descriptors = make_descriptor_table();
+    state.descriptor_templates = make_descriptor_template_table();
+    state.pipelines = make_pipeline_table();
+    state.swapchains = make_swapchain_table();
+    state.screen = make_screen_table();
+    state.gpu_timing = make_gpu_timing_table();
+    state.compositors = make_compositor_table();
+    state.readbacks = make_verify_table();
+    state.presents = make_present_table();
 }
+
+} // namespace
 
 DeviceState &device_state(VkDevice device) {
     return device_state_by_key(dispatch_key(device));
@@ -114,12 +116,13 @@ DeviceState &device_state(VkCommandBuffer command_buffer) {
 }
 
 DeviceState *find_device(DispatchKey key) {
-    return g_devices.find(key);
+    DeviceState *state = g_devices.find(key);
+    return state && !state->passthrough ? state : nullptr;
 }
 
 PFN_vkGetDeviceProcAddr passthrough_device_proc_addr(DispatchKey key) {
-    const PassthroughDevice *device = g_passthrough_devices.find(key);
-    return device ? device->next_get_device_proc_addr : nullptr;
+    const DeviceState *state = g_devices.find(key);
+    return state && state->passthrough ? state->next_get_device_proc_addr : nullptr;
 }
 
 const DeviceDispatchTable &device_dispatch(VkDevice device) {
@@ -175,18 +178,20 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateDevice(VkPhysicalDevice physicalDevice,
     if (result != VK_SUCCESS) return result;
 
     if (passthrough) {
-        // Nothing of splitvk's for this device: no session, no dispatch table, no object state;
-        // vkGetDeviceProcAddr answers with the next layer's commands (layer.cpp).
-        auto device = std::make_unique<PassthroughDevice>();
+        // Nothing of splitvk's for this device but the next layer's vkDestroyDevice: no session,
+        // no tables; vkGetDeviceProcAddr answers with the next layer's commands (layer.cpp).
+        auto device = std::make_unique<DeviceState>();
+        device->handle = *pDevice;
+        device->passthrough = true;
         device->next_get_device_proc_addr = next_gdpa;
-        device->next_destroy_device =
+        device->dispatch.DestroyDevice =
             reinterpret_cast<PFN_vkDestroyDevice>(next_gdpa(*pDevice, "vkDestroyDevice"));
-        g_passthrough_devices.insert(dispatch_key(*pDevice), std::move(device));
+        g_devices.insert(dispatch_key(*pDevice), std::move(device));
         return VK_SUCCESS;
     }
 
     auto state = std::make_unique<DeviceState>();
-    state->memory = make_memory_objects();
+    make_tables(*state);
     state->handle = *pDevice;
     state->physical_device = physicalDevice;
     state->instance = instance;
@@ -207,14 +212,18 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateDevice(VkPhysicalDevice physicalDevice,
 VKAPI_ATTR void VKAPI_CALL DestroyDevice(VkDevice device, const VkAllocationCallbacks *pAllocator) {
     if (device == VK_NULL_HANDLE) return;
     const auto state = g_devices.remove(dispatch_key(device));
-    if (!state) {
-        if (const auto passthrough = g_passthrough_devices.remove(dispatch_key(device)))
-            passthrough->next_destroy_device(device, pAllocator);
+    if (!state) return;
+    if (state->passthrough) {
+        state->dispatch.DestroyDevice(device, pAllocator);
         return;
     }
     log_live_state(*state, "at vkDestroyDevice");
-    forget_device_objects(*state);
     if (state->session) {
+        // What holds driver objects goes while the driver still has the device; the rest of the
+        // state (every table) goes with `state`, after the driver's vkDestroyDevice.
+        stop_presents(*state);       // its frames use the compositors and the queues
+        release_compositors(*state); // of swapchains the application left alive
+        release_gpu_timing(*state);
         if (state->session->live())
             state->session->record(LiveChange::Unchanged, 0,
                                    [&](codec::Encoder &e) { encode_vkDestroyDevice(e, device, nullptr); });

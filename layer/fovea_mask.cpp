@@ -24,7 +24,18 @@ namespace {
 struct RenderPassDepth {
     uint32_t attachment = 0;
 };
-ObjectMap<VkRenderPass, RenderPassDepth> g_render_pass_depth;
+
+} // namespace
+
+struct RenderPassDepthTable {
+    ObjectMap<VkRenderPass, RenderPassDepth> passes;
+};
+
+std::shared_ptr<RenderPassDepthTable> make_render_pass_depth_table() {
+    return std::make_shared<RenderPassDepthTable>();
+}
+
+namespace {
 
 bool depth_cleared_and_dropped(VkFormat format, VkAttachmentLoadOp load, VkAttachmentStoreOp store) {
     return format_info(format).depth && load == VK_ATTACHMENT_LOAD_OP_CLEAR &&
@@ -32,13 +43,14 @@ bool depth_cleared_and_dropped(VkFormat format, VkAttachmentLoadOp load, VkAttac
 }
 
 template <class CreateInfo>
-void note_depth(VkRenderPass render_pass, const CreateInfo &info, uint32_t depth_attachment) {
-    forget_render_pass_depth(render_pass);
+void note_depth(DeviceState &device, VkRenderPass render_pass, const CreateInfo &info,
+                uint32_t depth_attachment) {
+    forget_render_pass_depth(device, render_pass);
     if (info.subpassCount != 1 || depth_attachment >= info.attachmentCount) return;
     const auto &attachment = info.pAttachments[depth_attachment];
     if (!depth_cleared_and_dropped(attachment.format, attachment.loadOp, attachment.storeOp)) return;
-    g_render_pass_depth.insert(render_pass,
-                               std::make_unique<RenderPassDepth>(RenderPassDepth{depth_attachment}));
+    device.render_pass_depth->passes.insert(
+        render_pass, std::make_unique<RenderPassDepth>(RenderPassDepth{depth_attachment}));
 }
 
 // The size of the foveae every frame of the pass's image will have at least, known while the pass
@@ -114,13 +126,15 @@ void record_mask(DeviceState &device, VkCommandBuffer command_buffer, split::Com
 
 } // namespace
 
-void note_render_pass_depth(VkRenderPass render_pass, const VkRenderPassCreateInfo &info) {
+void note_render_pass_depth(DeviceState &device, VkRenderPass render_pass,
+                            const VkRenderPassCreateInfo &info) {
     const VkAttachmentReference *depth =
         info.subpassCount == 1 ? info.pSubpasses[0].pDepthStencilAttachment : nullptr;
-    note_depth(render_pass, info, depth ? depth->attachment : VK_ATTACHMENT_UNUSED);
+    note_depth(device, render_pass, info, depth ? depth->attachment : VK_ATTACHMENT_UNUSED);
 }
 
-void note_render_pass_depth(VkRenderPass render_pass, const VkRenderPassCreateInfo2 &info) {
+void note_render_pass_depth(DeviceState &device, VkRenderPass render_pass,
+                            const VkRenderPassCreateInfo2 &info) {
     const VkAttachmentReference2 *depth =
         info.subpassCount == 1 ? info.pSubpasses[0].pDepthStencilAttachment : nullptr;
     // A depth resolve would carry the mask into the resolved image.
@@ -131,16 +145,16 @@ void note_render_pass_depth(VkRenderPass render_pass, const VkRenderPassCreateIn
             : nullptr;
     const bool resolves = resolve && resolve->pDepthStencilResolveAttachment &&
                           resolve->pDepthStencilResolveAttachment->attachment != VK_ATTACHMENT_UNUSED;
-    note_depth(render_pass, info, depth && !resolves ? depth->attachment : VK_ATTACHMENT_UNUSED);
+    note_depth(device, render_pass, info, depth && !resolves ? depth->attachment : VK_ATTACHMENT_UNUSED);
 }
 
-void forget_render_pass_depth(VkRenderPass render_pass) {
-    g_render_pass_depth.remove(render_pass);
+void forget_render_pass_depth(DeviceState &device, VkRenderPass render_pass) {
+    device.render_pass_depth->passes.remove(render_pass);
 }
 
 void mask_foveae(DeviceState &device, VkCommandBuffer command_buffer, split::CommandTracker &tracker,
                  const VkRenderPassBeginInfo &begin, VkExtent2D image, const VkRect2D &area) {
-    const RenderPassDepth *depth = g_render_pass_depth.find(begin.renderPass);
+    const RenderPassDepth *depth = device.render_pass_depth->passes.find(begin.renderPass);
     if (!depth || depth->attachment >= begin.clearValueCount || !begin.pClearValues) return;
     record_mask(device, command_buffer, tracker, image, area,
                 begin.pClearValues[depth->attachment].depthStencil.depth);

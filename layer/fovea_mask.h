@@ -34,9 +34,11 @@ inline constexpr uint32_t kFoveaMaskGuard = 3;
 
 // vkCreateRenderPass*, vkDestroyRenderPass (resource.cpp): whether a render pass's depth attachment
 // can carry the mask, and which it is.
-void note_render_pass_depth(VkRenderPass render_pass, const VkRenderPassCreateInfo &info);
-void note_render_pass_depth(VkRenderPass render_pass, const VkRenderPassCreateInfo2 &info);
-void forget_render_pass_depth(VkRenderPass render_pass);
+void note_render_pass_depth(DeviceState &device, VkRenderPass render_pass,
+                            const VkRenderPassCreateInfo &info);
+void note_render_pass_depth(DeviceState &device, VkRenderPass render_pass,
+                            const VkRenderPassCreateInfo2 &info);
+void forget_render_pass_depth(DeviceState &device, VkRenderPass render_pass);
 
 // render_pass.cpp, right after a split pass into a window's swapchain image (never an OpenXR
 // runtime's) of `image` extent began

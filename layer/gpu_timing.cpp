@@ -23,12 +23,23 @@ struct DeviceTiming {
     uint64_t calls = 0;
 };
 
-std::mutex g_mutex; // g_devices, and every CommandTiming while a function of this file uses it
-std::unordered_map<DeviceState *, DeviceTiming> g_devices;
+} // namespace
 
-// Under g_mutex: the device's pool, created on first use; nullptr when timestamps are unusable.
+struct GpuTimingTable {
+    std::mutex mutex; // `timing`, and every CommandTiming of the device while a function of this file uses it
+    DeviceTiming timing;
+};
+
+std::shared_ptr<GpuTimingTable> make_gpu_timing_table() {
+    return std::make_shared<GpuTimingTable>();
+}
+
+namespace {
+
+// Under the table's lock: the device's pool, created on first use; nullptr when timestamps are
+// unusable.
 DeviceTiming *timing_locked(DeviceState &dev) {
-    DeviceTiming &t = g_devices[&dev];
+    DeviceTiming &t = dev.gpu_timing->timing;
     if (t.pool || t.unsupported) return t.unsupported ? nullptr : &t;
     VkPhysicalDeviceProperties properties{};
     dev.instance->dispatch.GetPhysicalDeviceProperties(dev.physical_device, &properties);
@@ -46,7 +57,7 @@ DeviceTiming *timing_locked(DeviceState &dev) {
     return &t;
 }
 
-// Under g_mutex: `cb`'s pair, given on first use; nullptr when there is none.
+// Under the table's lock: `cb`'s pair, given on first use; nullptr when there is none.
 const uint32_t *pair_locked(DeviceTiming &t, VkCommandBuffer cb) {
     auto found = t.pairs.find(cb);
     if (found == t.pairs.end()) {
@@ -59,7 +70,7 @@ const uint32_t *pair_locked(DeviceTiming &t, VkCommandBuffer cb) {
 } // namespace
 
 void time_before_split_pass(DeviceState &dev, VkCommandBuffer cb, CommandTiming &timing) {
-    std::lock_guard lock(g_mutex);
+    std::lock_guard lock(dev.gpu_timing->mutex);
     if (timing.timed) return; // only the first split pass of a recording is timed
     DeviceTiming *t = timing_locked(dev);
     const uint32_t *pair = t ? pair_locked(*t, cb) : nullptr;
@@ -70,7 +81,7 @@ void time_before_split_pass(DeviceState &dev, VkCommandBuffer cb, CommandTiming 
 }
 
 void time_composite_begin(DeviceState &dev, VkCommandBuffer cb, CommandTiming &timing) {
-    std::lock_guard lock(g_mutex);
+    std::lock_guard lock(dev.gpu_timing->mutex);
     timing = {};
     DeviceTiming *t = timing_locked(dev);
     const uint32_t *pair = t ? pair_locked(*t, cb) : nullptr;
@@ -82,10 +93,10 @@ void time_composite_begin(DeviceState &dev, VkCommandBuffer cb, CommandTiming &t
 }
 
 bool time_composite_end(DeviceState &dev, VkCommandBuffer cb, CommandTiming &timing, VkBuffer results) {
-    std::lock_guard lock(g_mutex);
+    std::lock_guard lock(dev.gpu_timing->mutex);
     if (!timing.timed || !timing.begun || timing.ended) return false;
     timing.ended = true;
-    const VkQueryPool pool = g_devices[&dev].pool;
+    const VkQueryPool pool = dev.gpu_timing->timing.pool;
     const uint32_t first = 2 * timing.pair;
     dev.dispatch.CmdWriteTimestamp(cb, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, pool, first + 1);
     // WAIT_BIT: the copy waits on the queue for both timestamps, not the host.
@@ -95,40 +106,37 @@ bool time_composite_end(DeviceState &dev, VkCommandBuffer cb, CommandTiming &tim
 }
 
 double timestamps_ms(DeviceState &dev, uint64_t begin, uint64_t end) {
-    std::lock_guard lock(g_mutex);
-    const auto found = g_devices.find(&dev);
-    if (found == g_devices.end() || begin == 0 || end <= begin) return 0;
-    return static_cast<double>(end - begin) * found->second.period_ns / 1e6;
+    std::lock_guard lock(dev.gpu_timing->mutex);
+    if (begin == 0 || end <= begin) return 0;
+    return static_cast<double>(end - begin) * dev.gpu_timing->timing.period_ns / 1e6;
 }
 
 void time_split_pass_begun(DeviceState &dev, VkCommandBuffer cb, CommandTiming &timing) {
-    std::lock_guard lock(g_mutex);
+    std::lock_guard lock(dev.gpu_timing->mutex);
     if (!timing.timed || timing.begun) return;
     timing.begun = true;
-    dev.dispatch.CmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, g_devices[&dev].pool,
+    dev.dispatch.CmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, dev.gpu_timing->timing.pool,
                                    2 * timing.pair);
 }
 
 void time_split_pass_ended(DeviceState &dev, VkCommandBuffer cb, CommandTiming &timing) {
-    std::lock_guard lock(g_mutex);
+    std::lock_guard lock(dev.gpu_timing->mutex);
     if (!timing.timed || !timing.begun || timing.ended) return;
     timing.ended = true;
-    dev.dispatch.CmdWriteTimestamp(cb, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, g_devices[&dev].pool,
+    dev.dispatch.CmdWriteTimestamp(cb, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, dev.gpu_timing->timing.pool,
                                    2 * timing.pair + 1);
 }
 
 void note_timed_submit(DeviceState &dev, const CommandTiming &timing) {
-    std::lock_guard lock(g_mutex);
-    const auto found = g_devices.find(&dev);
-    if (found == g_devices.end() || !timing.timed || !timing.ended) return;
-    found->second.submitted[timing.pair] = true;
+    std::lock_guard lock(dev.gpu_timing->mutex);
+    if (!timing.timed || !timing.ended) return;
+    dev.gpu_timing->timing.submitted[timing.pair] = true;
 }
 
 double latest_periphery_ms(DeviceState &dev) {
-    std::lock_guard lock(g_mutex);
-    const auto found = g_devices.find(&dev);
-    if (found == g_devices.end() || !found->second.pool) return 0;
-    DeviceTiming &t = found->second;
+    std::lock_guard lock(dev.gpu_timing->mutex);
+    DeviceTiming &t = dev.gpu_timing->timing;
+    if (!t.pool) return 0;
     if (t.calls++ % kPeripheryReadInterval != 0) return t.latest_ms;
     // Both timestamps of each submitted pair with their availability, without waiting: the most
     // recent completed measurement wins. Composites are read by the compositor itself.
@@ -146,11 +154,10 @@ double latest_periphery_ms(DeviceState &dev) {
 }
 
 void release_gpu_timing(DeviceState &dev) {
-    std::lock_guard lock(g_mutex);
-    const auto found = g_devices.find(&dev);
-    if (found == g_devices.end()) return;
-    if (found->second.pool) dev.dispatch.DestroyQueryPool(dev.handle, found->second.pool, nullptr);
-    g_devices.erase(found);
+    std::lock_guard lock(dev.gpu_timing->mutex);
+    DeviceTiming &t = dev.gpu_timing->timing;
+    if (t.pool) dev.dispatch.DestroyQueryPool(dev.handle, t.pool, nullptr);
+    t = DeviceTiming{};
 }
 
 } // namespace splitvk

@@ -5,42 +5,49 @@
 #include <unordered_map>
 
 namespace splitvk {
-namespace {
+struct ImageTable {
+    std::shared_mutex mutex; // the table and every ImageState in it (image.h says why)
+    std::unordered_map<VkImage, ImageState> images;
+};
 
-std::shared_mutex g_mutex; // the table and every ImageState in it (image.h says why)
-std::unordered_map<VkImage, ImageState> g_images;
-
-} // namespace
-
-void add_image(VkImage image, ImageState state) {
-    std::unique_lock lock(g_mutex);
-    g_images[image] = std::move(state);
+std::shared_ptr<ImageTable> make_image_table() {
+    return std::make_shared<ImageTable>();
 }
 
-void remove_image(VkImage image) {
+void add_image(DeviceState &device, VkImage image, ImageState state) {
+    ImageTable &t = *device.images;
+    std::unique_lock lock(t.mutex);
+    t.images[image] = std::move(state);
+}
+
+void remove_image(DeviceState &device, VkImage image) {
     if (image == VK_NULL_HANDLE) return;
-    std::unique_lock lock(g_mutex);
-    g_images.erase(image);
+    ImageTable &t = *device.images;
+    std::unique_lock lock(t.mutex);
+    t.images.erase(image);
 }
 
 void note_swapchain_images(DeviceState &device, VkSwapchainKHR swapchain, uint32_t count,
                            const VkImage *images) {
-    std::unique_lock lock(g_mutex);
+    ImageTable &t = *device.images;
+    std::unique_lock lock(t.mutex);
     for (uint32_t i = 0; i < count; ++i) {
-        ImageState &state = g_images[images[i]];
+        ImageState &state = t.images[images[i]];
         if (!state.device) state.device = &device;
         if (state.swapchain != swapchain) state.drawn.reset(); // drawn for another swapchain's frames
         state.swapchain = swapchain;
     }
 }
 
-void forget_swapchain_images(VkSwapchainKHR swapchain, uint32_t count, const VkImage *images) {
-    std::unique_lock lock(g_mutex);
+void forget_swapchain_images(DeviceState &device, VkSwapchainKHR swapchain, uint32_t count,
+                             const VkImage *images) {
+    ImageTable &t = *device.images;
+    std::unique_lock lock(t.mutex);
     for (uint32_t i = 0; i < count; ++i) {
-        const auto it = g_images.find(images[i]);
-        if (it == g_images.end() || it->second.swapchain != swapchain) continue;
+        const auto it = t.images.find(images[i]);
+        if (it == t.images.end() || it->second.swapchain != swapchain) continue;
         if (!it->second.created) {
-            g_images.erase(it);
+            t.images.erase(it);
             continue;
         }
         it->second.swapchain = VK_NULL_HANDLE;
@@ -48,33 +55,32 @@ void forget_swapchain_images(VkSwapchainKHR swapchain, uint32_t count, const VkI
     }
 }
 
-void forget_images(DeviceState &device) {
-    std::unique_lock lock(g_mutex);
-    std::erase_if(g_images, [&](const auto &entry) { return entry.second.device == &device; });
-}
-
-bool read_image(VkImage image, const std::function<void(const ImageState &)> &read) {
+bool read_image(const DeviceState &device, VkImage image,
+                const std::function<void(const ImageState &)> &read) {
     if (image == VK_NULL_HANDLE) return false;
-    std::shared_lock lock(g_mutex);
-    const auto it = g_images.find(image);
-    if (it == g_images.end()) return false;
+    ImageTable &t = *device.images;
+    std::shared_lock lock(t.mutex);
+    const auto it = t.images.find(image);
+    if (it == t.images.end()) return false;
     read(it->second);
     return true;
 }
 
 void for_each_image(const DeviceState &device,
                     const std::function<void(VkImage, const ImageState &)> &visit) {
-    std::shared_lock lock(g_mutex);
-    for (const auto &[image, state] : g_images)
-        if (state.device == &device) visit(image, state);
+    ImageTable &t = *device.images;
+    std::shared_lock lock(t.mutex);
+    for (const auto &[image, state] : t.images)
+        visit(image, state);
 }
 
-LockedImages::LockedImages() : lock_(g_mutex, std::defer_lock) {}
+LockedImages::LockedImages(DeviceState &device)
+    : table_(*device.images), lock_(table_.mutex, std::defer_lock) {}
 
 ImageState *LockedImages::find(VkImage image) {
     if (!lock_.owns_lock()) lock_.lock();
-    const auto it = g_images.find(image);
-    return it == g_images.end() ? nullptr : &it->second;
+    const auto it = table_.images.find(image);
+    return it == table_.images.end() ? nullptr : &it->second;
 }
 
 } // namespace splitvk

@@ -1,6 +1,6 @@
 #pragma once
 
-// VkImage: one ImageState per image the layer knows, in one table (image.cpp). An image enters it
+// VkImage: one ImageState per image the layer knows, in its device's table (image.cpp). An image enters it
 // at vkCreateImage on a device with a session (resource.cpp) or when the application queries a
 // swapchain's images (render_pass.cpp; an OpenXR runtime's swapchain: swapchain.cpp), and leaves
 // it in one place: vkDestroyImage, or the destroy of its swapchain, both before the driver call,
@@ -66,22 +66,22 @@ struct ImageState {
 };
 
 // vkCreateImage: `image` is `state` from now on (whatever an earlier image of that handle value was).
-void add_image(VkImage image, ImageState state);
+void add_image(DeviceState &device, VkImage image, ImageState state);
 // vkDestroyImage, before the driver call.
-void remove_image(VkImage image);
+void remove_image(DeviceState &device, VkImage image);
 // A swapchain's images (vkGetSwapchainImagesKHR, or an OpenXR runtime's): an image already known
 // (the runtime created it) keeps its state and becomes a member.
 void note_swapchain_images(DeviceState &device, VkSwapchainKHR swapchain, uint32_t count,
                            const VkImage *images);
 // The swapchain is destroyed (before the driver call): its own images leave the table; an image
 // vkCreateImage made stays, no longer a member.
-void forget_swapchain_images(VkSwapchainKHR swapchain, uint32_t count, const VkImage *images);
-// vkDestroyDevice: every image of the device.
-void forget_images(DeviceState &device);
+void forget_swapchain_images(DeviceState &device, VkSwapchainKHR swapchain, uint32_t count,
+                             const VkImage *images);
 
 // Under the shared lock: `read` sees the image's state; false (and `read` not called) when the
 // table has none. `read` must not call back into this table.
-bool read_image(VkImage image, const std::function<void(const ImageState &)> &read);
+bool read_image(const DeviceState &device, VkImage image,
+                const std::function<void(const ImageState &)> &read);
 // Under the shared lock: every image of `device`.
 void for_each_image(const DeviceState &device, const std::function<void(VkImage, const ImageState &)> &visit);
 
@@ -92,10 +92,11 @@ void for_each_image(const DeviceState &device, const std::function<void(VkImage,
 // this table may be called meanwhile.
 class LockedImages {
 public:
-    LockedImages();
+    explicit LockedImages(DeviceState &device);
     ImageState *find(VkImage image);
 
 private:
+    ImageTable &table_;
     std::unique_lock<std::shared_mutex> lock_;
 };
 

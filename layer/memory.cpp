@@ -152,12 +152,6 @@ void resync_mapped_shadows(DeviceState &device) {
     }
 }
 
-void forget_memory(DeviceState &device) {
-    std::lock_guard lock(device.memory->mutex);
-    device.memory->mapped.clear();
-    device.memory->all.clear();
-}
-
 namespace entry {
 
 VKAPI_ATTR VkResult VKAPI_CALL AllocateMemory(VkDevice device, const VkMemoryAllocateInfo *pAllocateInfo,

@@ -14,7 +14,4 @@ void sync_mapped_memory(DeviceState &device);
 // those contents, so that later diffs are against what it has.
 void resync_mapped_shadows(DeviceState &device);
 
-// vkDestroyDevice: drops the device's allocations and shadows.
-void forget_memory(DeviceState &device);
-
 } // namespace splitvk

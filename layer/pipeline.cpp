@@ -19,12 +19,19 @@ struct PipelineState {
     std::shared_ptr<const split::StaticViewportState> viewport_state;
 };
 
-ObjectMap<VkPipeline, PipelineState> g_pipelines;
-
 } // namespace
 
-std::shared_ptr<const split::StaticViewportState> pipeline_static_state(VkPipeline pipeline) {
-    const PipelineState *state = g_pipelines.find(pipeline);
+struct PipelineTable {
+    ObjectMap<VkPipeline, PipelineState> pipelines;
+};
+
+std::shared_ptr<PipelineTable> make_pipeline_table() {
+    return std::make_shared<PipelineTable>();
+}
+
+std::shared_ptr<const split::StaticViewportState> pipeline_static_state(const DeviceState &device,
+                                                                        VkPipeline pipeline) {
+    const PipelineState *state = device.pipelines->pipelines.find(pipeline);
     return state ? state->viewport_state : nullptr;
 }
 
@@ -32,8 +39,8 @@ namespace observe {
 
 // Forgotten before the driver may hand the value to a pipeline another thread creates (as every
 // destroy: codegen/emit_layer.py).
-void DestroyPipeline(DeviceState &, VkDevice, VkPipeline pipeline, const VkAllocationCallbacks *) {
-    if (pipeline != VK_NULL_HANDLE) g_pipelines.remove(pipeline);
+void DestroyPipeline(DeviceState &dev, VkDevice, VkPipeline pipeline, const VkAllocationCallbacks *) {
+    if (pipeline != VK_NULL_HANDLE) dev.pipelines->pipelines.remove(pipeline);
 }
 
 } // namespace observe
@@ -64,7 +71,7 @@ VkResult CreateGraphicsPipelines(DeviceState &dev, PFN_vkCreateGraphicsPipelines
         if (statics[i] && pPipelines[i] != VK_NULL_HANDLE) {
             auto state = std::make_unique<PipelineState>();
             state->viewport_state = std::move(statics[i]);
-            g_pipelines.insert(pPipelines[i], std::move(state));
+            dev.pipelines->pipelines.insert(pPipelines[i], std::move(state));
         }
     return result;
 }
@@ -76,7 +83,7 @@ void CmdBindPipeline(DeviceState &dev, PFN_vkCmdBindPipeline down, VkCommandBuff
     split::CommandTracker *tracker = split_tracker(commandBuffer);
     if (!tracker) return;
     const bool had_viewports = tracker->static_viewports(), had_scissors = tracker->static_scissors();
-    tracker->bind_pipeline(pipeline_static_state(pipeline));
+    tracker->bind_pipeline(pipeline_static_state(dev, pipeline));
     // A pipeline the layer made dynamic needs its values set; leaving one, the app's dynamic
     // values (held back while it was bound) apply again.
     if (had_viewports || tracker->static_viewports()) emit_viewports(dev, commandBuffer, *tracker);

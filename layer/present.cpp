@@ -84,8 +84,6 @@ namespace {
 using namespace std::chrono_literals;
 constexpr uint64_t kFenceWaitNs = 5'000'000'000; // the layer's own copy
 
-std::mutex g_mutex; // g_redirects's
-
 // How often a tile wait looks whether the GPU has finished the application's frame (exposed_wait_ms).
 constexpr auto kExposurePoll = 1ms;
 
@@ -275,7 +273,7 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
     AutoFovea *sizing = session.auto_fovea();
 
     Compositor *compositor = p.compositor;
-    if (!compositor) compositor = compositor_for(dev, *p.swapchain, queue_family_of(p.queue), stats);
+    if (!compositor) compositor = compositor_for(dev, *p.swapchain, queue_family_of(dev, p.queue), stats);
     // Synchronous, only for the CSV and the fovea's sizing: the application's semaphores go to an
     // empty submit of the compositor's, whose fence tells when the GPU has finished the frame
     // (exposed_wait_ms).
@@ -344,13 +342,13 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
         // late, invalid or mismatched: the previous periphery again, feathered alike (VK_NOT_READY
         // before any: as drawn).
         const std::vector<VkRect2D> keep = first_layer_foveae(p.split);
-        auto queue_lock = lock ? lock_queue(p.queue) : std::unique_lock<std::mutex>();
+        auto queue_lock = lock ? lock_queue(dev, p.queue) : std::unique_lock<std::mutex>();
         if (compositor->composite_periphery(p.queue, p.image_index, waits, tiles ? &periphery : nullptr, keep,
                                             p.swapchain->runtime ? nullptr : &composited,
                                             split_settings().seam.feather) != VK_SUCCESS)
             composited = taken;
     } else if (compositor) {
-        auto queue_lock = lock ? lock_queue(p.queue) : std::unique_lock<std::mutex>();
+        auto queue_lock = lock ? lock_queue(dev, p.queue) : std::unique_lock<std::mutex>();
         if (compositor->composite(p.queue, p.image_index, waits, p.split.periphery, foveae,
                                   p.swapchain->runtime ? nullptr : &composited) != VK_SUCCESS)
             composited = taken; // VK_NULL_HANDLE unless take_waits() consumed the application's semaphores
@@ -423,9 +421,8 @@ VkResult worse(VkResult a, VkResult b) {
     return severity(b) > severity(a) ? b : a;
 }
 
-// What the asynchronous present knows of a swapchain, under g_async_mutex.
+// What the asynchronous present knows of a swapchain, under the table's async_mutex.
 struct SwapchainPresents {
-    const DeviceState *device = nullptr;
     std::vector<uint32_t> held;     // image indices acquired by the application, not presented by it yet
     std::vector<uint32_t> queued;   // presented by the application, not by the present thread yet
     VkResult deferred = VK_SUCCESS; // the worst result of the thread's presents the app has not had
@@ -450,10 +447,35 @@ struct PresentThread {
     bool stopping = false;
 };
 
-std::mutex g_async_mutex;
-std::condition_variable g_async_changed;
-std::map<const DeviceState *, std::unique_ptr<PresentThread>> g_present_threads;
-std::unordered_map<VkSwapchainKHR, SwapchainPresents> g_swapchain_presents;
+// A copy of one swapchain image into another of the same swapchain ("Order"): its command buffer,
+// its fence, and the semaphore the present waits on. Its lock is held while it is recorded and
+// submitted (after a wait for its previous copy), which concerns that swapchain's presents only.
+struct Redirect {
+    std::mutex mutex; // what follows
+    VkCommandPool pool = VK_NULL_HANDLE;
+    VkCommandBuffer command_buffer = VK_NULL_HANDLE;
+    VkFence fence = VK_NULL_HANDLE;
+    VkSemaphore semaphore = VK_NULL_HANDLE;
+    bool in_flight = false;
+};
+
+} // namespace
+
+struct PresentTable {
+    std::mutex async_mutex; // `thread`'s queue and counts, and `swapchains`
+    std::condition_variable async_changed;
+    std::unique_ptr<PresentThread> thread; // made at the first asynchronous present
+    std::unordered_map<VkSwapchainKHR, SwapchainPresents> swapchains;
+    // The map only: held for a lookup, never while a copy is recorded or waited for.
+    std::mutex redirects_mutex;
+    std::map<VkSwapchainKHR, std::shared_ptr<Redirect>> redirects;
+};
+
+std::shared_ptr<PresentTable> make_present_table() {
+    return std::make_shared<PresentTable>();
+}
+
+namespace {
 
 // The present thread's half of a frame: its tiles, the composite and the real present.
 VkResult present_split_frame(DeviceState &dev, SplitPresent &p) {
@@ -471,7 +493,7 @@ VkResult present_split_frame(DeviceState &dev, SplitPresent &p) {
     present.pImageIndices = &p.image_index;
     VkResult result;
     {
-        const auto lock = lock_queue(p.queue);
+        const auto lock = lock_queue(dev, p.queue);
         result = dev.dispatch.QueuePresentKHR(p.queue, &present);
     }
     record.frame_latency_ms = latency_ms(p.acquired, std::chrono::steady_clock::now());
@@ -480,9 +502,10 @@ VkResult present_split_frame(DeviceState &dev, SplitPresent &p) {
 }
 
 void run_present_thread(DeviceState &dev, PresentThread &t) {
-    std::unique_lock lock(g_async_mutex);
+    PresentTable &table = *dev.presents;
+    std::unique_lock lock(table.async_mutex);
     for (;;) {
-        g_async_changed.wait(lock, [&] { return t.stopping || !t.frames.empty(); });
+        table.async_changed.wait(lock, [&] { return t.stopping || !t.frames.empty(); });
         if (t.frames.empty()) return; // stopping, and every frame presented
         SplitPresent p = std::move(t.frames.front());
         t.frames.pop_front();
@@ -494,11 +517,11 @@ void run_present_thread(DeviceState &dev, PresentThread &t) {
                 "at its next present or acquire",
                 static_cast<unsigned long long>(p.frame), vk_result_name(result));
         lock.lock();
-        SwapchainPresents &sc = g_swapchain_presents[p.swapchain->handle];
+        SwapchainPresents &sc = table.swapchains[p.swapchain->handle];
         erase_one(sc.queued, p.image_index);
         sc.deferred = worse(sc.deferred, result);
         --t.in_layer;
-        g_async_changed.notify_all();
+        table.async_changed.notify_all();
     }
 }
 
@@ -507,35 +530,35 @@ void run_present_thread(DeviceState &dev, PresentThread &t) {
 // this swapchain answered. std::nullopt: nothing was taken, present synchronously.
 std::optional<VkResult> present_async(DeviceState &dev, SplitPresent &p, std::span<const VkSemaphore> waits) {
     Session &session = *dev.session;
-    p.compositor =
-        compositor_for(dev, *p.swapchain, queue_family_of(p.queue), !session.settings().stats_path.empty());
+    p.compositor = compositor_for(dev, *p.swapchain, queue_family_of(dev, p.queue),
+                                  !session.settings().stats_path.empty());
     if (!p.compositor) return std::nullopt;
+    PresentTable &table = *dev.presents;
     PresentThread *t = nullptr;
     {
-        std::unique_lock lock(g_async_mutex);
-        auto &slot = g_present_threads[&dev];
+        std::unique_lock lock(table.async_mutex);
+        auto &slot = table.thread;
         if (!slot) {
             slot = std::make_unique<PresentThread>();
             slot->thread = std::thread([&dev, thread = slot.get()] { run_present_thread(dev, *thread); });
         }
         t = slot.get();
         const uint32_t depth = session.settings().present_depth;
-        g_async_changed.wait(lock, [&] { return t->in_layer < depth; });
+        table.async_changed.wait(lock, [&] { return t->in_layer < depth; });
         ++t->in_layer;
     }
     VkResult taken;
     {
-        const auto queue_lock = lock_queue(p.queue);
+        const auto queue_lock = lock_queue(dev, p.queue);
         taken = p.compositor->take_waits(p.queue, p.image_index, waits, &p.taken, &p.done);
     }
-    std::lock_guard lock(g_async_mutex);
+    std::lock_guard lock(table.async_mutex);
     if (taken != VK_SUCCESS) {
         --t->in_layer;
-        g_async_changed.notify_all();
+        table.async_changed.notify_all();
         return std::nullopt;
     }
-    SwapchainPresents &sc = g_swapchain_presents[p.swapchain->handle];
-    sc.device = &dev;
+    SwapchainPresents &sc = table.swapchains[p.swapchain->handle];
     sc.queued.push_back(p.image_index);
     erase_one(sc.held, p.image_index);
     sc.stray.reset();
@@ -543,7 +566,7 @@ std::optional<VkResult> present_async(DeviceState &dev, SplitPresent &p, std::sp
     sc.deferred = VK_SUCCESS;
     p.present_call_ms = ms_between(p.called, std::chrono::steady_clock::now());
     t->frames.push_back(std::move(p));
-    g_async_changed.notify_all();
+    table.async_changed.notify_all();
     return result;
 }
 
@@ -554,14 +577,15 @@ std::optional<VkResult> present_async(DeviceState &dev, SplitPresent &p, std::sp
 // layer).
 VkResult before_acquire(const DeviceState &dev, VkSwapchainKHR swapchain) {
     if (!dev.session) return VK_SUCCESS;
-    const SwapchainState *state = find_swapchain(swapchain);
+    const SwapchainState *state = find_swapchain(dev, swapchain);
     const uint32_t allowance = state ? state->acquire_allowance : 0;
-    std::unique_lock lock(g_async_mutex);
-    const auto it = g_swapchain_presents.find(swapchain);
-    if (it == g_swapchain_presents.end()) return VK_SUCCESS;
+    PresentTable &table = *dev.presents;
+    std::unique_lock lock(table.async_mutex);
+    const auto it = table.swapchains.find(swapchain);
+    if (it == table.swapchains.end()) return VK_SUCCESS;
     SwapchainPresents &sc = it->second;
     if (sc.deferred < 0) return std::exchange(sc.deferred, VK_SUCCESS);
-    g_async_changed.wait(lock, [&] {
+    table.async_changed.wait(lock, [&] {
         return sc.queued.empty() || (!sc.in_order && sc.held.size() + sc.queued.size() < allowance);
     });
     if (sc.deferred < 0) return std::exchange(sc.deferred, VK_SUCCESS);
@@ -572,9 +596,8 @@ VkResult before_acquire(const DeviceState &dev, VkSwapchainKHR swapchain) {
 // the thread's reaches it here if its acquire succeeded.
 VkResult after_acquire(const DeviceState &dev, VkSwapchainKHR swapchain, VkResult result, uint32_t index) {
     if (!dev.session || (result != VK_SUCCESS && result != VK_SUBOPTIMAL_KHR)) return result;
-    std::lock_guard lock(g_async_mutex);
-    SwapchainPresents &sc = g_swapchain_presents[swapchain];
-    sc.device = &dev;
+    std::lock_guard lock(dev.presents->async_mutex);
+    SwapchainPresents &sc = dev.presents->swapchains[swapchain];
     sc.held.push_back(index);
     if (sc.deferred == VK_SUBOPTIMAL_KHR) {
         sc.deferred = VK_SUCCESS;
@@ -585,11 +608,12 @@ VkResult after_acquire(const DeviceState &dev, VkSwapchainKHR swapchain, VkResul
 
 // The application presented these images synchronously: they are no longer its own, and what the
 // present thread's earlier presents of the same swapchains answered joins the driver's answers.
-VkResult note_presented(const VkPresentInfoKHR &info, VkResult result) {
-    std::lock_guard lock(g_async_mutex);
+VkResult note_presented(const DeviceState &dev, const VkPresentInfoKHR &info, VkResult result) {
+    PresentTable &table = *dev.presents;
+    std::lock_guard lock(table.async_mutex);
     for (uint32_t i = 0; i < info.swapchainCount; ++i) {
-        const auto it = g_swapchain_presents.find(info.pSwapchains[i]);
-        if (it == g_swapchain_presents.end()) continue;
+        const auto it = table.swapchains.find(info.pSwapchains[i]);
+        if (it == table.swapchains.end()) continue;
         erase_one(it->second.held, info.pImageIndices[i]);
         it->second.stray.reset();
         const VkResult deferred = std::exchange(it->second.deferred, VK_SUCCESS);
@@ -601,33 +625,27 @@ VkResult note_presented(const VkPresentInfoKHR &info, VkResult result) {
 
 // The image the application drew into while it did not hold it, when it now presents another
 // one, `presented` (see the top of this file, "Order"); cleared either way.
-std::optional<uint32_t> take_stray(VkSwapchainKHR swapchain, uint32_t presented) {
-    std::lock_guard lock(g_async_mutex);
-    const auto it = g_swapchain_presents.find(swapchain);
-    if (it == g_swapchain_presents.end()) return std::nullopt;
+std::optional<uint32_t> take_stray(const DeviceState &dev, VkSwapchainKHR swapchain, uint32_t presented) {
+    PresentTable &table = *dev.presents;
+    std::lock_guard lock(table.async_mutex);
+    const auto it = table.swapchains.find(swapchain);
+    if (it == table.swapchains.end()) return std::nullopt;
     const auto stray = std::exchange(it->second.stray, std::nullopt);
     return stray && *stray != presented ? stray : std::nullopt;
 }
 
-// A copy of one swapchain image into another of the same swapchain ("Order"): its command buffer,
-// its fence, and the semaphore the present waits on.
-struct Redirect {
-    VkCommandPool pool = VK_NULL_HANDLE;
-    VkCommandBuffer command_buffer = VK_NULL_HANDLE;
-    VkFence fence = VK_NULL_HANDLE;
-    VkSemaphore semaphore = VK_NULL_HANDLE;
-    bool in_flight = false;
-};
-
-std::map<VkSwapchainKHR, Redirect> g_redirects; // under g_mutex
-
+// Under r.mutex.
 void destroy(DeviceState &dev, Redirect &r) {
     const VkDevice d = dev.handle;
     if (r.in_flight) dev.dispatch.WaitForFences(d, 1, &r.fence, VK_TRUE, kFenceWaitNs);
     if (r.semaphore) dev.dispatch.DestroySemaphore(d, r.semaphore, nullptr);
     if (r.fence) dev.dispatch.DestroyFence(d, r.fence, nullptr);
     if (r.pool) dev.dispatch.DestroyCommandPool(d, r.pool, nullptr);
-    r = Redirect{};
+    r.pool = VK_NULL_HANDLE;
+    r.command_buffer = VK_NULL_HANDLE;
+    r.fence = VK_NULL_HANDLE;
+    r.semaphore = VK_NULL_HANDLE;
+    r.in_flight = false;
 }
 
 bool create(DeviceState &dev, uint32_t family, Redirect &r) {
@@ -644,11 +662,19 @@ bool create(DeviceState &dev, uint32_t family, Redirect &r) {
 // nothing was submitted (`waits` untouched).
 VkSemaphore copy_swapchain_image(DeviceState &dev, VkQueue queue, const SwapchainState &sc, uint32_t from,
                                  uint32_t to, std::span<const VkSemaphore> waits) {
-    const uint32_t family = queue_family_of(queue);
+    const uint32_t family = queue_family_of(dev, queue);
     if (family == UINT32_MAX || from >= sc.images.size() || to >= sc.images.size()) return VK_NULL_HANDLE;
     const auto &k = dev.dispatch;
-    std::lock_guard lock(g_mutex);
-    Redirect &r = g_redirects[sc.handle];
+    std::shared_ptr<Redirect> slot;
+    {
+        PresentTable &table = *dev.presents;
+        std::lock_guard lock(table.redirects_mutex);
+        std::shared_ptr<Redirect> &found = table.redirects[sc.handle];
+        if (!found) found = std::make_shared<Redirect>();
+        slot = found;
+    }
+    Redirect &r = *slot;
+    std::lock_guard lock(r.mutex);
     if (!r.pool && !create(dev, family, r)) {
         destroy(dev, r);
         return VK_NULL_HANDLE;
@@ -794,7 +820,7 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     // the runtime's release barrier follows at once on the same queue, and it must find the image
     // composited.
     drain_presents(dev);
-    auto queue_lock = lock_queue(queue);
+    auto queue_lock = lock_queue(dev, queue);
     if (session.resync_pending()) session.resync(dev, queue, frame);
     if (frame == 1) log_live_state(dev, "at frame 1"); // SPLITVK_LOG_LEVEL=debug
     protocol::FramePresent message;
@@ -883,38 +909,37 @@ void send_runtime_view(DeviceState &dev, const SwapchainState &swapchain,
 }
 
 void drain_presents(DeviceState &device) {
-    std::unique_lock lock(g_async_mutex);
-    const auto it = g_present_threads.find(&device);
-    if (it == g_present_threads.end()) return;
-    PresentThread &t = *it->second;
-    g_async_changed.wait(lock, [&] { return t.in_layer == 0; });
+    PresentTable &table = *device.presents;
+    std::unique_lock lock(table.async_mutex);
+    if (!table.thread) return;
+    PresentThread &t = *table.thread;
+    table.async_changed.wait(lock, [&] { return t.in_layer == 0; });
 }
 
 void stop_presents(DeviceState &device) {
+    PresentTable &table = *device.presents;
     PresentThread *t = nullptr;
     {
-        std::lock_guard lock(g_async_mutex);
-        const auto it = g_present_threads.find(&device);
-        if (it == g_present_threads.end()) return;
-        t = it->second.get();
+        std::lock_guard lock(table.async_mutex);
+        if (!table.thread) return;
+        t = table.thread.get();
         t->stopping = true;
-        g_async_changed.notify_all();
+        table.async_changed.notify_all();
     }
     // It presents what it holds first: each frame bounded by SPLITVK_TILE_WAIT.
     t->thread.join();
-    std::lock_guard lock(g_async_mutex);
-    g_present_threads.erase(&device);
-    std::erase_if(g_swapchain_presents, [&](const auto &entry) { return entry.second.device == &device; });
+    std::lock_guard lock(table.async_mutex);
+    table.thread.reset();
+    table.swapchains.clear();
 }
 
 void order_swapchain_writes(DeviceState &device, std::span<const uint64_t> images) {
     if (images.empty()) return;
     bool drain = false;
     {
-        std::lock_guard lock(g_async_mutex);
-        for (auto &[handle, sc] : g_swapchain_presents) {
-            if (sc.device != &device) continue;
-            const SwapchainState *state = find_swapchain(handle);
+        std::lock_guard lock(device.presents->async_mutex);
+        for (auto &[handle, sc] : device.presents->swapchains) {
+            const SwapchainState *state = find_swapchain(device, handle);
             // A shared present mode's image is acquired once and presented again and again.
             if (!state || state->present_layout == VK_IMAGE_LAYOUT_SHARED_PRESENT_KHR) continue;
             for (const uint64_t image : images) {
@@ -942,16 +967,22 @@ void order_swapchain_writes(DeviceState &device, std::span<const uint64_t> image
 
 void release_present_resources(DeviceState &device, VkSwapchainKHR swapchain) {
     if (device.session) device.session->acquire_times().forget(codec::handle_value(swapchain));
+    PresentTable &table = *device.presents;
     {
-        std::lock_guard lock(g_async_mutex);
-        g_swapchain_presents.erase(swapchain);
+        std::lock_guard lock(table.async_mutex);
+        table.swapchains.erase(swapchain);
     }
+    std::shared_ptr<Redirect> redirect;
     {
-        std::lock_guard lock(g_mutex);
-        if (const auto it = g_redirects.find(swapchain); it != g_redirects.end()) {
-            destroy(device, it->second);
-            g_redirects.erase(it);
+        std::lock_guard lock(table.redirects_mutex);
+        if (const auto it = table.redirects.find(swapchain); it != table.redirects.end()) {
+            redirect = std::move(it->second);
+            table.redirects.erase(it);
         }
+    }
+    if (redirect) {
+        std::lock_guard lock(redirect->mutex);
+        destroy(device, *redirect);
     }
     release_verify_readbacks(device, swapchain);
 }
@@ -1021,7 +1052,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
     // frames use the tile stream that the new agent replaces.
     if (session.resync_pending()) {
         drain_presents(dev);
-        const auto queue_lock = lock_queue(queue);
+        const auto queue_lock = lock_queue(dev, queue);
         session.resync(dev, queue, frame);
     }
     if (frame == 1) log_live_state(dev, "at frame 1"); // SPLITVK_LOG_LEVEL=debug
@@ -1045,13 +1076,13 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
     // The image the application drew this frame into: the presented one, or ("Order") another.
     uint32_t drawn = pPresentInfo->swapchainCount > 0 ? pPresentInfo->pImageIndices[0] : 0;
     if (session.splitting() && pPresentInfo->swapchainCount > 0) {
-        split_swapchain = find_swapchain(pPresentInfo->pSwapchains[0]);
+        split_swapchain = find_swapchain(dev, pPresentInfo->pSwapchains[0]);
         const uint32_t index = pPresentInfo->pImageIndices[0];
         if (split_swapchain && index < split_swapchain->images.size())
             split = take_split_frame(dev, split_swapchain->images[index], split_settings().eyes, message.gaze,
                                      message.fovea_size);
         if (split_swapchain && !split.split)
-            if (const auto stray = take_stray(split_swapchain->handle, index);
+            if (const auto stray = take_stray(dev, split_swapchain->handle, index);
                 stray && *stray < split_swapchain->images.size()) {
                 split = take_split_frame(dev, split_swapchain->images[*stray], split_settings().eyes,
                                          message.gaze, message.fovea_size);
@@ -1081,12 +1112,13 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
     std::unique_lock<std::mutex> queue_lock;
     if (!async) {
         drain_presents(dev);
-        queue_lock = lock_queue(queue);
+        queue_lock = lock_queue(dev, queue);
     }
     // A split frame under verification is the swapped split's (the paper's split is off then,
     // verification.h): it is read back after its composite, as it is shown. Any other frame before
     // anything of the layer's, as the application drew it.
-    const bool verify_shown = session.verify() && split.split && presented_image_verifiable(queue, present);
+    const bool verify_shown =
+        session.verify() && split.split && presented_image_verifiable(dev, queue, present);
     if (session.verify() && !split.split) pending = read_back_presented_image(dev, queue, present, frame);
     if (pending || verify_shown) message.flags |= protocol::kPresentVerify;
     // A frame that waits for nothing of the agent's (passed through, unsplit) is shown first and
@@ -1124,7 +1156,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
                 return forced_out_of_date(session, *pPresentInfo, *result);
             }
             drain_presents(dev); // nothing taken: this frame goes here, after the thread's
-            queue_lock = lock_queue(queue);
+            queue_lock = lock_queue(dev, queue);
         }
         cut = p.cut;
         if (verify_shown) foveae = first_layer_foveae(p.split);
@@ -1154,7 +1186,8 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
             pending->late = record.periphery_bytes == 0;
         }
     }
-    const VkResult presented = note_presented(*pPresentInfo, dev.dispatch.QueuePresentKHR(queue, &present));
+    const VkResult presented =
+        note_presented(dev, *pPresentInfo, dev.dispatch.QueuePresentKHR(queue, &present));
     const std::optional<double> latency = latency_ms(acquired, std::chrono::steady_clock::now());
     if (tell_after_present)
         session.send_metadata(protocol::MessageType::FramePresent, protocol::encode(message));

@@ -28,7 +28,6 @@
 #include "vk_util.h"
 
 #include <algorithm>
-#include <map>
 #include <mutex>
 #include <vector>
 
@@ -56,37 +55,48 @@ struct QueueInfo {
     uint32_t family = UINT32_MAX;
     std::mutex mutex; // lock_queue()
 };
-ObjectMap<VkQueue, QueueInfo> g_queues;
 
-// The queues of each device, for vkDeviceWaitIdle (which needs all of them). A queue lives as long
-// as its device, and vkGetDeviceQueue returns the same handle every time.
-std::mutex g_device_queues_mutex;
-std::map<const DeviceState *, std::vector<VkQueue>> g_device_queues;
+} // namespace
+
+struct QueueTable {
+    ObjectMap<VkQueue, QueueInfo> queues;
+    // Every queue of the device, for vkDeviceWaitIdle (which needs all of them). A queue lives as
+    // long as its device, and vkGetDeviceQueue returns the same handle every time.
+    std::mutex list_mutex;
+    std::vector<VkQueue> list;
+};
+
+std::shared_ptr<QueueTable> make_queue_table() {
+    return std::make_shared<QueueTable>();
+}
+
+namespace {
 
 void note_queue(DeviceState &dev, VkQueue queue, uint32_t family) {
     if (!dev.session || queue == VK_NULL_HANDLE) return;
-    // Under the device list's lock, so that a vkDeviceWaitIdle after any thread's vkGetDeviceQueue
+    // Under the list's lock, so that a vkDeviceWaitIdle after any thread's vkGetDeviceQueue
     // returned finds the queue in its list, and finds it there once: it locks each queue it lists.
-    std::lock_guard lock(g_device_queues_mutex);
+    QueueTable &t = *dev.queues;
+    std::lock_guard lock(t.list_mutex);
     const auto make = [&] {
         auto info = std::make_unique<QueueInfo>();
         info->family = family;
         return info;
     };
-    if (g_queues.insert_if_absent(queue, make).second) g_device_queues[&dev].push_back(queue);
+    if (t.queues.insert_if_absent(queue, make).second) t.list.push_back(queue);
 }
 
 // Every queue of `dev`, locked in one order (by handle) so that two callers cannot deadlock.
 std::vector<std::unique_lock<std::mutex>> lock_device_queues(const DeviceState &dev) {
     std::vector<VkQueue> queues;
     {
-        std::lock_guard lock(g_device_queues_mutex);
-        if (const auto it = g_device_queues.find(&dev); it != g_device_queues.end()) queues = it->second;
+        std::lock_guard lock(dev.queues->list_mutex);
+        queues = dev.queues->list;
     }
     std::sort(queues.begin(), queues.end());
     std::vector<std::unique_lock<std::mutex>> locks;
     for (VkQueue q : queues)
-        locks.push_back(lock_queue(q));
+        locks.push_back(lock_queue(dev, q));
     return locks;
 }
 
@@ -96,7 +106,7 @@ template <class SubmitInfo>
 void note_submit(DeviceState &dev, uint32_t count, const SubmitInfo *submits) {
     std::vector<const CommandTiming *> timed;
     {
-        LockedImages images;
+        LockedImages images(dev);
         for_each_submitted(count, submits, [&](VkCommandBuffer command_buffer) {
             if (const CommandTiming *timing = note_submitted(dev, images, command_buffer))
                 timed.push_back(timing);
@@ -114,34 +124,25 @@ VkResult submit(DeviceState &dev, Down down, VkQueue queue, uint32_t count, cons
     if (capturing(dev)) [[unlikely]]
         capture_submit(dev, queue, count, submits, fence);
     if (dev.session) order_swapchain_writes(dev, swapchain_images_drawn(dev, count, submits));
-    const auto lock = lock_queue(queue);
+    const auto lock = lock_queue(dev, queue);
     if (dev.session) note_submit(dev, count, submits);
     return down(queue, count, submits, fence);
 }
 
 } // namespace
 
-uint32_t queue_family_of(VkQueue queue) {
-    const QueueInfo *info = g_queues.find(queue);
+uint32_t queue_family_of(const DeviceState &device, VkQueue queue) {
+    const QueueInfo *info = device.queues->queues.find(queue);
     return info ? info->family : UINT32_MAX;
 }
 
-std::unique_lock<std::mutex> lock_queue(VkQueue queue) {
-    QueueInfo *info = g_queues.find(queue);
+std::unique_lock<std::mutex> lock_queue(const DeviceState &device, VkQueue queue) {
+    QueueInfo *info = device.queues->queues.find(queue);
     return info ? std::unique_lock(info->mutex) : std::unique_lock<std::mutex>();
 }
 
-void forget_queues(DeviceState &device) {
-    std::vector<VkQueue> queues;
-    {
-        std::lock_guard lock(g_device_queues_mutex);
-        if (const auto it = g_device_queues.find(&device); it != g_device_queues.end()) {
-            queues = std::move(it->second);
-            g_device_queues.erase(it);
-        }
-    }
-    for (VkQueue q : queues)
-        g_queues.remove(q);
+std::unique_lock<std::mutex> lock_queue(VkQueue queue) {
+    return lock_queue(device_state(queue), queue);
 }
 
 namespace entry {
@@ -189,14 +190,14 @@ VKAPI_ATTR VkResult VKAPI_CALL QueueSubmit2KHR(VkQueue queue, uint32_t submitCou
 VKAPI_ATTR VkResult VKAPI_CALL QueueBindSparse(VkQueue queue, uint32_t bindInfoCount,
                                                const VkBindSparseInfo *pBindInfo, VkFence fence) {
     DeviceState &dev = device_state(queue);
-    const auto lock = lock_queue(queue);
+    const auto lock = lock_queue(dev, queue);
     return dev.dispatch.QueueBindSparse(queue, bindInfoCount, pBindInfo, fence);
 }
 
 VKAPI_ATTR VkResult VKAPI_CALL QueueWaitIdle(VkQueue queue) {
     DeviceState &dev = device_state(queue);
     if (dev.session) drain_presents(dev);
-    const auto lock = lock_queue(queue);
+    const auto lock = lock_queue(dev, queue);
     return dev.dispatch.QueueWaitIdle(queue);
 }
 

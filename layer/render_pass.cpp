@@ -37,28 +37,48 @@ struct FramebufferState {
     bool scaled = false;                  // created at the scaled size: it holds a screen-space target
 };
 
-ObjectMap<VkImageView, ImageViewState> g_views;
-ObjectMap<VkFramebuffer, FramebufferState> g_framebuffers;
+} // namespace
+
+struct RenderPassTable {
+    ObjectMap<VkImageView, ImageViewState> views;
+    ObjectMap<VkFramebuffer, FramebufferState> framebuffers;
+    // The target each render pass was last begun on: a secondary that continues a pass without
+    // naming its framebuffer (engines record them before they know the swapchain image) is
+    // recorded for that target's scaling. Engines begin the pass before recording its secondaries
+    // for the frame. Forgotten when the render pass is destroyed or its handle value created anew
+    // (forget_render_pass).
+    split::PassPredictions pass_predictions;
+    // The latest target of each kind of dynamic rendering with secondary contents
+    // (split::rendering_key): their secondaries name only the formats and view mask they inherit.
+    split::PassPredictions rendering_predictions;
+};
+
+std::shared_ptr<RenderPassTable> make_render_pass_table() {
+    return std::make_shared<RenderPassTable>();
+}
+
+namespace {
 
 // The extent of `view`'s image when it is an image of a live composable swapchain.
-bool split_target(VkImageView view, VkImage *image, VkExtent2D *extent, bool *runtime) {
-    const ImageViewState *v = view ? g_views.find(view) : nullptr;
-    if (!v || !swapchain_image_extent(v->image, extent, runtime)) return false;
+bool split_target(const DeviceState &dev, VkImageView view, VkImage *image, VkExtent2D *extent,
+                  bool *runtime) {
+    const ImageViewState *v = view ? dev.render_passes->views.find(view) : nullptr;
+    if (!v || !swapchain_image_extent(dev, v->image, extent, runtime)) return false;
     *image = v->image;
     return true;
 }
 
-bool find_target(uint32_t count, const VkImageView *views, VkImage *image, VkExtent2D *extent,
-                 bool *runtime) {
+bool find_target(const DeviceState &dev, uint32_t count, const VkImageView *views, VkImage *image,
+                 VkExtent2D *extent, bool *runtime) {
     for (uint32_t i = 0; i < count; ++i)
-        if (split_target(views[i], image, extent, runtime)) return true;
+        if (split_target(dev, views[i], image, extent, runtime)) return true;
     return false;
 }
 
-bool any_screen_space(std::span<const VkImageView> views) {
+bool any_screen_space(const DeviceState &dev, std::span<const VkImageView> views) {
     for (VkImageView view : views) {
-        const ImageViewState *v = view ? g_views.find(view) : nullptr;
-        if (v && is_screen_space(v->image)) return true;
+        const ImageViewState *v = view ? dev.render_passes->views.find(view) : nullptr;
+        if (v && is_screen_space(dev, v->image)) return true;
     }
     return false;
 }
@@ -97,11 +117,11 @@ std::optional<VkRect2D> guard_of(const DeviceState &dev, std::span<const VkImage
     std::optional<VkRect2D> guard;
     for (VkImageView view : views) {
         if (!view) continue;
-        const ImageViewState *v = g_views.find(view);
+        const ImageViewState *v = dev.render_passes->views.find(view);
         if (!v) return std::nullopt;
         std::optional<split::TargetClass> kind;
         VkExtent2D classified{}, extent{};
-        read_image(v->image, [&](const ImageState &state) {
+        read_image(dev, v->image, [&](const ImageState &state) {
             kind = state.guard_kind;
             classified = state.guard_screen;
             extent = {state.extent.width, state.extent.height};
@@ -166,10 +186,10 @@ std::span<const VkImageView> begin_views(const VkRenderPassBeginInfo *begin, con
 
 PassTarget pass_target(DeviceState &dev, const VkRenderPassBeginInfo *begin) {
     PassTarget t;
-    const FramebufferState *fb = g_framebuffers.find(begin->framebuffer);
+    const FramebufferState *fb = dev.render_passes->framebuffers.find(begin->framebuffer);
     if (!fb) return t;
     const std::span<const VkImageView> views = begin_views(begin, fb);
-    t.swapchain = split_recording(dev) && find_target(static_cast<uint32_t>(views.size()), views.data(),
+    t.swapchain = split_recording(dev) && find_target(dev, static_cast<uint32_t>(views.size()), views.data(),
                                                       &t.image, &t.extent, &t.runtime);
     t.scaled = fb->scaled;
     if (!t.swapchain) t.extent = fb->extent;
@@ -182,11 +202,11 @@ PassTarget rendering_target(DeviceState &dev, const VkRenderingInfo *info) {
     const bool splitting = split_recording(dev);
     const auto consider = [&](VkImageView view) {
         if (!view) return;
-        if (splitting && !t.swapchain && split_target(view, &t.image, &t.extent, &t.runtime))
+        if (splitting && !t.swapchain && split_target(dev, view, &t.image, &t.extent, &t.runtime))
             t.swapchain = true;
-        const ImageViewState *v = g_views.find(view);
+        const ImageViewState *v = dev.render_passes->views.find(view);
         VkExtent2D full{};
-        if (v && screen_space_extent(v->image, &full)) {
+        if (v && screen_space_extent(dev, v->image, &full)) {
             if (!t.scaled && !t.swapchain) t.extent = full;
             t.scaled = true;
         }
@@ -267,31 +287,25 @@ VkRect2D scaled_area(const VkRect2D &area, VkExtent2D extent) {
 }
 
 // The images of a render pass instance's attachments, for their final layouts (resource.h).
-void note_attachments(VkCommandBuffer cb, const VkRenderPassBeginInfo *begin) {
+void note_attachments(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassBeginInfo *begin) {
     std::span<const VkImageView> views;
     if (const auto *info = find_in_chain<VkRenderPassAttachmentBeginInfo>(
             begin->pNext, VK_STRUCTURE_TYPE_RENDER_PASS_ATTACHMENT_BEGIN_INFO))
         views = {info->pAttachments, info->attachmentCount};
-    const FramebufferState *fb = g_framebuffers.find(begin->framebuffer);
+    const FramebufferState *fb = dev.render_passes->framebuffers.find(begin->framebuffer);
     if (views.empty() && fb) views = fb->attachments;
     std::vector<AttachmentImage> attachments;
     for (VkImageView view : views) {
-        const ImageViewState *v = g_views.find(view);
+        const ImageViewState *v = dev.render_passes->views.find(view);
         attachments.push_back(v ? AttachmentImage{v->image, v->range} : AttachmentImage{});
     }
-    note_render_pass_begin(cb, begin->renderPass, attachments);
+    note_render_pass_begin(dev, cb, begin->renderPass, attachments);
 }
 
 void end_render_pass(DeviceState &dev, VkCommandBuffer cb) {
     note_render_pass_end(cb);
     leave_split(dev, cb);
 }
-
-// The target each render pass was last begun on: a secondary that continues a pass without
-// naming its framebuffer (engines record them before they know the swapchain image) is recorded
-// for that target's scaling. Engines begin the pass before recording its secondaries for the frame.
-// Forgotten when the render pass is destroyed or its handle value created anew (forget_render_pass).
-split::PassPredictions g_pass_predictions;
 
 // A split pass or rendering whose contents are secondary command buffers. Its secondaries were
 // recorded for the latest target of its render pass or kind of rendering (begin_secondary), and
@@ -315,12 +329,13 @@ void begin_split_of_secondaries(DeviceState &dev, VkCommandBuffer cb, split::Com
 template <class Down>
 void begin_render_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassBeginInfo *begin,
                        bool secondary, Down &&down) {
-    note_attachments(cb, begin);
+    note_attachments(dev, cb, begin);
     PassTarget target = pass_target(dev, begin);
     // Secondaries of a guarded pass run whole in this slice.
     if (secondary) target.guard.reset();
-    g_pass_predictions.note_begin(codec::handle_value(begin->renderPass),
-                                  {target.swapchain || target.scaled, target.extent, target.cut});
+    dev.render_passes->pass_predictions.note_begin(
+        codec::handle_value(begin->renderPass),
+        {target.swapchain || target.scaled, target.extent, target.cut});
     split::CommandTracker *tracker = target.split() ? split_tracker(cb) : nullptr;
     if (!tracker && !target.scaled) return down(begin);
     VkRenderPassBeginInfo scaled = *begin;
@@ -340,23 +355,19 @@ void begin_render_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassB
     begin_split_of_secondaries(dev, cb, *tracker, target, [&] { down(&scaled); });
 }
 
-// The latest target of each kind of dynamic rendering with secondary contents (split::rendering_key):
-// their secondaries name only the formats and view mask they inherit.
-split::PassPredictions g_rendering_predictions;
-
-VkFormat view_format(VkImageView view) {
-    const ImageViewState *v = view ? g_views.find(view) : nullptr;
+VkFormat view_format(const DeviceState &dev, VkImageView view) {
+    const ImageViewState *v = view ? dev.render_passes->views.find(view) : nullptr;
     return v ? v->format : VK_FORMAT_UNDEFINED;
 }
 
-uint64_t rendering_key(const VkRenderingInfo &info) {
+uint64_t rendering_key(const DeviceState &dev, const VkRenderingInfo &info) {
     std::vector<VkFormat> colours;
     for (uint32_t i = 0; i < info.colorAttachmentCount; ++i)
-        colours.push_back(view_format(info.pColorAttachments[i].imageView));
+        colours.push_back(view_format(dev, info.pColorAttachments[i].imageView));
     return split::rendering_key(
         colours.data(), info.colorAttachmentCount,
-        info.pDepthAttachment ? view_format(info.pDepthAttachment->imageView) : VK_FORMAT_UNDEFINED,
-        info.pStencilAttachment ? view_format(info.pStencilAttachment->imageView) : VK_FORMAT_UNDEFINED,
+        info.pDepthAttachment ? view_format(dev, info.pDepthAttachment->imageView) : VK_FORMAT_UNDEFINED,
+        info.pStencilAttachment ? view_format(dev, info.pStencilAttachment->imageView) : VK_FORMAT_UNDEFINED,
         info.viewMask);
 }
 
@@ -368,8 +379,8 @@ void begin_rendering(DeviceState &dev, VkCommandBuffer cb, const VkRenderingInfo
     if (secondary) target.guard.reset();
     // Noted unscaled too, so that a kind of rendering that stops being scaled predicts so.
     if (secondary)
-        g_rendering_predictions.note_begin(rendering_key(*info),
-                                           {target.swapchain || target.scaled, target.extent, target.cut});
+        dev.render_passes->rendering_predictions.note_begin(
+            rendering_key(dev, *info), {target.swapchain || target.scaled, target.extent, target.cut});
     split::CommandTracker *tracker = target.split() ? split_tracker(cb) : nullptr;
     if (!tracker && !target.scaled) return down(info);
     VkRenderingInfo scaled = *info;
@@ -389,15 +400,15 @@ void begin_rendering(DeviceState &dev, VkCommandBuffer cb, const VkRenderingInfo
 
 } // namespace
 
-VkImage image_of_view(VkImageView view) {
-    const ImageViewState *v = view ? g_views.find(view) : nullptr;
+VkImage image_of_view(const DeviceState &dev, VkImageView view) {
+    const ImageViewState *v = view ? dev.render_passes->views.find(view) : nullptr;
     return v ? v->image : VK_NULL_HANDLE;
 }
 
-bool swapchain_image_extent(VkImage image, VkExtent2D *extent, bool *runtime) {
+bool swapchain_image_extent(const DeviceState &dev, VkImage image, VkExtent2D *extent, bool *runtime) {
     VkSwapchainKHR member = VK_NULL_HANDLE;
-    read_image(image, [&](const ImageState &state) { member = state.swapchain; });
-    const SwapchainState *swapchain = member ? find_swapchain(member) : nullptr;
+    read_image(dev, image, [&](const ImageState &state) { member = state.swapchain; });
+    const SwapchainState *swapchain = member ? find_swapchain(dev, member) : nullptr;
     // The swapchain's handle value may have been reused since: check the image still belongs.
     if (!swapchain || !swapchain_composable(*swapchain)) return false;
     for (VkImage i : swapchain->images)
@@ -421,7 +432,7 @@ void begin_secondary(DeviceState &dev, VkCommandBuffer cb, const VkCommandBuffer
         const auto *rendering = find_in_chain<VkCommandBufferInheritanceRenderingInfo>(
             inheritance.pNext, VK_STRUCTURE_TYPE_COMMAND_BUFFER_INHERITANCE_RENDERING_INFO);
         if (!rendering) return;
-        const auto predicted = g_rendering_predictions.predict(split::rendering_key(
+        const auto predicted = dev.render_passes->rendering_predictions.predict(split::rendering_key(
             rendering->pColorAttachmentFormats, rendering->colorAttachmentCount,
             rendering->depthAttachmentFormat, rendering->stencilAttachmentFormat, rendering->viewMask));
         if (predicted) target = *predicted;
@@ -433,7 +444,7 @@ void begin_secondary(DeviceState &dev, VkCommandBuffer cb, const VkCommandBuffer
         const PassTarget t = pass_target(dev, &info);
         target = {t.swapchain || t.scaled, t.extent, t.cut};
     } else if (const auto predicted =
-                   g_pass_predictions.predict(codec::handle_value(inheritance.renderPass))) {
+                   dev.render_passes->pass_predictions.predict(codec::handle_value(inheritance.renderPass))) {
         target = *predicted;
     }
     // Scaled like the pass it continues; its viewports are kept for the executing pass's foveae.
@@ -442,8 +453,9 @@ void begin_secondary(DeviceState &dev, VkCommandBuffer cb, const VkCommandBuffer
     if (target.scaled && target.swapchain) tracker->cut_pass();
 }
 
-void forget_render_pass(VkRenderPass render_pass) {
-    if (render_pass != VK_NULL_HANDLE) g_pass_predictions.forget(codec::handle_value(render_pass));
+void forget_render_pass(DeviceState &dev, VkRenderPass render_pass) {
+    if (render_pass != VK_NULL_HANDLE)
+        dev.render_passes->pass_predictions.forget(codec::handle_value(render_pass));
 }
 
 namespace observe {
@@ -473,26 +485,27 @@ void GetSwapchainImagesKHR(DeviceState &dev, VkDevice, VkSwapchainKHR swapchain,
     if (pSwapchainImages) note_swapchain_images(dev, swapchain, *pSwapchainImageCount, pSwapchainImages);
 }
 
-void CreateImageView(DeviceState &, VkDevice, const VkImageViewCreateInfo *pCreateInfo,
+void CreateImageView(DeviceState &dev, VkDevice, const VkImageViewCreateInfo *pCreateInfo,
                      const VkAllocationCallbacks *, VkImageView *pView) {
     auto state = std::make_unique<ImageViewState>();
     state->image = pCreateInfo->image;
     state->range = pCreateInfo->subresourceRange;
     state->format = pCreateInfo->format;
-    g_views.insert(*pView, std::move(state));
+    dev.render_passes->views.insert(*pView, std::move(state));
 }
 
 // Forgotten before the driver may hand the value out again (codegen/emit_layer.py): a view created
 // meanwhile on another thread must not lose its state.
-void DestroyImageView(DeviceState &, VkDevice, VkImageView imageView, const VkAllocationCallbacks *) {
-    if (imageView != VK_NULL_HANDLE) g_views.remove(imageView);
+void DestroyImageView(DeviceState &dev, VkDevice, VkImageView imageView, const VkAllocationCallbacks *) {
+    if (imageView != VK_NULL_HANDLE) dev.render_passes->views.remove(imageView);
 }
 
 // Forgotten before the driver may hand the value out again: a framebuffer created meanwhile on
 // another thread at the scaled size would otherwise lose its state (its passes would go down with
 // unscaled render areas).
-void DestroyFramebuffer(DeviceState &, VkDevice, VkFramebuffer framebuffer, const VkAllocationCallbacks *) {
-    if (framebuffer != VK_NULL_HANDLE) g_framebuffers.remove(framebuffer);
+void DestroyFramebuffer(DeviceState &dev, VkDevice, VkFramebuffer framebuffer,
+                        const VkAllocationCallbacks *) {
+    if (framebuffer != VK_NULL_HANDLE) dev.render_passes->framebuffers.remove(framebuffer);
 }
 
 } // namespace observe
@@ -509,7 +522,7 @@ VkResult CreateFramebuffer(DeviceState &dev, PFN_vkCreateFramebuffer down, VkDev
     std::vector<VkFramebufferAttachmentImageInfo> image_infos;
     bool scaled = false;
     if (!(pCreateInfo->flags & VK_FRAMEBUFFER_CREATE_IMAGELESS_BIT) && pCreateInfo->pAttachments) {
-        scaled = any_screen_space({pCreateInfo->pAttachments, pCreateInfo->attachmentCount});
+        scaled = any_screen_space(dev, {pCreateInfo->pAttachments, pCreateInfo->attachmentCount});
     } else if (auto *info = static_cast<const VkFramebufferAttachmentsCreateInfo *>(pCreateInfo->pNext);
                info && info->sType == VK_STRUCTURE_TYPE_FRAMEBUFFER_ATTACHMENTS_CREATE_INFO) {
         // Imageless: the attachment infos describe the images, which the rule scaled alike.
@@ -541,7 +554,7 @@ VkResult CreateFramebuffer(DeviceState &dev, PFN_vkCreateFramebuffer down, VkDev
                                       pCreateInfo->pAttachments + pCreateInfo->attachmentCount);
         state->extent = {pCreateInfo->width, pCreateInfo->height};
         state->scaled = scaled;
-        g_framebuffers.insert(*pFramebuffer, std::move(state));
+        dev.render_passes->framebuffers.insert(*pFramebuffer, std::move(state));
     }
     return result;
 }

@@ -17,10 +17,11 @@
 namespace splitvk {
 
 // The image a view was created for (null if unknown).
-VkImage image_of_view(VkImageView view);
+VkImage image_of_view(const DeviceState &device, VkImageView view);
 // Whether `image` is an image of a live composable swapchain (with its extent, and whether that is
 // an OpenXR runtime's swapchain).
-bool swapchain_image_extent(VkImage image, VkExtent2D *extent, bool *runtime = nullptr);
+bool swapchain_image_extent(const DeviceState &device, VkImage image, VkExtent2D *extent,
+                            bool *runtime = nullptr);
 // vkBeginCommandBuffer of a secondary that continues a render pass: scaled like that pass's target
 // (its inheritance's framebuffer, or the render pass's latest instance, or for a dynamic rendering
 // the latest one with the formats and view mask it inherits), its viewports kept for the foveae of
@@ -29,6 +30,6 @@ void begin_secondary(DeviceState &device, VkCommandBuffer command_buffer,
                      const VkCommandBufferBeginInfo &begin);
 // vkCreateRenderPass* and vkDestroyRenderPass (resource.cpp): the handle value's prediction for
 // secondaries is dropped, since a driver may reuse the value for an unrelated render pass.
-void forget_render_pass(VkRenderPass render_pass);
+void forget_render_pass(DeviceState &device, VkRenderPass render_pass);
 
 } // namespace splitvk

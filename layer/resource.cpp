@@ -23,7 +23,6 @@ namespace splitvk {
 namespace {
 
 struct BufferState {
-    DeviceState *device = nullptr;
     VkDeviceSize size = 0;
     bool readable = false; // created with TRANSFER_SRC
     VkDeviceMemory memory = VK_NULL_HANDLE;
@@ -31,9 +30,19 @@ struct BufferState {
     VkDeviceAddress address_sent = 0; // what the agent was told vkGetBufferDeviceAddress returned
 };
 
-std::mutex g_mutex; // g_buffers, g_final_layouts; images have their own table (image.h)
-std::unordered_map<VkBuffer, BufferState> g_buffers;
-std::unordered_map<VkRenderPass, std::vector<VkImageLayout>> g_final_layouts; // per attachment
+} // namespace
+
+struct ResourceTable {
+    std::mutex mutex; // what follows; images have their own table (image.h)
+    std::unordered_map<VkBuffer, BufferState> buffers;
+    std::unordered_map<VkRenderPass, std::vector<VkImageLayout>> final_layouts; // per attachment
+};
+
+std::shared_ptr<ResourceTable> make_resource_table() {
+    return std::make_shared<ResourceTable>();
+}
+
+namespace {
 
 void apply(LockedImages &images, const LayoutTransition &t) {
     ImageState *found = images.find(t.image);
@@ -69,16 +78,17 @@ void record_dependency(VkCommandBuffer cb, const VkDependencyInfo &info) {
     }
 }
 
-void bind_buffer(VkBuffer buffer, VkDeviceMemory memory, VkDeviceSize offset) {
-    std::lock_guard lock(g_mutex);
-    if (const auto it = g_buffers.find(buffer); it != g_buffers.end()) {
+void bind_buffer(DeviceState &dev, VkBuffer buffer, VkDeviceMemory memory, VkDeviceSize offset) {
+    ResourceTable &t = *dev.resources;
+    std::lock_guard lock(t.mutex);
+    if (const auto it = t.buffers.find(buffer); it != t.buffers.end()) {
         it->second.memory = memory;
         it->second.memory_offset = offset;
     }
 }
 
-void bind_image(VkImage image) {
-    LockedImages images;
+void bind_image(DeviceState &dev, VkImage image) {
+    LockedImages images(dev);
     if (ImageState *state = images.find(image)) state->bound = true;
 }
 
@@ -150,26 +160,27 @@ bool can_add_transfer_src(const DeviceState &dev, const VkImageCreateInfo &info)
 // vkCreateRenderPass and vkCreateRenderPass2 alike: the attachments' final layouts, which the
 // pass's end applies (note_render_pass_end).
 template <class RenderPassCreateInfo>
-void note_final_layouts(VkRenderPass render_pass, const RenderPassCreateInfo &info) {
-    forget_render_pass(render_pass);
-    note_render_pass_depth(render_pass, info);
+void note_final_layouts(DeviceState &dev, VkRenderPass render_pass, const RenderPassCreateInfo &info) {
+    forget_render_pass(dev, render_pass);
+    note_render_pass_depth(dev, render_pass, info);
     std::vector<VkImageLayout> finals;
     for (uint32_t i = 0; i < info.attachmentCount; ++i)
         finals.push_back(info.pAttachments[i].finalLayout);
-    std::lock_guard lock(g_mutex);
-    g_final_layouts[render_pass] = std::move(finals);
+    std::lock_guard lock(dev.resources->mutex);
+    dev.resources->final_layouts[render_pass] = std::move(finals);
 }
 
 } // namespace
 
-void note_render_pass_begin(VkCommandBuffer command_buffer, VkRenderPass render_pass,
+void note_render_pass_begin(DeviceState &device, VkCommandBuffer command_buffer, VkRenderPass render_pass,
                             std::span<const AttachmentImage> attachments) {
     CommandLayouts *layouts = command_buffer_layouts(command_buffer);
     if (!layouts) return;
     layouts->at_pass_end.clear();
-    std::lock_guard lock(g_mutex);
-    const auto it = g_final_layouts.find(render_pass);
-    if (it == g_final_layouts.end()) return;
+    ResourceTable &t = *device.resources;
+    std::lock_guard lock(t.mutex);
+    const auto it = t.final_layouts.find(render_pass);
+    if (it == t.final_layouts.end()) return;
     for (size_t i = 0; i < attachments.size() && i < it->second.size(); ++i)
         if (attachments[i].image)
             layouts->at_pass_end.push_back({attachments[i].image, attachments[i].range, it->second[i]});
@@ -188,19 +199,13 @@ void apply_layouts(LockedImages &images, const CommandLayouts &layouts) {
         apply(images, t);
 }
 
-void forget_resources(DeviceState &device) {
-    std::lock_guard lock(g_mutex);
-    std::erase_if(g_buffers, [&](const auto &entry) { return entry.second.device == &device; });
-    forget_images(device);
-    forget_screen_space(device);
-}
-
 void for_each_readable_buffer(
     const DeviceState &device,
     const std::function<void(VkBuffer, VkDeviceMemory, VkDeviceSize offset, VkDeviceSize size)> &each) {
-    std::lock_guard lock(g_mutex);
-    for (const auto &[buffer, state] : g_buffers)
-        if (state.device == &device && state.readable && state.memory && state.size != 0)
+    ResourceTable &t = *device.resources;
+    std::lock_guard lock(t.mutex);
+    for (const auto &[buffer, state] : t.buffers)
+        if (state.readable && state.memory && state.size != 0)
             each(buffer, state.memory, state.memory_offset, state.size);
 }
 
@@ -220,8 +225,8 @@ VkResult CreateBuffer(DeviceState &dev, PFN_vkCreateBuffer down, VkDevice device
         readable = pCreateInfo->usage & VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
     }
     if (result != VK_SUCCESS) return result;
-    std::lock_guard lock(g_mutex);
-    g_buffers[*pBuffer] = BufferState{&dev, pCreateInfo->size, readable, VK_NULL_HANDLE, 0};
+    std::lock_guard lock(dev.resources->mutex);
+    dev.resources->buffers[*pBuffer] = BufferState{pCreateInfo->size, readable, VK_NULL_HANDLE, 0};
     return result;
 }
 
@@ -229,22 +234,23 @@ VkResult CreateBuffer(DeviceState &dev, PFN_vkCreateBuffer down, VkDevice device
 
 namespace observe {
 
-void DestroyBuffer(DeviceState &, VkDevice, VkBuffer buffer, const VkAllocationCallbacks *) {
-    std::lock_guard lock(g_mutex);
-    g_buffers.erase(buffer);
+void DestroyBuffer(DeviceState &dev, VkDevice, VkBuffer buffer, const VkAllocationCallbacks *) {
+    std::lock_guard lock(dev.resources->mutex);
+    dev.resources->buffers.erase(buffer);
 }
 
-void DestroyImage(DeviceState &, VkDevice, VkImage image, const VkAllocationCallbacks *) {
-    remove_image(image);
+void DestroyImage(DeviceState &dev, VkDevice, VkImage image, const VkAllocationCallbacks *) {
+    remove_image(dev, image);
 }
 
-void BindBufferMemory(DeviceState &, VkDevice, VkBuffer buffer, VkDeviceMemory memory, VkDeviceSize offset) {
-    bind_buffer(buffer, memory, offset);
+void BindBufferMemory(DeviceState &dev, VkDevice, VkBuffer buffer, VkDeviceMemory memory,
+                      VkDeviceSize offset) {
+    bind_buffer(dev, buffer, memory, offset);
 }
 
-void BindBufferMemory2(DeviceState &, VkDevice, uint32_t count, const VkBindBufferMemoryInfo *infos) {
+void BindBufferMemory2(DeviceState &dev, VkDevice, uint32_t count, const VkBindBufferMemoryInfo *infos) {
     for (uint32_t i = 0; i < count; ++i)
-        bind_buffer(infos[i].buffer, infos[i].memory, infos[i].memoryOffset);
+        bind_buffer(dev, infos[i].buffer, infos[i].memory, infos[i].memoryOffset);
 }
 
 void BindBufferMemory2KHR(DeviceState &dev, VkDevice device, uint32_t count,
@@ -252,13 +258,13 @@ void BindBufferMemory2KHR(DeviceState &dev, VkDevice device, uint32_t count,
     BindBufferMemory2(dev, device, count, infos);
 }
 
-void BindImageMemory(DeviceState &, VkDevice, VkImage image, VkDeviceMemory, VkDeviceSize) {
-    bind_image(image);
+void BindImageMemory(DeviceState &dev, VkDevice, VkImage image, VkDeviceMemory, VkDeviceSize) {
+    bind_image(dev, image);
 }
 
-void BindImageMemory2(DeviceState &, VkDevice, uint32_t count, const VkBindImageMemoryInfo *infos) {
+void BindImageMemory2(DeviceState &dev, VkDevice, uint32_t count, const VkBindImageMemoryInfo *infos) {
     for (uint32_t i = 0; i < count; ++i)
-        bind_image(infos[i].image);
+        bind_image(dev, infos[i].image);
 }
 
 void BindImageMemory2KHR(DeviceState &dev, VkDevice device, uint32_t count,
@@ -298,14 +304,14 @@ void CmdWaitEvents2KHR(DeviceState &dev, VkCommandBuffer cb, uint32_t count, con
     CmdWaitEvents2(dev, cb, count, events, infos);
 }
 
-void CreateRenderPass(DeviceState &, VkDevice, const VkRenderPassCreateInfo *info,
+void CreateRenderPass(DeviceState &dev, VkDevice, const VkRenderPassCreateInfo *info,
                       const VkAllocationCallbacks *, VkRenderPass *render_pass) {
-    note_final_layouts(*render_pass, *info);
+    note_final_layouts(dev, *render_pass, *info);
 }
 
-void CreateRenderPass2(DeviceState &, VkDevice, const VkRenderPassCreateInfo2 *info,
+void CreateRenderPass2(DeviceState &dev, VkDevice, const VkRenderPassCreateInfo2 *info,
                        const VkAllocationCallbacks *, VkRenderPass *render_pass) {
-    note_final_layouts(*render_pass, *info);
+    note_final_layouts(dev, *render_pass, *info);
 }
 
 void CreateRenderPass2KHR(DeviceState &dev, VkDevice device, const VkRenderPassCreateInfo2 *info,
@@ -313,11 +319,11 @@ void CreateRenderPass2KHR(DeviceState &dev, VkDevice device, const VkRenderPassC
     CreateRenderPass2(dev, device, info, allocator, render_pass);
 }
 
-void DestroyRenderPass(DeviceState &, VkDevice, VkRenderPass render_pass, const VkAllocationCallbacks *) {
-    forget_render_pass(render_pass);
-    forget_render_pass_depth(render_pass);
-    std::lock_guard lock(g_mutex);
-    g_final_layouts.erase(render_pass);
+void DestroyRenderPass(DeviceState &dev, VkDevice, VkRenderPass render_pass, const VkAllocationCallbacks *) {
+    forget_render_pass(dev, render_pass);
+    forget_render_pass_depth(dev, render_pass);
+    std::lock_guard lock(dev.resources->mutex);
+    dev.resources->final_layouts.erase(render_pass);
 }
 
 } // namespace observe
@@ -335,9 +341,9 @@ void GetBufferDeviceAddress(DeviceState &dev, VkDeviceAddress address, VkDevice,
     if (address == 0) return;
     VkDeviceMemory memory = VK_NULL_HANDLE;
     {
-        std::lock_guard lock(g_mutex);
-        const auto it = g_buffers.find(pInfo->buffer);
-        if (it == g_buffers.end() || it->second.address_sent == address) return;
+        std::lock_guard lock(dev.resources->mutex);
+        const auto it = dev.resources->buffers.find(pInfo->buffer);
+        if (it == dev.resources->buffers.end() || it->second.address_sent == address) return;
         memory = it->second.memory;
     }
     protocol::BufferAddress message;
@@ -349,8 +355,8 @@ void GetBufferDeviceAddress(DeviceState &dev, VkDeviceAddress address, VkDevice,
                                       message.buffer_id, std::span(killers, memory ? 2 : 1));
     // Marked sent only now: another thread asking meanwhile sends it again (the agent keeps the
     // last), rather than returning an address whose message could follow that thread's submit.
-    std::lock_guard lock(g_mutex);
-    if (const auto it = g_buffers.find(pInfo->buffer); it != g_buffers.end())
+    std::lock_guard lock(dev.resources->mutex);
+    if (const auto it = dev.resources->buffers.find(pInfo->buffer); it != dev.resources->buffers.end())
         it->second.address_sent = address;
 }
 
@@ -398,7 +404,7 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateImage(VkDevice device, const VkImageCreateI
             state.guard_kind = std::move(guard.kind);
             state.guard_screen = guard.screen;
         }
-        add_image(*pImage, std::move(state));
+        add_image(dev, *pImage, std::move(state));
     }
     record_global(dev, LiveChange::Created, codec::handle_value(*pImage), [&](codec::Encoder &e) {
         encode_vkCreateImage(e, device, pCreateInfo, pAllocator, pImage);

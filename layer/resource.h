@@ -42,16 +42,13 @@ struct AttachmentImage {
     VkImage image = VK_NULL_HANDLE;
     VkImageSubresourceRange range{};
 };
-void note_render_pass_begin(VkCommandBuffer command_buffer, VkRenderPass render_pass,
+void note_render_pass_begin(DeviceState &device, VkCommandBuffer command_buffer, VkRenderPass render_pass,
                             std::span<const AttachmentImage> attachments);
 void note_render_pass_end(VkCommandBuffer command_buffer);
 
 // At submit (command_buffer.h: note_submitted): a submitted command buffer's transitions, applied
 // in submission order.
 void apply_layouts(LockedImages &images, const CommandLayouts &layouts);
-
-// vkDestroyDevice.
-void forget_resources(DeviceState &device);
 
 // Every buffer of `device` a snapshot can read back (created with TRANSFER_SRC, bound, not empty),
 // with its memory, its offset in it and its size; under the buffer table's lock, so `each` must not

@@ -10,22 +10,29 @@
 #include "swapchain.h"
 
 #include <mutex>
+#include <optional>
 #include <set>
 #include <string>
-#include <unordered_map>
 
 namespace splitvk {
+
+struct ScreenTable {
+    std::mutex mutex;                 // what follows
+    std::optional<VkExtent2D> screen; // newest composable swapchain
+    bool scaled = false;              // created a target scaled
+};
+
+std::shared_ptr<ScreenTable> make_screen_table() {
+    return std::make_shared<ScreenTable>();
+}
+
 namespace {
 
-std::mutex g_mutex;
-std::unordered_map<const DeviceState *, VkExtent2D> g_screens; // newest composable swapchain
-std::set<const DeviceState *> g_scaled;                        // created a target scaled
-
 bool screen_of(const DeviceState &device, VkExtent2D *screen) {
-    std::lock_guard lock(g_mutex);
-    const auto it = g_screens.find(&device);
-    if (it == g_screens.end()) return false;
-    *screen = it->second;
+    ScreenTable &t = *device.screen;
+    std::lock_guard lock(t.mutex);
+    if (!t.screen) return false;
+    *screen = *t.screen;
     return true;
 }
 
@@ -42,7 +49,7 @@ bool runtime_swapchain_known(const DeviceState &device) {
         if (state.swapchain) members.insert(state.swapchain);
     });
     for (VkSwapchainKHR member : members)
-        if (const SwapchainState *swapchain = find_swapchain(member); swapchain && swapchain->runtime)
+        if (const SwapchainState *swapchain = find_swapchain(device, member); swapchain && swapchain->runtime)
             return true;
     return false;
 }
@@ -50,8 +57,8 @@ bool runtime_swapchain_known(const DeviceState &device) {
 } // namespace
 
 void note_screen_extent(DeviceState &device, VkExtent2D extent) {
-    std::lock_guard lock(g_mutex);
-    g_screens[&device] = extent;
+    std::lock_guard lock(device.screen->mutex);
+    device.screen->screen = extent;
 }
 
 bool screen_extent(const DeviceState &device, VkExtent2D *screen) {
@@ -59,8 +66,8 @@ bool screen_extent(const DeviceState &device, VkExtent2D *screen) {
 }
 
 bool scaled_targets_created(const DeviceState &device) {
-    std::lock_guard lock(g_mutex);
-    return g_scaled.count(&device) != 0;
+    std::lock_guard lock(device.screen->mutex);
+    return device.screen->scaled;
 }
 
 bool screen_space_create_info(DeviceState &device, const VkImageCreateInfo &app, VkImageCreateInfo *down,
@@ -93,8 +100,8 @@ bool screen_space_create_info(DeviceState &device, const VkImageCreateInfo &app,
         return false;
     }
     {
-        std::lock_guard lock(g_mutex);
-        g_scaled.insert(&device);
+        std::lock_guard lock(device.screen->mutex);
+        device.screen->scaled = true;
     }
     *down = app;
     down->extent = split::scaled_target_extent(app.extent, settings.scale);
@@ -104,24 +111,18 @@ bool screen_space_create_info(DeviceState &device, const VkImageCreateInfo &app,
     return true;
 }
 
-void forget_screen_space(DeviceState &device) {
-    std::lock_guard lock(g_mutex);
-    g_screens.erase(&device);
-    g_scaled.erase(&device);
-}
-
-bool screen_space_extent(VkImage image, VkExtent2D *full) {
+bool screen_space_extent(const DeviceState &device, VkImage image, VkExtent2D *full) {
     bool screen_space = false;
-    read_image(image, [&](const ImageState &state) {
+    read_image(device, image, [&](const ImageState &state) {
         screen_space = state.screen_space;
         if (screen_space) *full = state.full;
     });
     return screen_space;
 }
 
-VkRect2D scale_image_rect(VkImage image, uint32_t mip, const VkRect2D &rect) {
+VkRect2D scale_image_rect(const DeviceState &device, VkImage image, uint32_t mip, const VkRect2D &rect) {
     VkExtent2D full{};
-    if (!screen_space_extent(image, &full)) return rect;
+    if (!screen_space_extent(device, image, &full)) return rect;
     return split::scale_target_rect(rect, full, mip, split_settings().scale);
 }
 

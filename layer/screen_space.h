@@ -48,19 +48,18 @@ bool screen_space_create_info(DeviceState &device, const VkImageCreateInfo &app,
 bool scaled_targets_created(const DeviceState &device);
 // The device's newest composable swapchain extent; false before the first.
 bool screen_extent(const DeviceState &device, VkExtent2D *screen);
-void forget_screen_space(DeviceState &device);
 
 // The app-visible extent of a screen-space target (its mip 0, from its ImageState); false for any
 // other image.
-bool screen_space_extent(VkImage image, VkExtent2D *full);
-inline bool is_screen_space(VkImage image) {
+bool screen_space_extent(const DeviceState &device, VkImage image, VkExtent2D *full);
+inline bool is_screen_space(const DeviceState &device, VkImage image) {
     VkExtent2D e;
-    return image != VK_NULL_HANDLE && screen_space_extent(image, &e);
+    return image != VK_NULL_HANDLE && screen_space_extent(device, image, &e);
 }
 
 // A rectangle of mip `mip` of `image` as the driver must see it: scaled for a screen-space target,
 // unchanged otherwise.
-VkRect2D scale_image_rect(VkImage image, uint32_t mip, const VkRect2D &rect);
+VkRect2D scale_image_rect(const DeviceState &device, VkImage image, uint32_t mip, const VkRect2D &rect);
 
 // Imageless framebuffers: the attachment info of an image the rule classifies as screen-space
 // describes the scaled image.

@@ -54,7 +54,7 @@ void CaptureHooks::skipped_structure(VkStructureType stype, const char *parent) 
 }
 
 bool CaptureHooks::has_immutable_samplers(VkDescriptorSet set, uint32_t binding) {
-    return set_binding_has_immutable_samplers(set, binding);
+    return device_ && set_binding_has_immutable_samplers(*device_, set, binding);
 }
 
 void CaptureHooks::chain_truncated(const char *parent) {
@@ -193,6 +193,7 @@ std::unique_ptr<Session> Session::open(const DeviceState &device, const VkDevice
     session->address_ = loaded.settings.server.host + ":" + std::to_string(loaded.settings.server.port);
     session->device_id_ = codec::handle_value(device.handle);
     session->uploads_ = std::make_unique<UploadPool>(device);
+    session->hooks_.bind(device);
     session->encoder_.set_hooks(&session->hooks_);
     session->client_name_ = application_name;
     VkPhysicalDeviceProperties properties{};
@@ -342,7 +343,8 @@ void Session::resync(DeviceState &device, VkQueue queue, uint64_t frame) {
     const auto idle = std::chrono::steady_clock::now();
     ContentSnapshot contents;
     std::string error;
-    const bool read_back = snapshot_contents(device, queue, queue_family_of(queue), &contents, &error);
+    const bool read_back =
+        snapshot_contents(device, queue, queue_family_of(device, queue), &contents, &error);
     const auto readback_done = std::chrono::steady_clock::now();
     if (!read_back)
         SPLITVK_WARN(

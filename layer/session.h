@@ -62,11 +62,14 @@ struct DeviceState;
 // forward").
 class CaptureHooks : public codec::EncodeHooks {
 public:
+    // The device whose descriptor sets has_immutable_samplers() looks at; set before any encoding.
+    void bind(const DeviceState &device) { device_ = &device; }
     void skipped_structure(VkStructureType stype, const char *parent) override;
     void chain_truncated(const char *parent) override;
     bool has_immutable_samplers(VkDescriptorSet set, uint32_t binding) override;
 
 private:
+    const DeviceState *device_ = nullptr;
     std::mutex mutex_;
     std::unordered_map<uint32_t, bool> seen_;
     bool truncation_logged_ = false;

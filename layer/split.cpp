@@ -48,12 +48,12 @@ const Settings &split_settings() {
     return layer_settings().settings;
 }
 
-SplitFrame take_split_frame(DeviceState &, VkImage image, EyeMode eyes, const split::Gaze &gaze,
+SplitFrame take_split_frame(DeviceState &dev, VkImage image, EyeMode eyes, const split::Gaze &gaze,
                             const split::FrameFoveaSize &size) {
     SplitFrame frame;
     std::optional<split::DrawnImage> drawn;
     {
-        LockedImages images;
+        LockedImages images(dev);
         ImageState *state = images.find(image);
         if (!state || !state->drawn) return frame;
         drawn = std::exchange(state->drawn, std::nullopt);

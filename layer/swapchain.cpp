@@ -35,9 +35,16 @@
 #include <algorithm>
 
 namespace splitvk {
-namespace {
 
-ObjectMap<VkSwapchainKHR, SwapchainState> g_swapchains;
+struct SwapchainTable {
+    ObjectMap<VkSwapchainKHR, SwapchainState> swapchains;
+};
+
+std::shared_ptr<SwapchainTable> make_swapchain_table() {
+    return std::make_shared<SwapchainTable>();
+}
+
+namespace {
 
 // Whether the compositor could work on this swapchain if the layer adds kSwapchainUsage.
 bool can_compose(DeviceState &dev, const VkSwapchainCreateInfoKHR &info, VkSurfaceCapabilitiesKHR &caps,
@@ -65,8 +72,8 @@ bool can_compose(DeviceState &dev, const VkSwapchainCreateInfoKHR &info, VkSurfa
 
 } // namespace
 
-SwapchainState *find_swapchain(VkSwapchainKHR swapchain) {
-    return g_swapchains.find(swapchain);
+SwapchainState *find_swapchain(const DeviceState &device, VkSwapchainKHR swapchain) {
+    return device.swapchains->swapchains.find(swapchain);
 }
 
 namespace {
@@ -102,9 +109,10 @@ void send_swapchain_destroyed(DeviceState &dev, VkSwapchainKHR swapchain) {
 // Before the driver (or the OpenXR runtime) destroys the swapchain's images: the agent is told, and
 // the images stop being split targets (image.h).
 void forget_swapchain(DeviceState &dev, VkSwapchainKHR swapchain) {
-    const std::unique_ptr<SwapchainState> state = g_swapchains.remove(swapchain);
+    const std::unique_ptr<SwapchainState> state = dev.swapchains->swapchains.remove(swapchain);
     if (!state) return;
-    forget_swapchain_images(swapchain, static_cast<uint32_t>(state->images.size()), state->images.data());
+    forget_swapchain_images(dev, swapchain, static_cast<uint32_t>(state->images.size()),
+                            state->images.data());
     send_swapchain_destroyed(dev, swapchain);
 }
 
@@ -148,7 +156,7 @@ SwapchainState *register_runtime_swapchain(DeviceState &dev, VkSwapchainKHR key,
                      why.c_str());
     note_swapchain_images(dev, key, static_cast<uint32_t>(state->images.size()), state->images.data());
     if (state->composable) note_screen_extent(dev, info.extent);
-    SwapchainState *registered = g_swapchains.insert(key, std::move(state));
+    SwapchainState *registered = dev.swapchains->swapchains.insert(key, std::move(state));
     // Logged like a window's, so that an agent joining later adopts the images too.
     send_swapchain_images(dev, *registered);
     return registered;
@@ -245,7 +253,7 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateSwapchainKHR(VkDevice device,
     state->acquire_allowance = count > surface_min ? count - surface_min : 0;
 
     if (composable) note_screen_extent(dev, pCreateInfo->imageExtent);
-    send_swapchain_images(dev, *g_swapchains.insert(*pSwapchain, std::move(state)));
+    send_swapchain_images(dev, *dev.swapchains->swapchains.insert(*pSwapchain, std::move(state)));
     return result;
 }
 

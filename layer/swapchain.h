@@ -41,7 +41,7 @@ struct SwapchainState {
 };
 
 // nullptr when the swapchain was created without a session.
-SwapchainState *find_swapchain(VkSwapchainKHR swapchain);
+SwapchainState *find_swapchain(const DeviceState &device, VkSwapchainKHR swapchain);
 
 // An OpenXR runtime's swapchain (docs/architecture.md §9, xr_layer.cpp): images the runtime created with
 // vkCreateImage on the application's device, which the application renders each eye into.

@@ -20,6 +20,7 @@ namespace {
 enum class Kind { Plain, Scaled, Swapchain };
 
 struct Side {
+    const DeviceState *device = nullptr;
     Kind kind = Kind::Plain;
     VkImage image = VK_NULL_HANDLE;
     VkExtent2D extent{}; // the swapchain's
@@ -40,15 +41,16 @@ bool drawn_split_in(VkCommandBuffer cb, VkImage image) {
 
 Side side_of(DeviceState &dev, VkCommandBuffer cb, VkImage image, bool destination) {
     Side s;
+    s.device = &dev;
     s.image = image;
-    if (is_screen_space(image)) {
+    if (is_screen_space(dev, image)) {
         s.kind = Kind::Scaled;
     } else if (destination && split_recording(dev) && !(split_swapped(dev) && !split_cutting(dev)) &&
-               swapchain_image_extent(image, &s.extent)) {
+               swapchain_image_extent(dev, image, &s.extent)) {
         s.kind = Kind::Swapchain;
         s.cut = split_cutting(dev);
     } else if (!destination && split_recording(dev) && !split_swapped(dev) &&
-               swapchain_image_extent(image, &s.extent) && drawn_split_in(cb, image)) {
+               swapchain_image_extent(dev, image, &s.extent) && drawn_split_in(cb, image)) {
         // A copy out of an image this command buffer drew split (an engine's mirror window of its
         // eye image, copied before the image is released): it reads the scaled picture the passes
         // drew, as a screen-space target's copy does. Into another swapchain image it makes that
@@ -56,7 +58,7 @@ Side side_of(DeviceState &dev, VkCommandBuffer cb, VkImage image, bool destinati
         // foveae of it; into a full-size image it is upsampled (copy_as_blit): the periphery,
         // never the scaled miniature.
         s.kind = Kind::Swapchain;
-    } else if (!destination && split_recording(dev) && swapchain_image_extent(image, &s.extent)) {
+    } else if (!destination && split_recording(dev) && swapchain_image_extent(dev, image, &s.extent)) {
         log_unscalable_once("a copy out of a swapchain image reads what the client drew: its periphery "
                             "part is scaled into the top-left (the app's own read-back, not the display)");
     }
@@ -67,7 +69,7 @@ VkRect2D scale_side(const Side &s, uint32_t mip, const VkRect2D &r) {
     const double scale = split_settings().scale;
     switch (s.kind) {
     case Kind::Scaled:
-        return scale_image_rect(s.image, mip, r);
+        return scale_image_rect(*s.device, s.image, mip, r);
     case Kind::Swapchain:
         if (s.cut) return r;
         return split::scale_rect(r, split::axis_scale(s.extent, scale),
@@ -212,8 +214,9 @@ bool scale_blits(DeviceState &dev, VkCommandBuffer cb, VkImage src, VkImage dst,
 // Buffer <-> image: the image region scales; the buffer keeps the app's addressing (its row length
 // and image height made explicit), so the scaled texels land within what the app's region spans.
 template <class Region>
-bool scale_buffer_copies(VkImage image, uint32_t count, const Region *regions, std::vector<Region> &out) {
-    if (!is_screen_space(image)) return false;
+bool scale_buffer_copies(const DeviceState &dev, VkImage image, uint32_t count, const Region *regions,
+                         std::vector<Region> &out) {
+    if (!is_screen_space(dev, image)) return false;
     log_unscalable_once("a buffer copy to or from a screen-space target moves the scaled picture (periphery "
                         "only: the agent replays it full size)");
     out.assign(regions, regions + count);
@@ -221,7 +224,7 @@ bool scale_buffer_copies(VkImage image, uint32_t count, const Region *regions, s
         if (r.bufferRowLength == 0) r.bufferRowLength = r.imageExtent.width;
         if (r.bufferImageHeight == 0) r.bufferImageHeight = r.imageExtent.height;
         const VkRect2D rect =
-            scale_image_rect(image, r.imageSubresource.mipLevel, rect_of(r.imageOffset, r.imageExtent));
+            scale_image_rect(dev, image, r.imageSubresource.mipLevel, rect_of(r.imageOffset, r.imageExtent));
         r.imageOffset.x = rect.offset.x;
         r.imageOffset.y = rect.offset.y;
         r.imageExtent.width = rect.extent.width;
@@ -233,16 +236,17 @@ bool scale_buffer_copies(VkImage image, uint32_t count, const Region *regions, s
 
 // Whether a compute descriptor set bound in `cb` (its split tracker's, begun afresh with it: a set
 // its previous recording bound does not count) writes a screen-space target.
-bool dispatch_writes_screen_space(VkCommandBuffer cb) {
+bool dispatch_writes_screen_space(const DeviceState &dev, VkCommandBuffer cb) {
     const split::CommandTracker *tracker = split_tracker(cb);
-    return tracker && tracker->dispatch_writes_screen_space(set_writes_screen_space);
+    return tracker && tracker->dispatch_writes_screen_space(
+                          [&](VkDescriptorSet set) { return set_writes_screen_space(dev, set); });
 }
 
 // The periphery's GPU time (SPLITVK_STATS) ends with the write into the swapchain image when that is
 // a copy or blit rather than a pass (atrium --path compute).
 void after_transfer(DeviceState &dev, VkCommandBuffer cb, VkImage dst) {
     VkExtent2D extent{};
-    if (!split_recording(dev) || !swapchain_image_extent(dst, &extent)) return;
+    if (!split_recording(dev) || !swapchain_image_extent(dev, dst, &extent)) return;
     if (CommandTiming *timing = command_buffer_timing(cb)) time_split_pass_ended(dev, cb, *timing);
 }
 
@@ -283,8 +287,8 @@ void CmdBindDescriptorSets(DeviceState &, VkCommandBuffer cb, VkPipelineBindPoin
 // Its group counts live in GPU memory, written by earlier GPU work the layer cannot see finish at
 // record time, so they cannot be scaled: the dispatch covers the full extent, which a shader
 // bound-checked with imageSize() clips to the scaled image (correct, as costly as native).
-void CmdDispatchIndirect(DeviceState &, VkCommandBuffer cb, VkBuffer, VkDeviceSize) {
-    if (dispatch_writes_screen_space(cb))
+void CmdDispatchIndirect(DeviceState &dev, VkCommandBuffer cb, VkBuffer, VkDeviceSize) {
+    if (dispatch_writes_screen_space(dev, cb))
         log_unscalable_once("an indirect dispatch writes a screen-space target: its group counts are in "
                             "GPU memory, so it runs unscaled (correct where the shader bound-checks "
                             "with imageSize(), at native cost)");
@@ -360,39 +364,39 @@ void CmdBlitImage2(DeviceState &dev, PFN_vkCmdBlitImage2 down, VkCommandBuffer c
     after_transfer(dev, commandBuffer, info->dstImage);
 }
 
-void CmdCopyBufferToImage(DeviceState &, PFN_vkCmdCopyBufferToImage down, VkCommandBuffer commandBuffer,
+void CmdCopyBufferToImage(DeviceState &dev, PFN_vkCmdCopyBufferToImage down, VkCommandBuffer commandBuffer,
                           VkBuffer srcBuffer, VkImage dstImage, VkImageLayout dstImageLayout,
                           uint32_t regionCount, const VkBufferImageCopy *pRegions) {
     std::vector<VkBufferImageCopy> out;
-    const bool scaled = scale_buffer_copies(dstImage, regionCount, pRegions, out);
+    const bool scaled = scale_buffer_copies(dev, dstImage, regionCount, pRegions, out);
     pass_down_regions(scaled, regionCount, pRegions, out,
                       [&](uint32_t count, const VkBufferImageCopy *regions) {
                           down(commandBuffer, srcBuffer, dstImage, dstImageLayout, count, regions);
                       });
 }
 
-void CmdCopyBufferToImage2(DeviceState &, PFN_vkCmdCopyBufferToImage2 down, VkCommandBuffer commandBuffer,
+void CmdCopyBufferToImage2(DeviceState &dev, PFN_vkCmdCopyBufferToImage2 down, VkCommandBuffer commandBuffer,
                            const VkCopyBufferToImageInfo2 *info) {
     std::vector<VkBufferImageCopy2> out;
-    const bool scaled = scale_buffer_copies(info->dstImage, info->regionCount, info->pRegions, out);
+    const bool scaled = scale_buffer_copies(dev, info->dstImage, info->regionCount, info->pRegions, out);
     pass_down_regions2(commandBuffer, info, scaled, out, down);
 }
 
-void CmdCopyImageToBuffer(DeviceState &, PFN_vkCmdCopyImageToBuffer down, VkCommandBuffer commandBuffer,
+void CmdCopyImageToBuffer(DeviceState &dev, PFN_vkCmdCopyImageToBuffer down, VkCommandBuffer commandBuffer,
                           VkImage srcImage, VkImageLayout srcImageLayout, VkBuffer dstBuffer,
                           uint32_t regionCount, const VkBufferImageCopy *pRegions) {
     std::vector<VkBufferImageCopy> out;
-    const bool scaled = scale_buffer_copies(srcImage, regionCount, pRegions, out);
+    const bool scaled = scale_buffer_copies(dev, srcImage, regionCount, pRegions, out);
     pass_down_regions(scaled, regionCount, pRegions, out,
                       [&](uint32_t count, const VkBufferImageCopy *regions) {
                           down(commandBuffer, srcImage, srcImageLayout, dstBuffer, count, regions);
                       });
 }
 
-void CmdCopyImageToBuffer2(DeviceState &, PFN_vkCmdCopyImageToBuffer2 down, VkCommandBuffer commandBuffer,
+void CmdCopyImageToBuffer2(DeviceState &dev, PFN_vkCmdCopyImageToBuffer2 down, VkCommandBuffer commandBuffer,
                            const VkCopyImageToBufferInfo2 *info) {
     std::vector<VkBufferImageCopy2> out;
-    const bool scaled = scale_buffer_copies(info->srcImage, info->regionCount, info->pRegions, out);
+    const bool scaled = scale_buffer_copies(dev, info->srcImage, info->regionCount, info->pRegions, out);
     pass_down_regions2(commandBuffer, info, scaled, out, down);
 }
 
@@ -400,9 +404,9 @@ void CmdCopyImageToBuffer2(DeviceState &, PFN_vkCmdCopyImageToBuffer2 down, VkCo
 // groups. Shaders that bound-check against imageSize() then shade exactly the scaled target; a
 // shader that takes the extent from a uniform shades the scaled image's top-left part of it (a
 // periphery artefact; docs/architecture.md §4, the agent replays it full size).
-void CmdDispatch(DeviceState &, PFN_vkCmdDispatch down, VkCommandBuffer commandBuffer, uint32_t groupCountX,
-                 uint32_t groupCountY, uint32_t groupCountZ) {
-    if (dispatch_writes_screen_space(commandBuffer)) {
+void CmdDispatch(DeviceState &dev, PFN_vkCmdDispatch down, VkCommandBuffer commandBuffer,
+                 uint32_t groupCountX, uint32_t groupCountY, uint32_t groupCountZ) {
+    if (dispatch_writes_screen_space(dev, commandBuffer)) {
         const double s = split_settings().scale;
         groupCountX = split::scaled_group_count(groupCountX, s);
         groupCountY = split::scaled_group_count(groupCountY, s);
@@ -412,10 +416,10 @@ void CmdDispatch(DeviceState &, PFN_vkCmdDispatch down, VkCommandBuffer commandB
 
 // Base and counts scale together (split::scaled_group_range), so that a dispatch split in parts
 // over a scaled target still covers all of it; Z, like vkCmdDispatch's, is layers, not pixels.
-void CmdDispatchBase(DeviceState &, PFN_vkCmdDispatchBase down, VkCommandBuffer commandBuffer,
+void CmdDispatchBase(DeviceState &dev, PFN_vkCmdDispatchBase down, VkCommandBuffer commandBuffer,
                      uint32_t baseGroupX, uint32_t baseGroupY, uint32_t baseGroupZ, uint32_t groupCountX,
                      uint32_t groupCountY, uint32_t groupCountZ) {
-    if (dispatch_writes_screen_space(commandBuffer)) {
+    if (dispatch_writes_screen_space(dev, commandBuffer)) {
         const double s = split_settings().scale;
         const split::GroupRange x = split::scaled_group_range(baseGroupX, groupCountX, s);
         const split::GroupRange y = split::scaled_group_range(baseGroupY, groupCountY, s);

@@ -33,8 +33,11 @@
 namespace splitvk {
 
 // One swapchain image's: the command buffer of the layer's copy, the buffer it copies into, and
-// the fence and semaphore the copy signals.
+// the fence and semaphore the copy signals. Its lock is held while its copy is made (after a wait
+// for the previous one) and, for a window's present, until the copy is compared; that concerns
+// this image's frames only.
 struct VerifyReadback {
+    std::mutex mutex; // what follows
     VkCommandPool pool = VK_NULL_HANDLE;
     VkCommandBuffer command_buffer = VK_NULL_HANDLE;
     HostBuffer staging; // the whole image, read back
@@ -49,8 +52,19 @@ using namespace std::chrono_literals;
 constexpr auto kVerifyWait = 5000ms;             // per frame
 constexpr uint64_t kFenceWaitNs = 5'000'000'000; // the layer's own copy
 
-std::mutex g_mutex;
-std::map<std::pair<VkSwapchainKHR, uint32_t>, VerifyReadback> g_readbacks;
+} // namespace
+
+struct VerifyTable {
+    // The map only: held for a lookup, never while a copy is made, waited for or compared.
+    std::mutex mutex;
+    std::map<std::pair<VkSwapchainKHR, uint32_t>, std::shared_ptr<VerifyReadback>> readbacks;
+};
+
+std::shared_ptr<VerifyTable> make_verify_table() {
+    return std::make_shared<VerifyTable>();
+}
+
+namespace {
 
 void destroy(DeviceState &dev, VerifyReadback &r) {
     const VkDevice d = dev.handle;
@@ -59,7 +73,12 @@ void destroy(DeviceState &dev, VerifyReadback &r) {
     if (r.fence) dev.dispatch.DestroyFence(d, r.fence, nullptr);
     destroy_host_buffer(dev, r.staging);
     if (r.pool) dev.dispatch.DestroyCommandPool(d, r.pool, nullptr);
-    r = VerifyReadback{};
+    r.pool = VK_NULL_HANDLE;
+    r.command_buffer = VK_NULL_HANDLE;
+    r.staging = HostBuffer{};
+    r.fence = VK_NULL_HANDLE;
+    r.semaphore = VK_NULL_HANDLE;
+    r.in_flight = false;
 }
 
 bool create(DeviceState &dev, const SwapchainState &sc, uint32_t family, VerifyReadback &r) {
@@ -182,21 +201,35 @@ std::optional<double> compare_verified_frame(DeviceState &dev, const PendingVeri
     return psnr;
 }
 
-bool presented_image_verifiable(VkQueue queue, const VkPresentInfoKHR &present) {
+namespace {
+
+// The readback of image `index` of `swapchain`, made empty on first use. It stays in the table
+// until release_verify_readbacks, which takes its lock before destroying it.
+VerifyReadback &readback_of(DeviceState &dev, VkSwapchainKHR swapchain, uint32_t index) {
+    VerifyTable &t = *dev.readbacks;
+    std::lock_guard lock(t.mutex);
+    std::shared_ptr<VerifyReadback> &r = t.readbacks[{swapchain, index}];
+    if (!r) r = std::make_shared<VerifyReadback>();
+    return *r;
+}
+
+} // namespace
+
+bool presented_image_verifiable(const DeviceState &dev, VkQueue queue, const VkPresentInfoKHR &present) {
     if (present.swapchainCount == 0) return false;
-    const SwapchainState *sc = find_swapchain(present.pSwapchains[0]);
+    const SwapchainState *sc = find_swapchain(dev, present.pSwapchains[0]);
     return sc && sc->transfer_src && tile_texel_bytes(sc->format) != 0 &&
-           present.pImageIndices[0] < sc->images.size() && queue_family_of(queue) != UINT32_MAX;
+           present.pImageIndices[0] < sc->images.size() && queue_family_of(dev, queue) != UINT32_MAX;
 }
 
 std::optional<PendingVerify> read_back_presented_image(DeviceState &dev, VkQueue queue,
                                                        VkPresentInfoKHR &present, uint64_t frame) {
-    if (!presented_image_verifiable(queue, present)) return std::nullopt;
-    const SwapchainState *sc = find_swapchain(present.pSwapchains[0]);
+    if (!presented_image_verifiable(dev, queue, present)) return std::nullopt;
+    const SwapchainState *sc = find_swapchain(dev, present.pSwapchains[0]);
     const uint32_t index = present.pImageIndices[0];
-    const uint32_t family = queue_family_of(queue);
-    std::unique_lock lock(g_mutex);
-    VerifyReadback &r = g_readbacks[{sc->handle, index}];
+    const uint32_t family = queue_family_of(dev, queue);
+    VerifyReadback &r = readback_of(dev, sc->handle, index);
+    std::unique_lock lock(r.mutex);
     bool ready = r.pool != VK_NULL_HANDLE;
     if (!ready) {
         ready = create(dev, *sc, family, r);
@@ -213,7 +246,7 @@ std::optional<PendingVerify> read_back_presented_image(DeviceState &dev, VkQueue
                     &r.semaphore);
     if (dev.dispatch.QueueSubmit(queue, 1, &submit, r.fence) != VK_SUCCESS) return std::nullopt;
     r.in_flight = true;
-    // A node of g_readbacks, which the lock the result holds keeps in place.
+    // Kept in place by the lock the result holds (release_verify_readbacks waits for it).
     present.waitSemaphoreCount = 1;
     present.pWaitSemaphores = &r.semaphore;
     return PendingVerify{frame, sc, index, &r, std::move(lock), false, {}, false};
@@ -222,12 +255,12 @@ std::optional<PendingVerify> read_back_presented_image(DeviceState &dev, VkQueue
 std::optional<PendingVerify> read_back_runtime_image(DeviceState &dev, VkQueue queue,
                                                      const SwapchainState &sc, uint32_t index,
                                                      uint64_t frame) {
-    const uint32_t family = queue_family_of(queue);
+    const uint32_t family = queue_family_of(dev, queue);
     if (!sc.transfer_src || !tile_texel_bytes(sc.format) != 0 || index >= sc.images.size() ||
         family == UINT32_MAX)
         return std::nullopt;
-    std::lock_guard lock(g_mutex);
-    VerifyReadback &r = g_readbacks[{sc.handle, index}];
+    VerifyReadback &r = readback_of(dev, sc.handle, index);
+    std::lock_guard lock(r.mutex);
     bool ready = r.pool != VK_NULL_HANDLE;
     if (!ready) {
         ready = create(dev, sc, family, r);
@@ -245,14 +278,22 @@ std::optional<PendingVerify> read_back_runtime_image(DeviceState &dev, VkQueue q
 }
 
 void release_verify_readbacks(DeviceState &device, VkSwapchainKHR swapchain) {
-    std::lock_guard lock(g_mutex);
-    for (auto it = g_readbacks.begin(); it != g_readbacks.end();) {
-        if (it->first.first == swapchain) {
-            destroy(device, it->second);
-            it = g_readbacks.erase(it);
-        } else {
-            ++it;
+    std::vector<std::shared_ptr<VerifyReadback>> doomed;
+    {
+        VerifyTable &t = *device.readbacks;
+        std::lock_guard lock(t.mutex);
+        for (auto it = t.readbacks.begin(); it != t.readbacks.end();) {
+            if (it->first.first == swapchain) {
+                doomed.push_back(std::move(it->second));
+                it = t.readbacks.erase(it);
+            } else {
+                ++it;
+            }
         }
+    }
+    for (const std::shared_ptr<VerifyReadback> &r : doomed) {
+        std::lock_guard lock(r->mutex);
+        destroy(device, *r);
     }
 }
 

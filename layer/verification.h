@@ -32,8 +32,8 @@ struct PendingVerify {
     const SwapchainState *swapchain = nullptr;
     uint32_t image_index = 0;
     VerifyReadback *readback = nullptr;
-    // vkQueuePresentKHR's copy keeps the readbacks locked until it is compared, so that nothing
-    // releases or reuses its slot meanwhile; an OpenXR image's does not (end_runtime_frame).
+    // vkQueuePresentKHR's copy keeps its readback locked until it is compared, so that nothing
+    // releases or reuses it meanwhile; an OpenXR image's does not (end_runtime_frame).
     std::unique_lock<std::mutex> lock;
     // The swapped split, a frame cut to its foveae: what it shows around them is the agent's
     // periphery, so only `foveae` (rects of layer 0) must match, and the frame's PSNR is measured.
@@ -47,7 +47,7 @@ struct PendingVerify {
 // Whether read_back_presented_image() can read `present`'s first image back on `queue`: the
 // swapped split decides the FramePresent's kPresentVerify by this before its composite, and reads
 // the image back after it.
-bool presented_image_verifiable(VkQueue queue, const VkPresentInfoKHR &present);
+bool presented_image_verifiable(const DeviceState &device, VkQueue queue, const VkPresentInfoKHR &present);
 // vkQueuePresentKHR, the queue's lock held: the layer's copy of the first swapchain's image, submitted
 // on `queue` after `present`'s wait semaphores, which `present` then waits on the copy instead of.
 // None where the image cannot be read back (the present is left as it was).

@@ -67,7 +67,10 @@ namespace {
 
 constexpr char kApiLayerName[] = "XR_APILAYER_SPLITVK_split_render";
 
-// The next layer's (or the runtime's) functions this layer calls, per XrInstance.
+struct SessionState;
+struct SwapchainState;
+
+// The next layer's (or the runtime's) functions this layer calls, per XrInstance, and its sessions.
 struct InstanceState {
     PFN_xrGetInstanceProcAddr get_instance_proc_addr = nullptr;
     PFN_xrDestroyInstance destroy_instance = nullptr;
@@ -89,6 +92,8 @@ struct InstanceState {
     PFN_xrConvertTimeToTimespecTimeKHR convert_time = nullptr;
     // The application did not enable it itself: its functions stay hidden from it.
     bool convert_time_hidden = false;
+    // Under g_mutex, as is every session's state.
+    std::unordered_map<XrSession, std::unique_ptr<SessionState>> sessions;
 };
 
 // A frame xrWaitFrame gave the application: when the call returned, where the frame's latency
@@ -118,6 +123,8 @@ struct SessionState {
     // longer, tile waits included; bounding the waits by that would let them grow with it.
     XrDuration refresh_period = 0;
     bool deadline_said = false;
+    // Its swapchains, under g_mutex (destroying a session destroys them).
+    std::unordered_map<XrSwapchain, std::unique_ptr<SwapchainState>> swapchains;
 };
 
 // More frames waited for than begun: a runtime blocks xrWaitFrame before this.
@@ -132,7 +139,7 @@ struct EyeOfView {
 };
 
 struct SwapchainState {
-    XrSession session = XR_NULL_HANDLE;
+    SessionState *session = nullptr;
     InstanceState *instance = nullptr;
     XrSwapchainCreateInfo info{}; // next cleared; usage as created, the layer's bits included
     // The split's state of this swapchain once its images are known; null when not registered.
@@ -148,12 +155,29 @@ struct SwapchainState {
     int32_t first_view = -1;
 };
 
-// The layer's tables. Calls down are made without the lock: a runtime may call back into the
-// application's Vulkan device, and so into the Vulkan layer, on the same thread.
+// The layer's table: each instance holds its sessions, each session its swapchains. An
+// application has an instance and a session or two, so a session or swapchain is found by a walk
+// over them. Calls down are made without the lock: a runtime may call back into the application's
+// Vulkan device, and so into the Vulkan layer, on the same thread.
 std::mutex g_mutex;
 std::unordered_map<XrInstance, std::unique_ptr<InstanceState>> g_instances;
-std::unordered_map<XrSession, std::unique_ptr<SessionState>> g_sessions;
-std::unordered_map<XrSwapchain, std::unique_ptr<SwapchainState>> g_swapchains;
+
+// Under g_mutex.
+SessionState *find_session_locked(XrSession session) {
+    for (const auto &[handle, instance] : g_instances)
+        if (const auto it = instance->sessions.find(session); it != instance->sessions.end())
+            return it->second.get();
+    return nullptr;
+}
+
+// Under g_mutex.
+SwapchainState *find_swapchain_locked(XrSwapchain swapchain) {
+    for (const auto &[handle, instance] : g_instances)
+        for (const auto &[session, state] : instance->sessions)
+            if (const auto it = state->swapchains.find(swapchain); it != state->swapchains.end())
+                return it->second.get();
+    return nullptr;
+}
 
 // The XR usage the compositor needs on an eye image, as Compositor::kSwapchainUsage in Vulkan terms.
 constexpr XrSwapchainUsageFlags kCompositorUsage = XR_SWAPCHAIN_USAGE_TRANSFER_SRC_BIT |
@@ -198,11 +222,10 @@ const XrGraphicsBindingVulkanKHR *vulkan_binding(const XrSessionCreateInfo &info
 // The swapchain's state and its session's, for the calls that need both.
 bool find_swapchain(XrSwapchain swapchain, SwapchainState **out, SessionState **session) {
     std::lock_guard lock(g_mutex);
-    const auto it = g_swapchains.find(swapchain);
-    if (it == g_swapchains.end()) return false;
-    *out = it->second.get();
-    const auto s = g_sessions.find(it->second->session);
-    *session = s == g_sessions.end() ? nullptr : s->second.get();
+    SwapchainState *found = find_swapchain_locked(swapchain);
+    if (!found) return false;
+    *out = found;
+    *session = found->session;
     return true;
 }
 
@@ -237,15 +260,13 @@ void forget_swapchain(XrSwapchain swapchain) {
     SessionState *session = nullptr;
     {
         std::lock_guard lock(g_mutex);
-        const auto it = g_swapchains.find(swapchain);
-        if (it == g_swapchains.end()) return;
-        state = std::move(it->second);
-        g_swapchains.erase(it);
-        const auto s = g_sessions.find(state->session);
-        if (s != g_sessions.end()) session = s->second.get();
+        SwapchainState *found = find_swapchain_locked(swapchain);
+        if (!found) return;
+        session = found->session;
+        state = std::move(session->swapchains.at(swapchain));
+        session->swapchains.erase(swapchain);
     }
-    if (state->split && session && session->device)
-        unregister_runtime_swapchain(*session->device, split_key(swapchain));
+    if (state->split && session->device) unregister_runtime_swapchain(*session->device, split_key(swapchain));
 }
 
 // ------------------------------------------------------------------------------------ entry points
@@ -292,7 +313,7 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateSession(XrInstance instance, const XrSessio
                 "the view directions");
     }
     std::lock_guard lock(g_mutex);
-    g_sessions[*session] = std::move(s);
+    state->sessions[*session] = std::move(s);
     return result;
 }
 
@@ -301,18 +322,18 @@ XRAPI_ATTR XrResult XRAPI_CALL DestroySession(XrSession session) {
     std::vector<XrSwapchain> swapchains;
     {
         std::lock_guard lock(g_mutex);
-        const auto it = g_sessions.find(session);
-        if (it == g_sessions.end()) return XR_ERROR_HANDLE_INVALID;
-        instance = it->second->instance;
-        for (const auto &[handle, state] : g_swapchains)
-            if (state->session == session) swapchains.push_back(handle);
+        const SessionState *state = find_session_locked(session);
+        if (!state) return XR_ERROR_HANDLE_INVALID;
+        instance = state->instance;
+        for (const auto &[handle, swapchain] : state->swapchains)
+            swapchains.push_back(handle);
     }
     // Destroying a session destroys its swapchains: they leave the split first.
     for (XrSwapchain swapchain : swapchains)
         forget_swapchain(swapchain);
     const XrResult result = instance->destroy_session(session);
     std::lock_guard lock(g_mutex);
-    g_sessions.erase(session);
+    instance->sessions.erase(session);
     return result;
 }
 
@@ -321,9 +342,8 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateSwapchain(XrSession session, const XrSwapch
     SessionState *s = nullptr;
     {
         std::lock_guard lock(g_mutex);
-        const auto it = g_sessions.find(session);
-        if (it == g_sessions.end()) return XR_ERROR_HANDLE_INVALID;
-        s = it->second.get();
+        s = find_session_locked(session);
+        if (!s) return XR_ERROR_HANDLE_INVALID;
     }
     XrSwapchainCreateInfo created = *info;
     XrResult result = XR_ERROR_VALIDATION_FAILURE;
@@ -343,12 +363,12 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateSwapchain(XrSession session, const XrSwapch
         result = s->instance->create_swapchain(session, info, swapchain);
     if (XR_FAILED(result)) return result;
     auto state = std::make_unique<SwapchainState>();
-    state->session = session;
+    state->session = s;
     state->instance = s->instance;
     state->info = created;
     state->info.next = nullptr;
     std::lock_guard lock(g_mutex);
-    g_swapchains[*swapchain] = std::move(state);
+    s->swapchains[*swapchain] = std::move(state);
     return result;
 }
 
@@ -511,15 +531,14 @@ XRAPI_ATTR XrResult XRAPI_CALL EndFrame(XrSession session, const XrFrameEndInfo 
     std::optional<WaitedFrame> begun;
     {
         std::lock_guard lock(g_mutex);
-        const auto it = g_sessions.find(session);
-        if (it == g_sessions.end()) return XR_ERROR_HANDLE_INVALID;
-        instance = it->second->instance;
-        gaze = it->second->gaze.get();
-        state = it->second.get();
+        state = find_session_locked(session);
+        if (!state) return XR_ERROR_HANDLE_INVALID;
+        instance = state->instance;
+        gaze = state->gaze.get();
         ended = state->ended_frames;
         begun = std::exchange(state->begun, std::nullopt);
         // The releases from here on belong to the next frame.
-        ++it->second->ended_frames;
+        ++state->ended_frames;
         // Which eye each swapchain's images hold, for the stats: the first view naming it.
         std::unordered_map<XrSwapchain, int32_t> first_view;
         for (uint32_t i = 0; info && i < info->layerCount; ++i) {
@@ -530,7 +549,7 @@ XRAPI_ATTR XrResult XRAPI_CALL EndFrame(XrSession session, const XrFrameEndInfo 
                 first_view.emplace(projection->views[v].subImage.swapchain, static_cast<int32_t>(v));
         }
         for (const auto &[swapchain, view] : first_view)
-            if (const auto s = g_swapchains.find(swapchain); s != g_swapchains.end())
+            if (const auto s = state->swapchains.find(swapchain); s != state->swapchains.end())
                 s->second->first_view = view;
     }
     // The views this frame was rendered with place the next frames' foveae (this frame's eye images
@@ -567,8 +586,7 @@ XRAPI_ATTR XrResult XRAPI_CALL EndFrame(XrSession session, const XrFrameEndInfo 
 
 SessionState *find_session(XrSession session) {
     std::lock_guard lock(g_mutex);
-    const auto it = g_sessions.find(session);
-    return it == g_sessions.end() ? nullptr : it->second.get();
+    return find_session_locked(session);
 }
 
 XRAPI_ATTR XrResult XRAPI_CALL
@@ -724,18 +742,13 @@ DeviceState *device_of(Handle) {
 }
 DeviceState *device_of(XrSession session) {
     std::lock_guard lock(g_mutex);
-    const auto it = g_sessions.find(session);
-    return it == g_sessions.end() ? nullptr : it->second->device;
+    const SessionState *state = find_session_locked(session);
+    return state ? state->device : nullptr;
 }
 DeviceState *device_of(XrSwapchain swapchain) {
-    XrSession session = XR_NULL_HANDLE;
-    {
-        std::lock_guard lock(g_mutex);
-        const auto it = g_swapchains.find(swapchain);
-        if (it == g_swapchains.end()) return nullptr;
-        session = it->second->session;
-    }
-    return device_of(session);
+    std::lock_guard lock(g_mutex);
+    const SwapchainState *state = find_swapchain_locked(swapchain);
+    return state ? state->session->device : nullptr;
 }
 
 template <auto Function, EntryName Name>

@@ -169,6 +169,7 @@ protected:
         device_.instance = &instance_state_;
         load_device_dispatch_table(device_.dispatch, device, vkGetDeviceProcAddr);
         vkGetPhysicalDeviceMemoryProperties(physical, &device_.memory_properties);
+        device_.gpu_timing = make_gpu_timing_table(); // the compositor's timed composites use it
     }
 
     void TearDown() override {
