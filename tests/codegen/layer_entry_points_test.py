@@ -106,7 +106,7 @@ class LayerEntryPoints(unittest.TestCase):
         layout = _index(body, "descriptor_template_layout(dev, descriptorUpdateTemplate)")
         record = _index(body, "encode_vkUpdateDescriptorSetWithTemplate(e, device, descriptorSet, "
                               "descriptorUpdateTemplate, pData, *template_layout)")
-        note = _index(body, "note_descriptor_template_update(descriptorSet, *template_layout, pData)")
+        note = _index(body, "note_descriptor_template_update(dev, descriptorSet, *template_layout, pData)")
         self.assertLess(call, layout)
         self.assertLess(layout, record)
         self.assertLess(record, note)
