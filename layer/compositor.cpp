@@ -35,7 +35,7 @@
 #include "instance.h"
 #include "log.h"
 #include "split_geometry.h"
-#include "swapchain.h"
+#include "swapchain_state.h"
 #include "tile_format.h"
 #include "upsample_shaders.h"
 #include "vk_util.h"

@@ -1,6 +1,7 @@
 #pragma once
 
 #include "dispatch.h"
+#include "object_map.h"
 
 #include <vulkan/vk_layer.h>
 
@@ -47,7 +48,19 @@ DeviceState &device_state(VkDevice device);
 DeviceState &device_state(VkQueue queue);
 DeviceState &device_state(VkCommandBuffer command_buffer);
 
-// vkDestroyDevice: drops the per-object state (command buffers, memory, swapchains) of a device.
-void forget_device_objects(DeviceState &device);
+// SPLITVK_UNSUPPORTED=passthrough: the devices splitvk stays out of (passthrough_device_proc_addr).
+struct PassthroughDevice {
+    PFN_vkGetDeviceProcAddr next_get_device_proc_addr = nullptr;
+    PFN_vkDestroyDevice next_destroy_device = nullptr;
+};
+
+// The devices created through this layer, and those it passes through, by dispatch key: filled at
+// vkCreateDevice and emptied at vkDestroyDevice (device_entry.cpp); everything else finds a device
+// with find_device / device_state.
+// In a namespace of their own, so that a file's own g_devices (gpu_timing.cpp) stays unambiguous.
+namespace registry {
+extern ObjectMap<DispatchKey, DeviceState> g_devices;
+extern ObjectMap<DispatchKey, PassthroughDevice> g_passthrough_devices;
+} // namespace registry
 
 } // namespace splitvk

@@ -60,7 +60,7 @@
 #include "session.h"
 #include "split.h"
 #include "stats.h"
-#include "swapchain.h"
+#include "swapchain_state.h"
 #include "verification.h"
 #include "vk_result_name.h"
 #include "vk_util.h"

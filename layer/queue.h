@@ -1,8 +1,10 @@
 #pragma once
 
-// VkQueue (queue.cpp): the queues a device was got, their families and locks, and the submits.
+// VkQueue (queue.cpp): the queues a device was got, their families and locks; the submits are
+// queue_entry.cpp's.
 
 #include "device.h"
+#include "object_map.h"
 
 #include <cstdint>
 #include <mutex>
@@ -18,7 +20,14 @@ uint32_t queue_family_of(VkQueue queue);
 // session. Never held while waiting for the present thread.
 std::unique_lock<std::mutex> lock_queue(VkQueue queue);
 
-// vkDestroyDevice: forgets the device's queues.
-void forget_queues(DeviceState &device);
+struct QueueInfo {
+    uint32_t family = UINT32_MAX;
+    std::mutex mutex; // lock_queue()
+};
+// Every queue got while its device had a session; vkGetDeviceQueue adds, vkDestroyDevice removes
+// (queue_entry.cpp).
+namespace registry {
+extern ObjectMap<VkQueue, QueueInfo> g_queues;
+} // namespace registry
 
 } // namespace splitvk

@@ -13,7 +13,7 @@
 #include "screen_space.h"
 #include "split.h"
 #include "split_geometry.h"
-#include "swapchain.h"
+#include "swapchain_state.h"
 #include "vk_util.h"
 
 #include <algorithm>

@@ -7,7 +7,7 @@
 #include "session.h"
 #include "split.h"
 #include "split_geometry.h"
-#include "swapchain.h"
+#include "swapchain_state.h"
 
 #include <mutex>
 #include <set>

@@ -8,7 +8,7 @@
 #include "screen_space.h"
 #include "session.h"
 #include "split_geometry.h"
-#include "swapchain.h"
+#include "swapchain_state.h"
 #include "vk_util.h"
 
 #include <mutex>

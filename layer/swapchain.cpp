@@ -35,9 +35,10 @@
 #include <algorithm>
 
 namespace splitvk {
-namespace {
 
-ObjectMap<VkSwapchainKHR, SwapchainState> g_swapchains;
+using registry::g_swapchains;
+
+namespace {
 
 // Whether the compositor could work on this swapchain if the layer adds kSwapchainUsage.
 bool can_compose(DeviceState &dev, const VkSwapchainCreateInfoKHR &info, VkSurfaceCapabilitiesKHR &caps,
@@ -62,14 +63,6 @@ bool can_compose(DeviceState &dev, const VkSwapchainCreateInfoKHR &info, VkSurfa
     }
     return Compositor::supports(dev, info.imageFormat, why);
 }
-
-} // namespace
-
-SwapchainState *find_swapchain(VkSwapchainKHR swapchain) {
-    return g_swapchains.find(swapchain);
-}
-
-namespace {
 
 void send_swapchain_images(DeviceState &dev, const SwapchainState &state) {
     protocol::SwapchainImages message;

@@ -16,7 +16,7 @@
 #include "log.h"
 #include "queue.h"
 #include "session.h"
-#include "swapchain.h"
+#include "swapchain_state.h"
 #include "tile_format.h"
 #include "vk_util.h"
 

@@ -15,7 +15,7 @@
 #include "host_buffer.h"
 #include "instance.h"
 #include "split_geometry.h"
-#include "swapchain.h"
+#include "swapchain_state.h"
 #include "vk_util.h"
 
 #include <algorithm>

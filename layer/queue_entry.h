@@ -1,0 +1,12 @@
+#pragma once
+
+// VkQueue's entry points (queue_entry.cpp): vkGetDeviceQueue*, the submits, the waits for idle.
+
+#include "queue.h"
+
+namespace splitvk {
+
+// vkDestroyDevice: forgets the device's queues.
+void forget_queues(DeviceState &device);
+
+} // namespace splitvk

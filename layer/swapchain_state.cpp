@@ -1,0 +1,14 @@
+// VkSwapchainKHR: the swapchains the layer keeps state for.
+
+#include "swapchain_state.h"
+
+namespace splitvk {
+
+ObjectMap<VkSwapchainKHR, SwapchainState> registry::g_swapchains;
+using registry::g_swapchains;
+
+SwapchainState *find_swapchain(VkSwapchainKHR swapchain) {
+    return g_swapchains.find(swapchain);
+}
+
+} // namespace splitvk
