@@ -1,5 +1,7 @@
 // The loader interface: version negotiation and the layer's vkGet*ProcAddr.
 
+#include "layer.h"
+
 #include "device.h"
 #include "entry_boundary.h"
 #include "instance.h"

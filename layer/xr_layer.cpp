@@ -29,6 +29,8 @@
 // Everything else goes straight to the next layer or the runtime. Where the Vulkan layer is not on
 // the session's device (it was disabled, or has no agent), this layer only forwards.
 
+#include "xr_layer.h"
+
 #include "agent_link.h"
 #include "device.h"
 #include "entry_boundary.h"
