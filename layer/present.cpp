@@ -51,7 +51,7 @@
 
 #include "capture.h"
 #include "compositor.h"
-#include "gaze.h"
+#include "model/gaze.h"
 #include "gpu_timing.h"
 #include "layer_entry_points.h"
 #include "log.h"
@@ -59,7 +59,7 @@
 #include "queue.h"
 #include "session.h"
 #include "split.h"
-#include "stats.h"
+#include "model/stats.h"
 #include "swapchain_state.h"
 #include "verification.h"
 #include "vk_result_name.h"

@@ -27,13 +27,13 @@
 // in the same critical section as it encodes the call, so that the log's order is the stream's.
 
 #include "agent_link.h"
-#include "fovea_size.h"
-#include "frame_difference.h"
+#include "model/fovea_size.h"
+#include "model/frame_difference.h"
 #include "live_state_log.h"
 #include "metadata.h" // the metadata messages
 #include "physical_device.h"
-#include "split_payoff.h"
-#include "stats.h"
+#include "model/split_payoff.h"
+#include "model/stats.h"
 #include "tile_stream.h"
 #include "transport.h"
 #include "vk_codec.h"

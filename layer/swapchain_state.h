@@ -4,7 +4,7 @@
 // SwapchainImages carried, and what verification reads back.
 
 #include "device.h"
-#include "frame_deadline.h"
+#include "model/frame_deadline.h"
 #include "object_map.h"
 
 #include <vector>

@@ -11,7 +11,7 @@
 
 #include "verification.h"
 
-#include "frame_difference.h"
+#include "model/frame_difference.h"
 #include "host_buffer.h"
 #include "log.h"
 #include "queue.h"

@@ -1,6 +1,6 @@
 #include "xr_gaze.h"
 
-#include "gaze.h"
+#include "model/gaze.h"
 #include "log.h"
 
 #include <cstring>

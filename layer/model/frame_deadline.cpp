@@ -1,4 +1,4 @@
-#include "frame_deadline.h"
+#include "model/frame_deadline.h"
 
 #include <algorithm>
 

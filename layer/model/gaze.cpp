@@ -1,4 +1,4 @@
-#include "gaze.h"
+#include "model/gaze.h"
 
 #include "log.h"
 

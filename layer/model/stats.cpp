@@ -1,4 +1,4 @@
-#include "stats.h"
+#include "model/stats.h"
 
 #include "log.h"
 

@@ -1,4 +1,4 @@
-#include "split_payoff.h"
+#include "model/split_payoff.h"
 
 #include <algorithm>
 

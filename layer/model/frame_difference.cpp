@@ -1,4 +1,4 @@
-#include "frame_difference.h"
+#include "model/frame_difference.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "fovea_size.h"
+#include "model/fovea_size.h"
 
 #include <algorithm>
 #include <cmath>
