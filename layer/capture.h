@@ -4,7 +4,7 @@
 // session the whole cost is one pointer check.
 
 #include "command_buffer.h"
-#include "device.h"
+#include "core/device.h"
 #include "session.h"
 
 #include <span>

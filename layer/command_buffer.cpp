@@ -12,7 +12,7 @@
 #include "command_buffer.h"
 
 #include "capture.h"
-#include "gpu_timing.h"
+#include "core/gpu_timing.h"
 #include "layer_entry_points.h"
 #include "resource.h"
 #include "split.h"

@@ -12,7 +12,7 @@
 // Vulkan's external synchronisation makes the only user while it records; a submit reads them
 // (queue.cpp) when no thread may record it.
 
-#include "device.h"
+#include "core/device.h"
 
 #include <cstdint>
 #include <unordered_set>

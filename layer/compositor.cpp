@@ -30,15 +30,15 @@
 
 #include "compositor.h"
 
-#include "gpu_timing.h"
-#include "host_buffer.h"
-#include "instance.h"
+#include "core/gpu_timing.h"
+#include "core/host_buffer.h"
+#include "core/instance.h"
 #include "log.h"
 #include "split_geometry.h"
-#include "swapchain_state.h"
+#include "core/swapchain.h"
 #include "tile_format.h"
 #include "upsample_shaders.h"
-#include "vk_util.h"
+#include "core/vk_util.h"
 
 #include <algorithm>
 #include <cstring>

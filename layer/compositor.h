@@ -36,7 +36,7 @@
 // second (kSlotWaitNs); if it has not finished by then, composite() gives up for this frame
 // rather than hang the application.
 
-#include "device.h"
+#include "core/device.h"
 
 #include <cstdint>
 #include <memory>

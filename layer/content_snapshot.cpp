@@ -3,11 +3,11 @@
 
 #include "content_snapshot.h"
 
-#include "host_buffer.h"
-#include "image.h"
+#include "core/host_buffer.h"
+#include "core/image.h"
 #include "resource.h"
 #include "vk_format_info.h"
-#include "vk_util.h"
+#include "core/vk_util.h"
 
 #include <algorithm>
 #include <numeric>

@@ -5,7 +5,7 @@
 // what the readback needs: TRANSFER_SRC on every resource that allows it, where buffers live, and
 // the layout of every image subresource).
 
-#include "device.h"
+#include "core/device.h"
 #include "live_state_log.h"
 
 #include <cstdint>

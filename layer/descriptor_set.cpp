@@ -14,10 +14,10 @@
 #include "capture.h"
 #include "descriptor_template.h"
 #include "layer_entry_points.h"
-#include "object_map.h"
+#include "core/object_map.h"
 #include "screen_space.h"
 #include "split.h"
-#include "vk_util.h"
+#include "core/vk_util.h"
 
 #include <cstring>
 #include <map>

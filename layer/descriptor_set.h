@@ -4,7 +4,7 @@
 // each set's descriptor contents for the live-state log (session.h). Kept only while a session exists.
 
 #include "descriptor_template.h"
-#include "device.h"
+#include "core/device.h"
 #include "vk_codec.h"
 
 #include <cstddef>

@@ -2,13 +2,13 @@
 
 #include "device_entry.h"
 
-#include "chain_info.h"
+#include "core/chain_info.h"
 #include "command_buffer.h"
 #include "compositor.h"
-#include "gpu_timing.h"
-#include "instance.h"
+#include "core/gpu_timing.h"
+#include "core/instance.h"
 #include "layer_entry_points.h"
-#include "layer_settings.h"
+#include "core/layer_settings.h"
 #include "log.h"
 #include "memory.h"
 #include "present.h"

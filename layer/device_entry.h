@@ -3,7 +3,7 @@
 // VkDevice's chain (device_entry.cpp): vkCreateDevice makes a device's DeviceState and its session,
 // vkDestroyDevice drops them.
 
-#include "device.h"
+#include "core/device.h"
 
 namespace splitvk {
 

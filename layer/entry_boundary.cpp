@@ -2,7 +2,7 @@
 
 #include "entry_boundary.h"
 
-#include "device.h"
+#include "core/device.h"
 #include "log.h"
 #include "session.h"
 

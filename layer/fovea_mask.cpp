@@ -1,12 +1,12 @@
 #include "fovea_mask.h"
 
 #include "log.h"
-#include "object_map.h"
+#include "core/object_map.h"
 #include "session.h"
 #include "split.h"
 #include "split_geometry.h"
 #include "vk_format_info.h"
-#include "vk_util.h"
+#include "core/vk_util.h"
 
 #include <algorithm>
 #include <cmath>

@@ -23,7 +23,7 @@
 // Draws that do not test depth (a sky, a full-screen pass) still shade the foveae: no saving, and
 // no harm, since only texels inside the mask can differ and the tiles cover them.
 
-#include "device.h"
+#include "core/device.h"
 #include "split_tracker.h"
 
 #include <vulkan/vulkan.h>

@@ -2,11 +2,11 @@
 
 #include "layer.h"
 
-#include "device.h"
+#include "core/device.h"
 #include "entry_boundary.h"
-#include "instance.h"
+#include "core/instance.h"
 #include "layer_entry_points.h"
-#include "layer_settings.h"
+#include "core/layer_settings.h"
 
 #include <vulkan/vk_layer.h>
 

@@ -3,7 +3,7 @@
 // VkDeviceMemory (memory.cpp): the shadow copies of mapped memory behind MemoryData (docs/architecture.md
 // §3). Their state is the device's (DeviceState::memory), under locks of its own, never one of the process.
 
-#include "device.h"
+#include "core/device.h"
 
 namespace splitvk {
 

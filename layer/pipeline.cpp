@@ -7,7 +7,7 @@
 #include "pipeline.h"
 
 #include "layer_entry_points.h"
-#include "object_map.h"
+#include "core/object_map.h"
 #include "split.h"
 #include "split_geometry.h"
 

@@ -52,18 +52,18 @@
 #include "capture.h"
 #include "compositor.h"
 #include "model/gaze.h"
-#include "gpu_timing.h"
+#include "core/gpu_timing.h"
 #include "layer_entry_points.h"
 #include "log.h"
 #include "periphery.h"
-#include "queue.h"
+#include "core/queue.h"
 #include "session.h"
 #include "split.h"
 #include "model/stats.h"
-#include "swapchain_state.h"
+#include "core/swapchain.h"
 #include "verification.h"
 #include "vk_result_name.h"
-#include "vk_util.h"
+#include "core/vk_util.h"
 
 #include <algorithm>
 #include <chrono>

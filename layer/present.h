@@ -2,7 +2,7 @@
 
 // Acquire and present (present.cpp): frame marks, split mode's asynchronous presents and composite.
 
-#include "device.h"
+#include "core/device.h"
 #include "model/frame_deadline.h"
 #include "session.h"
 #include "split_geometry.h"

@@ -15,15 +15,15 @@
 
 #include "capture.h"
 #include "command_buffer.h"
-#include "gpu_timing.h"
-#include "image.h"
+#include "core/gpu_timing.h"
+#include "core/image.h"
 #include "layer_entry_points.h"
 #include "memory.h"
 #include "present.h"
 #include "resource.h"
 #include "split.h"
 #include "submit_rules.h"
-#include "vk_util.h"
+#include "core/vk_util.h"
 
 #include <algorithm>
 #include <map>

@@ -2,7 +2,7 @@
 
 // VkQueue's entry points (queue_entry.cpp): vkGetDeviceQueue*, the submits, the waits for idle.
 
-#include "queue.h"
+#include "core/queue.h"
 
 namespace splitvk {
 

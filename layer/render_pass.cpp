@@ -4,17 +4,17 @@
 
 #include "command_buffer.h"
 #include "fovea_mask.h"
-#include "gpu_timing.h"
-#include "image.h"
+#include "core/gpu_timing.h"
+#include "core/image.h"
 #include "layer_entry_points.h"
 #include "log.h"
-#include "object_map.h"
+#include "core/object_map.h"
 #include "resource.h"
 #include "screen_space.h"
 #include "split.h"
 #include "split_geometry.h"
-#include "swapchain_state.h"
-#include "vk_util.h"
+#include "core/swapchain.h"
+#include "core/vk_util.h"
 
 #include <algorithm>
 #include <mutex>

@@ -10,7 +10,7 @@
 // and the viewports/scissors in effect are re-emitted scaled at its begin and unscaled at its end, because
 // dynamic state outlives the pass (viewport.cpp).
 
-#include "device.h"
+#include "core/device.h"
 
 #include <vulkan/vulkan.h>
 

@@ -5,8 +5,8 @@
 
 #include "capture.h"
 #include "fovea_mask.h"
-#include "image.h"
-#include "instance.h"
+#include "core/image.h"
+#include "core/instance.h"
 #include "layer_entry_points.h"
 #include "log.h"
 #include "render_pass.h"

@@ -10,7 +10,7 @@
 // buffer records its transitions (pipeline barriers, wait events, render pass final layouts), and
 // each submit applies them in order.
 
-#include "device.h"
+#include "core/device.h"
 #include "session.h"
 
 #include <functional>

@@ -2,12 +2,12 @@
 
 #include "screen_space.h"
 
-#include "image.h"
+#include "core/image.h"
 #include "log.h"
 #include "session.h"
 #include "split.h"
 #include "split_geometry.h"
-#include "swapchain_state.h"
+#include "core/swapchain.h"
 
 #include <mutex>
 #include <set>

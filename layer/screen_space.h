@@ -20,7 +20,7 @@
 // An image stays screen-space for its lifetime: Session::splitting() never turns off again once on
 // (a lost agent leaves the periphery filling the frames), so every pass into one stays scaled.
 
-#include "device.h"
+#include "core/device.h"
 #include "target_rule.h"
 
 #include <vulkan/vulkan.h>

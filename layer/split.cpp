@@ -2,14 +2,14 @@
 
 #include "split.h"
 
-#include "image.h"
-#include "layer_settings.h"
+#include "core/image.h"
+#include "core/layer_settings.h"
 #include "log.h"
 #include "screen_space.h"
 #include "session.h"
 #include "split_geometry.h"
-#include "swapchain_state.h"
-#include "vk_util.h"
+#include "core/swapchain.h"
+#include "core/vk_util.h"
 
 #include <mutex>
 #include <optional>

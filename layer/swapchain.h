@@ -1,9 +1,9 @@
 #pragma once
 
 // VkSwapchainKHR's entry points and an OpenXR runtime's swapchains (swapchain.cpp): they make and drop
-// the SwapchainState (swapchain_state.h) and tell the agent.
+// the SwapchainState (core/swapchain.h) and tell the agent.
 
-#include "swapchain_state.h"
+#include "core/swapchain.h"
 
 #include <vector>
 

@@ -4,7 +4,7 @@
 
 #include "command_buffer.h"
 #include "descriptor_set.h"
-#include "gpu_timing.h"
+#include "core/gpu_timing.h"
 #include "layer_entry_points.h"
 #include "screen_space.h"
 #include "split.h"

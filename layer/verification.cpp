@@ -12,13 +12,13 @@
 #include "verification.h"
 
 #include "model/frame_difference.h"
-#include "host_buffer.h"
+#include "core/host_buffer.h"
 #include "log.h"
-#include "queue.h"
+#include "core/queue.h"
 #include "session.h"
-#include "swapchain_state.h"
+#include "core/swapchain.h"
 #include "tile_format.h"
-#include "vk_util.h"
+#include "core/vk_util.h"
 
 #include <algorithm>
 #include <chrono>

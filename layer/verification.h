@@ -12,7 +12,7 @@
 // the foveae must match bit for bit, and the whole image is measured by PSNR, the periphery's
 // distance from native, per frame in SPLITVK_STATS and over the run at exit.
 
-#include "device.h"
+#include "core/device.h"
 
 #include <vulkan/vulkan.h>
 

@@ -31,12 +31,12 @@
 
 #include "xr_layer.h"
 
-#include "agent_link.h"
-#include "device.h"
+#include "core/agent_link.h"
+#include "core/device.h"
 #include "entry_boundary.h"
 #include "model/frame_deadline.h"
 #include "model/gaze.h"
-#include "layer_settings.h"
+#include "core/layer_settings.h"
 #include "log.h"
 #include "present.h"
 #include "swapchain.h"

@@ -11,12 +11,12 @@
 // agent's periphery, or the previous one for a late frame.
 
 #include "compositor.h"
-#include "gpu_timing.h"
-#include "host_buffer.h"
-#include "instance.h"
+#include "core/gpu_timing.h"
+#include "core/host_buffer.h"
+#include "core/instance.h"
 #include "split_geometry.h"
-#include "swapchain_state.h"
-#include "vk_util.h"
+#include "core/swapchain.h"
+#include "core/vk_util.h"
 
 #include <algorithm>
 #include <chrono>

@@ -8,10 +8,10 @@
 // vkGetInstanceProcAddr the VkLayerInstanceLink list hands us; a known overlay's library that is
 // loaded in the process but not among them is above us.
 
-#include "layer_chain.h"
+#include "core/layer_chain.h"
 
-#include "chain_info.h"
-#include "layer_settings.h"
+#include "core/chain_info.h"
+#include "core/layer_settings.h"
 #include "log.h"
 
 #include <atomic>

@@ -1,6 +1,6 @@
 // VkQueue: the queues a device was got, their families and locks (queue_entry.cpp fills them).
 
-#include "queue.h"
+#include "core/queue.h"
 
 namespace splitvk {
 

@@ -17,7 +17,7 @@
 // exception: a submit looks its command buffers up (command_buffer.h: note_submitted) while it
 // holds the table, so the command-buffer table's lock nests inside this one and never around it.
 
-#include "device.h"
+#include "core/device.h"
 #include "split_tracker.h"
 
 #include <vulkan/vulkan.h>

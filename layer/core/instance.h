@@ -1,8 +1,8 @@
 #pragma once
 
-#include "agent_link.h"
-#include "dispatch.h"
-#include "physical_device.h"
+#include "core/agent_link.h"
+#include "core/dispatch.h"
+#include "core/physical_device.h"
 
 #include <memory>
 #include <mutex>

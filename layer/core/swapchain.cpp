@@ -1,6 +1,6 @@
 // VkSwapchainKHR: the swapchains the layer keeps state for.
 
-#include "swapchain_state.h"
+#include "core/swapchain.h"
 
 namespace splitvk {
 

@@ -3,7 +3,7 @@
 // Small Vulkan helpers, so that each is written once: for the work the layer itself submits
 // (composites, readbacks, copies) and for reading the application's pNext chains.
 
-#include "device.h"
+#include "core/device.h"
 
 #include <span>
 

@@ -17,7 +17,7 @@
 // downsampled periphery instead (kTilePeriphery), decoded alike, part i by thread i; only their
 // decoders accept lossy data.
 
-#include "host_buffer.h"
+#include "core/host_buffer.h"
 #include "metadata.h" // Tiles, AgentTimings
 #include "tile_codec.h"
 

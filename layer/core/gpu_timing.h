@@ -15,7 +15,7 @@
 // but vkCmdExecuteCommands may be recorded inside it; the secondaries themselves get no queries. The
 // compositor's command buffer gets a pair the same way, around everything it records.
 
-#include "device.h"
+#include "core/device.h"
 
 namespace splitvk {
 

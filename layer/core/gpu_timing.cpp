@@ -1,6 +1,6 @@
-#include "gpu_timing.h"
+#include "core/gpu_timing.h"
 
-#include "instance.h"
+#include "core/instance.h"
 
 #include <mutex>
 #include <unordered_map>

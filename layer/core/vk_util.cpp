@@ -1,4 +1,4 @@
-#include "vk_util.h"
+#include "core/vk_util.h"
 
 namespace splitvk {
 

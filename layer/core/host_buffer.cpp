@@ -1,7 +1,7 @@
-#include "host_buffer.h"
+#include "core/host_buffer.h"
 
 #include "log.h"
-#include "vk_util.h"
+#include "core/vk_util.h"
 
 #include <algorithm>
 

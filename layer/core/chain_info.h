@@ -2,7 +2,7 @@
 
 // The loader's chain information in the pNext of vkCreateInstance / vkCreateDevice.
 
-#include "vk_util.h"
+#include "core/vk_util.h"
 
 #include <vulkan/vk_layer.h>
 

@@ -1,11 +1,11 @@
 #pragma once
 
-// VkSwapchainKHR state the layer keeps while a session exists (swapchain_state.cpp): what
+// VkSwapchainKHR state the layer keeps while a session exists (core/swapchain.cpp): what
 // SwapchainImages carried, and what verification reads back.
 
-#include "device.h"
+#include "core/device.h"
 #include "model/frame_deadline.h"
-#include "object_map.h"
+#include "core/object_map.h"
 
 #include <vector>
 

@@ -1,13 +1,13 @@
 // VkPhysicalDevice: the device envelope the application is told (physical_device.h).
 
-#include "physical_device.h"
+#include "core/physical_device.h"
 
-#include "instance.h"
+#include "core/instance.h"
 #include "layer_entry_points.h"
-#include "layer_settings.h"
+#include "core/layer_settings.h"
 #include "log.h"
 #include "vk_envelope_tables.h"
-#include "vk_util.h"
+#include "core/vk_util.h"
 
 #include <algorithm>
 #include <cstring>

@@ -3,8 +3,8 @@
 // VkQueue (queue.cpp): the queues a device was got, their families and locks; the submits are
 // queue_entry.cpp's.
 
-#include "device.h"
-#include "object_map.h"
+#include "core/device.h"
+#include "core/object_map.h"
 
 #include <cstdint>
 #include <mutex>

@@ -1,6 +1,6 @@
 // VkDevice: the per-device state and its registry.
 
-#include "device.h"
+#include "core/device.h"
 
 #include "log.h"
 

@@ -1,6 +1,6 @@
 // The table of ImageState, one per VkImage the layer knows (image.h).
 
-#include "image.h"
+#include "core/image.h"
 
 #include <unordered_map>
 

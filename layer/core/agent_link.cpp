@@ -1,7 +1,7 @@
-#include "agent_link.h"
+#include "core/agent_link.h"
 
 #include "known_agents.h"
-#include "layer_settings.h"
+#include "core/layer_settings.h"
 #include "log.h"
 #include "vk_codec.h"
 

@@ -1,4 +1,4 @@
-#include "layer_settings.h"
+#include "core/layer_settings.h"
 
 #include <cstdlib>
 #include <cstring>

@@ -1,13 +1,13 @@
 // VkInstance: the instance chain, per-instance state and the layer's own extension lists.
 
-#include "instance.h"
+#include "core/instance.h"
 
-#include "chain_info.h"
-#include "layer_chain.h"
+#include "core/chain_info.h"
+#include "core/layer_chain.h"
 #include "layer_entry_points.h"
-#include "layer_settings.h"
+#include "core/layer_settings.h"
 #include "log.h"
-#include "object_map.h"
+#include "core/object_map.h"
 
 #include <vulkan/vk_layer.h>
 

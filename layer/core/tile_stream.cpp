@@ -1,4 +1,4 @@
-#include "tile_stream.h"
+#include "core/tile_stream.h"
 
 #include "log.h"
 #include "wire.h"

@@ -1,7 +1,7 @@
 #pragma once
 
-#include "dispatch.h"
-#include "object_map.h"
+#include "core/dispatch.h"
+#include "core/object_map.h"
 
 #include <vulkan/vk_layer.h>
 

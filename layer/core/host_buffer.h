@@ -3,7 +3,7 @@
 // A buffer in host-visible memory, mapped for its whole life: the layer's own staging for what it
 // reads back (verification, snapshots) and what it uploads (fovea tiles).
 
-#include "device.h"
+#include "core/device.h"
 
 #include <cstddef>
 #include <memory>
