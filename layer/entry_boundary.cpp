@@ -4,7 +4,7 @@
 
 #include "core/device.h"
 #include "log.h"
-#include "session.h"
+#include "capture/session.h"
 
 #include <cstdio>
 #include <cstdlib>

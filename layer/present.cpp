@@ -49,7 +49,7 @@
 
 #include "present.h"
 
-#include "capture.h"
+#include "capture/capture.h"
 #include "compositor.h"
 #include "model/gaze.h"
 #include "core/gpu_timing.h"
@@ -57,8 +57,8 @@
 #include "log.h"
 #include "periphery.h"
 #include "core/queue.h"
-#include "session.h"
-#include "split.h"
+#include "capture/session.h"
+#include "capture/split.h"
 #include "model/stats.h"
 #include "core/swapchain.h"
 #include "verification.h"

@@ -4,7 +4,7 @@
 
 #include "core/device.h"
 #include "model/frame_deadline.h"
-#include "session.h"
+#include "capture/session.h"
 #include "split_geometry.h"
 
 #include <cstdint>

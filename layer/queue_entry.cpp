@@ -13,15 +13,15 @@
 
 #include "queue_entry.h"
 
-#include "capture.h"
-#include "command_buffer.h"
+#include "capture/capture.h"
+#include "capture/command_buffer.h"
 #include "core/gpu_timing.h"
 #include "core/image.h"
 #include "layer_entry_points.h"
-#include "memory.h"
+#include "capture/memory.h"
 #include "present.h"
-#include "resource.h"
-#include "split.h"
+#include "capture/resource.h"
+#include "capture/split.h"
 #include "submit_rules.h"
 #include "core/vk_util.h"
 

@@ -19,7 +19,7 @@
 // rather than acquire more images than the surface allows at once.
 #include "swapchain.h"
 
-#include "capture.h"
+#include "capture/capture.h"
 #include "compositor.h"
 #include "core/image.h"
 #include "core/instance.h"
@@ -27,9 +27,9 @@
 #include "log.h"
 #include "core/object_map.h"
 #include "present.h"
-#include "screen_space.h"
-#include "session.h"
-#include "split.h"
+#include "capture/screen_space.h"
+#include "capture/session.h"
+#include "capture/split.h"
 #include "vk_format_info.h"
 
 #include <algorithm>

@@ -15,7 +15,7 @@
 #include "core/host_buffer.h"
 #include "log.h"
 #include "core/queue.h"
-#include "session.h"
+#include "capture/session.h"
 #include "core/swapchain.h"
 #include "tile_format.h"
 #include "core/vk_util.h"

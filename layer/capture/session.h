@@ -29,7 +29,7 @@
 #include "core/agent_link.h"
 #include "model/fovea_size.h"
 #include "model/frame_difference.h"
-#include "live_state_log.h"
+#include "capture/live_state_log.h"
 #include "metadata.h" // the metadata messages
 #include "core/physical_device.h"
 #include "model/split_payoff.h"

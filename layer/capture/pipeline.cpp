@@ -4,11 +4,11 @@
 // state (the capture keeps the app's create info: the agent decides for itself), the static
 // values are kept here, and binding such a pipeline sets them (scaled inside a split pass).
 
-#include "pipeline.h"
+#include "capture/pipeline.h"
 
 #include "layer_entry_points.h"
 #include "core/object_map.h"
-#include "split.h"
+#include "capture/split.h"
 #include "split_geometry.h"
 
 #include <vector>

@@ -1,17 +1,17 @@
 // Render pass instances and dynamic renderings, and their rewrite (render_pass.h).
 
-#include "render_pass.h"
+#include "capture/render_pass.h"
 
-#include "command_buffer.h"
-#include "fovea_mask.h"
+#include "capture/command_buffer.h"
+#include "capture/fovea_mask.h"
 #include "core/gpu_timing.h"
 #include "core/image.h"
 #include "layer_entry_points.h"
 #include "log.h"
 #include "core/object_map.h"
-#include "resource.h"
-#include "screen_space.h"
-#include "split.h"
+#include "capture/resource.h"
+#include "capture/screen_space.h"
+#include "capture/split.h"
 #include "split_geometry.h"
 #include "core/swapchain.h"
 #include "core/vk_util.h"

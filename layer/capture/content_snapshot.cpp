@@ -1,11 +1,11 @@
 // The snapshot of buffer and image contents that brings a new agent in (content_snapshot.h): read
 // back on the client with one copy, given to the agent as MemoryData and upload commands.
 
-#include "content_snapshot.h"
+#include "capture/content_snapshot.h"
 
 #include "core/host_buffer.h"
 #include "core/image.h"
-#include "resource.h"
+#include "capture/resource.h"
 #include "vk_format_info.h"
 #include "core/vk_util.h"
 

@@ -1,11 +1,11 @@
 // Screen-space targets on the client (screen_space.h).
 
-#include "screen_space.h"
+#include "capture/screen_space.h"
 
 #include "core/image.h"
 #include "log.h"
-#include "session.h"
-#include "split.h"
+#include "capture/session.h"
+#include "capture/split.h"
 #include "split_geometry.h"
 #include "core/swapchain.h"
 

@@ -1,6 +1,6 @@
 // The object part of the live-state log (live_state_log.h).
 
-#include "live_state_log.h"
+#include "capture/live_state_log.h"
 
 #include <algorithm>
 #include <utility>

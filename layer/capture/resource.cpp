@@ -1,16 +1,16 @@
 // VkBuffer and VkImage: TRANSFER_SRC added down the chain, where they live, and the layout of every
 // image subresource, for the snapshot of their contents (resource.h, content_snapshot.h).
 
-#include "resource.h"
+#include "capture/resource.h"
 
-#include "capture.h"
-#include "fovea_mask.h"
+#include "capture/capture.h"
+#include "capture/fovea_mask.h"
 #include "core/image.h"
 #include "core/instance.h"
 #include "layer_entry_points.h"
 #include "log.h"
-#include "render_pass.h"
-#include "screen_space.h"
+#include "capture/render_pass.h"
+#include "capture/screen_space.h"
 #include "vk_format_info.h"
 
 #include <algorithm>

@@ -18,13 +18,13 @@
 // in the order they were found; a thread mapping, unmapping or allocating other memory waits for
 // neither.
 
-#include "memory.h"
+#include "capture/memory.h"
 
-#include "capture.h"
+#include "capture/capture.h"
 #include "layer_entry_points.h"
 #include "log.h"
-#include "memory_diff.h"
-#include "session.h"
+#include "capture/memory_diff.h"
+#include "capture/session.h"
 #include "wire.h"
 
 #include <algorithm>

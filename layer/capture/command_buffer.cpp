@@ -9,13 +9,13 @@
 // application (one recording thread at a time); the maps have their own lock, held only for the
 // lookup.
 
-#include "command_buffer.h"
+#include "capture/command_buffer.h"
 
-#include "capture.h"
+#include "capture/capture.h"
 #include "core/gpu_timing.h"
 #include "layer_entry_points.h"
-#include "resource.h"
-#include "split.h"
+#include "capture/resource.h"
+#include "capture/split.h"
 
 #include <mutex>
 #include <shared_mutex>

@@ -1,19 +1,19 @@
 // The replication session of one VkDevice: connect, handshake, the global command stream.
 
-#include "session.h"
+#include "capture/session.h"
 
-#include "capture.h"
-#include "content_snapshot.h"
-#include "descriptor_set.h"
+#include "capture/capture.h"
+#include "capture/content_snapshot.h"
+#include "capture/descriptor_set.h"
 #include "core/device.h"
 #include "core/image.h"
 #include "core/instance.h"
 #include "core/layer_settings.h"
 #include "log.h"
-#include "memory.h"
+#include "capture/memory.h"
 #include "core/physical_device.h"
 #include "core/queue.h"
-#include "resource.h"
+#include "capture/resource.h"
 
 #include <algorithm>
 #include <chrono>

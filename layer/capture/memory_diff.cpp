@@ -1,4 +1,4 @@
-#include "memory_diff.h"
+#include "capture/memory_diff.h"
 
 #include <algorithm>
 #include <cstring>

@@ -1,12 +1,12 @@
 // The split's re-emitted state and the per-image record of what split passes drew (split.h).
 
-#include "split.h"
+#include "capture/split.h"
 
 #include "core/image.h"
 #include "core/layer_settings.h"
 #include "log.h"
-#include "screen_space.h"
-#include "session.h"
+#include "capture/screen_space.h"
+#include "capture/session.h"
 #include "split_geometry.h"
 #include "core/swapchain.h"
 #include "core/vk_util.h"

@@ -6,7 +6,7 @@
 // the layout of every image subresource).
 
 #include "core/device.h"
-#include "live_state_log.h"
+#include "capture/live_state_log.h"
 
 #include <cstdint>
 #include <string>

@@ -11,7 +11,7 @@
 // each submit applies them in order.
 
 #include "core/device.h"
-#include "session.h"
+#include "capture/session.h"
 
 #include <functional>
 #include <span>

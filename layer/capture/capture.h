@@ -3,9 +3,9 @@
 // What the generated entry points (emit_layer.py) call to capture a forwarded command. With no
 // session the whole cost is one pointer check.
 
-#include "command_buffer.h"
+#include "capture/command_buffer.h"
 #include "core/device.h"
-#include "session.h"
+#include "capture/session.h"
 
 #include <span>
 #include <unordered_set>

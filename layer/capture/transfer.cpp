@@ -1,13 +1,13 @@
 // Copies, blits, resolves and dispatches over screen-space targets and swapchain images (transfer.h).
 
-#include "transfer.h"
+#include "capture/transfer.h"
 
-#include "command_buffer.h"
-#include "descriptor_set.h"
+#include "capture/command_buffer.h"
+#include "capture/descriptor_set.h"
 #include "core/gpu_timing.h"
 #include "layer_entry_points.h"
-#include "screen_space.h"
-#include "split.h"
+#include "capture/screen_space.h"
+#include "capture/split.h"
 #include "split_geometry.h"
 
 #include <algorithm>

@@ -9,14 +9,14 @@
 // into the next binding as the specification says), copies (the source's content at copy time)
 // and template updates (VkDescriptorUpdateTemplate, below). snapshot_descriptor_contents() re-encodes them.
 
-#include "descriptor_set.h"
+#include "capture/descriptor_set.h"
 
-#include "capture.h"
+#include "capture/capture.h"
 #include "descriptor_template.h"
 #include "layer_entry_points.h"
 #include "core/object_map.h"
-#include "screen_space.h"
-#include "split.h"
+#include "capture/screen_space.h"
+#include "capture/split.h"
 #include "core/vk_util.h"
 
 #include <cstring>

@@ -1,9 +1,9 @@
-#include "fovea_mask.h"
+#include "capture/fovea_mask.h"
 
 #include "log.h"
 #include "core/object_map.h"
-#include "session.h"
-#include "split.h"
+#include "capture/session.h"
+#include "capture/split.h"
 #include "split_geometry.h"
 #include "vk_format_info.h"
 #include "core/vk_util.h"

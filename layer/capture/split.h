@@ -10,8 +10,8 @@
 // pipeline.cpp (static viewport/scissor made dynamic), viewport.cpp (dynamic state), split.cpp
 // (what is re-emitted, and the per-image record the present path takes).
 
-#include "capture.h"
-#include "render_pass.h" // the split passes
+#include "capture/capture.h"
+#include "capture/render_pass.h" // the split passes
 #include "split_tracker.h"
 
 #include <vector>
