@@ -4,18 +4,18 @@
 
 #include "core/chain_info.h"
 #include "capture/command_buffer.h"
-#include "compositor.h"
+#include "present/compositor.h"
 #include "core/gpu_timing.h"
 #include "core/instance.h"
 #include "layer_entry_points.h"
 #include "core/layer_settings.h"
 #include "log.h"
 #include "capture/memory.h"
-#include "present.h"
+#include "present/present.h"
 #include "queue_entry.h"
 #include "capture/resource.h"
 #include "capture/session.h"
-#include "verification.h"
+#include "present/verification.h"
 #include "vk_codec.h"
 
 #include <vulkan/vk_layer.h>

@@ -19,7 +19,7 @@
 #include "core/image.h"
 #include "layer_entry_points.h"
 #include "capture/memory.h"
-#include "present.h"
+#include "present/present.h"
 #include "capture/resource.h"
 #include "capture/split.h"
 #include "submit_rules.h"

@@ -38,8 +38,8 @@
 #include "model/gaze.h"
 #include "core/layer_settings.h"
 #include "log.h"
-#include "present.h"
-#include "swapchain.h"
+#include "present/present.h"
+#include "present/swapchain.h"
 #include "xr_gaze.h"
 #include "xr_loader_interface.h"
 

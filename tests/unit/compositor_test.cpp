@@ -10,7 +10,7 @@
 // composite_periphery (the swapped split) keeps the application's foveae bit-exact and upsamples the
 // agent's periphery, or the previous one for a late frame.
 
-#include "compositor.h"
+#include "present/compositor.h"
 #include "core/gpu_timing.h"
 #include "core/host_buffer.h"
 #include "core/instance.h"

@@ -17,16 +17,16 @@
 // swapchain gets that many more images where the surface allows (the application sees them in
 // vkGetSwapchainImagesKHR). Where it does not, vkAcquireNextImageKHR waits for the present thread
 // rather than acquire more images than the surface allows at once.
-#include "swapchain.h"
+#include "present/swapchain.h"
 
 #include "capture/capture.h"
-#include "compositor.h"
+#include "present/compositor.h"
 #include "core/image.h"
 #include "core/instance.h"
 #include "layer_entry_points.h"
 #include "log.h"
 #include "core/object_map.h"
-#include "present.h"
+#include "present/present.h"
 #include "capture/screen_space.h"
 #include "capture/session.h"
 #include "capture/split.h"

@@ -28,7 +28,7 @@
 // upsample; after it, a blending draw mixes those pixels back in across the band around each fovea;
 // only then are the foveae copied back.
 
-#include "compositor.h"
+#include "present/compositor.h"
 
 #include "core/gpu_timing.h"
 #include "core/host_buffer.h"

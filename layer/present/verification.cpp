@@ -9,7 +9,7 @@
 // logs the summary once. A frame the agent does not return in time counts as all of its pixels
 // mismatching.
 
-#include "verification.h"
+#include "present/verification.h"
 
 #include "model/frame_difference.h"
 #include "core/host_buffer.h"

@@ -47,10 +47,10 @@
 // Verification (SPLITVK_VERIFY=full): verification.h; presents that verify stay on the
 // application's thread. In the swapped split the frame is read back after its composite, as shown.
 
-#include "present.h"
+#include "present/present.h"
 
 #include "capture/capture.h"
-#include "compositor.h"
+#include "present/compositor.h"
 #include "model/gaze.h"
 #include "core/gpu_timing.h"
 #include "layer_entry_points.h"
@@ -61,7 +61,7 @@
 #include "capture/split.h"
 #include "model/stats.h"
 #include "core/swapchain.h"
-#include "verification.h"
+#include "present/verification.h"
 #include "vk_result_name.h"
 #include "core/vk_util.h"
 
