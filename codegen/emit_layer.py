@@ -292,7 +292,7 @@ def emit(model):
     header += ["", "} // namespace rewrite", "} // namespace splitvk", ""]
 
     source = [HEADER.format(script="emit_layer.py"), '#include "layer_entry_points.h"', "",
-              '#include "capture/capture.h"', '#include "capture/descriptor_set.h"', '#include "core/dispatch.h"', '#include "entry_boundary.h"', '#include "vk_codec.h"', "", "#include <algorithm>", "#include <atomic>", "#include <cstring>", "#include <iterator>", "#include <span>", "#include <vector>", "",
+              '#include "capture/capture.h"', '#include "capture/descriptor_set.h"', '#include "core/dispatch.h"', '#include "vk/entry_boundary.h"', '#include "vk_codec.h"', "", "#include <algorithm>", "#include <atomic>", "#include <cstring>", "#include <iterator>", "#include <span>", "#include <vector>", "",
               "namespace splitvk {", "namespace entry {", ""]
     for c in commands:
         if c.name in MANUAL_COMMANDS:

@@ -33,7 +33,7 @@
 
 #include "core/agent_link.h"
 #include "core/device.h"
-#include "entry_boundary.h"
+#include "vk/entry_boundary.h"
 #include "model/frame_deadline.h"
 #include "model/gaze.h"
 #include "core/layer_settings.h"

@@ -55,7 +55,7 @@ struct PassthroughDevice {
 };
 
 // The devices created through this layer, and those it passes through, by dispatch key: filled at
-// vkCreateDevice and emptied at vkDestroyDevice (device_entry.cpp); everything else finds a device
+// vkCreateDevice and emptied at vkDestroyDevice (vk/device.cpp); everything else finds a device
 // with find_device / device_state.
 // In a namespace of their own, so that a file's own g_devices (gpu_timing.cpp) stays unambiguous.
 namespace registry {

@@ -1,4 +1,4 @@
-// VkQueue: the queues a device was got, their families and locks (queue_entry.cpp fills them).
+// VkQueue: the queues a device was got, their families and locks (vk/queue.cpp fills them).
 
 #include "core/queue.h"
 

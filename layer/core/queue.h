@@ -1,7 +1,7 @@
 #pragma once
 
 // VkQueue (queue.cpp): the queues a device was got, their families and locks; the submits are
-// queue_entry.cpp's.
+// vk/queue.cpp's.
 
 #include "core/device.h"
 #include "core/object_map.h"
@@ -25,7 +25,7 @@ struct QueueInfo {
     std::mutex mutex; // lock_queue()
 };
 // Every queue got while its device had a session; vkGetDeviceQueue adds, vkDestroyDevice removes
-// (queue_entry.cpp).
+// (vk/queue.cpp).
 namespace registry {
 extern ObjectMap<VkQueue, QueueInfo> g_queues;
 } // namespace registry

@@ -1,6 +1,6 @@
 // VkDevice: the device chain (vkCreateDevice, vkDestroyDevice).
 
-#include "device_entry.h"
+#include "vk/device.h"
 
 #include "core/chain_info.h"
 #include "capture/command_buffer.h"
@@ -12,7 +12,7 @@
 #include "log.h"
 #include "capture/memory.h"
 #include "present/present.h"
-#include "queue_entry.h"
+#include "vk/queue.h"
 #include "capture/resource.h"
 #include "capture/session.h"
 #include "present/verification.h"

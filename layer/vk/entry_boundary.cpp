@@ -1,6 +1,6 @@
 // The entry points' exception boundary (entry_boundary.h).
 
-#include "entry_boundary.h"
+#include "vk/entry_boundary.h"
 
 #include "core/device.h"
 #include "log.h"

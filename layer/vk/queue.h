@@ -1,6 +1,6 @@
 #pragma once
 
-// VkQueue's entry points (queue_entry.cpp): vkGetDeviceQueue*, the submits, the waits for idle.
+// VkQueue's entry points (vk/queue.cpp): vkGetDeviceQueue*, the submits, the waits for idle.
 
 #include "core/queue.h"
 

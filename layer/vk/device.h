@@ -1,6 +1,6 @@
 #pragma once
 
-// VkDevice's chain (device_entry.cpp): vkCreateDevice makes a device's DeviceState and its session,
+// VkDevice's chain (vk/device.cpp): vkCreateDevice makes a device's DeviceState and its session,
 // vkDestroyDevice drops them.
 
 #include "core/device.h"

@@ -1,9 +1,9 @@
 // The loader interface: version negotiation and the layer's vkGet*ProcAddr.
 
-#include "layer.h"
+#include "vk/layer.h"
 
 #include "core/device.h"
-#include "entry_boundary.h"
+#include "vk/entry_boundary.h"
 #include "core/instance.h"
 #include "layer_entry_points.h"
 #include "core/layer_settings.h"

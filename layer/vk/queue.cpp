@@ -11,7 +11,7 @@
 // on the client, are frame marks on the agent): the layer sends each submit with its
 // semaphores and pNext removed, keeping the command buffers and the fence.
 
-#include "queue_entry.h"
+#include "vk/queue.h"
 
 #include "capture/capture.h"
 #include "capture/command_buffer.h"
