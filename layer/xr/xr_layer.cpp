@@ -29,7 +29,7 @@
 // Everything else goes straight to the next layer or the runtime. Where the Vulkan layer is not on
 // the session's device (it was disabled, or has no agent), this layer only forwards.
 
-#include "xr_layer.h"
+#include "xr/xr_layer.h"
 
 #include "core/agent_link.h"
 #include "core/device.h"
@@ -40,8 +40,8 @@
 #include "log.h"
 #include "present/present.h"
 #include "present/swapchain.h"
-#include "xr_gaze.h"
-#include "xr_loader_interface.h"
+#include "xr/xr_gaze.h"
+#include "xr/xr_loader_interface.h"
 
 #include <vulkan/vulkan.h>
 #define XR_USE_GRAPHICS_API_VULKAN

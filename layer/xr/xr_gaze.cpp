@@ -1,4 +1,4 @@
-#include "xr_gaze.h"
+#include "xr/xr_gaze.h"
 
 #include "model/gaze.h"
 #include "log.h"
