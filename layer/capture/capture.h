@@ -4,8 +4,8 @@
 // session the whole cost is one pointer check.
 
 #include "capture/command_buffer.h"
-#include "core/device.h"
 #include "capture/session.h"
+#include "core/device.h"
 
 #include <span>
 #include <unordered_set>

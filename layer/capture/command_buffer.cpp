@@ -12,10 +12,10 @@
 #include "capture/command_buffer.h"
 
 #include "capture/capture.h"
-#include "core/gpu_timing.h"
-#include "layer_entry_points.h"
 #include "capture/resource.h"
 #include "capture/split.h"
+#include "core/gpu_timing.h"
+#include "layer_entry_points.h"
 
 #include <mutex>
 #include <shared_mutex>

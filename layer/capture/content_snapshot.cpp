@@ -3,11 +3,11 @@
 
 #include "capture/content_snapshot.h"
 
+#include "capture/resource.h"
 #include "core/host_buffer.h"
 #include "core/image.h"
-#include "capture/resource.h"
-#include "vk_format_info.h"
 #include "core/vk_util.h"
+#include "vk_format_info.h"
 
 #include <algorithm>
 #include <numeric>

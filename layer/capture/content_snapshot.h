@@ -5,8 +5,8 @@
 // what the readback needs: TRANSFER_SRC on every resource that allows it, where buffers live, and
 // the layout of every image subresource).
 
-#include "core/device.h"
 #include "capture/live_state_log.h"
+#include "core/device.h"
 
 #include <cstdint>
 #include <string>

@@ -12,12 +12,12 @@
 #include "capture/descriptor_set.h"
 
 #include "capture/capture.h"
-#include "descriptor_template.h"
-#include "layer_entry_points.h"
-#include "core/object_map.h"
 #include "capture/screen_space.h"
 #include "capture/split.h"
+#include "core/object_map.h"
 #include "core/vk_util.h"
+#include "descriptor_template.h"
+#include "layer_entry_points.h"
 
 #include <cstring>
 #include <map>

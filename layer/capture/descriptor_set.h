@@ -3,8 +3,8 @@
 // Descriptor set layouts and sets (descriptor_set.cpp): which bindings have immutable samplers, and
 // each set's descriptor contents for the live-state log (session.h). Kept only while a session exists.
 
-#include "descriptor_template.h"
 #include "core/device.h"
+#include "descriptor_template.h"
 #include "vk_codec.h"
 
 #include <cstddef>

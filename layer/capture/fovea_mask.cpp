@@ -1,12 +1,12 @@
 #include "capture/fovea_mask.h"
 
-#include "log.h"
-#include "core/object_map.h"
 #include "capture/session.h"
 #include "capture/split.h"
+#include "core/object_map.h"
+#include "core/vk_util.h"
+#include "log.h"
 #include "split_geometry.h"
 #include "vk_format_info.h"
-#include "core/vk_util.h"
 
 #include <algorithm>
 #include <cmath>

@@ -21,10 +21,10 @@
 #include "capture/memory.h"
 
 #include "capture/capture.h"
-#include "layer_entry_points.h"
-#include "log.h"
 #include "capture/memory_diff.h"
 #include "capture/session.h"
+#include "layer_entry_points.h"
+#include "log.h"
 #include "wire.h"
 
 #include <algorithm>

@@ -6,9 +6,9 @@
 
 #include "capture/pipeline.h"
 
-#include "layer_entry_points.h"
-#include "core/object_map.h"
 #include "capture/split.h"
+#include "core/object_map.h"
+#include "layer_entry_points.h"
 #include "split_geometry.h"
 
 #include <vector>

@@ -4,17 +4,17 @@
 
 #include "capture/command_buffer.h"
 #include "capture/fovea_mask.h"
-#include "core/gpu_timing.h"
-#include "core/image.h"
-#include "layer_entry_points.h"
-#include "log.h"
-#include "core/object_map.h"
 #include "capture/resource.h"
 #include "capture/screen_space.h"
 #include "capture/split.h"
-#include "split_geometry.h"
+#include "core/gpu_timing.h"
+#include "core/image.h"
+#include "core/object_map.h"
 #include "core/swapchain.h"
 #include "core/vk_util.h"
+#include "layer_entry_points.h"
+#include "log.h"
+#include "split_geometry.h"
 
 #include <algorithm>
 #include <mutex>

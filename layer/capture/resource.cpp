@@ -5,12 +5,12 @@
 
 #include "capture/capture.h"
 #include "capture/fovea_mask.h"
+#include "capture/render_pass.h"
+#include "capture/screen_space.h"
 #include "core/image.h"
 #include "core/instance.h"
 #include "layer_entry_points.h"
 #include "log.h"
-#include "capture/render_pass.h"
-#include "capture/screen_space.h"
 #include "vk_format_info.h"
 
 #include <algorithm>

@@ -10,8 +10,8 @@
 // buffer records its transitions (pipeline barriers, wait events, render pass final layouts), and
 // each submit applies them in order.
 
-#include "core/device.h"
 #include "capture/session.h"
+#include "core/device.h"
 
 #include <functional>
 #include <span>

@@ -2,12 +2,12 @@
 
 #include "capture/screen_space.h"
 
-#include "core/image.h"
-#include "log.h"
 #include "capture/session.h"
 #include "capture/split.h"
-#include "split_geometry.h"
+#include "core/image.h"
 #include "core/swapchain.h"
+#include "log.h"
+#include "split_geometry.h"
 
 #include <mutex>
 #include <set>

@@ -5,15 +5,15 @@
 #include "capture/capture.h"
 #include "capture/content_snapshot.h"
 #include "capture/descriptor_set.h"
+#include "capture/memory.h"
+#include "capture/resource.h"
 #include "core/device.h"
 #include "core/image.h"
 #include "core/instance.h"
 #include "core/layer_settings.h"
-#include "log.h"
-#include "capture/memory.h"
 #include "core/physical_device.h"
 #include "core/queue.h"
-#include "capture/resource.h"
+#include "log.h"
 
 #include <algorithm>
 #include <chrono>

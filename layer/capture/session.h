@@ -26,15 +26,15 @@
 // Live-state log (live_state_log.h): the session keeps it and changes it under the mutex above,
 // in the same critical section as it encodes the call, so that the log's order is the stream's.
 
+#include "capture/live_state_log.h"
 #include "core/agent_link.h"
+#include "core/physical_device.h"
+#include "core/tile_stream.h"
+#include "metadata.h" // the metadata messages
 #include "model/fovea_size.h"
 #include "model/frame_difference.h"
-#include "capture/live_state_log.h"
-#include "metadata.h" // the metadata messages
-#include "core/physical_device.h"
 #include "model/split_payoff.h"
 #include "model/stats.h"
-#include "core/tile_stream.h"
 #include "transport.h"
 #include "vk_codec.h"
 

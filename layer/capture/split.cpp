@@ -2,14 +2,14 @@
 
 #include "capture/split.h"
 
-#include "core/image.h"
-#include "core/layer_settings.h"
-#include "log.h"
 #include "capture/screen_space.h"
 #include "capture/session.h"
-#include "split_geometry.h"
+#include "core/image.h"
+#include "core/layer_settings.h"
 #include "core/swapchain.h"
 #include "core/vk_util.h"
+#include "log.h"
+#include "split_geometry.h"
 
 #include <mutex>
 #include <optional>

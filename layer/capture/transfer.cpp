@@ -4,10 +4,10 @@
 
 #include "capture/command_buffer.h"
 #include "capture/descriptor_set.h"
-#include "core/gpu_timing.h"
-#include "layer_entry_points.h"
 #include "capture/screen_space.h"
 #include "capture/split.h"
+#include "core/gpu_timing.h"
+#include "layer_entry_points.h"
 #include "split_geometry.h"
 
 #include <algorithm>

@@ -1,7 +1,7 @@
 #include "core/agent_link.h"
 
-#include "known_agents.h"
 #include "core/layer_settings.h"
+#include "known_agents.h"
 #include "log.h"
 #include "vk_codec.h"
 

@@ -1,7 +1,7 @@
 #include "core/host_buffer.h"
 
-#include "log.h"
 #include "core/vk_util.h"
+#include "log.h"
 
 #include <algorithm>
 

@@ -4,10 +4,10 @@
 
 #include "core/chain_info.h"
 #include "core/layer_chain.h"
-#include "layer_entry_points.h"
 #include "core/layer_settings.h"
-#include "log.h"
 #include "core/object_map.h"
+#include "layer_entry_points.h"
+#include "log.h"
 
 #include <vulkan/vk_layer.h>
 

@@ -3,11 +3,11 @@
 #include "core/physical_device.h"
 
 #include "core/instance.h"
-#include "layer_entry_points.h"
 #include "core/layer_settings.h"
+#include "core/vk_util.h"
+#include "layer_entry_points.h"
 #include "log.h"
 #include "vk_envelope_tables.h"
-#include "core/vk_util.h"
 
 #include <algorithm>
 #include <cstring>

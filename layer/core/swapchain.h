@@ -4,8 +4,8 @@
 // SwapchainImages carried, and what verification reads back.
 
 #include "core/device.h"
-#include "model/frame_deadline.h"
 #include "core/object_map.h"
+#include "model/frame_deadline.h"
 
 #include <vector>
 

@@ -33,12 +33,12 @@
 #include "core/gpu_timing.h"
 #include "core/host_buffer.h"
 #include "core/instance.h"
+#include "core/swapchain.h"
+#include "core/vk_util.h"
 #include "log.h"
 #include "split_geometry.h"
-#include "core/swapchain.h"
 #include "tile_format.h"
 #include "upsample_shaders.h"
-#include "core/vk_util.h"
 
 #include <algorithm>
 #include <cstring>

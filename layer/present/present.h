@@ -2,9 +2,9 @@
 
 // Acquire and present (present.cpp): frame marks, split mode's asynchronous presents and composite.
 
+#include "capture/session.h"
 #include "core/device.h"
 #include "model/frame_deadline.h"
-#include "capture/session.h"
 #include "split_geometry.h"
 
 #include <cstdint>

@@ -20,16 +20,16 @@
 #include "present/swapchain.h"
 
 #include "capture/capture.h"
-#include "present/compositor.h"
-#include "core/image.h"
-#include "core/instance.h"
-#include "layer_entry_points.h"
-#include "log.h"
-#include "core/object_map.h"
-#include "present/present.h"
 #include "capture/screen_space.h"
 #include "capture/session.h"
 #include "capture/split.h"
+#include "core/image.h"
+#include "core/instance.h"
+#include "core/object_map.h"
+#include "layer_entry_points.h"
+#include "log.h"
+#include "present/compositor.h"
+#include "present/present.h"
 #include "vk_format_info.h"
 
 #include <algorithm>

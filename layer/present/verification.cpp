@@ -11,14 +11,14 @@
 
 #include "present/verification.h"
 
-#include "model/frame_difference.h"
-#include "core/host_buffer.h"
-#include "log.h"
-#include "core/queue.h"
 #include "capture/session.h"
+#include "core/host_buffer.h"
+#include "core/queue.h"
 #include "core/swapchain.h"
-#include "tile_format.h"
 #include "core/vk_util.h"
+#include "log.h"
+#include "model/frame_difference.h"
+#include "tile_format.h"
 
 #include <algorithm>
 #include <chrono>

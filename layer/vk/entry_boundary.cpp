@@ -2,9 +2,9 @@
 
 #include "vk/entry_boundary.h"
 
+#include "capture/session.h"
 #include "core/device.h"
 #include "log.h"
-#include "capture/session.h"
 
 #include <cstdio>
 #include <cstdlib>

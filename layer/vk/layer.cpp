@@ -3,10 +3,10 @@
 #include "vk/layer.h"
 
 #include "core/device.h"
-#include "vk/entry_boundary.h"
 #include "core/instance.h"
-#include "layer_entry_points.h"
 #include "core/layer_settings.h"
+#include "layer_entry_points.h"
+#include "vk/entry_boundary.h"
 
 #include <vulkan/vk_layer.h>
 

@@ -15,15 +15,15 @@
 
 #include "capture/capture.h"
 #include "capture/command_buffer.h"
-#include "core/gpu_timing.h"
-#include "core/image.h"
-#include "layer_entry_points.h"
 #include "capture/memory.h"
-#include "present/present.h"
 #include "capture/resource.h"
 #include "capture/split.h"
-#include "submit_rules.h"
+#include "core/gpu_timing.h"
+#include "core/image.h"
 #include "core/vk_util.h"
+#include "layer_entry_points.h"
+#include "present/present.h"
+#include "submit_rules.h"
 
 #include <algorithm>
 #include <map>

@@ -1,7 +1,7 @@
 #include "xr/xr_gaze.h"
 
-#include "model/gaze.h"
 #include "log.h"
+#include "model/gaze.h"
 
 #include <cstring>
 #include <vector>

@@ -33,13 +33,13 @@
 
 #include "core/agent_link.h"
 #include "core/device.h"
-#include "vk/entry_boundary.h"
-#include "model/frame_deadline.h"
-#include "model/gaze.h"
 #include "core/layer_settings.h"
 #include "log.h"
+#include "model/frame_deadline.h"
+#include "model/gaze.h"
 #include "present/present.h"
 #include "present/swapchain.h"
+#include "vk/entry_boundary.h"
 #include "xr/xr_gaze.h"
 #include "xr/xr_loader_interface.h"
 

@@ -10,13 +10,13 @@
 // composite_periphery (the swapped split) keeps the application's foveae bit-exact and upsamples the
 // agent's periphery, or the previous one for a late frame.
 
-#include "present/compositor.h"
 #include "core/gpu_timing.h"
 #include "core/host_buffer.h"
 #include "core/instance.h"
-#include "split_geometry.h"
 #include "core/swapchain.h"
 #include "core/vk_util.h"
+#include "present/compositor.h"
+#include "split_geometry.h"
 
 #include <algorithm>
 #include <chrono>
