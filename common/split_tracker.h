@@ -42,7 +42,7 @@ struct DrawnImage {
     VkExtent2D extent{};
     EyeCoverage coverage;
     // The client alone, with SPLITVK_FOVEA=auto: the largest fovea size its passes left unshaded
-    // (layer/fovea_mask.h), which the frame's foveae must not be smaller than.
+    // (layer/capture/fovea_mask.h), which the frame's foveae must not be smaller than.
     FrameFoveaSize masked;
     // The client alone, with SPLITVK_CLIENT_RENDERS=fovea: a pass into it was cut to the foveae
     // (CommandTracker::cut_pass), so the frame's periphery must come from the agent.

@@ -32,7 +32,7 @@ enum class TargetMode { Auto, Swapchain };
 enum class UnsupportedMode { Fail, Passthrough };
 
 // SPLITVK_SPLIT: whether the split must pay for itself. Auto measures a window's frames split and
-// passed through (layer/split_payoff.h) and splits only while that is faster; Forced (`always`)
+// passed through (layer/model/split_payoff.h) and splits only while that is faster; Forced (`always`)
 // splits every frame it can, as a benchmark or a test of the split needs.
 enum class SplitMode { Auto, Forced };
 
@@ -83,8 +83,8 @@ inline constexpr uint32_t kMaxSeamFeather = 256;
 
 // SPLITVK_GAZE: where the foveae sit. Fixed: centred in each eye (at the view direction
 // under OpenXR), the same every frame; OpenXR: where the runtime's eye tracking says the eyes look
-// (layer/xr_gaze.h; OpenXR eye images only); Fifo: at the gaze points another process writes into a
-// named pipe (layer/gaze.h).
+// (layer/xr/xr_gaze.h; OpenXR eye images only); Fifo: at the gaze points another process writes into a
+// named pipe (layer/model/gaze.h).
 enum class GazeMode { Fixed, OpenXR, Fifo };
 
 struct ServerAddress {
@@ -94,7 +94,7 @@ struct ServerAddress {
 
 // The fovea of one eye: either absolute pixels, or fractions of the eye's extent. The default,
 // 512x360 of a 1200x1080 eye, is the paper's, kept as fractions so other eye sizes scale alike.
-// SPLITVK_FOVEA=auto sizes it per frame from measured times (layer/fovea_size.h),
+// SPLITVK_FOVEA=auto sizes it per frame from measured times (layer/model/fovea_size.h),
 // starting from the default; width and height are then the most it may grow to, as fractions (the
 // whole eye unless auto:WxH says less), since the agent shades that much of every eye.
 struct FoveaSize {
@@ -121,11 +121,11 @@ struct Settings {
     Seam seam;
     GazeMode gaze = GazeMode::Fixed;
     // SPLITVK_FOVEA_MASK: the client leaves the foveae out of the periphery it shades,
-    // through the depth of its passes into the swapchain image, where that is exact (layer/fovea_mask.h).
+    // through the depth of its passes into the swapchain image, where that is exact (layer/capture/fovea_mask.h).
     bool fovea_mask = true;
     std::string gaze_fifo; // GazeMode::Fifo: the pipe's path
     // SPLITVK_XR_DEADLINE: an OpenXR eye image waits for its tiles only while it can still meet its
-    // display time (layer/frame_deadline.h); off: up to tile_wait_ms, as a window's present.
+    // display time (layer/model/frame_deadline.h); off: up to tile_wait_ms, as a window's present.
     bool xr_deadline = true;
     // SPLITVK_MAX_MBPS: the most tile traffic SPLITVK_FOVEA=auto may grow the fovea to, in Mbit/s;
     // 0: no bound but the eye.
@@ -136,7 +136,7 @@ struct Settings {
     uint32_t tile_wait_ms = 250;
     // Split frames the application's vkQueuePresentKHR may leave to the layer's present thread,
     // which waits for their tiles, composites and presents while the application goes on
-    // (layer/present.cpp). 0: the application's present does all of that itself, which gives each
+    // (layer/present/present.cpp). 0: the application's present does all of that itself, which gives each
     // frame the least latency (docs/BENCHMARKS.md, "Present depth").
     uint32_t present_depth = 0;
     std::string stats_path; // empty: no per-frame statistics

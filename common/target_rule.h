@@ -3,7 +3,7 @@
 // Screen-space targets (docs/architecture.md §4): the rule that decides, when an image is created,
 // whether the client renders it at SPLITVK_SCALE, and how the regions that commands name in such an
 // image map into the scaled one. Pure functions, so that one table holds the rule and a unit test
-// pins it (tests/unit/screen_space_test.cpp); layer/screen_space.h applies it.
+// pins it (tests/unit/screen_space_test.cpp); layer/capture/screen_space.h applies it.
 //
 // A screen-space target is an image a frame renders into at a size tied to the screen: a 2D,
 // optimal-tiling colour, depth/stencil or storage image whose extent (per layer: layered eye
