@@ -11,7 +11,7 @@ Every forwarded command gets an entry point in namespace splitvk::entry, of one 
 The observe:: and rewrite:: hooks are declared in the generated header.
 
 What the loader is handed is none of those but its exception boundary in namespace splitvk::boundary
-(layer/entry_boundary.h), one per command, generated here for the four kinds alike: the entry point
+(layer/vk/entry_boundary.h), one per command, generated here for the four kinds alike: the entry point
 called in a try block, and a catch that turns whatever was thrown into one line and the command's
 error result, so that no exception unwinds into the application.
 """
@@ -58,7 +58,7 @@ def _destroyed_handle(c):
     return None
 
 
-# Destroyed objects that objects created later may name (layer/session.h: "retired").
+# Destroyed objects that objects created later may name (layer/capture/session.h: "retired").
 _RETIRED = {"vkDestroyShaderModule", "vkDestroyRenderPass", "vkDestroyPipelineLayout",
             "vkDestroyPipelineCache"}
 
@@ -195,7 +195,7 @@ def _rewritten_body(c, by_name, handle_types):
 
 
 def _boundary_function(c):
-    """The exception boundary of `c`'s entry point (layer/entry_boundary.h): what vkGet*ProcAddr hand out."""
+    """The exception boundary of `c`'s entry point (layer/vk/entry_boundary.h): what vkGet*ProcAddr hand out."""
     ret = c.return_type
     call = f"entry::{c.short_name}({c.arguments})"
     # The device whose split an exception ends: the one a device-level call is made on. None for

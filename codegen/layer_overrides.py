@@ -126,7 +126,7 @@ OBSERVED_COMMANDS = {
     "vkDestroyPipeline",
 }
 
-# Commands the split rewrites (layer/split.h), by canonical name: their aliases follow. The
+# Commands the split rewrites (layer/capture/split.h), by canonical name: their aliases follow. The
 # generated entry point captures the application's original call (a command buffer's stream, or
 # the global stream with its live-state change: a destroy's before the call goes down, a create's
 # after it, on success), then calls the hand-written hook

@@ -1,7 +1,7 @@
 #pragma once
 
 // Screen-space targets on the client (docs/architecture.md §4). At vkCreateImage, once the device has
-// a composable swapchain and splits, each image is classified by protocol/target_rule.h's rule; a
+// a composable swapchain and splits, each image is classified by common/target_rule.h's rule; a
 // screen-space target is created down the chain at SPLITVK_SCALE (the capture keeps the app's create
 // info: the agent replays it full size), and every command that names a region of one scales that
 // region by the image's ImageState (image.h), looked up by handle:

@@ -1,4 +1,4 @@
-// The layer's compositor (layer/compositor.cpp) on the first Vulkan device (lavapipe in tests),
+// The layer's compositor (layer/present/compositor.cpp) on the first Vulkan device (lavapipe in tests),
 // driven directly, without the layer: plain images stand in for a swapchain's. Each frame
 // "renders" known content into an image (signalling a semaphore, as an application's last submit
 // does), composites it with two fovea tiles (one reaching past the image), and reads the result

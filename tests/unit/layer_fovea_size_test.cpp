@@ -1,4 +1,4 @@
-// SPLITVK_FOVEA=auto (layer/fovea_size.h) against a modelled agent: how the sizing moves, where it
+// SPLITVK_FOVEA=auto (layer/model/fovea_size.h) against a modelled agent: how the sizing moves, where it
 // settles and how fast.
 
 #include "model/fovea_size.h"

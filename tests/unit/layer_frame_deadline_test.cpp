@@ -1,4 +1,4 @@
-// The OpenXR deadline of a frame's tile wait (layer/frame_deadline.h): what it allows for given
+// The OpenXR deadline of a frame's tile wait (layer/model/frame_deadline.h): what it allows for given
 // display times, composite costs and clocks.
 #include "model/frame_deadline.h"
 

@@ -1,4 +1,4 @@
-// SPLITVK_VERIFY=full's comparison (layer/frame_difference.h): the mismatch count where pixels must
+// SPLITVK_VERIFY=full's comparison (layer/model/frame_difference.h): the mismatch count where pixels must
 // be equal, the PSNR over the whole image, and the swapped split's periphery score over frames.
 
 #include "model/frame_difference.h"

@@ -1,4 +1,4 @@
-// The shadow comparison behind MemoryData (layer/memory_diff.h): changed blocks, merged runs,
+// The shadow comparison behind MemoryData (layer/capture/memory_diff.h): changed blocks, merged runs,
 // short last blocks, and the shadow kept in step so a second comparison finds nothing.
 #include "capture/memory_diff.h"
 

@@ -1,4 +1,4 @@
-// SPLITVK_SPLIT=auto's verdict on the split (layer/split_payoff.h): each mode measured in turn, the
+// SPLITVK_SPLIT=auto's verdict on the split (layer/model/split_payoff.h): each mode measured in turn, the
 // faster kept, the loser probed ever more rarely, and nothing counted until a switch is followed.
 #include "model/split_payoff.h"
 

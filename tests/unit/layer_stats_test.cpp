@@ -1,4 +1,4 @@
-// SPLITVK_STATS (layer/stats.h): the CSV's columns (new ones only ever at the end), the periphery's
+// SPLITVK_STATS (layer/model/stats.h): the CSV's columns (new ones only ever at the end), the periphery's
 // PSNR field, the summary line's mode, and the frame latency's pairing of presents with acquires.
 
 #include "model/stats.h"
