@@ -36,7 +36,7 @@ MANUAL_COMMANDS = {
     "vkResetCommandBuffer",
     "vkResetCommandPool",
     "vkDestroyCommandPool",
-    # descriptor_template.cpp: the template layout pData is encoded with.
+    # descriptor_set.cpp (update templates): the template layout pData is encoded with.
     "vkCreateDescriptorUpdateTemplate",
     "vkCreateDescriptorUpdateTemplateKHR",
     "vkDestroyDescriptorUpdateTemplate",
@@ -136,7 +136,7 @@ OBSERVED_COMMANDS = {
 # one the call goes down as made. For changes to what the driver is told; state the layer only
 # tracks is observed (above).
 REWRITTEN_COMMANDS = {
-    # viewport.cpp: the app's dynamic viewports/scissors, kept unscaled, passed down scaled in a split pass.
+    # pipeline.cpp (dynamic state): the app's dynamic viewports/scissors, kept unscaled, passed down scaled in a split pass.
     "vkCmdSetViewport",
     "vkCmdSetViewportWithCount",
     "vkCmdSetScissor",

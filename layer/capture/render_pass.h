@@ -8,7 +8,7 @@
 // a screen-space target (screen_space.h) is scaled the same way, without foveae of its own: its framebuffer
 // was created at the scaled size. Inside a split or scaled pass the render area and clear rects are scaled,
 // and the viewports/scissors in effect are re-emitted scaled at its begin and unscaled at its end, because
-// dynamic state outlives the pass (viewport.cpp).
+// dynamic state outlives the pass (pipeline.cpp).
 
 #include "core/device.h"
 

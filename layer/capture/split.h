@@ -7,7 +7,7 @@
 // original call, which the agent replays at full resolution and narrows to the foveae.
 //
 // Files: render_pass.cpp (image views, framebuffers, swapchain images, pass begin/end, clears),
-// pipeline.cpp (static viewport/scissor made dynamic), viewport.cpp (dynamic state), split.cpp
+// pipeline.cpp (static viewport/scissor made dynamic, and the dynamic state), split.cpp
 // (what is re-emitted, and the per-image record the present path takes).
 
 #include "capture/capture.h"

@@ -55,9 +55,9 @@ struct PassthroughDevice {
 };
 
 // The devices created through this layer, and those it passes through, by dispatch key: filled at
-// vkCreateDevice and emptied at vkDestroyDevice (vk/device.cpp); everything else finds a device
-// with find_device / device_state.
-// In a namespace of their own, so that a file's own g_devices (gpu_timing.cpp) stays unambiguous.
+// vkCreateDevice and emptied at vkDestroyDevice (vk/device.cpp); everything else finds a device with
+// find_device / device_state. In a namespace of their own, so that a file's own g_devices
+// (core/gpu_timing.cpp's timestamp pools) stays unambiguous.
 namespace registry {
 extern ObjectMap<DispatchKey, DeviceState> g_devices;
 extern ObjectMap<DispatchKey, PassthroughDevice> g_passthrough_devices;

@@ -45,8 +45,8 @@ struct SwapchainState {
 SwapchainState *find_swapchain(VkSwapchainKHR swapchain);
 
 // The swapchains the layer keeps state for: vkCreateSwapchainKHR and an OpenXR runtime's swapchain
-// add, their destroy removes (swapchain.cpp); everything else finds one with find_swapchain.
-// In a namespace of their own, so that a file's own g_swapchains (xr_layer.cpp) stays unambiguous.
+// add, their destroy removes (present/swapchain.cpp); everything else finds one with find_swapchain.
+// In a namespace of its own, so that a file's own g_swapchains (xr/xr_layer.cpp's) stays unambiguous.
 namespace registry {
 extern ObjectMap<VkSwapchainKHR, SwapchainState> g_swapchains;
 } // namespace registry

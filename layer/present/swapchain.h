@@ -1,7 +1,7 @@
 #pragma once
 
-// VkSwapchainKHR's entry points and an OpenXR runtime's swapchains (swapchain.cpp): they make and drop
-// the SwapchainState (core/swapchain.h) and tell the agent.
+// VkSwapchainKHR's entry points and an OpenXR runtime's swapchains (present/swapchain.cpp): they make and
+// drop the SwapchainState (core/swapchain.h) and tell the agent.
 
 #include "core/swapchain.h"
 
