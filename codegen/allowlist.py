@@ -93,7 +93,7 @@ DEVICE_EXTENSIONS = [
     # Buffer device addresses (core 1.2's bufferDeviceAddress by its extension name). The agent's
     # addresses are not the client's: the layer sends what vkGetBufferDeviceAddress returned, and
     # the agent translates the addresses it can see (server-agent/buffer_addresses.h). The
-    # capture/replay and multi-device features stay hidden (layer/physical_device.cpp).
+    # capture/replay and multi-device features stay hidden (layer/core/physical_device.cpp).
     "VK_KHR_buffer_device_address",
 ] + [
     # Sharing memory, semaphores and fences with another process: what an OpenXR runtime's client
@@ -157,7 +157,7 @@ DEVICE_EXTENSIONS = [
 # Members of forwarded extensions' feature structures that the layer always reports as
 # unsupported: the state they enable belongs to extensions splitvk withholds (so no application
 # can use it validly through splitvk), or has no forwarded meaning. The layer clears them in every
-# VkPhysicalDeviceFeatures2 answer (layer/physical_device.cpp). Reason per member.
+# VkPhysicalDeviceFeatures2 answer (layer/core/physical_device.cpp). Reason per member.
 WITHHELD_FEATURES = {
     "VkPhysicalDeviceExtendedDynamicState3FeaturesEXT": {
         "extendedDynamicState3ConservativeRasterizationMode": "VK_EXT_conservative_rasterization is withheld",

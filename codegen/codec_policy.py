@@ -99,7 +99,7 @@ POLICY = {
     # (BufferAddress), which maps it to its own buffer's (server-agent/buffer_addresses.h).
     "vkGetBufferDeviceAddress": MANUAL,
     # Capture/replay addresses are only portable within one driver: the feature is hidden from
-    # applications (layer/physical_device.cpp), and the answer stays the client's.
+    # applications (layer/core/physical_device.cpp), and the answer stays the client's.
     "vkGetBufferOpaqueCaptureAddress": LOCAL,
 
     # --- Resources and views. ------------------------------------------------------------------

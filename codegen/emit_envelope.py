@@ -35,7 +35,7 @@ _SCALARS = {
 
 # The feature structures whose members the envelope intersects, by name: core 1.0 and the
 # Vulkan 1.1-1.3 aggregates. Extension structures carry the same names for promoted features,
-# so masking by name covers them too (layer/physical_device.cpp).
+# so masking by name covers them too (layer/core/physical_device.cpp).
 FEATURE_STRUCTS = ["VkPhysicalDeviceFeatures", "VkPhysicalDeviceVulkan11Features",
                    "VkPhysicalDeviceVulkan12Features", "VkPhysicalDeviceVulkan13Features"]
 

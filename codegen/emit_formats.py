@@ -1,6 +1,6 @@
 """vk_format_info.h: what vk.xml's <formats> says of each single-plane VkFormat, for the layer's
 snapshot of image contents (how many bytes a copy of a region takes, which aspect to copy) and for
-the texel size of tiles (protocol/tile_format.h), and the name of every VkFormat it lists, for log
+the texel size of tiles (tiles/tile_format.h), and the name of every VkFormat it lists, for log
 lines."""
 from cpp import HEADER
 

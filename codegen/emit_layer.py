@@ -17,7 +17,7 @@ template commands (codec_policy.TEMPLATE_COMMANDS) encode pData with the templat
 the template's observer keeps.
 
 What the loader is handed is none of those but its exception boundary in namespace splitvk::boundary
-(layer/entry_boundary.h), one per command, generated here for the five kinds alike: the entry point
+(layer/vk/entry_boundary.h), one per command, generated here for the five kinds alike: the entry point
 called in a try block, and a catch that turns whatever was thrown into one line and the command's
 error result, so that no exception unwinds into the application.
 """
@@ -66,7 +66,7 @@ def _destroyed_handle(c):
     return None
 
 
-# Destroyed objects that objects created later may name (layer/session.h: "retired").
+# Destroyed objects that objects created later may name (layer/capture/session.h: "retired").
 _RETIRED = {"vkDestroyShaderModule", "vkDestroyRenderPass", "vkDestroyPipelineLayout",
             "vkDestroyPipelineCache", "vkDestroyDescriptorSetLayout"}
 
@@ -275,7 +275,7 @@ def _edited_body(c, by_name):
 
 
 def _boundary_function(c):
-    """The exception boundary of `c`'s entry point (layer/entry_boundary.h): what vkGet*ProcAddr hand out."""
+    """The exception boundary of `c`'s entry point (layer/vk/entry_boundary.h): what vkGet*ProcAddr hand out."""
     ret = c.return_type
     call = f"entry::{c.short_name}({c.arguments})"
     # The device whose split an exception ends: the one a device-level call is made on. None for
@@ -399,7 +399,7 @@ def emit(model):
     header += ["", "} // namespace rewrite", "} // namespace splitvk", ""]
 
     source = [HEADER.format(script="emit_layer.py"), '#include "layer_entry_points.h"', "",
-              '#include "capture.h"', '#include "descriptor_set.h"', '#include "dispatch.h"', '#include "entry_boundary.h"', '#include "queue.h"', '#include "vk_codec.h"', "", "#include <algorithm>", "#include <atomic>", "#include <cstring>", "#include <iterator>", "#include <span>", "#include <vector>", "",
+              '#include "capture/capture.h"', '#include "capture/descriptor_set.h"', '#include "core/dispatch.h"', '#include "vk/entry_boundary.h"', '#include "core/queue.h"', '#include "vk_codec.h"', "", "#include <algorithm>", "#include <atomic>", "#include <cstring>", "#include <iterator>", "#include <span>", "#include <vector>", "",
               "namespace splitvk {", "namespace entry {", ""]
     for c in commands:
         if c.name in MANUAL_COMMANDS:

@@ -109,7 +109,7 @@ OBSERVED_COMMANDS = {
     "vkFreeDescriptorSets",
     "vkResetDescriptorPool",
     "vkDestroyDescriptorPool",
-    # descriptor_template.cpp: the template layout pData is encoded with (the updates' captures
+    # descriptor_set.cpp (update templates): the template layout pData is encoded with (the updates' captures
     # look it up: emit_layer.py, codec_policy.TEMPLATE_COMMANDS).
     "vkCreateDescriptorUpdateTemplate",
     "vkCreateDescriptorUpdateTemplateKHR",
@@ -117,7 +117,7 @@ OBSERVED_COMMANDS = {
     "vkDestroyDescriptorUpdateTemplateKHR",
 }
 
-# Commands the split rewrites (layer/split.h), by canonical name: their aliases follow. The
+# Commands the split rewrites (layer/capture/split.h), by canonical name: their aliases follow. The
 # generated entry point captures the application's original call (a command buffer's stream, or
 # the global stream with its live-state change: a destroy's before the call goes down, a create's
 # after it, on success), then calls the hand-written hook
@@ -127,7 +127,7 @@ OBSERVED_COMMANDS = {
 # one the call goes down as made. For changes to what the driver is told; state the layer only
 # tracks is observed (above).
 REWRITTEN_COMMANDS = {
-    # viewport.cpp: the app's dynamic viewports/scissors, kept unscaled, passed down scaled in a split pass.
+    # pipeline.cpp (dynamic state): the app's dynamic viewports/scissors, kept unscaled, passed down scaled in a split pass.
     "vkCmdSetViewport",
     "vkCmdSetViewportWithCount",
     "vkCmdSetScissor",

@@ -229,7 +229,7 @@ void FoveaShading::bind_pipeline(VkCommandBuffer cb, VkPipelineBindPoint bind_po
     const bool had_viewports = t->static_viewports(), had_scissors = t->static_scissors();
     const auto it = pipelines_.find(pipeline);
     t->bind_pipeline(it == pipelines_.end() ? nullptr : it->second);
-    // The client notes foveae on the same condition (layer/pipeline.cpp), so both sides agree.
+    // The client notes foveae on the same condition (layer/capture/pipeline.cpp), so both sides agree.
     const bool viewports_changed = had_viewports || t->static_viewports();
     if (had_scissors || t->static_scissors() || (t->in_split() && viewports_changed)) emit_scissors(cb, *t);
     if (viewports_changed) t->note_foveae();

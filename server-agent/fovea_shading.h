@@ -4,8 +4,8 @@
 // dynamic renderings that draw into a swapchain image) the agent keeps the app's full-resolution
 // viewports and intersects every scissor with split::fovea_scissor of its viewport (scissor i pairs
 // with viewport i): every fovea that viewport's draws can end up in, so that only foveal pixels
-// are shaded. The frame's foveae come from protocol/split_geometry.h (split::frame_foveae, once
-// the frame is presented) and the viewports in effect from protocol/split_tracker.h, exactly as on
+// are shaded. The frame's foveae come from common/split_geometry.h (split::frame_foveae, once
+// the frame is presented) and the viewports in effect from common/split_tracker.h, exactly as on
 // the client, so both sides report the same fovea rects for a frame.
 //
 // The derived scissors are re-emitted whenever a viewport, a scissor or a pipeline with static
@@ -15,7 +15,7 @@
 // and only the fovea rects are read back.
 //
 // SPLITVK_AGENT_SCISSOR=guard:N extends the same scissoring to passes that draw only
-// into screen-space targets (classified at creation by protocol/target_rule.h against the newest
+// into screen-space targets (classified at creation by common/target_rule.h against the newest
 // swapchain, as on the client). Such a pass is recorded before the frame's pass into the swapchain
 // image, so its viewports do not say where the foveae will be: every place a fovea can be for
 // SPLITVK_EYES (one: the centre; two: both eyes; auto: all three) is taken, as one bounding
@@ -107,7 +107,7 @@ public:
     // replays it).
     void begin_command_buffer(VkCommandBuffer cb, const VkCommandBufferBeginInfo *info);
     // A copy or blit into a swapchain image counts as drawing into it: the foveae of the
-    // eyes each destination rectangle covers, as the client notes them (layer/transfer.cpp).
+    // eyes each destination rectangle covers, as the client notes them (layer/capture/transfer.cpp).
     void transfer_into(VkCommandBuffer cb, VkImage image, uint32_t count, const VkRect2D *rects);
     // Secondaries executed inside a split pass: the foveae of the viewports they drew with.
     void execute_commands(VkCommandBuffer cb, uint32_t count, const VkCommandBuffer *secondaries);

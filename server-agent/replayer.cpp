@@ -741,7 +741,7 @@ bool Replayer::frame_present(const protocol::FramePresent &message,
                      " of the eye, larger than SplitConfig's";
             return false;
         }
-        // The client composites the first swapchain of a present (layer/present.cpp); the fovea
+        // The client composites the first swapchain of a present (layer/present/present.cpp); the fovea
         // record of every presented image is taken so that none carries over to a later frame.
         for (size_t i = 0; i < message.images.size(); ++i) {
             const auto &presented = message.images[i];

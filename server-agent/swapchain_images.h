@@ -58,7 +58,7 @@ public:
     // swapchain that is not a runtime's, or an eye outside its images (layer or rectangle).
     bool note_eye(uint64_t swapchain_id, const split::RuntimeEye &eye, std::string *error);
     // The extent of the newest swapchain, {0, 0} before the first: what screen-space targets are
-    // classified against, as the client does (protocol/target_rule.h).
+    // classified against, as the client does (common/target_rule.h).
     VkExtent2D newest_extent() const { return newest_; }
 
     // Every image the stream creates (vkCreateImage, after the driver call), and its destruction:

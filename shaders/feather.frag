@@ -1,5 +1,5 @@
 #version 450
-// The swapped split's feathered seam (SPLITVK_SEAM=feather:N; layer/compositor.cpp): drawn over the
+// The swapped split's feathered seam (SPLITVK_SEAM=feather:N; layer/present/compositor.cpp): drawn over the
 // upsampled periphery in the band of one fovea (split::seam_rect less the fovea, scissored), blended
 // as out = client * w + periphery * (1 - w) with the fixed-function blend (colour: SRC_ALPHA,
 // ONE_MINUS_SRC_ALPHA; the periphery's alpha kept). `client` holds the client's own pixels of the

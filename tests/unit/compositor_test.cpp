@@ -1,4 +1,4 @@
-// The layer's compositor (layer/compositor.cpp) on the first Vulkan device (lavapipe in tests),
+// The layer's compositor (layer/present/compositor.cpp) on the first Vulkan device (lavapipe in tests),
 // driven directly, without the layer: plain images stand in for a swapchain's. Each frame
 // "renders" known content into an image (signalling a semaphore, as an application's last submit
 // does), composites it with two fovea tiles (one reaching past the image), and reads the result
@@ -10,13 +10,13 @@
 // composite_periphery (the swapped split) keeps the application's foveae bit-exact and upsamples the
 // agent's periphery, or the previous one for a late frame.
 
-#include "compositor.h"
-#include "gpu_timing.h"
-#include "host_buffer.h"
-#include "instance.h"
+#include "core/gpu_timing.h"
+#include "core/host_buffer.h"
+#include "core/instance.h"
+#include "core/swapchain.h"
+#include "core/vk_util.h"
+#include "present/compositor.h"
 #include "split_geometry.h"
-#include "swapchain.h"
-#include "vk_util.h"
 
 #include <algorithm>
 #include <chrono>

@@ -1,4 +1,4 @@
-// The strict JSON reader behind Khronos profiles (protocol/json.h).
+// The strict JSON reader behind Khronos profiles (common/json.h).
 #include "json.h"
 
 #include <string>

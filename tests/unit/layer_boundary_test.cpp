@@ -3,7 +3,7 @@
 // TEST_SPLITVK_THROW naming it (entry_boundary.h), so that its boundary throws std::bad_alloc after
 // the call went through. The Vulkan layer's boundaries are exercised end to end (e2e Boundary suite).
 
-#include "xr_loader_interface.h"
+#include "xr/xr_loader_interface.h"
 
 #include <cstdint>
 #include <cstdlib>

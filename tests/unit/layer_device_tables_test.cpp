@@ -3,7 +3,7 @@
 // a non-dispatchable handle names an object of one device only (Vulkan lets another device's
 // object have the same value), and once a device is gone, the driver may hand the values of its
 // objects to those of the next device, which must start with state of their own.
-#include "image.h"
+#include "core/image.h"
 
 #include <memory>
 

@@ -1,7 +1,7 @@
-// SPLITVK_FOVEA=auto (layer/fovea_size.h) against a modelled agent: how the sizing moves, where it
+// SPLITVK_FOVEA=auto (layer/model/fovea_size.h) against a modelled agent: how the sizing moves, where it
 // settles and how fast.
 
-#include "fovea_size.h"
+#include "model/fovea_size.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,6 +1,6 @@
-// The OpenXR deadline of a frame's tile wait (layer/frame_deadline.h): what it allows for given
+// The OpenXR deadline of a frame's tile wait (layer/model/frame_deadline.h): what it allows for given
 // display times, composite costs and clocks.
-#include "frame_deadline.h"
+#include "model/frame_deadline.h"
 
 #include <gtest/gtest.h>
 

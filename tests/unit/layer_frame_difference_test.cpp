@@ -1,7 +1,7 @@
-// SPLITVK_VERIFY=full's comparison (layer/frame_difference.h): the mismatch count where pixels must
+// SPLITVK_VERIFY=full's comparison (layer/model/frame_difference.h): the mismatch count where pixels must
 // be equal, the PSNR over the whole image, and the swapped split's periphery score over frames.
 
-#include "frame_difference.h"
+#include "model/frame_difference.h"
 
 #include <cmath>
 #include <cstdint>

@@ -1,6 +1,6 @@
-// SPLITVK_GAZE=fifo:PATH (layer/gaze.h): the line parser, and the reader on a real named pipe that
+// SPLITVK_GAZE=fifo:PATH (layer/model/gaze.h): the line parser, and the reader on a real named pipe that
 // a writer feeds, closes and reopens while the reader never blocks.
-#include "gaze.h"
+#include "model/gaze.h"
 
 #include <chrono>
 #include <filesystem>

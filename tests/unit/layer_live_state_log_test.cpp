@@ -1,7 +1,7 @@
-// The object part of the live-state log (layer/live_state_log.h), on its own: what a fresh agent
+// The object part of the live-state log (layer/capture/live_state_log.h), on its own: what a fresh agent
 // would be given for the calls the layer logged. Each call's bytes here are one letter, so that a
 // snapshot's Commands payload reads as the calls in replay order.
-#include "live_state_log.h"
+#include "capture/live_state_log.h"
 
 #include <string>
 #include <unordered_set>

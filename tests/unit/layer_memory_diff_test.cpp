@@ -1,6 +1,6 @@
-// The shadow comparison behind MemoryData (layer/memory_diff.h): changed blocks, merged runs,
+// The shadow comparison behind MemoryData (layer/capture/memory_diff.h): changed blocks, merged runs,
 // short last blocks, and the shadow kept in step so a second comparison finds nothing.
-#include "memory_diff.h"
+#include "capture/memory_diff.h"
 
 #include <cstdlib>
 #include <cstring>

@@ -1,6 +1,6 @@
-// SPLITVK_SPLIT=auto's verdict on the split (layer/split_payoff.h): each mode measured in turn, the
+// SPLITVK_SPLIT=auto's verdict on the split (layer/model/split_payoff.h): each mode measured in turn, the
 // faster kept, the loser probed ever more rarely, and nothing counted until a switch is followed.
-#include "split_payoff.h"
+#include "model/split_payoff.h"
 
 #include <optional>
 

@@ -1,7 +1,7 @@
-// SPLITVK_STATS (layer/stats.h): the CSV's columns (new ones only ever at the end), the periphery's
+// SPLITVK_STATS (layer/model/stats.h): the CSV's columns (new ones only ever at the end), the periphery's
 // PSNR field, the summary line's mode, and the frame latency's pairing of presents with acquires.
 
-#include "stats.h"
+#include "model/stats.h"
 
 #include <chrono>
 #include <cstdio>

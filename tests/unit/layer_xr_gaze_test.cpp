@@ -1,7 +1,7 @@
-// SPLITVK_GAZE=openxr's geometry (layer/xr_gaze.h): an eye's orientation in the head from a frame's
+// SPLITVK_GAZE=openxr's geometry (layer/xr/xr_gaze.h): an eye's orientation in the head from a frame's
 // projection view, and where a gaze located in the head falls in each eye's image.
 
-#include "xr_gaze.h"
+#include "xr/xr_gaze.h"
 
 #include <cmath>
 

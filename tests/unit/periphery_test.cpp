@@ -1,4 +1,4 @@
-// The swapped split's shared periphery geometry (protocol/periphery.h).
+// The swapped split's shared periphery geometry (common/periphery.h).
 #include "periphery.h"
 #include "split_geometry.h"
 

@@ -433,7 +433,7 @@ TEST(ScriptVariables, EveryVariableTheScriptsAndTestsReadIsKnown) {
                 if (!known.count(name) && !shell_variables.count(name))
                     ADD_FAILURE() << fs::relative(entry.path(), root).string() << " reads " << name
                                   << ", which the layer would warn about: add it to kScriptVariables "
-                                     "(protocol/settings.cpp) and docs/settings.md";
+                                     "(common/settings.cpp) and docs/settings.md";
             }
         }
     }

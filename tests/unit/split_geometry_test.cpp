@@ -614,7 +614,7 @@ TEST(SplitGeometry, FoveaSetIsSortedAndUnique) {
 } // namespace
 } // namespace splitvk::split
 
-// The per-command-buffer tracker (protocol/split_tracker.h): both sides feed it the app's calls,
+// The per-command-buffer tracker (common/split_tracker.h): both sides feed it the app's calls,
 // so which viewports were in effect inside split passes, and thus the foveae, must follow the
 // Vulkan state rules exactly.
 namespace splitvk::split {

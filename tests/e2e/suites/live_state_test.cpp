@@ -1,4 +1,4 @@
-// The live-state log (docs/architecture.md §3, layer/session.h) is complete and ordered: with
+// The live-state log (docs/architecture.md §3, layer/capture/session.h) is complete and ordered: with
 // SPLITVK_LOG_LEVEL=debug the layer builds a snapshot of it at the second present and at
 // vkDestroyDevice, replays its handle changes through the codec's decoder and HandleTable as a
 // fresh agent would (every id a command names must already be live), and logs one line:

@@ -96,7 +96,7 @@ TEST_F(Settings, EnvironmentWinsOverSettingsFile) {
     EXPECT_TRUE(errors.empty()) << joined(errors);
 }
 
-// Every setting of protocol/settings.cpp's table, each with a value it must reject, through a real
+// Every setting of common/settings.cpp's table, each with a value it must reject, through a real
 // Vulkan program (the headless probe creates an instance and a device, which is where the layer
 // reads its settings and opens its session). The test iterates the table, not this list: a setting
 // added to the table without an invalid value here fails its own test

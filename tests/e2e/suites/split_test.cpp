@@ -2552,14 +2552,14 @@ TEST_F(Split, BadGazeInputKeepsTheFixedFovea) {
 // lossless tiles cost far more of each frame. In both runs every frame's foveae are centred in
 // their eyes (the stats' fovea_* columns, checked against the definition), the size settles (at most
 // the settled size and the one probed above it in the last frames, and no later than a bound from
-// the levels it moved: layer/fovea_size.h), larger than the default straight to the agent and
+// the levels it moved: layer/model/fovea_size.h), larger than the default straight to the agent and
 // smaller behind the slow link. The last
 // frame on screen is exact at its rectangles in both runs. About 30 s.
 TEST_F(Split, AutoFoveaSettlesSmallerBehindASlowLink) {
     constexpr uint32_t kAutoWidth = 960, kAutoHeight = 432, kEye = kAutoWidth / 2;
     // Enough for a fovea that grows at every decision all the way to the largest size (about ten
     // levels of kSettle + kWindow frames) to have held it through the last 30 frames, and fewer than
-    // the 156 presents after which auto first measures passing frames through (layer/split_payoff.h).
+    // the 156 presents after which auto first measures passing frames through (layer/model/split_payoff.h).
     constexpr int kAutoFrames = 150;
     // (kSettle + kWindow) frames a level, the first frame's report a frame late, and the level the
     // tiles of the frames in flight at each change cost; twice that, for a window on the way that

@@ -424,7 +424,7 @@ TEST_F(XrAtrium, AutoFoveaTakesOneSizeForBothEyesOfAFrame) {
     Env e = atrium_split_env("split", agent);
     e["SPLITVK_FOVEA"] = "auto";
     e["SPLITVK_MAX_MBPS"] = "0.001";
-    // Which would let the client mask a window's foveae (layer/fovea_mask.h); an eye image's foveae
+    // Which would let the client mask a window's foveae (layer/capture/fovea_mask.h); an eye image's foveae
     // follow its views, so it must not mask them.
     e["SPLITVK_EYES"] = "2";
     const auto split = run_atrium(e, "split", {"--frames", std::to_string(kAutoFrames)});

@@ -9,7 +9,7 @@
 //   odd v:  left -20, right +45, up +20, down -45  (mirrored left to right)
 // Everything but xrEndFrame goes straight to the next layer. Built into the build tree only and never
 // installed.
-#include "xr_loader_interface.h"
+#include "xr/xr_loader_interface.h"
 
 #include <cstring>
 #include <mutex>
