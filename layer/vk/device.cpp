@@ -24,6 +24,13 @@
 #include <mutex>
 #include <string>
 
+// glibc's own registration, which std::atexit in a shared library expands to (libc_nonshared's
+// stub): the handler is tied to this library's handle, so that dlclose runs it. Called directly
+// because ThreadSanitizer's atexit interceptor drops the handle and would run the handler at exit
+// after the loader has unloaded this code.
+extern "C" int __cxa_atexit(void (*handler)(void *), void *arg, void *dso_handle);
+extern "C" void *__dso_handle;
+
 namespace splitvk {
 
 // Defined here, with what a DeviceState's destructor needs (its Session).
@@ -157,7 +164,8 @@ VKAPI_ATTR VkResult VKAPI_CALL CreateDevice(VkPhysicalDevice physicalDevice,
     state->session = Session::open(*state, pCreateInfo, instance->application_name);
     g_devices.insert(dispatch_key(*pDevice), std::move(state));
     static std::once_flag exit_hook;
-    std::call_once(exit_hook, [] { std::atexit(finish_devices_at_exit); });
+    std::call_once(exit_hook,
+                   [] { __cxa_atexit([](void *) { finish_devices_at_exit(); }, nullptr, &__dso_handle); });
     SPLITVK_DEBUG("device created");
     return VK_SUCCESS;
 }

@@ -22,24 +22,35 @@ double seconds_since(Clock::time_point t) {
     return std::chrono::duration<double>(Clock::now() - t).count();
 }
 
-// In the sanitizer build (scripts/test's build-asan/: -fsanitize=address,undefined on everything
-// this project builds, the harness included) the children need two things the test binary cannot
-// get from ctest's environment:
+// In the sanitizer builds (scripts/test's build-asan/: -fsanitize=address,undefined, and
+// build-tsan/: -fsanitize=thread, on everything this project builds, the harness included) the
+// children need what the test binary cannot get from ctest's environment:
 #if defined(__SANITIZE_ADDRESS__)
 #define SPLITVK_E2E_ASAN 1
+#elif defined(__SANITIZE_THREAD__)
+#define SPLITVK_E2E_TSAN 1
 #elif defined(__has_feature)
 #if __has_feature(address_sanitizer)
 #define SPLITVK_E2E_ASAN 1
+#elif __has_feature(thread_sanitizer)
+#define SPLITVK_E2E_TSAN 1
 #endif
 #endif
 
+#if defined(SPLITVK_E2E_ASAN) || defined(SPLITVK_E2E_TSAN)
 #ifdef SPLITVK_E2E_ASAN
-// The libasan this binary runs with (from /proc/self/maps), so that a child preloads the same one.
-std::string loaded_libasan() {
+constexpr const char *kSanitizerRuntime = "/libasan.so";
+#else
+constexpr const char *kSanitizerRuntime = "/libtsan.so";
+#endif
+
+// The sanitizer runtime this binary runs with (from /proc/self/maps), so that a child preloads the
+// same one.
+std::string loaded_sanitizer_runtime() {
     static const std::string path = [] {
         for (const auto &line : split_lines(read_file("/proc/self/maps"))) {
             const auto slash = line.find('/');
-            if (slash != std::string::npos && line.find("/libasan.so", slash) != std::string::npos)
+            if (slash != std::string::npos && line.find(kSanitizerRuntime, slash) != std::string::npos)
                 return line.substr(slash);
         }
         return std::string();
@@ -47,14 +58,24 @@ std::string loaded_libasan() {
     return path;
 }
 
-// The build tree whose programs are linked with libasan already: this build's (the suites'
-// SPLITVK_E2E_BUILD_DIR override included, as vk_env.h's build_dir()).
+// The build tree whose programs are linked with the sanitizer runtime already: this build's (the
+// suites' SPLITVK_E2E_BUILD_DIR override included, as vk_env.h's build_dir()).
 const std::filesystem::path &instrumented_build_dir() {
     static const std::filesystem::path dir = [] {
         const char *v = std::getenv("SPLITVK_E2E_BUILD_DIR");
         return std::filesystem::path(v && *v ? v : SPLITVK_BUILD_DIR);
     }();
     return dir;
+}
+
+// Only an executable file gets the runtime, not a script (scripts/xr-runtime): its interpreter,
+// bash, crashes with TSan's runtime preloaded. An application such a script starts with a layer of
+// this build must be this build's own (atrium).
+bool is_elf(const std::string &program) {
+    static constexpr char elf[4] = {'\x7f', 'E', 'L', 'F'};
+    char magic[4] = {};
+    std::ifstream in(program, std::ios::binary);
+    return in.read(magic, sizeof magic) && std::memcmp(magic, elf, sizeof magic) == 0;
 }
 
 bool starts_with_path(const std::filesystem::path &p, const std::filesystem::path &dir) {
@@ -77,17 +98,21 @@ void adapt_env_to_sanitizers([[maybe_unused]] const std::string &program, [[mayb
     //    flag wins, so this is appended).
     auto &asan = env["ASAN_OPTIONS"];
     asan += (asan.empty() ? "" : ":") + std::string("detect_leaks=0");
+#endif
+#if defined(SPLITVK_E2E_ASAN) || defined(SPLITVK_E2E_TSAN)
     // 2. An uninstrumented program (vkcube, vkcubepp, gfxrecon-replay) that loads one of this
-    //    build's instrumented layers (splitvk, or the test hold layer) must have the ASan runtime
-    //    first in its initial library list, or the layer aborts at dlopen with "ASan runtime does
-    //    not come first in initial library list". Programs of this build are linked with libasan
-    //    already; others are left alone when no splitvk layer can load (Xvfb, ffmpeg).
+    //    build's instrumented layers (splitvk, or the test hold layer) must have the sanitizer
+    //    runtime in its initial library list: ASan aborts at dlopen with "ASan runtime does not
+    //    come first in initial library list", and TSan's runtime cannot be loaded by dlopen at
+    //    all. Programs of this build are linked with it already; others are left alone when no
+    //    splitvk layer can load (Xvfb, ffmpeg). TSAN_OPTIONS (scripts/test's) is passed on as is.
     const auto layers = env.find("VK_INSTANCE_LAYERS");
     const bool loads_ours = (layers != env.end() && layers->second.find("SPLITVK") != std::string::npos) ||
                             env.count("SPLITVK_ENABLE") != 0;
-    if (loads_ours && !starts_with_path(program, instrumented_build_dir()) && !loaded_libasan().empty()) {
+    if (loads_ours && !starts_with_path(program, instrumented_build_dir()) && is_elf(program) &&
+        !loaded_sanitizer_runtime().empty()) {
         auto &preload = env["LD_PRELOAD"];
-        preload = preload.empty() ? loaded_libasan() : loaded_libasan() + ":" + preload;
+        preload = preload.empty() ? loaded_sanitizer_runtime() : loaded_sanitizer_runtime() + ":" + preload;
     }
 #endif
 }
