@@ -256,7 +256,7 @@ std::optional<PendingVerify> read_back_runtime_image(DeviceState &dev, VkQueue q
                                                      const SwapchainState &sc, uint32_t index,
                                                      uint64_t frame) {
     const uint32_t family = queue_family_of(dev, queue);
-    if (!sc.transfer_src || !tile_texel_bytes(sc.format) != 0 || index >= sc.images.size() ||
+    if (!sc.transfer_src || tile_texel_bytes(sc.format) == 0 || index >= sc.images.size() ||
         family == UINT32_MAX)
         return std::nullopt;
     VerifyReadback &r = readback_of(dev, sc.handle, index);
