@@ -289,6 +289,8 @@ void Session::run_reconnect() {
         auto agent = connect_agent(&final);
         lock.lock();
         if (closing_) break;
+        // Let go while it was being asked (release_agent()): frames pass through without it.
+        if (agent_released_) continue;
         if (!agent) {
             if (final) {
                 warn_refused(address_, agent.error());
@@ -567,17 +569,24 @@ void Session::release_agent() {
         pending_agent_.reset();
         resync_pending_.store(false);
     }
-    std::lock_guard lock(mutex_);
-    if (!live()) return;
-    // Its closure is not the agent going away, and nothing more is sent: from here the device is one
-    // without an agent, its calls logged for the snapshot that brings an agent back.
-    current_connection_.store(nullptr);
-    live_.store(false);
-    if (tiles_) tiles_->abandon();
-    connection_->send(protocol::MessageType::Goodbye,
-                      protocol::encode_goodbye({"the client's frames pass through (SPLITVK_SPLIT=auto)"}));
-    connection_->flush(kCloseFlush);
-    connection_->close("frames pass through");
+    std::shared_ptr<protocol::Connection> connection;
+    {
+        std::lock_guard lock(mutex_);
+        if (!live()) return;
+        // Its closure is not the agent going away, and nothing more is sent: from here the device is
+        // one without an agent, its calls logged for the snapshot that brings an agent back.
+        current_connection_.store(nullptr);
+        live_.store(false);
+        if (tiles_) tiles_->abandon();
+        connection = connection_;
+    }
+    // Outside the session lock, which every captured call takes: the flush may wait for the link.
+    // Nothing replaces connection_ meanwhile: only resync() does, with an agent the reconnector
+    // brings in, and it brings none in while the agent is let go.
+    connection->send(protocol::MessageType::Goodbye,
+                     protocol::encode_goodbye({"the client's frames pass through (SPLITVK_SPLIT=auto)"}));
+    connection->flush(kCloseFlush);
+    connection->close("frames pass through");
     SPLITVK_INFO("SPLITVK_SPLIT=auto: splitvk-agent at %s let go while frames pass through; it is called "
                  "back when the split is measured again",
                  address_.c_str());
