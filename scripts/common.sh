@@ -13,6 +13,9 @@ SPLITVK_PACKAGES=(
   libx264-dev libavcodec-dev libavutil-dev libasio-dev libglm-dev libzstd-dev libssl-dev libgtest-dev
   libxcb1-dev libx11-dev xvfb xauth x11-utils ffmpeg
   systemd ccache
+  # Agents found over DNS-SD (splitvk-agent --advertise, SPLITVK_SERVER=dnssd), and a pool behind
+  # one address; the Pool tests run avahi-daemon, avahi-browse and haproxy in a network namespace.
+  libavahi-client-dev avahi-daemon avahi-utils haproxy
   # OpenXR: the API layer's headers, hello_xr and the core validation layer (the tests' first
   # unmodified VR application); scripts/xr-runtime installs what Monado's build needs.
   libopenxr-dev libopenxr-loader1 libopenxr-utils openxr-layer-corevalidation

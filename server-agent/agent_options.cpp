@@ -3,6 +3,7 @@
 #include "handshake.h"
 #include "settings.h"
 
+#include <cctype>
 #include <charconv>
 
 #include <arpa/inet.h>
@@ -60,7 +61,7 @@ const char *agent_usage() {
            "                     [--max-sessions N] [--max-message-bytes SIZE] [--max-host-memory SIZE]\n"
            "                     [--max-gpu-memory SIZE] [--record-corpus DIR] [--emulate-limits FILE]\n"
            "                     [--user NAME] [--no-confine] [--tls-cert FILE --tls-key FILE]\n"
-           "                     [--state-dir DIR] [--no-periphery]\n"
+           "                     [--state-dir DIR] [--no-periphery] [--advertise [NAME]]\n"
            "       splitvk-agent --list-devices\n"
            "       splitvk-agent --print-fingerprint [--state-dir DIR | --tls-cert FILE --tls-key FILE]\n"
            "\n"
@@ -69,7 +70,8 @@ const char *agent_usage() {
            "\n"
            "  --listen ADDR:PORT  address to listen on (default 127.0.0.1:7447, loopback only);\n"
            "                      a non-loopback address requires --token-file\n"
-           "  --device N          index of the GPU to render on, as --list-devices prints it (default 0)\n"
+           "  --device N|UUID     the GPU to render on: its index or its UUID, as --list-devices prints\n"
+           "                      them (default 0)\n"
            "  --token-file FILE   file holding the shared token clients must present\n"
            "  --validate          enable VK_LAYER_KHRONOS_validation (synchronization validation too) in\n"
            "                      every session and log its messages; only its errors, not its\n"
@@ -109,6 +111,9 @@ const char *agent_usage() {
            "  --print-fingerprint print the SHA-256 of the agent's certificate (creating the identity\n"
            "                      if there is none yet) and exit; clients pin it with\n"
            "                      SPLITVK_AGENT_FINGERPRINT or record it on first use\n"
+           "  --advertise [NAME]  advertise this agent over DNS-SD (_splitvk._tcp) through avahi-daemon,\n"
+           "                      as instance NAME (default: the host name and the GPU), with its free\n"
+           "                      session slots; without avahi-daemon it says so and serves anyway\n"
            "  --list-devices      print the GPUs this agent can use and exit\n"
            "  --help              print this help and exit\n";
 }
@@ -121,6 +126,17 @@ uint64_t agent_capabilities(const AgentOptions &options) {
 
 bool is_loopback_host(const std::string &host) {
     return splitvk::is_loopback_host(host);
+}
+
+std::optional<std::string> normalize_gpu_uuid(const std::string &text) {
+    std::string hex;
+    for (const char c : text) {
+        if (c == '-') continue;
+        if (!std::isxdigit(static_cast<unsigned char>(c))) return std::nullopt;
+        hex += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    }
+    if (hex.size() != 32) return std::nullopt;
+    return hex;
 }
 
 ParsedOptions parse_agent_options(const std::vector<std::string> &arguments) {
@@ -149,17 +165,25 @@ ParsedOptions parse_agent_options(const std::vector<std::string> &arguments) {
                 parsed.error = "--listen '" + *v + "' is invalid: expected HOST:PORT or [IPV6]:PORT";
                 return parsed;
             }
+            if (settings.settings.servers.size() > 1 || settings.settings.dnssd) {
+                parsed.error = "--listen '" + *v + "' is invalid: expected one HOST:PORT or [IPV6]:PORT";
+                return parsed;
+            }
             o.listen_host = settings.settings.server.host;
             o.listen_port = settings.settings.server.port;
         } else if (arg == "--device") {
-            const auto v = value("a GPU index");
+            const auto v = value("a GPU index or UUID");
             if (!v) return parsed;
-            const auto index = parse_index(*v);
-            if (!index) {
-                parsed.error = "--device '" + *v + "' is invalid: expected a GPU index from --list-devices";
+            if (const auto index = parse_index(*v)) {
+                o.device_index = *index;
+                o.device_uuid.clear();
+            } else if (auto uuid = normalize_gpu_uuid(*v)) {
+                o.device_uuid = std::move(*uuid);
+            } else {
+                parsed.error =
+                    "--device '" + *v + "' is invalid: expected a GPU index or UUID from --list-devices";
                 return parsed;
             }
-            o.device_index = *index;
         } else if (arg == "--token-file") {
             const auto v = value("a file");
             if (!v) return parsed;
@@ -225,6 +249,18 @@ ParsedOptions parse_agent_options(const std::vector<std::string> &arguments) {
             o.print_fingerprint = true;
         } else if (arg == "--no-periphery") {
             o.periphery = false;
+        } else if (arg == "--advertise") {
+            o.advertise = true;
+            // NAME is optional: the next argument is it unless it is an option.
+            if (i + 1 < arguments.size() && !arguments[i + 1].starts_with("--")) {
+                o.advertise_name = arguments[++i];
+                // A DNS-SD instance name is one DNS label: at most 63 bytes.
+                if (o.advertise_name.empty() || o.advertise_name.size() > 63) {
+                    parsed.error =
+                        "--advertise '" + o.advertise_name + "' is invalid: expected a name of 1-63 bytes";
+                    return parsed;
+                }
+            }
         } else {
             parsed.error = "unknown option '" + arg + "' (see --help)";
             return parsed;

@@ -21,6 +21,9 @@ struct AgentOptions {
     std::string listen_host = "127.0.0.1";
     uint16_t listen_port = 7447;
     uint32_t device_index = 0;
+    // --device UUID: the GPU whose deviceUUID this is (32 hex digits, dashes allowed), resolved to
+    // device_index at start; empty: device_index as given.
+    std::string device_uuid;
     std::string token_file;
     bool validate = false;      // VK_LAYER_KHRONOS_validation in every session, messages logged
     uint32_t max_sessions = 16; // sessions served at once; more are rejected as ServerFull
@@ -48,6 +51,10 @@ struct AgentOptions {
     // renders the periphery itself and the agent the foveae (SPLITVK_CLIENT_RENDERS=fovea clients
     // say so once and stay on the paper's split).
     bool periphery = true;
+    // --advertise [NAME]: advertise the agent over DNS-SD through avahi-daemon (advertiser.h) as
+    // instance NAME (default: the host and the GPU).
+    bool advertise = false;
+    std::string advertise_name;
     bool list_devices = false;
     bool help = false;
 };
@@ -68,6 +75,10 @@ std::optional<uint64_t> parse_byte_size(const std::string &text);
 
 // Loopback addresses need no token; anything else exposes a GPU command interpreter to a network.
 bool is_loopback_host(const std::string &host);
+
+// "0123...cdef" (32 hex digits) from a UUID written with or without dashes, in either case;
+// nullopt when it is not one.
+std::optional<std::string> normalize_gpu_uuid(const std::string &text);
 
 const char *agent_usage();
 

@@ -20,6 +20,16 @@ const char *device_type_name(VkPhysicalDeviceType type) {
     }
 }
 
+std::string uuid_hex(const uint8_t (&uuid)[VK_UUID_SIZE]) {
+    static constexpr char kDigits[] = "0123456789abcdef";
+    std::string hex;
+    for (const uint8_t byte : uuid) {
+        hex += kDigits[byte >> 4];
+        hex += kDigits[byte & 15];
+    }
+    return hex;
+}
+
 } // namespace
 
 std::vector<GpuInfo> enumerate_gpus(std::string *error) {
@@ -45,8 +55,11 @@ std::vector<GpuInfo> enumerate_gpus(std::string *error) {
 
     std::vector<GpuInfo> gpus;
     for (uint32_t i = 0; i < count; ++i) {
+        VkPhysicalDeviceIDProperties ids{};
+        ids.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ID_PROPERTIES;
         VkPhysicalDeviceDriverProperties driver{};
         driver.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES;
+        driver.pNext = &ids;
         VkPhysicalDeviceProperties2 props{};
         props.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
         props.pNext = &driver;
@@ -57,7 +70,7 @@ std::vector<GpuInfo> enumerate_gpus(std::string *error) {
         gpus.push_back(GpuInfo{i, props.properties.deviceName, device_type_name(props.properties.deviceType),
                                props.properties.apiVersion,
                                std::string(driver.driverName) + " " + driver.driverInfo,
-                               protocol::describe(devices[i], queries)});
+                               protocol::describe(devices[i], queries), uuid_hex(ids.deviceUUID)});
     }
     vkDestroyInstance(instance, nullptr);
     if (gpus.empty() && error) *error = "no Vulkan physical devices found";

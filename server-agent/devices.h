@@ -15,6 +15,7 @@ struct GpuInfo {
     uint32_t api_version;
     std::string driver;
     protocol::DeviceDescription description; // limits, features, formats (device_envelope.h)
+    std::string uuid; // deviceUUID, 32 lowercase hex digits: the same GPU whatever the enumeration order
 };
 
 // The GPUs the Vulkan loader offers this process, in its enumeration order. On failure returns

@@ -80,7 +80,8 @@ bool read_token(const std::string &path, std::vector<uint8_t> *token, std::strin
 } // namespace
 
 int run_listener(const AgentOptions &options, const std::string &gpu_name,
-                 const protocol::DeviceDescription &device, std::shared_ptr<protocol::TlsContext> tls) {
+                 const protocol::DeviceDescription &device, std::shared_ptr<protocol::TlsContext> tls,
+                 const std::optional<Advertisement> &advertisement) {
     std::vector<uint8_t> token;
     std::string error;
     if (!options.token_file.empty() && !read_token(options.token_file, &token, &error)) {
@@ -120,9 +121,26 @@ int run_listener(const AgentOptions &options, const std::string &gpu_name,
         SPLITVK_WARN("--record-corpus %s: every session's messages are written there, in the clear",
                      options.record_corpus.c_str());
     std::map<pid_t, Child> children;
+    const auto free_slots = [&] {
+        return children.size() >= options.max_sessions
+                   ? 0u
+                   : options.max_sessions - static_cast<uint32_t>(children.size());
+    };
+    std::unique_ptr<Advertiser> advertiser;
+    if (advertisement) {
+        protocol::AgentRecord record = advertisement->record;
+        record.free_slots = free_slots();
+        record.max_slots = options.max_sessions;
+        advertiser =
+            std::make_unique<Advertiser>(advertisement->name, (*acceptor)->port(), std::move(record));
+    }
     uint64_t next_session = 1;
     while (!g_stop) {
         reap(children, dirs, false);
+        if (advertiser) {
+            advertiser->set_free_slots(free_slots());
+            advertiser->poll();
+        }
         auto fd = (*acceptor)->accept(200ms);
         if (!fd) {
             if (g_stop) break;
@@ -169,6 +187,7 @@ int run_listener(const AgentOptions &options, const std::string &gpu_name,
             std::signal(SIGINT, SIG_DFL);
             (*acceptor)->close();
             dirs.close_in_session();
+            if (advertiser) advertiser->close_in_session();
             // Confined before the first byte from the client is decoded.
             if (!confine_session(*plan, dir, &error)) {
                 SPLITVK_ERROR("session %llu: cannot confine the session process: %s; closing",
@@ -181,9 +200,12 @@ int run_listener(const AgentOptions &options, const std::string &gpu_name,
             _exit(status);
         }
         children[pid] = Child{config.session_id, dir};
+        if (advertiser) advertiser->set_free_slots(free_slots());
         SPLITVK_INFO("session %llu (pid %d) started%s", static_cast<unsigned long long>(config.session_id),
                      static_cast<int>(pid), config.full ? " over --max-sessions: it will be rejected" : "");
     }
+    // Withdrawn first: nobody should pick an agent that is going away.
+    advertiser.reset();
     (*acceptor)->close();
     SPLITVK_INFO("stopping: %zu sessions still running get SIGTERM", children.size());
     for (const auto &[pid, child] : children)

@@ -5,14 +5,18 @@
 #include "identity.h"
 #include "listener.h"
 #include "log.h"
+#include "vk_codec.h"
 
 #include <vulkan/vulkan.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <ctime>
 #include <fstream>
 #include <iterator>
 #include <optional>
+
+#include <unistd.h>
 
 namespace {
 
@@ -24,9 +28,10 @@ int list_devices() {
         return 1;
     }
     for (const auto &gpu : gpus) {
-        std::printf("%u: %s (%s, Vulkan %u.%u.%u, %s)\n", gpu.index, gpu.name.c_str(), gpu.type.c_str(),
-                    VK_API_VERSION_MAJOR(gpu.api_version), VK_API_VERSION_MINOR(gpu.api_version),
-                    VK_API_VERSION_PATCH(gpu.api_version), gpu.driver.c_str());
+        std::printf("%u: %s (%s, Vulkan %u.%u.%u, %s, UUID %s)\n", gpu.index, gpu.name.c_str(),
+                    gpu.type.c_str(), VK_API_VERSION_MAJOR(gpu.api_version),
+                    VK_API_VERSION_MINOR(gpu.api_version), VK_API_VERSION_PATCH(gpu.api_version),
+                    gpu.driver.c_str(), gpu.uuid.c_str());
     }
     return 0;
 }
@@ -42,7 +47,7 @@ int main(int argc, char **argv) {
         SPLITVK_ERROR("%s", parsed.error.c_str());
         return 2;
     }
-    const auto &options = parsed.options;
+    auto options = parsed.options;
     if (options.help) {
         std::fputs(splitvk::agent::agent_usage(), stdout);
         return 0;
@@ -117,6 +122,17 @@ int main(int argc, char **argv) {
 
     std::string error;
     const auto gpus = splitvk::agent::enumerate_gpus(&error);
+    if (!options.device_uuid.empty()) {
+        // A UUID names the same GPU however the loader orders them (a systemd instance per GPU).
+        const auto found = std::find_if(gpus.begin(), gpus.end(),
+                                        [&](const auto &gpu) { return gpu.uuid == options.device_uuid; });
+        if (found == gpus.end()) {
+            SPLITVK_ERROR("--device %s: %s", options.device_uuid.c_str(),
+                          gpus.empty() ? error.c_str() : "no GPU has this UUID (see --list-devices)");
+            return 2;
+        }
+        options.device_index = found->index;
+    }
     if (options.device_index >= gpus.size()) {
         SPLITVK_ERROR("--device %u: %s", options.device_index,
                       gpus.empty() ? error.c_str() : "no such GPU (see --list-devices)");
@@ -134,5 +150,24 @@ int main(int argc, char **argv) {
                      options.emulate_limits.c_str(), changed.empty() ? "the same limits" : changed.c_str(),
                      hidden.size());
     }
-    return splitvk::agent::run_listener(options, gpu.name, device, std::move(tls));
+    std::optional<splitvk::agent::Advertisement> advertisement;
+    if (options.advertise) {
+        splitvk::protocol::AgentRecord record;
+        record.session = splitvk::protocol::session_text(splitvk::codec::kCodecFingerprint);
+        if (identity) record.certificate = identity->certificate.fingerprint;
+        record.tls = tls != nullptr;
+        record.gpu_name = gpu.name;
+        record.gpu_uuid = gpu.uuid;
+        char host[256] = {};
+        if (gethostname(host, sizeof(host) - 1) != 0) std::snprintf(host, sizeof(host), "splitvk-agent");
+        std::string name = options.advertise_name.empty()
+                               ? splitvk::agent::default_advertised_name(host, options.device_index, gpu.name)
+                               : options.advertise_name;
+        advertisement = splitvk::agent::Advertisement{std::move(name), std::move(record)};
+        if (loopback)
+            SPLITVK_WARN("--advertise: listening on %s, a loopback address: other machines find this agent "
+                         "but cannot reach it (--listen 0.0.0.0:PORT with --token-file serves them)",
+                         options.listen_host.c_str());
+    }
+    return splitvk::agent::run_listener(options, gpu.name, device, std::move(tls), advertisement);
 }

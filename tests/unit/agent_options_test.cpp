@@ -26,6 +26,31 @@ TEST(AgentOptions, ParsesEveryOption) {
     EXPECT_EQ(parsed.options.token_file, "/etc/splitvk/token");
 }
 
+TEST(AgentOptions, AdvertiseTakesAnOptionalName) {
+    const auto bare = parse_agent_options({"--advertise", "--validate"});
+    ASSERT_TRUE(bare.error.empty()) << bare.error;
+    EXPECT_TRUE(bare.options.advertise);
+    EXPECT_TRUE(bare.options.advertise_name.empty());
+    EXPECT_TRUE(bare.options.validate);
+    const auto named = parse_agent_options({"--advertise", "lab GPU 1"});
+    ASSERT_TRUE(named.error.empty()) << named.error;
+    EXPECT_EQ(named.options.advertise_name, "lab GPU 1");
+    EXPECT_FALSE(parse_agent_options({"--advertise", std::string(64, 'x')}).error.empty());
+    EXPECT_FALSE(parse_agent_options({}).options.advertise);
+}
+
+TEST(AgentOptions, DeviceIsAnIndexOrAUuid) {
+    const auto uuid = parse_agent_options({"--device", "6B39A0F2-1C1D-4E55-8A8E-0123456789AB"});
+    ASSERT_TRUE(uuid.error.empty()) << uuid.error;
+    EXPECT_EQ(uuid.options.device_uuid, "6b39a0f21c1d4e558a8e0123456789ab");
+    EXPECT_EQ(parse_agent_options({"--device", "3"}).options.device_uuid, "");
+    const auto bad = parse_agent_options({"--device", "6b39a0f2"});
+    EXPECT_NE(bad.error.find("--device '6b39a0f2' is invalid"), std::string::npos) << bad.error;
+    // --listen names one address: a list or dnssd is the layer's.
+    EXPECT_FALSE(parse_agent_options({"--listen", "127.0.0.1:1,127.0.0.1:2"}).error.empty());
+    EXPECT_FALSE(parse_agent_options({"--listen", "dnssd"}).error.empty());
+}
+
 TEST(AgentOptions, ValidateAndMaxSessions) {
     const auto defaults = parse_agent_options({});
     EXPECT_FALSE(defaults.options.validate);
