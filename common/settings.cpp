@@ -26,8 +26,11 @@ constexpr const char *kSettingsFileName = "vk_layer_settings.txt";
 constexpr std::string_view kManifestVariables[] = {"SPLITVK_ENABLE", "SPLITVK_DISABLE"};
 
 const SettingInfo kSettings[] = {
-    {"SERVER", "HOST:PORT, [IPV6]:PORT or HOST (port 1-65535)", "127.0.0.1:7447",
-     "address of the splitvk-agent to share frames with"},
+    {"SERVER",
+     "HOST:PORT, [IPV6]:PORT or HOST (port 1-65535), several of them comma-separated, dnssd, or dnssd:NAME",
+     "127.0.0.1:7447",
+     "the splitvk-agent to share frames with: an address, a list (the first that answers), or the agents "
+     "advertised over DNS-SD (the one with most free slots; NAME: only that instance)"},
     {"SCALE", "a number in [0.1, 1]", "0.6",
      "sampling rate of the periphery the client renders (0.6: 1440x648 of 2400x1080)"},
     {"FOVEA",
@@ -192,6 +195,33 @@ bool parse_server(std::string_view value, ServerAddress &out) {
     return true;
 }
 
+bool parse_server_list(std::string_view value, Settings &s) {
+    if (lower(value) == "dnssd" || lower(value).starts_with("dnssd:")) {
+        const std::string_view name = value.substr(std::min<size_t>(value.size(), 6));
+        // A DNS-SD instance name is one DNS label, at most 63 bytes.
+        if (value.size() > 5 && (name.empty() || name.size() > 63)) return false;
+        s.dnssd = true;
+        s.dnssd_name = std::string(name);
+        s.servers.clear();
+        return true;
+    }
+    std::vector<ServerAddress> servers;
+    size_t start = 0;
+    for (;;) {
+        const size_t comma = value.find(',', start);
+        ServerAddress address;
+        if (!parse_server(trim(value.substr(start, comma - start)), address)) return false;
+        servers.push_back(std::move(address));
+        if (comma == std::string_view::npos) break;
+        start = comma + 1;
+    }
+    s.dnssd = false;
+    s.dnssd_name.clear();
+    s.server = servers.front();
+    s.servers = std::move(servers);
+    return true;
+}
+
 bool parse_fovea(std::string_view value, FoveaSize &out) {
     const std::string text = lower(trim(value));
     if (text == "auto" || text.starts_with("auto:")) {
@@ -251,7 +281,7 @@ bool directory_exists(const std::string &path) {
 bool apply(std::string_view name, std::string_view raw, Settings &s) {
     const std::string_view value = trim(raw);
     const std::string v = lower(value);
-    if (name == "SERVER") return parse_server(value, s.server);
+    if (name == "SERVER") return parse_server_list(value, s);
     if (name == "SCALE") {
         const auto scale = parse_double(value);
         if (!scale || *scale < 0.1 || *scale > 1.0) return false;

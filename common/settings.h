@@ -90,6 +90,7 @@ enum class GazeMode { Fixed, OpenXR, Fifo };
 struct ServerAddress {
     std::string host = "127.0.0.1";
     uint16_t port = 7447;
+    bool operator==(const ServerAddress &) const = default;
 };
 
 // The fovea of one eye: either absolute pixels, or fractions of the eye's extent. The default,
@@ -108,7 +109,15 @@ struct FoveaSize {
 };
 
 struct Settings {
+    // SPLITVK_SERVER: the agent to dial (the first of `servers`, or the one chosen among those found
+    // over DNS-SD, as layer/core/agent_candidates.h sets it for each dial).
     ServerAddress server;
+    // HOST:PORT[,HOST:PORT...]: every agent named, first first; empty when only `server` is (the
+    // default) and with dnssd.
+    std::vector<ServerAddress> servers;
+    // dnssd or dnssd:NAME: agents found over DNS-SD (_splitvk._tcp), or only the instance NAME.
+    bool dnssd = false;
+    std::string dnssd_name;
     double scale = 0.6;
     FoveaSize fovea;
     SplitMode split = SplitMode::Auto;
@@ -121,7 +130,8 @@ struct Settings {
     Seam seam;
     GazeMode gaze = GazeMode::Fixed;
     // SPLITVK_FOVEA_MASK: the client leaves the foveae out of the periphery it shades,
-    // through the depth of its passes into the swapchain image, where that is exact (layer/capture/fovea_mask.h).
+    // through the depth of its passes into the swapchain image, where that is exact
+    // (layer/capture/fovea_mask.h).
     bool fovea_mask = true;
     std::string gaze_fifo; // GazeMode::Fifo: the pipe's path
     // SPLITVK_XR_DEADLINE: an OpenXR eye image waits for its tiles only while it can still meet its

@@ -64,11 +64,21 @@ void CaptureHooks::chain_truncated(const char *parent) {
     truncation_logged_ = true;
 }
 
+std::string Session::agent_label() const {
+    std::lock_guard lock(label_mutex_);
+    return address_;
+}
+
 protocol::Result<AgentLink> Session::connect_agent(bool *final) {
     protocol::Hello hello = base_hello(settings_, client_name_);
     hello.client_gpu_name = client_gpu_name_;
     hello.device_envelope = envelope_wire_;
-    auto link = splitvk::connect_agent(settings_, hello, final);
+    std::set<std::string> excluding;
+    {
+        std::lock_guard lock(label_mutex_);
+        if (!went_away_.empty()) excluding.insert(went_away_);
+    }
+    auto link = dial_agent(*candidates_, settings_, hello, excluding, EarlyAgent::kBrowseWait, final);
     if (link) watch_closure(*link);
     return link;
 }
@@ -101,6 +111,11 @@ void Session::adopt_locked(AgentLink &&agent) {
     current_connection_.store(nullptr);
     if (connection_) connection_->close("replaced by a new connection");
     connection_ = std::move(agent.connection);
+    if (!agent.agent.empty()) {
+        std::lock_guard lock(label_mutex_);
+        address_ = agent.agent;
+        went_away_.clear();
+    }
     const uint64_t capabilities = agent.welcome.capabilities;
     if (!(capabilities & protocol::capability::kZstdPayloads)) {
         protocol::CompressionPolicy policy;
@@ -109,7 +124,8 @@ void Session::adopt_locked(AgentLink &&agent) {
     }
     verify_ = settings_.verify && (capabilities & protocol::capability::kVerifyFrames);
     if (settings_.verify && !verify_)
-        SPLITVK_WARN("splitvk-agent at %s cannot verify frames; SPLITVK_VERIFY ignored", address_.c_str());
+        SPLITVK_WARN("splitvk-agent at %s cannot verify frames; SPLITVK_VERIFY ignored",
+                     agent_label().c_str());
     // Verification and the paper's split exclude each other (base_hello): an agent that cannot
     // render the periphery leaves a verifying client unsplit, comparing whole frames.
     const bool split = (capabilities & protocol::capability::kFoveaTiles) &&
@@ -117,7 +133,7 @@ void Session::adopt_locked(AgentLink &&agent) {
     if (!split && verify_ && (capabilities & protocol::capability::kFoveaTiles) && !splitting())
         SPLITVK_WARN("splitvk-agent at %s cannot render the periphery (SPLITVK_CLIENT_RENDERS=fovea); "
                      "SPLITVK_VERIFY compares whole frames, unsplit",
-                     address_.c_str());
+                     agent_label().c_str());
     // A verifying session has rows too (its frames unsplit, verification.h), so SPLITVK_STATS is
     // written whether the agent splits or verifies.
     if ((split || verify_) && !stats_) stats_ = std::make_unique<FrameStats>(settings_.stats_path);
@@ -132,7 +148,7 @@ void Session::adopt_locked(AgentLink &&agent) {
                 SPLITVK_WARN(
                     "splitvk-agent at %s cannot render the periphery (SPLITVK_CLIENT_RENDERS=fovea); "
                     "the client renders it, and the agent the foveae",
-                    address_.c_str());
+                    agent_label().c_str());
             }
         }
     }
@@ -159,7 +175,7 @@ void Session::adopt_locked(AgentLink &&agent) {
         } else if (settings_.agent_scissor.guard) {
             SPLITVK_WARN("splitvk-agent at %s cannot scissor offscreen passes; SPLITVK_AGENT_SCISSOR ignored "
                          "(it replays them in full)",
-                         address_.c_str());
+                         agent_label().c_str());
         }
         send_locked(protocol::MessageType::SplitConfig, protocol::encode(config));
         // Right after SplitConfig, and only to an agent that granted the swapped split (a
@@ -171,7 +187,7 @@ void Session::adopt_locked(AgentLink &&agent) {
     }
     stop_receiver_.store(false);
     receiver_ = std::thread([this] { run_receiver(); });
-    SPLITVK_INFO("replicating to splitvk-agent at %s (%s, session %llu, %s)", address_.c_str(),
+    SPLITVK_INFO("replicating to splitvk-agent at %s (%s, session %llu, %s)", agent_label().c_str(),
                  agent.welcome.server_gpu_name.c_str(),
                  static_cast<unsigned long long>(agent.welcome.session_id), connection_->security().c_str());
 }
@@ -190,7 +206,8 @@ std::unique_ptr<Session> Session::open(const DeviceState &device, const VkDevice
     if (loaded.settings.split == SplitMode::Auto)
         session->payoff_ =
             std::make_unique<SplitPayoff>(loaded.settings.fovea.automatic ? SplitPayoff::kFirstHold : 0);
-    session->address_ = loaded.settings.server.host + ":" + std::to_string(loaded.settings.server.port);
+    session->candidates_ = std::make_unique<AgentCandidates>(loaded.settings);
+    session->address_ = session->candidates_->description();
     session->device_id_ = codec::handle_value(device.handle);
     session->uploads_ = std::make_unique<UploadPool>(device);
     session->hooks_.bind(device);
@@ -249,11 +266,11 @@ std::unique_ptr<Session> Session::open(const DeviceState &device, const VkDevice
         // An agent answered and refused (a wrong or missing token, another protocol): say so in the
         // words the reconnect path uses, not "no splitvk-agent", which sends the user looking for
         // a network problem.
-        warn_refused(session->address_, agent.error());
+        warn_refused(session->agent_label(), agent.error());
         session->failure_logged_.store(true);
     } else {
         SPLITVK_WARN("no splitvk-agent at %s (%s); running unsplit until one answers",
-                     session->address_.c_str(), agent.error().c_str());
+                     session->agent_label().c_str(), agent.error().c_str());
         session->failure_logged_.store(true);
     }
     if (!final) session->reconnector_ = std::thread([raw = session.get()] { raw->run_reconnect(); });
@@ -293,7 +310,7 @@ void Session::run_reconnect() {
         if (agent_released_) continue;
         if (!agent) {
             if (final) {
-                warn_refused(address_, agent.error());
+                warn_refused(agent_label(), agent.error());
                 break;
             }
             backoff = std::min(backoff * 2, kLongestRetry);
@@ -307,7 +324,7 @@ void Session::run_reconnect() {
                 SPLITVK_WARN("splitvk-agent at %s cannot render the periphery, which this session's client "
                              "leaves to the agent (SPLITVK_CLIENT_RENDERS=fovea); not brought in, the client "
                              "renders whole frames",
-                             address_.c_str());
+                             agent_label().c_str());
             agent->connection->send(
                 protocol::MessageType::Goodbye,
                 protocol::encode_goodbye({"the client's swapped split needs the periphery"}));
@@ -317,10 +334,20 @@ void Session::run_reconnect() {
             continue;
         }
         swapped_refusal_logged_ = false;
+        std::string went_away;
+        {
+            std::lock_guard label_lock(label_mutex_);
+            went_away = went_away_;
+        }
+        // Another agent than the one that went away: the failover, in one line.
+        if (!went_away.empty() && went_away != agent->agent)
+            SPLITVK_WARN("failover: splitvk-agent %s went away; %s answered and joins at the next present",
+                         went_away.c_str(), agent->agent.c_str());
+        else
+            SPLITVK_INFO("splitvk-agent at %s answered; it joins at the next present", agent->agent.c_str());
         pending_agent_ = std::move(agent).value();
         reconnected_at_ = std::chrono::steady_clock::now();
         resync_pending_.store(true, std::memory_order_release);
-        SPLITVK_INFO("splitvk-agent at %s answered; it joins at the next present", address_.c_str());
     }
 }
 
@@ -391,7 +418,7 @@ void Session::resync(DeviceState &device, VkQueue queue, uint64_t frame) {
         "splitvk-agent at %s brought in at frame %llu: %zu objects, %llu buffers, %llu images, %zu "
         "descriptor sets, %zu command buffers, %.1f MiB in %.0f ms (%.0f ms after it answered; "
         "%.0f ms to the present, %.0f idle, %.0f readback, %.0f encode and queue)",
-        address_.c_str(), static_cast<unsigned long long>(frame), entries,
+        agent_label().c_str(), static_cast<unsigned long long>(frame), entries,
         static_cast<unsigned long long>(contents.buffers), static_cast<unsigned long long>(contents.images),
         sets, streams.size(), static_cast<double>(bytes) / (1 << 20), ms(start, now), ms(answered, now),
         ms(answered, start), ms(start, idle), ms(idle, readback_done), ms(readback_done, now));
@@ -589,7 +616,7 @@ void Session::release_agent() {
     connection->close("frames pass through");
     SPLITVK_INFO("SPLITVK_SPLIT=auto: splitvk-agent at %s let go while frames pass through; it is called "
                  "back when the split is measured again",
-                 address_.c_str());
+                 agent_label().c_str());
 }
 
 void Session::recall_agent() {
@@ -601,7 +628,7 @@ void Session::recall_agent() {
     }
     recalled_.store(true);
     SPLITVK_INFO("SPLITVK_SPLIT=auto: calling splitvk-agent at %s back to measure the split again",
-                 address_.c_str());
+                 agent_label().c_str());
     reconnect_wake_.notify_all();
 }
 
@@ -652,11 +679,17 @@ const char *Session::fallback() const {
 // is live) starts looking for a new agent.
 void Session::fail(const std::string &reason) {
     live_.store(false);
+    {
+        // The reconnector dials another agent first, if there is one.
+        std::lock_guard lock(label_mutex_);
+        went_away_ = address_;
+    }
     if (tiles_) tiles_->abandon();
     reconnect_wake_.notify_all();
     if (!failure_logged_.exchange(true)) {
         if (client_renders() == ClientRenders::Fovea) force_out_of_date_.store(true);
-        SPLITVK_WARN("splitvk-agent at %s went away (%s); %s", address_.c_str(), reason.c_str(), fallback());
+        SPLITVK_WARN("splitvk-agent at %s went away (%s); %s", agent_label().c_str(), reason.c_str(),
+                     fallback());
     }
 }
 
@@ -789,7 +822,7 @@ void Session::close() {
     // Presents: every window present and every OpenXR release of an image (depth swapchains' too).
     SPLITVK_INFO("session to %s: %llu presents, %.2f ms comparing memory, %llu messages, %llu payload bytes, "
                  "%llu bytes on the wire",
-                 address_.c_str(), static_cast<unsigned long long>(current_frame()),
+                 agent_label().c_str(), static_cast<unsigned long long>(current_frame()),
                  static_cast<double>(memory_compare_ns.load()) / 1e6,
                  static_cast<unsigned long long>(stats.messages_sent),
                  static_cast<unsigned long long>(stats.payload_bytes_sent),

@@ -27,6 +27,7 @@
 // in the same critical section as it encodes the call, so that the log's order is the stream's.
 
 #include "capture/live_state_log.h"
+#include "core/agent_candidates.h"
 #include "core/agent_link.h"
 #include "core/physical_device.h"
 #include "core/tile_stream.h"
@@ -293,9 +294,13 @@ private:
         else if (encoder_.size() >= kBatchLimit)
             flush_locked();
     }
-    // Connects and handshakes with the configured agent (agent_link.h), the device envelope in
-    // the Hello. *final when retrying cannot help.
+    // Connects and handshakes with an agent of SPLITVK_SERVER's (agent_candidates.h), the device
+    // envelope in the Hello; after the one in use went away, another if there is one. *final when
+    // retrying cannot help.
     protocol::Result<AgentLink> connect_agent(bool *final);
+    // The agent in use or last used (its label), or what SPLITVK_SERVER names before any answered:
+    // what every line about the agent names. Any thread.
+    std::string agent_label() const;
     // Reports `link`'s closure to this session while it is the session's connection.
     void watch_closure(AgentLink &link);
     // Why the agent greeted at vkCreateInstance cannot serve this device's envelope; empty if it can.
@@ -336,7 +341,10 @@ private:
     std::atomic<bool> force_out_of_date_{false}; // take_forced_out_of_date()
     Settings settings_;
     uint64_t device_id_ = 0;
-    std::string address_;
+    std::unique_ptr<AgentCandidates> candidates_;
+    mutable std::mutex label_mutex_;
+    std::string address_;   // under label_mutex_: agent_label()
+    std::string went_away_; // under label_mutex_: the agent that went away, until another is adopted
     std::string client_name_;
     std::string client_gpu_name_;
     std::vector<uint8_t> envelope_wire_; // the device envelope the app was told, encoded; empty: unchecked

@@ -1,5 +1,6 @@
 #include "core/agent_link.h"
 
+#include "core/agent_candidates.h"
 #include "core/layer_settings.h"
 #include "known_agents.h"
 #include "log.h"
@@ -23,19 +24,19 @@ constexpr auto kHandshakeTimeout = 1000ms;
 // forked and confines itself first.
 constexpr auto kTlsHandshakeTimeout = 2000ms;
 
-std::string address_key(const ServerAddress &server) {
-    return server.host.find(':') != std::string::npos ? "[" + server.host + "]:" + std::to_string(server.port)
-                                                      : server.host + ":" + std::to_string(server.port);
-}
-
 // Serialises the known_agents read-check-append of this process's connections (the instance's
 // greeting and a device's session may meet a new agent at once).
 std::mutex g_known_agents_mutex;
 
 } // namespace
 
+std::string agent_address(const ServerAddress &server) {
+    return server.host.find(':') != std::string::npos ? "[" + server.host + "]:" + std::to_string(server.port)
+                                                      : server.host + ":" + std::to_string(server.port);
+}
+
 std::string check_agent_certificate(const Settings &settings, const protocol::CertificateInfo &certificate) {
-    const std::string address = address_key(settings.server);
+    const std::string address = agent_address(settings.server);
     const std::string &seen = certificate.fingerprint;
     if (!settings.agent_fingerprint.empty()) {
         if (seen == settings.agent_fingerprint) return {};
@@ -175,17 +176,20 @@ std::unique_ptr<EarlyAgent> EarlyAgent::start(const std::string &application_nam
     if (!loaded.valid()) return nullptr;
     std::unique_ptr<EarlyAgent> early(new EarlyAgent());
     early->deadline_ = std::chrono::steady_clock::now() + kBudget;
-    early->answer_ = std::async(std::launch::async, [settings = loaded.settings, application_name] {
-        Outcome outcome;
-        bool final = false;
-        auto link = connect_agent(settings, base_hello(settings, application_name), &final);
-        if (link)
-            outcome.link = std::move(link).value();
-        else
-            outcome.error = link.error();
-        outcome.refused = final;
-        return outcome;
-    });
+    early->candidates_ = std::make_shared<AgentCandidates>(loaded.settings);
+    early->answer_ = std::async(
+        std::launch::async, [settings = loaded.settings, application_name, candidates = early->candidates_] {
+            Outcome outcome;
+            bool final = false;
+            auto link = dial_agent(*candidates, settings, base_hello(settings, application_name), {},
+                                   kBrowseWait, &final);
+            if (link)
+                outcome.link = std::move(link).value();
+            else
+                outcome.error = link.error();
+            outcome.refused = final;
+            return outcome;
+        });
     return early;
 }
 

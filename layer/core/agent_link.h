@@ -38,7 +38,13 @@ struct AgentLink {
     std::unique_ptr<protocol::Connection> connection;
     protocol::Welcome welcome;
     std::shared_ptr<ClosedSlot> on_closed;
+    std::string agent; // which agent answered, as agent_candidates.h labels it
 };
+
+// "host:port", "[v6]:port": how known_agents and the lines the layer writes name an address.
+std::string agent_address(const ServerAddress &server);
+
+class AgentCandidates;
 
 // The Hello every connection of this process starts with; the caller adds what it knows more
 // (the GPU's name, the device envelope).
@@ -74,6 +80,9 @@ public:
 
     // nullptr when the settings are invalid: the application then runs unsplit.
     static std::unique_ptr<EarlyAgent> start(const std::string &application_name);
+    // How long the greeting waits for agents advertised over DNS-SD (SPLITVK_SERVER=dnssd) before it
+    // dials what was found: within the connect's own bound, so the envelope's budget holds.
+    static constexpr std::chrono::milliseconds kBrowseWait{250};
     ~EarlyAgent();
 
     // The agent's device, if it answered within the budget. The first call waits, later ones
@@ -92,6 +101,10 @@ public:
 
 private:
     EarlyAgent() = default;
+
+    // Where the greeting dials; kept so that agents found over DNS-SD are still known when the first
+    // device's session asks.
+    std::shared_ptr<AgentCandidates> candidates_;
 
     std::chrono::steady_clock::time_point deadline_;
     std::mutex mutex_;

@@ -298,6 +298,27 @@ TEST_F(SettingsTest, ScriptVariablesAreNotWarnedAbout) {
     EXPECT_EQ(load({}).warnings.size(), 1u);
 }
 
+TEST(Settings, ServerIsAnAddressAListOrDnssd) {
+    const auto list = load_settings({{"SPLITVK_SERVER", "10.0.0.2:7447, gpu2.lab:7448"}}, "/nonexistent");
+    ASSERT_TRUE(list.valid()) << list.errors[0];
+    ASSERT_EQ(list.settings.servers.size(), 2u);
+    EXPECT_EQ(list.settings.server, (ServerAddress{"10.0.0.2", 7447}));
+    EXPECT_EQ(list.settings.servers[1], (ServerAddress{"gpu2.lab", 7448}));
+    EXPECT_FALSE(list.settings.dnssd);
+
+    const auto browse = load_settings({{"SPLITVK_SERVER", "dnssd"}}, "/nonexistent");
+    ASSERT_TRUE(browse.valid());
+    EXPECT_TRUE(browse.settings.dnssd);
+    EXPECT_TRUE(browse.settings.dnssd_name.empty());
+    EXPECT_TRUE(browse.settings.servers.empty());
+    const auto one = load_settings({{"SPLITVK_SERVER", "dnssd:lab GPU 1"}}, "/nonexistent");
+    ASSERT_TRUE(one.valid());
+    EXPECT_EQ(one.settings.dnssd_name, "lab GPU 1");
+
+    for (const char *bad : {"dnssd:", "10.0.0.2:7447,", ",10.0.0.2", "10.0.0.2:0,10.0.0.3"})
+        EXPECT_FALSE(load_settings({{"SPLITVK_SERVER", bad}}, "/nonexistent").valid()) << bad;
+}
+
 TEST(ScriptVariables, AreNoSettingsNorManifestVariables) {
     std::set<std::string> seen;
     for (const ScriptVariable &v : script_variable_table()) {
