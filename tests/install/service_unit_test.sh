@@ -40,3 +40,26 @@ if ! out=$(systemd-analyze security --offline=yes --threshold=20 "$unit" 2>&1); 
   echo "FAIL: systemd-analyze security rates the unit above 2.0:"; echo "$out"; exit 1
 fi
 echo "ok: $(grep -o 'Overall exposure level.*' <<<"$out")"
+
+# The template, one instance per GPU: the same confinement, the instance as --device, advertised.
+template="$prefix/lib/systemd/system/splitvk-agent@.service"
+[ -f "$template" ] || { echo "FAIL: $template not installed"; exit 1; }
+grep -qx 'ExecStart='"$prefix"'/bin/splitvk-agent --listen ${AGENT_LISTEN} --device %i --advertise $AGENT_ARGS' "$template" ||
+  { echo "FAIL: the template's ExecStart:"; grep ExecStart "$template"; exit 1; }
+diff <(grep -E '^(DynamicUser|Protect|NoNewPrivileges|Private|DevicePolicy|DeviceAllow|Restrict|SystemCall|Capability|Lock|RemoveIPC|UMask)' "$unit") \
+     <(grep -E '^(DynamicUser|Protect|NoNewPrivileges|Private|DevicePolicy|DeviceAllow|Restrict|SystemCall|Capability|Lock|RemoveIPC|UMask)' "$template") ||
+  { echo "FAIL: the template is confined otherwise than splitvk-agent.service"; exit 1; }
+# systemd verifies a template through an instance of it: one by index, one by UUID.
+instances=$(mktemp -d)
+trap 'rm -rf "$prefix" "$probe" "$instances"' EXIT
+for instance in 0 6b39a0f2-1c1d-4e55-8a8e-0123456789ab; do
+  cp "$template" "$instances/splitvk-agent@.service"
+  if ! out=$(cd "$instances" && systemd-analyze verify "$instances/splitvk-agent@$instance.service" 2>&1) || [ -n "$out" ]; then
+    echo "FAIL: systemd-analyze verify splitvk-agent@$instance.service:"; echo "$out"; exit 1
+  fi
+done
+echo "ok: systemd-analyze verify splitvk-agent@0.service and @UUID.service"
+if ! out=$(systemd-analyze security --offline=yes --threshold=20 "$instances/splitvk-agent@0.service" 2>&1); then
+  echo "FAIL: systemd-analyze security rates the template above 2.0:"; echo "$out"; exit 1
+fi
+echo "ok: template $(grep -o 'Overall exposure level.*' <<<"$out")"
