@@ -582,6 +582,23 @@ TEST_P(SplitSwapped, FoveaeExactPeripheryClose) {
     EXPECT_TRUE(grep(err, "render their periphery at").empty()) << tail(err, 30);
     EXPECT_TRUE(grep(err, "cannot render the periphery").empty()) << tail(err, 30);
     EXPECT_TRUE(grep(err, "cannot be blended into").empty()) << tail(err, 30); // the seam is feathered
+    // The agent drew the periphery at SPLITVK_SCALE (server-agent/periphery_scaling.h): its passes into
+    // the swapchain image into the top-left 1440x648 (a pass drawn from secondaries executes variants
+    // of them recorded for it). Compute's blit into the image is scaled alike, with no pass to say so.
+    // No frame was downsampled from a full-size picture, nor mixed the two.
+    const std::string agent_log = read_file(out_ / "splitvk-agent.stderr");
+    const std::string path = c.path;
+    if (path == "secondary")
+        EXPECT_FALSE(grep(agent_log, "secondaries executed in a scaled pass of 2400x1080").empty())
+            << tail(agent_log, 30);
+    EXPECT_TRUE(grep(agent_log, "periphery is downsampled from the full-size picture").empty())
+        << tail(agent_log, 30);
+    if (path != "compute")
+        EXPECT_FALSE(
+            grep(agent_log, "swapped split: passes into 2400x1080 swapchain images are drawn at 1440x648")
+                .empty())
+            << tail(agent_log, 30);
+    EXPECT_TRUE(grep(agent_log, "both scaled and at full size").empty()) << tail(agent_log, 30);
     if (c.guard) {
         EXPECT_FALSE(grep(err, std::string("SPLITVK_CLIENT_GUARD=") + c.guard + ": cutting passes").empty())
             << tail(err, 30);
@@ -715,6 +732,10 @@ TEST_F(Split, SwappedVerifyMeasuresThePeripheryAgainstNative) {
         << tail(err, 30);
     EXPECT_TRUE(grep(err, "cannot render the periphery").empty()) << tail(err, 30);
     EXPECT_TRUE(grep(err, "periphery is the previous frame's").empty()) << tail(err, 30);
+    // The agent replays whole frames for a verifying client (PeripheryConfig::whole_frames): what it
+    // sends back to compare with is the native frame, not one drawn scaled.
+    EXPECT_FALSE(grep(agent_log, "passes replay whole (the client verifies)").empty()) << tail(agent_log, 30);
+    EXPECT_TRUE(grep(agent_log, "swapchain images are drawn at").empty()) << tail(agent_log, 30);
 
     const SwappedVerifySummary s = swapped_verify_summary(err);
     ASSERT_EQ(s.lines, 1) << "no single swapped verify line:\n" << tail(err, 30);
