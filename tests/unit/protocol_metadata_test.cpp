@@ -427,7 +427,7 @@ TEST(ProtocolSession, PeripheryConfigRoundTripAndLimits) {
     m.scale = 0.6;
     m.quality = {false, 28};
     const auto bytes = encode(m);
-    EXPECT_EQ(bytes.size(), 17u);
+    EXPECT_EQ(bytes.size(), 20u);
     const auto back = decode_periphery_config(bytes);
     ASSERT_TRUE(back.ok()) << back.error();
     EXPECT_EQ(back->scale, 0.6);

@@ -588,16 +588,18 @@ TEST_P(SplitSwapped, FoveaeExactPeripheryClose) {
     // No frame was downsampled from a full-size picture, nor mixed the two.
     const std::string agent_log = read_file(out_ / "splitvk-agent.stderr");
     const std::string path = c.path;
-    if (path == "secondary")
+    if (path == "secondary") {
         EXPECT_FALSE(grep(agent_log, "secondaries executed in a scaled pass of 2400x1080").empty())
             << tail(agent_log, 30);
+    }
     EXPECT_TRUE(grep(agent_log, "periphery is downsampled from the full-size picture").empty())
         << tail(agent_log, 30);
-    if (path != "compute")
+    if (path != "compute") {
         EXPECT_FALSE(
             grep(agent_log, "swapped split: passes into 2400x1080 swapchain images are drawn at 1440x648")
                 .empty())
             << tail(agent_log, 30);
+    }
     EXPECT_TRUE(grep(agent_log, "both scaled and at full size").empty()) << tail(agent_log, 30);
     if (c.guard) {
         EXPECT_FALSE(grep(err, std::string("SPLITVK_CLIENT_GUARD=") + c.guard + ": cutting passes").empty())
