@@ -57,6 +57,15 @@ VkRect2D scale_rect(const VkRect2D &rect, AxisScale scale, VkExtent2D scaled) {
             {static_cast<uint32_t>(x1 - x0), static_cast<uint32_t>(y1 - y0)}};
 }
 
+VkRect2D scaled_pass_rect(const VkRect2D &rect, VkExtent2D full, double scale) {
+    const VkExtent2D scaled = scaled_extent(full, scale);
+    return scale_rect(rect, axis_scale(full, scaled), scaled);
+}
+
+VkViewport scaled_pass_viewport(const VkViewport &viewport, VkExtent2D full, double scale) {
+    return scale_viewport(viewport, axis_scale(full, scale));
+}
+
 VkRect2D intersect(const VkRect2D &a, const VkRect2D &b) {
     const int64_t ax1 = int64_t{a.offset.x} + a.extent.width, ay1 = int64_t{a.offset.y} + a.extent.height;
     const int64_t bx1 = int64_t{b.offset.x} + b.extent.width, by1 = int64_t{b.offset.y} + b.extent.height;

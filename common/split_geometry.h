@@ -42,6 +42,14 @@ VkViewport scale_viewport(const VkViewport &viewport, AxisScale scale);
 // the periphery.
 VkRect2D scale_rect(const VkRect2D &rect, AxisScale scale, VkExtent2D scaled);
 
+// A scaled split pass (docs/architecture.md §4), whichever side draws it: its render area, scissors
+// and clear rects, `rect` of a pass whose full extent is `full`, go into the top-left
+// scaled_extent(full, scale) by scale_rect with that extent's axis_scale; its viewports by
+// scale_viewport with the same factors. The client draws its periphery so, and so does the agent in
+// the swapped split (server-agent/periphery_scaling.h): the same rectangles on both sides.
+VkRect2D scaled_pass_rect(const VkRect2D &rect, VkExtent2D full, double scale);
+VkViewport scaled_pass_viewport(const VkViewport &viewport, VkExtent2D full, double scale);
+
 // The intersection of two rectangles; when empty, a zero-extent rectangle at a's clamped offset.
 VkRect2D intersect(const VkRect2D &a, const VkRect2D &b);
 

@@ -75,6 +75,18 @@ TargetClass classify_target(const VkImageCreateInfo &info, VkExtent2D screen, Ey
     return c;
 }
 
+PassDraw swapchain_pass_draw(SplitSide side, ClientRenders renders, bool runtime, bool whole_frames) {
+    const bool renders_periphery = (side == SplitSide::Client) == (renders == ClientRenders::Periphery);
+    if (renders == ClientRenders::Fovea && runtime) return PassDraw::Whole;
+    if (!renders_periphery) return PassDraw::Cut;
+    if (side == SplitSide::Agent && whole_frames) return PassDraw::Whole;
+    return PassDraw::Scaled;
+}
+
+bool scales_screen_space_targets(SplitSide side, ClientRenders renders) {
+    return side == SplitSide::Client && renders == ClientRenders::Periphery;
+}
+
 bool guard_maps_target(const TargetClass &kind, EyeMode eyes) {
     if (!kind.screen_space) return false;
     return eyes != EyeMode::One || (kind.layers <= 1 && !kind.eye);

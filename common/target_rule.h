@@ -33,6 +33,27 @@ struct TargetClass {
     std::string reason;   // why, for the info line: "the swapchain's extent / 2", "no attachment usage"
 };
 
+// Which side draws what of a frame (docs/architecture.md §4): one table both sides read, so that a
+// pass one side draws scaled (the periphery) the other draws cut to the foveae, never both or
+// neither. SPLITVK_CLIENT_RENDERS=periphery: the client scales, the agent cuts (fovea shading);
+// fovea, the swapped split: the other way round. An OpenXR runtime's image is not swapped in this
+// slice: the client draws it whole and the agent sends no periphery for it.
+enum class SplitSide { Client, Agent };
+enum class PassDraw {
+    Scaled, // into the top-left scaled_extent(full, SPLITVK_SCALE) (scaled_pass_rect): the periphery
+    Cut,    // at full size, its scissors cut to the foveae (narrow_to_foveae): the foveae
+    Whole,  // as recorded
+};
+// How `side` draws a pass into a swapchain image. `runtime`: an OpenXR runtime's image.
+// `whole_frames`: the agent of a swapped split replays whole frames at full size, because the client
+// verifies (SPLITVK_VERIFY compares with the agent's native frame, PeripheryConfig::whole_frames).
+PassDraw swapchain_pass_draw(SplitSide side, ClientRenders renders, bool runtime, bool whole_frames = false);
+// Whether `side` creates the screen-space targets classify_target finds at SPLITVK_SCALE: the client
+// of the paper's split alone. In the swapped split the client keeps them full size (it cuts its
+// passes into them to a guard) and so does the agent: its scaled passes into the swapchain image
+// sample them by normalised coordinates.
+bool scales_screen_space_targets(SplitSide side, ClientRenders renders);
+
 // `screen`: the extent of the device's newest swapchain; `eyes`: SPLITVK_EYES (Two and Auto also
 // accept one eye's extent, since Auto may find eyes side by side).
 TargetClass classify_target(const VkImageCreateInfo &info, VkExtent2D screen, EyeMode eyes);

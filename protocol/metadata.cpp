@@ -230,6 +230,7 @@ void fields(auto &io, MessageOf<PeripheryConfig> auto &m) {
     io.f64(m.scale, "periphery scale");
     io.flag(m.quality.lossless, "periphery lossless");
     io.u32(m.quality.crf, "periphery crf");
+    io.flag(m.whole_frames, "periphery whole frames");
 }
 
 void fields(auto &io, MessageOf<EncodedTile> auto &t) {

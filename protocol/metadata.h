@@ -172,13 +172,17 @@ struct SplitConfig {
 
 // The swapped split (SPLITVK_CLIENT_RENDERS=fovea; sent only when capability
 // kSwappedSplit was granted, right after SplitConfig): the client renders only the foveae, and the
-// agent replays every pass whole, downsamples each presented window image to
-// split::scaled_extent(image, scale) and sends it as periphery tiles (kTilePeriphery). The decoder
-// refuses a scale outside [split::kMinPeripheryScale, split::kMaxPeripheryScale] (NaN too) and a
-// crf above kMaxPeripheryCrf.
+// agent draws its passes into each window's swapchain image scaled into the top-left
+// split::scaled_extent(image, scale) (split::swapchain_pass_draw) and sends that rectangle as
+// periphery tiles (kTilePeriphery). The decoder refuses a scale outside
+// [split::kMinPeripheryScale, split::kMaxPeripheryScale] (NaN too) and a crf above kMaxPeripheryCrf.
 struct PeripheryConfig {
     double scale = 0.5; // SPLITVK_SCALE
     PeripheryQuality quality;
+    // The client verifies (SPLITVK_VERIFY=full) and compares with the agent's frame, which must then
+    // be the native one: the agent replays every pass whole at full size and downsamples the
+    // presented image to the periphery with a linear blit instead.
+    bool whole_frames = false;
 };
 
 inline constexpr uint32_t kTileKeyframe = 1u << 0; // decodable alone (an IDR for x264)

@@ -130,7 +130,8 @@ bool FoveaShading::PassScissor::same_as(const PassScissor &other) const {
     };
     // A split pass's scissors follow from the viewports, the image's extent and, for a runtime's
     // image, its eyes' foveae: which of a swapchain's images it is does not matter.
-    if (swapchain != other.swapchain || generation != other.generation) return false;
+    if (swapchain != other.swapchain || generation != other.generation || scaled != other.scaled)
+        return false;
     if (extent.width != other.extent.width || extent.height != other.extent.height) return false;
     if (!swapchain) return same_rect(guard, other.guard);
     if (eyes.has_value() != other.eyes.has_value()) return false;

@@ -140,6 +140,9 @@ public:
             eyes;                // an OpenXR runtime's image: where its foveae can be
         VkRect2D guard{};        // a guarded pass: its scissor
         uint64_t generation = 0; // of configure(): a variant is for one eye layout and fovea size
+        // The swapped split's scaled pass into swapchain image `image` (periphery_scaling.h): the
+        // variant's viewports and scissors are scaled instead, for `extent`.
+        bool scaled = false;
         // Whether a variant recorded for `other` narrows exactly as one for this pass would.
         bool same_as(const PassScissor &other) const;
     };

@@ -315,6 +315,7 @@ bool Replayer::vkQueueSubmit(const codec::Decoded_vkQueueSubmit &c) {
     }
     for (uint32_t s = 0; s < c.submitCount; ++s) {
         fovea_.submitted(c.pSubmits[s].commandBufferCount, c.pSubmits[s].pCommandBuffers);
+        scaling_.submitted(c.pSubmits[s].commandBufferCount, c.pSubmits[s].pCommandBuffers);
         guard_.submitted(c.pSubmits[s].commandBufferCount, c.pSubmits[s].pCommandBuffers);
     }
     gpu_busy_ = true;
@@ -350,6 +351,7 @@ bool Replayer::vkQueueSubmit2(const codec::Decoded_vkQueueSubmit2 &c) {
     for (uint32_t s = 0; s < c.submitCount; ++s)
         for (uint32_t i = 0; i < c.pSubmits[s].commandBufferInfoCount; ++i) {
             fovea_.submitted(1, &c.pSubmits[s].pCommandBufferInfos[i].commandBuffer);
+            scaling_.submitted(1, &c.pSubmits[s].pCommandBufferInfos[i].commandBuffer);
             guard_.submitted(1, &c.pSubmits[s].pCommandBufferInfos[i].commandBuffer);
         }
     gpu_busy_ = true;
@@ -488,9 +490,12 @@ bool Replayer::vkDestroyImage(const codec::Decoded_vkDestroyImage &c) {
 bool Replayer::vkCreateGraphicsPipelines(const codec::Decoded_vkCreateGraphicsPipelines &c) {
     auto copy = c;
     copy.pipelineCache = VK_NULL_HANDLE;
-    copy.pCreateInfos = fovea_.prepare_pipelines(c.createInfoCount, c.pCreateInfos);
+    // At most one of the two rewrites: fovea shading is off in the swapped split, scaling outside it.
+    copy.pCreateInfos = scaling_.prepare_pipelines(
+        c.createInfoCount, fovea_.prepare_pipelines(c.createInfoCount, c.pCreateInfos));
     if (!ReplayVisitorBase::vkCreateGraphicsPipelines(copy)) return false;
     fovea_.pipelines_created(c.pPipelines_count, c.pPipelines);
+    scaling_.pipelines_created(c.pPipelines_count, c.pPipelines);
     for (uint32_t i = 0; i < c.createInfoCount && i < c.pPipelines_count; ++i)
         note_pipeline_addresses(c.pPipelines[i], c.pCreateInfos[i].layout, c.pCreateInfos[i].stageCount,
                                 c.pCreateInfos[i].pStages);
@@ -704,14 +709,21 @@ bool Replayer::periphery_config(const protocol::PeripheryConfig &message, std::s
     }
     swapped_ = true;
     periphery_scale_ = message.scale;
-    // The client renders the foveae: every pass here replays whole, as recorded.
+    // The client renders the foveae: no pass here is cut to them (split::swapchain_pass_draw); passes
+    // into window images are drawn scaled, unless the client verifies against whole frames.
     fovea_.set_enabled(false);
+    scaling_.configure(message.scale, message.whole_frames);
     tiles_->set_periphery(message.quality);
     const std::string quality =
         message.quality.lossless ? std::string("lossless") : "CRF " + std::to_string(message.quality.crf);
-    SPLITVK_INFO("session %llu: the swapped split: passes replay whole, presented window images go back "
-                 "downsampled to %.3g, %s",
-                 static_cast<unsigned long long>(session_id_), message.scale, quality.c_str());
+    if (scaling_.enabled())
+        SPLITVK_INFO("session %llu: the swapped split: passes into window images are drawn scaled to %.3g, "
+                     "whose top-left rectangle goes back, %s",
+                     static_cast<unsigned long long>(session_id_), message.scale, quality.c_str());
+    else
+        SPLITVK_INFO("session %llu: the swapped split: passes replay whole (the client verifies), presented "
+                     "window images go back downsampled to %.3g, %s",
+                     static_cast<unsigned long long>(session_id_), message.scale, quality.c_str());
     return true;
 }
 
@@ -751,6 +763,7 @@ bool Replayer::frame_present(const protocol::FramePresent &message,
                 return false;
             }
             auto foveae = fovea_.take_drawn_foveae(image.image_id, message.gaze, message.fovea_size);
+            const PeripheryScaling::Frame drawn = scaling_.take_frame(image.image_id);
             if (i > 0) continue;
             TileStreamer::Frame frame;
             frame.frame = message.frame;
@@ -773,9 +786,11 @@ bool Replayer::frame_present(const protocol::FramePresent &message,
                     runtime_periphery_logged_ = true;
                 } else {
                     frame.periphery = split::scaled_extent(frame.extent, periphery_scale_);
+                    // Drawn scaled: the periphery is the image's top-left rectangle, read in place.
+                    frame.periphery_in_place = drawn == PeripheryScaling::Frame::Scaled;
                 }
             }
-            if (invalid) {
+            if (invalid || drawn == PeripheryScaling::Frame::Mixed) {
                 // Nothing of this frame's fovea (or periphery) is worth reading back or encoding.
                 frame.foveae.clear();
                 frame.periphery = {};
@@ -826,27 +841,32 @@ bool Replayer::frame_present(const protocol::FramePresent &message,
 bool Replayer::vkCreateImageView(const codec::Decoded_vkCreateImageView &c) {
     if (!ReplayVisitorBase::vkCreateImageView(c)) return false;
     fovea_.image_view_created(c.pView[0], *c.pCreateInfo);
+    scaling_.image_view_created(c.pView[0], *c.pCreateInfo);
     return true;
 }
 
 bool Replayer::vkDestroyImageView(const codec::Decoded_vkDestroyImageView &c) {
     fovea_.image_view_destroyed(c.imageView);
+    scaling_.image_view_destroyed(c.imageView);
     return ReplayVisitorBase::vkDestroyImageView(c);
 }
 
 bool Replayer::vkCreateFramebuffer(const codec::Decoded_vkCreateFramebuffer &c) {
     if (!ReplayVisitorBase::vkCreateFramebuffer(c)) return false;
     fovea_.framebuffer_created(c.pFramebuffer[0], *c.pCreateInfo);
+    scaling_.framebuffer_created(c.pFramebuffer[0], *c.pCreateInfo);
     return true;
 }
 
 bool Replayer::vkDestroyFramebuffer(const codec::Decoded_vkDestroyFramebuffer &c) {
     fovea_.framebuffer_destroyed(c.framebuffer);
+    scaling_.framebuffer_destroyed(c.framebuffer);
     return ReplayVisitorBase::vkDestroyFramebuffer(c);
 }
 
 bool Replayer::vkDestroyPipeline(const codec::Decoded_vkDestroyPipeline &c) {
     fovea_.pipeline_destroyed(c.pipeline);
+    scaling_.pipeline_destroyed(c.pipeline);
     untranslatable_pipelines_.erase(c.pipeline);
     return ReplayVisitorBase::vkDestroyPipeline(c);
 }
@@ -857,6 +877,7 @@ bool Replayer::vkBeginCommandBuffer(const codec::Decoded_vkBeginCommandBuffer &c
     if (!recording_variant_) forget_secondary(c.commandBuffer_id);
     if (!ReplayVisitorBase::vkBeginCommandBuffer(c)) return false;
     fovea_.begin_command_buffer(c.commandBuffer, c.pBeginInfo);
+    scaling_.begin_command_buffer(c.commandBuffer, c.pBeginInfo);
     guard_.command_buffer_begun(c.commandBuffer);
     return true;
 }
@@ -884,9 +905,9 @@ void Replayer::keep_secondary_stream(uint64_t id, std::span<const uint8_t> strea
     // application's secondaries are small next to this; past it, the rest are shaded whole.
     constexpr uint64_t kMaxKeptBytes = 64ull << 20;
     const auto *entry = table_.find(id);
-    if (recording_variant_ || !entry ||
-        !fovea_.continues_pass(codec::to_handle<VkCommandBuffer>(entry->handle)))
-        return;
+    if (recording_variant_ || !entry) return;
+    const auto secondary = codec::to_handle<VkCommandBuffer>(entry->handle);
+    if (!fovea_.continues_pass(secondary) && !scaling_.continues_pass(secondary)) return;
     if (kept_stream_bytes_ + stream.size() > kMaxKeptBytes) {
         if (!variant_failed_logged_)
             SPLITVK_WARN(
@@ -949,7 +970,10 @@ VkCommandBuffer Replayer::secondary_variant(uint64_t id, VkCommandBuffer seconda
     const codec::HandleTable::Entry original = *entry;
     table_.remove(id);
     table_.insert(id, original.type, codec::handle_value(variant), original.parent);
-    fovea_.begin_variant(variant, scissor);
+    if (scissor.scaled)
+        scaling_.begin_variant(variant, scissor.image, scissor.extent);
+    else
+        fovea_.begin_variant(variant, scissor);
     const std::string first_error = error_;
     recording_variant_ = true;
     codec::Decoder d(it->second.stream, table_, variant_arena_);
@@ -1110,14 +1134,37 @@ std::vector<VkRect2D> blit_rects(uint32_t count, const Region *regions) {
 } // namespace
 
 bool Replayer::vkCmdBlitImage(const codec::Decoded_vkCmdBlitImage &c) {
-    if (!ReplayVisitorBase::vkCmdBlitImage(c)) return false;
+    std::vector<VkImageBlit> scaled(c.pRegions, c.pRegions + c.regionCount);
+    std::vector<std::array<VkOffset3D, 2>> offsets(c.regionCount);
+    for (uint32_t i = 0; i < c.regionCount; ++i)
+        std::copy_n(scaled[i].dstOffsets, 2, offsets[i].begin());
+    codec::Decoded_vkCmdBlitImage local = c;
+    if (scaling_.scale_blit(c.commandBuffer, c.dstImage, c.regionCount, offsets.data())) {
+        for (uint32_t i = 0; i < c.regionCount; ++i)
+            std::copy_n(offsets[i].begin(), 2, scaled[i].dstOffsets);
+        local.pRegions = scaled.data();
+    }
+    if (!ReplayVisitorBase::vkCmdBlitImage(local)) return false;
     const auto rects = blit_rects(c.regionCount, c.pRegions);
     fovea_.transfer_into(c.commandBuffer, c.dstImage, static_cast<uint32_t>(rects.size()), rects.data());
     return true;
 }
 
 bool Replayer::vkCmdBlitImage2(const codec::Decoded_vkCmdBlitImage2 &c) {
-    if (!ReplayVisitorBase::vkCmdBlitImage2(c)) return false;
+    const VkBlitImageInfo2 &info = *c.pBlitImageInfo;
+    std::vector<VkImageBlit2> scaled(info.pRegions, info.pRegions + info.regionCount);
+    std::vector<std::array<VkOffset3D, 2>> offsets(info.regionCount);
+    for (uint32_t i = 0; i < info.regionCount; ++i)
+        std::copy_n(scaled[i].dstOffsets, 2, offsets[i].begin());
+    VkBlitImageInfo2 local_info = info;
+    codec::Decoded_vkCmdBlitImage2 local = c;
+    if (scaling_.scale_blit(c.commandBuffer, info.dstImage, info.regionCount, offsets.data())) {
+        for (uint32_t i = 0; i < info.regionCount; ++i)
+            std::copy_n(offsets[i].begin(), 2, scaled[i].dstOffsets);
+        local_info.pRegions = scaled.data();
+        local.pBlitImageInfo = &local_info;
+    }
+    if (!ReplayVisitorBase::vkCmdBlitImage2(local)) return false;
     const auto rects = blit_rects(c.pBlitImageInfo->regionCount, c.pBlitImageInfo->pRegions);
     fovea_.transfer_into(c.commandBuffer, c.pBlitImageInfo->dstImage, static_cast<uint32_t>(rects.size()),
                          rects.data());
@@ -1126,6 +1173,7 @@ bool Replayer::vkCmdBlitImage2(const codec::Decoded_vkCmdBlitImage2 &c) {
 
 bool Replayer::vkCmdCopyImage(const codec::Decoded_vkCmdCopyImage &c) {
     if (!ReplayVisitorBase::vkCmdCopyImage(c)) return false;
+    scaling_.whole_write(c.commandBuffer, c.dstImage);
     const auto rects = copy_rects(c.regionCount, c.pRegions);
     fovea_.transfer_into(c.commandBuffer, c.dstImage, static_cast<uint32_t>(rects.size()), rects.data());
     return true;
@@ -1133,6 +1181,7 @@ bool Replayer::vkCmdCopyImage(const codec::Decoded_vkCmdCopyImage &c) {
 
 bool Replayer::vkCmdCopyImage2(const codec::Decoded_vkCmdCopyImage2 &c) {
     if (!ReplayVisitorBase::vkCmdCopyImage2(c)) return false;
+    scaling_.whole_write(c.commandBuffer, c.pCopyImageInfo->dstImage);
     const auto rects = copy_rects(c.pCopyImageInfo->regionCount, c.pCopyImageInfo->pRegions);
     fovea_.transfer_into(c.commandBuffer, c.pCopyImageInfo->dstImage, static_cast<uint32_t>(rects.size()),
                          rects.data());
@@ -1141,6 +1190,7 @@ bool Replayer::vkCmdCopyImage2(const codec::Decoded_vkCmdCopyImage2 &c) {
 
 bool Replayer::vkCmdResolveImage(const codec::Decoded_vkCmdResolveImage &c) {
     if (!ReplayVisitorBase::vkCmdResolveImage(c)) return false;
+    scaling_.whole_write(c.commandBuffer, c.dstImage);
     const auto rects = copy_rects(c.regionCount, c.pRegions);
     fovea_.transfer_into(c.commandBuffer, c.dstImage, static_cast<uint32_t>(rects.size()), rects.data());
     return true;
@@ -1148,6 +1198,7 @@ bool Replayer::vkCmdResolveImage(const codec::Decoded_vkCmdResolveImage &c) {
 
 bool Replayer::vkCmdResolveImage2(const codec::Decoded_vkCmdResolveImage2 &c) {
     if (!ReplayVisitorBase::vkCmdResolveImage2(c)) return false;
+    scaling_.whole_write(c.commandBuffer, c.pResolveImageInfo->dstImage);
     const auto rects = copy_rects(c.pResolveImageInfo->regionCount, c.pResolveImageInfo->pRegions);
     fovea_.transfer_into(c.commandBuffer, c.pResolveImageInfo->dstImage, static_cast<uint32_t>(rects.size()),
                          rects.data());
@@ -1159,18 +1210,24 @@ bool Replayer::vkCmdExecuteCommands(const codec::Decoded_vkCmdExecuteCommands &c
     // which foveae were drawn. A variant's own secondaries (nested command buffers) run as recorded:
     // recording one variant inside another would reuse the arena the outer one is decoded from.
     std::vector<VkCommandBuffer> executed;
-    const auto scissor = recording_variant_ ? std::nullopt : fovea_.pass_scissor(c.commandBuffer);
+    auto scissor = recording_variant_ ? std::nullopt : fovea_.pass_scissor(c.commandBuffer);
+    if (!scissor && !recording_variant_) scissor = scaling_.pass_variant(c.commandBuffer);
     if (scissor && c.pCommandBuffers_ids) {
         executed.assign(c.pCommandBuffers, c.pCommandBuffers + c.commandBufferCount);
         for (uint32_t i = 0; i < c.commandBufferCount; ++i)
             if (const VkCommandBuffer variant =
                     secondary_variant(c.pCommandBuffers_ids[i], c.pCommandBuffers[i], *scissor))
                 executed[i] = variant;
+            else if (scissor->scaled)
+                scaling_.unscaled_secondary(c.commandBuffer); // drawn at full size into a scaled pass
+    } else if (scissor && scissor->scaled) {
+        scaling_.unscaled_secondary(c.commandBuffer);
     }
     codec::Decoded_vkCmdExecuteCommands local = c;
     if (!executed.empty()) local.pCommandBuffers = executed.data();
     if (!ReplayVisitorBase::vkCmdExecuteCommands(local)) return false;
     fovea_.execute_commands(c.commandBuffer, c.commandBufferCount, c.pCommandBuffers);
+    scaling_.execute_commands(c.commandBuffer, c.commandBufferCount, c.pCommandBuffers);
     guard_.executed(c.commandBuffer, c.commandBufferCount, c.pCommandBuffers);
     return true;
 }
@@ -1205,6 +1262,7 @@ bool Replayer::vkCmdPipelineBarrier2(const codec::Decoded_vkCmdPipelineBarrier2 
 bool Replayer::vkCmdBindPipeline(const codec::Decoded_vkCmdBindPipeline &c) {
     if (!ReplayVisitorBase::vkCmdBindPipeline(c)) return false;
     fovea_.bind_pipeline(c.commandBuffer, c.pipelineBindPoint, c.pipeline);
+    scaling_.bind_pipeline(c.commandBuffer, c.pipelineBindPoint, c.pipeline);
     if (const auto it = untranslatable_pipelines_.find(c.pipeline); it != untranslatable_pipelines_.end())
         guard_.untranslatable_address(c.commandBuffer, "a pipeline's shaders use " + it->second);
     return true;
@@ -1213,42 +1271,66 @@ bool Replayer::vkCmdBindPipeline(const codec::Decoded_vkCmdBindPipeline &c) {
 bool Replayer::vkCmdSetViewport(const codec::Decoded_vkCmdSetViewport &c) {
     if (!ReplayVisitorBase::vkCmdSetViewport(c)) return false;
     fovea_.set_viewports(c.commandBuffer, c.firstViewport, c.viewportCount, c.pViewports, false);
+    scaling_.set_viewports(c.commandBuffer, c.firstViewport, c.viewportCount, c.pViewports, false);
     return true;
 }
 
 bool Replayer::vkCmdSetViewportWithCount(const codec::Decoded_vkCmdSetViewportWithCount &c) {
     if (!ReplayVisitorBase::vkCmdSetViewportWithCount(c)) return false;
     fovea_.set_viewports(c.commandBuffer, 0, c.viewportCount, c.pViewports, true);
+    scaling_.set_viewports(c.commandBuffer, 0, c.viewportCount, c.pViewports, true);
     return true;
 }
 
 bool Replayer::vkCmdSetScissor(const codec::Decoded_vkCmdSetScissor &c) {
     if (!vk.CmdSetScissor) return missing("vkCmdSetScissor");
     fovea_.set_scissors(c.commandBuffer, c.firstScissor, c.scissorCount, c.pScissors, false);
+    scaling_.set_scissors(c.commandBuffer, c.firstScissor, c.scissorCount, c.pScissors, false);
     return true;
 }
 
 bool Replayer::vkCmdSetScissorWithCount(const codec::Decoded_vkCmdSetScissorWithCount &c) {
     if (!vk.CmdSetScissorWithCount) return missing("vkCmdSetScissorWithCount");
     fovea_.set_scissors(c.commandBuffer, 0, c.scissorCount, c.pScissors, true);
+    scaling_.set_scissors(c.commandBuffer, 0, c.scissorCount, c.pScissors, true);
     return true;
 }
 
 bool Replayer::vkCmdBeginRenderPass(const codec::Decoded_vkCmdBeginRenderPass &c) {
-    if (!ReplayVisitorBase::vkCmdBeginRenderPass(c)) return false;
+    VkRenderPassBeginInfo begin = *c.pRenderPassBegin;
+    codec::Decoded_vkCmdBeginRenderPass local = c;
+    if (const auto area =
+            scaling_.begin_render_pass(c.commandBuffer, begin, c.contents != VK_SUBPASS_CONTENTS_INLINE)) {
+        begin.renderArea = *area;
+        local.pRenderPassBegin = &begin;
+    }
+    if (!ReplayVisitorBase::vkCmdBeginRenderPass(local)) return false;
     fovea_.begin_render_pass(c.commandBuffer, *c.pRenderPassBegin, c.contents != VK_SUBPASS_CONTENTS_INLINE);
     return true;
 }
 
 bool Replayer::vkCmdBeginRenderPass2(const codec::Decoded_vkCmdBeginRenderPass2 &c) {
-    if (!ReplayVisitorBase::vkCmdBeginRenderPass2(c)) return false;
+    VkRenderPassBeginInfo begin = *c.pRenderPassBegin;
+    codec::Decoded_vkCmdBeginRenderPass2 local = c;
+    if (const auto area = scaling_.begin_render_pass(
+            c.commandBuffer, begin, c.pSubpassBeginInfo->contents != VK_SUBPASS_CONTENTS_INLINE)) {
+        begin.renderArea = *area;
+        local.pRenderPassBegin = &begin;
+    }
+    if (!ReplayVisitorBase::vkCmdBeginRenderPass2(local)) return false;
     fovea_.begin_render_pass(c.commandBuffer, *c.pRenderPassBegin,
                              c.pSubpassBeginInfo->contents != VK_SUBPASS_CONTENTS_INLINE);
     return true;
 }
 
 bool Replayer::vkCmdBeginRendering(const codec::Decoded_vkCmdBeginRendering &c) {
-    if (!ReplayVisitorBase::vkCmdBeginRendering(c)) return false;
+    VkRenderingInfo info = *c.pRenderingInfo;
+    codec::Decoded_vkCmdBeginRendering local = c;
+    if (const auto area = scaling_.begin_rendering(c.commandBuffer, info)) {
+        info.renderArea = *area;
+        local.pRenderingInfo = &info;
+    }
+    if (!ReplayVisitorBase::vkCmdBeginRendering(local)) return false;
     fovea_.begin_rendering(c.commandBuffer, *c.pRenderingInfo);
     return true;
 }
@@ -1256,18 +1338,31 @@ bool Replayer::vkCmdBeginRendering(const codec::Decoded_vkCmdBeginRendering &c) 
 bool Replayer::vkCmdEndRenderPass(const codec::Decoded_vkCmdEndRenderPass &c) {
     if (!ReplayVisitorBase::vkCmdEndRenderPass(c)) return false;
     fovea_.end_pass(c.commandBuffer);
+    scaling_.end_pass(c.commandBuffer);
     return true;
 }
 
 bool Replayer::vkCmdEndRenderPass2(const codec::Decoded_vkCmdEndRenderPass2 &c) {
     if (!ReplayVisitorBase::vkCmdEndRenderPass2(c)) return false;
     fovea_.end_pass(c.commandBuffer);
+    scaling_.end_pass(c.commandBuffer);
     return true;
+}
+
+bool Replayer::vkCmdClearAttachments(const codec::Decoded_vkCmdClearAttachments &c) {
+    const auto rects = scaling_.clear_rects(c.commandBuffer, c.rectCount, c.pRects);
+    if (!rects) return ReplayVisitorBase::vkCmdClearAttachments(c);
+    if (rects->empty()) return true; // clamped away: nothing of it lies in the periphery
+    codec::Decoded_vkCmdClearAttachments local = c;
+    local.rectCount = static_cast<uint32_t>(rects->size());
+    local.pRects = rects->data();
+    return ReplayVisitorBase::vkCmdClearAttachments(local);
 }
 
 bool Replayer::vkCmdEndRendering(const codec::Decoded_vkCmdEndRendering &c) {
     if (!ReplayVisitorBase::vkCmdEndRendering(c)) return false;
     fovea_.end_pass(c.commandBuffer);
+    scaling_.end_pass(c.commandBuffer);
     return true;
 }
 

@@ -11,6 +11,7 @@
 #include "limit_guard.h"
 #include "memory_rebind.h"
 #include "metadata.h"
+#include "periphery_scaling.h"
 #include "queued_writes.h"
 #include "spirv_pointers.h"
 #include "swapchain_images.h"
@@ -72,6 +73,8 @@ public:
 
     // Split passes shaded in the foveae only (fovea_shading.h).
     FoveaShading &fovea() { return fovea_; }
+    // The swapped split's passes drawn scaled (periphery_scaling.h).
+    PeripheryScaling &scaling() { return scaling_; }
 
     uint64_t commands_replayed() const { return commands_; }
     uint64_t submits() const { return submits_; }
@@ -154,6 +157,8 @@ public:
     bool vkCmdEndRenderPass(const codec::Decoded_vkCmdEndRenderPass &c) override;
     bool vkCmdEndRenderPass2(const codec::Decoded_vkCmdEndRenderPass2 &c) override;
     bool vkCmdEndRendering(const codec::Decoded_vkCmdEndRendering &c) override;
+    // The swapped split (periphery_scaling.h): clear rects of a scaled pass.
+    bool vkCmdClearAttachments(const codec::Decoded_vkCmdClearAttachments &c) override;
 
 private:
     // Waits for the GPU when work is in flight: the client destroys, frees, re-records and
@@ -211,6 +216,7 @@ private:
     SwapchainImages swapchains_{context_, table_};
     LimitGuard guard_;
     FoveaShading fovea_{vk, swapchains_};
+    PeripheryScaling scaling_{vk, swapchains_}; // the swapped split's periphery, drawn scaled
     TileStreamer::Send tile_sender_;
     std::unique_ptr<TileStreamer> tiles_; // declared after context_: its worker stops before the device goes
     std::chrono::steady_clock::time_point frame_first_submit_{};

@@ -207,7 +207,7 @@ void TileStreamer::record_copy(Slot &slot) {
         regions.push_back(region);
         offset += VkDeviceSize{rect.extent.width} * rect.extent.height * slot.frame.texel_bytes;
     }
-    if (slot.frame.periphery.width > 0)
+    if (slot.frame.periphery.width > 0 && !slot.frame.periphery_in_place)
         VulkanContext::record_present_downsample(slot.command_buffer, slot.frame.image, slot.frame.layout,
                                                  slot.frame.extent, slot.scaled, periphery_filter_,
                                                  slot.staging, regions);
@@ -228,7 +228,9 @@ bool TileStreamer::prepare_periphery(Slot &slot, Frame &frame, bool *skip, std::
         *skip = true;
         return true;
     }
-    if (frame.format != periphery_format_) {
+    if (frame.periphery_in_place) {
+        // Drawn scaled into the image's top-left: its parts are read in place, with no blit.
+    } else if (frame.format != periphery_format_) {
         if (!context_.blit_filter(frame.format, &periphery_filter_)) {
             *error = std::string("the periphery of ") + format_name(frame.format) +
                      " cannot be blitted on this GPU";
@@ -240,8 +242,9 @@ bool TileStreamer::prepare_periphery(Slot &slot, Frame &frame, bool *skip, std::
                          "downsampled with the nearest filter",
                          format_name(frame.format));
     }
-    if (slot.scaled.format != frame.format || slot.scaled.extent.width != frame.periphery.width ||
-        slot.scaled.extent.height != frame.periphery.height) {
+    if (!frame.periphery_in_place &&
+        (slot.scaled.format != frame.format || slot.scaled.extent.width != frame.periphery.width ||
+         slot.scaled.extent.height != frame.periphery.height)) {
         context_.destroy(slot.scaled);
         if (!context_.create_transfer_image(frame.format, frame.periphery, &slot.scaled, error)) return false;
     }

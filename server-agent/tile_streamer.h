@@ -9,10 +9,11 @@
 // (one encoder per eye, as each eye is a stream of its own: x264 P-frames reference the previous
 // frame of the same eye) and sends the Tiles message.
 //
-// The swapped split (set_periphery): the frame's presented window image is blitted to
-// Frame::periphery with a linear filter into the slot's own scaled image, and the parts of that
-// (split::periphery_parts) are read back, encoded (lossily for 8-bit colour) and sent as tiles
-// flagged kTilePeriphery, the parts on parallel threads as the eyes are.
+// The swapped split (set_periphery): the parts (split::periphery_parts) of the frame's periphery
+// are read back, encoded (lossily for 8-bit colour) and sent as tiles flagged kTilePeriphery, the
+// parts on parallel threads as the eyes are. The periphery is the presented window image's top-left
+// Frame::periphery where the frame was drawn scaled (periphery_scaling.h), read in place; otherwise
+// the image is blitted to Frame::periphery with a linear filter into the slot's own scaled image.
 //
 // Every buffer and region is sized by the image's own format (tile_texel_bytes(), 4 or 8 bytes a
 // texel) and checked against its own extent and layers, whatever the client declared: a frame whose
@@ -75,6 +76,9 @@ public:
         // The swapped split: the scaled extent the image is sent at; foveae are then ignored
         // (present() fills them with the periphery's parts). {0, 0}: the foveae.
         VkExtent2D periphery{};
+        // The swapped split's periphery was drawn scaled into the image's top-left `periphery`
+        // (periphery_scaling.h): read back in place. Otherwise the full-size picture is downsampled.
+        bool periphery_in_place = false;
         tiles::TileQuality quality; // what present() chose for this frame's tiles
         uint32_t texel_bytes = 0;   // present(): tile_texel_bytes(format) of a frame it reads back
         bool invalid = false;       // limit_guard.h, or unreadable: sent as kTilesInvalid, no tiles

@@ -167,12 +167,14 @@ void decide_cut(const DeviceState &dev, PassTarget &t, std::span<const VkImageVi
         if (split_swapped(dev)) t.swapchain = false;
         return;
     }
-    if (t.swapchain && t.runtime) {
+    const split::PassDraw draw =
+        split::swapchain_pass_draw(split::SplitSide::Client, ClientRenders::Fovea, t.runtime);
+    if (t.swapchain && draw == split::PassDraw::Whole) {
         log_runtime_uncut_once();
         t.swapchain = false;
         return;
     }
-    t.cut = t.swapchain;
+    t.cut = t.swapchain && draw == split::PassDraw::Cut;
     if (!t.swapchain && !t.scaled) t.guard = guard_of(dev, views);
 }
 
@@ -282,8 +284,7 @@ void leave_split(DeviceState &dev, VkCommandBuffer cb) {
 }
 
 VkRect2D scaled_area(const VkRect2D &area, VkExtent2D extent) {
-    const VkExtent2D scaled = split::scaled_extent(extent, split_settings().scale);
-    return split::scale_rect(area, split::axis_scale(extent, scaled), scaled);
+    return split::scaled_pass_rect(area, extent, split_settings().scale);
 }
 
 // The images of a render pass instance's attachments, for their final layouts (resource.h).

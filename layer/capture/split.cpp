@@ -129,10 +129,11 @@ VkRect2D cut_scissor(const split::CommandTracker &tracker, size_t index, const V
 
 void emit_viewports(DeviceState &device, VkCommandBuffer command_buffer,
                     const split::CommandTracker &tracker) {
-    const split::AxisScale scale = split::axis_scale(tracker.extent(), split_settings().scale);
+    const double scale = split_settings().scale;
     // A cut pass keeps the app's viewports: only its scissors are cut.
     const auto out = [&](const VkViewport &v) {
-        return tracker.in_split() && !tracker.cut() ? split::scale_viewport(v, scale) : v;
+        return tracker.in_split() && !tracker.cut() ? split::scaled_pass_viewport(v, tracker.extent(), scale)
+                                                    : v;
     };
     std::vector<VkViewport> values;
     if (tracker.static_viewports()) {
@@ -159,12 +160,10 @@ void emit_viewports(DeviceState &device, VkCommandBuffer command_buffer,
 
 void emit_scissors(DeviceState &device, VkCommandBuffer command_buffer,
                    const split::CommandTracker &tracker) {
-    const VkExtent2D scaled = split::scaled_extent(tracker.extent(), split_settings().scale);
-    const split::AxisScale scale = split::axis_scale(tracker.extent(), scaled);
     const Settings &settings = split_settings();
     const auto out = [&](size_t i, const VkRect2D &r) {
         if (!tracker.in_split()) return r;
-        if (!tracker.cut()) return split::scale_rect(r, scale, scaled);
+        if (!tracker.cut()) return split::scaled_pass_rect(r, tracker.extent(), settings.scale);
         return cut_scissor(tracker, i, r, settings);
     };
     std::vector<VkRect2D> values;

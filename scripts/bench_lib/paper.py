@@ -815,15 +815,18 @@ def auto_summary(rounds):
 
 def swapped_summary(rounds):
     """The swapped split's runs (--client-renders fovea): the client's own render (SPLITVK_STATS'
-    periphery_ms, its cut passes on its GPU), the periphery's traffic and decode, late frames; None
-    when it did not run."""
+    periphery_ms, its cut passes on its GPU), the agent's periphery draw (agent_draw_ms: the GPU time
+    of the frame's replay, drawn scaled), the periphery's traffic and decode, late frames; None when it
+    did not run."""
     if not rounds:
         return None
     rows = [r for rnd in rounds for r in rnd]
     seconds = sum(float(r["frame_ms"]) for r in rows) / 1000
     periphery_bytes = [int(r.get("periphery_bytes") or 0) for r in rows]
     own = [float(r["periphery_ms"]) for r in rows if float(r.get("periphery_ms") or 0) > 0]
+    agent = [float(r["agent_draw_ms"]) for r in rows if float(r.get("agent_draw_ms") or 0) > 0]
     return {"client_render": q3(own) if own else None,
+            "agent_draw": q3(agent) if agent else None,
             "mbps": sum(periphery_bytes) * 8 / 1e6 / seconds if seconds else 0.0,
             "kib_per_frame": sum(periphery_bytes) / 1024 / len(rows) if rows else 0.0,
             "decode": split.median([float(r.get("periphery_decode_ms") or 0) for r in rows]),
@@ -1134,6 +1137,10 @@ def print_ratio_lines(res):
                   + (f"{own['median']:.2f} ms, {own['median'] / native:.3f} of native" if own else "not measured")
                   + f"; periphery {swapped['mbps']:.1f} Mbit/s, {swapped['kib_per_frame']:.1f} KiB per frame, "
                   f"decode {swapped['decode']:.2f} ms; {swapped['late']} late of {swapped['frames']}")
+            agent = swapped.get("agent_draw")
+            print("swapped split: agent's periphery draw (GPU, its replay of the frame) "
+                  + (f"{agent['median']:.2f} ms, {agent['median'] / native:.3f} of native" if agent
+                     else "not measured"))
             # Lockstep behind a slower agent alternates a long and a short frame: the means give the rate.
             n_mean, s_mean = per_path[0]["native"].get("mean"), measured["split-swapped"].get("mean")
             if n_mean and s_mean:

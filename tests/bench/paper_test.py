@@ -63,14 +63,16 @@ class Swapped(unittest.TestCase):
 
     def test_its_summary_counts_the_periphery_not_the_tiles(self):
         rows = [{"frame_ms": "50", "periphery_ms": "10", "periphery_bytes": "51200", "periphery_decode_ms": "2",
-                 "tile_bytes": "0", "late": "0"},
+                 "tile_bytes": "0", "late": "0", "agent_draw_ms": "20"},
                 {"frame_ms": "50", "periphery_ms": "12", "periphery_bytes": "51200", "periphery_decode_ms": "4",
-                 "tile_bytes": "0", "late": "1"}]
+                 "tile_bytes": "0", "late": "1", "agent_draw_ms": "30"}]
         s = paper.swapped_summary([rows])
         self.assertAlmostEqual(s["mbps"], 2 * 51200 * 8 / 1e6 / 0.1)
         self.assertAlmostEqual(s["kib_per_frame"], 50.0)
         self.assertEqual((s["late"], s["frames"]), (1, 2))
         self.assertAlmostEqual(s["client_render"]["median"], 11.0)
+        self.assertAlmostEqual(s["agent_draw"]["median"], 25.0)
+        self.assertIsNone(paper.swapped_summary([[dict(rows[0], agent_draw_ms="0")]])["agent_draw"])
         self.assertIsNone(paper.swapped_summary(None))
 
 

@@ -427,13 +427,20 @@ TEST(ProtocolSession, PeripheryConfigRoundTripAndLimits) {
     m.scale = 0.6;
     m.quality = {false, 28};
     const auto bytes = encode(m);
-    EXPECT_EQ(bytes.size(), 16u);
+    EXPECT_EQ(bytes.size(), 20u);
     const auto back = decode_periphery_config(bytes);
     ASSERT_TRUE(back.ok()) << back.error();
     EXPECT_EQ(back->scale, 0.6);
     EXPECT_FALSE(back->quality.lossless);
     EXPECT_EQ(back->quality.crf, 28u);
+    EXPECT_FALSE(back->whole_frames);
     expect_truncations_refused(bytes, decode_periphery_config);
+
+    m.whole_frames = true; // a verifying client's: the agent replays whole frames
+    const auto whole = decode_periphery_config(encode(m));
+    ASSERT_TRUE(whole.ok()) << whole.error();
+    EXPECT_TRUE(whole->whole_frames);
+    m.whole_frames = false;
 
     m.quality = {true, 23};
     const auto lossless = decode_periphery_config(encode(m));
@@ -457,6 +464,9 @@ TEST(ProtocolSession, PeripheryConfigRoundTripAndLimits) {
     EXPECT_FALSE(decode_periphery_config(encode(m)).ok()) << "a crf above 51";
     auto flag = encode(PeripheryConfig{});
     flag[8] = 2; // the lossless flag
+    EXPECT_FALSE(decode_periphery_config(flag).ok());
+    flag = encode(PeripheryConfig{});
+    flag[16] = 2; // the whole-frames flag
     EXPECT_FALSE(decode_periphery_config(flag).ok());
 }
 

@@ -188,5 +188,68 @@ TEST(ScreenSpace, DispatchBaseGroupsScaleLikeTheirRange) {
         }
 }
 
+// Which side draws what (split::swapchain_pass_draw): of a pass into a window's swapchain image,
+// one side draws the periphery scaled and the other the foveae cut, in either split; the swapped
+// split's agent draws whole frames only for a verifying client. Neither side scales screen-space
+// targets in the swapped split: the client's paper split alone does.
+TEST(SplitSides, OneSideScalesWhatTheOtherCuts) {
+    for (ClientRenders renders : {ClientRenders::Periphery, ClientRenders::Fovea}) {
+        const PassDraw client = swapchain_pass_draw(SplitSide::Client, renders, false);
+        const PassDraw agent = swapchain_pass_draw(SplitSide::Agent, renders, false);
+        EXPECT_NE(client, agent);
+        EXPECT_NE(client, PassDraw::Whole);
+        EXPECT_NE(agent, PassDraw::Whole);
+        // Whoever renders the periphery scales.
+        const bool client_periphery = renders == ClientRenders::Periphery;
+        EXPECT_EQ(client == PassDraw::Scaled, client_periphery);
+        EXPECT_EQ(agent == PassDraw::Scaled, !client_periphery);
+    }
+    // The paper's split cuts an OpenXR eye image on the agent and scales it on the client; the
+    // swapped split draws it whole on both (not swapped in this slice).
+    EXPECT_EQ(swapchain_pass_draw(SplitSide::Client, ClientRenders::Periphery, true), PassDraw::Scaled);
+    EXPECT_EQ(swapchain_pass_draw(SplitSide::Agent, ClientRenders::Periphery, true), PassDraw::Cut);
+    EXPECT_EQ(swapchain_pass_draw(SplitSide::Client, ClientRenders::Fovea, true), PassDraw::Whole);
+    EXPECT_EQ(swapchain_pass_draw(SplitSide::Agent, ClientRenders::Fovea, true), PassDraw::Whole);
+    // A verifying client's agent replays the native frame; the client cuts all the same.
+    EXPECT_EQ(swapchain_pass_draw(SplitSide::Agent, ClientRenders::Fovea, false, true), PassDraw::Whole);
+    EXPECT_EQ(swapchain_pass_draw(SplitSide::Client, ClientRenders::Fovea, false, true), PassDraw::Cut);
+    EXPECT_EQ(swapchain_pass_draw(SplitSide::Agent, ClientRenders::Periphery, false, true), PassDraw::Cut);
+
+    EXPECT_TRUE(scales_screen_space_targets(SplitSide::Client, ClientRenders::Periphery));
+    EXPECT_FALSE(scales_screen_space_targets(SplitSide::Agent, ClientRenders::Periphery));
+    EXPECT_FALSE(scales_screen_space_targets(SplitSide::Client, ClientRenders::Fovea));
+    EXPECT_FALSE(scales_screen_space_targets(SplitSide::Agent, ClientRenders::Fovea));
+}
+
+// A scaled pass's rectangles (scaled_pass_rect, scaled_pass_viewport), the ones the client's paper
+// split and the swapped split's agent both draw with: the whole image's area fills the scaled extent
+// exactly, on odd sizes too; a half (an eye) fills its scaled half; viewports scale by the same
+// per-axis factors.
+TEST(SplitSides, ScaledPassRectanglesFillTheScaledExtent) {
+    for (VkExtent2D full : {kScreen, VkExtent2D{1007, 613}, VkExtent2D{2400, 1080}})
+        for (double scale : {0.5, 0.6, 0.25, 1.0}) {
+            const VkExtent2D scaled = scaled_extent(full, scale);
+            const VkRect2D area = scaled_pass_rect({{0, 0}, full}, full, scale);
+            EXPECT_EQ(area.offset.x, 0);
+            EXPECT_EQ(area.offset.y, 0);
+            EXPECT_EQ(area.extent.width, scaled.width) << full.width << " at " << scale;
+            EXPECT_EQ(area.extent.height, scaled.height) << full.height << " at " << scale;
+            const VkViewport v =
+                scaled_pass_viewport({0, 0, float(full.width), float(full.height), 0, 1}, full, scale);
+            EXPECT_FLOAT_EQ(v.width, float(scaled.width));
+            EXPECT_FLOAT_EQ(v.height, float(scaled.height));
+            EXPECT_EQ(v.maxDepth, 1.0f);
+            // The right eye ends where the scaled image does, and starts at or left of its scaled offset.
+            const VkRect2D right = right_eye(full);
+            const VkRect2D r = scaled_pass_rect(right, full, scale);
+            EXPECT_EQ(r.offset.x + r.extent.width, scaled.width);
+            EXPECT_LE(r.offset.x, int32_t(right.offset.x * scale + 1));
+        }
+    // Outside the image: clamped to the scaled extent.
+    const VkRect2D beyond = scaled_pass_rect({{2300, 1000}, {400, 400}}, kScreen, 0.5);
+    EXPECT_EQ(beyond.offset.x + beyond.extent.width, 1200u);
+    EXPECT_EQ(beyond.offset.y + beyond.extent.height, 540u);
+}
+
 } // namespace
 } // namespace splitvk::split

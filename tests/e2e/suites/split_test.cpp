@@ -512,6 +512,11 @@ INSTANTIATE_TEST_SUITE_P(
 // (the default) direct and secondary 0.966, hdr 0.962; lossless 0.977 and 0.975; CRF 35 0.925 and
 // 0.918, below the floor. The floor is the 0.95, 0.012 under the lowest CRF-23 value; the
 // frame with its periphery black scores 0.14.
+// Since the agent draws the periphery at the scale instead of downsampling a full-size frame
+// (server-agent/periphery_scaling.h), CRF 23: direct and secondary 0.9575, hdr 0.9626, deferred
+// 0.9623, multiview 0.9684, compute (a blit, still a downsample) 0.9763: rendered at 0.6 the
+// periphery aliases as the client's own scaled periphery does, a little under the blit's filtered
+// one, so the floor stays where it was.
 constexpr double kSwappedMinSsim = 0.95;
 // The feathered seam's error in its band over the hard seam's (seam_error): at most this.
 constexpr double kSeamBandRatio = 0.75;
@@ -582,6 +587,25 @@ TEST_P(SplitSwapped, FoveaeExactPeripheryClose) {
     EXPECT_TRUE(grep(err, "render their periphery at").empty()) << tail(err, 30);
     EXPECT_TRUE(grep(err, "cannot render the periphery").empty()) << tail(err, 30);
     EXPECT_TRUE(grep(err, "cannot be blended into").empty()) << tail(err, 30); // the seam is feathered
+    // The agent drew the periphery at SPLITVK_SCALE (server-agent/periphery_scaling.h): its passes into
+    // the swapchain image into the top-left 1440x648 (a pass drawn from secondaries executes variants
+    // of them recorded for it). Compute's blit into the image is scaled alike, with no pass to say so.
+    // No frame was downsampled from a full-size picture, nor mixed the two.
+    const std::string agent_log = read_file(out_ / "splitvk-agent.stderr");
+    const std::string path = c.path;
+    if (path == "secondary") {
+        EXPECT_FALSE(grep(agent_log, "secondaries executed in a scaled pass of 2400x1080").empty())
+            << tail(agent_log, 30);
+    }
+    EXPECT_TRUE(grep(agent_log, "periphery is downsampled from the full-size picture").empty())
+        << tail(agent_log, 30);
+    if (path != "compute") {
+        EXPECT_FALSE(
+            grep(agent_log, "swapped split: passes into 2400x1080 swapchain images are drawn at 1440x648")
+                .empty())
+            << tail(agent_log, 30);
+    }
+    EXPECT_TRUE(grep(agent_log, "both scaled and at full size").empty()) << tail(agent_log, 30);
     if (c.guard) {
         EXPECT_FALSE(grep(err, std::string("SPLITVK_CLIENT_GUARD=") + c.guard + ": cutting passes").empty())
             << tail(err, 30);
@@ -715,6 +739,10 @@ TEST_F(Split, SwappedVerifyMeasuresThePeripheryAgainstNative) {
         << tail(err, 30);
     EXPECT_TRUE(grep(err, "cannot render the periphery").empty()) << tail(err, 30);
     EXPECT_TRUE(grep(err, "periphery is the previous frame's").empty()) << tail(err, 30);
+    // The agent replays whole frames for a verifying client (PeripheryConfig::whole_frames): what it
+    // sends back to compare with is the native frame, not one drawn scaled.
+    EXPECT_FALSE(grep(agent_log, "passes replay whole (the client verifies)").empty()) << tail(agent_log, 30);
+    EXPECT_TRUE(grep(agent_log, "swapchain images are drawn at").empty()) << tail(agent_log, 30);
 
     const SwappedVerifySummary s = swapped_verify_summary(err);
     ASSERT_EQ(s.lines, 1) << "no single swapped verify line:\n" << tail(err, 30);
