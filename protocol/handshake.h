@@ -49,7 +49,9 @@ inline constexpr uint32_t kProtocolVersion = make_protocol_version(kProtocolMajo
 //   5: FramePresent carries the frame's fovea size (SPLITVK_FOVEA=auto).
 //   6: FramePresent's gaze also places an OpenXR eye image's first two eyes (SPLITVK_GAZE=openxr, or
 //      fifo under OpenXR), where an older agent kept them at the view directions.
-inline constexpr uint64_t kMetadataLayout = 6;
+//   7: PeripheryConfig carries the periphery's codec (SPLITVK_PERIPHERY_CODEC), and EncodedTile may
+//      name the 4:2:0 codecs.
+inline constexpr uint64_t kMetadataLayout = 7;
 
 // What Hello's codec_fingerprint carries and the server compares: the generated codec's
 // kCodecFingerprint with kMetadataLayout mixed in (FNV-1a over its 8 bytes).

@@ -174,11 +174,12 @@ struct SplitConfig {
 // kSwappedSplit was granted, right after SplitConfig): the client renders only the foveae, and the
 // agent replays every pass whole, downsamples each presented window image to
 // split::scaled_extent(image, scale) and sends it as periphery tiles (kTilePeriphery). The decoder
-// refuses a scale outside [split::kMinPeripheryScale, split::kMaxPeripheryScale] (NaN too) and a
-// crf above kMaxPeripheryCrf.
+// refuses a scale outside [split::kMinPeripheryScale, split::kMaxPeripheryScale] (NaN too), a
+// crf above kMaxPeripheryCrf and an unknown codec.
 struct PeripheryConfig {
     double scale = 0.5; // SPLITVK_SCALE
     PeripheryQuality quality;
+    PeripheryCodec codec = PeripheryCodec::H264; // SPLITVK_PERIPHERY_CODEC
 };
 
 inline constexpr uint32_t kTileKeyframe = 1u << 0; // decodable alone (an IDR for x264)

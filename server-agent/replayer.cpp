@@ -706,9 +706,10 @@ bool Replayer::periphery_config(const protocol::PeripheryConfig &message, std::s
     periphery_scale_ = message.scale;
     // The client renders the foveae: every pass here replays whole, as recorded.
     fovea_.set_enabled(false);
-    tiles_->set_periphery(message.quality);
-    const std::string quality =
-        message.quality.lossless ? std::string("lossless") : "CRF " + std::to_string(message.quality.crf);
+    tiles_->set_periphery(message.quality, message.codec);
+    const std::string quality = message.quality.lossless ? std::string("lossless")
+                                                         : std::string(to_string(message.codec)) + " CRF " +
+                                                               std::to_string(message.quality.crf);
     SPLITVK_INFO("session %llu: the swapped split: passes replay whole, presented window images go back "
                  "downsampled to %.3g, %s",
                  static_cast<unsigned long long>(session_id_), message.scale, quality.c_str());

@@ -12,7 +12,8 @@
 // The swapped split (set_periphery): the frame's presented window image is blitted to
 // Frame::periphery with a linear filter into the slot's own scaled image, and the parts of that
 // (split::periphery_parts) are read back, encoded (lossily for 8-bit colour) and sent as tiles
-// flagged kTilePeriphery, the parts on parallel threads as the eyes are.
+// flagged kTilePeriphery, the parts on parallel threads as the eyes are. A lossy periphery travels in
+// the session's SPLITVK_PERIPHERY_CODEC (4:2:0 H.264 or HEVC, or x264's RGB), a lossless one in x264's RGB.
 //
 // Every buffer and region is sized by the image's own format (tile_texel_bytes(), 4 or 8 bytes a
 // texel) and checked against its own extent and layers, whatever the client declared: a frame whose
@@ -58,8 +59,12 @@ public:
     TileStreamer &operator=(const TileStreamer &) = delete;
 
     void set_codec(TileCodec codec) { codec_ = codec; }
-    // The swapped split's periphery quality; frames with a periphery extent are encoded with it.
-    void set_periphery(PeripheryQuality quality) { periphery_quality_ = quality; }
+    // The swapped split's periphery quality and codec; frames with a periphery extent are encoded
+    // with them.
+    void set_periphery(PeripheryQuality quality, PeripheryCodec codec) {
+        periphery_quality_ = quality;
+        periphery_codec_ = codec;
+    }
 
     struct Frame {
         uint64_t frame = 0;
@@ -76,8 +81,10 @@ public:
         // (present() fills them with the periphery's parts). {0, 0}: the foveae.
         VkExtent2D periphery{};
         tiles::TileQuality quality; // what present() chose for this frame's tiles
-        uint32_t texel_bytes = 0;   // present(): tile_texel_bytes(format) of a frame it reads back
-        bool invalid = false;       // limit_guard.h, or unreadable: sent as kTilesInvalid, no tiles
+        // The swapped split: the codec present() chose for the periphery; unset: the session's.
+        std::optional<TileCodec> periphery_codec;
+        uint32_t texel_bytes = 0; // present(): tile_texel_bytes(format) of a frame it reads back
+        bool invalid = false;     // limit_guard.h, or unreadable: sent as kTilesInvalid, no tiles
         std::chrono::steady_clock::time_point first_submit{}; // of the frame: draw time without timestamps
         std::chrono::steady_clock::time_point present{};      // FramePresent received
     };
@@ -147,6 +154,7 @@ private:
     Send send_;
     TileCodec codec_ = TileCodec::X264;
     PeripheryQuality periphery_quality_;
+    PeripheryCodec periphery_codec_ = PeripheryCodec::H264;
     VkFilter periphery_filter_ = VK_FILTER_LINEAR;
     VkFormat periphery_format_ = VK_FORMAT_UNDEFINED; // the one periphery_filter_ is for
     bool lossless_format_logged_ = false;

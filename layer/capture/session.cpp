@@ -165,9 +165,9 @@ void Session::adopt_locked(AgentLink &&agent) {
         // Right after SplitConfig, and only to an agent that granted the swapped split (a
         // reconnecting one without it was refused by run_reconnect()).
         if (client_renders() == ClientRenders::Fovea && (capabilities & protocol::capability::kSwappedSplit))
-            send_locked(
-                protocol::MessageType::PeripheryConfig,
-                protocol::encode(protocol::PeripheryConfig{settings_.scale, settings_.periphery_quality}));
+            send_locked(protocol::MessageType::PeripheryConfig,
+                        protocol::encode(protocol::PeripheryConfig{
+                            settings_.scale, settings_.periphery_quality, settings_.periphery_codec}));
     }
     stop_receiver_.store(false);
     receiver_ = std::thread([this] { run_receiver(); });
