@@ -707,7 +707,7 @@ struct Yuv420Codec {
 const Yuv420Codec kYuv420Codecs[] = {
     {TileCodec::H264Yuv420, AV_CODEC_ID_H264, "libx264", "high", "x264-params",
      // ultrafast alone would code Constrained Baseline: CABAC and the 8x8 transform make it High.
-     "keyint=infinite:repeat-headers=1:annexb=1:cabac=1:8x8dct=1", kH264Levels, 16},
+     "keyint=infinite:repeat-headers=1:annexb=1:cabac=1:8x8dct=1:deblock=1", kH264Levels, 16},
     {TileCodec::HevcYuv420, AV_CODEC_ID_HEVC, "libx265", "main", "x265-params",
      "keyint=-1:repeat-headers=1:annexb=1:log-level=error:frame-threads=1:pools=2", kHevcLevels, 8},
 };

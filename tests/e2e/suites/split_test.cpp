@@ -668,8 +668,13 @@ INSTANTIATE_TEST_SUITE_P(Swapped, SplitSwapped,
 // and late frames, an earlier frame's periphery behind atrium's animation, 18.0-24.8. The floor sits
 // 1.7 dB under the lowest CRF-23 frame, for other CPUs' rounding, and above CRF 35 and late frames.
 // (multiview, not run here, scores 35.1-35.3: its floor would be lower.)
+// Those are x264's RGB 4:4:4 (SPLITVK_PERIPHERY_CODEC=rgb: 37.8-38.3 dB again with the 4:2:0 codecs
+// in). The 4:2:0 codecs at the same CRF 23 lose chroma: h264 35.8-36.0 dB, hevc 35.6-35.8 (at a
+// fifth and a ninth of the bytes); their floor, kSwapped420MinPsnr, sits 0.6 dB under hevc's lowest
+// frame and still above CRF 35's 4:4:4 and late frames.
 // The ceiling, 99 dB, tells the lossy periphery from a copy of native (equal frames give inf).
 constexpr double kSwappedVerifyMinPsnr = 36.0;
+constexpr double kSwapped420MinPsnr = 35.0;
 constexpr double kSwappedVerifyMaxPsnr = 99.0;
 constexpr int kSwappedVerifyFrames = 12;
 
@@ -716,7 +721,7 @@ TEST_F(Split, SwappedVerifyMeasuresThePeripheryAgainstNative) {
     EXPECT_TRUE(grep(err, "cannot render the periphery").empty()) << tail(err, 30);
     EXPECT_TRUE(grep(err, "periphery is the previous frame's").empty()) << tail(err, 30);
     // The default periphery codec: 4:2:0 H.264 High.
-    EXPECT_EQ(grep(err, "[splitvk] periphery: h264 High 4:2:0, decoded by h264 (").size(), 1u)
+    EXPECT_EQ(grep(err, "[splitvk] info: periphery: h264 High 4:2:0, decoded by h264 (").size(), 1u)
         << tail(err, 30);
 
     const SwappedVerifySummary s = swapped_verify_summary(err);
@@ -725,12 +730,12 @@ TEST_F(Split, SwappedVerifyMeasuresThePeripheryAgainstNative) {
                                                               << tail(err, 30);
     std::cout << "  verify: " << s.frames << " frames, foveae " << s.mismatches
               << " mismatching pixels, PSNR " << s.psnr << " dB (lowest " << s.lowest << " dB; floor "
-              << kSwappedVerifyMinPsnr << ")\n";
+              << kSwapped420MinPsnr << ")\n";
     RecordProperty("psnr_db", std::to_string(s.psnr));
     RecordProperty("lowest_psnr_db", std::to_string(s.lowest));
     EXPECT_EQ(s.frames, static_cast<uint64_t>(kSwappedVerifyFrames)) << tail(err, 30);
     EXPECT_EQ(s.mismatches, 0u) << tail(err, 40);
-    EXPECT_GE(s.lowest, kSwappedVerifyMinPsnr) << tail(err, 30);
+    EXPECT_GE(s.lowest, kSwapped420MinPsnr) << tail(err, 30);
     EXPECT_GE(s.psnr, s.lowest);
     EXPECT_LT(s.psnr, kSwappedVerifyMaxPsnr) << "the periphery equals native: was it the agent's?";
     EXPECT_EQ(grep(err, "verify: " + std::to_string(kSwappedVerifyFrames) +
@@ -787,7 +792,7 @@ TEST_P(SplitPeripheryCodec, DecodesAndMeetsTheFloor) {
     ASSERT_TRUE(r.ok()) << r.describe() << "\n" << tail(r.err(), 30) << "\nagent:\n" << tail(agent_log);
     const std::string &err = r.err();
 
-    const std::regex line(std::string(R"(^\[splitvk\] periphery: )") + c.stream + ", decoded by " +
+    const std::regex line(std::string(R"(^\[splitvk\] info: periphery: )") + c.stream + ", decoded by " +
                           c.decoder + R"( \((VA-API|CUDA|software: .+)\)$)");
     int lines = 0;
     for (const auto &l : split_lines(err))
@@ -804,7 +809,8 @@ TEST_P(SplitPeripheryCodec, DecodesAndMeetsTheFloor) {
     ASSERT_EQ(s.lines, 1) << "no single swapped verify line:\n" << tail(err, 30);
     EXPECT_EQ(s.frames, static_cast<uint64_t>(kSwappedVerifyFrames)) << tail(err, 30);
     EXPECT_EQ(s.mismatches, 0u) << tail(err, 40);
-    EXPECT_GE(s.lowest, kSwappedVerifyMinPsnr) << tail(err, 30);
+    EXPECT_GE(s.lowest, std::string(c.codec) == "rgb" ? kSwappedVerifyMinPsnr : kSwapped420MinPsnr)
+        << tail(err, 30);
     EXPECT_LT(s.psnr, kSwappedVerifyMaxPsnr) << "the periphery equals native: was it the agent's?";
     const auto rows = stats_rows(read_file(out_ / "stats.csv"));
     ASSERT_EQ(rows.size(), static_cast<size_t>(kSwappedVerifyFrames));
@@ -877,7 +883,7 @@ TEST_F(Split, SwappedVerifyComparesLateFramesToo) {
     EXPECT_EQ(grep(err, "showed an earlier periphery (late): PSNR").size(), late) << tail(err, 30);
     // A stale periphery scores below a fresh one, and below the floor: the floor notices it.
     EXPECT_LT(late_highest, fresh_lowest);
-    EXPECT_LT(s.lowest, kSwappedVerifyMinPsnr);
+    EXPECT_LT(s.lowest, kSwapped420MinPsnr);
     expect_clean_validation();
 }
 
