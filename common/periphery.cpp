@@ -21,4 +21,20 @@ bool periphery_lossy_format(VkFormat format) {
     }
 }
 
+bool periphery_blue_first(VkFormat format) {
+    return format == VK_FORMAT_B8G8R8A8_UNORM || format == VK_FORMAT_B8G8R8A8_SRGB;
+}
+
+TileCodec periphery_tile_codec(PeripheryCodec codec) {
+    switch (codec) {
+    case PeripheryCodec::H264:
+        return TileCodec::H264Yuv420;
+    case PeripheryCodec::Hevc:
+        return TileCodec::HevcYuv420;
+    case PeripheryCodec::Rgb:
+        break;
+    }
+    return TileCodec::X264;
+}
+
 } // namespace splitvk::split

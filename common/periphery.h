@@ -6,6 +6,8 @@
 // as Tiles flagged kTilePeriphery, one tile per part below, each in the scaled image's
 // coordinates. The client checks a frame's parts against these before compositing them.
 
+#include "settings.h"
+
 #include <vulkan/vulkan.h>
 
 #include <cstdint>
@@ -26,5 +28,12 @@ std::vector<VkRect2D> periphery_parts(VkExtent2D periphery);
 // (the blit keeps sRGB bytes sRGB, and x264 codes the bytes as they are). Any other 4-byte format
 // travels losslessly, whatever the quality asked.
 bool periphery_lossy_format(VkFormat format);
+
+// Whether byte 0 of a texel of a lossy periphery format is blue (B8G8R8A8): the 4:2:0 codecs convert
+// colour and must know which byte is red.
+bool periphery_blue_first(VkFormat format);
+
+// The tile codec a lossy periphery travels in for each SPLITVK_PERIPHERY_CODEC.
+TileCodec periphery_tile_codec(PeripheryCodec codec);
 
 } // namespace splitvk::split

@@ -56,6 +56,9 @@ const SettingInfo kSettings[] = {
      "fovea: the client renders only the foveae at full resolution and the agent the periphery, lossily"},
     {"PERIPHERY_QUALITY", "0 to 51 (x264 CRF) or lossless", "23",
      "with CLIENT_RENDERS=fovea: how the agent encodes the periphery (lower is better and larger)"},
+    {"PERIPHERY_CODEC", "h264, hevc or rgb", "h264",
+     "with CLIENT_RENDERS=fovea: the lossy periphery's codec: h264 (High, 4:2:0) or hevc (Main, 4:2:0), "
+     "which headsets decode in hardware, or rgb (x264 High 4:4:4 on the RGB bytes, software decoding only)"},
     {"CLIENT_GUARD", "guard:N (N pixels, 0 to 4096) or full", "guard:64",
      "with CLIENT_RENDERS=fovea: the client cuts its passes into screen-space targets to the foveae grown "
      "by N pixels of each target (exact only if N covers every blur's reach); full: renders them whole"},
@@ -346,6 +349,17 @@ bool apply(std::string_view name, std::string_view raw, Settings &s) {
         const auto crf = parse_uint(v);
         if (!crf || *crf > kMaxPeripheryCrf) return false;
         s.periphery_quality = {false, *crf};
+        return true;
+    }
+    if (name == "PERIPHERY_CODEC") {
+        if (v == "h264")
+            s.periphery_codec = PeripheryCodec::H264;
+        else if (v == "hevc")
+            s.periphery_codec = PeripheryCodec::Hevc;
+        else if (v == "rgb")
+            s.periphery_codec = PeripheryCodec::Rgb;
+        else
+            return false;
         return true;
     }
     if (name == "CLIENT_GUARD") {
@@ -689,6 +703,22 @@ const char *to_string(TileCodec codec) {
         return "zstd";
     case TileCodec::Raw:
         return "raw";
+    case TileCodec::H264Yuv420:
+        return "h264";
+    case TileCodec::HevcYuv420:
+        return "hevc";
+    }
+    return "?";
+}
+
+const char *to_string(PeripheryCodec codec) {
+    switch (codec) {
+    case PeripheryCodec::H264:
+        return "h264";
+    case PeripheryCodec::Hevc:
+        return "hevc";
+    case PeripheryCodec::Rgb:
+        return "rgb";
     }
     return "?";
 }

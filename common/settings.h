@@ -21,7 +21,9 @@ namespace splitvk {
 enum class EyeMode { Auto, One, Two };
 // SPLITVK_TLS: auto is TLS for every address but loopback.
 enum class TlsMode { Auto, On, Off };
-enum class TileCodec { X264, Zstd, Raw };
+// X264, Zstd and Raw are the fovea tiles' codecs (SPLITVK_CODEC); H264Yuv420 and HevcYuv420 code
+// only the swapped split's periphery, always lossily (SPLITVK_PERIPHERY_CODEC, tiles/tile_codec.h).
+enum class TileCodec { X264, Zstd, Raw, H264Yuv420, HevcYuv420 };
 // SPLITVK_TARGETS: Auto scales every screen-space target on the client; Swapchain only
 // the passes into the swapchain image, as the first version did.
 enum class TargetMode { Auto, Swapchain };
@@ -59,6 +61,11 @@ struct PeripheryQuality {
     bool operator==(const PeripheryQuality &) const = default;
 };
 inline constexpr uint32_t kMaxPeripheryCrf = 51;
+
+// SPLITVK_PERIPHERY_CODEC: how a lossy periphery travels. H264 (H.264 High 4:2:0) and Hevc (HEVC Main)
+// are what headsets' hardware decoders take; Rgb is x264's High 4:4:4 Predictive on the RGB bytes,
+// which only software decodes, kept for measurement. A lossless periphery is always Rgb.
+enum class PeripheryCodec { H264, Hevc, Rgb };
 
 // SPLITVK_CLIENT_GUARD: in the swapped split, the client's passes into screen-space
 // targets are cut to the foveae grown by `pixels` of each target (the rule of SPLITVK_AGENT_SCISSOR's
@@ -126,6 +133,7 @@ struct Settings {
     AgentScissor agent_scissor;
     ClientRenders client_renders = ClientRenders::Periphery;
     PeripheryQuality periphery_quality;
+    PeripheryCodec periphery_codec = PeripheryCodec::H264;
     ClientGuard client_guard;
     Seam seam;
     GazeMode gaze = GazeMode::Fixed;
@@ -216,6 +224,7 @@ LoadedSettings load_process_settings();
 
 const char *to_string(EyeMode mode);
 const char *to_string(TileCodec codec);
+const char *to_string(PeripheryCodec codec);                   // "h264", "hevc", "rgb"
 std::string to_string(const AgentScissor &scissor);            // "off", "guard:64"
 std::string to_string(GazeMode mode, const std::string &fifo); // "fixed", "openxr", "fifo:/run/gaze"
 const char *to_string(LogLevel level);

@@ -51,7 +51,9 @@ inline constexpr uint32_t kProtocolVersion = make_protocol_version(kProtocolMajo
 //      fifo under OpenXR), where an older agent kept them at the view directions.
 //   7: PeripheryConfig says whether the agent replays whole frames (the client verifies) or draws the
 //      periphery scaled.
-inline constexpr uint64_t kMetadataLayout = 7;
+//   8: PeripheryConfig carries the periphery's codec (SPLITVK_PERIPHERY_CODEC), and EncodedTile may
+//      name the 4:2:0 codecs.
+inline constexpr uint64_t kMetadataLayout = 8;
 
 // What Hello's codec_fingerprint carries and the server compares: the generated codec's
 // kCodecFingerprint with kMetadataLayout mixed in (FNV-1a over its 8 bytes).

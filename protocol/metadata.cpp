@@ -231,6 +231,7 @@ void fields(auto &io, MessageOf<PeripheryConfig> auto &m) {
     io.flag(m.quality.lossless, "periphery lossless");
     io.u32(m.quality.crf, "periphery crf");
     io.flag(m.whole_frames, "periphery whole frames");
+    io.enumeration(m.codec, PeripheryCodec::Rgb, "periphery codec");
 }
 
 void fields(auto &io, MessageOf<EncodedTile> auto &t) {
@@ -239,7 +240,7 @@ void fields(auto &io, MessageOf<EncodedTile> auto &t) {
     io.u32(t.width, "width");
     io.u32(t.height, "height");
     io.u32(t.array_layer, "array_layer");
-    io.enumeration(t.codec, TileCodec::Raw, "tile codec");
+    io.enumeration(t.codec, TileCodec::HevcYuv420, "tile codec");
     io.u32(t.flags, "flags");
     io.blob(t.data, "tile data");
 }
@@ -445,7 +446,7 @@ Result<SplitConfig> decode_split_config(std::span<const uint8_t> payload) {
 }
 
 std::vector<uint8_t> encode(const PeripheryConfig &m) {
-    return encode_fields(m, 16);
+    return encode_fields(m, 20);
 }
 
 Result<PeripheryConfig> decode_periphery_config(std::span<const uint8_t> payload) {

@@ -175,7 +175,8 @@ struct SplitConfig {
 // agent draws its passes into each window's swapchain image scaled into the top-left
 // split::scaled_extent(image, scale) (split::swapchain_pass_draw) and sends that rectangle as
 // periphery tiles (kTilePeriphery). The decoder refuses a scale outside
-// [split::kMinPeripheryScale, split::kMaxPeripheryScale] (NaN too) and a crf above kMaxPeripheryCrf.
+// [split::kMinPeripheryScale, split::kMaxPeripheryScale] (NaN too), a crf above kMaxPeripheryCrf and
+// an unknown codec.
 struct PeripheryConfig {
     double scale = 0.5; // SPLITVK_SCALE
     PeripheryQuality quality;
@@ -183,6 +184,7 @@ struct PeripheryConfig {
     // be the native one: the agent replays every pass whole at full size and downsamples the
     // presented image to the periphery with a linear blit instead.
     bool whole_frames = false;
+    PeripheryCodec codec = PeripheryCodec::H264; // SPLITVK_PERIPHERY_CODEC
 };
 
 inline constexpr uint32_t kTileKeyframe = 1u << 0; // decodable alone (an IDR for x264)

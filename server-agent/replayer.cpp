@@ -713,9 +713,10 @@ bool Replayer::periphery_config(const protocol::PeripheryConfig &message, std::s
     // into window images are drawn scaled, unless the client verifies against whole frames.
     fovea_.set_enabled(false);
     scaling_.configure(message.scale, message.whole_frames);
-    tiles_->set_periphery(message.quality);
-    const std::string quality =
-        message.quality.lossless ? std::string("lossless") : "CRF " + std::to_string(message.quality.crf);
+    tiles_->set_periphery(message.quality, message.codec);
+    const std::string quality = message.quality.lossless ? std::string("lossless")
+                                                         : std::string(to_string(message.codec)) + " CRF " +
+                                                               std::to_string(message.quality.crf);
     if (scaling_.enabled())
         SPLITVK_INFO("session %llu: the swapped split: passes into window images are drawn scaled to %.3g, "
                      "whose top-left rectangle goes back, %s",

@@ -258,7 +258,10 @@ bool TileStreamer::prepare_periphery(Slot &slot, Frame &frame, bool *skip, std::
                      format_name(frame.format));
         lossless_format_logged_ = true;
     }
-    frame.quality = lossy ? tiles::TileQuality{false, periphery_quality_.crf} : tiles::TileQuality{};
+    frame.quality =
+        lossy ? tiles::TileQuality{false, periphery_quality_.crf, split::periphery_blue_first(frame.format)}
+              : tiles::TileQuality{};
+    if (lossy) frame.periphery_codec = split::periphery_tile_codec(periphery_codec_);
     return true;
 }
 
@@ -412,13 +415,15 @@ bool TileStreamer::encode_and_send(Slot &slot, std::string *error) {
     // Each eye is its own stream with its own encoder: encode them on parallel threads (the first
     // on this one) and join before sending, so a frame's tiles travel as one message.
     std::vector<std::string> errors(frame.foveae.size());
-    const TileCodec codec = frame.foveae.empty() ? codec_ : stream_codec(frame);
+    const TileCodec codec = frame.periphery_codec  ? *frame.periphery_codec
+                            : frame.foveae.empty() ? codec_
+                                                   : stream_codec(frame);
     auto encode_eye = [&](size_t eye, const uint8_t *pixels) {
         const VkRect2D &rect = frame.foveae[eye].rect;
         EyeStream &stream = eyes_[eye];
         if (!stream.encoder || stream.width != rect.extent.width || stream.height != rect.extent.height ||
             stream.texel_bytes != frame.texel_bytes || stream.codec != codec ||
-            stream.quality.lossless != frame.quality.lossless || stream.quality.crf != frame.quality.crf) {
+            stream.quality != frame.quality) {
             stream = EyeStream{
                 rect.extent.width, rect.extent.height, frame.texel_bytes, codec, frame.quality, nullptr};
             stream.encoder = tiles::make_tile_encoder(codec, rect.extent.width, rect.extent.height,

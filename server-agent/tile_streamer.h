@@ -14,6 +14,8 @@
 // parts on parallel threads as the eyes are. The periphery is the presented window image's top-left
 // Frame::periphery where the frame was drawn scaled (periphery_scaling.h), read in place; otherwise
 // the image is blitted to Frame::periphery with a linear filter into the slot's own scaled image.
+// A lossy periphery travels in the session's SPLITVK_PERIPHERY_CODEC (4:2:0 H.264 or HEVC, or x264's
+// RGB), a lossless one in x264's RGB.
 //
 // Every buffer and region is sized by the image's own format (tile_texel_bytes(), 4 or 8 bytes a
 // texel) and checked against its own extent and layers, whatever the client declared: a frame whose
@@ -59,8 +61,12 @@ public:
     TileStreamer &operator=(const TileStreamer &) = delete;
 
     void set_codec(TileCodec codec) { codec_ = codec; }
-    // The swapped split's periphery quality; frames with a periphery extent are encoded with it.
-    void set_periphery(PeripheryQuality quality) { periphery_quality_ = quality; }
+    // The swapped split's periphery quality and codec; frames with a periphery extent are encoded
+    // with them.
+    void set_periphery(PeripheryQuality quality, PeripheryCodec codec) {
+        periphery_quality_ = quality;
+        periphery_codec_ = codec;
+    }
 
     struct Frame {
         uint64_t frame = 0;
@@ -80,8 +86,10 @@ public:
         // (periphery_scaling.h): read back in place. Otherwise the full-size picture is downsampled.
         bool periphery_in_place = false;
         tiles::TileQuality quality; // what present() chose for this frame's tiles
-        uint32_t texel_bytes = 0;   // present(): tile_texel_bytes(format) of a frame it reads back
-        bool invalid = false;       // limit_guard.h, or unreadable: sent as kTilesInvalid, no tiles
+        // The swapped split: the codec present() chose for the periphery; unset: the session's.
+        std::optional<TileCodec> periphery_codec;
+        uint32_t texel_bytes = 0; // present(): tile_texel_bytes(format) of a frame it reads back
+        bool invalid = false;     // limit_guard.h, or unreadable: sent as kTilesInvalid, no tiles
         std::chrono::steady_clock::time_point first_submit{}; // of the frame: draw time without timestamps
         std::chrono::steady_clock::time_point present{};      // FramePresent received
     };
@@ -151,6 +159,7 @@ private:
     Send send_;
     TileCodec codec_ = TileCodec::X264;
     PeripheryQuality periphery_quality_;
+    PeripheryCodec periphery_codec_ = PeripheryCodec::H264;
     VkFilter periphery_filter_ = VK_FILTER_LINEAR;
     VkFormat periphery_format_ = VK_FORMAT_UNDEFINED; // the one periphery_filter_ is for
     bool lossless_format_logged_ = false;

@@ -1,5 +1,7 @@
 #include "tile_codec.h"
 
+#include "yuv420.h"
+
 #include <algorithm>
 #include <climits>
 #include <cstdarg>
@@ -10,17 +12,23 @@
 extern "C" {
 #include <libavcodec/avcodec.h>
 #include <libavutil/frame.h>
+#include <libavutil/hwcontext.h>
 #include <libavutil/log.h>
 #include <libavutil/pixdesc.h>
 #include <libavutil/pixfmt.h>
 #include <x264.h>
 }
+#include <dlfcn.h>
+#include <unistd.h>
 #include <zstd.h>
 
 namespace splitvk::tiles {
 
 TileEncoder::~TileEncoder() = default;
 TileDecoder::~TileDecoder() = default;
+std::string TileDecoder::description() const {
+    return {};
+}
 
 namespace {
 
@@ -32,6 +40,7 @@ namespace {
 //            kWideTexels, else 4
 //   x264     u32 size of the H.264 access unit, the access unit (Annex B), then with kAlphaPlane
 //            exactly one zstd frame holding the width*height alpha bytes, else nothing
+//   h264, hevc (4 and 5): as x264, the access unit H.264 or HEVC of Y'CbCr 4:2:0; always kLossy
 //   zstd     exactly one zstd frame holding the width*height*T byte differences
 //   raw      the width*height*T bytes
 //
@@ -42,7 +51,8 @@ constexpr uint8_t kKeyframe = 1u << 0;
 constexpr uint8_t kAlphaPlane = 1u << 1; // x264 only; without it every alpha byte is 255
 constexpr uint8_t kLossy = 1u << 2;      // x264 only: coded at a CRF, no checksum
 constexpr uint8_t kWideTexels = 1u << 3; // 8-byte texels; zstd and raw only
-constexpr uint8_t kKnownFlags = kKeyframe | kAlphaPlane | kLossy | kWideTexels;
+constexpr uint8_t kBlueFirst = 1u << 4;  // 4:2:0 only: byte 0 of a texel is blue (B,G,R,A)
+constexpr uint8_t kKnownFlags = kKeyframe | kAlphaPlane | kLossy | kWideTexels | kBlueFirst;
 
 constexpr uint32_t kMaxTileSide = 16384;
 constexpr int kZstdLevel = 1;
@@ -55,6 +65,10 @@ uint8_t wire_id(TileCodec codec) {
         return 2;
     case TileCodec::Raw:
         return 3;
+    case TileCodec::H264Yuv420:
+        return 4;
+    case TileCodec::HevcYuv420:
+        return 5;
     }
     return 0;
 }
@@ -220,6 +234,26 @@ bool check_checksum(TileCodec codec, const TileHeader &header, uint32_t checksum
 bool check_pixels(TileCodec codec, const TileHeader &header, std::span<const uint8_t> pixels,
                   std::string *error) {
     return check_checksum(codec, header, tile_checksum(pixels.data(), pixels.size()), error);
+}
+
+// The body of a video tile (x264, h264, hevc): the u32 size, the access unit, and what follows it
+// (the alpha plane's zstd frame, or nothing).
+bool split_video_body(std::span<const uint8_t> body, const std::string &name,
+                      std::span<const uint8_t> *stream, std::span<const uint8_t> *rest, std::string *error) {
+    if (body.size() < 4)
+        return fail(error, name + " tile: " + std::to_string(body.size()) +
+                               " bytes after the header, too short for the access unit's size");
+    const uint32_t size = get_u32(body.data());
+    body = body.subspan(4);
+    if (size == 0 || size > body.size())
+        return fail(error, name + " tile: access unit size " + std::to_string(size) + " but " +
+                               std::to_string(body.size()) + " bytes follow");
+    // libavcodec packets are int-sized, padding included.
+    if (size > static_cast<uint32_t>(INT_MAX - AV_INPUT_BUFFER_PADDING_SIZE))
+        return fail(error, name + " tile: access unit size " + std::to_string(size) + " is too large");
+    *stream = body.first(size);
+    *rest = body.subspan(size);
+    return true;
 }
 
 struct ZstdCCtxDeleter {
@@ -486,6 +520,8 @@ public:
         return ok;
     }
 
+    std::string description() const override { return description_; }
+
 private:
     bool decode_tile(std::span<const uint8_t> data, uint8_t *pixels, std::string *error) {
         TileHeader header{};
@@ -499,20 +535,11 @@ private:
         if (!keyframe && !have_reference_)
             return fail(
                 error, "x264 tile: a non-keyframe with no keyframe before it (since the start or a failure)");
-        std::span<const uint8_t> body = data.subspan(kTileHeaderSize);
-        if (body.size() < 4)
-            return fail(error, "x264 tile: " + std::to_string(body.size()) +
-                                   " bytes after the header, too short for the H.264 size");
-        const uint32_t h264_size = get_u32(body.data());
-        body = body.subspan(4);
-        if (h264_size == 0 || h264_size > body.size())
-            return fail(error, "x264 tile: H.264 size " + std::to_string(h264_size) + " but " +
-                                   std::to_string(body.size()) + " bytes follow");
-        // libavcodec packets are int-sized, padding included.
-        if (h264_size > static_cast<uint32_t>(INT_MAX - AV_INPUT_BUFFER_PADDING_SIZE))
-            return fail(error, "x264 tile: H.264 size " + std::to_string(h264_size) + " is too large");
-        const std::span<const uint8_t> h264 = body.first(h264_size);
-        const std::span<const uint8_t> alpha_frame = body.subspan(h264_size);
+        if (header.flags & kBlueFirst)
+            return fail(error, "x264 tile: the blue-first flag is for 4:2:0 tiles only");
+        std::span<const uint8_t> h264, alpha_frame;
+        if (!split_video_body(data.subspan(kTileHeaderSize), "x264", &h264, &alpha_frame, error))
+            return false;
         if (has_alpha) {
             if (!zstd_decompress_exact(alpha_decompressor_.get(), alpha_frame, alpha_, "x264 tile alpha",
                                        error))
@@ -523,6 +550,11 @@ private:
         }
 
         if (!decode_h264(h264, keyframe, error)) return false;
+        if (description_.empty()) {
+            const char *profile = avcodec_profile_name(AV_CODEC_ID_H264, context_->profile);
+            description_ = std::string("rgb ") + (profile ? profile : "(unknown profile)") +
+                           " (GBR), decoded by h264 (software: hardware decoders do not take 4:4:4)";
+        }
         // The one conversion there is (the decoder's GBR planes are its reference frames, and
         // planar): straight into the caller's memory, which is the layer's upload buffer.
         const uint32_t checksum = pack_pixels(has_alpha, pixels);
@@ -617,6 +649,7 @@ private:
     uint32_t width_;
     uint32_t height_;
     bool accept_lossy_;
+    std::string description_; // from the first frame
     std::unique_ptr<AVCodecContext, AvCodecContextDeleter> context_;
     std::unique_ptr<AVPacket, AvPacketDeleter> packet_;
     std::unique_ptr<AVFrame, AvFrameDeleter> frame_;
@@ -624,6 +657,509 @@ private:
     ZstdDecompressor alpha_decompressor_;
     std::vector<uint8_t> alpha_;
     std::vector<uint8_t> row_; // one packed row, in cache
+    bool have_reference_ = false;
+};
+
+// ---------------------------------------------------------------------------------------------
+// 4:2:0 H.264 and HEVC through libavcodec (the swapped split's periphery)
+
+// The frame rate a stream's level is chosen for: headsets' 90 Hz.
+constexpr uint64_t kLevelFrameRate = 90;
+
+// A level's limits in luma samples: H.264's MaxFS and MaxMBPS times 256 (a macroblock's samples),
+// HEVC's MaxLumaPs and MaxLumaSr (ITU-T H.264 table A-1, H.265 table A.8). Levels of the same limits
+// and a higher bit rate only are left out: the first that fits is the lowest.
+struct CodecLevel {
+    int idc;        // H.264 level_idc (10 x level), HEVC general_level_idc (30 x level)
+    uint64_t frame; // samples of a picture
+    uint64_t rate;  // samples a second
+};
+constexpr uint64_t kMb = 256;
+constexpr CodecLevel kH264Levels[] = {
+    {10, 99 * kMb, 1485 * kMb},        {11, 396 * kMb, 3000 * kMb},        {12, 396 * kMb, 6000 * kMb},
+    {13, 396 * kMb, 11880 * kMb},      {21, 792 * kMb, 19800 * kMb},       {22, 1620 * kMb, 20250 * kMb},
+    {30, 1620 * kMb, 40500 * kMb},     {31, 3600 * kMb, 108000 * kMb},     {32, 5120 * kMb, 216000 * kMb},
+    {40, 8192 * kMb, 245760 * kMb},    {42, 8704 * kMb, 522240 * kMb},     {50, 22080 * kMb, 589824 * kMb},
+    {51, 36864 * kMb, 983040 * kMb},   {52, 36864 * kMb, 2073600 * kMb},   {60, 139264 * kMb, 4177920 * kMb},
+    {61, 139264 * kMb, 8355840 * kMb}, {62, 139264 * kMb, 16711680 * kMb},
+};
+constexpr CodecLevel kHevcLevels[] = {
+    {30, 36864, 552960},         {60, 122880, 3686400},       {63, 245760, 7372800},
+    {90, 552960, 16588800},      {93, 983040, 33177600},      {120, 2228224, 66846720},
+    {123, 2228224, 133693440},   {150, 8912896, 267386880},   {153, 8912896, 534773760},
+    {156, 8912896, 1069547520},  {180, 35651584, 1069547520}, {183, 35651584, 2139095040},
+    {186, 35651584, 4278190080},
+};
+
+// One row per 4:2:0 codec: the one place its encoder, decoder and stream shape are chosen.
+struct Yuv420Codec {
+    TileCodec codec;
+    AVCodecID id;
+    const char *encoder;    // libavcodec's wrapper of the encoding library
+    const char *profile;    // its profile option: High and Main are what hardware decoders take
+    const char *params_key; // the wrapper's option that passes the library's own parameters
+    // Infinite GOP (an IDR only when asked for), headers with every IDR so that one decodes alone,
+    // the library's log quiet; the level is appended.
+    const char *params;
+    std::span<const CodecLevel> levels;
+    uint32_t block; // the coded size is rounded up to this for the level check
+};
+const Yuv420Codec kYuv420Codecs[] = {
+    {TileCodec::H264Yuv420, AV_CODEC_ID_H264, "libx264", "high", "x264-params",
+     // ultrafast alone would code Constrained Baseline: CABAC and the 8x8 transform make it High.
+     "keyint=infinite:repeat-headers=1:annexb=1:cabac=1:8x8dct=1:deblock=1", kH264Levels, 16},
+    {TileCodec::HevcYuv420, AV_CODEC_ID_HEVC, "libx265", "main", "x265-params",
+     "keyint=-1:repeat-headers=1:annexb=1:log-level=error:frame-threads=1:pools=2", kHevcLevels, 8},
+};
+
+const Yuv420Codec *yuv420_codec(TileCodec codec) {
+    for (const Yuv420Codec &row : kYuv420Codecs)
+        if (row.codec == codec) return &row;
+    return nullptr;
+}
+
+// The lowest level whose picture size (and the side that bounds, sqrt(8 x MaxFS)) and sample rate
+// at kLevelFrameRate fit `width` x `height`; 0 when none does.
+int lowest_level(const Yuv420Codec &codec, uint32_t width, uint32_t height) {
+    const uint64_t w = (uint64_t{width} + codec.block - 1) / codec.block * codec.block;
+    const uint64_t h = (uint64_t{height} + codec.block - 1) / codec.block * codec.block;
+    for (const CodecLevel &level : codec.levels)
+        if (w * h <= level.frame && w * h * kLevelFrameRate <= level.rate && w * w <= 8 * level.frame &&
+            h * h <= 8 * level.frame)
+            return level.idc;
+    return 0;
+}
+
+std::string level_text(const Yuv420Codec &codec, int idc) {
+    const int tenths = codec.id == AV_CODEC_ID_HEVC ? idc / 3 : idc;
+    return std::to_string(tenths / 10) + "." + std::to_string(tenths % 10);
+}
+
+uint32_t even(uint32_t size) {
+    return (size + 1) & ~1u;
+}
+
+// libavcodec's logs about our own contexts become debug lines: failures reach *error instead.
+constexpr int kQuietLogOffset = AV_LOG_DEBUG - AV_LOG_ERROR;
+
+class Yuv420TileEncoder final : public TileEncoder {
+public:
+    Yuv420TileEncoder(const Yuv420Codec &codec, uint32_t width, uint32_t height, const TileQuality &quality)
+        : codec_(codec), width_(width), height_(height), quality_(quality) {}
+
+    bool open(std::string *error) {
+        const char *name = splitvk::to_string(codec_.codec);
+        const AVCodec *encoder = avcodec_find_encoder_by_name(codec_.encoder);
+        if (!encoder)
+            return fail(error,
+                        std::string(name) + " tiles: this FFmpeg has no " + codec_.encoder + " encoder");
+        const int level = lowest_level(codec_, width_, height_);
+        if (level == 0)
+            return fail(error, std::string(name) + " tiles: " + size_text(width_, height_) +
+                                   " at 90 Hz fits no level");
+        context_.reset(avcodec_alloc_context3(encoder));
+        frame_.reset(av_frame_alloc());
+        packet_.reset(av_packet_alloc());
+        if (!context_ || !frame_ || !packet_) return fail(error, std::string(name) + " tiles: out of memory");
+        AVCodecContext &c = *context_;
+        c.width = static_cast<int>(even(width_));
+        c.height = static_cast<int>(even(height_));
+        c.pix_fmt = AV_PIX_FMT_YUV420P;
+        c.time_base = {1, static_cast<int>(kLevelFrameRate)};
+        c.framerate = {static_cast<int>(kLevelFrameRate), 1};
+        c.level = level; // libx264 takes it from here; libx265 from its parameters below
+        // What the VUI says, and what yuv420.h does: BT.709 throughout, full range, the bytes' own
+        // transfer (sRGB), chroma centred in its luma block.
+        c.color_range = AVCOL_RANGE_JPEG;
+        c.colorspace = AVCOL_SPC_BT709;
+        c.color_primaries = AVCOL_PRI_BT709;
+        c.color_trc = AVCOL_TRC_IEC61966_2_1;
+        c.chroma_sample_location = AVCHROMA_LOC_CENTER;
+        // Slice threads, as the RGB tiles' x264: no frame of latency.
+        c.thread_count = 2;
+        c.thread_type = FF_THREAD_SLICE;
+        c.slices = 4;
+        c.log_level_offset = kQuietLogOffset;
+        AVDictionary *options = nullptr;
+        av_dict_set(&options, "preset", "ultrafast", 0);
+        av_dict_set(&options, "tune", "zerolatency", 0);
+        av_dict_set(&options, "profile", codec_.profile, 0);
+        av_dict_set(&options, "crf", std::to_string(quality_.crf).c_str(), 0);
+        av_dict_set(&options, "forced-idr", "1", 0); // an I frame asked for is an IDR
+        const std::string params =
+            std::string(codec_.params) +
+            (codec_.id == AV_CODEC_ID_HEVC ? ":level-idc=" + level_text(codec_, level) : std::string());
+        av_dict_set(&options, codec_.params_key, params.c_str(), 0);
+        const int opened = avcodec_open2(context_.get(), encoder, &options);
+        // avcodec_open2 leaves in `options` what the encoder did not take.
+        const AVDictionaryEntry *unused = av_dict_get(options, "", nullptr, AV_DICT_IGNORE_SUFFIX);
+        const std::string unused_key = unused ? unused->key : "";
+        av_dict_free(&options);
+        if (opened < 0)
+            return fail(error, std::string(name) + " tiles: cannot open " + codec_.encoder + " for " +
+                                   size_text(width_, height_) + ": " + av_error_text(opened));
+        if (!unused_key.empty())
+            return fail(error, std::string(name) + " tiles: " + codec_.encoder +
+                                   " does not take the option " + unused_key);
+        frame_->format = AV_PIX_FMT_YUV420P;
+        frame_->width = c.width;
+        frame_->height = c.height;
+        const int allocated = av_frame_get_buffer(frame_.get(), 0);
+        if (allocated < 0) return fail(error, std::string(name) + " tiles: " + av_error_text(allocated));
+        return true;
+    }
+
+    bool encode(const uint8_t *pixels, std::vector<uint8_t> &out, bool *keyframe,
+                std::string *error) override {
+        const bool ok = encode_frame(pixels, out, keyframe, error);
+        keyframe_pending_ = !ok; // as X264TileEncoder: an unsent frame loses the decoder's reference
+        return ok;
+    }
+
+    void force_keyframe() override { keyframe_pending_ = true; }
+
+private:
+    bool encode_frame(const uint8_t *pixels, std::vector<uint8_t> &out, bool *keyframe, std::string *error) {
+        const std::string name = splitvk::to_string(codec_.codec);
+        // The encoder may still hold the previous frame's buffers.
+        const int writable = av_frame_make_writable(frame_.get());
+        if (writable < 0) return fail(error, name + " tiles: " + av_error_text(writable));
+        const Yuv420Planes planes{frame_->data[0],     frame_->data[1],     frame_->data[2],
+                                  frame_->linesize[0], frame_->linesize[1], 1};
+        rgb_to_yuv420(pixels, size_t{width_} * 4, width_, height_, ChannelOrder{quality_.blue_first}, planes,
+                      even(width_), even(height_));
+        frame_->pict_type = keyframe_pending_ ? AV_PICTURE_TYPE_I : AV_PICTURE_TYPE_NONE;
+        frame_->pts = next_pts_++;
+        const int sent = avcodec_send_frame(context_.get(), frame_.get());
+        if (sent < 0) return fail(error, name + " tiles: encoding failed: " + av_error_text(sent));
+        const int received = avcodec_receive_packet(context_.get(), packet_.get());
+        // tune zerolatency: no lookahead, B-frames or frame threads, every frame comes out at once.
+        if (received == AVERROR(EAGAIN))
+            return fail(error,
+                        name + " tiles: the encoder delayed a frame (expected none with tune zerolatency)");
+        if (received < 0) return fail(error, name + " tiles: encoding failed: " + av_error_text(received));
+        const bool key = (packet_->flags & AV_PKT_FLAG_KEY) != 0;
+        if (keyframe_pending_ && !key) {
+            av_packet_unref(packet_.get());
+            return fail(error, name + " tiles: an IDR was requested but the encoder produced a non-keyframe");
+        }
+        const bool opaque = opaque_or_extract_alpha(pixels, size_t{width_} * height_, alpha_);
+        put_header(out, codec_.codec,
+                   static_cast<uint8_t>((key ? kKeyframe : 0) | (opaque ? 0 : kAlphaPlane) | kLossy |
+                                        (quality_.blue_first ? kBlueFirst : 0)),
+                   TileShape{width_, height_, 4}, pixels);
+        put_u32(out, static_cast<uint32_t>(packet_->size));
+        out.insert(out.end(), packet_->data, packet_->data + packet_->size);
+        av_packet_unref(packet_.get());
+        if (!opaque) {
+            if (!alpha_compressor_) alpha_compressor_.reset(ZSTD_createCCtx());
+            if (!alpha_compressor_) return fail(error, name + " tile alpha: cannot create a zstd context");
+            if (!zstd_append(alpha_compressor_.get(), alpha_, out, (name + " tile alpha").c_str(), error))
+                return false;
+        }
+        *keyframe = key;
+        return true;
+    }
+
+    const Yuv420Codec &codec_;
+    uint32_t width_;
+    uint32_t height_;
+    TileQuality quality_;
+    std::unique_ptr<AVCodecContext, AvCodecContextDeleter> context_;
+    std::unique_ptr<AVFrame, AvFrameDeleter> frame_;
+    std::unique_ptr<AVPacket, AvPacketDeleter> packet_;
+    bool keyframe_pending_ = true;
+    int64_t next_pts_ = 0;
+    std::vector<uint8_t> alpha_;
+    ZstdCompressor alpha_compressor_;
+};
+
+// The hardware the decoder tries, in order, each through libavcodec's hwaccel of the same decoder.
+// `device` finds the device to open, or says why there is none: libavcodec's own probing (every
+// DRM node, then the X display; dlopen of the CUDA driver) logs its failures to the application's
+// stderr, which a machine without the hardware must not see.
+struct HardwareDecoder {
+    AVHWDeviceType type;
+    const char *name;
+    bool (*device)(std::string *path, std::string *why);
+};
+
+bool vaapi_device(std::string *path, std::string *why) {
+    // The first DRM render node: VA-API drivers are opened on render nodes.
+    for (int node = 128; node < 136; ++node) {
+        const std::string candidate = "/dev/dri/renderD" + std::to_string(node);
+        if (::access(candidate.c_str(), R_OK | W_OK) == 0) {
+            *path = candidate;
+            return true;
+        }
+    }
+    *why = "no VA-API device";
+    return false;
+}
+
+bool cuda_device(std::string *path, std::string *why) {
+    // libavutil loads the CUDA driver itself; see first whether there is one to load.
+    void *driver = ::dlopen("libcuda.so.1", RTLD_LAZY | RTLD_LOCAL);
+    if (!driver) {
+        *why = "no CUDA device";
+        return false;
+    }
+    ::dlclose(driver);
+    path->clear(); // the first CUDA device
+    return true;
+}
+
+constexpr HardwareDecoder kHardwareDecoders[] = {{AV_HWDEVICE_TYPE_VAAPI, "VA-API", &vaapi_device},
+                                                 {AV_HWDEVICE_TYPE_CUDA, "CUDA", &cuda_device}};
+
+class Yuv420TileDecoder final : public TileDecoder {
+public:
+    Yuv420TileDecoder(const Yuv420Codec &codec, uint32_t width, uint32_t height)
+        : codec_(codec), width_(width), height_(height), alpha_(size_t{width} * height) {}
+
+    bool open(std::string *error) {
+        const char *name = splitvk::to_string(codec_.codec);
+        decoder_ = avcodec_find_decoder(codec_.id);
+        if (!decoder_) return fail(error, std::string("libavcodec has no decoder for ") + name + " tiles");
+        context_.reset(avcodec_alloc_context3(decoder_));
+        packet_.reset(av_packet_alloc());
+        frame_.reset(av_frame_alloc());
+        software_frame_.reset(av_frame_alloc());
+        extra_frame_.reset(av_frame_alloc());
+        alpha_decompressor_.reset(ZSTD_createDCtx());
+        if (!context_ || !packet_ || !frame_ || !software_frame_ || !extra_frame_ || !alpha_decompressor_)
+            return fail(error, std::string(name) + " tile decoder: out of memory");
+        open_hardware();
+        context_->opaque = this;
+        context_->get_format = &Yuv420TileDecoder::choose_format;
+        context_->flags |= AV_CODEC_FLAG_LOW_DELAY;
+        context_->thread_type = FF_THREAD_SLICE;
+        context_->thread_count = 2;
+        context_->err_recognition = AV_EF_EXPLODE | AV_EF_BITSTREAM | AV_EF_BUFFER;
+        // As the RGB tiles' decoder: what a forged SPS can make it allocate is bounded by the tile.
+        context_->max_pixels = int64_t{(even(width_) + 63) / 64 * 64 + 64} * ((even(height_) + 63) / 64 * 64);
+        context_->log_level_offset = kQuietLogOffset;
+        const int opened = avcodec_open2(context_.get(), decoder_, nullptr);
+        if (opened < 0)
+            return fail(error, std::string("cannot open libavcodec's ") + decoder_->name +
+                                   " decoder: " + av_error_text(opened));
+        return true;
+    }
+
+    bool decode(std::span<const uint8_t> data, uint8_t *pixels, std::string *error) override {
+        const bool ok = decode_tile(data, pixels, error);
+        if (!ok && have_reference_) {
+            avcodec_flush_buffers(context_.get());
+            have_reference_ = false;
+        }
+        return ok;
+    }
+
+    std::string description() const override {
+        if (stream_.empty()) return {};
+        return stream_ + ", decoded by " + decoder_->name + " (" + decoded_by_ + ")";
+    }
+
+private:
+    // A device of the first kind of kHardwareDecoders this decoder has a hwaccel for and the machine
+    // has; none: software, and why, for description().
+    void open_hardware() {
+        std::string why;
+        for (const HardwareDecoder &hardware : kHardwareDecoders) {
+            AVPixelFormat format = AV_PIX_FMT_NONE;
+            for (int i = 0;; ++i) {
+                const AVCodecHWConfig *config = avcodec_get_hw_config(decoder_, i);
+                if (!config) break;
+                if ((config->methods & AV_CODEC_HW_CONFIG_METHOD_HW_DEVICE_CTX) &&
+                    config->device_type == hardware.type) {
+                    format = config->pix_fmt;
+                    break;
+                }
+            }
+            if (format == AV_PIX_FMT_NONE) {
+                why += (why.empty() ? "" : ", ") + std::string("no ") + hardware.name + " in this FFmpeg";
+                continue;
+            }
+            std::string path, missing;
+            if (!hardware.device(&path, &missing)) {
+                why += (why.empty() ? "" : ", ") + missing;
+                continue;
+            }
+            AVBufferRef *device = nullptr;
+            const int created = av_hwdevice_ctx_create(&device, hardware.type,
+                                                       path.empty() ? nullptr : path.c_str(), nullptr, 0);
+            if (created < 0) {
+                why += (why.empty() ? "" : ", ") + std::string("no ") + hardware.name + " (" +
+                       (path.empty() ? std::string() : path + ": ") + av_error_text(created) + ")";
+                continue;
+            }
+            context_->hw_device_ctx = device; // the context owns it now
+            hardware_format_ = format;
+            hardware_name_ = hardware.name;
+            return;
+        }
+        software_reason_ = "software: " + why;
+    }
+
+    // libavcodec's choice of output format: the device's where the decoder offers it (it does not for
+    // a stream the hardware cannot decode), else the software one.
+    static AVPixelFormat choose_format(AVCodecContext *context, const AVPixelFormat *formats) {
+        const auto *self = static_cast<const Yuv420TileDecoder *>(context->opaque);
+        AVPixelFormat software = AV_PIX_FMT_NONE;
+        for (const AVPixelFormat *f = formats; *f != AV_PIX_FMT_NONE; ++f) {
+            if (*f == self->hardware_format_ && self->hardware_format_ != AV_PIX_FMT_NONE) return *f;
+            const AVPixFmtDescriptor *descriptor = av_pix_fmt_desc_get(*f);
+            if (software == AV_PIX_FMT_NONE && descriptor && !(descriptor->flags & AV_PIX_FMT_FLAG_HWACCEL))
+                software = *f;
+        }
+        return software;
+    }
+
+    bool decode_tile(std::span<const uint8_t> data, uint8_t *pixels, std::string *error) {
+        const std::string name = splitvk::to_string(codec_.codec);
+        TileHeader header{};
+        if (!read_header(data, codec_.codec, TileShape{width_, height_, 4}, &header, error)) return false;
+        const bool keyframe = (header.flags & kKeyframe) != 0;
+        const bool has_alpha = (header.flags & kAlphaPlane) != 0;
+        if (!(header.flags & kLossy) || header.checksum != 0)
+            return fail(error, name + " tile: not flagged lossy without a checksum, as every 4:2:0 tile is");
+        if (!keyframe && !have_reference_)
+            return fail(
+                error,
+                name + " tile: a non-keyframe with no keyframe before it (since the start or a failure)");
+        std::span<const uint8_t> stream, alpha_frame;
+        if (!split_video_body(data.subspan(kTileHeaderSize), name, &stream, &alpha_frame, error))
+            return false;
+        if (has_alpha) {
+            if (!zstd_decompress_exact(alpha_decompressor_.get(), alpha_frame, alpha_,
+                                       (name + " tile alpha").c_str(), error))
+                return false;
+        } else if (!alpha_frame.empty()) {
+            return fail(error, name + " tile: " + std::to_string(alpha_frame.size()) +
+                                   " bytes after the access unit");
+        }
+        if (!decode_access_unit(stream, keyframe, error)) return false;
+        pack_pixels(has_alpha, ChannelOrder{(header.flags & kBlueFirst) != 0}, pixels);
+        av_frame_unref(frame_.get());
+        av_frame_unref(software_frame_.get());
+        have_reference_ = true;
+        return true;
+    }
+
+    bool decode_access_unit(std::span<const uint8_t> stream, bool keyframe, std::string *error) {
+        const std::string name = splitvk::to_string(codec_.codec);
+        const int allocated = av_new_packet(packet_.get(), static_cast<int>(stream.size()));
+        if (allocated < 0)
+            return fail(error, name + " tile: cannot allocate a packet: " + av_error_text(allocated));
+        std::memcpy(packet_->data, stream.data(), stream.size());
+        const int sent = avcodec_send_packet(context_.get(), packet_.get());
+        av_packet_unref(packet_.get());
+        if (sent < 0) return fail(error, name + " tile: decoding failed: " + av_error_text(sent));
+        const int received = avcodec_receive_frame(context_.get(), frame_.get());
+        if (received == AVERROR(EAGAIN))
+            return fail(error, name + " tile: the decoder returned no frame for the access unit");
+        if (received < 0) return fail(error, name + " tile: decoding failed: " + av_error_text(received));
+        const bool more = avcodec_receive_frame(context_.get(), extra_frame_.get()) >= 0;
+        av_frame_unref(extra_frame_.get());
+        bool ok = !more || fail(error, name + " tile: the data decoded to more than one frame");
+        ok = ok && check_frame(keyframe, error);
+        if (ok && frame_->format == hardware_format_) {
+            // The device's surface, read back as NV12 (or what the driver gives; checked below).
+            const int transferred = av_hwframe_transfer_data(software_frame_.get(), frame_.get(), 0);
+            ok = transferred >= 0 || fail(error, name + " tile: cannot read the " + hardware_name_ +
+                                                     " frame back: " + av_error_text(transferred));
+        }
+        const AVFrame &planes = frame_->format == hardware_format_ ? *software_frame_ : *frame_;
+        ok = ok && check_planes(planes, error);
+        if (!ok) {
+            av_frame_unref(frame_.get());
+            av_frame_unref(software_frame_.get());
+            return false;
+        }
+        if (stream_.empty()) {
+            const char *profile = avcodec_profile_name(codec_.id, context_->profile);
+            stream_ = name + " " + (profile ? profile : "(unknown profile)") + " 4:2:0";
+            decoded_by_ = frame_->format == hardware_format_ ? hardware_name_
+                          : software_reason_.empty()
+                              ? "software: the " + hardware_name_ + " decoder does not take this stream"
+                              : software_reason_;
+        }
+        return true;
+    }
+
+    // The decoded frame is what our encoder makes and nothing else: its size, full-range BT.709,
+    // undamaged, keyframe as the header says.
+    bool check_frame(bool keyframe, std::string *error) const {
+        const std::string name = splitvk::to_string(codec_.codec);
+        const AVFrame &frame = *frame_;
+        if (frame.width != static_cast<int>(even(width_)) || frame.height != static_cast<int>(even(height_)))
+            return fail(error, name + " tile: decoded " +
+                                   size_text(static_cast<uint32_t>(frame.width),
+                                             static_cast<uint32_t>(frame.height)) +
+                                   ", the stream codes " + size_text(even(width_), even(height_)));
+        if (frame.decode_error_flags != 0 || (frame.flags & AV_FRAME_FLAG_CORRUPT))
+            return fail(error, name + " tile: the decoder reported a damaged frame");
+        if (frame.color_range != AVCOL_RANGE_JPEG || frame.colorspace != AVCOL_SPC_BT709)
+            return fail(error, name + " tile: the stream is not full-range BT.709");
+        if ((frame.key_frame != 0) != keyframe)
+            return fail(error, name + " tile: the header says " + (keyframe ? "keyframe" : "non-keyframe") +
+                                   " but the frame is " + (frame.key_frame ? "one" : "not"));
+        return true;
+    }
+
+    bool check_planes(const AVFrame &planes, std::string *error) const {
+        const auto format = static_cast<AVPixelFormat>(planes.format);
+        if (format == AV_PIX_FMT_YUV420P || format == AV_PIX_FMT_YUVJ420P || format == AV_PIX_FMT_NV12) {
+            if (planes.width >= static_cast<int>(width_) && planes.height >= static_cast<int>(height_))
+                return true;
+            return fail(error, std::string(splitvk::to_string(codec_.codec)) +
+                                   " tile: planes smaller than the tile");
+        }
+        const char *format_name = av_get_pix_fmt_name(format);
+        return fail(error, std::string(splitvk::to_string(codec_.codec)) + " tile: decoded pixel format " +
+                               (format_name ? format_name : "unknown") + ", expected 8-bit 4:2:0");
+    }
+
+    // Converted row by row in cache and written out whole, as X264TileDecoder packs its rows: `pixels`
+    // may be write-combined upload memory.
+    void pack_pixels(bool has_alpha, ChannelOrder order, uint8_t *pixels) {
+        const AVFrame &frame = frame_->format == hardware_format_ ? *software_frame_ : *frame_;
+        const bool interleaved = frame.format == AV_PIX_FMT_NV12;
+        const Yuv420Planes planes{
+            frame.data[0],     frame.data[1],     interleaved ? frame.data[1] + 1 : frame.data[2],
+            frame.linesize[0], frame.linesize[1], interleaved ? 2 : 1};
+        const size_t row_bytes = size_t{width_} * 4;
+        row_.resize(row_bytes);
+        scratch_.resize(2 * size_t{(width_ + 1) / 2});
+        for (uint32_t y = 0; y < height_; ++y) {
+            yuv420_row_to_rgb(planes, width_, height_, y, order, scratch_.data(), row_.data());
+            if (has_alpha) {
+                const uint8_t *alpha = alpha_.data() + size_t{width_} * y;
+                for (uint32_t x = 0; x < width_; ++x)
+                    row_[x * 4 + 3] = alpha[x];
+            }
+            std::memcpy(pixels + row_bytes * y, row_.data(), row_bytes);
+        }
+    }
+
+    const Yuv420Codec &codec_;
+    uint32_t width_;
+    uint32_t height_;
+    const AVCodec *decoder_ = nullptr;
+    AVPixelFormat hardware_format_ = AV_PIX_FMT_NONE;
+    std::string hardware_name_ = "hardware";
+    std::string software_reason_; // empty with a device
+    std::string stream_;          // "h264 High 4:2:0", from the first frame
+    std::string decoded_by_;      // "VA-API", "software: no VA-API device, ..."
+    std::unique_ptr<AVCodecContext, AvCodecContextDeleter> context_;
+    std::unique_ptr<AVPacket, AvPacketDeleter> packet_;
+    std::unique_ptr<AVFrame, AvFrameDeleter> frame_;
+    std::unique_ptr<AVFrame, AvFrameDeleter> software_frame_;
+    std::unique_ptr<AVFrame, AvFrameDeleter> extra_frame_;
+    ZstdDecompressor alpha_decompressor_;
+    std::vector<uint8_t> alpha_;
+    std::vector<uint8_t> row_;
+    std::vector<int32_t> scratch_;
     bool have_reference_ = false;
 };
 
@@ -696,8 +1232,9 @@ private:
     bool decode_tile(std::span<const uint8_t> data, uint8_t *pixels, std::string *error) {
         TileHeader header{};
         if (!read_header(data, TileCodec::Zstd, shape_, &header, error)) return false;
-        if (header.flags & (kAlphaPlane | kLossy))
-            return fail(error, "zstd tile: the alpha-plane and lossy flags are for x264 tiles only");
+        if (header.flags & (kAlphaPlane | kLossy | kBlueFirst))
+            return fail(error,
+                        "zstd tile: the alpha-plane, lossy and blue-first flags are for video tiles only");
         const bool keyframe = (header.flags & kKeyframe) != 0;
         if (!keyframe && !have_reference_)
             return fail(
@@ -772,10 +1309,10 @@ bool valid_shape(TileCodec codec, const TileShape &shape, std::string *error) {
                     "tile size " + size_text(shape.width, shape.height) + " is outside 1x1..16384x16384");
     if (shape.texel_bytes != 4 && shape.texel_bytes != 8)
         return fail(error, "tile texels of " + std::to_string(shape.texel_bytes) + " bytes (4 or 8 are)");
-    // x264 codes 8-bit samples, and its RGB input is 4 bytes a pixel.
-    if (codec == TileCodec::X264 && shape.texel_bytes != 4)
-        return fail(error, "x264 tiles have 4-byte texels, not " + std::to_string(shape.texel_bytes) +
-                               " (zstd and raw carry 8)");
+    // The video codecs code 8-bit samples of 4-byte RGB texels.
+    if (codec != TileCodec::Zstd && codec != TileCodec::Raw && shape.texel_bytes != 4)
+        return fail(error, std::string(splitvk::to_string(codec)) + " tiles have 4-byte texels, not " +
+                               std::to_string(shape.texel_bytes) + " (zstd and raw carry 8)");
     return true;
 }
 
@@ -807,6 +1344,12 @@ std::unique_ptr<TileEncoder> make_tile_encoder(TileCodec codec, uint32_t width, 
     }
     case TileCodec::Raw:
         return std::make_unique<RawTileEncoder>(shape);
+    case TileCodec::H264Yuv420:
+    case TileCodec::HevcYuv420: {
+        auto encoder = std::make_unique<Yuv420TileEncoder>(*yuv420_codec(codec), width, height, quality);
+        if (!encoder->open(error)) return nullptr;
+        return encoder;
+    }
     }
     fail(error, "unknown tile codec " + std::to_string(static_cast<int>(codec)));
     return nullptr;
@@ -832,6 +1375,19 @@ std::unique_ptr<TileDecoder> make_tile_decoder(TileCodec codec, uint32_t width, 
     }
     case TileCodec::Raw:
         return std::make_unique<RawTileDecoder>(shape);
+    case TileCodec::H264Yuv420:
+    case TileCodec::HevcYuv420: {
+        // Every 4:2:0 tile is lossy: a fovea's decoder (no accept_lossy) has no use for this codec.
+        if (!accept_lossy) {
+            fail(error,
+                 std::string(splitvk::to_string(codec)) +
+                     " tiles are lossy 4:2:0, for the periphery only: not a decoder of lossless tiles");
+            return nullptr;
+        }
+        auto decoder = std::make_unique<Yuv420TileDecoder>(*yuv420_codec(codec), width, height);
+        if (!decoder->open(error)) return nullptr;
+        return decoder;
+    }
     }
     fail(error, "unknown tile codec " + std::to_string(static_cast<int>(codec)));
     return nullptr;
@@ -842,7 +1398,9 @@ uint32_t peek_texel_bytes(std::span<const uint8_t> tile) {
         tile[3] != 0 || get_u16(&tile[4]) == 0 || get_u16(&tile[6]) == 0)
         return 0;
     const bool wide = (tile[2] & kWideTexels) != 0;
-    if (tile[1] == wire_id(TileCodec::X264)) return wide ? 0 : 4;
+    if (tile[1] == wire_id(TileCodec::X264) || tile[1] == wire_id(TileCodec::H264Yuv420) ||
+        tile[1] == wire_id(TileCodec::HevcYuv420))
+        return wide ? 0 : 4;
     if (tile[1] == wire_id(TileCodec::Zstd) || tile[1] == wire_id(TileCodec::Raw)) return wide ? 8 : 4;
     return 0;
 }

@@ -17,6 +17,14 @@
 //    accepts them only when made with accept_lossy, so that a fovea tile is never lossy. Alpha
 //    travels beside it, losslessly: nothing when every alpha byte is 255, else the alpha plane
 //    zstd-compressed (intra only).
+//  - H264Yuv420, HevcYuv420 (4-byte texels, the swapped split's periphery only): always lossy, at a CRF,
+//    through libavcodec's libx264 (H.264 High) and libx265 (HEVC Main) encoders on Y'CbCr 4:2:0, BT.709,
+//    full range (yuv420.h), at the lowest level whose picture size and sample rate fit the stream at
+//    90 Hz: what the hardware decoders of headsets take (x264's RGB modes are High 4:4:4 Predictive,
+//    which they do not). Decoded with FFmpeg's h264 / hevc decoder, through VA-API or NVDEC (CUDA)
+//    where the machine has a device, else in software. Red and blue are the bytes the tile's header
+//    names (TileQuality::blue_first); alpha travels beside the planes as for X264. Odd sizes are
+//    coded one texel larger, the last column or row repeated, and cut on decoding.
 //  - Zstd: zstd level 1 on the byte-wise difference from the stream's previous tile. Always lossless.
 //  - Raw: the texels as they are.
 //
@@ -74,14 +82,22 @@ public:
     // failed decode: the stream's reference is lost until the encoder sends a keyframe. A tile of
     // another texel size than the decoder's is an error.
     virtual bool decode(std::span<const uint8_t> data, uint8_t *pixels, std::string *error) = 0;
+
+    // What the stream is and what decodes it, read from the last decoded frame, for one log line:
+    // "h264 High 4:2:0, decoded by h264 (software: no VA-API device, no CUDA device)". Empty before
+    // the first frame, and for the codecs that are no video streams.
+    virtual std::string description() const;
 };
 
 // How an encoder codes its stream. Lossy applies to X264 only (CRF `crf`, 0 best .. 51, with x264's
 // zerolatency tune: no B-frames, no lookahead, every frame out at once); Zstd and Raw ignore it and
-// stay lossless.
+// stay lossless. The 4:2:0 codecs are lossy whatever `lossless` says, and need to know which byte of a
+// texel is red (`blue_first`: B,G,R,A); the others never look at channels.
 struct TileQuality {
     bool lossless = true;
     uint32_t crf = 23;
+    bool blue_first = false;
+    bool operator==(const TileQuality &) const = default;
 };
 
 // Null with *error when the codec cannot be set up for this size (width and height 1..16384),
@@ -89,7 +105,8 @@ struct TileQuality {
 std::unique_ptr<TileEncoder> make_tile_encoder(TileCodec codec, uint32_t width, uint32_t height,
                                                uint32_t texel_bytes, std::string *error,
                                                const TileQuality &quality = {});
-// A decoder without `accept_lossy` refuses a lossy tile as an error.
+// A decoder without `accept_lossy` refuses a lossy tile as an error; a 4:2:0 codec's cannot be made
+// without it.
 std::unique_ptr<TileDecoder> make_tile_decoder(TileCodec codec, uint32_t width, uint32_t height,
                                                uint32_t texel_bytes, std::string *error,
                                                bool accept_lossy = false);

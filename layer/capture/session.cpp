@@ -182,8 +182,8 @@ void Session::adopt_locked(AgentLink &&agent) {
         // reconnecting one without it was refused by run_reconnect()).
         if (client_renders() == ClientRenders::Fovea && (capabilities & protocol::capability::kSwappedSplit))
             send_locked(protocol::MessageType::PeripheryConfig,
-                        protocol::encode(protocol::PeripheryConfig{settings_.scale,
-                                                                   settings_.periphery_quality, verify_}));
+                        protocol::encode(protocol::PeripheryConfig{settings_.scale, settings_.periphery_quality,
+                                                                   verify_, settings_.periphery_codec}));
     }
     stop_receiver_.store(false);
     receiver_ = std::thread([this] { run_receiver(); });

@@ -166,6 +166,10 @@ void TileStream::decode_tile(EyeDecoder &eye, const EyeJob &job) {
         uploads_.flush(*upload);
         out.upload = std::move(upload);
         out.texel_bytes = texel_bytes;
+        // One line per session says what the periphery is and what decodes it (the hardware
+        // decoder, or software and why).
+        if (accept_lossy && !periphery_described_.exchange(true))
+            SPLITVK_INFO("periphery: %s", eye.decoder->description().c_str());
     }
     const auto took = Clock::now() - start;
 

@@ -15,7 +15,8 @@
 //
 // The swapped split (SPLITVK_CLIENT_RENDERS=fovea): a Tiles message holds the parts of the agent's
 // downsampled periphery instead (kTilePeriphery), decoded alike, part i by thread i; only their
-// decoders accept lossy data.
+// decoders accept lossy data. The first decoded part is logged (info): the stream's codec, profile and
+// chroma, and whether a hardware decoder (VA-API, NVDEC) or software decodes it.
 
 #include "core/host_buffer.h"
 #include "metadata.h" // Tiles, AgentTimings
@@ -23,6 +24,7 @@
 
 #include <vulkan/vulkan.h>
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
@@ -126,6 +128,7 @@ private:
     std::vector<std::unique_ptr<EyeDecoder>> eyes_;
     std::map<uint64_t, std::shared_ptr<Pending>> frames_; // by frame number, complete or not
     uint64_t oldest_wanted_ = 0;                          // frames before this are dropped on arrival
+    std::atomic<bool> periphery_described_{false};        // the periphery's decoder was logged
 };
 
 } // namespace splitvk

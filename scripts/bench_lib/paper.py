@@ -221,6 +221,9 @@ def register(subparsers):
                         "native, over the frame and over the periphery; 0: none (default: %(default)s)")
     p.add_argument("--periphery-quality", default="23",
                    help="SPLITVK_PERIPHERY_QUALITY of the swapped split: x264 CRF 0-51 or lossless (default: %(default)s)")
+    p.add_argument("--periphery-codec", choices=("h264", "hevc", "rgb"), default="h264",
+                   help="SPLITVK_PERIPHERY_CODEC of the swapped split: 4:2:0 h264 or hevc, or rgb (x264 4:4:4) "
+                        "(default: %(default)s)")
     p.add_argument("--codec", choices=("x264", "zstd", "raw"), default="x264", help="default: %(default)s")
     p.add_argument("--tile-wait", type=int, default=2000,
                    help="SPLITVK_TILE_WAIT in ms (default: %(default)s: frames are lockstep as in the paper, a "
@@ -573,7 +576,8 @@ def measure(args):
                 variant_env["split-shaded"] = dict(split_env, SPLITVK_FOVEA_MASK="off")
             if args.client_renders == "fovea":
                 variant_env["split-swapped"] = dict(split_env, SPLITVK_CLIENT_RENDERS="fovea",
-                                                    SPLITVK_PERIPHERY_QUALITY=args.periphery_quality)
+                                                    SPLITVK_PERIPHERY_QUALITY=args.periphery_quality,
+                                                    SPLITVK_PERIPHERY_CODEC=args.periphery_codec)
             # Native is the layer without an agent (its SPLITVK_SERVER a port nothing listens on): every
             # frame unsplit, its latency measured by the same clock at the same points as the split's.
             # scripts/bench passthrough --stats measures what the layer costs it.
@@ -633,6 +637,10 @@ def measure(args):
                                         dict(variant_env[mode], SPLITVK_STATS=stats), timeout_s, args.frames,
                                         got["cpu"][mode])
                             got["variant_rows"].setdefault(mode, []).append(split.read_stats(stats, args.warmup))
+                            # The layer's info line: the periphery's stream and what decoded it.
+                            decoder = re.search(r"^\[splitvk\] periphery: (.*)$", r.stderr, re.M)
+                            if mode == "split-swapped" and decoder:
+                                got["periphery_decoder"] = decoder.group(1)
                             got["latency"][mode].append(frame_latencies(got["variant_rows"][mode][-1]))
                             summary = "[splitvk] split (client renders fovea):" if mode == "split-swapped" \
                                 else "[splitvk] split:"
@@ -783,7 +791,7 @@ def path_summary(path, runs):
         "client_cpu": {k: split.median(v) for k, v in runs["cpu"].items() if v},
         "xr": xr_summary(runs),
         "auto": auto_summary(runs.get("variant_rows", {}).get("split-auto")),
-        "swapped": swapped_summary(runs.get("variant_rows", {}).get("split-swapped")),
+        "swapped": swapped_summary(runs.get("variant_rows", {}).get("split-swapped"), runs.get("periphery_decoder")),
         "pictures": runs.get("pictures"),
         # frame_latency_ms of every mode that has it (runs of a bench from before it: none).
         "latency": {m: q3(values) for m, values in
@@ -813,7 +821,7 @@ def auto_summary(rounds):
             "mbps": sum(int(r["tile_bytes"]) for r in rows) * 8 / 1e6 / seconds if seconds else 0.0}
 
 
-def swapped_summary(rounds):
+def swapped_summary(rounds, decoder=None):
     """The swapped split's runs (--client-renders fovea): the client's own render (SPLITVK_STATS'
     periphery_ms, its cut passes on its GPU), the agent's periphery draw (agent_draw_ms: the GPU time
     of the frame's replay, drawn scaled), the periphery's traffic and decode, late frames; None when it
@@ -830,6 +838,9 @@ def swapped_summary(rounds):
             "mbps": sum(periphery_bytes) * 8 / 1e6 / seconds if seconds else 0.0,
             "kib_per_frame": sum(periphery_bytes) / 1024 / len(rows) if rows else 0.0,
             "decode": split.median([float(r.get("periphery_decode_ms") or 0) for r in rows]),
+            # At 90 Hz, a headset's rate, beside the rate the runs went at ("mbps").
+            "mbps_90hz": sum(periphery_bytes) * 8 * 90 / 1e6 / len(rows) if rows else 0.0,
+            "decoder": decoder,
             "late": sum(r["late"] != "0" for r in rows), "frames": len(rows)}
 
 
@@ -869,6 +880,7 @@ def summarize(args, machine, runs, periphery_size, out_dir, wall_s):
                    "agent_scissor": args.agent_scissor, "fovea_auto": args.fovea_auto,
                    "shaded_foveae": args.shaded_foveae, "xr": args.xr,
                    "client_renders": args.client_renders, "periphery_quality": args.periphery_quality,
+                   "periphery_codec": args.periphery_codec,
                    "eye_size": "{}x{}".format(*xr_eye_size(args)) if args.xr else None},
         "native": p["native"], "split": p["split"],
         "native_rounds": p["native_rounds"], "split_rounds": p["split_rounds"],
@@ -1141,6 +1153,9 @@ def print_ratio_lines(res):
             print("swapped split: agent's periphery draw (GPU, its replay of the frame) "
                   + (f"{agent['median']:.2f} ms, {agent['median'] / native:.3f} of native" if agent
                      else "not measured"))
+            print(f"swapped periphery ({res['config'].get('periphery_codec', 'h264')}): {swapped['kib_per_frame']:.1f} KiB per frame, "
+                  f"{swapped.get('mbps_90hz', 0.0):.1f} Mbit/s at 90 Hz, decode {swapped['decode']:.2f} ms per frame, "
+                  f"{swapped.get('decoder') or 'decoder not named'}")
             # Lockstep behind a slower agent alternates a long and a short frame: the means give the rate.
             n_mean, s_mean = per_path[0]["native"].get("mean"), measured["split-swapped"].get("mean")
             if n_mean and s_mean:

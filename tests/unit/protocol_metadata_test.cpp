@@ -421,16 +421,18 @@ TEST(ProtocolSession, TilesRoundTripAndLimits) {
 }
 
 // The swapped split's periphery config: the scale within [0.1, 1] (NaN refused), the crf
-// within x264's 0..51.
+// within x264's 0..51, the codec one of h264, hevc and rgb.
 TEST(ProtocolSession, PeripheryConfigRoundTripAndLimits) {
     PeripheryConfig m;
     m.scale = 0.6;
     m.quality = {false, 28};
+    m.codec = PeripheryCodec::Hevc;
     const auto bytes = encode(m);
     EXPECT_EQ(bytes.size(), 20u);
     const auto back = decode_periphery_config(bytes);
     ASSERT_TRUE(back.ok()) << back.error();
     EXPECT_EQ(back->scale, 0.6);
+    EXPECT_EQ(back->codec, PeripheryCodec::Hevc);
     EXPECT_FALSE(back->quality.lossless);
     EXPECT_EQ(back->quality.crf, 28u);
     EXPECT_FALSE(back->whole_frames);
@@ -468,6 +470,11 @@ TEST(ProtocolSession, PeripheryConfigRoundTripAndLimits) {
     flag = encode(PeripheryConfig{});
     flag[16] = 2; // the whole-frames flag
     EXPECT_FALSE(decode_periphery_config(flag).ok());
+    auto codec = encode(PeripheryConfig{});
+    codec[20] = 3; // one past rgb
+    const auto unknown = decode_periphery_config(codec);
+    ASSERT_FALSE(unknown.ok());
+    EXPECT_NE(unknown.error().find("periphery codec"), std::string::npos) << unknown.error();
 }
 
 // Periphery tiles carry kTilePeriphery; a frame is all periphery or all foveae.

@@ -133,6 +133,9 @@ TEST_F(SettingsTest, SwappedSplit) {
     const Settings defaults = load({}).settings;
     EXPECT_EQ(defaults.client_renders, ClientRenders::Periphery);
     EXPECT_EQ(defaults.periphery_quality, (PeripheryQuality{false, 23}));
+    EXPECT_EQ(defaults.periphery_codec, PeripheryCodec::H264);
+    EXPECT_EQ(load({{"SPLITVK_PERIPHERY_CODEC", "HEVC"}}).settings.periphery_codec, PeripheryCodec::Hevc);
+    EXPECT_EQ(load({{"SPLITVK_PERIPHERY_CODEC", "rgb"}}).settings.periphery_codec, PeripheryCodec::Rgb);
     EXPECT_FALSE(defaults.client_guard.full);
     EXPECT_EQ(defaults.client_guard.pixels, 64u);
     const auto loaded = load({{"SPLITVK_CLIENT_RENDERS", "Fovea"},
@@ -219,6 +222,7 @@ TEST_F(SettingsTest, InvalidValuesAreOneLineErrorsNamingTheSetting) {
         {"AGENT_SCISSOR", {"", "on", "guard", "guard:", "guard:-1", "guard:4097", "guard:1.5", "64"}},
         {"CLIENT_RENDERS", {"", "both", "agent", "1", "foveae"}},
         {"PERIPHERY_QUALITY", {"", "-1", "52", "23.5", "best", "lossy"}},
+        {"PERIPHERY_CODEC", {"", "x264", "h265", "yuv", "444", "h264:high"}},
         {"CLIENT_GUARD", {"", "off", "guard", "guard:", "guard:-1", "guard:4097", "64"}},
         {"SEAM", {"", "soft", "feather", "feather:", "feather:-1", "feather:257", "feather:1.5", "16"}},
         {"GAZE", {"", "fifo:", "fifo", "pipe:/tmp/gaze", "eyes", "1"}},

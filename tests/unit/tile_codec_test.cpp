@@ -485,9 +485,10 @@ TEST(TileHeader, PeekTexelBytes) {
     EXPECT_EQ(damaged(0, 2), 0u) << "format version 2";
     EXPECT_EQ(damaged(0, 0), 0u) << "format version 0";
     EXPECT_EQ(damaged(1, 0), 0u) << "codec id 0";
-    EXPECT_EQ(damaged(1, 4), 0u) << "codec id 4";
+    EXPECT_EQ(damaged(1, 6), 0u) << "codec id 6";
+    EXPECT_EQ(damaged(1, 4), 0u) << "8-byte texels in an h264 tile";
     EXPECT_EQ(damaged(1, 1), 0u) << "8-byte texels in an x264 tile";
-    EXPECT_EQ(damaged(2, 0x10 | 0x08), 0u) << "an unknown flag";
+    EXPECT_EQ(damaged(2, 0x20 | 0x08), 0u) << "an unknown flag";
     EXPECT_EQ(damaged(3, 1), 0u) << "the zero byte";
     auto empty = good;
     empty[4] = empty[5] = 0;

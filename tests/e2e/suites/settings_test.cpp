@@ -115,6 +115,7 @@ const std::map<std::string, std::string> &bad_values() {
         {"AGENT_SCISSOR", "guard:-8"}, // off or guard:N
         {"CLIENT_RENDERS", "both"},    // periphery or fovea
         {"PERIPHERY_QUALITY", "52"},   // CRF 0 to 51
+        {"PERIPHERY_CODEC", "h265"},   // h264, hevc or rgb
         {"CLIENT_GUARD", "guard:x"},   // guard:N or full
         {"SEAM", "feather:-1"},        // hard or feather:N
         {"GAZE", "pipe:/tmp/gaze"},    // not a gaze source
