@@ -6,6 +6,12 @@
 
 namespace splitvk::split {
 
+int64_t merge_cut_eyes(int64_t a, int64_t b) {
+    if (a == DrawnImage::kNoRuntimeCut) return b;
+    if (b == DrawnImage::kNoRuntimeCut || a == b) return a;
+    return DrawnImage::kMixedRuntimeCut;
+}
+
 void merge_drawn(std::vector<DrawnImage> &into, const std::vector<DrawnImage> &from) {
     for (const DrawnImage &d : from) {
         auto it =
@@ -18,6 +24,7 @@ void merge_drawn(std::vector<DrawnImage> &into, const std::vector<DrawnImage> &f
         it->coverage |= d.coverage;
         it->masked = larger(it->masked, d.masked);
         it->cut = it->cut || d.cut;
+        it->cut_eyes = merge_cut_eyes(it->cut_eyes, d.cut_eyes);
     }
 }
 
@@ -61,7 +68,10 @@ DrawnImage &CommandTracker::drawn_entry(uint64_t image, VkExtent2D extent) {
     if (it == drawn_.end()) it = drawn_.insert(drawn_.end(), DrawnImage{image, extent, {}, {}});
     it->extent = extent;
     // A transfer notes its image outside any pass: drawn full size, not cut.
-    if (cut() && swapchain_ && image == image_) it->cut = true;
+    if (cut() && swapchain_ && image == image_) {
+        it->cut = true;
+        it->cut_eyes = merge_cut_eyes(it->cut_eyes, runtime_eyes_);
+    }
     return *it;
 }
 

@@ -47,9 +47,19 @@ struct DrawnImage {
     // The client alone, with SPLITVK_CLIENT_RENDERS=fovea: a pass into it was cut to the foveae
     // (CommandTracker::cut_pass), so the frame's periphery must come from the agent.
     bool cut = false;
+    // The client alone: the version of an OpenXR runtime image's eyes (the projection views) that its
+    // cut passes were cut by (CommandTracker::cut_runtime_pass); kNoRuntimeCut when none was, and
+    // kMixedRuntimeCut when two were cut by different eyes. A frame's foveae are exact only where
+    // its eyes are the ones its passes were cut by.
+    static constexpr int64_t kNoRuntimeCut = -1;
+    static constexpr int64_t kMixedRuntimeCut = -2;
+    int64_t cut_eyes = kNoRuntimeCut;
 
     std::vector<VkRect2D> foveae(EyeMode mode, const FoveaSize &fovea, const Gaze &gaze = {}) const;
 };
+
+// The eyes version of two records of one image's cut passes joined (DrawnImage::cut_eyes).
+int64_t merge_cut_eyes(int64_t a, int64_t b);
 
 // Unions `from` into `into` (one entry per image; the coverages are joined).
 void merge_drawn(std::vector<DrawnImage> &into, const std::vector<DrawnImage> &from);
@@ -127,6 +137,8 @@ public:
         extent_ = extent;
         cut_ = false;
         guard_.reset();
+        runtime_areas_.clear();
+        runtime_eyes_ = DrawnImage::kNoRuntimeCut;
     }
     // The client with SPLITVK_CLIENT_RENDERS=fovea, right after begin_split: the pass keeps
     // its full-size render area and viewports, and its scissors are cut instead of scaled: to the
@@ -135,6 +147,19 @@ public:
     void cut_pass(std::optional<VkRect2D> guard = std::nullopt) {
         cut_ = true;
         guard_ = guard;
+    }
+    // The same for a pass into an OpenXR runtime's eye image: its scissors are cut to `areas`, every
+    // place its foveae can be with the eyes of version `eyes_version` (split::runtime_fovea_areas,
+    // grown by the seam's band), as far as each viewport reaches them (split::runtime_scissor).
+    void cut_runtime_pass(std::vector<LayerFovea> areas, uint64_t eyes_version) {
+        cut_ = true;
+        guard_.reset();
+        runtime_areas_ = std::move(areas);
+        runtime_eyes_ = static_cast<int64_t>(eyes_version);
+    }
+    // A pass cut by cut_runtime_pass: where its scissors may draw; null for any other pass.
+    const std::vector<LayerFovea> *runtime_areas() const {
+        return cut() && runtime_eyes_ != DrawnImage::kNoRuntimeCut ? &runtime_areas_ : nullptr;
     }
     bool cut() const { return in_split_ && cut_; }
     const std::optional<VkRect2D> &guard() const { return guard_; }
@@ -148,6 +173,8 @@ public:
         swapchain_ = false;
         cut_ = false;
         guard_.reset();
+        runtime_areas_.clear();
+        runtime_eyes_ = DrawnImage::kNoRuntimeCut;
     }
     bool in_split() const { return in_split_; }
     bool swapchain_pass() const { return in_split_ && swapchain_; }
@@ -218,6 +245,8 @@ private:
     bool secondary_ = false;
     bool cut_ = false;
     std::optional<VkRect2D> guard_;
+    std::vector<LayerFovea> runtime_areas_;
+    int64_t runtime_eyes_ = DrawnImage::kNoRuntimeCut;
     std::vector<VkViewport> secondary_viewports_; // a secondary's, as recorded
     uint64_t image_ = 0;
     VkExtent2D extent_{};

@@ -77,7 +77,9 @@ TargetClass classify_target(const VkImageCreateInfo &info, VkExtent2D screen, Ey
 
 PassDraw swapchain_pass_draw(SplitSide side, ClientRenders renders, bool runtime, bool whole_frames) {
     const bool renders_periphery = (side == SplitSide::Client) == (renders == ClientRenders::Periphery);
-    if (renders == ClientRenders::Fovea && runtime) return PassDraw::Whole;
+    // The swapped split under OpenXR: the client cuts an eye image to its views' foveae; the agent
+    // replays it whole and downsamples it at its release, as eye images are not drawn scaled there.
+    if (renders == ClientRenders::Fovea && runtime) return side == SplitSide::Client ? PassDraw::Cut : PassDraw::Whole;
     if (!renders_periphery) return PassDraw::Cut;
     if (side == SplitSide::Agent && whole_frames) return PassDraw::Whole;
     return PassDraw::Scaled;

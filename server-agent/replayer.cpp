@@ -723,7 +723,7 @@ bool Replayer::periphery_config(const protocol::PeripheryConfig &message, std::s
                      static_cast<unsigned long long>(session_id_), message.scale, quality.c_str());
     else
         SPLITVK_INFO("session %llu: the swapped split: passes replay whole (the client verifies), presented "
-                     "window images go back downsampled to %.3g, %s",
+                     "window images and released OpenXR eye images go back downsampled to %.3g, %s",
                      static_cast<unsigned long long>(session_id_), message.scale, quality.c_str());
     return true;
 }
@@ -778,11 +778,13 @@ bool Replayer::frame_present(const protocol::FramePresent &message,
             frame.foveae = std::move(foveae);
             if (swapped_) {
                 frame.foveae.clear();
-                if (swapchains_.runtime_image(image.image_id)) {
-                    // Not in this slice: the client does not cut an OpenXR runtime's images either.
+                // An OpenXR eye image ends at its release, whose FramePresent this is: its periphery
+                // goes back as a window's does, the whole image (both halves of a side-by-side one).
+                // A layered one (multiview) the client renders whole (layer/capture/render_pass.cpp).
+                if (swapchains_.runtime_image(image.image_id) && frame.layers > 1) {
                     if (!runtime_periphery_logged_)
-                        SPLITVK_INFO("session %llu: the swapped split sends no periphery for OpenXR "
-                                     "images (the client renders them whole)",
+                        SPLITVK_INFO("session %llu: the swapped split sends no periphery for layered "
+                                     "OpenXR images (the client renders them whole)",
                                      static_cast<unsigned long long>(session_id_));
                     runtime_periphery_logged_ = true;
                 } else {

@@ -6,6 +6,7 @@
 #include "capture/fovea_mask.h"
 #include "capture/resource.h"
 #include "capture/screen_space.h"
+#include "capture/session.h"
 #include "capture/split.h"
 #include "core/gpu_timing.h"
 #include "core/image.h"
@@ -92,17 +93,50 @@ struct PassTarget {
     // area and is cut to the foveae; a pass into screen-space targets only is cut to `guard`.
     bool cut = false;
     std::optional<VkRect2D> guard;
+    // A cut pass into an OpenXR runtime's eye image: every place its foveae can be, and the version
+    // of the eyes they were placed by (CommandTracker::cut_runtime_pass).
+    std::vector<split::LayerFovea> runtime_areas;
+    uint64_t eyes_version = 0;
     VkImage image = VK_NULL_HANDLE;
     VkExtent2D extent{}; // the swapchain's, else the full extent its scaled areas are relative to
     bool split() const { return swapchain || scaled || guard; }
 };
 
-// SPLITVK_CLIENT_RENDERS=fovea: OpenXR runtime images are not cut in this slice.
-void log_runtime_uncut_once() {
-    static std::once_flag logged;
-    std::call_once(logged, [] {
-        SPLITVK_INFO("swapped split: passes into OpenXR runtime images are not cut (rendered whole)");
-    });
+// SPLITVK_CLIENT_RENDERS=fovea: a pass into an OpenXR runtime's eye image is cut to the places its
+// foveae can be: each eye's fovea at its view direction (split::runtime_fovea_areas, as the agent's
+// scissors cut them in the paper's split), grown by the seam's band, which the compositor blends
+// across (split::seam_rect, the window's rule). False, with the pass rendered whole, where its
+// image's composite could not keep them: a layered image (multiview: the compositor's swapped
+// composite is one layer's), and under SPLITVK_VERIFY, which reads the image back as drawn.
+bool cut_runtime_target(const DeviceState &dev, PassTarget &t) {
+    VkSwapchainKHR member = VK_NULL_HANDLE;
+    read_image(dev, t.image, [&](const ImageState &state) { member = state.swapchain; });
+    const SwapchainState *swapchain = member ? find_swapchain(dev, member) : nullptr;
+    if (!swapchain || !swapchain->runtime) return false;
+    if (swapchain->array_layers > 1) {
+        static std::once_flag logged;
+        std::call_once(logged, [] {
+            SPLITVK_INFO("swapped split: passes into layered OpenXR eye images (multiview) are not cut: "
+                         "they render whole, and the agent sends no periphery for them");
+        });
+        return false;
+    }
+    if (dev.session->verify()) {
+        static std::once_flag logged;
+        std::call_once(logged, [] {
+            SPLITVK_INFO("swapped split: SPLITVK_VERIFY compares OpenXR eye images as drawn: their passes "
+                         "are not cut");
+        });
+        return false;
+    }
+    const Settings &settings = split_settings();
+    const RuntimeEyes eyes = runtime_eyes(*swapchain);
+    t.runtime_areas = split::runtime_fovea_areas(swapchain->extent, swapchain->array_layers, eyes.eyes,
+                                                 settings.fovea, settings.gaze != GazeMode::Fixed);
+    for (split::LayerFovea &area : t.runtime_areas)
+        area.rect = split::seam_rect(area.rect, swapchain->extent, settings.seam.feather);
+    t.eyes_version = eyes.version;
+    return true;
 }
 
 // The guard of a pass whose attachments are all screen-space targets kept full size in fovea mode
@@ -169,9 +203,14 @@ void decide_cut(const DeviceState &dev, PassTarget &t, std::span<const VkImageVi
     }
     const split::PassDraw draw =
         split::swapchain_pass_draw(split::SplitSide::Client, ClientRenders::Fovea, t.runtime);
+    if (t.swapchain && t.runtime && draw == split::PassDraw::Cut) {
+        t.cut = cut_runtime_target(dev, t);
+        if (!t.cut) t.swapchain = false;
+        return;
+    }
     if (t.swapchain && draw == split::PassDraw::Whole) {
-        log_runtime_uncut_once();
         t.swapchain = false;
+        return;
         return;
     }
     t.cut = t.swapchain && draw == split::PassDraw::Cut;
@@ -242,6 +281,15 @@ PassTarget rendering_target(DeviceState &dev, const VkRenderingInfo *info) {
     return t;
 }
 
+// Secondaries of a pass into an OpenXR eye image run whole: they are recorded before the pass that
+// executes them says which eye image it draws into, so they could not be cut by its eyes.
+void whole_if_runtime_cut(PassTarget &t) {
+    if (!t.cut || !t.runtime) return;
+    t.cut = false;
+    t.swapchain = false;
+    t.runtime_areas.clear();
+}
+
 // The swapchain sizes the split line was given for: once per size, so that a resize says what the
 // new size's periphery is, and two windows presenting in turn do not repeat it every frame.
 std::mutex g_logged_extents_mutex;
@@ -267,7 +315,10 @@ void enter_split(DeviceState &dev, VkCommandBuffer cb, split::CommandTracker &tr
                  const PassTarget &target) {
     if (target.swapchain) log_split_extent_once(target.extent, target.cut);
     tracker.begin_split(codec::handle_value(target.image), target.extent, target.swapchain);
-    if (target.cut || target.guard) tracker.cut_pass(target.guard);
+    if (target.cut && target.runtime)
+        tracker.cut_runtime_pass(target.runtime_areas, target.eyes_version);
+    else if (target.cut || target.guard)
+        tracker.cut_pass(target.guard);
     emit_viewports(dev, cb, tracker);
     emit_scissors(dev, cb, tracker);
 }
@@ -334,6 +385,7 @@ void begin_render_pass(DeviceState &dev, VkCommandBuffer cb, const VkRenderPassB
     PassTarget target = pass_target(dev, begin);
     // Secondaries of a guarded pass run whole in this slice.
     if (secondary) target.guard.reset();
+    if (secondary) whole_if_runtime_cut(target);
     dev.render_passes->pass_predictions.note_begin(
         codec::handle_value(begin->renderPass),
         {target.swapchain || target.scaled, target.extent, target.cut});
@@ -378,6 +430,7 @@ void begin_rendering(DeviceState &dev, VkCommandBuffer cb, const VkRenderingInfo
     const bool secondary = info->flags & VK_RENDERING_CONTENTS_SECONDARY_COMMAND_BUFFERS_BIT;
     // Secondaries of a guarded rendering run whole in this slice.
     if (secondary) target.guard.reset();
+    if (secondary) whole_if_runtime_cut(target);
     // Noted unscaled too, so that a kind of rendering that stops being scaled predicts so.
     if (secondary)
         dev.render_passes->rendering_predictions.note_begin(

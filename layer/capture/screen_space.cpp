@@ -88,8 +88,9 @@ bool screen_space_create_info(DeviceState &device, const VkImageCreateInfo &app,
     }
     if (device.session->client_renders() == ClientRenders::Fovea) {
         // The agent renders the periphery: the client keeps the target whole and cuts the passes
-        // into it to the foveae grown by SPLITVK_CLIENT_GUARD. Not under OpenXR in this slice: its
-        // eye images are not cut, so their frames need every target whole.
+        // into it to the foveae grown by SPLITVK_CLIENT_GUARD. Not under OpenXR: the guard places the
+        // foveae by the window's rule, not at the views' directions, so an OpenXR application's
+        // offscreen passes run whole (its eye images' own passes are cut, render_pass.cpp).
         if (runtime_swapchain_known(device)) return false;
         guard->kind = c;
         guard->screen = screen;

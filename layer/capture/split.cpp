@@ -60,6 +60,7 @@ SplitFrame take_split_frame(DeviceState &dev, VkImage image, EyeMode eyes, const
     }
     frame.split = true;
     frame.cut = drawn->cut;
+    frame.cut_eyes = drawn->cut_eyes;
     frame.periphery = split::scaled_extent(drawn->extent, split_settings().scale);
     // The whole frame's coverage decides its foveae (split::frame_foveae), as the agent's does.
     // Never smaller than a fovea its passes left unshaded (fovea_mask.h): a mask recorded before the
@@ -113,6 +114,7 @@ void note_split_drawn(LockedImages &images, const split::CommandTracker &tracker
         image->drawn->coverage |= drawn.coverage;
         image->drawn->masked = split::larger(image->drawn->masked, drawn.masked);
         image->drawn->cut = image->drawn->cut || drawn.cut;
+        image->drawn->cut_eyes = split::merge_cut_eyes(image->drawn->cut_eyes, drawn.cut_eyes);
     }
 }
 
@@ -120,6 +122,11 @@ VkRect2D cut_scissor(const split::CommandTracker &tracker, size_t index, const V
                      const Settings &settings) {
     if (tracker.guard()) return split::intersect(scissor, *tracker.guard());
     if (!tracker.swapchain_pass()) return scissor;
+    // An OpenXR eye image: its foveae sit at its views' directions, as the agent's scissors place
+    // them in the paper's split (server-agent/fovea_shading.cpp); without viewport `index` the eye is
+    // unknown, and the scissor is narrowed once the viewport is set.
+    if (const auto *areas = tracker.runtime_areas())
+        return split::intersect(scissor, split::runtime_scissor(*areas, tracker.viewport(index)));
     // The configured fovea size: SPLITVK_FOVEA=auto is off in fovea mode, and the agent's scissors are
     // recorded for that size too.
     // Grown by the seam's feather (SPLITVK_SEAM), which the compositor blends across.

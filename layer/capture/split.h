@@ -31,6 +31,8 @@ struct SplitFrame {
     // is the agent's to fill. False for a frame drawn wholly uncut (recorded before the agent joined
     // or after it was lost): it is presented as it is.
     bool cut = false;
+    // An OpenXR eye image: the version of the eyes its cut passes were cut by (DrawnImage::cut_eyes).
+    int64_t cut_eyes = split::DrawnImage::kNoRuntimeCut;
 };
 
 // What the submits since the last call rendered into swapchain image `image`: whether a split pass

@@ -109,25 +109,8 @@ protocol::Hello base_hello(const Settings &settings, const std::string &client_n
     return hello;
 }
 
-namespace {
-std::atomic<bool> g_openxr_application{false};
-} // namespace
-
-void note_openxr_application() {
-    g_openxr_application.store(true);
-}
-
 bool asks_swapped_split(const Settings &settings) {
-    if (settings.client_renders != ClientRenders::Fovea) return false;
-    if (!g_openxr_application.load()) return true;
-    static std::once_flag logged;
-    std::call_once(logged, [] {
-        SPLITVK_WARN(
-            "SPLITVK_CLIENT_RENDERS=fovea: the client does not cut an OpenXR runtime's eye images yet; "
-            "this OpenXR application is split the paper's way (the client renders the periphery, the "
-            "agent the foveae)");
-    });
-    return false;
+    return settings.client_renders == ClientRenders::Fovea;
 }
 
 protocol::Result<AgentLink> connect_agent(const Settings &settings, const protocol::Hello &hello,

@@ -50,15 +50,9 @@ class AgentCandidates;
 // (the GPU's name, the device envelope).
 protocol::Hello base_hello(const Settings &settings, const std::string &client_name);
 
-// Whether this process asks agents for the swapped split (SPLITVK_CLIENT_RENDERS=fovea).
-// Not in an OpenXR application: the client does not cut a runtime's eye images yet, so asking would
-// leave them whole and unsplit; it splits them the paper's way instead (or, under SPLITVK_VERIFY,
-// not at all), and says so once.
+// Whether this process asks agents for the swapped split (SPLITVK_CLIENT_RENDERS=fovea), window and
+// OpenXR applications alike.
 bool asks_swapped_split(const Settings &settings);
-// splitvk's OpenXR API layer made an XrInstance (xr_layer.cpp): this process is an OpenXR application.
-// It makes its XrInstance before its VkInstance (it asks the runtime which Vulkan extensions and
-// device to use), so this is known before the layer first greets an agent.
-void note_openxr_application();
 
 // The client's verdict on the agent's certificate (tls.h's Verifier): SPLITVK_AGENT_FINGERPRINT
 // when set, else the known_agents file, where an agent met for the first time is recorded. Empty

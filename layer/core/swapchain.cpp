@@ -12,4 +12,15 @@ SwapchainState *find_swapchain(const DeviceState &device, VkSwapchainKHR swapcha
     return device.swapchains->swapchains.find(swapchain);
 }
 
+RuntimeEyes runtime_eyes(const SwapchainState &swapchain) {
+    std::lock_guard lock(swapchain.eyes_mutex);
+    return {swapchain.eyes, swapchain.eyes_version};
+}
+
+void set_runtime_eyes(SwapchainState &swapchain, std::vector<split::RuntimeEye> eyes) {
+    std::lock_guard lock(swapchain.eyes_mutex);
+    swapchain.eyes = std::move(eyes);
+    ++swapchain.eyes_version;
+}
+
 } // namespace splitvk

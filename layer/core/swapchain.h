@@ -6,7 +6,10 @@
 #include "core/device.h"
 #include "core/object_map.h"
 #include "model/frame_deadline.h"
+#include "split_geometry.h"
 
+#include <cstdint>
+#include <mutex>
 #include <vector>
 
 namespace splitvk {
@@ -39,7 +42,23 @@ struct SwapchainState {
     // deadline must leave for the next (present.cpp). Mutable on the const state the frame carries;
     // only xrReleaseSwapchainImage reaches it, which OpenXR synchronises per swapchain.
     mutable deadline::CompositeCost composite_cost;
+    // An OpenXR runtime's swapchain: the eyes its projection views placed in its images
+    // (split::note_runtime_eye, set by the OpenXR layer at xrEndFrame), which the swapped split cuts
+    // the passes into its images by at record time. `eyes_version` counts their changes, so that a
+    // frame's release can tell whether its passes were cut by the eyes its foveae are placed with.
+    mutable std::mutex eyes_mutex;
+    std::vector<split::RuntimeEye> eyes;
+    uint64_t eyes_version = 0;
 };
+
+// An OpenXR runtime's swapchain's eyes and their version, as one consistent pair.
+struct RuntimeEyes {
+    std::vector<split::RuntimeEye> eyes;
+    uint64_t version = 0;
+};
+RuntimeEyes runtime_eyes(const SwapchainState &swapchain);
+// Called with the swapchain's new eyes whenever they change.
+void set_runtime_eyes(SwapchainState &swapchain, std::vector<split::RuntimeEye> eyes);
 
 // nullptr when the swapchain was created without a session.
 SwapchainState *find_swapchain(const DeviceState &device, VkSwapchainKHR swapchain);

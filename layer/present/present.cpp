@@ -211,10 +211,11 @@ std::vector<VkRect2D> first_layer_foveae(const SplitFrame &split) {
     return rects;
 }
 
-// Whether a frame's passes were cut to its foveae (the swapped split; window swapchains only in this
-// slice), so that its periphery is the agent's to fill.
+// Whether a frame's passes were cut to its foveae (the swapped split), so that its periphery is the
+// agent's to fill. An OpenXR eye image's passes are cut only where its image has one layer
+// (capture/render_pass.cpp: cut_runtime_target).
 bool frame_cut(const SwapchainState *swapchain, const SplitFrame &split) {
-    return swapchain && !swapchain->runtime && split.split && split.cut && !split.foveae.empty();
+    return swapchain && split.split && split.cut && !split.foveae.empty();
 }
 
 double ms_between(std::chrono::steady_clock::time_point from, std::chrono::steady_clock::time_point to) {
@@ -230,6 +231,10 @@ struct SplitPresent {
     // The swapped split: the frame's passes were cut to its foveae, so the agent's periphery goes
     // around them (Compositor::composite_periphery). Decided at the application's present.
     bool cut = false;
+    // A cut frame keeps the client's foveae. Not an OpenXR eye image whose passes were cut by other
+    // eyes than its foveae are placed by (its views changed between its recording and its release):
+    // its foveae may lie where the client drew nothing, and it shows the agent's periphery alone.
+    bool keep_foveae = true;
     // Presented while the session passes frames through (Session::passing_through()): drawn split
     // before the switch, it has no tiles to wait for, and shows the periphery alone.
     bool passing_through = false;
@@ -341,7 +346,8 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
         // across the band the client's cut grew them by (split_settings(), as cut_scissor's);
         // late, invalid or mismatched: the previous periphery again, feathered alike (VK_NOT_READY
         // before any: as drawn).
-        const std::vector<VkRect2D> keep = first_layer_foveae(p.split);
+        const std::vector<VkRect2D> keep =
+            p.keep_foveae ? first_layer_foveae(p.split) : std::vector<VkRect2D>{};
         auto queue_lock = lock ? lock_queue(dev, p.queue) : std::unique_lock<std::mutex>();
         if (compositor->composite_periphery(p.queue, p.image_index, waits, tiles ? &periphery : nullptr, keep,
                                             p.swapchain->runtime ? nullptr : &composited,
@@ -800,6 +806,19 @@ std::optional<std::chrono::steady_clock::time_point> take_acquired(Session &sess
     return first;
 }
 
+// Whether an OpenXR eye image's cut passes were all cut by the eyes of `eyes_version`, which its
+// foveae are placed with (SplitPresent::keep_foveae); said once when not.
+bool eyes_cut_by(uint64_t eyes_version, const SplitFrame &split, uint64_t frame) {
+    if (split.cut_eyes >= 0 && static_cast<uint64_t>(split.cut_eyes) == eyes_version) return true;
+    static std::once_flag logged;
+    std::call_once(logged, [&] {
+        SPLITVK_INFO("frame %llu: an OpenXR eye image's passes were cut by other views than its release "
+                     "places its foveae by; such an image shows the agent's periphery alone",
+                     static_cast<unsigned long long>(frame));
+    });
+    return false;
+}
+
 } // namespace
 
 void begin_runtime_frame(DeviceState &dev, const SwapchainState &swapchain, uint32_t image_index) {
@@ -827,15 +846,23 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     const Session::FrameSizing sizing = session.size_frame(static_cast<int64_t>(xr_frame), 0);
     message.fovea_size = sizing.size;
     SplitFrame split;
+    uint64_t cut_eyes_version = 0;
     if (session.splitting() && swapchain.composable) {
         split = take_split_frame(dev, swapchain.images[image_index], EyeMode::One, {}, message.fovea_size);
         // The eyes' foveae (one per layer before the application's views said where its eyes are),
-        // each at its view direction or gaze point, wherever the passes drew.
+        // each at its view direction or gaze point, wherever the passes drew. The swapped split keeps
+        // the client's own where its passes were cut: by the eyes the swapchain's state holds
+        // (core/swapchain.h), which the cut read at record time.
+        const RuntimeEyes cut_by = split.cut ? runtime_eyes(swapchain) : RuntimeEyes{};
+        cut_eyes_version = cut_by.version;
         if (!split.foveae.empty())
             split.foveae = split::runtime_eye_foveae(
-                swapchain.extent, swapchain.array_layers, eyes,
+                swapchain.extent, swapchain.array_layers, split.cut ? cut_by.eyes : eyes,
                 split::frame_fovea_size(split_settings().fovea, message.fovea_size), gaze);
-        note_split_or_not(session, frame, split.split);
+        // The swapped split renders a layered eye image whole by design (said once when its passes
+        // were recorded, capture/render_pass.cpp): no news of the application's passes.
+        if (session.client_renders() != ClientRenders::Fovea || swapchain.array_layers == 1)
+            note_split_or_not(session, frame, split.split);
     }
     message.frame = frame;
     message.queue_id = codec::handle_value(queue);
@@ -844,7 +871,8 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     message.gaze = gaze;
     message.images.push_back({codec::handle_value(swapchain.handle), image_index});
     // Verification: every layer of the image, as the runtime gets it. Nothing is composited into it
-    // then: the paper's split is off, and the swapped split does not cut a runtime's images.
+    // then: the paper's split is off, and the swapped split does not cut a runtime's images under
+    // verification (cut_runtime_target).
     std::optional<PendingVerify> pending;
     if (session.verify()) pending = read_back_runtime_image(dev, queue, swapchain, image_index, frame);
     if (pending) message.flags |= protocol::kPresentVerify;
@@ -878,6 +906,8 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     p.sizing = sizing;
     p.xr_frame = static_cast<int64_t>(xr_frame);
     p.xr_view = xr_view;
+    p.cut = frame_cut(p.swapchain, p.split);
+    if (p.cut) p.keep_foveae = eyes_cut_by(cut_eyes_version, p.split, frame);
     if (session.settings().xr_deadline) p.display = display;
     FrameRecord record;
     composite_split_frame(dev, p, {}, /*lock=*/false, &record);

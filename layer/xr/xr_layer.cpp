@@ -34,6 +34,7 @@
 #include "core/agent_link.h"
 #include "core/device.h"
 #include "core/layer_settings.h"
+#include "core/swapchain.h"
 #include "log.h"
 #include "model/frame_deadline.h"
 #include "model/gaze.h"
@@ -521,6 +522,8 @@ void note_projection_view(const XrCompositionLayerProjectionView &view, uint32_t
         });
         state->eye_views.push_back({eye.layer, eye.rect, view_index});
         if (!split::note_runtime_eye(state->eyes, eye)) return;
+        // What the swapped split cuts the passes recorded from now on by.
+        set_runtime_eyes(*state->split, state->eyes);
     }
     send_runtime_view(*session->device, *state->split, sent);
 }
@@ -927,7 +930,6 @@ XRAPI_ATTR XrResult XRAPI_CALL CreateApiLayerInstance(const XrInstanceCreateInfo
                 "directions");
     }
     SPLITVK_INFO("%s active in '%s'", kApiLayerName, info ? info->applicationInfo.applicationName : "?");
-    note_openxr_application();
     std::lock_guard lock(g_mutex);
     g_instances[*instance] = std::move(state);
     return result;

@@ -32,8 +32,10 @@ confined client against the same agent with the same scale, fovea and tile wait 
 layer on, one centred fovea per eye image). Its frame times are between xrEndFrame calls, which
 the runtime's xrWaitFrame paces at 20 Hz: they are never under 50 ms, so the eyes must be large
 enough that native frames take well over that (at 1200x1080 on one confined core they take
-hundreds of ms). Reported as xr split/native beside the desktop split/native. Only --path direct,
-hdr or deferred (atrium --xr draws no other path per eye; layered swapchains are not split).
+hundreds of ms). Reported as xr split/native beside the desktop split/native; with
+--client-renders fovea the swapped split runs through OpenXR too (xr-swapped: the client cuts each
+eye image to its fovea, the agent streams its periphery back at the image's release), reported as
+xr swapped/native. Only --path direct, hdr or deferred (atrium --xr draws no other path per eye).
 
 Prints median and IQR of the frame time (every frame of every run, after --warmup frames per run)
 of native and split, the client's and the agent's per-stage medians, Mbit/s of tiles, and for every
@@ -55,8 +57,9 @@ periphery/native and VARIANT/split, and then four lines for the first path:
 Before the final lines, with --picture-frame N (default 30), one line per split: the picture it held
 at frame N-1, grabbed from the X server, against native's: SSIM and PSNR over the frame, and over the
 periphery alone (the foveae are exact in both splits).
-And with --client-renders fovea a fifth final line:
+And with --client-renders fovea a fifth final line (and with --xr a sixth):
   swapped/native: R      the swapped split's median frame time over native's
+  xr swapped/native: R   the same through OpenXR (xr-swapped over xr-native)
 Then the latency and pacing lines, the last of all:
   latency-split/native: R    the split's median latency over native's
   latency-swapped/native: R  the swapped split's (with --client-renders fovea)
@@ -106,7 +109,8 @@ XR_PATHS = ("direct", "hdr", "deferred")  # splitvk-atrium --xr, one swapchain p
 LATENCY_MODES = {"native": "native (the layer, no agent)", "split": "split", "split-tls": VARIANTS["split-tls"],
                  "split-guard": VARIANTS["split-guard"], "split-auto": VARIANTS["split-auto"],
                  "split-shaded": VARIANTS["split-shaded"], "split-swapped": "swapped split",
-                 "xr-native": "native through OpenXR", "xr-split": "split through OpenXR"}
+                 "xr-native": "native through OpenXR", "xr-split": "split through OpenXR",
+                 "xr-swapped": "swapped split through OpenXR"}
 # The final lines' latency and pacing ratios (path_ratios' names), after split/native's four.
 FINAL_LATENCY_LINES = ("latency-split/native", "latency-swapped/native", "pacing-split", "pacing-swapped")
 XR_LAYER_NAME = "XR_APILAYER_SPLITVK_split_render"
@@ -543,6 +547,7 @@ def measure(args):
                                                    ("split-shaded", args.shaded_foveae),
                                                    ("split-swapped", args.client_renders == "fovea")) if on]
     modes += ["xr-native", "xr-split"] if args.xr else []
+    modes += ["xr-swapped"] if args.xr and args.client_renders == "fovea" else []
     # latency: each run's frame_latency_ms values (SPLITVK_STATS), every mode's, native's too.
     runs = {path: dict({m: [] for m in modes}, periphery=[], cpu={m: [] for m in modes}, variant_rows={},
                        latency={m: [] for m in modes})
@@ -586,6 +591,8 @@ def measure(args):
             xr_layers = {"XR_API_LAYER_PATH": build.xr_manifest_dir, "XR_ENABLE_API_LAYERS": XR_LAYER_NAME}
             xr_split_env = dict(split_env, **xr_layers)
             xr_native_env = dict(native_env, **xr_layers)
+            xr_swapped_env = dict(xr_split_env, SPLITVK_CLIENT_RENDERS="fovea",
+                                  SPLITVK_PERIPHERY_QUALITY=args.periphery_quality)
             for i in range(args.rounds):
                 # Native and split alternate their order every round; the variants trade ends with
                 # native, so the plain split sits next to native in one round and to them in the next.
@@ -598,9 +605,10 @@ def measure(args):
                     for mode in order:
                         times = os.path.join(out_dir, f"{prefix}{mode}-round{i + 1}-frames.csv")
                         stats = os.path.join(out_dir, f"{prefix}{mode}-round{i + 1}.csv")
-                        if mode in ("xr-native", "xr-split"):
+                        if mode in ("xr-native", "xr-split", "xr-swapped"):
                             # No client CPU time: the runtime's service is a child of the run too.
-                            env = dict(xr_native_env if mode == "xr-native" else xr_split_env, SPLITVK_STATS=stats)
+                            env = dict({"xr-native": xr_native_env, "xr-split": xr_split_env,
+                                        "xr-swapped": xr_swapped_env}[mode], SPLITVK_STATS=stats)
                             r = common.run(xr_argv(path, args.frames, times), env, timeout_s)
                             # A row per eye image: two per frame.
                             got["latency"][mode].append(frame_latencies(split.read_stats(stats, 2 * args.warmup)))
@@ -608,9 +616,12 @@ def measure(args):
                                 check_unsplit(r, f"the OpenXR native run (--path {path})")
                                 got[mode].append(read_frame_times(times, args.warmup))
                             else:
+                                summary = "[splitvk] split (client renders fovea):" if mode == "xr-swapped" \
+                                    else "[splitvk] split:"
                                 if "running unsplit" in r.stderr or "eye images of its Vulkan device are split" \
-                                        not in r.stderr or "[splitvk] split:" not in r.stderr:
-                                    raise common.BenchError(f"the OpenXR split run (--path {path}) did not split:\n"
+                                        not in r.stderr or summary not in r.stderr or \
+                                        (mode == "xr-swapped" and "are cut to the foveae" not in r.stderr):
+                                    raise common.BenchError(f"the OpenXR {mode} run (--path {path}) did not split:\n"
                                                             + common.tail(r.stderr))
                                 got[mode].append((read_frame_times(times, args.warmup),
                                                   split.read_stats(stats, 2 * args.warmup)))
@@ -854,7 +865,8 @@ def xr_summary(runs):
             "split": q3([v for run, _ in runs["xr-split"] for v in run]),
             "native_rounds": [split.median(r) for r in runs["xr-native"]],
             "split_rounds": [split.median(r) for r, _ in runs["xr-split"]],
-            "stages": split.stage_medians(rows)}
+            "stages": split.stage_medians(rows),
+            "swapped": q3([v for run, _ in runs["xr-swapped"] for v in run]) if runs.get("xr-swapped") else None}
 
 
 def summarize(args, machine, runs, periphery_size, out_dir, wall_s):
@@ -1081,6 +1093,9 @@ def path_ratios(p):
         ratios["xr split/native"] = xr["split"]["median"] / xr["native"]["median"] if xr["native"]["median"] else None
         ratios["xr split/native by means"] = (xr["split"]["mean"] / xr["native"]["mean"]
                                               if xr["native"].get("mean") and xr["split"].get("mean") else None)
+        if xr.get("swapped"):
+            ratios["xr swapped/native"] = (xr["swapped"]["median"] / xr["native"]["median"]
+                                           if xr["native"]["median"] else None)
     ratios.update(latency_ratios(p))
     return ratios
 
@@ -1091,6 +1106,8 @@ def mode_frame_times(p):
     modes.update(variants_of(p))
     if p.get("xr"):
         modes.update({"xr-native": p["xr"]["native"], "xr-split": p["xr"]["split"]})
+        if p["xr"].get("swapped"):
+            modes["xr-swapped"] = p["xr"]["swapped"]
     return {m: t for m, t in modes.items() if t}
 
 
@@ -1106,10 +1123,10 @@ def latency_ratios(p):
     native's) and pacing-MODE (p99 frame time over the median) of one path_summary, for the modes it
     measured; none for runs from before the bench measured them."""
     short = {"split": "split", "split-swapped": "swapped", "xr-split": "xr-split", "native": "native",
-             "xr-native": "xr-native"}
+             "xr-native": "xr-native", "xr-swapped": "xr-swapped"}
     ratios = {}
     latency = p.get("latency") or {}
-    for mode in ("split", "split-swapped", "xr-split"):
+    for mode in ("split", "split-swapped", "xr-split", "xr-swapped"):
         base = latency.get("xr-native" if mode.startswith("xr-") else "native")
         if mode in latency and base and base["median"]:
             ratios[f"latency-{short[mode]}/native"] = latency[mode]["median"] / base["median"]
@@ -1507,6 +1524,9 @@ def print_final_lines(res):
     swapped = variants_of(first).get("split-swapped")
     if swapped and res["native"]["median"]:
         print(f"swapped/native: {swapped['median'] / res['native']['median']:.3f}")
+    xr = first.get("xr") if first else None
+    if xr and xr.get("swapped") and xr["native"]["median"]:
+        print(f"xr swapped/native: {xr['swapped']['median'] / xr['native']['median']:.3f}")
     ratios = latency_ratios(first) if first else {}
     for name in FINAL_LATENCY_LINES:
         if name in ratios:

@@ -205,10 +205,11 @@ TEST(SplitSides, OneSideScalesWhatTheOtherCuts) {
         EXPECT_EQ(agent == PassDraw::Scaled, !client_periphery);
     }
     // The paper's split cuts an OpenXR eye image on the agent and scales it on the client; the
-    // swapped split draws it whole on both (not swapped in this slice).
+    // swapped split cuts it on the client, and its agent replays it whole and downsamples it at its
+    // release.
     EXPECT_EQ(swapchain_pass_draw(SplitSide::Client, ClientRenders::Periphery, true), PassDraw::Scaled);
     EXPECT_EQ(swapchain_pass_draw(SplitSide::Agent, ClientRenders::Periphery, true), PassDraw::Cut);
-    EXPECT_EQ(swapchain_pass_draw(SplitSide::Client, ClientRenders::Fovea, true), PassDraw::Whole);
+    EXPECT_EQ(swapchain_pass_draw(SplitSide::Client, ClientRenders::Fovea, true), PassDraw::Cut);
     EXPECT_EQ(swapchain_pass_draw(SplitSide::Agent, ClientRenders::Fovea, true), PassDraw::Whole);
     // A verifying client's agent replays the native frame; the client cuts all the same.
     EXPECT_EQ(swapchain_pass_draw(SplitSide::Agent, ClientRenders::Fovea, false, true), PassDraw::Whole);

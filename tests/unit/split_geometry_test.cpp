@@ -1097,5 +1097,50 @@ TEST(SplitGeometry, RuntimeScissorTakesTheAreasAViewportReaches) {
     EXPECT_RECT(runtime_scissor({}, &left), 0, 0, 0u, 0u);
 }
 
+// The swapped split's cut of an OpenXR eye image (CommandTracker::cut_runtime_pass): the pass draws
+// only where its areas are, and its image's record carries the eyes' version it was cut by; two
+// command buffers cut by different versions join as mixed, a pass not cut leaves the version alone.
+TEST(SplitTracker, RuntimeCutRecordsTheEyesItWasCutBy) {
+    const std::vector<LayerFovea> areas = {{0, {{10, 20}, {30, 40}}}};
+    const VkViewport whole{0.f, 0.f, 192.f, 160.f, 0.f, 1.f};
+    const auto cut_by = [&](uint64_t version) {
+        CommandTracker t;
+        t.set_viewports(0, 1, &whole, false);
+        t.begin_split(7, {192, 160});
+        t.cut_runtime_pass(areas, version);
+        EXPECT_TRUE(t.cut());
+        EXPECT_NE(t.runtime_areas(), nullptr);
+        EXPECT_RECT(runtime_scissor(*t.runtime_areas(), t.viewport(0)), 10, 20, 30u, 40u);
+        t.note_foveae();
+        t.end_split();
+        EXPECT_EQ(t.runtime_areas(), nullptr);
+        return t.drawn();
+    };
+    const auto a = cut_by(3);
+    ASSERT_EQ(a.size(), 1u);
+    EXPECT_TRUE(a[0].cut);
+    EXPECT_EQ(a[0].cut_eyes, 3);
+
+    std::vector<DrawnImage> joined = a;
+    merge_drawn(joined, cut_by(3));
+    EXPECT_EQ(joined[0].cut_eyes, 3);
+    merge_drawn(joined, cut_by(4));
+    EXPECT_EQ(joined[0].cut_eyes, DrawnImage::kMixedRuntimeCut);
+
+    // A window's cut pass carries no eyes.
+    CommandTracker window;
+    window.set_viewports(0, 1, &whole, false);
+    window.begin_split(7, {192, 160});
+    window.cut_pass();
+    EXPECT_EQ(window.runtime_areas(), nullptr);
+    window.note_foveae();
+    window.end_split();
+    ASSERT_EQ(window.drawn().size(), 1u);
+    EXPECT_EQ(window.drawn()[0].cut_eyes, DrawnImage::kNoRuntimeCut);
+    std::vector<DrawnImage> with_window = a;
+    merge_drawn(with_window, window.drawn());
+    EXPECT_EQ(with_window[0].cut_eyes, 3);
+}
+
 } // namespace
 } // namespace splitvk::split

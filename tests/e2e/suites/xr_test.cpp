@@ -692,32 +692,205 @@ TEST_F(XrAtrium, MultiviewLayersFoveaeExactAgainstNative) {
         "native", "skewed", true, [&](int eye) { return fovea_at_view(kSkewedFov[eye], 192, 160); }, true);
 }
 
-// SPLITVK_CLIENT_RENDERS=fovea in an OpenXR application: the client does not cut a runtime's
-// eye images yet, so it does not ask for the swapped split. One warning, and the eye images are split
-// the paper's way, each layer's fovea exact against native. Asking for it used to leave them whole
-// and unsplit, with a warning blaming the application's passes.
-TEST_F(XrAtrium, SwappedSplitAskedForSplitsTheEyeImagesThePapersWay) {
-    const auto native = run_atrium(atrium_native_env("native"), "native", {"--multiview"});
+// The swapped split under OpenXR (SPLITVK_CLIENT_RENDERS=fovea): the client cuts each eye image's
+// passes to that eye's fovea at its view direction, the agent renders the periphery and streams it
+// back lossily at the eye image's release, where the client composites it around its own foveae.
+// Judged per image and release against native (release N of image K, as in expect_both_eyes_split):
+// every eye's fovea is bit-exact; each image, from frame 1 on, scores at least kSwappedSsimFloor
+// (SSIM) against native, while native with everything but the foveae black (what the client rendered
+// of it) scores below it: the periphery is the agent's. Validation with synchronization below
+// splitvk, and the agent's sessions run with --validate, report nothing native does not.
+enum class EyeLayout { PerEye, SideBySide, Multiview };
+constexpr double kSwappedSsimFloor = 0.8;
+
+struct SwappedScores {
+    uint64_t fovea_texels = 0, fovea_mismatches = 0;
+    double lowest_ssim = 1, highest_fovea_only_ssim = 0;
+    int images = 0;
+};
+
+// The foveae of image `key` of a run in `layout` (eye images of `w` x `h`), in the readback's
+// coordinates: before any xrEndFrame (frame 0) one centred in each layer, then each eye's `at(eye)`.
+std::vector<Rect> swapped_foveae(EyeLayout layout, std::pair<int, int> key, uint32_t w, uint32_t h,
+                                 const std::function<Rect(int eye)> &at) {
+    const int frame =
+        layout == EyeLayout::PerEye ? 3 * key.second + key.first % 3 : 3 * key.second + key.first;
+    std::vector<Rect> foveae;
+    switch (layout) {
+    case EyeLayout::PerEye:
+        foveae.push_back(frame == 0 ? default_foveae(w, h, 1)[0] : at(key.first / 3));
+        break;
+    case EyeLayout::SideBySide:
+        if (frame == 0) {
+            foveae.push_back(default_foveae(2 * w, h, 1)[0]);
+            break;
+        }
+        for (int eye = 0; eye < 2; ++eye) {
+            Rect f = at(eye);
+            f.x += eye * w;
+            foveae.push_back(f);
+        }
+        break;
+    case EyeLayout::Multiview:
+        for (int eye = 0; eye < 2; ++eye) {
+            Rect f = frame == 0 ? default_foveae(w, h, 1)[0] : at(eye);
+            f.y += eye * h;
+            foveae.push_back(f);
+        }
+        break;
+    }
+    return foveae;
+}
+
+SwappedScores score_swapped(const std::filesystem::path &native_dir, const std::filesystem::path &split_dir,
+                            EyeLayout layout, uint32_t w, uint32_t h, const std::function<Rect(int eye)> &at,
+                            const std::filesystem::path &out, const std::string &run) {
+    SwappedScores scores;
+    const auto n = readbacks(native_dir);
+    const auto s = readbacks(split_dir);
+    EXPECT_FALSE(n.empty()) << "native images read back";
+    EXPECT_EQ(s.size(), n.size()) << "split images read back";
+    const uint32_t iw = layout == EyeLayout::SideBySide ? 2 * w : w;
+    const uint32_t ih = layout == EyeLayout::Multiview ? 2 * h : h;
+    for (const auto &[key, native_path] : n) {
+        SCOPED_TRACE(run + ": " + native_path.filename().string());
+        const auto it = s.find(key);
+        if (it == s.end()) {
+            ADD_FAILURE() << "no split readback of the same image and release";
+            continue;
+        }
+        EyeImage a, b;
+        load_pair(native_path, it->second, iw, ih, &a, &b);
+        if (::testing::Test::HasFatalFailure()) return scores;
+        const std::vector<Rect> foveae = swapped_foveae(layout, key, w, h, at);
+        EyeImage fovea_only = a;
+        std::fill(fovea_only.rgba.begin(), fovea_only.rgba.end(), uint8_t{0});
+        for (const Rect &f : foveae) {
+            const Mismatch m = compare_rect(a, b, f);
+            scores.fovea_texels += m.pixels;
+            scores.fovea_mismatches += m.mismatched;
+            EXPECT_EQ(m.mismatched, 0u)
+                << "fovea " << f.w << "x" << f.h << " at " << f.x << "," << f.y << ": " << m.mismatched
+                << " of " << m.pixels << " texels differ\n"
+                << save_mismatch_artefacts(out, run + "-" + native_path.stem().string(), to_image(a),
+                                           to_image(b));
+            for (uint32_t y = f.y; y < f.y + f.h; ++y)
+                std::memcpy(fovea_only.rgba.data() + (size_t{y} * iw + f.x) * a.bytes, a.at(f.x, y),
+                            size_t{f.w} * a.bytes);
+        }
+        ++scores.images;
+        const bool first_frame = layout == EyeLayout::PerEye ? key.second == 0 && key.first % 3 == 0
+                                                             : key.second == 0 && key.first == 0;
+        if (first_frame) continue; // its periphery may be its own or none yet
+        const double quality = ssim(to_image(a), to_image(b));
+        const double fovea_alone = ssim(to_image(a), to_image(fovea_only));
+        scores.lowest_ssim = std::min(scores.lowest_ssim, quality);
+        scores.highest_fovea_only_ssim = std::max(scores.highest_fovea_only_ssim, fovea_alone);
+        EXPECT_GE(quality, kSwappedSsimFloor)
+            << "the periphery is not the agent's picture of the frame\n"
+            << save_mismatch_artefacts(out, run + "-ssim-" + native_path.stem().string(), to_image(a),
+                                       to_image(b));
+        EXPECT_LT(fovea_alone, kSwappedSsimFloor) << "the floor does not tell a periphery from none";
+    }
+    std::cout << "  " << run << ": " << scores.fovea_texels << " fovea texels in " << scores.images
+              << " images, " << scores.fovea_mismatches << " differ; SSIM against native at least "
+              << scores.lowest_ssim << " (foveae alone at most " << scores.highest_fovea_only_ssim << ")\n";
+    return scores;
+}
+
+// Every SPLITVK_STATS row of a swapped run: the agent's periphery came (periphery_bytes), none late.
+void expect_swapped_stats(const std::filesystem::path &csv, int min_rows) {
+    int rows = 0, with_periphery = 0, late = 0;
+    for (auto &row : stats_rows(read_file(csv))) {
+        ++rows;
+        with_periphery += row["periphery_bytes"] > 0;
+        late += row["late"] != 0;
+    }
+    std::cout << "  " << csv.parent_path().filename().string() << ": " << rows << " eye images, "
+              << with_periphery << " with the agent's periphery, " << late << " late\n";
+    EXPECT_GE(rows, min_rows) << "SPLITVK_STATS: too few eye images";
+    EXPECT_EQ(with_periphery, rows) << "SPLITVK_STATS: eye images without the agent's periphery";
+    EXPECT_EQ(late, 0) << "SPLITVK_STATS: late eye images";
+}
+
+class XrSwapped : public XrAtrium, public ::testing::WithParamInterface<EyeLayout> {
+protected:
+    // Validation (synchronization on) below splitvk and above the readback layer, as for hello_xr.
+    Env with_validation(Env e, const std::string &run) {
+        e["VK_LAYER_PATH"] = std::string(kSystemExplicitLayers) + ":" + SPLITVK_E2E_XR_READBACK_LAYER_DIR;
+        e["VK_INSTANCE_LAYERS"] = std::string(kValidationLayerName) + ":" + kReadbackLayerName;
+        validation_logs_[run] = configure_validation(e, out_ / run);
+        return e;
+    }
+};
+
+TEST_P(XrSwapped, FoveaeExactAtTheViewsPeripheryFromTheAgent) {
+    const EyeLayout layout = GetParam();
+    std::vector<std::string> args;
+    if (layout == EyeLayout::SideBySide) args = {"--side-by-side"};
+    if (layout == EyeLayout::Multiview) args = {"--multiview"};
+    ASSERT_TRUE(built(SPLITVK_E2E_XR_FOV_LAYER_DIR));
+    const auto native = run_atrium(with_validation(atrium_native_env("native"), "native"), "native", args);
     ASSERT_TRUE(native.ok()) << native.describe() << "\n" << tail(native.err(), 30);
     Agent agent;
-    ASSERT_TRUE(agent.start(clean_env(), out_)) << agent.error();
-    Env e = atrium_split_env("split", agent);
+    ASSERT_TRUE(agent.start(clean_env(), out_, {"--validate"})) << agent.error();
+    // The skew layer's asymmetric fields of view: each eye's fovea off its image's centre.
+    Env e = with_validation(atrium_native_env("split"), "split");
+    add_split_layers(e, agent.address(), out_ / "split" / "stats.csv");
+    e = with_skewed_fov(e);
     e["SPLITVK_CLIENT_RENDERS"] = "fovea";
-    const auto split = run_atrium(e, "split", {"--multiview"});
+    const auto split = run_atrium(e, "split", args);
     ASSERT_TRUE(split.ok()) << split.describe() << "\n" << tail(split.err(), 30);
     const std::string &err = split.err();
-    EXPECT_EQ(
-        grep(err, "SPLITVK_CLIENT_RENDERS=fovea: the client does not cut an OpenXR runtime's eye images yet")
-            .size(),
-        1u)
-        << tail(err, 30);
-    EXPECT_TRUE(grep(err, "cannot render the periphery").empty()) << tail(err, 30);
-    EXPECT_TRUE(grep(err, "none split").empty()) << tail(err, 30);
     EXPECT_TRUE(grep(err, "[splitvk] error:").empty()) << tail(err, 30);
-    const Rect centred = default_foveae(192, 160, 1)[0];
-    expect_both_eyes_split(
-        "native", "split", true, [&](int) { return centred; }, false);
+    EXPECT_TRUE(grep(err, "[splitvk] warning:").empty()) << tail(err, 30);
+    const uint32_t w = 192, h = 160;
+    const auto at = [&](int eye) { return fovea_at_view(kSkewedFov[eye], w, h); };
+    if (layout == EyeLayout::Multiview) {
+        // Not cut: the compositor's swapped composite keeps one layer's foveae. Rendered whole, each
+        // image equals native's everywhere.
+        EXPECT_EQ(grep(err, "passes into layered OpenXR eye images (multiview) are not cut").size(), 1u)
+            << tail(err, 30);
+        const auto n = readbacks(out_ / "native" / "images");
+        const auto s = readbacks(out_ / "split" / "images");
+        ASSERT_EQ(n.size(), static_cast<size_t>(kFrames));
+        ASSERT_EQ(s.size(), n.size());
+        for (const auto &[key, path] : n) {
+            EyeImage a, b;
+            ASSERT_NO_FATAL_FAILURE(load_pair(path, s.at(key), w, 2 * h, &a, &b));
+            EXPECT_EQ(compare_rect(a, b, Rect{0, 0, w, 2 * h}).mismatched, 0u) << path.filename().string();
+        }
+    } else {
+        const std::string size = layout == EyeLayout::SideBySide ? "384x160" : "192x160";
+        EXPECT_EQ(grep(err, "swapped split: passes into " + size + " swapchain images are cut to the foveae")
+                      .size(),
+                  1u)
+            << tail(err, 30);
+        const SwappedScores scores = score_swapped(out_ / "native" / "images", out_ / "split" / "images",
+                                                   layout, w, h, at, out_, "split");
+        EXPECT_GT(scores.fovea_texels, 0u);
+        RecordProperty("fovea_texels", std::to_string(scores.fovea_texels));
+        RecordProperty("lowest_ssim", std::to_string(scores.lowest_ssim));
+        expect_swapped_stats(out_ / "split" / "stats.csv",
+                             layout == EyeLayout::PerEye ? 2 * kFrames : kFrames);
+    }
+    expect_no_new_validation("native", "split");
+    EXPECT_TRUE(agent_session_validation_clean(agent.log_path()));
 }
+
+INSTANTIATE_TEST_SUITE_P(Layouts, XrSwapped,
+                         ::testing::Values(EyeLayout::PerEye, EyeLayout::SideBySide, EyeLayout::Multiview),
+                         [](const ::testing::TestParamInfo<EyeLayout> &param) {
+                             switch (param.param) {
+                             case EyeLayout::PerEye:
+                                 return std::string("PerEye");
+                             case EyeLayout::SideBySide:
+                                 return std::string("SideBySide");
+                             case EyeLayout::Multiview:
+                                 return std::string("Multiview");
+                             }
+                             return std::string("unknown");
+                         });
 
 // SPLITVK_GAZE=fifo:PATH under OpenXR: the pipe's left and right points place the foveae
 // of the application's views 0 and 1, in a swapchain per eye and in one layered swapchain drawn with
@@ -1164,6 +1337,49 @@ TEST_F(Xr, HelloXrFoveaeExactAgainstNative) {
     // hello_xr exits with its VkDevice alive: the summary comes at exit all the same.
     EXPECT_FALSE(grep(split.err(), "[splitvk] split: ").empty()) << tail(split.err(), 30);
     EXPECT_FALSE(grep(split.err(), " eye images in ").empty()) << tail(split.err(), 30);
+}
+
+// hello_xr with SPLITVK_CLIENT_RENDERS=fovea: the client cuts its eye images' passes to their foveae
+// and the agent renders the periphery. The newest release of each eye image: fovea bit-exact against
+// native, SSIM against native's newest at least the floor (hello_xr's hand cubes move, so the two
+// are not quite the same frame) while native with its periphery black scores below it; every row
+// has the agent's periphery; validation on both sides reports nothing native does not.
+TEST_F(Xr, SwappedSplitCutsHelloXrsEyeImages) {
+    const auto native = run_hello_xr(native_env("native"), "native", 4);
+    ASSERT_TRUE(native.ok()) << native.describe() << "\n" << tail(native.err(), 30);
+    Agent agent;
+    ASSERT_TRUE(agent.start(clean_env(), out_, {"--validate"})) << agent.error();
+    Env e = split_env("split", agent);
+    e["SPLITVK_CLIENT_RENDERS"] = "fovea";
+    const auto split = run_hello_xr(e, "split", 4);
+    ASSERT_TRUE(split.ok()) << split.describe() << "\n" << tail(split.err(), 30);
+    expect_layer_order(split, true);
+    const std::string &err = split.err();
+    EXPECT_TRUE(grep(err, "[splitvk] error:").empty()) << tail(err, 30);
+    EXPECT_EQ(grep(err, "swapped split: passes into 320x240 swapchain images are cut to the foveae").size(),
+              1u)
+        << tail(err, 30);
+    ASSERT_NO_FATAL_FAILURE(expect_foveae_exact("native", "split"));
+    const auto n = newest_readbacks(out_ / "native" / "images");
+    const auto s = newest_readbacks(out_ / "split" / "images");
+    for (const auto &[k, newest] : s) {
+        EyeImage a, b;
+        ASSERT_NO_FATAL_FAILURE(load_pair(n.at(k).second, newest.second, 320, 240, &a, &b));
+        const Rect f = default_foveae(320, 240, 1)[0];
+        EyeImage fovea_only = a;
+        std::fill(fovea_only.rgba.begin(), fovea_only.rgba.end(), uint8_t{0});
+        for (uint32_t y = f.y; y < f.y + f.h; ++y)
+            std::memcpy(fovea_only.rgba.data() + (size_t{y} * 320 + f.x) * 4, a.at(f.x, y), size_t{f.w} * 4);
+        const double quality = ssim(to_image(a), to_image(b));
+        const double fovea_alone = ssim(to_image(a), to_image(fovea_only));
+        std::cout << "  eye image " << k << ": SSIM " << quality << " against native (foveae alone "
+                  << fovea_alone << ")\n";
+        EXPECT_GE(quality, kSwappedSsimFloor) << newest.second;
+        EXPECT_LT(fovea_alone, kSwappedSsimFloor);
+    }
+    expect_swapped_stats(out_ / "split" / "stats.csv", 20);
+    expect_no_new_validation("native", "split");
+    EXPECT_TRUE(agent_session_validation_clean(agent.log_path()));
 }
 
 // An application that never destroys its device (hello_xr) under SPLITVK_VERIFY=full: the verify
