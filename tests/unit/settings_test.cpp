@@ -162,6 +162,16 @@ TEST_F(SettingsTest, Seam) {
     EXPECT_EQ(bad.settings.seam.feather, 16u) << "a bad value leaves the default";
 }
 
+// SPLITVK_UPSAMPLE: bilinear by default, bicubic on request, in any case.
+TEST_F(SettingsTest, Upsample) {
+    EXPECT_EQ(load({}).settings.upsample, UpsampleMode::Bilinear);
+    EXPECT_EQ(load({{"SPLITVK_UPSAMPLE", "bicubic"}}).settings.upsample, UpsampleMode::Bicubic);
+    EXPECT_EQ(load({{"SPLITVK_UPSAMPLE", "Bilinear"}}).settings.upsample, UpsampleMode::Bilinear);
+    const auto bad = load({{"SPLITVK_UPSAMPLE", "lanczos"}});
+    EXPECT_FALSE(bad.valid());
+    EXPECT_EQ(bad.settings.upsample, UpsampleMode::Bilinear) << "a bad value leaves the default";
+}
+
 // SPLITVK_UNSUPPORTED: fail (the default) or passthrough, in any case, from the file too.
 TEST_F(SettingsTest, UnsupportedExtensions) {
     EXPECT_EQ(load({}).settings.unsupported, UnsupportedMode::Fail);
