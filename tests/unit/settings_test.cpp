@@ -231,6 +231,7 @@ TEST_F(SettingsTest, InvalidValuesAreOneLineErrorsNamingTheSetting) {
         {"PERIPHERY_QUALITY", {"", "-1", "52", "23.5", "best", "lossy"}},
         {"CLIENT_GUARD", {"", "off", "guard", "guard:", "guard:-1", "guard:4097", "64"}},
         {"SEAM", {"", "soft", "feather", "feather:", "feather:-1", "feather:257", "feather:1.5", "16"}},
+        {"UPSAMPLE", {"", "lanczos", "cubic", "edge", "1"}},
         {"GAZE", {"", "fifo:", "fifo", "pipe:/tmp/gaze", "eyes", "1"}},
         {"XR_DEADLINE", {"", "on", "1", "vsync"}},
         {"CODEC", {"", "h264", "x265", "lz4"}},
