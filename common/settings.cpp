@@ -66,6 +66,9 @@ const SettingInfo kSettings[] = {
      "with CLIENT_RENDERS=fovea: the client renders each fovea grown by N pixels and blends them into the "
      "agent's periphery across that band (the fovea stays exact); hard: the periphery meets the fovea at its "
      "edge"},
+    {"UPSAMPLE", "bilinear or bicubic", "bilinear",
+     "how the compositor upsamples the periphery outside the foveae: bilinear (a blit); bicubic: "
+     "Catmull-Rom, sharper, for a client whose GPU can afford several times the upsample's cost"},
     {"FOVEA_MASK", "depth or off", "depth",
      "depth: the client leaves the foveae out of the periphery it shades, by their depth in its passes into "
      "the "
@@ -382,6 +385,15 @@ bool apply(std::string_view name, std::string_view raw, Settings &s) {
         const auto pixels = parse_uint(std::string_view(v).substr(8));
         if (!pixels || *pixels > kMaxSeamFeather) return false;
         s.seam = {*pixels};
+        return true;
+    }
+    if (name == "UPSAMPLE") {
+        if (v == "bilinear")
+            s.upsample = UpsampleMode::Bilinear;
+        else if (v == "bicubic")
+            s.upsample = UpsampleMode::Bicubic;
+        else
+            return false;
         return true;
     }
     if (name == "FOVEA_MASK") {

@@ -88,6 +88,12 @@ struct Seam {
 };
 inline constexpr uint32_t kMaxSeamFeather = 256;
 
+// SPLITVK_UPSAMPLE: how the compositor upsamples the periphery over the image outside the foveae
+// (either split). Bilinear: one hardware-filtered tap, by vkCmdBlitImage where the format blits;
+// Bicubic: Catmull-Rom through 9 bilinear taps, by a draw, sharper and several times the cost on
+// a CPU rasteriser (docs/BENCHMARKS.md, "Upsample filters").
+enum class UpsampleMode { Bilinear, Bicubic };
+
 // SPLITVK_GAZE: where the foveae sit. Fixed: centred in each eye (at the view direction
 // under OpenXR), the same every frame; OpenXR: where the runtime's eye tracking says the eyes look
 // (layer/xr/xr_gaze.h; OpenXR eye images only); Fifo: at the gaze points another process writes into a
@@ -136,6 +142,7 @@ struct Settings {
     PeripheryCodec periphery_codec = PeripheryCodec::H264;
     ClientGuard client_guard;
     Seam seam;
+    UpsampleMode upsample = UpsampleMode::Bilinear;
     GazeMode gaze = GazeMode::Fixed;
     // SPLITVK_FOVEA_MASK: the client leaves the foveae out of the periphery it shades,
     // through the depth of its passes into the swapchain image, where that is exact

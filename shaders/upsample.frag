@@ -5,7 +5,10 @@
 // and clamped to the centres of the periphery's outer texels, so no filter tap ever reaches past
 // the periphery into the stale rest of the image (clamp-to-edge of the region, not of the image).
 //
-// FILTER (specialisation constant 0; compositor.h: kDefaultUpsampleFilter):
+// `periphery` is an array: a layered image (an OpenXR swapchain drawn with multiview) is drawn one
+// layer per pass, each from the same layer of the periphery (pc.layer); a single image has one.
+//
+// FILTER (specialisation constant 0; compositor.h: kDefaultUpsampleFilter, SPLITVK_UPSAMPLE):
 //   0 bilinear: one hardware-filtered tap.
 //   1 Catmull-Rom bicubic: 9 hardware-filtered taps that stand for its 16 (the inner 2x2 pairs
 //     of weights share a sign, so each pair becomes one bilinear tap at the weighted offset).
@@ -13,18 +16,20 @@
 
 layout(constant_id = 0) const int FILTER = 0;
 
-layout(set = 0, binding = 0) uniform sampler2D periphery;
+layout(set = 0, binding = 0) uniform sampler2DArray periphery;
 
 layout(push_constant) uniform Push {
     vec2 scale;         // periphery extent / swapchain extent
     vec2 texel_size;    // 1 / periphery image extent (the image can be larger than the periphery)
     vec2 max_centre;    // periphery extent - 0.5: the centre of its last texel
+    int layer;          // the layer of `periphery` this pass draws
 } pc;
 
 layout(location = 0) out vec4 color;
 
 vec4 tap(vec2 p) {
-    return textureLod(periphery, clamp(p, vec2(0.5), pc.max_centre) * pc.texel_size, 0.0);
+    return textureLod(periphery, vec3(clamp(p, vec2(0.5), pc.max_centre) * pc.texel_size, float(pc.layer)),
+                      0.0);
 }
 
 vec4 catmull_rom(vec2 p) {

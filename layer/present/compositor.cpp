@@ -30,6 +30,7 @@
 
 #include "present/compositor.h"
 
+#include "capture/session.h"
 #include "core/gpu_timing.h"
 #include "core/host_buffer.h"
 #include "core/instance.h"
@@ -51,10 +52,12 @@ namespace {
 constexpr uint64_t kSlotWaitNs = 1'000'000'000;    // a slot's previous submit, before reuse
 constexpr uint64_t kDestroyWaitNs = 5'000'000'000; // at destroy, per slot
 
+// shaders/upsample.frag's.
 struct PushConstants {
     float scale[2];
     float texel_size[2];
     float max_centre[2];
+    int32_t layer; // of the periphery image, the one the pass's framebuffer draws
 };
 
 // shaders/feather.frag's.
@@ -134,12 +137,13 @@ void destroy_compositor_image(const DeviceState &device, CompositorImage &owned)
 }
 
 // `owned` (which nothing in flight reads any more) replaced by an `extent` image of `format` with
-// `layers` array layers, optimal tiling, in device-local memory, with a 2D view of its first layer
-// when `with_view` (the draw samples single-layer images only). False with one line in `error`
+// `layers` array layers, optimal tiling, in device-local memory, with a view when `with_view`: of
+// every layer (2D array: the upsample draw samples the layer it draws) when `array_view`, else of the
+// first (2D). False with one line in `error`
 // about `what` the image is, `owned` left empty.
 bool create_compositor_image(const DeviceState &device, VkFormat format, VkExtent2D extent, uint32_t layers,
                              VkImageUsageFlags usage, bool with_view, const char *what,
-                             CompositorImage &owned, std::string *error) {
+                             CompositorImage &owned, std::string *error, bool array_view = false) {
     destroy_compositor_image(device, owned);
     const VkDevice d = device.handle;
     const auto &k = device.dispatch;
@@ -176,9 +180,9 @@ bool create_compositor_image(const DeviceState &device, VkFormat format, VkExten
         VkImageViewCreateInfo view_info{};
         view_info.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO;
         view_info.image = owned.image;
-        view_info.viewType = VK_IMAGE_VIEW_TYPE_2D;
+        view_info.viewType = array_view ? VK_IMAGE_VIEW_TYPE_2D_ARRAY : VK_IMAGE_VIEW_TYPE_2D;
         view_info.format = format;
-        view_info.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+        view_info.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, array_view ? layers : 1};
         if (k.CreateImageView(d, &view_info, nullptr, &owned.view) != VK_SUCCESS) {
             owned.view = VK_NULL_HANDLE;
             return fail("cannot create the view of ");
@@ -304,8 +308,10 @@ struct Compositor::Slot {
     VkFence fence = VK_NULL_HANDLE;
     VkSemaphore semaphore = VK_NULL_HANDLE;
     bool in_flight = false;
-    VkImageView target_view = VK_NULL_HANDLE; // the swapchain image, as the draw's attachment
-    VkFramebuffer framebuffer = VK_NULL_HANDLE;
+    // Per array layer of the swapchain image: a view of that layer as the draw's attachment, and its
+    // framebuffer (the feather draws into layer 0's: it serves single-layer images only).
+    std::vector<VkImageView> target_views;
+    std::vector<VkFramebuffer> framebuffers;
     VkDescriptorSet set = VK_NULL_HANDLE;
     // The copy of the periphery the draw samples; at least as large as the periphery.
     CompositorImage periphery;
@@ -390,11 +396,6 @@ std::unique_ptr<Compositor> Compositor::create(DeviceState &device, const Swapch
         device.instance->dispatch.GetPhysicalDeviceFormatProperties(device.physical_device, swapchain.format,
                                                                     &props);
         if ((props.optimalTilingFeatures & kBlitFeatures) != kBlitFeatures) filter = UpsampleFilter::Bilinear;
-    }
-    // The draw writes one layer (its framebuffer's); only the blit upsamples every layer.
-    if (swapchain.array_layers > 1 && filter != UpsampleFilter::BilinearBlit) {
-        *error = "a layered image is upsampled by blit only";
-        return nullptr;
     }
     std::unique_ptr<Compositor> c(new Compositor(device, swapchain, queue_family, filter, timed));
     if (!c->init(error)) return nullptr;
@@ -656,24 +657,31 @@ bool Compositor::init_slot(Slot &s, uint32_t image_index, std::string *error) {
         create_host_buffer(device_, 2 * sizeof(uint64_t), VK_BUFFER_USAGE_TRANSFER_DST_BIT, HostAccess::Read,
                            &s.timing, &untimed);
 
-    // A view of the swapchain image in its own format (never another: the fovea goes in by copy).
-    VkImageViewCreateInfo view_info{};
-    view_info.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO;
-    view_info.image = images_[image_index];
-    view_info.viewType = VK_IMAGE_VIEW_TYPE_2D;
-    view_info.format = format_;
-    view_info.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-    if (k.CreateImageView(d, &view_info, nullptr, &s.target_view) != VK_SUCCESS) return fail("image view");
-    VkFramebufferCreateInfo framebuffer_info{};
-    framebuffer_info.sType = VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO;
-    framebuffer_info.renderPass = render_pass_;
-    framebuffer_info.attachmentCount = 1;
-    framebuffer_info.pAttachments = &s.target_view;
-    framebuffer_info.width = extent_.width;
-    framebuffer_info.height = extent_.height;
-    framebuffer_info.layers = 1;
-    if (k.CreateFramebuffer(d, &framebuffer_info, nullptr, &s.framebuffer) != VK_SUCCESS)
-        return fail("framebuffer");
+    // A view of each layer of the swapchain image in its own format (never another: the fovea goes
+    // in by copy), and a framebuffer on it: the draw upsamples a layered image layer by layer.
+    for (uint32_t layer = 0; layer < layers_; ++layer) {
+        VkImageViewCreateInfo view_info{};
+        view_info.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO;
+        view_info.image = images_[image_index];
+        view_info.viewType = VK_IMAGE_VIEW_TYPE_2D;
+        view_info.format = format_;
+        view_info.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, layer, 1};
+        VkImageView view = VK_NULL_HANDLE;
+        if (k.CreateImageView(d, &view_info, nullptr, &view) != VK_SUCCESS) return fail("image view");
+        s.target_views.push_back(view);
+        VkFramebufferCreateInfo framebuffer_info{};
+        framebuffer_info.sType = VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO;
+        framebuffer_info.renderPass = render_pass_;
+        framebuffer_info.attachmentCount = 1;
+        framebuffer_info.pAttachments = &view;
+        framebuffer_info.width = extent_.width;
+        framebuffer_info.height = extent_.height;
+        framebuffer_info.layers = 1;
+        VkFramebuffer framebuffer = VK_NULL_HANDLE;
+        if (k.CreateFramebuffer(d, &framebuffer_info, nullptr, &framebuffer) != VK_SUCCESS)
+            return fail("framebuffer");
+        s.framebuffers.push_back(framebuffer);
+    }
 
     VkDescriptorSetAllocateInfo set_info{};
     set_info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
@@ -695,7 +703,8 @@ bool Compositor::ensure_periphery_image(Slot &s, VkExtent2D periphery, std::stri
     if (!create_compositor_image(device_, format_, periphery, layers_,
                                  VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT |
                                      VK_IMAGE_USAGE_SAMPLED_BIT,
-                                 /*with_view=*/true, "the periphery image", s.periphery, error))
+                                 /*with_view=*/true, "the periphery image", s.periphery, error,
+                                 /*array_view=*/true))
         return false;
     write_sampled_view(device_, s.set, s.periphery.view);
     return true;
@@ -711,8 +720,10 @@ void Compositor::destroy_slot(Slot &s) {
     if (s.saved) k.DestroyBuffer(d, s.saved, nullptr);
     if (s.saved_memory) k.FreeMemory(d, s.saved_memory, nullptr);
     destroy_compositor_image(device_, s.seam);
-    if (s.framebuffer) k.DestroyFramebuffer(d, s.framebuffer, nullptr);
-    if (s.target_view) k.DestroyImageView(d, s.target_view, nullptr);
+    for (VkFramebuffer framebuffer : s.framebuffers)
+        k.DestroyFramebuffer(d, framebuffer, nullptr);
+    for (VkImageView view : s.target_views)
+        k.DestroyImageView(d, view, nullptr);
     if (s.semaphore) k.DestroySemaphore(d, s.semaphore, nullptr);
     if (s.fence) k.DestroyFence(d, s.fence, nullptr);
     if (s.taken_in_flight) k.WaitForFences(d, 1, &s.taken_fence, VK_TRUE, kDestroyWaitNs);
@@ -845,7 +856,7 @@ void Compositor::record_upsample(Slot &s, VkImage image, VkExtent2D periphery, V
                              nullptr, 0, nullptr, source_written ? 2 : 1, to_blit);
         // The periphery image is exactly the periphery's size, so the filter's clamp to its
         // edge is the clamp to the periphery's edge that the shader does.
-        // Per layer, around that layer's tiles (create() leaves the draw to single-layer images).
+        // Per layer, around that layer's tiles.
         std::vector<VkImageBlit> regions;
         std::vector<VkBufferImageCopy> in_layer;
         for (uint32_t layer = 0; layer < layers_; ++layer) {
@@ -878,17 +889,8 @@ void Compositor::record_upsample(Slot &s, VkImage image, VkExtent2D periphery, V
                                  VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
                              0, 0, nullptr, 0, nullptr, 2, to_draw);
 
-        VkRenderPassBeginInfo pass{};
-        pass.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
-        pass.renderPass = render_pass_;
-        pass.framebuffer = s.framebuffer;
-        pass.renderArea = {{0, 0}, extent_};
-        k.CmdBeginRenderPass(cb, &pass, VK_SUBPASS_CONTENTS_INLINE);
-        k.CmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_);
-        k.CmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout_, 0, 1, &s.set, 0,
-                                nullptr);
-        const VkViewport viewport{0.0f, 0.0f, float(extent_.width), float(extent_.height), 0.0f, 1.0f};
-        k.CmdSetViewport(cb, 0, 1, &viewport);
+        // One pass per layer (a layered image's eyes), each drawing its layer from the same layer of
+        // the periphery image; the passes write distinct subresources, so none waits on another.
         PushConstants push{};
         push.scale[0] = float(periphery.width) / float(extent_.width);
         push.scale[1] = float(periphery.height) / float(extent_.height);
@@ -896,14 +898,32 @@ void Compositor::record_upsample(Slot &s, VkImage image, VkExtent2D periphery, V
         push.texel_size[1] = 1.0f / float(s.periphery.extent.height);
         push.max_centre[0] = float(periphery.width) - 0.5f;
         push.max_centre[1] = float(periphery.height) - 0.5f;
-        k.CmdPushConstants(cb, pipeline_layout_, VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
-        // Only around the foveae: the tile copies below overwrite them, so what the pass leaves
-        // there (undefined: the attachment is not loaded) is never seen.
-        for (const VkRect2D &band : periphery_bands(extent_, copy_regions_)) {
-            k.CmdSetScissor(cb, 0, 1, &band);
-            k.CmdDraw(cb, 3, 1, 0, 0);
+        const VkViewport viewport{0.0f, 0.0f, float(extent_.width), float(extent_.height), 0.0f, 1.0f};
+        std::vector<VkBufferImageCopy> in_layer;
+        for (uint32_t layer = 0; layer < layers_; ++layer) {
+            in_layer.clear();
+            for (const VkBufferImageCopy &c : copy_regions_)
+                if (c.imageSubresource.baseArrayLayer == layer) in_layer.push_back(c);
+            VkRenderPassBeginInfo pass{};
+            pass.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
+            pass.renderPass = render_pass_;
+            pass.framebuffer = s.framebuffers[layer];
+            pass.renderArea = {{0, 0}, extent_};
+            k.CmdBeginRenderPass(cb, &pass, VK_SUBPASS_CONTENTS_INLINE);
+            k.CmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_);
+            k.CmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout_, 0, 1, &s.set, 0,
+                                    nullptr);
+            k.CmdSetViewport(cb, 0, 1, &viewport);
+            push.layer = int32_t(layer);
+            k.CmdPushConstants(cb, pipeline_layout_, VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
+            // Only around this layer's foveae: the tile copies below overwrite them, so what the
+            // pass leaves there (undefined: the attachment is not loaded) is never seen.
+            for (const VkRect2D &band : periphery_bands(extent_, in_layer)) {
+                k.CmdSetScissor(cb, 0, 1, &band);
+                k.CmdDraw(cb, 3, 1, 0, 0);
+            }
+            k.CmdEndRenderPass(cb);
         }
-        k.CmdEndRenderPass(cb);
 
         after_periphery(VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
                         VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
@@ -1422,7 +1442,7 @@ void Compositor::record_seams(Slot &s, VkImage image) {
     VkRenderPassBeginInfo pass{};
     pass.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
     pass.renderPass = seam_pass_;
-    pass.framebuffer = s.framebuffer;
+    pass.framebuffer = s.framebuffers.front();
     pass.renderArea = area;
     k.CmdBeginRenderPass(cb, &pass, VK_SUBPASS_CONTENTS_INLINE);
     k.CmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, feather_pipeline_);
@@ -1482,6 +1502,10 @@ std::shared_ptr<CompositorTable> make_compositor_table() {
     return std::make_shared<CompositorTable>();
 }
 
+UpsampleFilter upsample_filter(UpsampleMode mode) {
+    return mode == UpsampleMode::Bicubic ? UpsampleFilter::CatmullRom : UpsampleFilter::BilinearBlit;
+}
+
 Compositor *compositor_for(DeviceState &device, const SwapchainState &swapchain, uint32_t queue_family,
                            bool timed) {
     if (!swapchain.composable || queue_family == UINT32_MAX) return nullptr;
@@ -1501,12 +1525,15 @@ Compositor *compositor_for(DeviceState &device, const SwapchainState &swapchain,
     if (e->failed_family == queue_family) return nullptr;
     replaced = std::move(e->compositor);
     std::string error;
-    e->compositor =
-        Compositor::create(device, swapchain, queue_family, &error, kDefaultUpsampleFilter, timed);
+    const UpsampleMode mode = device.session ? device.session->settings().upsample : UpsampleMode::Bilinear;
+    e->compositor = Compositor::create(device, swapchain, queue_family, &error, upsample_filter(mode), timed);
     if (!e->compositor) {
         e->failed_family = queue_family;
         SPLITVK_WARN("compositor: swapchain %dx%d presents uncomposited: %s", int(swapchain.extent.width),
                      int(swapchain.extent.height), error.c_str());
+    } else if (mode == UpsampleMode::Bicubic) {
+        SPLITVK_INFO("compositor: swapchain %dx%d upsamples its periphery bicubic (Catmull-Rom)",
+                     int(swapchain.extent.width), int(swapchain.extent.height));
     }
     return e->compositor.get();
 }

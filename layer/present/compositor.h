@@ -37,6 +37,7 @@
 // rather than hang the application.
 
 #include "core/device.h"
+#include "settings.h"
 
 #include <cstdint>
 #include <memory>
@@ -104,12 +105,17 @@ enum class UpsampleFilter : int { Bilinear = 0, CatmullRom = 1, BilinearBlit = 2
 // times the blit.
 inline constexpr UpsampleFilter kDefaultUpsampleFilter = UpsampleFilter::BilinearBlit;
 
+// The filter SPLITVK_UPSAMPLE asks for: bilinear by blit (create() draws it where the format does
+// not blit), or Catmull-Rom by the draw (a layered image: one pass per layer).
+UpsampleFilter upsample_filter(UpsampleMode mode);
+
 class Compositor {
 public:
     // Whether a swapchain of `format` (and `layers` array layers) can be composited on this device,
     // with the usage kSwapchainUsage added (swapchain.cpp asks before it adds the usage). `why` says
-    // why not. Layered images (an OpenXR swapchain drawn with multiview) are upsampled by blit, one
-    // layer per region, so their format must blit with a linear filter.
+    // why not. Layered images (an OpenXR swapchain drawn with multiview) are upsampled by blit by
+    // default, one layer per region, so their format must blit with a linear filter (the draw, one
+    // pass per layer, needs only what every format here has).
     static bool supports(DeviceState &device, VkFormat format, std::string *why, uint32_t layers = 1);
     // The swapchain image usage composition needs: TRANSFER_SRC (the periphery copy),
     // TRANSFER_DST (the tiles), COLOR_ATTACHMENT (the upsample draw).

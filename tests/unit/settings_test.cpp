@@ -165,6 +165,16 @@ TEST_F(SettingsTest, Seam) {
     EXPECT_EQ(bad.settings.seam.feather, 16u) << "a bad value leaves the default";
 }
 
+// SPLITVK_UPSAMPLE: bilinear by default, bicubic on request, in any case.
+TEST_F(SettingsTest, Upsample) {
+    EXPECT_EQ(load({}).settings.upsample, UpsampleMode::Bilinear);
+    EXPECT_EQ(load({{"SPLITVK_UPSAMPLE", "bicubic"}}).settings.upsample, UpsampleMode::Bicubic);
+    EXPECT_EQ(load({{"SPLITVK_UPSAMPLE", "Bilinear"}}).settings.upsample, UpsampleMode::Bilinear);
+    const auto bad = load({{"SPLITVK_UPSAMPLE", "lanczos"}});
+    EXPECT_FALSE(bad.valid());
+    EXPECT_EQ(bad.settings.upsample, UpsampleMode::Bilinear) << "a bad value leaves the default";
+}
+
 // SPLITVK_UNSUPPORTED: fail (the default) or passthrough, in any case, from the file too.
 TEST_F(SettingsTest, UnsupportedExtensions) {
     EXPECT_EQ(load({}).settings.unsupported, UnsupportedMode::Fail);
@@ -225,6 +235,7 @@ TEST_F(SettingsTest, InvalidValuesAreOneLineErrorsNamingTheSetting) {
         {"PERIPHERY_CODEC", {"", "x264", "h265", "yuv", "444", "h264:high"}},
         {"CLIENT_GUARD", {"", "off", "guard", "guard:", "guard:-1", "guard:4097", "64"}},
         {"SEAM", {"", "soft", "feather", "feather:", "feather:-1", "feather:257", "feather:1.5", "16"}},
+        {"UPSAMPLE", {"", "lanczos", "cubic", "edge", "1"}},
         {"GAZE", {"", "fifo:", "fifo", "pipe:/tmp/gaze", "eyes", "1"}},
         {"XR_DEADLINE", {"", "on", "1", "vsync"}},
         {"CODEC", {"", "h264", "x265", "lz4"}},

@@ -118,6 +118,7 @@ const std::map<std::string, std::string> &bad_values() {
         {"PERIPHERY_CODEC", "h265"},   // h264, hevc or rgb
         {"CLIENT_GUARD", "guard:x"},   // guard:N or full
         {"SEAM", "feather:-1"},        // hard or feather:N
+        {"UPSAMPLE", "lanczos"},       // bilinear or bicubic
         {"GAZE", "pipe:/tmp/gaze"},    // not a gaze source
         {"XR_DEADLINE", "late"},       // display or off
         {"CODEC", "h265"},             // not a codec splitvk has
