@@ -1480,7 +1480,7 @@ void expect_periphery_session(Agent &agent, uint64_t session, PeripheryCodec cod
     Client client;
     ASSERT_TRUE(client.connect(agent)) << client.error;
     EXPECT_TRUE(client.granted & protocol::capability::kSwappedSplit);
-    const protocol::PeripheryConfig config{0.5, {false, 23}, codec};
+    const protocol::PeripheryConfig config{0.5, {false, 23}, false, codec};
     constexpr uint32_t kFrames = 2;
     std::string why;
     ASSERT_TRUE(run_periphery_stream(client, &config, false, &why, kFrames)) << why << "\n" << agent.log();

@@ -421,14 +421,14 @@ TEST(ProtocolSession, TilesRoundTripAndLimits) {
 }
 
 // The swapped split's periphery config: the scale within [0.1, 1] (NaN refused), the crf
-// within x264's 0..51, the codec one of h264, hevc and rgb.
+// within x264's 0..51, the whole-frames flag, the codec one of h264, hevc and rgb.
 TEST(ProtocolSession, PeripheryConfigRoundTripAndLimits) {
     PeripheryConfig m;
     m.scale = 0.6;
     m.quality = {false, 28};
     m.codec = PeripheryCodec::Hevc;
     const auto bytes = encode(m);
-    EXPECT_EQ(bytes.size(), 20u);
+    EXPECT_EQ(bytes.size(), 24u);
     const auto back = decode_periphery_config(bytes);
     ASSERT_TRUE(back.ok()) << back.error();
     EXPECT_EQ(back->scale, 0.6);
