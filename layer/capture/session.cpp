@@ -155,7 +155,7 @@ void Session::adopt_locked(AgentLink &&agent) {
     if (splitting()) {
         // A new agent's tiles are a new stream (its encoders start with an IDR): new decoders.
         if (tiles_) tiles_->stop();
-        tiles_ = std::make_unique<TileStream>(*uploads_, [this](const std::string &error) {
+        tiles_ = std::make_unique<TileStream>(*uploads_, agent_label(), [this](const std::string &error) {
             fail("undecodable tiles from the agent: " + error);
         });
     }

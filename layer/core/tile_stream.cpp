@@ -18,8 +18,9 @@ constexpr size_t kMaxKeptFrames = 8;
 
 } // namespace
 
-TileStream::TileStream(UploadPool &uploads, std::function<void(const std::string &)> on_error)
-    : uploads_(uploads), on_error_(std::move(on_error)) {}
+TileStream::TileStream(UploadPool &uploads, std::string agent,
+                       std::function<void(const std::string &)> on_error)
+    : uploads_(uploads), agent_(std::move(agent)), on_error_(std::move(on_error)) {}
 
 TileStream::~TileStream() {
     stop();
@@ -56,6 +57,7 @@ bool TileStream::accept(std::vector<uint8_t> &&payload, std::string *error) {
     auto pending = std::make_shared<Pending>();
     pending->frame = std::make_shared<FrameTiles>();
     FrameTiles &frame = *pending->frame;
+    frame.agent_address = agent_;
     frame.frame = decoded->frame;
     frame.swapchain_id = decoded->swapchain_id;
     frame.image_index = decoded->image_index;

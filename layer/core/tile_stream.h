@@ -67,13 +67,15 @@ struct FrameTiles {
     // `periphery_extent` the scaled image they cover (the parts' bounding box).
     bool periphery = false;
     VkExtent2D periphery_extent{};
+    std::string agent_address; // the agent that sent them ("host:port"): SPLITVK_STATS' agent column
 };
 
 class TileStream {
 public:
     // `on_error` is called (on a decoder thread) with one line when the agent sent something that
-    // cannot be decoded; the session then stops splitting. `uploads` outlives the stream.
-    TileStream(UploadPool &uploads, std::function<void(const std::string &)> on_error);
+    // cannot be decoded; the session then stops splitting. `uploads` outlives the stream. `agent`
+    // names the agent whose tiles these are, in every frame's FrameTiles.
+    TileStream(UploadPool &uploads, std::string agent, std::function<void(const std::string &)> on_error);
     ~TileStream();
     TileStream(const TileStream &) = delete;
     TileStream &operator=(const TileStream &) = delete;
@@ -121,6 +123,7 @@ private:
     void decode_tile(EyeDecoder &eye, const EyeJob &job);
 
     UploadPool &uploads_;
+    const std::string agent_;
     std::function<void(const std::string &)> on_error_;
     std::mutex mutex_;
     std::condition_variable changed_;

@@ -30,7 +30,7 @@ const char *FrameStats::csv_header() {
     return "frame,frame_ms,periphery_ms,tile_wait_ms,exposed_wait_ms,network_ms,decode_ms,merge_ms,"
            "merge_gpu_ms,tile_bytes,raw_bytes,agent_draw_ms,agent_readback_ms,agent_encode_ms,"
            "present_call_ms,late,xr_frame,xr_view,fovea_x,fovea_y,fovea_w,fovea_h,present_to_composite_ms,"
-           "periphery_decode_ms,periphery_bytes,periphery_psnr_db,frame_latency_ms";
+           "periphery_decode_ms,periphery_bytes,periphery_psnr_db,frame_latency_ms,agent";
 }
 
 FrameStats::FrameStats(const std::string &path) {
@@ -89,18 +89,18 @@ void FrameStats::record(const FrameRecord &r) {
     if (r.periphery_psnr_db) std::snprintf(psnr, sizeof(psnr), "%.3f", *r.periphery_psnr_db);
     char latency[32] = "";
     if (r.frame_latency_ms) std::snprintf(latency, sizeof(latency), "%.3f", *r.frame_latency_ms);
-    char row[640];
+    char row[1024];
     const int length = std::snprintf(
         row, sizeof(row),
         "%llu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%llu,%llu,%.3f,%.3f,%.3f,%.3f,%d,%lld,%d,%d,%d,%u,%u,%."
-        "3f,%.3f,%llu,%s,%s\n",
+        "3f,%.3f,%llu,%s,%s,%s\n",
         static_cast<unsigned long long>(r.frame), r.frame_ms, r.periphery_ms, r.tile_wait_ms,
         r.exposed_wait_ms, r.network_ms, r.decode_ms, r.merge_ms, r.merge_gpu_ms,
         static_cast<unsigned long long>(r.tile_bytes), static_cast<unsigned long long>(r.raw_bytes),
         r.agent_draw_ms, r.agent_readback_ms, r.agent_encode_ms, r.present_call_ms, r.late ? 1 : 0,
         static_cast<long long>(r.xr_frame), r.xr_view, r.fovea.offset.x, r.fovea.offset.y,
         r.fovea.extent.width, r.fovea.extent.height, r.present_to_composite_ms, r.periphery_decode_ms,
-        static_cast<unsigned long long>(r.periphery_bytes), psnr, latency);
+        static_cast<unsigned long long>(r.periphery_bytes), psnr, latency, r.agent.c_str());
     if (length > 0 && static_cast<size_t>(length) < sizeof(row))
         append(std::string(row, static_cast<size_t>(length)));
 }

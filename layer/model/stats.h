@@ -71,6 +71,9 @@ struct FrameRecord {
     // (an empty field) when the start was not seen: an image presented without an acquire the layer
     // saw, or an OpenXR frame that was never ended.
     std::optional<double> frame_latency_ms;
+    // The agent whose tiles the frame shows ("host:port", as SPLITVK_SERVER names it); empty when
+    // none does: unsplit, passed through, late, or no agent there.
+    std::string agent;
 };
 
 // When the application's acquires of swapchain images returned, until the present of each image

@@ -324,6 +324,7 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
         const double decode_ms = std::chrono::duration<double, std::milli>(tiles->decode).count();
         (p.cut ? record.periphery_bytes : record.tile_bytes) = tiles->bytes;
         (p.cut ? record.periphery_decode_ms : record.decode_ms) = decode_ms;
+        record.agent = tiles->agent_address;
         record.agent_draw_ms = tiles->agent.draw_us / 1000.0;
         record.agent_readback_ms = tiles->agent.readback_us / 1000.0;
         record.agent_encode_ms = tiles->agent.encode_us / 1000.0;

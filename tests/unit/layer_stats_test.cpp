@@ -1,5 +1,6 @@
 // SPLITVK_STATS (layer/model/stats.h): the CSV's columns (new ones only ever at the end), the periphery's
-// PSNR field, the summary line's mode, and the frame latency's pairing of presents with acquires.
+// PSNR field, the agent's name, the summary line's mode, and the frame latency's pairing of presents with
+// acquires.
 
 #include "model/stats.h"
 
@@ -51,23 +52,26 @@ TEST(FrameStats, PeripheryColumnsComeLastAndCarryTheSwappedSplitsFigures) {
     record.periphery_bytes = 4096;
     record.periphery_psnr_db = 38.125;
     record.frame_latency_ms = 20.5;
+    record.agent = "127.0.0.1:7447";
     const auto [header, row] = header_and_row({record});
     const auto names = split_csv(header), values = split_csv(row);
     ASSERT_EQ(names.size(), values.size()) << header << "\n" << row;
-    ASSERT_GE(names.size(), 5u);
+    ASSERT_GE(names.size(), 6u);
     // The columns before them keep their order: present_to_composite_ms was the last, and only
-    // frame_latency_ms came after them.
-    EXPECT_EQ(names[names.size() - 5], "present_to_composite_ms");
-    EXPECT_EQ(names[names.size() - 4], "periphery_decode_ms");
-    EXPECT_EQ(names[names.size() - 3], "periphery_bytes");
-    EXPECT_EQ(names[names.size() - 2], "periphery_psnr_db");
-    EXPECT_EQ(names.back(), "frame_latency_ms");
+    // frame_latency_ms and agent came after them.
+    EXPECT_EQ(names[names.size() - 6], "present_to_composite_ms");
+    EXPECT_EQ(names[names.size() - 5], "periphery_decode_ms");
+    EXPECT_EQ(names[names.size() - 4], "periphery_bytes");
+    EXPECT_EQ(names[names.size() - 3], "periphery_psnr_db");
+    EXPECT_EQ(names[names.size() - 2], "frame_latency_ms");
+    EXPECT_EQ(names.back(), "agent");
     EXPECT_EQ(values[0], "7");
-    EXPECT_EQ(values[values.size() - 5], "1.500");
-    EXPECT_EQ(values[values.size() - 4], "2.250");
-    EXPECT_EQ(values[values.size() - 3], "4096");
-    EXPECT_EQ(values[values.size() - 2], "38.125");
-    EXPECT_EQ(values.back(), "20.500");
+    EXPECT_EQ(values[values.size() - 6], "1.500");
+    EXPECT_EQ(values[values.size() - 5], "2.250");
+    EXPECT_EQ(values[values.size() - 4], "4096");
+    EXPECT_EQ(values[values.size() - 3], "38.125");
+    EXPECT_EQ(values[values.size() - 2], "20.500");
+    EXPECT_EQ(values.back(), "127.0.0.1:7447");
 }
 
 // Outside verification in the swapped split there is no PSNR: the field is empty, not 0. Equal
@@ -75,11 +79,11 @@ TEST(FrameStats, PeripheryColumnsComeLastAndCarryTheSwappedSplitsFigures) {
 TEST(FrameStats, PeripheryPsnrIsEmptyWhenNotMeasuredAndInfWhenEqual) {
     FrameRecord record;
     record.periphery_bytes = 4096;
-    EXPECT_TRUE(header_and_row({record}).second.ends_with(",4096,,")) << header_and_row({record}).second;
+    EXPECT_TRUE(header_and_row({record}).second.ends_with(",4096,,,")) << header_and_row({record}).second;
     record.periphery_psnr_db = std::numeric_limits<double>::infinity();
     const std::string row = header_and_row({record}).second;
-    ASSERT_TRUE(row.ends_with(",4096,inf,")) << row;
-    EXPECT_EQ(std::strtod(row.c_str() + row.size() - 4, nullptr), std::numeric_limits<double>::infinity());
+    ASSERT_TRUE(row.ends_with(",4096,inf,,")) << row;
+    EXPECT_EQ(std::strtod(row.c_str() + row.size() - 5, nullptr), std::numeric_limits<double>::infinity());
 }
 
 TEST(FrameStats, SummaryNamesTheMode) {
@@ -111,13 +115,24 @@ TEST(FrameStats, SummaryCountsAMirrorWindowApartFromTheEyeImages) {
 
 // A frame's latency is written with three decimals, and is an empty field when its start was not
 // seen, never a 0 that would read as an instant frame.
-TEST(FrameStats, FrameLatencyIsTheLastColumnAndEmptyWhenUnknown) {
+TEST(FrameStats, FrameLatencyHasThreeDecimalsAndIsEmptyWhenUnknown) {
     FrameRecord record;
     EXPECT_TRUE(header_and_row({record}).second.ends_with(",,")) << header_and_row({record}).second;
     record.frame_latency_ms = 16.6667;
     const auto [header, row] = header_and_row({record});
-    EXPECT_TRUE(header.ends_with(",frame_latency_ms")) << header;
-    EXPECT_TRUE(row.ends_with(",16.667")) << row;
+    EXPECT_TRUE(header.ends_with(",frame_latency_ms,agent")) << header;
+    EXPECT_TRUE(row.ends_with(",16.667,")) << row;
+}
+
+// The agent column names the agent whose tiles the frame shows, and is empty in a frame without.
+TEST(FrameStats, AgentIsTheLastColumnAndEmptyWithoutOne) {
+    FrameRecord record;
+    record.frame_latency_ms = 16.6667;
+    EXPECT_TRUE(header_and_row({record}).second.ends_with(",16.667,")) << header_and_row({record}).second;
+    record.agent = "[::1]:7448";
+    const auto [header, row] = header_and_row({record});
+    EXPECT_TRUE(header.ends_with(",agent")) << header;
+    EXPECT_TRUE(row.ends_with(",16.667,[::1]:7448")) << row;
     EXPECT_EQ(split_csv(header).size(), split_csv(row).size()) << header << "\n" << row;
 }
 

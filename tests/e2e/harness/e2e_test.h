@@ -8,6 +8,7 @@
 #include "xvfb.h"
 
 #include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <regex>
@@ -86,9 +87,9 @@ numbered_files(const std::filesystem::path &dir, const std::regex &name) {
     return files;
 }
 
-// A CSV of SPLITVK_STATS as rows of named numbers.
-inline std::vector<std::map<std::string, double>> stats_rows(const std::string &text) {
-    std::vector<std::map<std::string, double>> rows;
+// A CSV of SPLITVK_STATS as rows of named fields, as written.
+inline std::vector<std::map<std::string, std::string>> stats_text_rows(const std::string &text) {
+    std::vector<std::map<std::string, std::string>> rows;
     const auto lines = split_lines(text);
     if (lines.empty()) return rows;
     std::vector<std::string> names;
@@ -96,12 +97,30 @@ inline std::vector<std::map<std::string, double>> stats_rows(const std::string &
     for (std::string field; std::getline(header, field, ',');)
         names.push_back(field);
     for (size_t i = 1; i < lines.size(); ++i) {
-        std::map<std::string, double> row;
+        std::map<std::string, std::string> row;
         std::stringstream fields(lines[i]);
         size_t column = 0;
-        // An empty field is a value the layer did not measure (periphery_psnr_db): left out of the row.
         for (std::string field; std::getline(fields, field, ',') && column < names.size(); ++column)
-            if (!field.empty()) row[names[column]] = std::stod(field);
+            row[names[column]] = field;
+        // getline drops a trailing empty field: the last columns are then empty.
+        for (; column < names.size(); ++column)
+            row[names[column]] = "";
+        rows.push_back(std::move(row));
+    }
+    return rows;
+}
+
+// The same as rows of named numbers. An empty field is a value the layer did not measure
+// (periphery_psnr_db), and a field that is not a number names something (agent): both are left out.
+inline std::vector<std::map<std::string, double>> stats_rows(const std::string &text) {
+    std::vector<std::map<std::string, double>> rows;
+    for (const auto &text_row : stats_text_rows(text)) {
+        std::map<std::string, double> row;
+        for (const auto &[name, field] : text_row) {
+            char *end = nullptr;
+            const double value = std::strtod(field.c_str(), &end);
+            if (!field.empty() && end == field.c_str() + field.size()) row[name] = value;
+        }
         rows.push_back(std::move(row));
     }
     return rows;
