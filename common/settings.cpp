@@ -54,7 +54,7 @@ const SettingInfo kSettings[] = {
     {"CLIENT_RENDERS", "periphery or fovea", "periphery",
      "periphery: the client renders the periphery at SCALE and the agent the foveae (the paper's split); "
      "fovea: the client renders only the foveae at full resolution and the agent the periphery, lossily"},
-    {"PERIPHERY_QUALITY", "0 to 51 (x264 CRF) or lossless", "23",
+    {"PERIPHERY_QUALITY", "0 to 51 (x264 CRF) or lossless", "20",
      "with CLIENT_RENDERS=fovea: how the agent encodes the periphery (lower is better and larger)"},
     {"PERIPHERY_CODEC", "h264, hevc or rgb", "h264",
      "with CLIENT_RENDERS=fovea: the lossy periphery's codec: h264 (High, 4:2:0) or hevc (Main, 4:2:0), "

@@ -57,7 +57,7 @@ enum class ClientRenders { Periphery, Fovea };
 // constant quality `crf` (0 best .. 51), or lossless.
 struct PeripheryQuality {
     bool lossless = false;
-    uint32_t crf = 23;
+    uint32_t crf = 20;
     bool operator==(const PeripheryQuality &) const = default;
 };
 inline constexpr uint32_t kMaxPeripheryCrf = 51;

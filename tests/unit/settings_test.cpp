@@ -132,7 +132,7 @@ TEST_F(SettingsTest, AgentScissorGuard) {
 TEST_F(SettingsTest, SwappedSplit) {
     const Settings defaults = load({}).settings;
     EXPECT_EQ(defaults.client_renders, ClientRenders::Periphery);
-    EXPECT_EQ(defaults.periphery_quality, (PeripheryQuality{false, 23}));
+    EXPECT_EQ(defaults.periphery_quality, (PeripheryQuality{false, 20}));
     EXPECT_EQ(defaults.periphery_codec, PeripheryCodec::H264);
     EXPECT_EQ(load({{"SPLITVK_PERIPHERY_CODEC", "HEVC"}}).settings.periphery_codec, PeripheryCodec::Hevc);
     EXPECT_EQ(load({{"SPLITVK_PERIPHERY_CODEC", "rgb"}}).settings.periphery_codec, PeripheryCodec::Rgb);
