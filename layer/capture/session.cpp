@@ -181,9 +181,10 @@ void Session::adopt_locked(AgentLink &&agent) {
         // Right after SplitConfig, and only to an agent that granted the swapped split (a
         // reconnecting one without it was refused by run_reconnect()).
         if (client_renders() == ClientRenders::Fovea && (capabilities & protocol::capability::kSwappedSplit))
-            send_locked(protocol::MessageType::PeripheryConfig,
-                        protocol::encode(protocol::PeripheryConfig{settings_.scale, settings_.periphery_quality,
-                                                                   verify_, settings_.periphery_codec}));
+            send_locked(
+                protocol::MessageType::PeripheryConfig,
+                protocol::encode(protocol::PeripheryConfig{settings_.scale, settings_.periphery_quality,
+                                                           verify_, settings_.periphery_codec}));
     }
     stop_receiver_.store(false);
     receiver_ = std::thread([this] { run_receiver(); });
@@ -297,10 +298,16 @@ void Session::run_reconnect() {
             continue;
         }
         // An agent called back (recall_agent()) is asked at once: frames pass through until it is in.
-        if (!std::exchange(connect_now_, false) &&
-            reconnect_wake_.wait_for(lock, backoff, [&] { return closing_ || connect_now_; }) && closing_)
+        // The agent in use just went away (fail()): dial at once, since another may be there to fail
+        // over to; a dial that finds none backs off as before.
+        const bool dial_now = std::exchange(connect_now_, false) | lost_agent_.exchange(false);
+        if (!dial_now &&
+            reconnect_wake_.wait_for(lock, backoff,
+                                     [&] { return closing_ || connect_now_ || lost_agent_.load(); }) &&
+            closing_)
             break;
         connect_now_ = false;
+        lost_agent_.store(false);
         lock.unlock();
         bool final = false;
         auto agent = connect_agent(&final);
@@ -335,9 +342,11 @@ void Session::run_reconnect() {
         }
         swapped_refusal_logged_ = false;
         std::string went_away;
+        std::chrono::steady_clock::time_point went_away_at;
         {
             std::lock_guard label_lock(label_mutex_);
             went_away = went_away_;
+            went_away_at = went_away_at_;
         }
         // Another agent than the one that went away: the failover, in one line.
         if (!went_away.empty() && went_away != agent->agent)
@@ -347,18 +356,23 @@ void Session::run_reconnect() {
             SPLITVK_INFO("splitvk-agent at %s answered; it joins at the next present", agent->agent.c_str());
         pending_agent_ = std::move(agent).value();
         reconnected_at_ = std::chrono::steady_clock::now();
+        pending_in_place_of_ = went_away;
+        pending_loss_at_ = went_away_at;
         resync_pending_.store(true, std::memory_order_release);
     }
 }
 
 void Session::resync(DeviceState &device, VkQueue queue, uint64_t frame) {
     std::optional<AgentLink> agent;
-    std::chrono::steady_clock::time_point answered;
+    std::chrono::steady_clock::time_point answered, lost_at;
+    std::string in_place_of;
     {
         std::lock_guard lock(reconnect_mutex_);
         agent = std::move(pending_agent_);
         pending_agent_.reset();
         answered = reconnected_at_;
+        in_place_of = std::move(pending_in_place_of_);
+        lost_at = pending_loss_at_;
         resync_pending_.store(false);
     }
     if (!agent) return;
@@ -405,6 +419,8 @@ void Session::resync(DeviceState &device, VkQueue queue, uint64_t frame) {
     send_all_locked(std::move(snapshot));
     first_replayed_frame_.store(frame + 1);
     joined_agent_answered_ = answered;
+    joined_in_place_of_ = std::move(in_place_of);
+    joined_after_loss_at_ = lost_at;
     awaiting_first_tiles_.store(true);
     first_split_frame_pending_.store(true);
     const auto now = std::chrono::steady_clock::now();
@@ -682,8 +698,13 @@ void Session::fail(const std::string &reason) {
     {
         // The reconnector dials another agent first, if there is one.
         std::lock_guard lock(label_mutex_);
+        // The first loss since an agent was adopted: a failed redial is no new loss.
+        if (went_away_.empty()) went_away_at_ = std::chrono::steady_clock::now();
         went_away_ = address_;
     }
+    // Without reconnect_mutex_ (fail() is reached under the session's locks): a wakeup lost between
+    // the reconnector's check and its wait costs at most its backoff.
+    lost_agent_.store(true);
     if (tiles_) tiles_->abandon();
     reconnect_wake_.notify_all();
     if (!failure_logged_.exchange(true)) {

@@ -275,6 +275,10 @@ public:
     // (present thread only): the resync time is from then to that frame's tiles.
     uint64_t first_replayed_frame() const { return first_replayed_frame_.load(std::memory_order_relaxed); }
     std::chrono::steady_clock::time_point joined_agent_answered() const { return joined_agent_answered_; }
+    // The agent the joined one replaced (empty for a late join: none went away) and when that one
+    // went away (present thread only, like joined_agent_answered): the failover time is from then.
+    const std::string &joined_in_place_of() const { return joined_in_place_of_; }
+    std::chrono::steady_clock::time_point joined_after_loss_at() const { return joined_after_loss_at_; }
     // True once per resync: for the first frame composited with the joined agent's tiles.
     bool take_first_tiles_after_resync() { return awaiting_first_tiles_.exchange(false); }
     // True for the first split frame an agent replays after it (re)joined (present.cpp): that frame
@@ -345,6 +349,7 @@ private:
     mutable std::mutex label_mutex_;
     std::string address_;   // under label_mutex_: agent_label()
     std::string went_away_; // under label_mutex_: the agent that went away, until another is adopted
+    std::chrono::steady_clock::time_point went_away_at_{}; // under label_mutex_: when went_away_ did
     std::string client_name_;
     std::string client_gpu_name_;
     std::vector<uint8_t> envelope_wire_; // the device envelope the app was told, encoded; empty: unchecked
@@ -394,12 +399,17 @@ private:
     // SPLITVK_SPLIT=auto let the agent go while frames pass through: the reconnector waits until a probe
     // of the split calls it back (recall_agent()). Under reconnect_mutex_.
     bool agent_released_ = false;
-    bool connect_now_ = false;          // under reconnect_mutex_: called back, so no backoff
-    std::atomic<bool> recalled_{false}; // the next resync brings back an agent let go, as asked
+    bool connect_now_ = false;            // under reconnect_mutex_: called back, so no backoff
+    std::atomic<bool> lost_agent_{false}; // fail() to the reconnector: dial at once, no backoff
+    std::atomic<bool> recalled_{false};   // the next resync brings back an agent let go, as asked
     std::atomic<bool> resync_pending_{false};
     std::atomic<uint64_t> first_replayed_frame_{0};
-    std::chrono::steady_clock::time_point reconnected_at_{}; // under reconnect_mutex_
+    std::chrono::steady_clock::time_point reconnected_at_{};  // under reconnect_mutex_
+    std::string pending_in_place_of_;                         // under reconnect_mutex_: went_away_ then
+    std::chrono::steady_clock::time_point pending_loss_at_{}; // under reconnect_mutex_: went_away_at_ then
     std::chrono::steady_clock::time_point joined_agent_answered_{};
+    std::string joined_in_place_of_;                               // joined_in_place_of()
+    std::chrono::steady_clock::time_point joined_after_loss_at_{}; // joined_after_loss_at()
     std::atomic<bool> awaiting_first_tiles_{false};
     std::atomic<bool> first_split_frame_pending_{true};
     std::thread reconnector_;

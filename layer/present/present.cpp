@@ -334,10 +334,19 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
     // A frame the agent flagged came on time; it is not late, only not usable.
     // A frame the swapped split drew whole awaited nothing.
     record.late = !tiles && session.invalid_frames.load() == invalid_before && !(swapped && !p.cut);
-    if (tiles && session.take_first_tiles_after_resync())
-        SPLITVK_INFO(
-            "frame %llu: the first split frame from the agent that joined, %.0f ms after it answered",
-            static_cast<unsigned long long>(p.frame), ms_between(session.joined_agent_answered(), waited));
+    if (tiles && session.take_first_tiles_after_resync()) {
+        if (session.joined_in_place_of().empty())
+            SPLITVK_INFO(
+                "frame %llu: the first split frame from the agent that joined, %.0f ms after it answered",
+                static_cast<unsigned long long>(p.frame),
+                ms_between(session.joined_agent_answered(), waited));
+        else
+            SPLITVK_INFO(
+                "frame %llu: the first split frame from the agent that joined, %.0f ms after it "
+                "answered, %.0f ms after splitvk-agent at %s went away",
+                static_cast<unsigned long long>(p.frame), ms_between(session.joined_agent_answered(), waited),
+                ms_between(session.joined_after_loss_at(), waited), session.joined_in_place_of().c_str());
+    }
 
     VkSemaphore composited = VK_NULL_HANDLE;
     if (compositor && swapped && !p.cut) {
