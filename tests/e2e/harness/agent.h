@@ -5,6 +5,7 @@
 #include "process.h"
 #include "vk_env.h"
 
+#include <chrono>
 #include <filesystem>
 #include <string>
 
@@ -25,6 +26,24 @@ std::filesystem::path agent_path(); // <build>/bin/splitvk-agent
 ::testing::AssertionResult client_validation_clean(const std::filesystem::path &validation_log);
 
 // The build tree's splitvk-agent (AgentProcess has the rest).
+// What `splitvk-agent --print-fingerprint --state-dir DIR` prints (`sha256:...`), the identity
+// made there first if there is none; a test failure, and "", when the agent cannot say.
+inline std::string agent_fingerprint(const Env &env, const std::filesystem::path &out_dir,
+                                     const std::filesystem::path &state_dir) {
+    ProcessSpec spec;
+    spec.argv = {agent_path().string(), "--print-fingerprint", "--state-dir", state_dir.string()};
+    spec.env = env;
+    spec.out_dir = out_dir;
+    spec.name = "fingerprint";
+    const ProcessResult r = run_process(spec, std::chrono::seconds(30));
+    EXPECT_TRUE(r.ok()) << r.describe() << r.err();
+    if (!r.ok()) return "";
+    std::string text = r.out();
+    while (!text.empty() && (text.back() == '\n' || text.back() == ' '))
+        text.pop_back();
+    return text;
+}
+
 class Agent : public AgentProcess {
 public:
     Agent() : AgentProcess(agent_path()) {}

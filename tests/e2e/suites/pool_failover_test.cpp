@@ -168,12 +168,7 @@ TEST_F(Pool, AdvertisedAgentKilledFailsOverToTheOther) {
     const std::filesystem::path identity = out_ / "venue-identity";
     const std::filesystem::path token_file = out_ / "agent.token";
     std::ofstream(token_file) << kToken << "\n";
-    auto printed = run_app({agent_path().string(), "--print-fingerprint", "--state-dir", identity.string()},
-                           env(), out_, "fingerprint", 30s);
-    ASSERT_TRUE(printed.ok()) << printed.describe() << printed.err();
-    std::string fingerprint = printed.out();
-    while (!fingerprint.empty() && (fingerprint.back() == '\n' || fingerprint.back() == ' '))
-        fingerprint.pop_back();
+    const std::string fingerprint = agent_fingerprint(env(), out_, identity);
     ASSERT_TRUE(fingerprint.starts_with("sha256:")) << fingerprint;
 
     // Both advertised with the same free slots: the layer picks one, which is killed.

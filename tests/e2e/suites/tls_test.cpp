@@ -179,13 +179,7 @@ protected:
     }
 
     std::string fingerprint_of(const std::filesystem::path &state_dir) {
-        auto r = run_app({agent_path().string(), "--print-fingerprint", "--state-dir", state_dir.string()},
-                         env(), out_, "fingerprint", 30s);
-        EXPECT_TRUE(r.ok()) << r.describe() << r.err();
-        std::string text = r.out();
-        while (!text.empty() && (text.back() == '\n' || text.back() == ' '))
-            text.pop_back();
-        return text;
+        return agent_fingerprint(env(), out_, state_dir);
     }
 
     std::string known_agents() const { return read_file(config_home_ / "splitvk" / "known_agents"); }
