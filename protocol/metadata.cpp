@@ -220,6 +220,8 @@ void fields(auto &io, MessageOf<SplitConfig> auto &m) {
     io.f64(m.fovea.height, "fovea height");
     io.enumeration(m.codec, TileCodec::Raw, "codec");
     io.flag(m.moving_gaze, "gaze");
+    io.u32(m.fovea_agents.index, "fovea agent index");
+    io.u32(m.fovea_agents.count, "fovea agent count");
     io.trailer(m.agent_scissor.guard, [&] {
         io.constant(1, "agent scissor"); // its kind: a guard band
         io.u32(m.agent_scissor.pixels, "agent scissor guard");
@@ -428,7 +430,7 @@ Result<VerifyFrame> decode_verify_frame(std::span<const uint8_t> payload, uint32
 }
 
 std::vector<uint8_t> encode(const SplitConfig &m) {
-    return encode_fields(m, 40);
+    return encode_fields(m, 48);
 }
 
 Result<SplitConfig> decode_split_config(std::span<const uint8_t> payload) {
@@ -437,6 +439,9 @@ Result<SplitConfig> decode_split_config(std::span<const uint8_t> payload) {
     fields(d, m);
     m.agent_scissor.guard = d.trailer_read();
     if (d.ok() && m.agent_scissor.pixels > kMaxAgentScissorGuard) d.fail("agent scissor guard out of range");
+    if (d.ok() && (m.fovea_agents.count == 0 || m.fovea_agents.count > kMaxFoveaAgents ||
+                   m.fovea_agents.index >= m.fovea_agents.count))
+        d.fail("fovea agents out of range");
     // Written as !(in range) so that NaN fails too.
     const double limit = m.fovea.fractional ? 1.0 : double{kMaxVerifyExtent};
     if (d.ok() &&

@@ -158,6 +158,19 @@ struct VerifyFrame {
 };
 
 // The settings both sides need to draw the same fovea rects from the same commands.
+// SPLITVK_AGENTS: which of a frame's foveae an agent renders, encodes and sends when each eye has
+// an agent of its own. The foveae of a presented image are numbered in the order both sides hold
+// them (split::LayerFovea lists: an eye each, left first); agent `index` of `count` owns those
+// whose number is `index` modulo `count`. One table for both sides: the agent sends exactly what
+// it owns, and the client expects from each agent exactly that.
+struct FoveaAgents {
+    uint32_t index = 0;
+    uint32_t count = 1;
+    bool owns(size_t fovea) const { return fovea % count == index; }
+};
+// The most agents one client splits its foveae between: one per eye.
+inline constexpr uint32_t kMaxFoveaAgents = 2;
+
 struct SplitConfig {
     EyeMode eyes = EyeMode::Auto;
     FoveaSize fovea;
@@ -166,6 +179,8 @@ struct SplitConfig {
     // agent's fovea scissors cover every place they can move to (split::fovea_scissor); a frame
     // that carries a gaze without it is refused.
     bool moving_gaze = false;
+    // The decoder refuses a count of 0 or above kMaxFoveaAgents, and an index not below it.
+    FoveaAgents fovea_agents;
     // A trailer, encoded only when guard is on (capability::kAgentScissor); absent: off.
     AgentScissor agent_scissor;
 };

@@ -695,6 +695,11 @@ bool Replayer::split_config(const protocol::SplitConfig &message, std::string *e
     fovea_.configure(message.eyes, message.fovea, message.agent_scissor, message.moving_gaze);
     fovea_.set_enabled(!swapped_);
     tiles_->set_codec(message.codec);
+    fovea_agents_ = message.fovea_agents;
+    if (fovea_agents_.count > 1)
+        SPLITVK_INFO("session %llu: an agent per eye: this one sends fovea %u of every %u of each image",
+                     static_cast<unsigned long long>(session_id_), fovea_agents_.index + 1,
+                     fovea_agents_.count);
     return true;
 }
 
@@ -775,7 +780,10 @@ bool Replayer::frame_present(const protocol::FramePresent &message,
             frame.format = image.format;
             frame.extent = image.extent;
             frame.layers = image.layers;
-            frame.foveae = std::move(foveae);
+            // An agent per eye (SPLITVK_AGENTS): only this agent's foveae are read back and sent;
+            // the other eye's agent sends the rest.
+            for (size_t fovea = 0; fovea < foveae.size(); ++fovea)
+                if (fovea_agents_.owns(fovea)) frame.foveae.push_back(foveae[fovea]);
             if (swapped_) {
                 frame.foveae.clear();
                 // An OpenXR eye image ends at its release, whose FramePresent this is: its periphery

@@ -223,8 +223,9 @@ private:
     std::string error_;
     bool gpu_busy_ = false;
     bool unsupported_format_logged_ = false;
-    bool swapped_ = false;       // PeripheryConfig: the agent renders the periphery
-    double periphery_scale_ = 1; // its scale
+    bool swapped_ = false;               // PeripheryConfig: the agent renders the periphery
+    protocol::FoveaAgents fovea_agents_; // SplitConfig: the foveae this agent sends (an agent per eye)
+    double periphery_scale_ = 1;         // its scale
     bool runtime_periphery_logged_ = false;
     bool linear_copy_logged_ = false;
     uint64_t commands_ = 0;

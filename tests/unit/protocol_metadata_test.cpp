@@ -355,8 +355,28 @@ TEST(ProtocolSession, SplitConfigRoundTripAndRanges) {
     ASSERT_TRUE(moving.ok()) << moving.error();
     EXPECT_TRUE(moving->moving_gaze);
     auto unknown = encode(m);
-    unknown[unknown.size() - 4] = 5; // the gaze, last without the guard trailer
+    unknown[unknown.size() - 12] = 5; // the gaze, before the fovea agents
     EXPECT_FALSE(decode_split_config(unknown).ok());
+}
+
+// SPLITVK_AGENTS: the agent an eye's foveae come from, and the one rule both sides number them by.
+TEST(ProtocolSession, SplitConfigFoveaAgents) {
+    SplitConfig m;
+    EXPECT_EQ(decode_split_config(encode(m))->fovea_agents.count, 1u) << "one agent renders every fovea";
+    m.fovea_agents = {1, 2};
+    const auto back = decode_split_config(encode(m));
+    ASSERT_TRUE(back.ok()) << back.error();
+    EXPECT_EQ(back->fovea_agents.index, 1u);
+    EXPECT_EQ(back->fovea_agents.count, 2u);
+    EXPECT_FALSE(back->fovea_agents.owns(0));
+    EXPECT_TRUE(back->fovea_agents.owns(1));
+    EXPECT_TRUE((FoveaAgents{0, 2}.owns(0)));
+    EXPECT_TRUE((FoveaAgents{0, 1}.owns(1)));
+    for (const FoveaAgents bad :
+         {FoveaAgents{0, 0}, FoveaAgents{2, 2}, FoveaAgents{0, kMaxFoveaAgents + 1}}) {
+        m.fovea_agents = bad;
+        EXPECT_FALSE(decode_split_config(encode(m)).ok()) << bad.index << " of " << bad.count;
+    }
 }
 
 // SPLITVK_AGENT_SCISSOR rides as a trailer: off encodes no trailer, and a message without it decodes
@@ -364,7 +384,7 @@ TEST(ProtocolSession, SplitConfigRoundTripAndRanges) {
 TEST(ProtocolSession, SplitConfigAgentScissorTrailer) {
     SplitConfig m;
     const auto off = encode(m);
-    EXPECT_EQ(off.size(), 32u) << "off adds no trailer";
+    EXPECT_EQ(off.size(), 40u) << "off adds no trailer";
     ASSERT_TRUE(decode_split_config(off).ok());
     EXPECT_FALSE(decode_split_config(off)->agent_scissor.guard);
     m.agent_scissor = {true, 64};
