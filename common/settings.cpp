@@ -31,6 +31,9 @@ const SettingInfo kSettings[] = {
      "127.0.0.1:7447",
      "the splitvk-agent to share frames with: an address, a list (the first that answers), or the agents "
      "advertised over DNS-SD (the one with most free slots; NAME: only that instance)"},
+    {"AGENTS", "1 or 2", "1",
+     "2: an agent per eye, each replaying the whole command stream and sending its own eye's foveae; needs "
+     "two agents in SERVER (a list, or dnssd) and the paper's split (CLIENT_RENDERS=periphery)"},
     {"SCALE", "a number in [0.1, 1]", "0.6",
      "sampling rate of the periphery the client renders (0.6: 1440x648 of 2400x1080)"},
     {"FOVEA",
@@ -333,6 +336,12 @@ bool apply(std::string_view name, std::string_view raw, Settings &s) {
         const auto pixels = parse_uint(std::string_view(v).substr(6));
         if (!pixels || *pixels > kMaxAgentScissorGuard) return false;
         s.agent_scissor = {true, *pixels};
+        return true;
+    }
+    if (name == "AGENTS") {
+        const auto agents = parse_uint(value);
+        if (!agents || *agents < 1 || *agents > 2) return false;
+        s.agents = *agents;
         return true;
     }
     if (name == "CLIENT_RENDERS") {
@@ -679,6 +688,22 @@ LoadedSettings load_settings(const Environment &environment, const std::string &
         result.errors.push_back(
             "SPLITVK_TOKEN and SPLITVK_TOKEN_FILE are both set: expected only one of them");
     }
+    // An agent per eye splits the foveae between agents: it needs two of them to dial, and a split
+    // whose agents send foveae (the swapped split's agent renders the one periphery, which verification
+    // compares too).
+    const Settings &s = result.settings;
+    if (s.agents > 1 && !s.dnssd && s.servers.size() < s.agents)
+        result.errors.push_back("SPLITVK_AGENTS=" + std::to_string(s.agents) +
+                                " needs as many agents in SPLITVK_SERVER (a comma-separated list, or dnssd)");
+    if (s.agents > 1 && s.client_renders == ClientRenders::Fovea)
+        result.errors.push_back(
+            "SPLITVK_AGENTS=" + std::to_string(s.agents) +
+            " sends each eye's foveae from its own agent, which SPLITVK_CLIENT_RENDERS=fovea "
+            "does not: expected SPLITVK_AGENTS=1 with it");
+    if (s.agents > 1 && s.verify)
+        result.errors.push_back("SPLITVK_AGENTS=" + std::to_string(s.agents) +
+                                " and SPLITVK_VERIFY=full exclude each other: verification compares with one "
+                                "agent's whole frame");
     return result;
 }
 

@@ -131,6 +131,8 @@ struct Settings {
     // dnssd or dnssd:NAME: agents found over DNS-SD (_splitvk._tcp), or only the instance NAME.
     bool dnssd = false;
     std::string dnssd_name;
+    // SPLITVK_AGENTS: agents the foveae come from, one per eye with 2 (protocol::FoveaAgents).
+    uint32_t agents = 1;
     double scale = 0.6;
     FoveaSize fovea;
     SplitMode split = SplitMode::Auto;

@@ -220,6 +220,7 @@ TEST_F(SettingsTest, FractionalFovea) {
 TEST_F(SettingsTest, InvalidValuesAreOneLineErrorsNamingTheSetting) {
     const std::vector<std::pair<std::string, std::vector<std::string>>> table = {
         {"SERVER", {"", ":7447", "host:", "host:0", "host:65536", "host:port", "::1:80", "[::1", "a b:1"}},
+        {"AGENTS", {"", "0", "3", "-1", "1.5", "two", "both"}},
         {"SCALE", {"", "0", "0.05", "1.5", "2", "-0.6", "abc", "0.6x", "nan", "inf"}},
         {"FOVEA",
          {"", "512", "512x", "x360", "0x360", "512x0", "0.5x360", "1.5x0.5", "-1x-1", "axb", "99999x1",
@@ -282,6 +283,28 @@ TEST_F(SettingsTest, TokenAndTokenFileTogetherAreRefused) {
     const auto loaded = load({{"SPLITVK_TOKEN", "abc"}, {"SPLITVK_TOKEN_FILE", token_file}});
     ASSERT_EQ(loaded.errors.size(), 1u);
     EXPECT_NE(loaded.errors.front().find("SPLITVK_TOKEN_FILE"), std::string::npos);
+}
+
+// An agent per eye needs two agents to dial and the paper's split; each refusal is one line naming
+// SPLITVK_AGENTS.
+TEST_F(SettingsTest, AnAgentPerEye) {
+    EXPECT_EQ(load({}).settings.agents, 1u);
+    const auto two = load({{"SPLITVK_AGENTS", "2"}, {"SPLITVK_SERVER", "a:1,b:2"}});
+    EXPECT_TRUE(two.valid()) << (two.errors.empty() ? "" : two.errors.front());
+    EXPECT_EQ(two.settings.agents, 2u);
+    EXPECT_TRUE(load({{"SPLITVK_AGENTS", "2"}, {"SPLITVK_SERVER", "dnssd"}}).valid());
+    for (const Environment &bad : {
+             Environment{{"SPLITVK_AGENTS", "2"}},
+             Environment{{"SPLITVK_AGENTS", "2"}, {"SPLITVK_SERVER", "a:1"}},
+             Environment{
+                 {"SPLITVK_AGENTS", "2"}, {"SPLITVK_SERVER", "a:1,b:2"}, {"SPLITVK_CLIENT_RENDERS", "fovea"}},
+             Environment{{"SPLITVK_AGENTS", "2"}, {"SPLITVK_SERVER", "a:1,b:2"}, {"SPLITVK_VERIFY", "full"}},
+         }) {
+        const auto loaded = load(bad);
+        ASSERT_EQ(loaded.errors.size(), 1u) << bad.back().first;
+        EXPECT_NE(loaded.errors.front().find("SPLITVK_AGENTS=2"), std::string::npos) << loaded.errors.front();
+        EXPECT_EQ(loaded.errors.front().find('\n'), std::string::npos);
+    }
 }
 
 TEST_F(SettingsTest, UnknownVariablesWarnButManifestVariablesAreKnown) {

@@ -107,6 +107,7 @@ TEST_F(Settings, EnvironmentWinsOverSettingsFile) {
 const std::map<std::string, std::string> &bad_values() {
     static const std::map<std::string, std::string> values = {
         {"SERVER", "127.0.0.1:0"},     // port 0
+        {"AGENTS", "3"},               // 1 or 2
         {"SCALE", "2"},                // above 1
         {"FOVEA", "512"},              // no WxH
         {"SPLIT", "never"},            // auto or always
