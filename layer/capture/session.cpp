@@ -64,22 +64,46 @@ void CaptureHooks::chain_truncated(const char *parent) {
     truncation_logged_ = true;
 }
 
-std::string Session::agent_label() const {
+std::string Session::agent_label(const Agent &agent) const {
     std::lock_guard lock(label_mutex_);
-    return address_;
+    return agent.address;
 }
 
-protocol::Result<AgentLink> Session::connect_agent(bool *final) {
+std::string Session::agents_label() const {
+    std::lock_guard lock(label_mutex_);
+    std::string label;
+    for (const auto &agent : agents_)
+        label += (label.empty() ? "" : "+") + agent->address;
+    return label;
+}
+
+uint64_t Session::first_replayed_frame() const {
+    uint64_t first = UINT64_MAX;
+    for (const auto &agent : agents_)
+        if (agent->live.load(std::memory_order_relaxed))
+            first = std::min(first, agent->first_replayed_frame.load(std::memory_order_relaxed));
+    return first == UINT64_MAX ? 0 : first;
+}
+
+protocol::Result<AgentLink> Session::connect_agent(Agent &agent, bool *final) {
     protocol::Hello hello = base_hello(settings_, client_name_);
     hello.client_gpu_name = client_gpu_name_;
     hello.device_envelope = envelope_wire_;
-    std::set<std::string> excluding;
+    std::set<std::string> excluding, in_use;
     {
         std::lock_guard lock(label_mutex_);
-        if (!went_away_.empty()) excluding.insert(went_away_);
+        if (!agent.went_away.empty()) excluding.insert(agent.went_away);
+        // Every other place's agent, connected or not yet adopted: an eye's agent is its own.
+        for (const auto &other : agents_)
+            if (other.get() != &agent && other->live.load()) in_use.insert(other->address);
     }
-    auto link = dial_agent(*candidates_, settings_, hello, excluding, EarlyAgent::kBrowseWait, final);
-    if (link) watch_closure(*link);
+    {
+        std::lock_guard lock(reconnect_mutex_);
+        for (const auto &other : agents_)
+            if (other.get() != &agent && other->pending) in_use.insert(other->pending->agent);
+    }
+    auto link = dial_agent(*candidates_, settings_, hello, excluding, EarlyAgent::kBrowseWait, final, in_use);
+    if (link) watch_closure(agent, *link);
     return link;
 }
 
@@ -96,36 +120,37 @@ std::string Session::early_link_mismatch(const AgentLink &link, const PhysicalDe
     return std::string(protocol::to_string(protocol::RejectReason::DeviceMismatch)) + ": " + why;
 }
 
-void Session::watch_closure(AgentLink &link) {
+void Session::watch_closure(Agent &agent, AgentLink &link) {
     // A closure counts only for the connection in use: one that failed its handshake, or was
     // replaced, is not the session's business.
-    link.on_closed->set([this, connection = link.connection.get()](const std::string &reason) {
-        if (current_connection_.load() == connection) fail(reason);
+    link.on_closed->set([this, &agent, connection = link.connection.get()](const std::string &reason) {
+        if (agent.current_connection.load() == connection) fail(agent, reason);
     });
 }
 
-void Session::adopt_locked(AgentLink &&agent) {
-    stop_receiver();
+void Session::adopt_locked(Agent &agent, AgentLink &&link) {
+    stop_receiver(agent);
     // No connection's closure is the session's until the new one is published below: not the old
     // one's, closed here, nor the new one's before the session is ready for it.
-    current_connection_.store(nullptr);
-    if (connection_) connection_->close("replaced by a new connection");
-    connection_ = std::move(agent.connection);
-    if (!agent.agent.empty()) {
+    agent.current_connection.store(nullptr);
+    if (agent.connection) agent.connection->close("replaced by a new connection");
+    agent.connection = std::move(link.connection);
+    if (!link.agent.empty()) {
         std::lock_guard lock(label_mutex_);
-        address_ = agent.agent;
-        went_away_.clear();
+        agent.address = link.agent;
+        agent.went_away.clear();
     }
-    const uint64_t capabilities = agent.welcome.capabilities;
+    const std::string label = agent_label(agent);
+    const uint64_t capabilities = link.welcome.capabilities;
     if (!(capabilities & protocol::capability::kZstdPayloads)) {
         protocol::CompressionPolicy policy;
         policy.enabled = false;
-        connection_->set_compression(policy);
+        agent.connection->set_compression(policy);
     }
+    // SPLITVK_VERIFY takes one agent (the settings refuse it with more).
     verify_ = settings_.verify && (capabilities & protocol::capability::kVerifyFrames);
     if (settings_.verify && !verify_)
-        SPLITVK_WARN("splitvk-agent at %s cannot verify frames; SPLITVK_VERIFY ignored",
-                     agent_label().c_str());
+        SPLITVK_WARN("splitvk-agent at %s cannot verify frames; SPLITVK_VERIFY ignored", label.c_str());
     // Verification and the paper's split exclude each other (base_hello): an agent that cannot
     // render the periphery leaves a verifying client unsplit, comparing whole frames.
     const bool split = (capabilities & protocol::capability::kFoveaTiles) &&
@@ -133,7 +158,7 @@ void Session::adopt_locked(AgentLink &&agent) {
     if (!split && verify_ && (capabilities & protocol::capability::kFoveaTiles) && !splitting())
         SPLITVK_WARN("splitvk-agent at %s cannot render the periphery (SPLITVK_CLIENT_RENDERS=fovea); "
                      "SPLITVK_VERIFY compares whole frames, unsplit",
-                     agent_label().c_str());
+                     label.c_str());
     // A verifying session has rows too (its frames unsplit, verification.h), so SPLITVK_STATS is
     // written whether the agent splits or verifies.
     if ((split || verify_) && !stats_) stats_ = std::make_unique<FrameStats>(settings_.stats_path);
@@ -148,49 +173,59 @@ void Session::adopt_locked(AgentLink &&agent) {
                 SPLITVK_WARN(
                     "splitvk-agent at %s cannot render the periphery (SPLITVK_CLIENT_RENDERS=fovea); "
                     "the client renders it, and the agent the foveae",
-                    agent_label().c_str());
+                    label.c_str());
             }
         }
     }
     if (splitting()) {
         // A new agent's tiles are a new stream (its encoders start with an IDR): new decoders.
-        if (tiles_) tiles_->stop();
-        tiles_ = std::make_unique<TileStream>(*uploads_, agent_label(), [this](const std::string &error) {
-            fail("undecodable tiles from the agent: " + error);
-        });
+        if (agent.tiles) agent.tiles->stop();
+        agent.tiles =
+            std::make_unique<TileStream>(*uploads_, label, [this, &agent](const std::string &error) {
+                fail(agent, "undecodable tiles from the agent: " + error);
+            });
     }
-    failure_logged_.store(false);
-    live_.store(true);
+    agent.failure_logged.store(false);
+    agent.live.store(true);
     // Only now may the connection's closure reach fail(): before, it would race the tile stream
     // being replaced and the flags just set. A connection that closed meanwhile fails here.
-    current_connection_.store(connection_.get());
-    if (!connection_->is_open()) fail(connection_->close_reason());
+    agent.current_connection.store(agent.connection.get());
+    if (!agent.connection->is_open()) fail(agent, agent.connection->close_reason());
     if (splitting()) {
-        protocol::SplitConfig config{settings_.eyes, settings_.fovea, settings_.codec, {}, {}};
+        protocol::SplitConfig config{settings_.eyes, settings_.fovea, settings_.codec, {}, {}, {}};
         // With SPLITVK_FOVEA=auto its width and height are the largest size a FramePresent may name,
         // which the agent's scissors then cover (`automatic` stays on this side).
         config.moving_gaze = settings_.gaze != GazeMode::Fixed;
+        config.fovea_agents = fovea_agents(agent.index);
         if (capabilities & protocol::capability::kAgentScissor) {
             config.agent_scissor = settings_.agent_scissor;
         } else if (settings_.agent_scissor.guard) {
             SPLITVK_WARN("splitvk-agent at %s cannot scissor offscreen passes; SPLITVK_AGENT_SCISSOR ignored "
                          "(it replays them in full)",
-                         agent_label().c_str());
+                         label.c_str());
         }
-        send_locked(protocol::MessageType::SplitConfig, protocol::encode(config));
+        send_to_locked(agent, protocol::MessageType::SplitConfig, protocol::encode(config), kSendWait);
         // Right after SplitConfig, and only to an agent that granted the swapped split (a
         // reconnecting one without it was refused by run_reconnect()).
         if (client_renders() == ClientRenders::Fovea && (capabilities & protocol::capability::kSwappedSplit))
-            send_locked(
-                protocol::MessageType::PeripheryConfig,
+            send_to_locked(
+                agent, protocol::MessageType::PeripheryConfig,
                 protocol::encode(protocol::PeripheryConfig{settings_.scale, settings_.periphery_quality,
-                                                           verify_, settings_.periphery_codec}));
+                                                           verify_, settings_.periphery_codec}),
+                kSendWait);
     }
-    stop_receiver_.store(false);
-    receiver_ = std::thread([this] { run_receiver(); });
-    SPLITVK_INFO("replicating to splitvk-agent at %s (%s, session %llu, %s)", agent_label().c_str(),
-                 agent.welcome.server_gpu_name.c_str(),
-                 static_cast<unsigned long long>(agent.welcome.session_id), connection_->security().c_str());
+    agent.stop_receiver.store(false);
+    agent.receiver = std::thread([this, &agent] { run_receiver(agent); });
+    if (agents_.size() > 1)
+        SPLITVK_INFO("replicating to splitvk-agent at %s for eye %u of %zu (%s, session %llu, %s)",
+                     label.c_str(), agent.index + 1, agents_.size(), link.welcome.server_gpu_name.c_str(),
+                     static_cast<unsigned long long>(link.welcome.session_id),
+                     agent.connection->security().c_str());
+    else
+        SPLITVK_INFO("replicating to splitvk-agent at %s (%s, session %llu, %s)", label.c_str(),
+                     link.welcome.server_gpu_name.c_str(),
+                     static_cast<unsigned long long>(link.welcome.session_id),
+                     agent.connection->security().c_str());
 }
 
 std::unique_ptr<Session> Session::open(const DeviceState &device, const VkDeviceCreateInfo *create_info,
@@ -208,7 +243,11 @@ std::unique_ptr<Session> Session::open(const DeviceState &device, const VkDevice
         session->payoff_ =
             std::make_unique<SplitPayoff>(loaded.settings.fovea.automatic ? SplitPayoff::kFirstHold : 0);
     session->candidates_ = std::make_unique<AgentCandidates>(loaded.settings);
-    session->address_ = session->candidates_->description();
+    for (uint32_t index = 0; index < loaded.settings.agents; ++index) {
+        session->agents_.push_back(std::make_unique<Agent>(index));
+        session->agents_.back()->address = session->candidates_->description();
+    }
+    Agent &first = *session->agents_.front();
     session->device_id_ = codec::handle_value(device.handle);
     session->uploads_ = std::make_unique<UploadPool>(device);
     session->hooks_.bind(device);
@@ -237,9 +276,9 @@ std::unique_ptr<Session> Session::open(const DeviceState &device, const VkDevice
     EarlyAgent::Outcome early =
         device.instance->early_agent ? device.instance->early_agent->take() : EarlyAgent::Outcome{};
     if (early.link) {
-        session->watch_closure(*early.link);
+        session->watch_closure(first, *early.link);
         if (!early.link->connection->is_open()) {
-            agent = session->connect_agent(&final);
+            agent = session->connect_agent(first, &final);
         } else if (const std::string why = session->early_link_mismatch(*early.link, physical);
                    !why.empty()) {
             early.link->connection->send(protocol::MessageType::Goodbye, protocol::encode_goodbye({why}));
@@ -254,33 +293,54 @@ std::unique_ptr<Session> Session::open(const DeviceState &device, const VkDevice
         agent = protocol::Error{early.error};
         final = true;
     } else {
-        agent = session->connect_agent(&final);
+        agent = session->connect_agent(first, &final);
     }
-    if (agent) {
+    // Each agent is given the log so far, alone: the first before the second is dialled, so
+    // that the second is never the first's agent.
+    const auto bring_in = [&session](Agent &place, AgentLink &&link) {
         std::lock_guard lock(session->mutex_);
-        session->adopt_locked(std::move(agent).value());
+        session->adopt_locked(place, std::move(link));
         size_t entries = 0;
         std::unordered_set<uint64_t> live_ids;
         for (auto &message : session->log_.messages(&entries, &live_ids))
-            session->send_locked(message.type, std::move(message.payload));
+            session->send_to_locked(place, message.type, std::move(message.payload), kSendWait);
+    };
+    if (agent) {
+        bring_in(first, std::move(agent).value());
     } else if (final) {
         // An agent answered and refused (a wrong or missing token, another protocol): say so in the
         // words the reconnect path uses, not "no splitvk-agent", which sends the user looking for
         // a network problem.
-        warn_refused(session->agent_label(), agent.error());
-        session->failure_logged_.store(true);
+        warn_refused(session->agent_label(first), agent.error());
+        first.failure_logged.store(true);
     } else {
         SPLITVK_WARN("no splitvk-agent at %s (%s); running unsplit until one answers",
-                     session->agent_label().c_str(), agent.error().c_str());
-        session->failure_logged_.store(true);
+                     session->agent_label(first).c_str(), agent.error().c_str());
+        first.failure_logged.store(true);
+    }
+    // An agent per eye: the other eyes' agents are dialled now too, since one brought in later costs
+    // a snapshot of everything made so far. One that does not answer is looked for in the background,
+    // its eye showing the periphery meanwhile; a refusal ends nothing the first eye's agent has.
+    for (size_t index = 1; index < session->agents_.size() && !final; ++index) {
+        Agent &place = *session->agents_[index];
+        bool refused = false;
+        auto link = session->connect_agent(place, &refused);
+        if (link) {
+            bring_in(place, std::move(link).value());
+        } else {
+            SPLITVK_WARN("no splitvk-agent for eye %zu at %s (%s); its foveae show the periphery until one "
+                         "answers",
+                         index + 1, session->candidates_->description().c_str(), link.error().c_str());
+            place.failure_logged.store(true);
+        }
     }
     if (!final) session->reconnector_ = std::thread([raw = session.get()] { raw->run_reconnect(); });
     return session;
 }
 
-void Session::stop_receiver() {
-    stop_receiver_.store(true);
-    if (receiver_.joinable()) receiver_.join();
+void Session::stop_receiver(Agent &agent) {
+    agent.stop_receiver.store(true);
+    if (agent.receiver.joinable()) agent.receiver.join();
 }
 
 void Session::run_reconnect() {
@@ -289,8 +349,15 @@ void Session::run_reconnect() {
     constexpr auto kLongestRetry = 2000ms;
     auto backoff = kFirstRetry;
     std::unique_lock lock(reconnect_mutex_);
+    // The places without an agent, connected or found: what a dial is for.
+    const auto vacant = [this] {
+        std::vector<Agent *> places;
+        for (const auto &agent : agents_)
+            if (!agent->live.load() && !agent->pending) places.push_back(agent.get());
+        return places;
+    };
     while (!closing_) {
-        if (live() || pending_agent_ || agent_released_) {
+        if (vacant().empty() || agent_released_) {
             // Bounded: fail() notifies without reconnect_mutex_, so a wakeup between the check above
             // and this wait (an agent adopted by resync dying at once) would otherwise be lost.
             reconnect_wake_.wait_for(lock, kLongestRetry);
@@ -308,74 +375,90 @@ void Session::run_reconnect() {
             break;
         connect_now_ = false;
         lost_agent_.store(false);
-        lock.unlock();
-        bool final = false;
-        auto agent = connect_agent(&final);
-        lock.lock();
-        if (closing_) break;
-        // Let go while it was being asked (release_agent()): frames pass through without it.
-        if (agent_released_) continue;
-        if (!agent) {
-            if (final) {
-                warn_refused(agent_label(), agent.error());
-                break;
+        bool any_found = false, refused_for_good = false;
+        for (Agent *place : vacant()) {
+            lock.unlock();
+            bool final = false;
+            auto agent = connect_agent(*place, &final);
+            lock.lock();
+            if (closing_) return;
+            // Let go while it was being asked (release_agent()): frames pass through without it.
+            if (agent_released_) break;
+            if (!agent) {
+                if (final) {
+                    warn_refused(agent_label(*place), agent.error());
+                    refused_for_good = true;
+                    break;
+                }
+                continue;
             }
-            backoff = std::min(backoff * 2, kLongestRetry);
-            continue;
+            // The swapped split is for the session's life: its command buffers are recorded cut and
+            // its screen-space targets full size, which only an agent that renders the periphery can
+            // serve.
+            if (client_renders() == ClientRenders::Fovea &&
+                !(agent->welcome.capabilities & protocol::capability::kSwappedSplit)) {
+                if (!std::exchange(place->swapped_refusal_logged, true))
+                    SPLITVK_WARN(
+                        "splitvk-agent at %s cannot render the periphery, which this session's client "
+                        "leaves to the agent (SPLITVK_CLIENT_RENDERS=fovea); not brought in, the "
+                        "client renders whole frames",
+                        agent_label(*place).c_str());
+                agent->connection->send(
+                    protocol::MessageType::Goodbye,
+                    protocol::encode_goodbye({"the client's swapped split needs the periphery"}));
+                agent->connection->flush(kCloseFlush);
+                agent->connection->close("cannot render the periphery");
+                continue;
+            }
+            place->swapped_refusal_logged = false;
+            std::string went_away;
+            std::chrono::steady_clock::time_point went_away_at;
+            {
+                std::lock_guard label_lock(label_mutex_);
+                went_away = place->went_away;
+                went_away_at = place->went_away_at;
+            }
+            const std::string eye =
+                agents_.size() > 1 ? " for eye " + std::to_string(place->index + 1) : std::string();
+            // Another agent than the one that went away: the failover, in one line.
+            if (!went_away.empty() && went_away != agent->agent)
+                SPLITVK_WARN(
+                    "failover: splitvk-agent %s went away; %s answered%s and joins at the next present",
+                    went_away.c_str(), agent->agent.c_str(), eye.c_str());
+            else
+                SPLITVK_INFO("splitvk-agent at %s answered%s; it joins at the next present",
+                             agent->agent.c_str(), eye.c_str());
+            place->pending = std::move(agent).value();
+            place->reconnected_at = std::chrono::steady_clock::now();
+            place->pending_in_place_of = went_away;
+            place->pending_loss_at = went_away_at;
+            place->resync_pending.store(true, std::memory_order_release);
+            any_found = true;
         }
-        // The swapped split is for the session's life: its command buffers are recorded cut and its
-        // screen-space targets full size, which only an agent that renders the periphery can serve.
-        if (client_renders() == ClientRenders::Fovea &&
-            !(agent->welcome.capabilities & protocol::capability::kSwappedSplit)) {
-            if (!std::exchange(swapped_refusal_logged_, true))
-                SPLITVK_WARN("splitvk-agent at %s cannot render the periphery, which this session's client "
-                             "leaves to the agent (SPLITVK_CLIENT_RENDERS=fovea); not brought in, the client "
-                             "renders whole frames",
-                             agent_label().c_str());
-            agent->connection->send(
-                protocol::MessageType::Goodbye,
-                protocol::encode_goodbye({"the client's swapped split needs the periphery"}));
-            agent->connection->flush(kCloseFlush);
-            agent->connection->close("cannot render the periphery");
-            backoff = std::min(backoff * 2, kLongestRetry);
-            continue;
-        }
-        swapped_refusal_logged_ = false;
-        std::string went_away;
-        std::chrono::steady_clock::time_point went_away_at;
-        {
-            std::lock_guard label_lock(label_mutex_);
-            went_away = went_away_;
-            went_away_at = went_away_at_;
-        }
-        // Another agent than the one that went away: the failover, in one line.
-        if (!went_away.empty() && went_away != agent->agent)
-            SPLITVK_WARN("failover: splitvk-agent %s went away; %s answered and joins at the next present",
-                         went_away.c_str(), agent->agent.c_str());
-        else
-            SPLITVK_INFO("splitvk-agent at %s answered; it joins at the next present", agent->agent.c_str());
-        pending_agent_ = std::move(agent).value();
-        reconnected_at_ = std::chrono::steady_clock::now();
-        pending_in_place_of_ = went_away;
-        pending_loss_at_ = went_away_at;
-        resync_pending_.store(true, std::memory_order_release);
+        if (refused_for_good) break;
+        backoff = any_found ? kFirstRetry : std::min(backoff * 2, kLongestRetry);
     }
 }
 
 void Session::resync(DeviceState &device, VkQueue queue, uint64_t frame) {
-    std::optional<AgentLink> agent;
-    std::chrono::steady_clock::time_point answered, lost_at;
-    std::string in_place_of;
+    // The places whose new agent waits, with what the reconnector found for them.
+    struct Joining {
+        Agent *place;
+        AgentLink link;
+        std::chrono::steady_clock::time_point answered, lost_at;
+        std::string in_place_of;
+    };
+    std::vector<Joining> joining;
     {
         std::lock_guard lock(reconnect_mutex_);
-        agent = std::move(pending_agent_);
-        pending_agent_.reset();
-        answered = reconnected_at_;
-        in_place_of = std::move(pending_in_place_of_);
-        lost_at = pending_loss_at_;
-        resync_pending_.store(false);
+        for (const auto &agent : agents_) {
+            if (!agent->resync_pending.exchange(false) || !agent->pending) continue;
+            joining.push_back({agent.get(), std::move(*agent->pending), agent->reconnected_at,
+                               agent->pending_loss_at, std::move(agent->pending_in_place_of)});
+            agent->pending.reset();
+        }
     }
-    if (!agent) return;
+    if (joining.empty()) return;
     const auto start = std::chrono::steady_clock::now();
     // The snapshot is what the app's submits so far have made: let them finish.
     device.dispatch.QueueWaitIdle(queue);
@@ -397,8 +480,9 @@ void Session::resync(DeviceState &device, VkQueue queue, uint64_t frame) {
         SPLITVK_INFO("snapshot: %llu screen-space targets left out (every frame rewrites them, and here they "
                      "are scaled)",
                      static_cast<unsigned long long>(contents.screen_space_images));
-    adopt_locked(std::move(*agent));
-    (void)encoder_.take(); // already in the log, and so in the snapshot
+    // What is pending is in the log, and so in the snapshot; the agents already in get it now, the
+    // joining ones in their snapshot.
+    flush_locked();
     size_t entries = 0;
     std::unordered_set<uint64_t> live_ids;
     std::vector<LiveMessage> snapshot = log_.messages(&entries, &live_ids);
@@ -411,33 +495,45 @@ void Session::resync(DeviceState &device, VkQueue queue, uint64_t frame) {
     if (descriptors.size() != 0) snapshot.push_back({protocol::MessageType::Commands, descriptors.take()});
     std::vector<std::vector<uint8_t>> streams;
     snapshot_command_buffers(device, live_ids, streams);
+    const size_t command_buffers = streams.size();
     for (auto &stream : streams)
         snapshot.push_back({protocol::MessageType::Commands, std::move(stream)});
     size_t bytes = 0;
     for (const LiveMessage &message : snapshot)
         bytes += message.payload.size();
-    send_all_locked(std::move(snapshot));
-    first_replayed_frame_.store(frame + 1);
-    joined_agent_answered_ = answered;
-    joined_in_place_of_ = std::move(in_place_of);
-    joined_after_loss_at_ = lost_at;
-    awaiting_first_tiles_.store(true);
-    first_split_frame_pending_.store(true);
-    const auto now = std::chrono::steady_clock::now();
-    const auto ms = [](auto from, auto to) {
-        return std::chrono::duration<double, std::milli>(to - from).count();
-    };
-    // Where the resync's time goes: waiting for the next present, the queue to
-    // drain, the readback, and encoding and queueing the snapshot.
-    // An agent that came back as asked is news only at info; any other is a change the user is told.
-    log(recalled_.exchange(false) ? LogLevel::Info : LogLevel::Warn,
-        "splitvk-agent at %s brought in at frame %llu: %zu objects, %llu buffers, %llu images, %zu "
-        "descriptor sets, %zu command buffers, %.1f MiB in %.0f ms (%.0f ms after it answered; "
-        "%.0f ms to the present, %.0f idle, %.0f readback, %.0f encode and queue)",
-        agent_label().c_str(), static_cast<unsigned long long>(frame), entries,
-        static_cast<unsigned long long>(contents.buffers), static_cast<unsigned long long>(contents.images),
-        sets, streams.size(), static_cast<double>(bytes) / (1 << 20), ms(start, now), ms(answered, now),
-        ms(answered, start), ms(start, idle), ms(idle, readback_done), ms(readback_done, now));
+    const bool recalled = recalled_.exchange(false);
+    for (size_t i = 0; i < joining.size(); ++i) {
+        Joining &join = joining[i];
+        Agent &agent = *join.place;
+        adopt_locked(agent, std::move(join.link));
+        // The last one joining takes the snapshot itself, the others a copy.
+        send_all_locked(agent,
+                        i + 1 == joining.size() ? std::move(snapshot) : std::vector<LiveMessage>(snapshot));
+        agent.first_replayed_frame.store(frame + 1);
+        agent.joined_agent_answered = join.answered;
+        agent.joined_in_place_of = std::move(join.in_place_of);
+        agent.joined_after_loss_at = join.lost_at;
+        agent.awaiting_first_tiles.store(true);
+        agent.first_split_frame_pending.store(true);
+        const auto now = std::chrono::steady_clock::now();
+        const auto ms = [](auto from, auto to) {
+            return std::chrono::duration<double, std::milli>(to - from).count();
+        };
+        const std::string eye =
+            agents_.size() > 1 ? " for eye " + std::to_string(agent.index + 1) : std::string();
+        // Where the resync's time goes: waiting for the next present, the queue to
+        // drain, the readback, and encoding and queueing the snapshot.
+        // An agent that came back as asked is news only at info; any other is a change the user is told.
+        log(recalled ? LogLevel::Info : LogLevel::Warn,
+            "splitvk-agent at %s brought in at frame %llu%s: %zu objects, %llu buffers, %llu images, %zu "
+            "descriptor sets, %zu command buffers, %.1f MiB in %.0f ms (%.0f ms after it answered; "
+            "%.0f ms to the present, %.0f idle, %.0f readback, %.0f encode and queue)",
+            agent_label(agent).c_str(), static_cast<unsigned long long>(frame), eye.c_str(), entries,
+            static_cast<unsigned long long>(contents.buffers),
+            static_cast<unsigned long long>(contents.images), sets, command_buffers,
+            static_cast<double>(bytes) / (1 << 20), ms(start, now), ms(join.answered, now),
+            ms(join.answered, start), ms(start, idle), ms(idle, readback_done), ms(readback_done, now));
+    }
 }
 
 Session::~Session() {
@@ -447,10 +543,12 @@ Session::~Session() {
     }
     reconnect_wake_.notify_all();
     if (reconnector_.joinable()) reconnector_.join();
-    stop_receiver();
-    if (tiles_) tiles_->stop();
-    current_connection_.store(nullptr);
-    if (connection_) connection_->close();
+    for (const auto &agent : agents_) {
+        stop_receiver(*agent);
+        if (agent->tiles) agent->tiles->stop();
+        agent->current_connection.store(nullptr);
+        if (agent->connection) agent->connection->close();
+    }
 }
 
 Session::FrameSizing Session::size_frame(int64_t xr_frame, double frame_ms) {
@@ -609,30 +707,36 @@ void Session::release_agent() {
         std::lock_guard lock(reconnect_mutex_);
         agent_released_ = true;
         // One that answered meanwhile is let go as well, unadopted.
-        pending_agent_.reset();
-        resync_pending_.store(false);
+        for (const auto &agent : agents_) {
+            agent->pending.reset();
+            agent->resync_pending.store(false);
+        }
     }
-    std::shared_ptr<protocol::Connection> connection;
+    std::vector<std::shared_ptr<protocol::Connection>> connections;
     {
         std::lock_guard lock(mutex_);
         if (!live()) return;
         // Its closure is not the agent going away, and nothing more is sent: from here the device is
         // one without an agent, its calls logged for the snapshot that brings an agent back.
-        current_connection_.store(nullptr);
-        live_.store(false);
-        if (tiles_) tiles_->abandon();
-        connection = connection_;
+        for (const auto &agent : agents_) {
+            if (!agent->live.exchange(false)) continue;
+            agent->current_connection.store(nullptr);
+            if (agent->tiles) agent->tiles->abandon();
+            connections.push_back(agent->connection);
+        }
     }
     // Outside the session lock, which every captured call takes: the flush may wait for the link.
-    // Nothing replaces connection_ meanwhile: only resync() does, with an agent the reconnector
-    // brings in, and it brings none in while the agent is let go.
-    connection->send(protocol::MessageType::Goodbye,
-                     protocol::encode_goodbye({"the client's frames pass through (SPLITVK_SPLIT=auto)"}));
-    connection->flush(kCloseFlush);
-    connection->close("frames pass through");
+    // Nothing replaces the connections meanwhile: only resync() does, with an agent the reconnector
+    // brings in, and it brings none in while the agents are let go.
+    for (const auto &connection : connections) {
+        connection->send(protocol::MessageType::Goodbye,
+                         protocol::encode_goodbye({"the client's frames pass through (SPLITVK_SPLIT=auto)"}));
+        connection->flush(kCloseFlush);
+        connection->close("frames pass through");
+    }
     SPLITVK_INFO("SPLITVK_SPLIT=auto: splitvk-agent at %s let go while frames pass through; it is called "
                  "back when the split is measured again",
-                 agent_label().c_str());
+                 agents_label().c_str());
 }
 
 void Session::recall_agent() {
@@ -644,24 +748,27 @@ void Session::recall_agent() {
     }
     recalled_.store(true);
     SPLITVK_INFO("SPLITVK_SPLIT=auto: calling splitvk-agent at %s back to measure the split again",
-                 agent_label().c_str());
+                 agents_label().c_str());
     reconnect_wake_.notify_all();
 }
 
-void Session::run_receiver() {
+void Session::run_receiver(Agent &agent) {
     using protocol::MessageType;
-    while (!stop_receiver_.load()) {
-        auto message = connection_->receive(100ms);
+    // The connection this thread was started for: adopt_locked() joins the thread before it replaces
+    // agent.connection.
+    protocol::Connection &connection = *agent.connection;
+    while (!agent.stop_receiver.load()) {
+        auto message = connection.receive(100ms);
         if (!message) {
-            if (!connection_->is_open()) break; // on_closed has reported it
+            if (!connection.is_open()) break; // on_closed has reported it
             continue;
         }
         switch (static_cast<MessageType>(message->type)) {
         case MessageType::Tiles:
-            if (tiles_) {
+            if (agent.tiles) {
                 std::string error;
-                if (!tiles_->accept(std::move(message->payload), &error)) {
-                    fail("malformed Tiles from the agent: " + error);
+                if (!agent.tiles->accept(std::move(message->payload), &error)) {
+                    fail(agent, "malformed Tiles from the agent: " + error);
                     return;
                 }
             }
@@ -675,7 +782,7 @@ void Session::run_receiver() {
         }
         case MessageType::Goodbye: {
             const auto bye = protocol::decode_goodbye(message->payload);
-            fail(bye ? "it said: " + bye->message : std::string("it said goodbye"));
+            fail(agent, bye ? "it said: " + bye->message : std::string("it said goodbye"));
             return;
         }
         default:
@@ -693,24 +800,31 @@ const char *Session::fallback() const {
 // Whether the receiver or a send notices first, losing the agent ends alike: one line, nothing more
 // is sent, a present waiting for tiles stops waiting, and the reconnector (asleep while the session
 // is live) starts looking for a new agent.
-void Session::fail(const std::string &reason) {
-    live_.store(false);
+void Session::fail(Agent &agent, const std::string &reason) {
+    agent.live.store(false);
     {
         // The reconnector dials another agent first, if there is one.
         std::lock_guard lock(label_mutex_);
         // The first loss since an agent was adopted: a failed redial is no new loss.
-        if (went_away_.empty()) went_away_at_ = std::chrono::steady_clock::now();
-        went_away_ = address_;
+        if (agent.went_away.empty()) agent.went_away_at = std::chrono::steady_clock::now();
+        agent.went_away = agent.address;
     }
     // Without reconnect_mutex_ (fail() is reached under the session's locks): a wakeup lost between
     // the reconnector's check and its wait costs at most its backoff.
     lost_agent_.store(true);
-    if (tiles_) tiles_->abandon();
+    if (agent.tiles) agent.tiles->abandon();
     reconnect_wake_.notify_all();
-    if (!failure_logged_.exchange(true)) {
+    if (!agent.failure_logged.exchange(true)) {
         if (client_renders() == ClientRenders::Fovea) force_out_of_date_.store(true);
-        SPLITVK_WARN("splitvk-agent at %s went away (%s); %s", agent_label().c_str(), reason.c_str(),
-                     fallback());
+        // An agent per eye: the other eyes go on with theirs.
+        if (agents_.size() > 1 && live())
+            SPLITVK_WARN(
+                "splitvk-agent at %s went away (%s); eye %u's foveae show the periphery until another "
+                "agent is brought in",
+                agent_label(agent).c_str(), reason.c_str(), agent.index + 1);
+        else
+            SPLITVK_WARN("splitvk-agent at %s went away (%s); %s", agent_label(agent).c_str(), reason.c_str(),
+                         fallback());
     }
 }
 
@@ -719,13 +833,17 @@ bool Session::abandon() {
     {
         std::lock_guard lock(reconnect_mutex_);
         closing_ = true; // the reconnector ends; close() or the destructor joins it
-        pending_agent_.reset();
-        resync_pending_.store(false);
+        for (const auto &agent : agents_) {
+            agent->pending.reset();
+            agent->resync_pending.store(false);
+        }
     }
-    failure_logged_.store(true);
     if (client_renders() == ClientRenders::Fovea) force_out_of_date_.store(true);
-    live_.store(false);
-    if (tiles_) tiles_->abandon();
+    for (const auto &agent : agents_) {
+        agent->failure_logged.store(true);
+        agent->live.store(false);
+        if (agent->tiles) agent->tiles->abandon();
+    }
     reconnect_wake_.notify_all();
     return true;
 }
@@ -761,23 +879,48 @@ void Session::send_locked(protocol::MessageType type, std::vector<uint8_t> &&pay
 
 void Session::send_locked(protocol::MessageType type, std::vector<uint8_t> &&payload,
                           std::chrono::milliseconds wait) {
-    if (!live()) return;
-    note_send_locked(connection_->send_owned(type, std::move(payload), wait));
+    // Every connected agent but the last gets a copy: with one agent, nothing is copied.
+    Agent *last = nullptr;
+    for (const auto &agent : agents_) {
+        if (!agent->live.load(std::memory_order_relaxed)) continue;
+        if (last) send_to_locked(*last, type, std::vector<uint8_t>(payload), wait);
+        last = agent.get();
+    }
+    if (last) send_to_locked(*last, type, std::move(payload), wait);
 }
 
-void Session::send_all_locked(std::vector<LiveMessage> &&messages) {
-    if (!live()) return;
+void Session::send_to_locked(Agent &agent, protocol::MessageType type, std::vector<uint8_t> &&payload,
+                             std::chrono::milliseconds wait) {
+    if (!agent.live.load(std::memory_order_relaxed)) return;
+    note_send_locked(agent, agent.connection->send_owned(type, std::move(payload), wait));
+}
+
+void Session::send_all_locked(Agent &agent, std::vector<LiveMessage> &&messages) {
+    if (!agent.live.load()) return;
     // Every core the client has: the app is held at this present until the snapshot is queued.
     const unsigned workers = std::clamp(std::thread::hardware_concurrency(), 1u, 4u);
-    note_send_locked(connection_->send_all(std::move(messages), kSendWait, workers));
+    note_send_locked(agent, agent.connection->send_all(std::move(messages), kSendWait, workers));
 }
 
-// A message the link would not take ends the session: the agent would replay a stream with a hole.
-void Session::note_send_locked(protocol::SendResult result) {
+// A message the link would not take ends that agent's session: it would replay a stream with a hole.
+void Session::note_send_locked(Agent &agent, protocol::SendResult result) {
     if (result == protocol::SendResult::Queued) return;
     std::string reason = protocol::to_string(result);
-    if (result == protocol::SendResult::Closed) reason = connection_->close_reason();
-    fail("cannot send: " + reason);
+    if (result == protocol::SendResult::Closed) reason = agent.connection->close_reason();
+    fail(agent, "cannot send: " + reason);
+}
+
+void Session::send_frame_present(protocol::FramePresent message) {
+    std::lock_guard lock(mutex_);
+    flush_locked();
+    const uint32_t flags = message.flags;
+    for (const auto &agent : agents_) {
+        // The frame a resync brought this agent in at: its submits reached it in no stream, nor will
+        // its tiles.
+        message.flags = flags;
+        if (message.frame < agent->first_replayed_frame.load()) message.flags |= protocol::kPresentNoTiles;
+        send_to_locked(*agent, protocol::MessageType::FramePresent, protocol::encode(message), kSendWait);
+    }
 }
 
 void Session::flush_locked() {
@@ -806,14 +949,18 @@ void Session::send_metadata(protocol::MessageType type, std::vector<uint8_t> &&p
 }
 
 bool Session::wait_for_room(size_t bytes) {
-    std::shared_ptr<protocol::Connection> connection;
+    std::vector<std::shared_ptr<protocol::Connection>> connections;
     {
         std::lock_guard lock(mutex_);
-        if (!live() || !connection_) return true;
-        connection = connection_;
+        for (const auto &agent : agents_)
+            if (agent->live.load() && agent->connection) connections.push_back(agent->connection);
         bytes += encoder_.size();
     }
-    return connection->wait_for_room(bytes, kSendWait);
+    // The slowest link sets the pace: every agent replays every message.
+    bool room = true;
+    for (const auto &connection : connections)
+        room = connection->wait_for_room(bytes, kSendWait) && room;
+    return room;
 }
 
 std::optional<std::vector<uint8_t>> Session::receive_verify_frame(std::chrono::milliseconds timeout) {
@@ -834,26 +981,32 @@ void Session::close() {
     {
         std::lock_guard lock(mutex_);
         flush_locked();
-        live_.store(false);
-        failure_logged_.store(true);
+        for (const auto &agent : agents_) {
+            agent->live.store(false);
+            agent->failure_logged.store(true);
+        }
     }
-    current_connection_.store(nullptr); // closing it is not the agent going away
-    if (connection_) connection_->flush(kCloseFlush);
-    const protocol::ConnectionStats stats = connection_ ? connection_->stats() : protocol::ConnectionStats{};
-    // Presents: every window present and every OpenXR release of an image (depth swapchains' too).
-    SPLITVK_INFO("session to %s: %llu presents, %.2f ms comparing memory, %llu messages, %llu payload bytes, "
-                 "%llu bytes on the wire",
-                 agent_label().c_str(), static_cast<unsigned long long>(current_frame()),
-                 static_cast<double>(memory_compare_ns.load()) / 1e6,
-                 static_cast<unsigned long long>(stats.messages_sent),
-                 static_cast<unsigned long long>(stats.payload_bytes_sent),
-                 static_cast<unsigned long long>(stats.wire_bytes_sent));
-    stop_receiver();
-    if (tiles_) tiles_->stop();
+    for (const auto &agent : agents_) {
+        agent->current_connection.store(nullptr); // closing it is not the agent going away
+        if (agent->connection) agent->connection->flush(kCloseFlush);
+        const protocol::ConnectionStats stats =
+            agent->connection ? agent->connection->stats() : protocol::ConnectionStats{};
+        // Presents: every window present and every OpenXR release of an image (depth swapchains' too).
+        SPLITVK_INFO("session to %s: %llu presents, %.2f ms comparing memory, %llu messages, %llu payload "
+                     "bytes, %llu bytes on the wire",
+                     agent_label(*agent).c_str(), static_cast<unsigned long long>(current_frame()),
+                     static_cast<double>(memory_compare_ns.load()) / 1e6,
+                     static_cast<unsigned long long>(stats.messages_sent),
+                     static_cast<unsigned long long>(stats.payload_bytes_sent),
+                     static_cast<unsigned long long>(stats.wire_bytes_sent));
+        stop_receiver(*agent);
+        if (agent->tiles) agent->tiles->stop();
+    }
     // The present thread and the compositors let go of their tiles before (forget_device_objects):
     // the pool's buffers can be freed while the device exists.
     if (uploads_) uploads_->close();
-    if (connection_) connection_->close("the application destroyed the device");
+    for (const auto &agent : agents_)
+        if (agent->connection) agent->connection->close("the application destroyed the device");
 }
 
 } // namespace splitvk

@@ -1,7 +1,7 @@
 #pragma once
 
-// One replication session per VkDevice (docs/architecture.md §2-3): the TCP connection to
-// splitvk-agent and the device's global command stream.
+// One replication session per VkDevice (docs/architecture.md §2-3): the connections to splitvk-agent
+// (SPLITVK_AGENTS of them, one per eye with 2: Session::Agent) and the device's global command stream.
 //
 // Opened at vkCreateDevice, with or without an agent (only invalid settings leave a device with no
 // Session at all, so that every hook costs one pointer check). The session captures into the
@@ -78,13 +78,69 @@ private:
 
 class Session {
 public:
+    // One agent the session replicates to. SPLITVK_AGENTS of them, one per eye with 2: each replays
+    // the whole stream and sends the foveae protocol::FoveaAgents gives its index (docs/architecture.md
+    // §6). Each has its own connection, tiles and reconnection, so that an agent that goes away or is
+    // late costs only its own eye. Owned by the session for its life; the lock that guards a field is
+    // named beside it.
+    struct Agent {
+        explicit Agent(uint32_t place) : index(place) {}
+        const uint32_t index;
+        std::atomic<bool> live{false};
+        std::atomic<bool> failure_logged{false};
+        // The connection whose closure means this agent went away: a late report from one that failed
+        // its handshake or was replaced is ignored.
+        std::atomic<protocol::Connection *> current_connection{nullptr};
+        // Under mutex_; shared with a sender waiting for room in its queue (wait_for_room) outside it.
+        std::shared_ptr<protocol::Connection> connection;
+        std::unique_ptr<TileStream> tiles; // split mode: this agent's decoded tiles
+        std::atomic<bool> stop_receiver{false};
+        std::thread receiver;
+        // Under label_mutex_: agent_label(), the agent that went away until another is adopted, and when.
+        std::string address;
+        std::string went_away;
+        std::chrono::steady_clock::time_point went_away_at{};
+        // Under reconnect_mutex_: what the reconnector found for this place, and when.
+        std::optional<AgentLink> pending;
+        std::chrono::steady_clock::time_point reconnected_at{};
+        std::string pending_in_place_of;                         // went_away then
+        std::chrono::steady_clock::time_point pending_loss_at{}; // went_away_at then
+        // The swapped split refused a reconnecting agent that cannot render the periphery: said once
+        // until an agent is brought in.
+        bool swapped_refusal_logged = false;
+        std::atomic<bool> resync_pending{false};
+        // The first frame whose submits this agent replays, and when it answered: set by resync() on the
+        // app's thread before any present that reads them (present thread).
+        std::atomic<uint64_t> first_replayed_frame{0};
+        std::chrono::steady_clock::time_point joined_agent_answered{};
+        // The agent the joined one replaced (empty for a late join: none went away) and when that one
+        // went away: the failover time is from then.
+        std::string joined_in_place_of;
+        std::chrono::steady_clock::time_point joined_after_loss_at{};
+        // True once per resync: for the first frame composited with the joined agent's tiles.
+        std::atomic<bool> awaiting_first_tiles{false};
+        // True for the first split frame an agent replays after it (re)joined: it may wait longer.
+        std::atomic<bool> first_split_frame_pending{true};
+    };
+
     // Logs the encoded vkCreateDevice and connects; without an agent (one warning line) it keeps
     // trying in the background. nullptr only when the settings are invalid.
     static std::unique_ptr<Session> open(const DeviceState &device, const VkDeviceCreateInfo *create_info,
                                          const std::string &application_name);
     ~Session();
 
-    bool live() const { return live_.load(std::memory_order_relaxed); }
+    // Whether any agent is connected: then every call is sent, to each agent that is.
+    bool live() const {
+        for (const auto &agent : agents_)
+            if (agent->live.load(std::memory_order_relaxed)) return true;
+        return false;
+    }
+    // The agents, SPLITVK_AGENTS of them, whichever are connected (Agent::live); and which foveae
+    // agent `index` sends.
+    std::span<const std::unique_ptr<Agent>> agents() const { return agents_; }
+    protocol::FoveaAgents fovea_agents(uint32_t index) const {
+        return {index, static_cast<uint32_t>(agents_.size())};
+    }
     bool verify() const { return verify_; }
     // The device renders split: split passes are scaled and presents composite. Set when
     // an agent first accepts the split and kept for the session's life, also while no agent is
@@ -98,8 +154,7 @@ public:
     // split, while an agent is live to render that periphery.
     bool cutting() const { return client_renders() == ClientRenders::Fovea && live(); }
     const Settings &settings() const { return settings_; }
-    // Split mode: the decoded tiles of the agent (tile_stream.h), and per-frame statistics.
-    TileStream *tiles() { return tiles_.get(); }
+    // Per-frame statistics.
     FrameStats &stats() { return *stats_; }
     // Whether frames are recorded: SPLITVK_STATS names a file (from the start, so that frames unsplit
     // or without an agent have rows too), or an agent has split or verified (the summary alone).
@@ -195,6 +250,9 @@ public:
     void send_metadata(protocol::MessageType type, std::vector<uint8_t> &&payload);
     // Sends the pending global batch.
     void flush();
+    // Sends the pending global batch, then `message` to every connected agent, each told to send no
+    // tiles for a frame before the first whose submits it replays (kPresentNoTiles).
+    void send_frame_present(protocol::FramePresent message);
 
     // Under the session lock: encodes with a scratch encoder and sends as one Commands message
     // after the pending batch (submits: they must follow the MemoryData sent for them).
@@ -253,7 +311,7 @@ public:
     // The agent went away (one line): nothing is sent until a new one is brought in. In the swapped
     // split cutting() turns false with it, and the next present answers VK_ERROR_OUT_OF_DATE_KHR
     // once (take_forced_out_of_date()).
-    void fail(const std::string &reason);
+    void fail(Agent &agent, const std::string &reason);
     // An exception inside the layer (entry_boundary.h) left the capture stream or the layer's state
     // with a hole an agent would replay: the agent is dropped and none is brought in again, for the
     // session's life; its frames show what fallback() says. No line of its own (the boundary's says
@@ -267,23 +325,16 @@ public:
     bool take_forced_out_of_date() { return force_out_of_date_.exchange(false); }
 
     // A new agent has connected and waits for the snapshot: the next present calls resync().
-    bool resync_pending() const { return resync_pending_.load(std::memory_order_acquire); }
+    bool resync_pending() const {
+        for (const auto &agent : agents_)
+            if (agent->resync_pending.load(std::memory_order_acquire)) return true;
+        return false;
+    }
     // On the app's thread, inside vkQueuePresentKHR on `queue`: brings the new agent in (see the
     // top of this file). Frame `frame`'s own submits reached no agent, so it has no tiles.
     void resync(DeviceState &device, VkQueue queue, uint64_t frame);
-    // The first frame whose submits a (re)connected agent replays, and when that agent answered
-    // (present thread only): the resync time is from then to that frame's tiles.
-    uint64_t first_replayed_frame() const { return first_replayed_frame_.load(std::memory_order_relaxed); }
-    std::chrono::steady_clock::time_point joined_agent_answered() const { return joined_agent_answered_; }
-    // The agent the joined one replaced (empty for a late join: none went away) and when that one
-    // went away (present thread only, like joined_agent_answered): the failover time is from then.
-    const std::string &joined_in_place_of() const { return joined_in_place_of_; }
-    std::chrono::steady_clock::time_point joined_after_loss_at() const { return joined_after_loss_at_; }
-    // True once per resync: for the first frame composited with the joined agent's tiles.
-    bool take_first_tiles_after_resync() { return awaiting_first_tiles_.exchange(false); }
-    // True for the first split frame an agent replays after it (re)joined (present.cpp): that frame
-    // may wait longer for its tiles.
-    bool take_first_split_frame() { return first_split_frame_pending_.exchange(false); }
+    // The first frame whose submits some connected agent replays (Agent::first_replayed_frame).
+    uint64_t first_replayed_frame() const;
 
 private:
     Session() = default;
@@ -301,17 +352,21 @@ private:
     // Connects and handshakes with an agent of SPLITVK_SERVER's (agent_candidates.h), the device
     // envelope in the Hello; after the one in use went away, another if there is one. *final when
     // retrying cannot help.
-    protocol::Result<AgentLink> connect_agent(bool *final);
-    // The agent in use or last used (its label), or what SPLITVK_SERVER names before any answered:
-    // what every line about the agent names. Any thread.
-    std::string agent_label() const;
-    // Reports `link`'s closure to this session while it is the session's connection.
-    void watch_closure(AgentLink &link);
+    // For `agent`'s place: never an agent another place uses.
+    protocol::Result<AgentLink> connect_agent(Agent &agent, bool *final);
+    // The agent in use or last used in `agent`'s place (its label), or what SPLITVK_SERVER names before
+    // any answered: what every line about the agent names. Any thread.
+    std::string agent_label(const Agent &agent) const;
+    // Every place's, joined by '+' (the session's lines).
+    std::string agents_label() const;
+    // Reports `link`'s closure to `agent` while it is that agent's connection.
+    void watch_closure(Agent &agent, AgentLink &link);
     // Why the agent greeted at vkCreateInstance cannot serve this device's envelope; empty if it can.
     std::string early_link_mismatch(const AgentLink &link, const PhysicalDeviceState *physical) const;
-    // Makes `agent` the session's connection (under mutex_): receiver thread, tile stream.
-    void adopt_locked(AgentLink &&agent);
-    void stop_receiver();
+    // Makes `link` the connection of `agent`'s place (under mutex_): receiver thread, tile stream, the
+    // split's configuration.
+    void adopt_locked(Agent &agent, AgentLink &&link);
+    void stop_receiver(Agent &agent);
     void run_reconnect();
     // SPLITVK_SPLIT=auto's verdict to pass frames through: the agent is told goodbye and let go
     // (swapchain_recreated()). Never under payoff_mutex_: it flushes to the agent.
@@ -323,21 +378,25 @@ private:
     void recall_agent();
     // The agent's messages, on a thread of the layer's: Tiles to the decoders, VerifyFrame to
     // receive_verify_frame(), Goodbye ends the session.
-    void run_receiver();
+    void run_receiver(Agent &agent);
+    // To every connected agent.
     void send_locked(protocol::MessageType type, std::vector<uint8_t> &&payload);
     void send_locked(protocol::MessageType type, std::vector<uint8_t> &&payload,
                      std::chrono::milliseconds wait);
+    // To `agent` alone: what only it needs (its split's configuration, its snapshot).
+    void send_to_locked(Agent &agent, protocol::MessageType type, std::vector<uint8_t> &&payload,
+                        std::chrono::milliseconds wait);
     // Waits, with no lock held, until the connection has room for `bytes` and the pending batch,
     // so that a large message waits for a slow link before it takes mutex_ rather than while it
     // holds it. False if the room did not come in time.
     bool wait_for_room(size_t bytes);
-    void send_all_locked(std::vector<LiveMessage> &&messages); // a snapshot: compressed on every core
-    void note_send_locked(protocol::SendResult result);
+    // A snapshot, to `agent` alone: compressed on every core.
+    void send_all_locked(Agent &agent, std::vector<LiveMessage> &&messages);
+    void note_send_locked(Agent &agent, protocol::SendResult result);
 
     std::mutex mutex_;
-    std::atomic<bool> live_{false};
-    std::atomic<bool> failure_logged_{false};
-    std::atomic<bool> abandoned_{false}; // abandon()
+    std::vector<std::unique_ptr<Agent>> agents_; // made by open(), SPLITVK_AGENTS of them
+    std::atomic<bool> abandoned_{false};         // abandon()
     std::atomic<uint64_t> frame_{0};
     bool verify_ = false;
     std::atomic<bool> splitting_{false};
@@ -346,24 +405,15 @@ private:
     Settings settings_;
     uint64_t device_id_ = 0;
     std::unique_ptr<AgentCandidates> candidates_;
-    mutable std::mutex label_mutex_;
-    std::string address_;   // under label_mutex_: agent_label()
-    std::string went_away_; // under label_mutex_: the agent that went away, until another is adopted
-    std::chrono::steady_clock::time_point went_away_at_{}; // under label_mutex_: when went_away_ did
+    mutable std::mutex label_mutex_; // the agents' labels
     std::string client_name_;
     std::string client_gpu_name_;
     std::vector<uint8_t> envelope_wire_; // the device envelope the app was told, encoded; empty: unchecked
-    // The connection whose closure means the agent went away: a late report from one that failed
-    // its handshake or was replaced is ignored.
-    std::atomic<protocol::Connection *> current_connection_{nullptr};
-    // Shared with a sender waiting for room in its queue (wait_for_room) outside mutex_.
-    std::shared_ptr<protocol::Connection> connection_;
     CaptureHooks hooks_;
     codec::Encoder encoder_;
     LiveStateLog log_; // under mutex_, changed with each encode into encoder_
 
-    std::unique_ptr<UploadPool> uploads_; // what tiles_ decodes into; made by open()
-    std::unique_ptr<TileStream> tiles_;
+    std::unique_ptr<UploadPool> uploads_; // what the agents' tiles decode into; made by open()
     std::unique_ptr<FrameStats> stats_;
     AcquireTimes acquire_times_;
     std::unique_ptr<AutoFovea> auto_fovea_;
@@ -385,33 +435,17 @@ private:
     std::mutex verify_mutex_;
     std::condition_variable verify_ready_;
     std::deque<std::vector<uint8_t>> verify_frames_;
-    std::atomic<bool> stop_receiver_{false};
-    std::thread receiver_;
 
     // Reconnection: the thread, what it found, and when.
     std::mutex reconnect_mutex_;
     std::condition_variable reconnect_wake_;
-    bool closing_ = false;                   // under reconnect_mutex_
-    std::optional<AgentLink> pending_agent_; // under reconnect_mutex_
-    // The swapped split refused a reconnecting agent that cannot render the periphery: said once
-    // until an agent is brought in. Under reconnect_mutex_.
-    bool swapped_refusal_logged_ = false;
+    bool closing_ = false; // under reconnect_mutex_
     // SPLITVK_SPLIT=auto let the agent go while frames pass through: the reconnector waits until a probe
     // of the split calls it back (recall_agent()). Under reconnect_mutex_.
     bool agent_released_ = false;
     bool connect_now_ = false;            // under reconnect_mutex_: called back, so no backoff
     std::atomic<bool> lost_agent_{false}; // fail() to the reconnector: dial at once, no backoff
     std::atomic<bool> recalled_{false};   // the next resync brings back an agent let go, as asked
-    std::atomic<bool> resync_pending_{false};
-    std::atomic<uint64_t> first_replayed_frame_{0};
-    std::chrono::steady_clock::time_point reconnected_at_{};  // under reconnect_mutex_
-    std::string pending_in_place_of_;                         // under reconnect_mutex_: went_away_ then
-    std::chrono::steady_clock::time_point pending_loss_at_{}; // under reconnect_mutex_: went_away_at_ then
-    std::chrono::steady_clock::time_point joined_agent_answered_{};
-    std::string joined_in_place_of_;                               // joined_in_place_of()
-    std::chrono::steady_clock::time_point joined_after_loss_at_{}; // joined_after_loss_at()
-    std::atomic<bool> awaiting_first_tiles_{false};
-    std::atomic<bool> first_split_frame_pending_{true};
     std::thread reconnector_;
 };
 

@@ -124,11 +124,18 @@ std::string AgentCandidates::nothing_found() {
 
 protocol::Result<AgentLink> dial_agent(AgentCandidates &candidates, const Settings &settings,
                                        const protocol::Hello &hello, const std::set<std::string> &excluding,
-                                       std::chrono::milliseconds browse_wait, bool *final) {
+                                       std::chrono::milliseconds browse_wait, bool *final,
+                                       const std::set<std::string> &in_use) {
     *final = false;
-    std::vector<AgentCandidate> list = candidates.to_dial(excluding, browse_wait);
-    if (list.empty() && !excluding.empty()) list = candidates.to_dial({}, browse_wait);
-    if (list.empty()) return protocol::Error{candidates.nothing_found()};
+    std::set<std::string> left_out = in_use;
+    left_out.insert(excluding.begin(), excluding.end());
+    std::vector<AgentCandidate> list = candidates.to_dial(left_out, browse_wait);
+    if (list.empty() && !excluding.empty()) list = candidates.to_dial(in_use, browse_wait);
+    if (list.empty()) {
+        const std::string why = candidates.nothing_found();
+        if (in_use.empty()) return protocol::Error{why};
+        return protocol::Error{"no agent but the other eye's" + (why.empty() ? "" : " (" + why + ")")};
+    }
     std::string errors;
     bool all_final = true;
     for (const AgentCandidate &candidate : list) {

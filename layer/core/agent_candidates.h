@@ -60,11 +60,13 @@ private:
 };
 
 // Dials `candidates` best first until one completes its handshake, leaving out `excluding` unless
-// nothing else is left (an agent that went away may be the only one, and come back). The link's
+// nothing else is left (an agent that went away may be the only one, and come back), and `in_use`
+// always (with an agent per eye, the other eye's: each eye has an agent of its own). The link's
 // `agent` names the one that answered. *final only when retrying cannot help: every agent of a
 // static list answered and refused.
 protocol::Result<AgentLink> dial_agent(AgentCandidates &candidates, const Settings &settings,
                                        const protocol::Hello &hello, const std::set<std::string> &excluding,
-                                       std::chrono::milliseconds browse_wait, bool *final);
+                                       std::chrono::milliseconds browse_wait, bool *final,
+                                       const std::set<std::string> &in_use = {});
 
 } // namespace splitvk

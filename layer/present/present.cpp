@@ -124,11 +124,19 @@ void warn_if_late_dominates(Session &session, uint64_t late, uint32_t wait_ms, b
         longer_wait);
 }
 
+double ms_between(std::chrono::steady_clock::time_point from, std::chrono::steady_clock::time_point to) {
+    return std::max(0.0, std::chrono::duration<double, std::milli>(to - from).count());
+}
+
 // Split mode: the frame's own tiles, waiting at most SPLITVK_TILE_WAIT (longer for the first split
-// frame after the agent joined), and with a display time (an OpenXR frame's) only while the frame
+// frame after an agent joined), and with a display time (an OpenXR frame's) only while the frame
 // can still be composited, at `cost`, and handed to the runtime in time (deadline::tile_wait). They
 // must cover exactly the foveae the frame's split passes drew, or in the swapped split
 // (`periphery_parts` given) be the periphery in exactly those parts; anything else counts as late.
+//
+// An agent per eye (SPLITVK_AGENTS): each connected agent owes the foveae protocol::FoveaAgents gives
+// it, and its tiles are taken, and checked, alone; what came in time is composited, and an eye whose
+// agent is late, gone or flagged shows the periphery, the frame then counted late (or invalid).
 std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, const SplitFrame &split,
                                               Exposure &exposure, const deadline::FrameDisplay &display,
                                               deadline::Clock::duration cost,
@@ -136,29 +144,107 @@ std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, 
     // What a frame without its tiles shows instead.
     const char *instead =
         periphery_parts ? "its periphery is the previous frame's" : "its centre is the periphery's";
+    const bool several = session.agents().size() > 1;
+    // The agents this frame's tiles come from: connected, and replaying the frame's submits (one that
+    // joined after them sends none), each with the foveae it owes.
+    struct Owed {
+        Session::Agent *agent;
+        std::vector<split::LayerFovea> foveae;
+    };
+    std::vector<Owed> owed;
+    bool first_split_frame = false;
+    for (const auto &agent : session.agents()) {
+        if (!agent->live.load() || !agent->tiles || frame < agent->first_replayed_frame.load()) continue;
+        Owed o{agent.get(), {}};
+        const protocol::FoveaAgents owns = session.fovea_agents(agent->index);
+        for (size_t i = 0; i < split.foveae.size(); ++i)
+            if (owns.owns(i)) o.foveae.push_back(split.foveae[i]);
+        // The periphery has one agent; an agent owes nothing of a frame with fewer foveae than eyes.
+        if (!periphery_parts && o.foveae.empty()) continue;
+        first_split_frame = agent->first_split_frame_pending.exchange(false) || first_split_frame;
+        owed.push_back(std::move(o));
+    }
     // No agent, or one that joined after this frame's submits: the periphery alone.
-    if (!session.live() || !session.tiles() || frame < session.first_replayed_frame()) return nullptr;
+    if (owed.empty()) return nullptr;
     deadline::TileWaitInput input;
     input.display = display;
     input.now = std::chrono::steady_clock::now();
     input.composite_cost = cost;
     input.tile_wait = std::chrono::milliseconds(session.settings().tile_wait_ms);
-    input.first_split_frame = session.take_first_split_frame();
+    input.first_split_frame = first_split_frame;
     const auto wait = deadline::tile_wait(input);
     const auto wait_ms = static_cast<uint32_t>(std::chrono::ceil<std::chrono::milliseconds>(wait).count());
     // The display time, not SPLITVK_TILE_WAIT, ended the wait.
     const bool by_display = !input.first_split_frame && display.time && wait < input.tile_wait;
     const auto deadline = input.now + wait;
+    const auto all_ready = [&](std::chrono::steady_clock::time_point until) {
+        for (const Owed &o : owed)
+            if (!o.agent->tiles->wait_ready(frame, until)) return false;
+        return true;
+    };
     exposure.look();
     while (!exposure.seen && exposure.done &&
-           !session.tiles()->wait_ready(
-               frame, std::min(deadline, std::chrono::steady_clock::now() + kExposurePoll)) &&
+           !all_ready(std::min(deadline, std::chrono::steady_clock::now() + kExposurePoll)) &&
            std::chrono::steady_clock::now() < deadline)
         exposure.look();
-    auto tiles = session.tiles()->take(frame, deadline);
-    if (tiles && tiles->invalid) {
-        // Never a wrong fovea on screen: the agent says its GPU could not draw this frame as the
-        // client asked (server-agent/limit_guard.h), so the centre stays the periphery's.
+    const auto same = [](const VkRect2D &a, const VkRect2D &b) {
+        return a.offset.x == b.offset.x && a.offset.y == b.offset.y && a.extent.width == b.extent.width &&
+               a.extent.height == b.extent.height;
+    };
+    std::vector<std::shared_ptr<const FrameTiles>> came;
+    bool flagged = false;
+    std::string late_why;
+    for (const Owed &o : owed) {
+        Session::Agent &agent = *o.agent;
+        auto tiles = agent.tiles->take(frame, deadline);
+        if (tiles && tiles->invalid) {
+            // Never a wrong fovea on screen: the agent says its GPU could not draw this frame as the
+            // client asked (server-agent/limit_guard.h), so its foveae stay the periphery's.
+            flagged = true;
+            continue;
+        }
+        bool match = false;
+        if (periphery_parts) {
+            match = tiles && tiles->periphery && tiles->tiles.size() == periphery_parts->size();
+            for (size_t i = 0; match && i < periphery_parts->size(); ++i)
+                match = tiles->tiles[i].layer == 0 && same((*periphery_parts)[i], tiles->tiles[i].rect);
+        } else {
+            match = tiles && !tiles->periphery && tiles->tiles.size() == o.foveae.size();
+            for (size_t i = 0; match && i < o.foveae.size(); ++i)
+                match = o.foveae[i].layer == tiles->tiles[i].layer &&
+                        same(o.foveae[i].rect, tiles->tiles[i].rect);
+        }
+        if (match) {
+            if (agent.awaiting_first_tiles.exchange(false)) {
+                const auto now = std::chrono::steady_clock::now();
+                const std::string eye = several ? "; eye " + std::to_string(agent.index + 1) : std::string();
+                if (agent.joined_in_place_of.empty())
+                    SPLITVK_INFO(
+                        "frame %llu: the first split frame from the agent that joined, %.0f ms after it "
+                        "answered%s",
+                        static_cast<unsigned long long>(frame), ms_between(agent.joined_agent_answered, now),
+                        eye.c_str());
+                else
+                    SPLITVK_INFO(
+                        "frame %llu: the first split frame from the agent that joined, %.0f ms after it "
+                        "answered, %.0f ms after splitvk-agent at %s went away%s",
+                        static_cast<unsigned long long>(frame), ms_between(agent.joined_agent_answered, now),
+                        ms_between(agent.joined_after_loss_at, now), agent.joined_in_place_of.c_str(),
+                        eye.c_str());
+            }
+            came.push_back(std::move(tiles));
+            continue;
+        }
+        if (!late_why.empty()) continue; // one reason per line
+        late_why = tiles ? (periphery_parts ? "the agent's periphery does not match the frame's"
+                                            : "the agent's tiles do not match the frame's foveae")
+                   : !agent.live.load() ? "the agent went away before its tiles came"
+                   : by_display         ? "no tiles from the agent in time for its display (" +
+                                      std::to_string(wait_ms) + " ms were left)"
+                                : "no tiles from the agent within " + std::to_string(wait_ms) + " ms";
+        if (several) late_why = "eye " + std::to_string(agent.index + 1) + ": " + late_why;
+    }
+    if (flagged) {
         const uint64_t invalid = session.invalid_frames.fetch_add(1);
         if (invalid % 100 == 0)
             SPLITVK_WARN(
@@ -166,40 +252,35 @@ std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, 
                 "such frames)",
                 static_cast<unsigned long long>(frame), instead,
                 static_cast<unsigned long long>(invalid + 1));
-        return nullptr;
     }
-    const auto same = [](const VkRect2D &a, const VkRect2D &b) {
-        return a.offset.x == b.offset.x && a.offset.y == b.offset.y && a.extent.width == b.extent.width &&
-               a.extent.height == b.extent.height;
-    };
-    bool match = false;
-    if (periphery_parts) {
-        match = tiles && tiles->periphery && tiles->tiles.size() == periphery_parts->size();
-        for (size_t i = 0; match && i < periphery_parts->size(); ++i)
-            match = tiles->tiles[i].layer == 0 && same((*periphery_parts)[i], tiles->tiles[i].rect);
-    } else {
-        match = tiles && !tiles->periphery && tiles->tiles.size() == split.foveae.size();
-        for (size_t i = 0; match && i < split.foveae.size(); ++i)
-            match = split.foveae[i].layer == tiles->tiles[i].layer &&
-                    same(split.foveae[i].rect, tiles->tiles[i].rect);
+    if (!late_why.empty()) {
+        const uint64_t late = session.late_frames.fetch_add(1);
+        // One line for the first late frame, then one per hundred: a stalled agent must not flood.
+        if (late % 100 == 0)
+            SPLITVK_WARN("frame %llu: %s; %s (%llu such frames)", static_cast<unsigned long long>(frame),
+                         late_why.c_str(),
+                         several && !came.empty() ? "that eye's centre is the periphery's" : instead,
+                         static_cast<unsigned long long>(late + 1));
+        if (session.live())
+            warn_if_late_dominates(session, late + 1, session.settings().tile_wait_ms, by_display);
     }
-    if (match) return tiles;
-    const uint64_t late = session.late_frames.fetch_add(1);
-    // One line for the first late frame, then one per hundred: a stalled agent must not flood.
-    if (late % 100 == 0) {
-        const std::string why =
-            tiles             ? (periphery_parts ? "the agent's periphery does not match the frame's"
-                                                 : "the agent's tiles do not match the frame's foveae")
-            : !session.live() ? "the agent went away before its tiles came"
-            : by_display ? "no tiles from the agent in time for its display (" + std::to_string(wait_ms) +
-                               " ms were left)"
-                         : "no tiles from the agent within " + std::to_string(wait_ms) + " ms";
-        SPLITVK_WARN("frame %llu: %s; %s (%llu such frames)", static_cast<unsigned long long>(frame),
-                     why.c_str(), instead, static_cast<unsigned long long>(late + 1));
+    if (came.size() <= 1) return came.empty() ? nullptr : std::move(came.front());
+    // The eyes' tiles as one frame's: their tiles, bytes and agents together, the slowest agent's times.
+    auto merged = std::make_shared<FrameTiles>(*came.front());
+    for (size_t i = 1; i < came.size(); ++i) {
+        const FrameTiles &more = *came[i];
+        merged->tiles.insert(merged->tiles.end(), more.tiles.begin(), more.tiles.end());
+        merged->bytes += more.bytes;
+        merged->received = std::max(merged->received, more.received);
+        merged->decode = std::max(merged->decode, more.decode);
+        merged->agent_address += "+" + more.agent_address;
+        protocol::AgentTimings &t = merged->agent;
+        t.draw_us = std::max(t.draw_us, more.agent.draw_us);
+        t.readback_us = std::max(t.readback_us, more.agent.readback_us);
+        t.encode_us = std::max(t.encode_us, more.agent.encode_us);
+        t.present_to_send_us = std::max(t.present_to_send_us, more.agent.present_to_send_us);
     }
-    if (session.live())
-        warn_if_late_dominates(session, late + 1, session.settings().tile_wait_ms, by_display);
-    return nullptr;
+    return merged;
 }
 
 // The rectangles of a frame's foveae in its image's first layer: what the swapped split's composite
@@ -216,10 +297,6 @@ std::vector<VkRect2D> first_layer_foveae(const SplitFrame &split) {
 // (capture/render_pass.cpp: cut_runtime_target).
 bool frame_cut(const SwapchainState *swapchain, const SplitFrame &split) {
     return swapchain && split.split && split.cut && !split.foveae.empty();
-}
-
-double ms_between(std::chrono::steady_clock::time_point from, std::chrono::steady_clock::time_point to) {
-    return std::max(0.0, std::chrono::duration<double, std::milli>(to - from).count());
 }
 
 // A split frame on its way from the application's present to the driver's.
@@ -331,22 +408,11 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
         record.network_ms =
             std::max(0.0, ms_between(p.sent, tiles->received) - tiles->agent.present_to_send_us / 1000.0);
     }
-    // A frame the agent flagged came on time; it is not late, only not usable.
+    // A frame the agent flagged came on time; it is not late, only not usable. With an agent per eye,
+    // a frame with some of its foveae missing (their agent late, gone or not yet joined) is late.
     // A frame the swapped split drew whole awaited nothing.
-    record.late = !tiles && session.invalid_frames.load() == invalid_before && !(swapped && !p.cut);
-    if (tiles && session.take_first_tiles_after_resync()) {
-        if (session.joined_in_place_of().empty())
-            SPLITVK_INFO(
-                "frame %llu: the first split frame from the agent that joined, %.0f ms after it answered",
-                static_cast<unsigned long long>(p.frame),
-                ms_between(session.joined_agent_answered(), waited));
-        else
-            SPLITVK_INFO(
-                "frame %llu: the first split frame from the agent that joined, %.0f ms after it "
-                "answered, %.0f ms after splitvk-agent at %s went away",
-                static_cast<unsigned long long>(p.frame), ms_between(session.joined_agent_answered(), waited),
-                ms_between(session.joined_after_loss_at(), waited), session.joined_in_place_of().c_str());
-    }
+    const bool whole = tiles && (p.cut || tiles->tiles.size() == p.split.foveae.size());
+    record.late = (tiles ? !whole : session.invalid_frames.load() == invalid_before) && !(swapped && !p.cut);
 
     VkSemaphore composited = VK_NULL_HANDLE;
     if (compositor && swapped && !p.cut) {
@@ -761,7 +827,8 @@ VkResult forced_out_of_date(Session &session, const VkPresentInfoKHR &info, VkRe
 // its own or older kept waiting.
 void note_passed_through(Session &session, uint64_t frame, double frame_ms,
                          std::optional<double> frame_latency_ms) {
-    if (TileStream *tiles = session.tiles()) tiles->take(frame, std::chrono::steady_clock::now());
+    for (const auto &agent : session.agents())
+        if (agent->tiles) agent->tiles->take(frame, std::chrono::steady_clock::now());
     FrameRecord record;
     record.frame = frame;
     record.frame_ms = frame_ms;
@@ -876,8 +943,7 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     }
     message.frame = frame;
     message.queue_id = codec::handle_value(queue);
-    // The frame a resync brought the agent in at: its submits reached no agent, nor will its tiles.
-    if (frame < session.first_replayed_frame()) message.flags |= protocol::kPresentNoTiles;
+    // The frame a resync brought an agent in at has no tiles of that agent's (send_frame_present).
     message.gaze = gaze;
     message.images.push_back({codec::handle_value(swapchain.handle), image_index});
     // Verification: every layer of the image, as the runtime gets it. Nothing is composited into it
@@ -886,7 +952,7 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     std::optional<PendingVerify> pending;
     if (session.verify()) pending = read_back_runtime_image(dev, queue, swapchain, image_index, frame);
     if (pending) message.flags |= protocol::kPresentVerify;
-    session.send_metadata(protocol::MessageType::FramePresent, protocol::encode(message));
+    session.send_frame_present(message);
     if (pending) {
         queue_lock = {};
         compare_verified_frame(dev, *pending);
@@ -1136,10 +1202,10 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
         if (split.split) message.fovea_size = split.fovea_size; // perhaps larger: a mask's (fovea_mask.h)
     }
     const bool redirect = split.split && drawn != pPresentInfo->pImageIndices[0];
-    // SPLITVK_SPLIT=auto passing frames through, and the frame a resync brought the agent in at: the
-    // agent replays them and sends no tiles.
+    // SPLITVK_SPLIT=auto passing frames through: the agent replays them and sends no tiles (nor for
+    // the frame a resync brought it in at: send_frame_present).
     const bool passing_through = session.splitting() && session.passing_through();
-    if (passing_through || frame < session.first_replayed_frame()) message.flags |= protocol::kPresentNoTiles;
+    if (passing_through) message.flags |= protocol::kPresentNoTiles;
     const double frame_ms =
         split.split || session.judges_payoff() || session.has_stats() ? session.frame_interval_ms() : 0;
     // May decide a switch, which this present's answer asks the application to follow.
@@ -1165,8 +1231,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
     // told after: the send flushes the frame's captured calls, which would otherwise lie between the
     // application's present and the display. Nothing of the application's comes between the two.
     const bool tell_after_present = !split.split;
-    if (!tell_after_present)
-        session.send_metadata(protocol::MessageType::FramePresent, protocol::encode(message));
+    if (!tell_after_present) session.send_frame_present(message);
 
     VkSemaphore composited = VK_NULL_HANDLE;
     VkSemaphore redirected = VK_NULL_HANDLE;
@@ -1229,8 +1294,7 @@ VKAPI_ATTR VkResult VKAPI_CALL QueuePresentKHR(VkQueue queue, const VkPresentInf
     const VkResult presented =
         note_presented(dev, *pPresentInfo, dev.dispatch.QueuePresentKHR(queue, &present));
     const std::optional<double> latency = latency_ms(acquired, std::chrono::steady_clock::now());
-    if (tell_after_present)
-        session.send_metadata(protocol::MessageType::FramePresent, protocol::encode(message));
+    if (tell_after_present) session.send_frame_present(message);
     if (passing_through && !drawn_split) note_passed_through(session, frame, frame_ms, latency);
     const VkResult result = forced_out_of_date(session, *pPresentInfo, presented);
     queue_lock = {};
