@@ -9,6 +9,12 @@
 //  - AdvertisedAgentKilledFailsOverToTheOther: SPLITVK_SERVER=dnssd, two agents with --advertise
 //    inside a network namespace of the test's with an avahi-daemon of its own (pool_test.cpp's
 //    set-up: netns.h, avahi.h), sharing one pinned identity as a venue's would.
+//  - AnAgentPerEyeAndAnEyeOutlivesItsAgent: SPLITVK_AGENTS=2 over three agents on loopback. Each eye's
+//    foveae come from an agent of its own; the second eye's agent is killed, the first eye's foveae
+//    go on coming from the first agent while the second eye shows the periphery, and the third agent
+//    takes the second eye over.
+//  - AdvertisedAgentPerEyeAndAnEyeOutlivesItsAgent: the same with SPLITVK_SERVER=dnssd picking the
+//    agents among three advertised ones in the test's namespace.
 // Validation is off here: it is the layer's time that is bounded, and the same resync path runs
 // under validation on both sides in Reconnect.AgentKilledAndRestartedIsBroughtBackIn.
 #include "agent_loss_fixture.h"
@@ -16,6 +22,7 @@
 #include "netns.h"
 
 #include <algorithm>
+#include <array>
 #include <fstream>
 #include <functional>
 #include <vector>
@@ -145,6 +152,106 @@ protected:
         EXPECT_GT(second_rows, 0u);
     }
 
+    // SPLITVK_AGENTS=2 among three agents: two take an eye each, never the same one; the second eye's
+    // agent is killed; the first eye's foveae go on coming from its agent while the second eye shows
+    // the periphery; the third agent takes the second eye over; and the frame held after that has
+    // both foveae equal to native's. `label`: how the layer names an agent.
+    void expect_eye_outlives_its_agent(std::array<Agent *, 3> agents,
+                                       const std::function<std::string(const Agent &)> &label) {
+        const std::filesystem::path stats = out_ / "stats.csv";
+        extra_env_["SPLITVK_AGENTS"] = "2";
+        extra_env_["SPLITVK_STATS"] = stats.string();
+        auto app = start_split();
+        ASSERT_TRUE(app);
+        ASSERT_TRUE(wait_for_log("split: passes into", 120s)) << read_file(out_ / "split.stderr");
+        // Which agent took which eye: the list's first two, or the two DNS-SD found freest (one of
+        // which may answer only after the app started, and join at a present).
+        Agent *eye[2] = {nullptr, nullptr};
+        const auto deadline = Clock::now() + 120s;
+        while (Clock::now() < deadline && !(eye[0] && eye[1])) {
+            const std::string started = read_file(out_ / "split.stderr");
+            for (Agent *agent : agents)
+                for (int e = 0; e < 2; ++e)
+                    if (!grep(started, "replicating to splitvk-agent at " + label(*agent) + " for eye " +
+                                           std::to_string(e + 1) + " of 2")
+                             .empty())
+                        eye[e] = agent;
+            std::this_thread::sleep_for(50ms);
+        }
+        ASSERT_TRUE(eye[0] && eye[1]) << tail(read_file(out_ / "split.stderr"), 30);
+        ASSERT_NE(eye[0], eye[1]) << "both eyes on one agent";
+        // A frame with both eyes' tiles before the loss.
+        const std::string both = label(*eye[0]) + "+" + label(*eye[1]);
+        const auto has_both = [&] {
+            for (const auto &row : stats_text_rows(read_file(stats)))
+                if (row.count("agent") && row.at("agent") == both) return true;
+            return false;
+        };
+        while (Clock::now() < deadline && !has_both())
+            std::this_thread::sleep_for(50ms);
+        ASSERT_TRUE(has_both()) << "no frame had both eyes' foveae: "
+                                << tail(read_file(out_ / "split.stderr"), 30);
+        Agent *spare = nullptr;
+        for (Agent *agent : agents)
+            if (agent != eye[0] && agent != eye[1]) spare = agent;
+        eye[1]->kill();
+        int since_loss_ms = -1;
+        ASSERT_NO_FATAL_FAILURE(expect_recovered(*app, "", &since_loss_ms));
+        const std::string err = read_file(out_ / "split.stderr");
+        // One line for the loss, which costs only the second eye, and one for the failover.
+        const auto gone = grep(err, "went away (");
+        ASSERT_EQ(gone.size(), 1u) << tail(err, 30);
+        EXPECT_NE(gone.front().find("eye 2's foveae show the periphery until another agent is brought in"),
+                  std::string::npos)
+            << gone.front();
+        const auto failovers = grep(err, "failover: splitvk-agent ");
+        ASSERT_EQ(failovers.size(), 1u) << tail(err, 30);
+        EXPECT_NE(failovers.front().find("failover: splitvk-agent " + label(*eye[1]) + " went away; " +
+                                         label(*spare) + " answered for eye 2"),
+                  std::string::npos)
+            << failovers.front();
+        std::cout << "  " << failovers.front() << "\n  second eye's foveae again " << since_loss_ms
+                  << " ms after its agent went away\n";
+
+        // SPLITVK_STATS: both agents' tiles, then the first eye's agent's alone (late: the second eye
+        // is the periphery's), then its and the spare's; never a frame without the first eye's agent
+        // once it sent tiles.
+        const std::string alone = label(*eye[0]);
+        const std::string replaced = label(*eye[0]) + "+" + label(*spare);
+        size_t both_rows = 0, alone_rows = 0, replaced_rows = 0;
+        int phase = 0;
+        for (const auto &row : stats_text_rows(read_file(stats))) {
+            const std::string &agent = row.at("agent");
+            // Before both eyes' agents were in, a frame may have had either's tiles or none.
+            if (both_rows == 0 && agent != both) continue;
+            if (agent.empty()) {
+                ADD_FAILURE() << "frame " << row.at("frame") << ": the first eye lost its foveae";
+                continue;
+            }
+            if (agent == both) {
+                EXPECT_EQ(phase, 0) << "frame " << row.at("frame");
+                EXPECT_EQ(row.at("late"), "0") << "frame " << row.at("frame");
+                ++both_rows;
+            } else if (agent == alone) {
+                EXPECT_LE(phase, 1) << "frame " << row.at("frame");
+                EXPECT_EQ(row.at("late"), "1")
+                    << "frame " << row.at("frame") << ": one eye is the periphery's";
+                phase = 1;
+                ++alone_rows;
+            } else {
+                EXPECT_EQ(agent, replaced) << "frame " << row.at("frame");
+                EXPECT_EQ(row.at("late"), "0") << "frame " << row.at("frame");
+                phase = 2;
+                ++replaced_rows;
+            }
+        }
+        std::cout << "  stats: " << both_rows << " frames from both agents, " << alone_rows
+                  << " from the first eye's alone, " << replaced_rows << " from it and the spare\n";
+        EXPECT_GT(both_rows, 0u);
+        EXPECT_GT(alone_rows, 0u);
+        EXPECT_GT(replaced_rows, 0u);
+    }
+
     std::unique_ptr<Netns> netns_;
     std::unique_ptr<PrivateAvahi> avahi_;
     std::string skip_reason_;
@@ -193,6 +300,45 @@ TEST_F(Pool, AdvertisedAgentKilledFailsOverToTheOther) {
                    ")";
         },
         kBrowseWaitMs);
+}
+
+TEST_F(Pool, AnAgentPerEyeAndAnEyeOutlivesItsAgent) {
+    validate_ = false;
+    Agent left, right, spare;
+    ASSERT_TRUE(left.start(env(), out_, {}, 0, "left-agent")) << left.error();
+    ASSERT_TRUE(right.start(env(), out_, {}, 0, "right-agent")) << right.error();
+    ASSERT_TRUE(spare.start(env(), out_, {}, 0, "spare-agent")) << spare.error();
+    servers_ = left.address() + "," + right.address() + "," + spare.address();
+    expect_eye_outlives_its_agent({&left, &right, &spare},
+                                  [](const Agent &agent) { return agent.address(); });
+}
+
+TEST_F(Pool, AdvertisedAgentPerEyeAndAnEyeOutlivesItsAgent) {
+    if (!enter_namespace()) GTEST_SKIP() << skip_reason_;
+    validate_ = false;
+    const std::filesystem::path identity = out_ / "venue-identity";
+    const std::filesystem::path token_file = out_ / "agent.token";
+    std::ofstream(token_file) << kToken << "\n";
+    const std::string fingerprint = agent_fingerprint(env(), out_, identity);
+    ASSERT_TRUE(fingerprint.starts_with("sha256:")) << fingerprint;
+    Agent agents[3];
+    const char *names[3] = {"venue one", "venue two", "venue three"};
+    for (size_t i = 0; i < 3; ++i) {
+        agents[i].set_host(netns_->address(), wrapper_);
+        ASSERT_TRUE(agents[i].start(
+            avahi_->bus_env(env()), out_,
+            {"--state-dir", identity.string(), "--token-file", token_file.string(), "--advertise", names[i]},
+            0, "agent-" + std::to_string(i + 1)))
+            << agents[i].error();
+    }
+    servers_ = "dnssd";
+    extra_env_ = avahi_->bus_env({});
+    extra_env_["SPLITVK_TOKEN"] = kToken;
+    extra_env_["SPLITVK_AGENT_FINGERPRINT"] = fingerprint;
+    expect_eye_outlives_its_agent({&agents[0], &agents[1], &agents[2]}, [&](const Agent &agent) {
+        const size_t i = static_cast<size_t>(&agent - agents);
+        return "'" + std::string(names[i]) + "' (" + agent.address() + ")";
+    });
 }
 
 } // namespace
