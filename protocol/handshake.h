@@ -53,7 +53,8 @@ inline constexpr uint32_t kProtocolVersion = make_protocol_version(kProtocolMajo
 //      periphery scaled.
 //   8: PeripheryConfig carries the periphery's codec (SPLITVK_PERIPHERY_CODEC), and EncodedTile may
 //      name the 4:2:0 codecs.
-//   9: SplitConfig says which of the foveae the agent renders (SPLITVK_AGENTS: an agent per eye).
+//   9: SplitConfig says which of the foveae the agent sends, and FramePresent the number of the image's
+//      first eye (SPLITVK_AGENTS: an agent per eye).
 inline constexpr uint64_t kMetadataLayout = 9;
 
 // What Hello's codec_fingerprint carries and the server compares: the generated codec's

@@ -200,6 +200,7 @@ void fields(auto &io, MessageOf<FramePresent> auto &m) {
         if constexpr (!std::is_const_v<std::remove_reference_t<decltype(m)>>)
             if (!m.fovea_size.set()) io.fail("a fovea size of zero");
     }
+    io.u32(m.first_eye, "first eye");
 }
 
 void fields(auto &io, MessageOf<VerifyFrame> auto &m) {
@@ -384,7 +385,7 @@ Result<FrameBegin> decode_frame_begin(std::span<const uint8_t> payload) {
 }
 
 std::vector<uint8_t> encode(const FramePresent &m) {
-    return encode_fields(m, 56 + 12 * m.images.size());
+    return encode_fields(m, 60 + 12 * m.images.size());
 }
 
 Result<FramePresent> decode_frame_present(std::span<const uint8_t> payload) {
@@ -402,6 +403,8 @@ Result<FramePresent> decode_frame_present(std::span<const uint8_t> payload) {
     if (d.ok() && (size.width > split::kGazeOne || size.height > split::kGazeOne))
         d.fail("fovea size " + std::to_string(size.width) + "x" + std::to_string(size.height) +
                " outside the eye (1.." + std::to_string(split::kGazeOne) + ")");
+    if (d.ok() && m.first_eye >= kMaxFirstEye)
+        d.fail("first eye " + std::to_string(m.first_eye) + " out of range");
     return d.finish(std::move(m), "FramePresent");
 }
 

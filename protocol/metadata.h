@@ -140,7 +140,13 @@ struct FramePresent {
     // OpenXR runtime's eye images' too); unset: SplitConfig's. The decoder refuses one beyond the eye
     // (above split::kGazeOne); the agent one larger than SplitConfig's.
     split::FrameFoveaSize fovea_size;
+    // The number of the presented image's first fovea among the frame's eyes, which
+    // FoveaAgents::owns takes (fovea i of the image is number first_eye + i): the view an OpenXR
+    // swapchain per eye's image was released for, 0 for every image that holds all the eyes (a
+    // window's, a layered or side-by-side eye image). The decoder refuses one of kMaxFirstEye or more.
+    uint32_t first_eye = 0;
 };
+inline constexpr uint32_t kMaxFirstEye = 16;
 
 // Pixels are tightly packed rows of the image's format (4 bytes per pixel for the 8-bit BGRA/RGBA
 // formats verification supports).
@@ -157,12 +163,11 @@ struct VerifyFrame {
     uint32_t layers = 1;
 };
 
-// The settings both sides need to draw the same fovea rects from the same commands.
-// SPLITVK_AGENTS: which of a frame's foveae an agent renders, encodes and sends when each eye has
-// an agent of its own. The foveae of a presented image are numbered in the order both sides hold
-// them (split::LayerFovea lists: an eye each, left first); agent `index` of `count` owns those
-// whose number is `index` modulo `count`. One table for both sides: the agent sends exactly what
-// it owns, and the client expects from each agent exactly that.
+// SPLITVK_AGENTS: which of a frame's foveae an agent reads back, encodes and sends when each eye has
+// an agent of its own. The foveae of a presented image are numbered from FramePresent::first_eye in
+// the order both sides hold them (split::LayerFovea lists: an eye each, left first); agent `index`
+// of `count` owns those whose number is `index` modulo `count`. One rule for both sides: the agent
+// sends exactly what it owns, and the client expects from each agent exactly that.
 struct FoveaAgents {
     uint32_t index = 0;
     uint32_t count = 1;
@@ -171,6 +176,7 @@ struct FoveaAgents {
 // The most agents one client splits its foveae between: one per eye.
 inline constexpr uint32_t kMaxFoveaAgents = 2;
 
+// The settings both sides need to draw the same fovea rects from the same commands.
 struct SplitConfig {
     EyeMode eyes = EyeMode::Auto;
     FoveaSize fovea;

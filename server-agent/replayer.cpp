@@ -783,7 +783,7 @@ bool Replayer::frame_present(const protocol::FramePresent &message,
             // An agent per eye (SPLITVK_AGENTS): only this agent's foveae are read back and sent;
             // the other eye's agent sends the rest.
             for (size_t fovea = 0; fovea < foveae.size(); ++fovea)
-                if (fovea_agents_.owns(fovea)) frame.foveae.push_back(foveae[fovea]);
+                if (fovea_agents_.owns(message.first_eye + fovea)) frame.foveae.push_back(foveae[fovea]);
             if (swapped_) {
                 frame.foveae.clear();
                 // An OpenXR eye image ends at its release, whose FramePresent this is: its periphery

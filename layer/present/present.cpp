@@ -139,7 +139,7 @@ double ms_between(std::chrono::steady_clock::time_point from, std::chrono::stead
 // agent is late, gone or flagged shows the periphery, the frame then counted late (or invalid).
 std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, const SplitFrame &split,
                                               Exposure &exposure, const deadline::FrameDisplay &display,
-                                              deadline::Clock::duration cost,
+                                              deadline::Clock::duration cost, uint32_t first_eye,
                                               const std::vector<VkRect2D> *periphery_parts = nullptr) {
     // What a frame without its tiles shows instead.
     const char *instead =
@@ -158,7 +158,7 @@ std::shared_ptr<const FrameTiles> frame_tiles(Session &session, uint64_t frame, 
         Owed o{agent.get(), {}};
         const protocol::FoveaAgents owns = session.fovea_agents(agent->index);
         for (size_t i = 0; i < split.foveae.size(); ++i)
-            if (owns.owns(i)) o.foveae.push_back(split.foveae[i]);
+            if (owns.owns(first_eye + i)) o.foveae.push_back(split.foveae[i]);
         // The periphery has one agent; an agent owes nothing of a frame with fewer foveae than eyes.
         if (!periphery_parts && o.foveae.empty()) continue;
         first_split_frame = agent->first_split_frame_pending.exchange(false) || first_split_frame;
@@ -327,6 +327,7 @@ struct SplitPresent {
     deadline::FrameDisplay display;
     int64_t xr_frame = -1; // an OpenXR eye image's (FrameRecord::xr_frame)
     int32_t xr_view = -1;
+    uint32_t first_eye = 0; // FramePresent::first_eye
     // Asynchronous: take_waits() has consumed the application's semaphores into `taken`, whose
     // batch signals `done`.
     Compositor *compositor = nullptr;
@@ -382,7 +383,7 @@ VkSemaphore composite_split_frame(DeviceState &dev, SplitPresent &p, std::span<c
                            : frame_tiles(session, p.frame, p.split, exposure, p.display,
                                          p.display.time ? p.swapchain->composite_cost.estimate()
                                                         : deadline::Clock::duration::zero(),
-                                         p.cut ? &parts : nullptr);
+                                         p.first_eye, p.cut ? &parts : nullptr);
     const auto waited = Clock::now();
     record.tile_wait_ms = ms_between(wait_start, waited);
     if (exposure.seen) record.exposed_wait_ms = ms_between(std::max(wait_start, exposure.since), waited);
@@ -946,6 +947,10 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     // The frame a resync brought an agent in at has no tiles of that agent's (send_frame_present).
     message.gaze = gaze;
     message.images.push_back({codec::handle_value(swapchain.handle), image_index});
+    // A swapchain per eye: the image holds one eye, the view it was released for, whose number says
+    // which agent sends its fovea (SPLITVK_AGENTS). An image of several eyes numbers them from 0.
+    if (swapchain.array_layers == 1 && eyes.size() <= 1 && xr_view > 0)
+        message.first_eye = std::min(static_cast<uint32_t>(xr_view), protocol::kMaxFirstEye - 1);
     // Verification: every layer of the image, as the runtime gets it. Nothing is composited into it
     // then: the paper's split is off, and the swapped split does not cut a runtime's images under
     // verification (cut_runtime_target).
@@ -982,6 +987,7 @@ void end_runtime_frame(DeviceState &dev, VkQueue queue, const SwapchainState &sw
     p.sizing = sizing;
     p.xr_frame = static_cast<int64_t>(xr_frame);
     p.xr_view = xr_view;
+    p.first_eye = message.first_eye;
     p.cut = frame_cut(p.swapchain, p.split);
     if (p.cut) p.keep_foveae = eyes_cut_by(cut_eyes_version, p.split, frame);
     if (session.settings().xr_deadline) p.display = display;

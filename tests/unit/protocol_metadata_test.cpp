@@ -186,7 +186,7 @@ TEST(ProtocolSession, FramePresentRefusesAGazeOutsideTheEye) {
 
     present.gaze = {};
     auto bytes = encode(present);
-    bytes[bytes.size() - 8] = 2; // the gaze kind: neither fixed (0) nor points (1)
+    bytes[bytes.size() - 12] = 2; // the gaze kind (before the size kind and the first eye): neither 0 nor 1
     const auto unknown = decode_frame_present(bytes);
     ASSERT_FALSE(unknown.ok());
     EXPECT_NE(unknown.error().find("gaze kind 2 unknown"), std::string::npos) << unknown.error();
@@ -212,8 +212,22 @@ TEST(ProtocolSession, FramePresentCarriesTheFoveaSize) {
     EXPECT_NE(wide.error().find("outside the eye"), std::string::npos) << wide.error();
     present.fovea_size = {5, 7};
     auto zero = encode(present);
-    zero[zero.size() - 4] = 0; // the height: 5x0
+    zero[zero.size() - 8] = 0; // the height: 5x0, before the first eye
     EXPECT_FALSE(decode_frame_present(zero).ok()) << "a fovea of no pixels";
+}
+
+// An agent per eye: a swapchain per eye's image names its view, whose agent sends its fovea.
+TEST(ProtocolSession, FramePresentNumbersTheImagesFirstEye) {
+    FramePresent present{7, 0x99, 0, {{0x55, 1}}, {}, {}};
+    EXPECT_EQ(decode_frame_present(encode(present))->first_eye, 0u);
+    present.first_eye = 1;
+    const auto back = decode_frame_present(encode(present));
+    ASSERT_TRUE(back.ok()) << back.error();
+    EXPECT_EQ(back->first_eye, 1u);
+    EXPECT_TRUE((FoveaAgents{1, 2}.owns(back->first_eye + 0)))
+        << "the right eye's image is the second agent's";
+    present.first_eye = kMaxFirstEye;
+    EXPECT_FALSE(decode_frame_present(encode(present)).ok());
 }
 
 TEST(ProtocolSession, VerifyFrameChecksPixelCount) {
