@@ -142,11 +142,11 @@ def display(build):
 
 
 @contextlib.contextmanager
-def started_agent(build, agent, env, out_dir, port=0, prefix=()):
+def started_agent(build, agent, env, out_dir, port=0, prefix=(), name="agent"):
     """Runs `prefix + agent --listen 127.0.0.1:port` (splitvk-harness agent: on a free port when 0, its
-    log in out_dir/agent.stderr, its TLS identity in agent_state_dir(out_dir)) while the block runs;
-    yields the harness's report: address, pid, log."""
-    argv = [build.harness, "agent", "--out-dir", out_dir, "--name", "agent", "--port", str(port)]
+    log in out_dir/NAME.stderr, its TLS identity in agent_state_dir(out_dir), shared by every agent of
+    the bench) while the block runs; yields the harness's report: address, pid, log."""
+    argv = [build.harness, "agent", "--out-dir", out_dir, "--name", name, "--port", str(port)]
     for word in prefix:
         argv += ["--wrapper", word]
     argv += ["--", agent, "--state-dir", agent_state_dir(out_dir)]

@@ -23,7 +23,12 @@ a split over TLS 1.3 (split-tls: SPLITVK_TLS=on, the agent pinned by its fingerp
 (split-auto: SPLITVK_FOVEA=auto, beside the plain split at 512x360), with the size it settled at and
 split-auto/native, and --shaded-foveae a split whose client shades its foveae (split-shaded:
 SPLITVK_FOVEA_MASK=off), with the periphery render of the plain split (whose depth mask leaves them
-unshaded) over its: periphery masked/shaded.
+unshaded) over its: periphery masked/shaded. --agents 2 adds a split with an agent per eye
+(split-agents: SPLITVK_AGENTS=2, a second splitvk-agent on --second-agent-cpus, each agent sending
+its own eye's fovea), reported as split-agents/split beside the plain split with one agent. Each
+process wants a core of its own (client, first agent, second agent); on a machine with fewer cores
+the second agent shares the first's, which the bench says, and the split across agents cannot show
+what it gains there (scripts/device-check measures it on the device machine's 16 cores).
 
 --xr runs the experiment through OpenXR too: in every round and path, after the desktop runs,
 splitvk-atrium --xr (one swapchain per eye, each --eye-size, by default half the window: the
@@ -68,6 +73,7 @@ Then the latency and pacing lines, the last of all:
 (each path's, OpenXR's as latency-xr-split/native and pacing-xr-split, and native's pacing among the
 ratio lines before them). Timings never pass or fail."""
 import argparse
+import contextlib
 import datetime
 import json
 import math
@@ -103,12 +109,14 @@ RENDER_PATHS = ("direct", "hdr", "deferred", "multiview", "secondary", "compute"
 # --periphery-frames N adds the older estimate, a native run at the periphery's size.
 # Variants of the split measured beside it (see measure): name -> how the tables call it.
 VARIANTS = {"split-tls": "split over TLS 1.3", "split-guard": "split, agent scissor", "split-auto": "split, auto fovea",
-            "split-shaded": "split, foveae shaded", "split-swapped": "swapped split (client renders the foveae)"}
+            "split-shaded": "split, foveae shaded", "split-swapped": "swapped split (client renders the foveae)",
+            "split-agents": "split, an agent per eye"}
 XR_PATHS = ("direct", "hdr", "deferred")  # splitvk-atrium --xr, one swapchain per eye
 # The modes whose latency the bench reports (frame_latency_ms), in its tables' order, and their names there.
 LATENCY_MODES = {"native": "native (the layer, no agent)", "split": "split", "split-tls": VARIANTS["split-tls"],
                  "split-guard": VARIANTS["split-guard"], "split-auto": VARIANTS["split-auto"],
                  "split-shaded": VARIANTS["split-shaded"], "split-swapped": "swapped split",
+                 "split-agents": VARIANTS["split-agents"],
                  "xr-native": "native through OpenXR", "xr-split": "split through OpenXR",
                  "xr-swapped": "swapped split through OpenXR"}
 # The final lines' latency and pacing ratios (path_ratios' names), after split/native's four.
@@ -184,6 +192,13 @@ def cpu_text(cpus):
     return ",".join(str(c) for c in cpus)
 
 
+def default_second_agent_cpus():
+    """A core of its own for the second agent of --agents 2 when there is one past the client's and the
+    first agent's defaults; else the first agent's."""
+    cpus = sorted(os.sched_getaffinity(0))
+    return cpu_text(cpus[2:3] or cpus[1:2] or cpus)
+
+
 def default_cpus():
     """Client on the first CPU, the agent on the rest (on one CPU both share it)."""
     cpus = sorted(os.sched_getaffinity(0))
@@ -239,6 +254,11 @@ def register(subparsers):
                    help="lavapipe rasterizer threads of the client, LP_NUM_THREADS (default: %(default)s)")
     p.add_argument("--agent-cpus", default=agent_cpus,
                    help="CPUs of splitvk-agent (and splitvk-link) (default here: %(default)s)")
+    p.add_argument("--agents", type=int, choices=(1, 2), default=1,
+                   help="2: also run each round's split with an agent per eye (split-agents: SPLITVK_AGENTS=2) "
+                        "and report split-agents/split (default: %(default)s)")
+    p.add_argument("--second-agent-cpus", default=default_second_agent_cpus(),
+                   help="CPUs of the second agent with --agents 2 (default here: %(default)s)")
     p.add_argument("--link", choices=LINK_PROFILES, default="direct",
                    help="put splitvk-link with this profile between layer and agent: gige, wifi5 (the paper's "
                         "client link), wifi6, or none (forwarding only); direct: no proxy (default: %(default)s)")
@@ -482,10 +502,13 @@ def measure(args):
         raise common.BenchError("taskset is missing (apt-get install util-linux)")
     try:
         client_cpus, agent_cpus = cpu_list(args.client_cpus), cpu_list(args.agent_cpus)
+        second_cpus = cpu_list(args.second_agent_cpus) if args.agents > 1 else []
     except ValueError as e:
         raise common.BenchError(f"bad CPU list: {e}")
+    if args.agents > 1 and args.link != "direct":
+        raise common.BenchError("--agents 2 takes --link direct (the link emulates one agent's path)")
     available = os.sched_getaffinity(0)
-    for c in client_cpus + agent_cpus:
+    for c in client_cpus + agent_cpus + second_cpus:
         if c not in available:
             raise common.BenchError(f"CPU {c} is not available to this process (have {cpu_text(sorted(available))})")
     if args.picture_frame < 0 or args.picture_frame > args.frames:
@@ -535,6 +558,13 @@ def measure(args):
           flush=True)
     print(f"paper: weak client on CPU {cpu_text(client_cpus)} with LP_NUM_THREADS={args.client_threads}; "
           f"agent on CPU {cpu_text(agent_cpus)} (LP_NUM_THREADS={len(agent_cpus)}); link: {args.link}", flush=True)
+    if args.agents > 1:
+        shared = sorted(set(second_cpus) & set(agent_cpus + client_cpus))
+        print(f"paper: --agents 2: second agent on CPU {cpu_text(second_cpus)} (LP_NUM_THREADS={len(second_cpus)})"
+              + (f"; it shares CPU {cpu_text(shared)} with the client or the first agent, since this machine has "
+                 f"{len(available)} cores: each agent renders the whole frame, so split-agents/split here says what "
+                 f"sharing costs, not what a second GPU gains (scripts/device-check measures that on 16 cores)"
+                 if shared else ""), flush=True)
     print(f"paper: machine: {describe_machine(machine)}; load average before: "
           + " ".join(f"{x:.2f}" for x in machine["load_before"]), flush=True)
     if args.quick:
@@ -545,7 +575,8 @@ def measure(args):
     modes = ["native", "split"] + [v for v, on in (("split-tls", args.tls), ("split-guard", args.agent_scissor),
                                                    ("split-auto", args.fovea_auto),
                                                    ("split-shaded", args.shaded_foveae),
-                                                   ("split-swapped", args.client_renders == "fovea")) if on]
+                                                   ("split-swapped", args.client_renders == "fovea"),
+                                                   ("split-agents", args.agents > 1)) if on]
     modes += ["xr-native", "xr-split"] if args.xr else []
     modes += ["xr-swapped"] if args.xr and args.client_renders == "fovea" else []
     # latency: each run's frame_latency_ms values (SPLITVK_STATS), every mode's, native's too.
@@ -560,9 +591,16 @@ def measure(args):
         agent_env = dict(base, LP_NUM_THREADS=str(len(agent_cpus)))
         if args.agent_icd:
             agent_env["VK_DRIVER_FILES"] = args.agent_icd
+        second_env = dict(base, LP_NUM_THREADS=str(len(second_cpus) or 1))
+        if args.agent_icd:
+            second_env["VK_DRIVER_FILES"] = args.agent_icd
         with common.started_agent(build, agent, agent_env, out_dir, agent_port, agent_prefix), \
                 Link(build, link_bin, args.link, agent_port, cpu_text(agent_cpus), base,
-                     os.path.join(out_dir, "link.log"), bool(args.link_bin)) as link:
+                     os.path.join(out_dir, "link.log"), bool(args.link_bin)) as link, \
+                contextlib.ExitStack() as more_agents:
+            second = more_agents.enter_context(common.started_agent(
+                build, agent, second_env, out_dir, 0, ["taskset", "-c", cpu_text(second_cpus)],
+                name="second-agent")) if args.agents > 1 else None
             split_env = dict(common.layer_env(client_env, build), SPLITVK_SERVER=link.address,
                              SPLITVK_LOG_LEVEL="info", SPLITVK_SCALE=args.scale, SPLITVK_CODEC=args.codec,
                              SPLITVK_EYES="2", SPLITVK_FOVEA=args.fovea,
@@ -579,6 +617,9 @@ def measure(args):
                 variant_env["split-auto"] = dict(split_env, SPLITVK_FOVEA=args.fovea_auto)
             if args.shaded_foveae:
                 variant_env["split-shaded"] = dict(split_env, SPLITVK_FOVEA_MASK="off")
+            if second:
+                variant_env["split-agents"] = dict(split_env, SPLITVK_AGENTS="2",
+                                                   SPLITVK_SERVER=f"{link.address},{second['address']}")
             if args.client_renders == "fovea":
                 variant_env["split-swapped"] = dict(split_env, SPLITVK_CLIENT_RENDERS="fovea",
                                                     SPLITVK_PERIPHERY_QUALITY=args.periphery_quality,
@@ -657,6 +698,9 @@ def measure(args):
                                 else "[splitvk] split:"
                             if mode == "split-tls":
                                 common.check_tls_split(r)
+                            elif mode == "split-agents" and "for eye 2 of 2" not in r.stderr:
+                                raise common.BenchError(f"the {mode} run (--path {path}) did not split with an "
+                                                        "agent per eye:\n" + common.tail(r.stderr))
                             elif "running unsplit" in r.stderr or summary not in r.stderr:
                                 raise common.BenchError(f"the {mode} run (--path {path}) did not split:\n"
                                                         + common.tail(r.stderr))
@@ -892,7 +936,8 @@ def summarize(args, machine, runs, periphery_size, out_dir, wall_s):
                    "agent_scissor": args.agent_scissor, "fovea_auto": args.fovea_auto,
                    "shaded_foveae": args.shaded_foveae, "xr": args.xr,
                    "client_renders": args.client_renders, "periphery_quality": args.periphery_quality,
-                   "periphery_codec": args.periphery_codec,
+                   "periphery_codec": args.periphery_codec, "agents": args.agents,
+                   "second_agent_cpus": args.second_agent_cpus if args.agents > 1 else None,
                    "eye_size": "{}x{}".format(*xr_eye_size(args)) if args.xr else None},
         "native": p["native"], "split": p["split"],
         "native_rounds": p["native_rounds"], "split_rounds": p["split_rounds"],
@@ -925,7 +970,7 @@ def run_variants(res):
     config = res["config"]
     on = {"split-tls": config.get("tls"), "split-guard": config.get("agent_scissor"),
           "split-auto": config.get("fovea_auto"), "split-shaded": config.get("shaded_foveae"),
-          "split-swapped": config.get("client_renders") == "fovea"}
+          "split-swapped": config.get("client_renders") == "fovea", "split-agents": config.get("agents", 1) > 1}
     return [v for v in VARIANTS if on[v]]
 
 
@@ -1062,7 +1107,7 @@ def print_tables(res):
         print(f"render paths (ms per frame, medians; the tables above are --path {per_path[0]['path']}'s)")
         print("  path           native (IQR)      split (IQR) " + "".join(f"{v + ' (IQR)':>18}" for v in variants)
               + "  periphery(GPU)  periphery/native  split/native  by means"
-              + "".join(f"{v + '/split':>18}" for v in variants) + "  late")
+              + "".join(f"  {v + '/split':>18}" for v in variants) + "  late")
         for p in per_path:
             r, measured = path_ratios(p), variants_of(p)
             cells = "".join(f"  {measured[v]['median']:8.2f} ({measured[v]['iqr']:5.2f})" if v in measured
@@ -1072,7 +1117,7 @@ def print_tables(res):
                   f"{p['split']['median']:8.2f} ({p['split']['iqr']:5.2f}){cells} {per} "
                   f"{fmt_ratio(r['periphery/native']):>17} {fmt_ratio(r['split/native']):>13} "
                   f"{fmt_ratio(r['split/native by means']):>9}"
-                  + "".join(f"{fmt_ratio(r.get(v + '/split')):>18}" for v in variants)
+                  + "".join(f"  {fmt_ratio(r.get(v + '/split')):>18}" for v in variants)
                   + f" {p['stages']['late']:5d}")
 
 
