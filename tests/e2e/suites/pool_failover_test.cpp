@@ -65,6 +65,27 @@ protected:
         return true;
     }
 
+    // One identity for every agent, pinned once, as HAProxy's pool has it (docs/security.md); off
+    // loopback the agents want a token.
+    void pin_venue_identity() {
+        identity_ = out_ / "venue-identity";
+        token_file_ = out_ / "agent.token";
+        std::ofstream(token_file_) << kToken << "\n";
+        fingerprint_ = agent_fingerprint(env(), out_, identity_);
+        ASSERT_TRUE(fingerprint_.starts_with("sha256:")) << fingerprint_;
+    }
+    // The arguments of an agent with that identity advertised as `name`.
+    std::vector<std::string> venue_agent_args(const std::string &name) const {
+        return {"--state-dir", identity_.string(), "--token-file", token_file_.string(), "--advertise", name};
+    }
+    // The app finds them over DNS-SD, with the token and the pin.
+    void use_venue_agents() {
+        servers_ = "dnssd";
+        extra_env_ = avahi_->bus_env({});
+        extra_env_["SPLITVK_TOKEN"] = kToken;
+        extra_env_["SPLITVK_AGENT_FINGERPRINT"] = fingerprint_;
+    }
+
     // Kills the agent the app splits with (`a`, or whichever `label` names in the line that says it
     // was chosen over DNS-SD), and checks that the other takes over as above. `label`: how the layer
     // names an agent (its address, or 'NAME' (address) for an advertised one).
@@ -254,6 +275,8 @@ protected:
 
     std::unique_ptr<Netns> netns_;
     std::unique_ptr<PrivateAvahi> avahi_;
+    std::filesystem::path identity_, token_file_;
+    std::string fingerprint_;
     std::string skip_reason_;
 };
 
@@ -270,29 +293,17 @@ TEST_F(Pool, FirstAgentKilledFailsOverToTheSecond) {
 TEST_F(Pool, AdvertisedAgentKilledFailsOverToTheOther) {
     if (!enter_namespace()) GTEST_SKIP() << skip_reason_;
     validate_ = false;
-    // One identity for both, pinned once, as HAProxy's pool has it (docs/security.md); off loopback
-    // the agents want a token.
-    const std::filesystem::path identity = out_ / "venue-identity";
-    const std::filesystem::path token_file = out_ / "agent.token";
-    std::ofstream(token_file) << kToken << "\n";
-    const std::string fingerprint = agent_fingerprint(env(), out_, identity);
-    ASSERT_TRUE(fingerprint.starts_with("sha256:")) << fingerprint;
+    ASSERT_NO_FATAL_FAILURE(pin_venue_identity());
 
     // Both advertised with the same free slots: the layer picks one, which is killed.
     Agent first, second;
     for (auto [agent, name] : {std::pair{&first, "venue first"}, std::pair{&second, "venue second"}}) {
         agent->set_host(netns_->address(), wrapper_);
         const std::string stem = name == std::string("venue first") ? "first-agent" : "second-agent";
-        ASSERT_TRUE(agent->start(
-            avahi_->bus_env(env()), out_,
-            {"--state-dir", identity.string(), "--token-file", token_file.string(), "--advertise", name}, 0,
-            stem))
+        ASSERT_TRUE(agent->start(avahi_->bus_env(env()), out_, venue_agent_args(name), 0, stem))
             << agent->error();
     }
-    servers_ = "dnssd";
-    extra_env_ = avahi_->bus_env({});
-    extra_env_["SPLITVK_TOKEN"] = kToken;
-    extra_env_["SPLITVK_AGENT_FINGERPRINT"] = fingerprint;
+    use_venue_agents();
     expect_failover(
         first, second,
         [&](const Agent &agent) {
@@ -316,25 +327,16 @@ TEST_F(Pool, AnAgentPerEyeAndAnEyeOutlivesItsAgent) {
 TEST_F(Pool, AdvertisedAgentPerEyeAndAnEyeOutlivesItsAgent) {
     if (!enter_namespace()) GTEST_SKIP() << skip_reason_;
     validate_ = false;
-    const std::filesystem::path identity = out_ / "venue-identity";
-    const std::filesystem::path token_file = out_ / "agent.token";
-    std::ofstream(token_file) << kToken << "\n";
-    const std::string fingerprint = agent_fingerprint(env(), out_, identity);
-    ASSERT_TRUE(fingerprint.starts_with("sha256:")) << fingerprint;
+    ASSERT_NO_FATAL_FAILURE(pin_venue_identity());
     Agent agents[3];
     const char *names[3] = {"venue one", "venue two", "venue three"};
     for (size_t i = 0; i < 3; ++i) {
         agents[i].set_host(netns_->address(), wrapper_);
-        ASSERT_TRUE(agents[i].start(
-            avahi_->bus_env(env()), out_,
-            {"--state-dir", identity.string(), "--token-file", token_file.string(), "--advertise", names[i]},
-            0, "agent-" + std::to_string(i + 1)))
+        ASSERT_TRUE(agents[i].start(avahi_->bus_env(env()), out_, venue_agent_args(names[i]), 0,
+                                    "agent-" + std::to_string(i + 1)))
             << agents[i].error();
     }
-    servers_ = "dnssd";
-    extra_env_ = avahi_->bus_env({});
-    extra_env_["SPLITVK_TOKEN"] = kToken;
-    extra_env_["SPLITVK_AGENT_FINGERPRINT"] = fingerprint;
+    use_venue_agents();
     expect_eye_outlives_its_agent({&agents[0], &agents[1], &agents[2]}, [&](const Agent &agent) {
         const size_t i = static_cast<size_t>(&agent - agents);
         return "'" + std::string(names[i]) + "' (" + agent.address() + ")";

@@ -412,6 +412,53 @@ TEST_F(XrAtrium, PerEyeFoveaeExactAgainstNativeFrameByFrame) {
     EXPECT_FALSE(grep(split.err(), summary).empty()) << "no \"" << summary << "\"\n" << tail(split.err(), 10);
 }
 
+// SPLITVK_AGENTS=2 through OpenXR with a swapchain per eye: each eye image's fovea comes from the
+// agent of its view (FramePresent::first_eye), exact against native, and SPLITVK_STATS names that
+// agent in the image's row (both images of the first frame, released before any xrEndFrame named
+// their views, are the first agent's).
+TEST_F(XrAtrium, AnAgentPerEyeSendsEachViewsFovea) {
+    const auto native = run_atrium(atrium_native_env("native"), "native", {});
+    ASSERT_TRUE(native.ok()) << native.describe() << "\n" << tail(native.err(), 30);
+    Agent left, right;
+    ASSERT_TRUE(left.start(clean_env(), out_, {}, 0, "left-agent")) << left.error();
+    ASSERT_TRUE(right.start(clean_env(), out_, {}, 0, "right-agent")) << right.error();
+    Env e = atrium_split_env("split", left);
+    e["SPLITVK_AGENTS"] = "2";
+    e["SPLITVK_SERVER"] = left.address() + "," + right.address();
+    const auto split = run_atrium(e, "split", {});
+    ASSERT_TRUE(split.ok()) << split.describe() << "\n" << tail(split.err(), 30);
+    EXPECT_TRUE(grep(split.err(), "[splitvk] error:").empty()) << tail(split.err(), 30);
+    EXPECT_FALSE(grep(split.err(), "for eye 2 of 2").empty()) << tail(split.err(), 30);
+    const auto n = readbacks(out_ / "native" / "images");
+    const auto s = readbacks(out_ / "split" / "images");
+    ASSERT_EQ(n.size(), static_cast<size_t>(2 * kFrames)) << "native eye images read back";
+    ASSERT_EQ(s.size(), n.size()) << "split eye images read back";
+    for (const auto &[key, native_path] : n) {
+        SCOPED_TRACE(native_path.filename().string());
+        const auto it = s.find(key);
+        ASSERT_NE(it, s.end()) << "no split readback of the same image and release";
+        EyeImage a, b;
+        ASSERT_NO_FATAL_FAILURE(load_pair(native_path, it->second, 192u, 160u, &a, &b));
+        const Rect f = default_foveae(a.width, a.height, 1)[0];
+        const Mismatch m = compare_rect(a, b, f);
+        EXPECT_EQ(m.mismatched, 0u) << "fovea: " << m.mismatched << " of " << m.pixels << " texels differ\n"
+                                    << save_mismatch_artefacts(out_, native_path.stem().string(), to_image(a),
+                                                               to_image(b));
+    }
+    size_t rows_of[2] = {0, 0};
+    for (const auto &row : stats_text_rows(read_file(out_ / "split" / "stats.csv"))) {
+        const int view = std::stoi(row.at("xr_view"));
+        const std::string &expected = view == 1 ? right.address() : left.address();
+        EXPECT_EQ(row.at("agent"), expected) << "OpenXR frame " << row.at("xr_frame") << ", view " << view;
+        EXPECT_EQ(row.at("late"), "0") << "OpenXR frame " << row.at("xr_frame") << ", view " << view;
+        if (view >= 0) ++rows_of[view];
+    }
+    std::cout << "  eye images: " << rows_of[0] << " with the left agent's fovea, " << rows_of[1]
+              << " with the right agent's\n";
+    EXPECT_GT(rows_of[0], 0u);
+    EXPECT_GT(rows_of[1], 0u);
+}
+
 // SPLITVK_FOVEA=auto through OpenXR: no depth mask on an eye image, and both eyes of a
 // frame take one size, whatever the sizing decides between their two images, and the agent agrees on every
 // eye image's size: none is late and every one composited the agent's tiles, which the layer takes only at
