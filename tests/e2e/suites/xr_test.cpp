@@ -256,6 +256,25 @@ protected:
         return e;
     }
 
+    // Every eye image the native and split runs read back, paired by image and release and loaded
+    // at w x h: what `compare` is called with, native first.
+    void for_each_released_pair(uint32_t w, uint32_t h,
+                                const std::function<void(const std::filesystem::path &, const EyeImage &,
+                                                         const EyeImage &)> &compare) {
+        const auto n = readbacks(out_ / "native" / "images");
+        const auto s = readbacks(out_ / "split" / "images");
+        ASSERT_EQ(n.size(), static_cast<size_t>(2 * kFrames)) << "native eye images read back";
+        ASSERT_EQ(s.size(), n.size()) << "split eye images read back";
+        for (const auto &[key, native_path] : n) {
+            SCOPED_TRACE(native_path.filename().string());
+            const auto it = s.find(key);
+            ASSERT_NE(it, s.end()) << "no split readback of the same image and release";
+            EyeImage a, b;
+            ASSERT_NO_FATAL_FAILURE(load_pair(native_path, it->second, w, h, &a, &b));
+            compare(native_path, a, b);
+        }
+    }
+
     ProcessResult run_atrium(const Env &env, const std::string &run, const std::vector<std::string> &extra) {
         ProcessSpec spec;
         spec.argv = {(source_dir() / "scripts" / "xr-runtime").string(),
@@ -429,22 +448,14 @@ TEST_F(XrAtrium, AnAgentPerEyeSendsEachViewsFovea) {
     ASSERT_TRUE(split.ok()) << split.describe() << "\n" << tail(split.err(), 30);
     EXPECT_TRUE(grep(split.err(), "[splitvk] error:").empty()) << tail(split.err(), 30);
     EXPECT_FALSE(grep(split.err(), "for eye 2 of 2").empty()) << tail(split.err(), 30);
-    const auto n = readbacks(out_ / "native" / "images");
-    const auto s = readbacks(out_ / "split" / "images");
-    ASSERT_EQ(n.size(), static_cast<size_t>(2 * kFrames)) << "native eye images read back";
-    ASSERT_EQ(s.size(), n.size()) << "split eye images read back";
-    for (const auto &[key, native_path] : n) {
-        SCOPED_TRACE(native_path.filename().string());
-        const auto it = s.find(key);
-        ASSERT_NE(it, s.end()) << "no split readback of the same image and release";
-        EyeImage a, b;
-        ASSERT_NO_FATAL_FAILURE(load_pair(native_path, it->second, 192u, 160u, &a, &b));
-        const Rect f = default_foveae(a.width, a.height, 1)[0];
-        const Mismatch m = compare_rect(a, b, f);
-        EXPECT_EQ(m.mismatched, 0u) << "fovea: " << m.mismatched << " of " << m.pixels << " texels differ\n"
-                                    << save_mismatch_artefacts(out_, native_path.stem().string(), to_image(a),
-                                                               to_image(b));
-    }
+    ASSERT_NO_FATAL_FAILURE(for_each_released_pair(
+        192u, 160u, [&](const std::filesystem::path &native_path, const EyeImage &a, const EyeImage &b) {
+            const Rect f = default_foveae(a.width, a.height, 1)[0];
+            const Mismatch m = compare_rect(a, b, f);
+            EXPECT_EQ(m.mismatched, 0u)
+                << "fovea: " << m.mismatched << " of " << m.pixels << " texels differ\n"
+                << save_mismatch_artefacts(out_, native_path.stem().string(), to_image(a), to_image(b));
+        }));
     size_t rows_of[2] = {0, 0};
     for (const auto &row : stats_text_rows(read_file(out_ / "split" / "stats.csv"))) {
         const int view = std::stoi(row.at("xr_view"));
